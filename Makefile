@@ -1,0 +1,31 @@
+# Two entry points for a fresh machine: `make demo` and `make test`.
+# Both create .venv, install oftimg with its test extras, and install the
+# system library open3d needs (libusb-1.0-0) when `import open3d` fails.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.oftimg-installed
+DEMO_OUT ?= oftimg-demo
+
+.PHONY: demo test setup clean
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -c "import open3d" 2>/dev/null || { \
+	  echo "open3d cannot load libusb-1.0: installing libusb-1.0-0 with apt-get"; \
+	  SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo sudo); \
+	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq libusb-1.0-0; }
+	$(PY) -c "import open3d"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/oftimg demo --out $(DEMO_OUT) --overwrite
+
+test: $(STAMP)
+	$(PY) -m pytest
+
+clean:
+	rm -rf $(VENV) $(DEMO_OUT)

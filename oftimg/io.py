@@ -1,0 +1,347 @@
+"""Reading and validating datasets: one folder per embryo, one mesh file per frame.
+
+Dataset layout::
+
+    DATASET/
+      meta.json   optional: {"name", "group", "period_ms", "length_unit", "inlet"}
+      outer/      one mesh file per time frame (required)
+      inner/      same number of frames (optional)
+      lumen/      same number of frames (optional)
+
+Frames are read lazily, one at a time, and returned as plain arrays
+``V (n_vert, 3) float64`` in mm and ``F (n_face, 3) int64``. Nothing in a
+dataset folder is ever written to.
+"""
+from __future__ import annotations
+
+import json
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .mesh.topology import MeshError, check_tube, loop_centroid, loop_vector_area, repair
+
+SURFACES = ("outer", "inner", "lumen")
+MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off", ".vtk", ".vtp")
+UNIT_TO_MM = {"mm": 1.0, "um": 1e-3}
+DEFAULT_FRAME_MS = 2.0
+META_KEYS = {"name": str, "group": str, "period_ms": (int, float),
+             "length_unit": str, "inlet": list}
+
+
+class DatasetError(ValueError):
+    """Bad input: the message names the file and the problem."""
+
+
+class OftimgWarning(UserWarning):
+    """Something oftimg repaired or assumed; the run goes on."""
+
+
+def natural_key(name: str):
+    """Sort key that puts ``f2`` before ``f10``."""
+    return [int(tok) if tok.isdigit() else tok.lower() for tok in re.split(r"(\d+)", name)]
+
+
+def list_frames(folder: Path) -> list[Path]:
+    """Mesh files of one surface folder in natural order."""
+    files = [p for p in folder.iterdir()
+             if p.is_file() and p.suffix.lower() in MESH_SUFFIXES and not p.name.startswith(".")]
+    return sorted(files, key=lambda p: natural_key(p.name))
+
+
+# --------------------------------------------------------------------------- files
+def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a triangle mesh file as ``(V float64, F int64)``, untouched.
+
+    Raises :class:`DatasetError` naming the file when it is missing, empty,
+    unreadable or has no triangles (open3d only warns about these).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"{path}: file not found")
+    if path.stat().st_size == 0:
+        raise DatasetError(f"{path}: file is empty")
+    suffix = path.suffix.lower()
+    if suffix in (".vtk", ".vtp"):
+        import meshio
+
+        try:
+            m = meshio.read(path)
+        except Exception as exc:  # meshio raises many types for bad files
+            raise DatasetError(f"{path}: cannot be read as {suffix} ({exc})") from None
+        tris = [c.data for c in m.cells if c.type == "triangle"]
+        V = np.asarray(m.points, dtype=np.float64)
+        F = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
+    elif suffix in MESH_SUFFIXES:
+        import open3d as o3d
+
+        mesh = o3d.io.read_triangle_mesh(str(path), enable_post_processing=False,
+                                         print_progress=False)
+        V = np.asarray(mesh.vertices, dtype=np.float64)
+        F = np.asarray(mesh.triangles, dtype=np.int64)
+    else:
+        raise DatasetError(f"{path}: unsupported mesh format {suffix!r}; "
+                           f"use one of {', '.join(MESH_SUFFIXES)}")
+    if len(F) == 0:
+        raise DatasetError(f"{path}: no triangles could be read (broken or not a triangle mesh)")
+    if V.shape[1:] != (3,) or F.shape[1:] != (3,):
+        raise DatasetError(f"{path}: expected 3-D vertices and triangles, "
+                           f"found vertices {V.shape} and faces {F.shape}")
+    if F.min() < 0 or F.max() >= len(V):
+        raise DatasetError(f"{path}: face indices out of range 0..{len(V) - 1}")
+    return V, F
+
+
+def write_ply(path: str | Path, V: np.ndarray, F: np.ndarray) -> None:
+    """Write a binary little-endian PLY (float32 vertices, int32 faces)."""
+    V = np.ascontiguousarray(V, dtype="<f4")
+    rec = np.empty(len(F), dtype=[("n", "u1"), ("idx", "<i4", (3,))])
+    rec["n"] = 3
+    rec["idx"] = F
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"element vertex {len(V)}\nproperty float x\nproperty float y\nproperty float z\n"
+              f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n")
+    with open(path, "wb") as fh:
+        fh.write(header.encode("ascii"))
+        fh.write(V.tobytes())
+        fh.write(rec.tobytes())
+
+
+# --------------------------------------------------------------------------- tubes
+@dataclass(frozen=True)
+class Tube:
+    """One frame of one wall: a validated open tube in mm.
+
+    ``V (n_vert, 3) float64`` mm, ``F (n_face, 3) int64`` with outward normals,
+    ``inlet`` and ``outlet`` ordered boundary-loop vertex indices (each running
+    along its faces' half-edges), ``source`` the file it came from.
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    inlet: np.ndarray
+    outlet: np.ndarray
+    source: str = ""
+
+
+def load_tube(path: str | Path, *, unit_scale: float = 1.0,
+              inlet_point: np.ndarray | None = None) -> Tube:
+    """Read, repair and check one frame; pick the inlet loop.
+
+    The inlet is the loop whose centroid is nearest ``inlet_point`` (mm), or
+    the loop with the larger enclosed area when no point is given.
+    """
+    V, F = read_mesh_file(path)
+    V = V * unit_scale
+    if not np.all(np.isfinite(V)):
+        bad = int(np.count_nonzero(~np.isfinite(V).all(axis=1)))
+        raise DatasetError(f"{path}: {bad} vertices have NaN or infinite coordinates")
+    V, F, counts = repair(V, F)
+    try:
+        topo = check_tube(V, F)
+    except MeshError as exc:
+        raise DatasetError(f"{path}: {exc}") from None
+    if counts:
+        warnings.warn(f"{path}: {counts.describe()}", OftimgWarning, stacklevel=2)
+    a, b = topo.loops
+    if inlet_point is None:
+        inlet_first = np.linalg.norm(loop_vector_area(V[a])) >= np.linalg.norm(loop_vector_area(V[b]))
+    else:
+        inlet_first = (np.linalg.norm(loop_centroid(V[a]) - inlet_point)
+                       <= np.linalg.norm(loop_centroid(V[b]) - inlet_point))
+    inlet, outlet = (a, b) if inlet_first else (b, a)
+    return Tube(V=V, F=topo.F, inlet=inlet, outlet=outlet, source=str(path))
+
+
+# --------------------------------------------------------------------------- datasets
+@dataclass(frozen=True)
+class Meta:
+    """Dataset metadata after defaults and unit conversion."""
+
+    name: str
+    group: str
+    period_ms: float
+    length_unit: str
+    inlet_mm: tuple[float, float, float] | None
+    period_assumed: bool = False
+
+
+def read_meta(folder: Path, n_frames: int) -> Meta:
+    """Parse ``meta.json`` (optional) and fill in the documented defaults."""
+    path = folder / "meta.json"
+    raw: dict = {}
+    if path.exists():
+        try:
+            raw = json.loads(path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise DatasetError(f"{path}: not valid JSON ({exc})") from None
+        if not isinstance(raw, dict):
+            raise DatasetError(f"{path}: expected a JSON object, found {type(raw).__name__}")
+        for key, value in raw.items():
+            if key not in META_KEYS:
+                raise DatasetError(f"{path}: unknown key {key!r}; "
+                                   f"allowed: {', '.join(META_KEYS)}")
+            if not isinstance(value, META_KEYS[key]) or isinstance(value, bool):
+                raise DatasetError(f"{path}: {key!r} has the wrong type "
+                                   f"({type(value).__name__})")
+    unit = raw.get("length_unit", "mm")
+    if unit not in UNIT_TO_MM:
+        raise DatasetError(f"{path}: length_unit must be 'mm' or 'um', found {unit!r}")
+    period_assumed = "period_ms" not in raw
+    period = float(raw.get("period_ms", n_frames * DEFAULT_FRAME_MS))
+    if not np.isfinite(period) or period <= 0:
+        raise DatasetError(f"{path}: period_ms must be a positive number, found {period}")
+    inlet = raw.get("inlet")
+    if inlet is not None:
+        if len(inlet) != 3 or not all(isinstance(x, (int, float)) for x in inlet):
+            raise DatasetError(f"{path}: inlet must be [x, y, z], found {inlet!r}")
+        inlet = tuple(float(x) * UNIT_TO_MM[unit] for x in inlet)
+    return Meta(name=str(raw.get("name", folder.name)), group=str(raw.get("group", "unknown")),
+                period_ms=period, length_unit=unit, inlet_mm=inlet,
+                period_assumed=period_assumed)
+
+
+@dataclass
+class Dataset:
+    """A dataset folder: metadata and the frame files of each surface.
+
+    Frames are read on demand with :meth:`tube`; nothing is cached.
+    """
+
+    path: Path
+    meta: Meta
+    frames: dict[str, list[Path]]
+    inlet_mm: np.ndarray = field(repr=False)
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.frames["outer"])
+
+    @property
+    def surfaces(self) -> tuple[str, ...]:
+        return tuple(s for s in SURFACES if s in self.frames)
+
+    @property
+    def unit_scale(self) -> float:
+        return UNIT_TO_MM[self.meta.length_unit]
+
+    def tube(self, surface: str, t: int) -> Tube:
+        """Frame ``t`` of ``surface`` as a validated :class:`Tube` in mm."""
+        if surface not in self.frames:
+            raise KeyError(f"{self.path}: has no {surface}/ surface")
+        return load_tube(self.frames[surface][t], unit_scale=self.unit_scale,
+                         inlet_point=self.inlet_mm)
+
+    def iter_tubes(self, surface: str):
+        for t in range(self.n_frames):
+            yield self.tube(surface, t)
+
+
+def _reference_inlet(frames: list[Path], unit_scale: float, n_probe: int = 5) -> np.ndarray:
+    """Centroid (mm) of the inlet loop, chosen once for the whole series.
+
+    The loops of a few evenly spaced frames are matched to the first frame's
+    loops by centroid; the end whose enclosed area summed over these frames is
+    larger is the inlet (the OFT tapers towards the outlet).
+    """
+    idx = np.unique(np.linspace(0, len(frames) - 1, min(n_probe, len(frames))).astype(int))
+    ref = None
+    area = np.zeros(2)
+    for i in idx:
+        tube = load_tube(frames[i], unit_scale=unit_scale)
+        loops = (tube.inlet, tube.outlet)
+        cents = [loop_centroid(tube.V[lp]) for lp in loops]
+        areas = [np.linalg.norm(loop_vector_area(tube.V[lp])) for lp in loops]
+        if ref is None:
+            ref = cents
+        d_same = np.linalg.norm(cents[0] - ref[0]) + np.linalg.norm(cents[1] - ref[1])
+        d_swap = np.linalg.norm(cents[0] - ref[1]) + np.linalg.norm(cents[1] - ref[0])
+        if d_swap < d_same:
+            areas = areas[::-1]
+        area += areas
+    return np.asarray(ref[0] if area[0] >= area[1] else ref[1])
+
+
+def is_dataset(path: Path) -> bool:
+    return (path / "outer").is_dir()
+
+
+def load_dataset(path: str | Path) -> Dataset:
+    """Open a dataset folder, check its layout and metadata, choose the inlet.
+
+    Reads only a few outer frames (to choose the inlet end); the rest stay on
+    disk until asked for.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise DatasetError(f"{path}: folder not found")
+    if not path.is_dir():
+        raise DatasetError(f"{path}: not a folder")
+    if not is_dataset(path):
+        raise DatasetError(f"{path}: no outer/ folder; a dataset has outer/ "
+                           "(and optionally inner/, lumen/) with one mesh file per frame")
+    frames = {}
+    for surface in SURFACES:
+        folder = path / surface
+        if folder.is_dir():
+            files = list_frames(folder)
+            if not files:
+                raise DatasetError(f"{folder}: no mesh files ({', '.join(MESH_SUFFIXES)})")
+            frames[surface] = files
+    n = len(frames["outer"])
+    for surface, files in frames.items():
+        if len(files) != n:
+            raise DatasetError(f"{path / surface}: {len(files)} frames, but outer/ has {n}")
+    meta = read_meta(path, n)
+    if meta.period_assumed:
+        warnings.warn(f"{path / 'meta.json'}: no period_ms; assuming {DEFAULT_FRAME_MS} ms "
+                      f"per frame ({meta.period_ms:g} ms)", OftimgWarning, stacklevel=2)
+    scale = UNIT_TO_MM[meta.length_unit]
+    if meta.inlet_mm is not None:
+        inlet = np.asarray(meta.inlet_mm)
+    else:
+        inlet = _reference_inlet(frames["outer"], scale)
+    return Dataset(path=path, meta=meta, frames=frames, inlet_mm=inlet)
+
+
+def find_datasets(path: str | Path) -> list[Path]:
+    """The dataset folders at ``path``: itself, or its sub-folders (a cohort)."""
+    path = Path(path)
+    if not path.is_dir():
+        raise DatasetError(f"{path}: folder not found")
+    if is_dataset(path):
+        return [path]
+    subs = sorted((p for p in path.iterdir() if p.is_dir() and is_dataset(p)),
+                  key=lambda p: natural_key(p.name))
+    if not subs:
+        raise DatasetError(f"{path}: neither a dataset (no outer/ folder) nor a cohort "
+                           "(no sub-folder has outer/)")
+    return subs
+
+
+def validate_dataset(ds: Dataset) -> dict:
+    """Read every frame of every surface once; return a per-surface report.
+
+    Raises :class:`DatasetError` at the first bad frame, naming its file.
+    """
+    report = {"name": ds.meta.name, "path": str(ds.path), "n_frames": ds.n_frames,
+              "inlet_mm": [round(float(x), 6) for x in ds.inlet_mm],
+              "inlet_from": "meta.json" if ds.meta.inlet_mm is not None else "larger end loop",
+              "surfaces": {}}
+    for surface in ds.surfaces:
+        nv, nf, inlet_area, outlet_area = [], [], [], []
+        for tube in ds.iter_tubes(surface):
+            nv.append(len(tube.V))
+            nf.append(len(tube.F))
+            inlet_area.append(np.linalg.norm(loop_vector_area(tube.V[tube.inlet])))
+            outlet_area.append(np.linalg.norm(loop_vector_area(tube.V[tube.outlet])))
+        report["surfaces"][surface] = {
+            "frames": len(nv), "vertices_min": int(min(nv)), "vertices_max": int(max(nv)),
+            "faces_min": int(min(nf)), "faces_max": int(max(nf)), "boundary_loops": 2,
+            "inlet_area_mm2_median": float(np.median(inlet_area)),
+            "outlet_area_mm2_median": float(np.median(outlet_area)),
+        }
+    return report

@@ -1,0 +1,226 @@
+"""Shortest inlet-to-outlet geodesics and their insertion into the mesh as edges.
+
+Exact polyhedral geodesics come from pygeodesic (MIT; the Mitchell-Mount-
+Papadimitriou algorithm of Surazhsky et al.): they are true surface geodesics,
+with no edge-path zig-zag. The path comes back as 3-D points lying on mesh
+edges; :func:`insert_path` locates them and splits the crossed triangles so the
+path becomes a chain of mesh edges that the tube can be cut along.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pygeodesic.geodesic as pyg
+from scipy.spatial import cKDTree
+
+from .topology import MeshError, edge_incidence
+
+SNAP = 0.02  # edge points closer than this fraction of the edge to a corner snap to it
+
+
+class GeodesicSolver:
+    """Exact geodesics on one mesh ``V (n, 3)``, ``F (m, 3)`` (set up once)."""
+
+    def __init__(self, V: np.ndarray, F: np.ndarray):
+        self.V = np.ascontiguousarray(V, dtype=np.float64)
+        self.F = np.ascontiguousarray(F, dtype=np.int32)
+        self._alg = pyg.PyGeodesicAlgorithmExact(self.V, self.F)
+
+    def shortest_between(self, sources: np.ndarray, targets: np.ndarray) -> tuple[int, int, float]:
+        """The closest (source, target) vertex pair and its geodesic distance (mm)."""
+        dist, best = self._alg.geodesicDistances(np.asarray(sources, np.int32),
+                                                 np.asarray(targets, np.int32))
+        dist = np.asarray(dist, dtype=float)
+        if not np.isfinite(dist).any() or np.all(dist > 1e50):
+            raise MeshError("no geodesic joins the two boundary loops")
+        k = int(np.argmin(dist))
+        return int(sources[int(best[k])]), int(targets[k]), float(dist[k])
+
+    def path(self, source: int, target: int) -> np.ndarray:
+        """Geodesic polyline ``(n_pts, 3)`` from vertex ``source`` to ``target``."""
+        _, pts = self._alg.geodesicDistance(int(source), int(target))
+        pts = np.asarray(pts, dtype=float)
+        if len(pts) < 2:
+            raise MeshError(f"no geodesic path between vertices {source} and {target}")
+        if np.linalg.norm(pts[0] - self.V[source]) > np.linalg.norm(pts[-1] - self.V[source]):
+            pts = pts[::-1]
+        return pts
+
+
+def _point_segment(P, A, B):
+    """Distance of points ``P`` to segments ``AB`` and the segment parameter t."""
+    AB = B - A
+    t = np.einsum("ij,ij->i", P - A, AB) / np.maximum(np.einsum("ij,ij->i", AB, AB), 1e-300)
+    t = np.clip(t, 0.0, 1.0)
+    return np.linalg.norm(A + t[:, None] * AB - P, axis=1), t
+
+
+def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, *, k: int = 6):
+    """Locate polyline points on mesh edges.
+
+    Returns a list of events: ``("v", i)`` for a point at vertex i or
+    ``("e", i, j, t)`` for the point ``(1 - t) V[i] + t V[j]`` with i < j.
+    """
+    edges, _, _ = edge_incidence(F)
+    n = len(V)
+    # vertex -> incident edges (CSR)
+    ends = np.concatenate([edges[:, 0], edges[:, 1]])
+    eid = np.concatenate([np.arange(len(edges))] * 2)
+    order = np.argsort(ends, kind="stable")
+    ptr = np.searchsorted(ends[order], np.arange(n + 1))
+    inc = eid[order]
+    tree = cKDTree(V)
+    _, near = tree.query(P, k=min(k, n))
+    events = []
+    for p, nv in zip(P, near):
+        cand = np.unique(np.concatenate([inc[ptr[v]:ptr[v + 1]] for v in nv]))
+        e = edges[cand]
+        d, t = _point_segment(np.broadcast_to(p, (len(cand), 3)), V[e[:, 0]], V[e[:, 1]])
+        best = int(np.argmin(d))
+        i, j = (int(x) for x in e[best])
+        tb = float(t[best])
+        if tb <= SNAP:
+            events.append(("v", i))
+        elif tb >= 1 - SNAP:
+            events.append(("v", j))
+        else:
+            events.append(("e", i, j, tb))
+    return _clean_events(events)
+
+
+def _clean_events(events):
+    """Drop repeated events and edge points that slide along their own edge."""
+    out = []
+    for ev in events:
+        if out and out[-1] == ev:
+            continue
+        if out and ev[0] == "e" and out[-1][0] == "e" and out[-1][1:3] == ev[1:3]:
+            continue
+        out.append(ev)
+    cleaned = []
+    for k, ev in enumerate(out):
+        if ev[0] == "e":
+            nb = [out[m] for m in (k - 1, k + 1) if 0 <= m < len(out)]
+            if any(o[0] == "v" and o[1] in ev[1:3] for o in nb):
+                continue
+        cleaned.append(ev)
+    return cleaned
+
+
+def insert_path(V: np.ndarray, F: np.ndarray, events) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Split the triangles crossed by a located path so it runs along edges.
+
+    ``events`` from :func:`locate_on_edges` (first and last must be vertices).
+    Returns ``(V, F, chain)``: the refined mesh (same orientation) and the
+    vertex indices of the path from its first to its last point.
+    """
+    if events[0][0] != "v" or events[-1][0] != "v":
+        raise MeshError("a seam path must start and end at mesh vertices")
+    V_new = [V]
+    n = len(V)
+    chain = []
+    edge_vertex = {}
+    for ev in events:
+        if ev[0] == "v":
+            chain.append(ev[1])
+        else:
+            _, i, j, t = ev
+            edge_vertex[(i, j)] = n
+            V_new.append(((1 - t) * V[i] + t * V[j])[None])
+            chain.append(n)
+            n += 1
+    V = np.concatenate(V_new)
+    if len(chain) < 2:
+        raise MeshError("the seam path has fewer than two points")
+    # each face: which split points lie on its edges
+    F = F.copy()
+    face_of = {}
+    for f, (a, b, c) in enumerate(F):
+        for x, y in ((a, b), (b, c), (c, a)):
+            face_of.setdefault((x, y), f)
+    new_faces = []
+    drop = set()
+    split_edges = set(edge_vertex)
+    for key in split_edges:
+        i, j = key
+        x = edge_vertex[key]
+        for a, b in ((i, j), (j, i)):
+            f = face_of.get((a, b))
+            if f is None:
+                continue
+            drop.add(f)
+    # Re-triangulate each touched face as a fan over its split points.
+    for f in drop:
+        corners = list(F[f])
+        poly = []
+        for k in range(3):
+            a, b = corners[k], corners[(k + 1) % 3]
+            poly.append(a)
+            key = (min(a, b), max(a, b))
+            if key in edge_vertex:
+                poly.append(edge_vertex[key])
+        new_faces.extend(_triangulate_split(poly, set(edge_vertex.values()), set(chain)))
+    keep = np.ones(len(F), dtype=bool)
+    keep[list(drop)] = False
+    F = np.concatenate([F[keep], np.asarray(new_faces, dtype=np.int64).reshape(-1, 3)])
+    return V, F, np.asarray(chain, dtype=np.int64)
+
+
+def _triangulate_split(poly, split_vertices, chain_vertices):
+    """Triangulate a triangle whose edges carry 1 or 2 split points.
+
+    ``poly`` is the boundary (counter-clockwise, corners and split points).
+    The triangles are chosen so that the seam segment inside the face (between
+    two chain vertices of the polygon) is an edge.
+    """
+    m = len(poly)
+    on_chain = [v in chain_vertices for v in poly]
+    if m == 4:  # one split point x on edge (a, b): x joins the opposite corner
+        k = next(i for i, v in enumerate(poly) if v in split_vertices)
+        x, b, c, a = poly[k], poly[(k + 1) % 4], poly[(k + 2) % 4], poly[(k + 3) % 4]
+        return [(x, b, c), (x, c, a)]
+    if m == 5:  # two split points x (on a-b) and y (on b-c) around the shared corner b
+        ks = [i for i, v in enumerate(poly) if v in split_vertices]
+        for k in ks:
+            if poly[(k + 2) % 5] in split_vertices:
+                x, b, y, c, a = (poly[(k + i) % 5] for i in range(5))
+                return [(x, b, y), (x, y, c), (x, c, a)]
+    raise MeshError(f"a face is crossed by the seam more than once ({m - 3} split points)")
+
+
+def closest_on_loop(V: np.ndarray, loop: np.ndarray, p: np.ndarray):
+    """Closest point to ``p`` on a closed boundary polyline.
+
+    Returns ``(k, t, q)``: the segment ``loop[k] -> loop[k+1]``, its parameter
+    and the point.
+    """
+    A = V[loop]
+    B = V[np.roll(loop, -1)]
+    d, t = _point_segment(np.broadcast_to(p, A.shape), A, B)
+    k = int(np.argmin(d))
+    return k, float(t[k]), A[k] + t[k] * (B[k] - A[k])
+
+
+def insert_boundary_point(V: np.ndarray, F: np.ndarray, loop: np.ndarray, p: np.ndarray):
+    """Put the point of ``loop`` closest to ``p`` into the mesh as a vertex.
+
+    Returns ``(V, F, loop, index)`` with the updated loop order; snaps to an
+    existing vertex when the point lies within 2 % of an edge's end.
+    """
+    k, t, q = closest_on_loop(V, loop, p)
+    a, b = int(loop[k]), int(loop[(k + 1) % len(loop)])
+    if t <= SNAP:
+        return V, F, loop, a
+    if t >= 1 - SNAP:
+        return V, F, loop, b
+    hit = np.nonzero(((F == a) & (np.roll(F, -1, axis=1) == b)).any(axis=1))[0]
+    if len(hit) != 1:
+        raise MeshError(f"boundary edge {a}-{b} is not in exactly one face")
+    f = int(hit[0])
+    corners = list(F[f])
+    ka = corners.index(a)
+    c = corners[(ka + 2) % 3]
+    x = len(V)
+    V = np.concatenate([V, q[None]])
+    F = np.concatenate([np.delete(F, f, axis=0), np.array([[a, x, c], [x, b, c]])])
+    loop = np.insert(loop, k + 1, x)
+    return V, F, loop, x

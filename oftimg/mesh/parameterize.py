@@ -1,0 +1,290 @@
+"""Cut a tube along its seam and map it to the unit square (Desbrun et al. 2002).
+
+Conventions: ``u`` runs around the tube in [0, 1) with u = 0 on the seam and
+increases along ``e_v x n`` (v along the tube, n the outward normal), that is
+clockwise when looking from the inlet towards the outlet; ``v`` runs from the
+inlet loop (0) to the outlet loop (1).
+
+The map minimises Desbrun, Meyer and Alliez's intrinsic energy
+``(1 - w) E_conformal + w E_authalic`` with the square's border fixed by arc
+length (``w = authalic_weight``). The authalic (chi) weights carry a
+1/length^2; they are multiplied by the mesh's mean squared edge length so that
+the blend does not depend on the unit.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .topology import MeshError
+
+
+def corner_cotangents(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Cotangent of each face corner's angle, ``(n_face, 3)``."""
+    P = V[F]
+    cots = np.empty(F.shape)
+    for k in range(3):
+        a = P[:, (k + 1) % 3] - P[:, k]
+        b = P[:, (k + 2) % 3] - P[:, k]
+        dot = np.einsum("ij,ij->i", a, b)
+        cross = np.linalg.norm(np.cross(a, b), axis=1)
+        cots[:, k] = dot / np.maximum(cross, 1e-300)
+    return cots
+
+
+def intrinsic_weights(V: np.ndarray, F: np.ndarray, *, authalic_weight: float) -> sp.csr_matrix:
+    """Weight matrix W of the intrinsic map: ``sum_j W_ij (x_j - x_i) = 0`` inside.
+
+    Conformal: ``cot(alpha_ij) + cot(beta_ij)``, the angles opposite edge ij.
+    Authalic: ``(cot(gamma_ij) + cot(delta_ij)) / |x_i - x_j|^2``, the angles at
+    ``x_j`` of the two triangles on edge ij (this convention reproduces linear
+    functions on a flat mesh; tested). Not symmetric when authalic_weight > 0.
+    """
+    if not 0.0 <= authalic_weight <= 1.0:
+        raise ValueError(f"authalic_weight must be in [0, 1], found {authalic_weight}")
+    cots = corner_cotangents(V, F)
+    rows, cols, vals = [], [], []
+    sq_len = []
+    for k in range(3):
+        i, j, o = F[:, k], F[:, (k + 1) % 3], F[:, (k + 2) % 3]
+        l2 = np.einsum("ij,ij->i", V[i] - V[j], V[i] - V[j])
+        sq_len.append(l2)
+    scale = float(np.mean(np.concatenate(sq_len)))
+    for k in range(3):
+        i, j = F[:, k], F[:, (k + 1) % 3]
+        l2 = sq_len[k]
+        conf = 0.5 * cots[:, (k + 2) % 3]  # angle opposite edge (i, j)
+        w_ij = (1 - authalic_weight) * conf + authalic_weight * scale * cots[:, (k + 1) % 3] / l2
+        w_ji = (1 - authalic_weight) * conf + authalic_weight * scale * cots[:, k] / l2
+        rows += [i, j]
+        cols += [j, i]
+        vals += [w_ij, w_ji]
+    n = len(V)
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(n, n))
+
+
+def harmonic_map(W: sp.csr_matrix, boundary: np.ndarray, boundary_uv: np.ndarray) -> np.ndarray:
+    """Solve ``sum_j W_ij (x_j - x_i) = 0`` at interior vertices, ``(n, 2)``.
+
+    One LU factorisation, both coordinates as right-hand sides.
+    """
+    n = W.shape[0]
+    L = (W - sp.diags(np.asarray(W.sum(axis=1)).ravel())).tocsr()
+    interior = np.ones(n, dtype=bool)
+    interior[boundary] = False
+    idx = np.nonzero(interior)[0]
+    A = L[idx][:, idx].tocsc()
+    rhs = -(L[idx][:, boundary] @ boundary_uv)
+    UV = np.empty((n, 2))
+    UV[boundary] = boundary_uv
+    UV[idx] = spla.splu(A).solve(np.ascontiguousarray(rhs))
+    return UV
+
+
+def _half_edge_faces(F):
+    """Map directed half-edge (a, b) -> face index."""
+    out = {}
+    for f, (a, b, c) in enumerate(F.tolist()):
+        out[(a, b)] = f
+        out[(b, c)] = f
+        out[(c, a)] = f
+    return out
+
+
+def _third(face, a, b):
+    return next(x for x in face if x != a and x != b)
+
+
+def seam_sides(F: np.ndarray, chain: np.ndarray) -> np.ndarray:
+    """Boolean ``(n_face,)``: faces on the u = 1 side of the seam ``chain``.
+
+    Around each seam vertex the fan of faces is walked from the face holding
+    the half-edge ``c_i -> c_{i+1}`` (which lies towards -u, i.e. at u ~ 1)
+    until the previous seam edge or the boundary is reached.
+    """
+    he = _half_edge_faces(F)
+    Fl = F.tolist()
+    high = np.zeros(len(F), dtype=bool)
+    m = len(chain) - 1
+    for i in range(m + 1):
+        c = int(chain[i])
+        if i < m:
+            f = he.get((c, int(chain[i + 1])))
+            stop_in = int(chain[i - 1]) if i > 0 else None
+            while f is not None:
+                high[f] = True
+                y = _third(Fl[f], c, _next_out(Fl[f], c))
+                if stop_in is not None and y == stop_in:
+                    break
+                f = he.get((c, y))
+        else:
+            f = he.get((int(chain[i - 1]), c))
+            while f is not None:
+                high[f] = True
+                x = _next_out(Fl[f], c)
+                f = he.get((x, c))
+    return high
+
+
+def _next_out(face, c):
+    """The vertex x with half-edge c -> x in ``face``."""
+    k = face.index(c)
+    return face[(k + 1) % 3]
+
+
+@dataclass(frozen=True)
+class FlatTube:
+    """A tube cut along its seam and mapped to the unit square.
+
+    ``V (n, 3)`` mm and ``F (m, 3)`` of the cut mesh (seam vertices doubled),
+    ``UV (n, 2)`` the map, ``flipped`` the count of triangles with reversed
+    orientation in the map.
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    UV: np.ndarray
+    flipped: int
+
+
+def _arc_fraction(P: np.ndarray, closed: bool) -> np.ndarray:
+    if closed:
+        P = np.concatenate([P, P[:1]])
+    d = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(d)])
+    return s / s[-1]
+
+
+def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndarray,
+                chain: np.ndarray, *, authalic_weight: float = 0.5) -> FlatTube:
+    """Cut the tube along ``chain`` (inlet vertex to outlet vertex) and flatten it.
+
+    ``inlet`` / ``outlet`` are boundary loops ordered along their faces'
+    half-edges (outward-oriented faces), containing ``chain[0]`` / ``chain[-1]``.
+    """
+    chain = np.asarray(chain)
+    if chain[0] not in inlet or chain[-1] not in outlet:
+        raise MeshError("the seam must run from the inlet loop to the outlet loop")
+    if len(np.unique(chain)) != len(chain):
+        raise MeshError("the seam path visits a vertex twice")
+    high = seam_sides(F, chain)
+    n = len(V)
+    copy = {int(c): n + k for k, c in enumerate(chain)}
+    Fc = F.copy()
+    rows = np.nonzero(high)[0]
+    for f in rows:
+        Fc[f] = [copy.get(int(x), int(x)) for x in F[f]]
+    Vc = np.concatenate([V, V[chain]])
+    # border of the square
+    inl = np.roll(inlet, -int(np.nonzero(inlet == chain[0])[0][0]))
+    out = outlet[::-1]
+    out = np.roll(out, -int(np.nonzero(out == chain[-1])[0][0]))
+    u_in = _arc_fraction(V[inl], closed=True)
+    u_out = _arc_fraction(V[out], closed=True)
+    v_seam = _arc_fraction(V[chain], closed=False)
+    hi_chain = np.array([copy[int(c)] for c in chain])
+    boundary = np.concatenate([inl, [hi_chain[0]], out[1:], [hi_chain[-1]],
+                               chain[1:-1], hi_chain[1:-1], [out[0]]])
+    uv = np.concatenate([
+        np.stack([u_in[:-1], np.zeros(len(inl))], 1),
+        [[1.0, 0.0]],
+        np.stack([u_out[1:-1], np.ones(len(out) - 1)], 1),
+        [[1.0, 1.0]],
+        np.stack([np.zeros(len(chain) - 2), v_seam[1:-1]], 1),
+        np.stack([np.ones(len(chain) - 2), v_seam[1:-1]], 1),
+        [[0.0, 1.0]],
+    ])
+    W = intrinsic_weights(Vc, Fc, authalic_weight=authalic_weight)
+    UV = harmonic_map(W, boundary, uv)
+    return FlatTube(V=Vc, F=Fc, UV=UV, flipped=count_flipped(UV, Fc))
+
+
+def count_flipped(UV: np.ndarray, F: np.ndarray) -> int:
+    """Triangles whose orientation in the (u, v) plane is reversed."""
+    P = UV[F]
+    e1 = P[:, 1] - P[:, 0]
+    e2 = P[:, 2] - P[:, 0]
+    return int(np.count_nonzero(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] <= 0))
+
+
+class FlatSampler:
+    """Point location on a flattened tube: 3-D positions at (u, v) parameters.
+
+    Uses open3d's ray casting on the (u, v, 0) triangle mesh (one BVH per frame).
+    """
+
+    EPS = 1e-6
+
+    def __init__(self, flat: FlatTube):
+        import open3d as o3d
+
+        self.flat = flat
+        self._scene = o3d.t.geometry.RaycastingScene()
+        verts = np.column_stack([flat.UV, np.zeros(len(flat.UV))]).astype(np.float32)
+        self._scene.add_triangles(o3d.core.Tensor(verts),
+                                  o3d.core.Tensor(flat.F.astype(np.uint32)))
+
+    def __call__(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Positions ``(..., 3)`` mm at parameters ``u, v`` (same shape, in [0, 1])."""
+        import open3d as o3d
+
+        u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+        shape = u.shape
+        uu = np.clip(u.ravel(), self.EPS, 1 - self.EPS)
+        vv = np.clip(v.ravel(), self.EPS, 1 - self.EPS)
+        rays = np.column_stack([uu, vv, np.ones_like(uu), np.zeros_like(uu),
+                                np.zeros_like(uu), -np.ones_like(uu)]).astype(np.float32)
+        hit = self._scene.cast_rays(o3d.core.Tensor(rays))
+        prim = hit["primitive_ids"].numpy().astype(np.int64)
+        bary = hit["primitive_uvs"].numpy().astype(np.float64)
+        missed = prim == np.iinfo(np.uint32).max
+        if missed.any():
+            prim, bary = self._nearest(uu, vv, prim, bary, missed)
+        tri = self.flat.F[prim]
+        w = np.column_stack([1 - bary.sum(axis=1), bary])
+        X = np.einsum("ij,ijk->ik", w, self.flat.V[tri])
+        return X.reshape(shape + (3,))
+
+    def _nearest(self, uu, vv, prim, bary, missed):
+        """Fall back to the closest triangle for points that fell between triangles."""
+        import open3d as o3d
+
+        q = np.column_stack([uu[missed], vv[missed], np.zeros(missed.sum())]).astype(np.float32)
+        res = self._scene.compute_closest_points(o3d.core.Tensor(q))
+        prim = prim.copy()
+        bary = bary.copy()
+        prim[missed] = res["primitive_ids"].numpy().astype(np.int64)
+        bary[missed] = res["primitive_uvs"].numpy().astype(np.float64)
+        return prim, bary
+
+
+def even_grid(sample, n_u: int, n_v: int, *, respace: bool = True, oversample: int = 4):
+    """Grid positions ``(n_u, n_v, 3)`` at u = i / n_u, v = j / (n_v - 1).
+
+    ``sample(u, v)`` gives positions. With ``respace``, v is first remapped so
+    that rows are evenly spaced in mean arc length along the v-lines, then u
+    on each row so that nodes are evenly spaced in arc length around it (the
+    paper's property A: even parameter steps are even geodesic steps). Both
+    remappings are monotone and keep u = 0 on the seam.
+    """
+    u = np.arange(n_u) / n_u
+    v = np.linspace(0.0, 1.0, n_v)
+    if not respace:
+        return sample(u[:, None], v[None, :]), u[:, None] * np.ones((1, n_v)), v
+    v_fine = np.linspace(0.0, 1.0, oversample * (n_v - 1) + 1)
+    X = sample(u[:, None], v_fine[None, :])
+    seg = np.linalg.norm(np.diff(X, axis=1), axis=2).mean(axis=0)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    v = np.interp(np.linspace(0, s[-1], n_v), s, v_fine)
+    u_fine = np.linspace(0.0, 1.0, oversample * n_u + 1)
+    Y = sample(u_fine[:, None], v[None, :])
+    seg = np.linalg.norm(np.diff(Y, axis=0), axis=2)
+    s = np.vstack([np.zeros((1, n_v)), np.cumsum(seg, axis=0)])
+    U = np.empty((n_u, n_v))
+    for j in range(n_v):
+        U[:, j] = np.interp(u * s[-1, j], s[:, j], u_fine)
+    return sample(U, v[None, :] * np.ones((n_u, 1))), U, v

@@ -1,0 +1,252 @@
+"""Topology of triangle meshes: repair, boundary loops, orientation, tube checks.
+
+Pure functions on ``V (n_vert, 3) float64`` and ``F (n_face, 3) int64`` arrays.
+Problems are raised as :class:`MeshError` (a ``ValueError``) whose message says
+what was expected and what was found; the caller adds the file name.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import breadth_first_order, connected_components
+
+
+class MeshError(ValueError):
+    """A mesh that is not the open tube oftimg expects."""
+
+
+@dataclass(frozen=True)
+class RepairCounts:
+    """What :func:`repair` changed."""
+
+    merged_vertices: int
+    dropped_faces: int
+    unreferenced_vertices: int
+    flipped_faces: int = 0
+
+    def __bool__(self) -> bool:
+        return bool(self.merged_vertices or self.dropped_faces or self.flipped_faces)
+
+    def describe(self) -> str:
+        parts = []
+        if self.merged_vertices:
+            parts.append(f"merged {self.merged_vertices} duplicate vertices")
+        if self.dropped_faces:
+            parts.append(f"dropped {self.dropped_faces} degenerate faces")
+        if self.flipped_faces:
+            parts.append(f"flipped {self.flipped_faces} faces to a consistent orientation")
+        return ", ".join(parts)
+
+
+def face_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Triangle areas, ``(n_face,)`` in the unit of V squared."""
+    e1 = V[F[:, 1]] - V[F[:, 0]]
+    e2 = V[F[:, 2]] - V[F[:, 0]]
+    return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+
+
+def repair(V: np.ndarray, F: np.ndarray, *, rel_tol: float = 1e-9):
+    """Merge duplicate vertices, drop degenerate faces and unused vertices.
+
+    Vertices closer than ``rel_tol`` times the bounding-box diagonal are merged.
+    A face is degenerate when two of its corners coincide or its area is below
+    ``rel_tol**2`` times the squared diagonal. Returns ``(V, F, RepairCounts)``.
+    """
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 0.0
+    quantum = max(diag * rel_tol, np.finfo(float).tiny)
+    keys = np.round(V / quantum).astype(np.int64)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    merged = len(V) - len(first)
+    V = V[first]
+    F = inverse.reshape(-1)[F]
+    distinct = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
+    keep = distinct.copy()
+    keep[distinct] = face_areas(V, F[distinct]) > (diag * rel_tol) ** 2
+    dropped = int((~keep).sum())
+    F = F[keep]
+    used = np.zeros(len(V), dtype=bool)
+    used[F.ravel()] = True
+    remap = np.cumsum(used) - 1
+    unreferenced = int((~used).sum())
+    return V[used], remap[F], RepairCounts(int(merged), dropped, unreferenced)
+
+
+def _half_edges(F: np.ndarray) -> np.ndarray:
+    """Directed half-edges ``(3 n_face, 2)``: corner k -> k+1 of each face."""
+    return np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)
+
+
+def edge_incidence(F: np.ndarray):
+    """Undirected edges and how many faces use each.
+
+    Returns ``edges (n_edge, 2)`` (sorted pairs), ``face_edge (n_face, 3)``
+    (edge index of face corner pair k -> k+1) and ``counts (n_edge,)``.
+    """
+    half = _half_edges(F)
+    n = int(F.max()) + 1
+    keys = half.min(axis=1) * n + half.max(axis=1)
+    ukeys, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    edges = np.stack([ukeys // n, ukeys % n], axis=1)
+    return edges, inverse.reshape(-1, 3), counts
+
+
+def boundary_loops(F: np.ndarray) -> list[np.ndarray]:
+    """Ordered boundary loops, each following its faces' half-edge direction.
+
+    Raises :class:`MeshError` if a boundary vertex is pinched (two boundary
+    half-edges leave it).
+    """
+    half = _half_edges(F)
+    _, face_edge, counts = edge_incidence(F)
+    bhalf = half[counts[face_edge.reshape(-1)] == 1]
+    if len(bhalf) == 0:
+        return []
+    starts, n_out = np.unique(bhalf[:, 0], return_counts=True)
+    if np.any(n_out > 1):
+        v = int(starts[np.argmax(n_out > 1)])
+        raise MeshError(f"vertex {v} is a pinched (non-manifold) boundary vertex")
+    nxt = dict(zip(bhalf[:, 0].tolist(), bhalf[:, 1].tolist()))
+    loops = []
+    unvisited = set(nxt)
+    while unvisited:
+        start = min(unvisited)
+        loop = [start]
+        unvisited.discard(start)
+        cur = nxt[start]
+        while cur != start:
+            if cur not in unvisited:
+                raise MeshError(f"boundary through vertex {cur} does not close into a loop")
+            loop.append(cur)
+            unvisited.discard(cur)
+            cur = nxt[cur]
+        loops.append(np.asarray(loop, dtype=np.int64))
+    return loops
+
+
+def loop_vector_area(P: np.ndarray) -> np.ndarray:
+    """Vector area of a closed polygon ``P (n, 3)``; its norm is the enclosed area."""
+    return 0.5 * np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+
+
+def loop_centroid(P: np.ndarray) -> np.ndarray:
+    """Length-weighted centroid of a closed polyline ``P (n, 3)``."""
+    Q = np.roll(P, -1, axis=0)
+    w = np.linalg.norm(Q - P, axis=1)
+    return ((P + Q) * 0.5 * w[:, None]).sum(axis=0) / w.sum()
+
+
+def capped_signed_volume(V: np.ndarray, F: np.ndarray, loops: list[np.ndarray]) -> float:
+    """Signed volume enclosed by the mesh closed with a fan cap on each loop.
+
+    Positive when the faces' normals point outwards.
+    """
+    def tet_sum(A, B, C):
+        return np.einsum("ij,ij->i", A, np.cross(B, C)).sum() / 6.0
+
+    c0 = V.mean(axis=0)
+    X = V - c0
+    vol = tet_sum(X[F[:, 0]], X[F[:, 1]], X[F[:, 2]])
+    for loop in loops:
+        P = X[loop]
+        c = P.mean(axis=0)
+        # A boundary loop runs along its faces' half-edges; the cap closing the
+        # surface runs the other way round.
+        Q = np.roll(P, -1, axis=0)
+        vol += tet_sum(np.broadcast_to(c, P.shape), Q, P)
+    return float(vol)
+
+
+def orient_consistently(F: np.ndarray) -> tuple[np.ndarray, int]:
+    """Flip faces so that every interior edge is used once in each direction.
+
+    Returns ``(F, n_flipped)``. Raises :class:`MeshError` for a non-orientable
+    surface.
+    """
+    edges, face_edge, counts = edge_incidence(F)
+    half = np.stack([F, np.roll(F, -1, axis=1)], axis=2)  # (n_face, 3, 2)
+    forward = half[:, :, 0] < half[:, :, 1]  # direction of use relative to sorted edge
+    interior = counts[face_edge] == 2
+    fe = face_edge[interior]
+    fi = np.nonzero(interior)[0]
+    fw = forward[interior]
+    order = np.argsort(fe, kind="stable")
+    fe, fi, fw = fe[order], fi[order], fw[order]
+    a, b = fi[0::2], fi[1::2]
+    same_dir = fw[0::2] == fw[1::2]  # faces a and b disagree if they use the edge the same way
+    if not same_dir.any():
+        return F, 0
+    n = len(F)
+    W = sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n)).tocsr()
+    W = W + W.T
+    disagree = sp.coo_matrix((same_dir.astype(float) + 1.0, (a, b)), shape=(n, n)).tocsr()
+    disagree = disagree + disagree.T  # 2 = disagree, 1 = agree
+    flip = np.zeros(n, dtype=bool)
+    visited = np.zeros(n, dtype=bool)
+    for root in range(n):
+        if visited[root]:
+            continue
+        order_, pred = breadth_first_order(W, root, directed=False)
+        visited[order_] = True
+        for f in order_[1:]:
+            p = pred[f]
+            flip[f] = flip[p] ^ (disagree[f, p] == 2)
+    F = F.copy()
+    F[flip] = F[flip][:, ::-1]
+    half = _half_edges(F)
+    n_vert = int(F.max()) + 1
+    if len(np.unique(half[:, 0] * n_vert + half[:, 1])) != len(half):
+        raise MeshError("the surface is not orientable")
+    return F, int(flip.sum())
+
+
+@dataclass(frozen=True)
+class TubeTopology:
+    """Boundary structure of an open tube: the two loops, outward-oriented faces."""
+
+    F: np.ndarray
+    loops: tuple[np.ndarray, np.ndarray]
+    flipped_faces: int
+
+
+def check_tube(V: np.ndarray, F: np.ndarray) -> TubeTopology:
+    """Check that ``(V, F)`` is an open tube and orient its faces outwards.
+
+    A tube is one connected, edge-manifold, orientable triangle mesh with
+    finite coordinates, exactly two boundary loops and Euler characteristic 0.
+    Returns the faces oriented so that normals point away from the tube's
+    inside, and the two loops (each ordered along its faces' half-edges).
+    """
+    if len(F) == 0:
+        raise MeshError("has no triangles")
+    if not np.all(np.isfinite(V)):
+        bad = int(np.count_nonzero(~np.isfinite(V).all(axis=1)))
+        raise MeshError(f"has {bad} vertices with NaN or infinite coordinates")
+    edges, _, counts = edge_incidence(F)
+    if np.any(counts > 2):
+        e = edges[np.argmax(counts > 2)]
+        raise MeshError(f"has {int((counts > 2).sum())} non-manifold edges "
+                        f"(edge {e[0]}-{e[1]} is shared by {counts.max()} faces)")
+    n = len(V)
+    A = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    n_comp, _ = connected_components(A, directed=False)
+    if n_comp != 1:
+        raise MeshError(f"has {n_comp} connected components; a tube has 1")
+    loops = boundary_loops(F)
+    if len(loops) != 2:
+        raise MeshError(f"has {len(loops)} boundary loops; a tube has 2")
+    euler = n - len(edges) + len(F)
+    if euler != 0:
+        raise MeshError(f"has Euler characteristic {euler}; an open tube has 0 "
+                        "(holes or handles in the wall?)")
+    F, flipped = orient_consistently(F)
+    if flipped:
+        loops = boundary_loops(F)
+    if capped_signed_volume(V, F, loops) < 0:
+        F = F[:, ::-1].copy()
+        loops = [loop[::-1] for loop in loops]
+        flipped = len(F) - flipped
+    return TubeTopology(F=F, loops=(loops[0], loops[1]), flipped_faces=flipped)

@@ -1,0 +1,427 @@
+"""Synthetic beating outflow tracts with analytic ground truth.
+
+The model (lengths in mm, times in ms):
+
+* **Centreline**: a circular arc of radius ``bend_radius_mm`` (the "C"), arc
+  length ``s`` in [0, ``length_mm``] inside the segmentation window; the two
+  window planes are perpendicular to the arc at s = 0 (inlet, ventricular end)
+  and s = L (outlet). A wall point is ``c(s) + rho (cos(theta) N + sin(theta) B)``
+  with N pointing to the centre of the bend, so theta = 0 is the inside of the
+  bend, where the shortest inlet-outlet geodesic runs.
+* **Peristaltic wave**: it reaches position s at ``t*(s) = integral ds / c(s)``,
+  with a local speed c(s) that rises from ``speed_proximal_mm_s`` to
+  ``speed_distal_mm_s`` around ``speed_knee_mm``. The local phase is
+  ``phi = ((t - t*(s)) / period) mod 1``; a section expands (raised cosine)
+  during the first ``expand_fraction`` of its cycle and contracts during the rest.
+* **Outer wall**: ``rho = R0(s) * m * (1 + a_k cos(k theta) + a_e cos(2 theta))``
+  with the tapered radius R0 (``radius_inlet_mm`` to ``radius_outlet_mm``), the
+  contraction factor ``m = 1 - contraction (1 - h(phi))`` and ``k`` =
+  ``corners`` rounded corners, sharper (and a slight ellipse) when contracted.
+* **Inner wall**: the outer contour scaled so that the myocardial area
+  ``myocardial_fraction * pi R0(s)^2 / lambda(t)`` is kept over the beat
+  (thicker when contracted).
+* **Longitudinal motion**: the tissue stretches by ``lambda(t) = 1 + stretch *
+  (1 - h(phi_inlet))`` with the outlet end fixed, so tissue slides through the
+  inlet plane; a point at window position s has material position
+  ``S = L - (L - s) / lambda(t)``, and the myocardial volume in the window
+  changes by about ``stretch``.
+* **Lumen**: inside the inner wall (``lumen_fraction`` of its radius, the cardiac
+  jelly between) with ``folds`` longitudinal folds that deepen on contraction.
+* **Band** (group ``banded``): a Gaussian neck of depth ``band_depth`` and
+  width ``band_width_mm`` at ``band_position_mm`` that also blocks
+  ``band_motion_block`` of the contraction there.
+
+Each frame of each wall is meshed independently (random resolution, random
+start angle, jitter, shuffled vertex and face order, radial noise), so no two
+frames share a parameterization. All truth is computed from the analytic model.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+WALLS = ("outer", "inner", "lumen")
+
+
+@dataclass(frozen=True)
+class PhantomParams:
+    """Every number of the phantom model (mm, ms, mm/s)."""
+
+    group: str = "normal"
+    n_frames: int = 195
+    period_ms: float = 360.0
+    length_mm: float = 1.2
+    bend_radius_mm: float = 0.6
+    radius_inlet_mm: float = 0.2
+    radius_outlet_mm: float = 0.12
+    contraction: float = 0.3
+    expand_fraction: float = 0.4
+    speed_proximal_mm_s: float = 8.0
+    speed_distal_mm_s: float = 20.0
+    speed_knee_mm: float = 0.5
+    speed_knee_width_mm: float = 0.06
+    corners: int = 4
+    corner_contracted: float = 0.08
+    corner_expanded: float = 0.03
+    ellipse_contracted: float = 0.03
+    myocardial_fraction: float = 0.3
+    stretch: float = 0.17
+    lumen_fraction: float = 0.75
+    folds: int = 5
+    fold_contracted: float = 0.3
+    fold_expanded: float = 0.05
+    band_position_mm: float | None = None
+    band_depth: float = 0.35
+    band_width_mm: float = 0.06
+    band_motion_block: float = 0.9
+    vertices_min: int = 4000
+    vertices_max: int = 8000
+    jitter: float = 0.3
+    noise_mm: float = 0.001
+    seed: int = 0
+
+    def __post_init__(self):
+        if self.group not in ("normal", "banded"):
+            raise ValueError(f"group must be 'normal' or 'banded', found {self.group!r}")
+        if self.n_frames < 3:
+            raise ValueError(f"n_frames must be at least 3, found {self.n_frames}")
+        if not 0 < self.expand_fraction < 1:
+            raise ValueError(f"expand_fraction must be in (0, 1), found {self.expand_fraction}")
+        if self.radius_inlet_mm * 1.3 >= self.bend_radius_mm:
+            raise ValueError("bend_radius_mm too small: the tube would intersect itself")
+        if not 100 <= self.vertices_min <= self.vertices_max:
+            raise ValueError("need 100 <= vertices_min <= vertices_max")
+
+
+def sample_params(group: str = "normal", seed: int = 0, **overrides) -> PhantomParams:
+    """Realistic per-embryo parameters drawn with ``seed`` (paper's ranges).
+
+    Period 330-380 ms, expansion 34-49 % of the cycle, proximal speed 5-10 and
+    distal 14-24 mm/s, 3-5 corners; banded embryos get a band at 40-65 % of
+    the length. Keyword ``overrides`` replace any drawn value.
+    """
+    rng = np.random.default_rng([seed, 0 if group == "normal" else 1])
+    length = rng.uniform(1.1, 1.35)
+    p = dict(
+        group=group, seed=seed, length_mm=length,
+        period_ms=float(rng.uniform(330, 380)),
+        expand_fraction=float(rng.uniform(0.36, 0.47)),
+        radius_inlet_mm=float(rng.uniform(0.18, 0.22)),
+        radius_outlet_mm=float(rng.uniform(0.11, 0.13)),
+        speed_proximal_mm_s=float(rng.uniform(5, 10)),
+        speed_distal_mm_s=float(rng.uniform(14, 24)),
+        speed_knee_mm=float(rng.uniform(0.35, 0.5) * length),
+        corners=int(rng.integers(3, 6)),
+    )
+    if group == "banded":
+        p["band_position_mm"] = float(rng.uniform(0.4, 0.65) * length)
+    p.update(overrides)
+    return PhantomParams(**p)
+
+
+# --------------------------------------------------------------------------- model
+def _hump(phi, expand_fraction):
+    """Expansion state h(phi) in [0, 1]: 0 contracted (phi = 0), 1 at phi = f_e."""
+    phi = np.mod(phi, 1.0)
+    f = expand_fraction
+    rising = 0.5 * (1 - np.cos(np.pi * phi / f))
+    falling = 0.5 * (1 + np.cos(np.pi * (phi - f) / (1 - f)))
+    return np.where(phi < f, rising, falling)
+
+
+class Phantom:
+    """The analytic model for one parameter set; all methods are vectorised."""
+
+    def __init__(self, params: PhantomParams):
+        self.p = params
+        p = params
+        self.s_fine = np.linspace(0.0, p.length_mm, 2001)
+        c = self.speed_mm_s(self.s_fine)
+        inv = 1.0 / c
+        t_star = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(self.s_fine))])
+        self._t_star_ms = t_star * 1e3
+        self.alpha0 = -p.length_mm / (2 * p.bend_radius_mm)
+
+    # -- scalar profiles ----------------------------------------------------
+    def speed_mm_s(self, s):
+        """Local wave speed c(s), mm/s."""
+        p = self.p
+        z = (np.asarray(s) - p.speed_knee_mm) / p.speed_knee_width_mm
+        return p.speed_proximal_mm_s + (p.speed_distal_mm_s - p.speed_proximal_mm_s) / (1 + np.exp(-z))
+
+    def arrival_ms(self, s):
+        """Wave arrival time t*(s), ms (t* = 0 at the inlet)."""
+        return np.interp(s, self.s_fine, self._t_star_ms)
+
+    def band(self, s):
+        p = self.p
+        if p.band_position_mm is None:
+            return np.zeros_like(np.asarray(s, dtype=float))
+        return np.exp(-0.5 * ((np.asarray(s) - p.band_position_mm) / p.band_width_mm) ** 2)
+
+    def base_radius(self, s):
+        """Expanded outer radius R0(s) before shape factors, mm."""
+        p = self.p
+        s = np.asarray(s, dtype=float)
+        taper = p.radius_inlet_mm + (p.radius_outlet_mm - p.radius_inlet_mm) * s / p.length_mm
+        return taper * (1 - p.band_depth * self.band(s))
+
+    def expansion(self, s, t_ms):
+        """Expansion state h(s, t) in [0, 1] (broadcasts s against t)."""
+        phi = (np.asarray(t_ms) - self.arrival_ms(s)) / self.p.period_ms
+        return _hump(phi, self.p.expand_fraction)
+
+    def stretch(self, t_ms):
+        """Longitudinal stretch lambda(t) >= 1 (tissue slides through the inlet)."""
+        h0 = self.expansion(0.0, t_ms)
+        return 1.0 + self.p.stretch * (1.0 - h0)
+
+    # -- wall radii -----------------------------------------------------------
+    def radius(self, wall: str, s, theta, t_ms):
+        """Radial distance rho of ``wall`` from the centreline, mm (broadcasting)."""
+        p = self.p
+        s = np.asarray(s, dtype=float)
+        h = self.expansion(s, t_ms)
+        m = 1.0 - p.contraction * (1.0 - self.band(s) * p.band_motion_block) * (1.0 - h)
+        a_k = p.corner_contracted + (p.corner_expanded - p.corner_contracted) * h
+        a_e = p.ellipse_contracted * (1.0 - h)
+        shape = 1.0 + a_k * np.cos(p.corners * theta) + a_e * np.cos(2 * theta)
+        rho = self.base_radius(s) * m * shape
+        if wall == "outer":
+            return rho
+        q = self._inner_scale(s, t_ms, h, m, a_k, a_e)
+        if wall == "inner":
+            return rho * q
+        if wall == "lumen":
+            depth = p.fold_contracted + (p.fold_expanded - p.fold_contracted) * h
+            fold = 1.0 - depth * (0.5 + 0.5 * np.cos(p.folds * theta + np.pi)) ** 2
+            return rho * q * p.lumen_fraction * fold
+        raise ValueError(f"wall must be one of {WALLS}, found {wall!r}")
+
+    def _inner_scale(self, s, t_ms, h, m, a_k, a_e):
+        """Scale of the inner contour relative to the outer one (keeps myocardial area)."""
+        p = self.p
+        R0 = self.base_radius(s)
+        shape_area = 1.0 + 0.5 * a_k ** 2 + 0.5 * a_e ** 2  # (1/2pi) * int shape^2
+        area_out = np.pi * (R0 * m) ** 2 * shape_area
+        area_myo = p.myocardial_fraction * np.pi * R0 ** 2 / self.stretch(t_ms)
+        return np.sqrt(np.clip(1.0 - area_myo / area_out, 0.01, None))
+
+    def wall_thickness(self, s, theta, t_ms):
+        """Radial outer-minus-inner distance at (s, theta, t), mm."""
+        return self.radius("outer", s, theta, t_ms) - self.radius("inner", s, theta, t_ms)
+
+    # -- geometry -----------------------------------------------------------
+    def frame_axes(self, s):
+        """Centreline point c, inside normal N and binormal B at s, each ``(..., 3)``."""
+        R = self.p.bend_radius_mm
+        a = self.alpha0 + np.asarray(s, dtype=float) / R
+        radial = np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], axis=-1)
+        B = np.broadcast_to(np.array([0.0, 0.0, 1.0]), radial.shape)
+        return R * radial, -radial, B
+
+    def point(self, wall, s, theta, t_ms):
+        """3-D points (mm) of ``wall`` at window position s and angle theta."""
+        c, N, B = self.frame_axes(s)
+        rho = self.radius(wall, s, theta, t_ms)[..., None]
+        th = np.asarray(theta)[..., None]
+        return c + rho * (np.cos(th) * N + np.sin(th) * B)
+
+    def window_coordinates(self, X):
+        """(s, theta) of 3-D points ``X (..., 3)``: window arc length (mm), angle (rad).
+
+        theta in (-pi, pi], 0 on the inside of the bend.
+        """
+        X = np.asarray(X, dtype=float)
+        a = np.arctan2(X[..., 1], X[..., 0])
+        s = self.p.bend_radius_mm * (a - self.alpha0)
+        c, N, B = self.frame_axes(s)
+        d = X - c
+        theta = np.arctan2(np.einsum("...i,...i", d, B), np.einsum("...i,...i", d, N))
+        return s, theta
+
+    def material_coordinates(self, X, t_ms):
+        """(S, theta) material coordinates of points ``X (..., 3)`` at time t (ms).
+
+        S (mm) follows the tissue as it slides through the inlet plane:
+        ``S = L - (L - s) / lambda(t)``. Material points move radially only, so
+        their angle is the window angle.
+        """
+        s, theta = self.window_coordinates(X)
+        L = self.p.length_mm
+        return L - (L - s) / self.stretch(t_ms), theta
+
+    # -- analytic areas and volumes -----------------------------------------
+    def section_moments(self, wall, s, t_ms, n_theta: int = 128):
+        """Area (mm^2) and first moment toward the bend centre (mm^3) of sections.
+
+        ``s`` and ``t_ms`` broadcast; the trapezoid rule on a periodic integrand
+        is spectrally accurate.
+        """
+        th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
+        s_, t_ = np.broadcast_arrays(np.asarray(s, float), np.asarray(t_ms, float))
+        rho = self.radius(wall, s_[..., None], th, t_[..., None])
+        area = 0.5 * (rho ** 2).mean(axis=-1) * 2 * np.pi
+        moment = ((rho ** 3 / 3.0) * np.cos(th)).mean(axis=-1) * 2 * np.pi
+        return area, moment
+
+    def area_mm2(self, wall, s, t_ms):
+        return self.section_moments(wall, s, t_ms)[0]
+
+    def volume_mm3(self, wall, t_ms, n_s: int = 241):
+        """Volume inside ``wall`` in the window at times ``t_ms (n,)``.
+
+        Exact for the curved tube: the tube-coordinate Jacobian (1 - rho cos(theta) / R_bend)
+        is integrated, not only the areas.
+        """
+        s = np.linspace(0, self.p.length_mm, n_s)
+        t = np.atleast_1d(np.asarray(t_ms, float))
+        area, moment = self.section_moments(wall, s[:, None], t[None, :])
+        integrand = area - moment / self.p.bend_radius_mm
+        return np.trapezoid(integrand, s, axis=0)
+
+    # -- meshing ------------------------------------------------------------
+    def mesh(self, wall: str, t_ms: float, rng: np.random.Generator):
+        """An independent triangle mesh of ``wall`` at time ``t_ms``.
+
+        Returns ``V (n_vert, 3) float64`` mm, ``F (n_face, 3) int64`` with
+        outward normals, vertices and faces in random order.
+        """
+        p = self.p
+        n_target = int(rng.integers(p.vertices_min, p.vertices_max + 1))
+        mean_circ = np.pi * (p.radius_inlet_mm + p.radius_outlet_mm)
+        n_th = max(12, int(round(np.sqrt(n_target * mean_circ / p.length_mm))))
+        n_s = max(4, n_target // n_th)
+        ds = p.length_mm / (n_s - 1)
+        dth = 2 * np.pi / n_th
+        s = np.linspace(0, p.length_mm, n_s)[:, None] * np.ones((1, n_th))
+        th = rng.uniform(0, 2 * np.pi) + dth * np.arange(n_th)[None, :] * np.ones((n_s, 1))
+        jit_s = rng.uniform(-p.jitter, p.jitter, s.shape) * ds
+        jit_s[[0, -1]] = 0.0
+        s = s + jit_s
+        th = th + rng.uniform(-p.jitter, p.jitter, th.shape) * dth
+        V = self.point(wall, s, th, t_ms)
+        if p.noise_mm > 0:
+            c, _, _ = self.frame_axes(s)
+            radial = V - c
+            radial /= np.linalg.norm(radial, axis=-1, keepdims=True)
+            noise = rng.normal(0, p.noise_mm, s.shape)
+            noise[[0, -1]] = 0.0  # keep the window planes exact
+            V = V + noise[..., None] * radial
+        V = V.reshape(-1, 3)
+        idx = np.arange(n_s * n_th).reshape(n_s, n_th)
+        a = idx[:-1, :]
+        b = np.roll(idx, -1, axis=1)[:-1, :]
+        c_ = np.roll(idx, -1, axis=1)[1:, :]
+        d = idx[1:, :]
+        diag = rng.random(a.shape) < 0.5
+        t1 = np.where(diag[..., None], np.stack([a, b, c_], -1), np.stack([a, b, d], -1))
+        t2 = np.where(diag[..., None], np.stack([a, c_, d], -1), np.stack([b, c_, d], -1))
+        F = np.concatenate([t1.reshape(-1, 3), t2.reshape(-1, 3)])
+        # (a, b, c): theta increases a->b, s increases b->c; with N pointing inwards
+        # d/dtheta x d/ds points outwards, so (a, b, c) is outward-oriented.
+        perm = rng.permutation(len(V))
+        inv = np.empty_like(perm)
+        inv[perm] = np.arange(len(V))
+        V = V[perm]
+        F = inv[F][rng.permutation(len(F))]
+        F = np.roll(F, int(rng.integers(3)), axis=1)
+        return V, F.astype(np.int64)
+
+    # -- truth --------------------------------------------------------------
+    def frame_times_ms(self):
+        return np.arange(self.p.n_frames) * self.p.period_ms / self.p.n_frames
+
+    def truth(self, n_s: int = 121, n_t_fine: int = 720) -> dict:
+        """Ground truth from the analytic model (JSON-ready)."""
+        p = self.p
+        s = np.linspace(0, p.length_mm, n_s)
+        t = self.frame_times_ms()
+        t_fine = np.linspace(0, p.period_ms, n_t_fine, endpoint=False)
+        areas = {w: self.area_mm2(w, s[:, None], t[None, :]) for w in WALLS}
+        vol = {w: self.volume_mm3(w, t) for w in WALLS}
+        vol_fine = self.volume_mm3("outer", t_fine)
+        t_min = t_fine[np.argmin(vol_fine)]
+        t_max = t_fine[np.argmax(vol_fine)]
+        expand = ((t_max - t_min) % p.period_ms) / p.period_ms
+        myo = vol["outer"] - vol["inner"]
+        myo_fine = vol_fine - self.volume_mm3("inner", t_fine)
+        area_fine = self.area_mm2("outer", s[:, None], t_fine[None, :])
+        frac75 = (area_fine >= 0.75 * area_fine.max(axis=1, keepdims=True)).mean(axis=1)
+        max_area = {w: (area_fine if w == "outer" else
+                        self.area_mm2(w, s[:, None], t_fine[None, :])).max(axis=1)
+                    for w in WALLS}
+        c = self.speed_mm_s(s)
+        arrival = self.arrival_ms(s)
+        return {
+            "params": asdict(p),
+            "s_mm": s.tolist(),
+            "t_ms": t.tolist(),
+            "speed_mm_s": c.tolist(),
+            "arrival_ms": arrival.tolist(),
+            "ridge_t_ms": (arrival + p.expand_fraction * p.period_ms).tolist(),
+            "wave_speed_mm_s": {
+                "min": float(c.min()), "max": float(c.max()), "mean": float(c.mean()),
+                "cycle": float(p.length_mm / (arrival[-1] - arrival[0]) * 1e3),
+            },
+            "area_mm2": {w: areas[w].tolist() for w in WALLS},
+            "max_area_mm2": {w: max_area[w].tolist() for w in WALLS},
+            "volume_mm3": {w: vol[w].tolist() for w in WALLS},
+            "myocardial_volume_mm3": myo.tolist(),
+            "myocardial_volume_change": float((myo_fine.max() - myo_fine.min()) / myo_fine.min()),
+            "t_min_volume_ms": float(t_min),
+            "t_max_volume_ms": float(t_max),
+            "expand_fraction": float(expand),
+            "contract_fraction": float(1 - expand),
+            "expand_ms": float(expand * p.period_ms),
+            "contract_ms": float((1 - expand) * p.period_ms),
+            "expanded_fraction_75": frac75.tolist(),
+            "tube_length_mm": p.length_mm,
+            "band_position_mm": p.band_position_mm,
+            "corner_count": p.corners,
+        }
+
+
+# --------------------------------------------------------------------------- writing
+def write_phantom(out: str | Path, params: PhantomParams, *, name: str | None = None,
+                  walls=WALLS, progress=None) -> Path:
+    """Write a phantom dataset folder (meta.json, outer/ inner/ lumen/, truth.json).
+
+    ``out`` must not exist or be empty; ``name`` defaults to its folder name.
+    ``progress`` is called with the number of frames done. Returns the folder.
+    """
+    from .io import write_ply
+
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        raise FileExistsError(f"{out}: exists and is not empty")
+    ph = Phantom(params)
+    rng = np.random.default_rng([params.seed, 7])
+    for w in walls:
+        (out / w).mkdir(parents=True, exist_ok=True)
+    width = len(str(params.n_frames - 1))
+    for k, t in enumerate(ph.frame_times_ms()):
+        for w in walls:
+            V, F = ph.mesh(w, t, rng)
+            write_ply(out / w / f"f{k:0{width}d}.ply", V, F)
+        if progress is not None:
+            progress(k + 1)
+    c, _, _ = ph.frame_axes(0.0)
+    meta = {"name": name or out.name, "group": params.group, "period_ms": params.period_ms,
+            "length_unit": "mm", "inlet": [float(x) for x in c]}
+    (out / "meta.json").write_text(json.dumps(meta, indent=2))
+    (out / "truth.json").write_text(json.dumps(ph.truth(), indent=1))
+    return out
+
+
+def read_truth(dataset: str | Path) -> tuple[Phantom, dict]:
+    """The model and the truth.json of a phantom dataset folder."""
+    truth = json.loads((Path(dataset) / "truth.json").read_text())
+    return Phantom(PhantomParams(**truth["params"])), truth
+
+
+def with_frames(params: PhantomParams, n_frames: int) -> PhantomParams:
+    return replace(params, n_frames=n_frames)

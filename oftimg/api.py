@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .export import check_output_location, staged_output, write_json
+from .export import check_output_location, staged_output, write_dataset_results, write_json
 from .io import Dataset, find_datasets, load_dataset, validate_dataset
 from .phantom import sample_params, write_phantom
 from .progress import Progress
@@ -31,7 +31,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     written to a temporary folder and moved to ``out`` at the end; a failed
     run leaves ``out`` as it was. Returns ``out``.
     """
-    from .pipeline import PipelineOptions, process_dataset
+    from .pipeline import PipelineOptions, analyse_dataset
 
     out = Path(out)
     paths = _as_dataset_paths(source)
@@ -50,9 +50,10 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         for ds in datasets:
             folder = tmp / ds.meta.name
             folder.mkdir()
-            summary = process_dataset(ds, folder, options=opts, quiet=quiet)
+            result = analyse_dataset(ds, opts, quiet=quiet)
+            summary = result["summary"]
             summary["validation"] = reports[ds.meta.name]
-            write_json(folder / "summary.json", summary)
+            write_dataset_results(folder, result)
             summaries.append(summary)
         from .report import write_cohort_table
 

@@ -85,3 +85,12 @@ def write_arrays(folder: Path, arrays: dict[str, np.ndarray], described: dict[st
     desc = {k: dict(described[k], shape=list(np.shape(v)), dtype=str(np.asarray(v).dtype))
             for k, v in arrays.items()}
     write_json(folder / "arrays.json", desc)
+
+
+def write_dataset_results(folder: Path, result: dict) -> None:
+    """``summary.json``, ``grids.npz`` (float32 mm, (n_u, n_v, n_t, 3)), figures/, videos/."""
+    (folder / "figures").mkdir(exist_ok=True)
+    (folder / "videos").mkdir(exist_ok=True)
+    grids = {w: g.X.astype(np.float32) for w, g in result["grids"].items()}
+    np.savez_compressed(folder / "grids.npz", **grids)
+    write_json(folder / "summary.json", result["summary"])

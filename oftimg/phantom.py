@@ -80,7 +80,7 @@ class PhantomParams:
     vertices_min: int = 4000
     vertices_max: int = 8000
     jitter: float = 0.3
-    noise_mm: float = 0.001
+    noise_mm: float = 0.0
     seed: int = 0
 
     def __post_init__(self):
@@ -293,7 +293,9 @@ class Phantom:
         p = self.p
         n_target = int(rng.integers(p.vertices_min, p.vertices_max + 1))
         mean_circ = np.pi * (p.radius_inlet_mm + p.radius_outlet_mm)
-        n_th = max(12, int(round(np.sqrt(n_target * mean_circ / p.length_mm))))
+        # the folded lumen gets twice the density around (its folds need it)
+        aspect = mean_circ / p.length_mm * (2.0 if wall == "lumen" else 1.0)
+        n_th = max(12, int(round(np.sqrt(n_target * aspect))))
         n_s = max(4, n_target // n_th)
         ds = p.length_mm / (n_s - 1)
         dth = 2 * np.pi / n_th

@@ -88,22 +88,29 @@ def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, *, k: int = 6):
 
 
 def _clean_events(events):
-    """Drop repeated events and edge points that slide along their own edge."""
-    out = []
-    for ev in events:
-        if out and out[-1] == ev:
-            continue
-        if out and ev[0] == "e" and out[-1][0] == "e" and out[-1][1:3] == ev[1:3]:
-            continue
-        out.append(ev)
-    cleaned = []
-    for k, ev in enumerate(out):
-        if ev[0] == "e":
-            nb = [out[m] for m in (k - 1, k + 1) if 0 <= m < len(out)]
-            if any(o[0] == "v" and o[1] in ev[1:3] for o in nb):
+    """Drop repeated events and edge points that slide along their own edge.
+
+    Repeated until nothing changes (dropping one event can make two others
+    neighbours).
+    """
+    while True:
+        out = []
+        for ev in events:
+            if out and out[-1] == ev:
                 continue
-        cleaned.append(ev)
-    return cleaned
+            if out and ev[0] == "e" and out[-1][0] == "e" and out[-1][1:3] == ev[1:3]:
+                continue
+            out.append(ev)
+        cleaned = []
+        for k, ev in enumerate(out):
+            if ev[0] == "e":
+                nb = [out[m] for m in (k - 1, k + 1) if 0 <= m < len(out)]
+                if any(o[0] == "v" and o[1] in ev[1:3] for o in nb):
+                    continue
+            cleaned.append(ev)
+        if len(cleaned) == len(events):
+            return cleaned
+        events = cleaned
 
 
 def insert_path(V: np.ndarray, F: np.ndarray, events) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

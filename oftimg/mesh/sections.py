@@ -1,0 +1,138 @@
+"""Plane sections of triangle meshes: closed contours and their areas."""
+from __future__ import annotations
+
+import numpy as np
+
+from .topology import edge_incidence
+
+
+def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.ndarray
+                   ) -> list[np.ndarray]:
+    """All contours where the plane ``(origin, normal)`` cuts the mesh.
+
+    Returns a list of polylines ``(n_pts, 3)`` mm; closed ones have their first
+    point not repeated, open ones (ending on the mesh boundary) are included too.
+    """
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    d = (V - origin) @ normal
+    scale = np.abs(d).max() if len(d) else 1.0
+    d = np.where(np.abs(d) < 1e-12 * scale, 1e-12 * scale, d)  # no vertex exactly on the plane
+    side = d > 0
+    cut = side[F].any(axis=1) & ~side[F].all(axis=1)
+    Fc = F[cut]
+    if len(Fc) == 0:
+        return []
+    edges, face_edge, _ = edge_incidence(Fc)
+    crosses = side[edges[:, 0]] != side[edges[:, 1]]
+    da, db = d[edges[:, 0]], d[edges[:, 1]]
+    t = np.where(crosses, da / np.where(crosses, da - db, 1.0), 0.0)
+    P = V[edges[:, 0]] + t[:, None] * (V[edges[:, 1]] - V[edges[:, 0]])
+    # each cut face joins its two crossing edges
+    fe = face_edge
+    pairs = np.array([row[crosses[row]] for row in fe])
+    nbrs: dict[int, list[int]] = {}
+    for a, b in pairs.tolist():
+        nbrs.setdefault(a, []).append(b)
+        nbrs.setdefault(b, []).append(a)
+    seen = set()
+    contours = []
+    # open chains first (start at an end), then closed loops
+    starts = [e for e, nb in nbrs.items() if len(nb) == 1] + list(nbrs)
+    for start in starts:
+        if start in seen:
+            continue
+        chain = [start]
+        seen.add(start)
+        prev, cur = None, start
+        while True:
+            nxt = [x for x in nbrs[cur] if x != prev and x not in seen]
+            if not nxt:
+                break
+            prev, cur = cur, nxt[0]
+            chain.append(cur)
+            seen.add(cur)
+        contours.append(P[chain])
+    return contours
+
+
+def polygon_area(P: np.ndarray, normal: np.ndarray | None = None) -> float:
+    """Area (mm^2) enclosed by a closed polygon ``P (n, 3)`` (projected on ``normal``)."""
+    A = 0.5 * np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+    if normal is None:
+        return float(np.linalg.norm(A))
+    return float(abs(A @ (np.asarray(normal) / np.linalg.norm(normal))))
+
+
+def contour_around(contours: list[np.ndarray], center: np.ndarray, normal: np.ndarray
+                   ) -> np.ndarray | None:
+    """The closed contour whose projection on the plane encloses ``center``.
+
+    Among several, the one whose centroid is nearest. ``None`` if none does.
+    """
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    e1 = np.cross(normal, [1.0, 0, 0])
+    if np.linalg.norm(e1) < 0.1:
+        e1 = np.cross(normal, [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    best, best_d = None, np.inf
+    for C in contours:
+        if len(C) < 3:
+            continue
+        Q = np.column_stack([(C - center) @ e1, (C - center) @ e2])
+        if _winding(Q) == 0:
+            continue
+        dist = np.linalg.norm(C.mean(axis=0) - center)
+        if dist < best_d:
+            best, best_d = C, dist
+    return best
+
+
+def _winding(Q: np.ndarray) -> int:
+    """Winding number of the closed 2-D polygon ``Q`` around the origin."""
+    ang = np.arctan2(Q[:, 1], Q[:, 0])
+    dang = np.diff(np.concatenate([ang, ang[:1]]))
+    dang = (dang + np.pi) % (2 * np.pi) - np.pi
+    return int(round(dang.sum() / (2 * np.pi)))
+
+
+def ring_point(X: np.ndarray, u: float) -> np.ndarray:
+    """Position at parameter ``u`` on grid rings ``X (n_u, ...)`` (linear, periodic in u)."""
+    n_u = X.shape[0]
+    x = u * n_u
+    i = int(np.floor(x)) % n_u
+    f = x - np.floor(x)
+    return (1 - f) * X[i] + f * X[(i + 1) % n_u]
+
+
+def section_planes(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Planes through ``G(0, v), G(1/3, v), G(2/3, v)`` of a grid ``X (n_u, n_v, ..., 3)``.
+
+    Returns ``origins`` (the three points' mean) and unit ``normals`` pointing
+    towards the outlet (increasing v), each ``(n_v, ..., 3)``.
+    """
+    a, b, c = X[0], ring_point(X, 1 / 3), ring_point(X, 2 / 3)
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    axis = np.gradient(X.mean(axis=0), axis=0)  # along v
+    sign = np.sign(np.einsum("...i,...i", n, axis))
+    sign[sign == 0] = 1
+    return (a + b + c) / 3.0, n * sign[..., None]
+
+
+def crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Rows whose plane meets a later row's ring inside the tube, per frame.
+
+    For one frame, ``X (n_u, n_v, 3)``, ``origins``/``normals (n_v, 3)``.
+    Returns a boolean ``(n_v,)``: row j is flagged when a grid node of a later
+    row lies on or behind plane j, or a node of an earlier row on or in front
+    of it (the planes then cut each other within the tube).
+    """
+    n_v = X.shape[1]
+    # side[j, k, i]: signed distance of node i of ring k from plane j
+    side = np.einsum("kiv,jv->jki", X.transpose(1, 0, 2)[:, :, :], normals) \
+        - np.einsum("jv,jv->j", origins, normals)[:, None, None]
+    later = np.triu(np.ones((n_v, n_v), dtype=bool), k=1)
+    bad_front = (side.min(axis=2) <= 0) & later      # ring k behind plane j
+    bad_back = (side.max(axis=2) >= 0) & later.T     # ring k (earlier) in front of plane j
+    return bad_front.any(axis=1) | bad_back.any(axis=1)

@@ -1,0 +1,39 @@
+"""Analytic test shapes: meshes of cylinders, cones and elliptic tubes."""
+from __future__ import annotations
+
+import numpy as np
+
+from oftimg.io import write_ply
+
+
+def tube_mesh(radius_in=0.2, radius_out=None, length=1.0, n_theta=48, n_s=30,
+              ellipse=1.0, theta0=0.0, axis_z=True):
+    """Straight tube along +z from z=0 (inlet) to z=length, outward-oriented.
+
+    Radius tapers linearly from ``radius_in`` to ``radius_out`` (a cone); the
+    y semi-axis is scaled by ``ellipse``. Returns ``V (n, 3)``, ``F (m, 3)``.
+    """
+    radius_out = radius_in if radius_out is None else radius_out
+    z = np.linspace(0, length, n_s)
+    th = theta0 + np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
+    r = radius_in + (radius_out - radius_in) * z / length
+    Z, T = np.meshgrid(z, th, indexing="ij")
+    R = r[:, None] * np.ones_like(T)
+    V = np.stack([R * np.cos(T), ellipse * R * np.sin(T), Z], axis=-1).reshape(-1, 3)
+    idx = np.arange(n_s * n_theta).reshape(n_s, n_theta)
+    a = idx[:-1]
+    b = np.roll(idx, -1, axis=1)[:-1]
+    c = np.roll(idx, -1, axis=1)[1:]
+    d = idx[1:]
+    F = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
+                        np.stack([a, c, d], -1).reshape(-1, 3)])
+    return V, F.astype(np.int64)
+
+
+def write_series(folder, meshes, surface="outer"):
+    """Write meshes as frames f0.ply, f1.ply, ... of ``folder/surface``."""
+    sub = folder / surface
+    sub.mkdir(parents=True, exist_ok=True)
+    for k, (V, F) in enumerate(meshes):
+        write_ply(sub / f"f{k}.ply", V, F)
+    return folder

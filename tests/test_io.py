@@ -1,0 +1,212 @@
+import json
+import subprocess
+import sys
+import textwrap
+import warnings
+
+import numpy as np
+import pytest
+
+from helpers import tube_mesh, write_series
+from oftimg.cli import main
+from oftimg.io import (DatasetError, OftimgWarning, find_datasets, list_frames, load_dataset,
+                       load_tube, natural_key, validate_dataset, write_ply)
+
+
+def cone_frames(n=3, flip=False, **kw):
+    out = []
+    for k in range(n):
+        V, F = tube_mesh(0.2, 0.12, n_theta=24 + k, n_s=10, **kw)
+        if flip:  # inlet (large end) at z = length instead of z = 0
+            V = V * np.array([1, -1, -1]) + np.array([0, 0, 1.0])
+        out.append((V, F))
+    return out
+
+
+@pytest.fixture
+def dataset(tmp_path):
+    ds = tmp_path / "emb"
+    write_series(ds, cone_frames())
+    (ds / "meta.json").write_text(json.dumps({"period_ms": 6.0}))
+    return ds
+
+
+def listing(folder):
+    return sorted((str(p.relative_to(folder)), p.stat().st_mtime_ns) for p in folder.rglob("*"))
+
+
+def test_natural_sort(tmp_path):
+    names = ["f10.ply", "f2.ply", "f1.ply", "F3.ply", "notes.txt"]
+    for n in names:
+        (tmp_path / n).write_bytes(b"x")
+    assert [p.name for p in list_frames(tmp_path)] == ["f1.ply", "f2.ply", "F3.ply", "f10.ply"]
+    assert natural_key("a9") < natural_key("a10")
+
+
+def test_load_dataset_defaults(tmp_path):
+    ds_path = write_series(tmp_path / "emb", cone_frames())
+    with pytest.warns(OftimgWarning, match="no period_ms"):
+        ds = load_dataset(ds_path)
+    assert ds.meta.name == "emb" and ds.meta.group == "unknown"
+    assert ds.meta.period_ms == pytest.approx(3 * 2.0)
+    assert ds.surfaces == ("outer",)
+    tube = ds.tube("outer", 1)
+    assert tube.V.dtype == np.float64 and tube.F.dtype == np.int64
+    assert tube.V.shape == (25 * 10, 3)
+
+
+def test_micrometres_are_converted(tmp_path):
+    frames = [(V * 1000.0, F) for V, F in cone_frames()]
+    ds_path = write_series(tmp_path / "emb", frames)
+    (ds_path / "meta.json").write_text(json.dumps({"length_unit": "um", "period_ms": 3.0,
+                                                   "inlet": [0, 0, 0]}))
+    ds = load_dataset(ds_path)
+    tube = ds.tube("outer", 0)
+    z = tube.V[:, 2]
+    assert z.max() == pytest.approx(1.0, rel=1e-6)
+    assert np.allclose(ds.inlet_mm, 0)
+
+
+@pytest.mark.parametrize("flip", [False, True])
+def test_inlet_is_the_larger_end(tmp_path, flip, dataset):
+    ds_path = write_series(tmp_path / "emb2", cone_frames(flip=flip))
+    (ds_path / "meta.json").write_text(json.dumps({"period_ms": 6.0}))
+    tube = load_dataset(ds_path).tube("outer", 0)
+    r_in = np.linalg.norm(tube.V[tube.inlet, :2], axis=1).mean()
+    r_out = np.linalg.norm(tube.V[tube.outlet, :2], axis=1).mean()
+    assert r_in == pytest.approx(0.2) and r_out == pytest.approx(0.12)
+    assert tube.V[tube.inlet, 2].mean() == pytest.approx(1.0 if flip else 0.0)
+
+
+def test_inlet_does_not_flip_when_one_frame_has_ends_swapped(tmp_path):
+    frames = cone_frames(5)
+    frames[3] = tube_mesh(0.1, 0.25, n_theta=30, n_s=10)  # this frame's outlet is larger
+    ds_path = write_series(tmp_path / "emb", frames)
+    (ds_path / "meta.json").write_text(json.dumps({"period_ms": 5.0}))
+    ds = load_dataset(ds_path)
+    for t in range(5):
+        tube = ds.tube("outer", t)
+        assert tube.V[tube.inlet, 2].mean() == pytest.approx(0.0)
+
+
+def test_meta_inlet_point_decides(tmp_path):
+    ds_path = write_series(tmp_path / "emb", cone_frames())
+    (ds_path / "meta.json").write_text(json.dumps({"period_ms": 3.0, "inlet": [0, 0, 1.1]}))
+    tube = load_dataset(ds_path).tube("outer", 0)
+    assert tube.V[tube.inlet, 2].mean() == pytest.approx(1.0)
+
+
+def test_repairs_are_counted(tmp_path):
+    V, F = tube_mesh(n_theta=20, n_s=6)
+    V2 = np.concatenate([V, V[:3]])  # 3 duplicate vertices used by one face each
+    F2 = F.copy()
+    F2[0] = [len(V), len(V) + 1, F[0, 2]]
+    F2 = np.concatenate([F2, [[0, 0, 1]]])  # a degenerate face
+    path = tmp_path / "f.ply"
+    write_ply(path, V2, F2)
+    with pytest.warns(OftimgWarning, match=r"f\.ply: merged \d duplicate vertices, dropped 1"):
+        tube = load_tube(path)
+    assert len(tube.V) == len(V)
+
+
+# ------------------------------------------------------------------ bad input
+def _bad(tmp_path, kind):
+    ds = write_series(tmp_path / "bad", cone_frames())
+    (ds / "meta.json").write_text(json.dumps({"period_ms": 3.0}))
+    target = ds / "outer" / "f1.ply"
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    if kind == "empty":
+        target.write_bytes(b"")
+    elif kind == "garbage":
+        target.write_bytes(b"ply\nthis is not a mesh\n")
+    elif kind == "one_loop":  # cap the outlet with a fan
+        ring = np.arange(9 * 24, 10 * 24)
+        V2 = np.concatenate([V, [[0, 0, 1.0]]])
+        cap = np.stack([ring, np.full(24, len(V)), np.roll(ring, -1)], 1)
+        write_ply(target, V2, np.concatenate([F, cap]))
+    elif kind == "three_loops":  # punch a hole in the wall
+        write_ply(target, V, np.delete(F, [100, 100 + 9 * 24], axis=0))
+    elif kind == "non_manifold":  # a fin on an edge
+        V2 = np.concatenate([V, [[1.0, 1.0, 0.5]]])
+        write_ply(target, V2, np.concatenate([F, [[F[50, 0], F[50, 1], len(V)]]]))
+    elif kind == "nan":
+        V2 = V.copy()
+        V2[7] = np.nan
+        write_ply(target, V2, F)
+    elif kind == "frame_count":
+        write_series(ds, cone_frames(2), surface="inner")
+        return ds, ds / "inner"
+    elif kind == "meta_json":
+        (ds / "meta.json").write_text("{period_ms: 3")
+        return ds, ds / "meta.json"
+    elif kind == "meta_unit":
+        (ds / "meta.json").write_text(json.dumps({"length_unit": "inch"}))
+        return ds, ds / "meta.json"
+    elif kind == "missing":
+        return tmp_path / "nope", tmp_path / "nope"
+    return ds, target
+
+
+BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
+       "three_loops": "3 boundary loops", "non_manifold": "non-manifold edge",
+       "nan": "NaN", "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
+       "meta_unit": "length_unit", "missing": "not found"}
+
+
+@pytest.mark.parametrize("kind", sorted(BAD))
+def test_bad_input_names_file_and_problem(tmp_path, kind, capsys):
+    ds, culprit = _bad(tmp_path, kind)
+    before = listing(ds) if ds.exists() else None
+    with pytest.raises(DatasetError) as err:
+        validate_dataset(load_dataset(ds))
+    assert str(culprit) in str(err.value) and BAD[kind] in str(err.value)
+    # the CLI stops before any work, one line, exit status 2, nothing written
+    out = tmp_path / "out"
+    assert main(["run", str(ds), "--out", str(out), "--quiet"]) == 2
+    msg = capsys.readouterr().err.strip()
+    assert msg.count("\n") == 0 and str(culprit) in msg and BAD[kind] in msg
+    assert not out.exists()
+    if before is not None:
+        assert listing(ds) == before
+
+
+def test_out_inside_dataset_and_nonempty_out_are_refused(dataset, tmp_path, capsys):
+    assert main(["run", str(dataset), "--out", str(dataset / "res"), "--quiet"]) == 2
+    assert "inside the input" in capsys.readouterr().err
+    out = tmp_path / "full"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    assert main(["run", str(dataset), "--out", str(out), "--quiet"]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert (out / "keep.txt").read_text() == "mine"
+
+
+def test_validate_cli_prints_report(dataset, capsys):
+    assert main(["validate", str(dataset)]) == 0
+    text = capsys.readouterr().out
+    assert "outer" in text and "3" in text and "problems: none" in text
+
+
+def test_cohort_folder_lists_datasets(tmp_path):
+    for name in ("b10", "b2"):
+        write_series(tmp_path / "cohort" / name, cone_frames(2))
+    assert [p.name for p in find_datasets(tmp_path / "cohort")] == ["b2", "b10"]
+    with pytest.raises(DatasetError, match="neither a dataset"):
+        find_datasets(tmp_path / "cohort" / "b2" / "outer")
+
+
+def test_lazy_loading_of_1000_frames_stays_small(tmp_path):
+    V, F = tube_mesh(n_theta=60, n_s=50)
+    ds_path = write_series(tmp_path / "long", [(V, F)] * 1000)
+    (ds_path / "meta.json").write_text(json.dumps({"period_ms": 1000.0}))
+    code = textwrap.dedent(f"""
+        import resource
+        from oftimg.io import load_dataset
+        ds = load_dataset({str(ds_path)!r})
+        n = sum(len(t.V) for t in ds.iter_tubes("outer"))
+        print(n, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024)
+    """)
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    n, peak_mb = map(int, res.stdout.split())
+    assert n == 1000 * 3000
+    assert peak_mb < 300, f"peak resident memory {peak_mb} MB"

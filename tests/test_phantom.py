@@ -1,0 +1,120 @@
+import json
+
+import numpy as np
+import pytest
+
+from oftimg.io import load_dataset, validate_dataset
+from oftimg.mesh.sections import contour_around, plane_contours, polygon_area
+from oftimg.mesh.topology import capped_signed_volume
+from oftimg.phantom import Phantom, PhantomParams, read_truth, sample_params
+
+
+def test_every_frame_is_a_tube_and_frames_differ(phantom_normal):
+    ds = load_dataset(phantom_normal)
+    report = validate_dataset(ds)
+    assert set(report["surfaces"]) == {"outer", "inner", "lumen"}
+    assert all(s["frames"] == 10 for s in report["surfaces"].values())
+    a, b = ds.tube("outer", 0), ds.tube("outer", 1)
+    assert len(a.V) != len(b.V) or not np.allclose(a.V[:50], b.V[:50])
+    counts = {len(ds.tube("outer", t).V) for t in range(10)}
+    assert len(counts) > 5
+    # vertex order is shuffled: neighbours in the file are not neighbours on the tube
+    step = np.linalg.norm(np.diff(a.V, axis=0), axis=1)
+    assert np.median(step) > 0.1
+
+
+def test_loader_ignores_truth_and_picks_inlet(phantom_normal):
+    ds = load_dataset(phantom_normal)
+    ph, _ = read_truth(phantom_normal)
+    tube = ds.tube("outer", 0)
+    s, _ = ph.window_coordinates(tube.V[tube.inlet])
+    assert np.abs(s).max() < 1e-5
+
+
+@pytest.mark.parametrize("wall", ["outer", "inner", "lumen"])
+def test_meshed_section_area_matches_analytic(phantom_normal, wall):
+    ds = load_dataset(phantom_normal)
+    ph, truth = read_truth(phantom_normal)
+    t_ms = truth["t_ms"]
+    errors = []
+    for t in (0, 3, 7):
+        tube = ds.tube(wall, t)
+        for s in np.linspace(0.1, 0.9, 5) * ph.p.length_mm:
+            c, N, B = ph.frame_axes(s)
+            tangent = np.cross(B, N)
+            C = contour_around(plane_contours(tube.V, tube.F, c, tangent), c, tangent)
+            meshed = polygon_area(C, tangent)
+            errors.append(meshed / ph.area_mm2(wall, s, t_ms[t]) - 1)
+    assert np.max(np.abs(errors)) < 0.01
+
+
+def test_truth_volume_matches_capped_mesh_volume(phantom_normal):
+    ds = load_dataset(phantom_normal)
+    _, truth = read_truth(phantom_normal)
+    for t in (0, 5):
+        tube = ds.tube("outer", t)
+        vol = capped_signed_volume(tube.V, tube.F, [tube.inlet, tube.outlet])
+        assert vol == pytest.approx(truth["volume_mm3"]["outer"][t], rel=0.01)
+
+
+def test_truth_fields_are_consistent(phantom_normal):
+    truth = json.loads((phantom_normal / "truth.json").read_text())
+    p = truth["params"]
+    for key in ("speed_mm_s", "arrival_ms", "area_mm2", "volume_mm3", "expand_fraction",
+                "wave_speed_mm_s", "band_position_mm", "corner_count", "expanded_fraction_75"):
+        assert key in truth
+    assert truth["expand_fraction"] + truth["contract_fraction"] == pytest.approx(1.0)
+    assert truth["expand_ms"] + truth["contract_ms"] == pytest.approx(p["period_ms"])
+    assert 0.3 < truth["expand_fraction"] < 0.55
+    assert np.array(truth["area_mm2"]["outer"]).shape == (len(truth["s_mm"]), p["n_frames"])
+    a = np.array(truth["area_mm2"]["outer"])
+    assert np.all(a > np.array(truth["area_mm2"]["inner"]))
+    assert np.all(np.array(truth["area_mm2"]["inner"]) > np.array(truth["area_mm2"]["lumen"]))
+    assert 0.15 <= truth["myocardial_volume_change"] <= 0.25
+    c = truth["wave_speed_mm_s"]
+    assert c["min"] <= c["cycle"] <= c["max"]
+    assert truth["band_position_mm"] is None
+
+
+def test_banded_max_area_has_a_neck_at_the_band(phantom_banded):
+    truth = json.loads((phantom_banded / "truth.json").read_text())
+    s = np.array(truth["s_mm"])
+    amax = np.array(truth["max_area_mm2"]["outer"])
+    k = np.argmin(np.abs(s - truth["band_position_mm"]))
+    window = np.arange(k - 8, k + 9)
+    k_min = window[np.argmin(amax[window])]
+    # a true local minimum (the taper alone is monotone) close to the band
+    assert amax[k_min] < amax[k_min - 8] and amax[k_min] < amax[k_min + 8]
+    assert abs(s[k_min] - truth["band_position_mm"]) < 0.03
+
+
+def test_wave_timing_and_shapes():
+    ph = Phantom(PhantomParams(n_frames=20))
+    s = np.linspace(0, ph.p.length_mm, 50)
+    t_max = ph.arrival_ms(s) + ph.p.expand_fraction * ph.p.period_ms
+    assert np.allclose(ph.expansion(s, t_max), 1.0)
+    assert np.allclose(ph.expansion(s, ph.arrival_ms(s)), 0.0)
+    # thicker myocardium when contracted
+    th = 0.3
+    assert ph.wall_thickness(0.5, th, ph.arrival_ms(0.5)) > ph.wall_thickness(0.5, th, t_max[24])
+    # material coordinates: the outlet end is fixed, the inlet slides
+    X = ph.point("outer", np.array([0.0, ph.p.length_mm]), np.array([0.0, 0.0]), 0.0)
+    S, theta = ph.material_coordinates(X, 0.0)
+    assert S[1] == pytest.approx(ph.p.length_mm) and S[0] > 0.1
+    assert np.allclose(theta, 0.0, atol=1e-9)
+
+
+def test_bad_parameters_are_refused():
+    with pytest.raises(ValueError, match="group"):
+        PhantomParams(group="mutant")
+    with pytest.raises(ValueError, match="expand_fraction"):
+        PhantomParams(expand_fraction=1.2)
+    with pytest.raises(ValueError, match="bend_radius"):
+        PhantomParams(bend_radius_mm=0.2)
+
+
+def test_sampled_parameters_vary_by_seed_and_group():
+    a, b = sample_params("normal", 0), sample_params("normal", 1)
+    assert a.period_ms != b.period_ms and a.band_position_mm is None
+    c = sample_params("banded", 0)
+    assert 0.4 * c.length_mm <= c.band_position_mm <= 0.65 * c.length_mm

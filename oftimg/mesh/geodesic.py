@@ -70,21 +70,66 @@ def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, *, k: int = 6):
     inc = eid[order]
     tree = cKDTree(V)
     _, near = tree.query(P, k=min(k, n))
-    events = []
+    raw = []
     for p, nv in zip(P, near):
         cand = np.unique(np.concatenate([inc[ptr[v]:ptr[v + 1]] for v in nv]))
         e = edges[cand]
         d, t = _point_segment(np.broadcast_to(p, (len(cand), 3)), V[e[:, 0]], V[e[:, 1]])
         best = int(np.argmin(d))
-        i, j = (int(x) for x in e[best])
-        tb = float(t[best])
-        if tb <= SNAP:
-            events.append(("v", i))
-        elif tb >= 1 - SNAP:
-            events.append(("v", j))
-        else:
-            events.append(("e", i, j, tb))
-    return _clean_events(events)
+        raw.append((int(e[best, 0]), int(e[best, 1]), float(t[best])))
+    faces_of = _faces_of_vertex(F, n)
+    events = [_snap(i, j, t) for i, j, t in raw]
+    # A snap must not break the chain: neighbours must still share a face.
+    for k in range(len(events)):
+        if events[k][0] == "v" and 0 < raw[k][2] < 1:
+            nb = [events[m] for m in (k - 1, k + 1) if 0 <= m < len(events)]
+            if not all(_share_face(events[k], o, F, faces_of) for o in nb):
+                events[k] = ("e",) + raw[k]
+    events = _clean_events(events)
+    # A geodesic may pass through a (saddle) vertex between two edge points:
+    # put that vertex into the chain.
+    fixed = [events[0]]
+    for b in events[1:]:
+        a = fixed[-1]
+        if not _share_face(a, b, F, faces_of):
+            common = _verts(a) & _verts(b)
+            if len(common) != 1:
+                raise MeshError("the geodesic path could not be located on the mesh edges")
+            fixed.append(("v", common.pop()))
+        fixed.append(b)
+    events = _clean_events(fixed)
+    for a, b in zip(events[:-1], events[1:]):
+        if not _share_face(a, b, F, faces_of):
+            raise MeshError("the geodesic path could not be located on the mesh edges")
+    return events
+
+
+def _verts(ev) -> set:
+    return set(ev[1:2] if ev[0] == "v" else ev[1:3])
+
+
+def _snap(i, j, t):
+    if t <= SNAP:
+        return ("v", i)
+    if t >= 1 - SNAP:
+        return ("v", j)
+    return ("e", i, j, t)
+
+
+def _faces_of_vertex(F, n):
+    order = np.argsort(F.ravel(), kind="stable")
+    ptr = np.searchsorted(F.ravel()[order], np.arange(n + 1))
+    return order // 3, ptr
+
+
+def _share_face(a, b, F, faces_of) -> bool:
+    """Do two path events lie in one common face (or on one edge)?"""
+    verts = _verts(a) | _verts(b)
+    if len(verts) > 3:
+        return False
+    face_idx, ptr = faces_of
+    v0 = next(iter(verts))
+    return any(verts <= set(F[f].tolist()) for f in face_idx[ptr[v0]:ptr[v0 + 1]])
 
 
 def _clean_events(events):

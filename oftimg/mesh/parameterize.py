@@ -115,12 +115,15 @@ def seam_sides(F: np.ndarray, chain: np.ndarray) -> np.ndarray:
         if i < m:
             f = he.get((c, int(chain[i + 1])))
             stop_in = int(chain[i - 1]) if i > 0 else None
+            start = f
             while f is not None:
                 high[f] = True
                 y = _third(Fl[f], c, _next_out(Fl[f], c))
                 if stop_in is not None and y == stop_in:
                     break
                 f = he.get((c, y))
+                if f == start:
+                    raise MeshError(f"seam vertex {c} is not joined to the next by an edge")
         else:
             f = he.get((int(chain[i - 1]), c))
             while f is not None:

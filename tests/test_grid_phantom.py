@@ -1,0 +1,69 @@
+"""Issue 4's acceptance measures on phantoms, against truth.json's model."""
+import numpy as np
+import pytest
+
+from oftimg.io import load_dataset
+from oftimg.mesh.grid import GridOptions
+from oftimg.mesh.sections import crossing_planes, section_planes
+from oftimg.phantom import read_truth
+from oftimg.pipeline import parameterize_dataset
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def normal_grids(phantom_normal):
+    ds = load_dataset(phantom_normal)
+    return read_truth(phantom_normal), parameterize_dataset(ds, GridOptions(), quiet=True)
+
+
+@pytest.fixture(scope="module")
+def banded_grids(phantom_banded):
+    ds = load_dataset(phantom_banded)
+    return read_truth(phantom_banded), parameterize_dataset(ds, GridOptions(), quiet=True)
+
+
+def test_no_twist_no_slide(normal_grids):
+    (ph, truth), grids = normal_grids
+    X = grids["outer"].X
+    assert X.shape == (80, 50, 10, 3)
+    s, theta = ph.window_coordinates(X)
+    theta_std = np.unwrap(theta, axis=2).std(axis=2)
+    assert np.median(theta_std) < 0.05
+    assert np.median(s.std(axis=2)) < 0.02 * ph.p.length_mm
+    assert np.abs(theta[0]).max() < 0.3  # the seam is on the inside of the bend
+    assert grids["outer"].flipped.sum() == 0 and grids["lumen"].flipped.sum() == 0
+
+
+def test_even_geodesic_spacing(normal_grids):
+    _, grids = normal_grids
+    X = grids["outer"].X
+    ring = np.linalg.norm(np.diff(np.concatenate([X, X[:1]]), axis=0), axis=-1)
+    line = np.linalg.norm(np.diff(X, axis=1), axis=-1)
+    ratio_ring = ring.max(axis=0) / ring.min(axis=0)
+    ratio_line = line.max(axis=1) / line.min(axis=1)
+    assert ratio_ring.max() < 2 and np.median(ratio_ring) < 1.3
+    assert ratio_line.max() < 2 and np.median(ratio_line) < 1.3
+
+
+def test_three_walls_agree(normal_grids):
+    (ph, truth), grids = normal_grids
+    X, inner, lumen = grids["outer"].X, grids["inner"].X, grids["lumen"].X
+    s, theta = ph.window_coordinates(X)
+    t_ms = np.asarray(truth["t_ms"])[None, None, :]
+    thickness = ph.wall_thickness(s, theta, t_ms)
+    rel = np.abs(np.linalg.norm(X - inner, axis=-1) / thickness - 1)
+    interior = slice(2, -2)  # the closest point at the window planes is on the rim
+    assert np.median(rel[:, interior]) < 0.05
+    assert np.percentile(rel[:, interior], 95) < 0.10
+    _, theta_lumen = ph.window_coordinates(lumen[0])
+    assert np.abs(np.angle(np.exp(1j * (theta_lumen - theta[0])))).max() < 0.3
+
+
+@pytest.mark.parametrize("which", ["normal", "banded"])
+def test_section_planes_do_not_cross_inside(which, normal_grids, banded_grids):
+    _, grids = normal_grids if which == "normal" else banded_grids
+    X = grids["outer"].X
+    origins, normals = section_planes(X)
+    for t in range(X.shape[2]):
+        assert not crossing_planes(X[:, :, t], origins[:, t], normals[:, t]).any()

@@ -1,0 +1,175 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from helpers import tube_mesh
+from oftimg.mesh.geodesic import GeodesicSolver, insert_path, locate_on_edges
+from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints, smooth_endpoints
+from oftimg.mesh.parameterize import count_flipped, cut_and_map, intrinsic_weights
+from oftimg.mesh.topology import check_tube
+from oftimg.phantom import Phantom, PhantomParams
+
+OPTS = GridOptions(n_u=40, n_v=20)
+
+
+def flat_patch(seed=0, n=12):
+    """A jittered planar triangulated square (z = 0)."""
+    rng = np.random.default_rng(seed)
+    x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n), indexing="ij")
+    P = np.stack([x, y], -1).reshape(-1, 2)
+    inner = (P > 0).all(1) & (P < 1).all(1)
+    P[inner] += rng.uniform(-0.3, 0.3, (inner.sum(), 2)) / n
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    F = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
+                        np.stack([a, c, d], -1).reshape(-1, 3)])
+    return np.column_stack([P, np.zeros(len(P))]), F, inner
+
+
+@pytest.mark.parametrize("w", [0.0, 0.5, 1.0])
+def test_weights_reproduce_linear_functions_on_a_flat_patch(w):
+    V, F, inner = flat_patch()
+    W = intrinsic_weights(V, F, authalic_weight=w)
+    residual = W @ V - np.asarray(W.sum(axis=1)) * V
+    assert np.abs(residual[inner]).max() < 1e-10
+
+
+def test_weights_refuse_bad_blend():
+    V, F, _ = flat_patch()
+    with pytest.raises(ValueError, match="authalic_weight"):
+        intrinsic_weights(V, F, authalic_weight=1.5)
+
+
+def test_count_flipped():
+    UV = np.array([[0, 0], [1, 0], [0, 1.0]])
+    assert count_flipped(UV, np.array([[0, 1, 2]])) == 0
+    assert count_flipped(UV, np.array([[0, 2, 1]])) == 1
+
+
+def cylinder_grid(radius=0.2, length=1.0, theta0=0.3, **kw):
+    V, F = tube_mesh(radius, length=length, n_theta=64, n_s=40, theta0=theta0, **kw)
+    topo = check_tube(V, F)
+    inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < 0.5 else topo.loops[::-1]
+    # seam through the vertex at theta0 on both ends
+    p_in = np.array([radius * np.cos(theta0), radius * np.sin(theta0), 0.0])
+    p_out = p_in + [0, 0, length]
+    return grid_frame(V, topo.F, inlet, outlet, p_in, p_out, OPTS), V
+
+
+def test_cylinder_grid_is_exact():
+    g, _ = cylinder_grid()
+    X = g.X
+    assert g.flipped == 0
+    theta = np.arctan2(X[..., 1], X[..., 0])
+    expect = 0.3 + 2 * np.pi * np.arange(40) / 40  # u increases clockwise seen from the inlet
+    # u runs along e_v x n: at the seam n = (cos, sin, 0), e_v = z -> e_u = (-sin, cos, 0)
+    dtheta = np.angle(np.exp(1j * (theta - expect[:, None])))
+    assert np.abs(dtheta).max() < 0.01
+    assert np.allclose(X[..., 2], np.linspace(0, 1, 20)[None, :], atol=2e-3)
+    assert np.allclose(np.linalg.norm(X[..., :2], axis=-1), 0.2, atol=1e-3)
+    assert g.seam_length_mm == pytest.approx(1.0, rel=1e-3)
+
+
+def test_cone_and_ellipse_grids_have_even_spacing():
+    for kw in ({"radius_out": 0.1}, {"ellipse": 0.6}):
+        V, F = tube_mesh(0.2, length=1.0, n_theta=64, n_s=40, **kw)
+        topo = check_tube(V, F)
+        inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < 0.5 else topo.loops[::-1]
+        p_in, p_out, _ = seam_endpoints(V, topo.F, inlet, outlet)
+        g = grid_frame(V, topo.F, inlet, outlet, p_in, p_out, OPTS)
+        assert g.flipped == 0
+        X = np.concatenate([g.X, g.X[:1]])
+        du = np.linalg.norm(np.diff(X, axis=0), axis=-1)
+        dv = np.linalg.norm(np.diff(g.X, axis=1), axis=-1)
+        assert (du.max(0) / du.min(0)).max() < 1.1
+        assert (dv.max(1) / dv.min(1)).max() < 1.3
+
+
+def test_seam_is_a_surface_geodesic_not_an_edge_path():
+    """On the bent phantom the seam hugs the inside of the bend and is as short as
+    the analytic inside line (an edge path would be several % longer)."""
+    ph = Phantom(PhantomParams(n_frames=4, contraction=0.0, corner_contracted=0.0,
+                               corner_expanded=0.0, ellipse_contracted=0.0,
+                               radius_inlet_mm=0.15, radius_outlet_mm=0.15))
+    V, F = ph.mesh("outer", 0.0, np.random.default_rng(1))
+    topo = check_tube(V, F)
+    s0, _ = ph.window_coordinates(V[topo.loops[0]])
+    inlet, outlet = topo.loops if s0.mean() < 0.5 else topo.loops[::-1]
+    p_in, p_out, length = seam_endpoints(V, topo.F, inlet, outlet)
+    # inside line of a torus section: (R - r) * angle
+    expected = (ph.p.bend_radius_mm - 0.15) * ph.p.length_mm / ph.p.bend_radius_mm
+    assert length == pytest.approx(expected, rel=0.01)
+    _, th = ph.window_coordinates(np.array([p_in, p_out]))
+    assert np.abs(th).max() < 0.2
+    solver = GeodesicSolver(V, topo.F)
+    a = int(np.argmin(np.linalg.norm(V - p_in, axis=1)))
+    b = int(np.argmin(np.linalg.norm(V - p_out, axis=1)))
+    path = solver.path(a, b)
+    V2, F2, chain = insert_path(V, topo.F, locate_on_edges(V, topo.F, path))
+    chain_len = np.linalg.norm(np.diff(V2[chain], axis=0), axis=1).sum()
+    assert chain_len == pytest.approx(np.linalg.norm(np.diff(path, axis=0), axis=1).sum(),
+                                      rel=1e-3)  # 2 % end snapping
+    check_tube(V2, F2)  # still a valid, consistently oriented tube
+
+
+def test_smoothing_is_periodic():
+    P = np.zeros((10, 3))
+    P[0] = [1.0, 0, 0]
+    S = smooth_endpoints(P, 1.0)
+    assert S[9, 0] == pytest.approx(S[1, 0]) and S[9, 0] > 0
+    assert S[:, 0].sum() == pytest.approx(1.0)
+
+
+# ----------------------------------------------------------- invariance properties
+def phantom_frame(seed=2):
+    ph = Phantom(PhantomParams(n_frames=4, vertices_min=2500, vertices_max=2500))
+    V, F = ph.mesh("outer", 100.0, np.random.default_rng(seed))
+    topo = check_tube(V, F)
+    s0, _ = ph.window_coordinates(V[topo.loops[0]])
+    inlet, outlet = topo.loops if s0.mean() < 0.5 else topo.loops[::-1]
+    return ph, V, topo.F, inlet, outlet
+
+
+def frame_grid(V, F, inlet, outlet):
+    p_in, p_out, _ = seam_endpoints(V, F, inlet, outlet)
+    return grid_frame(V, F, inlet, outlet, p_in, p_out, OPTS).X
+
+
+@settings(max_examples=3, deadline=None)
+@given(seed=st.integers(0, 2**16))
+def test_grid_does_not_depend_on_vertex_order(seed):
+    ph, V, F, inlet, outlet = phantom_frame()
+    X0 = frame_grid(V, F, inlet, outlet)
+    rng = np.random.default_rng(seed)
+    perm = rng.permutation(len(V))
+    inv = np.argsort(perm)
+    X1 = frame_grid(V[perm], inv[F][rng.permutation(len(F))], inv[inlet], inv[outlet])
+    assert np.abs(X1 - X0).max() < 1e-6
+
+
+@settings(max_examples=3, deadline=None)
+@given(angles=st.tuples(*[st.floats(-np.pi, np.pi)] * 3),
+       shift=st.tuples(*[st.floats(-5, 5)] * 3))
+def test_grid_moves_with_a_rigid_motion(angles, shift):
+    from scipy.spatial.transform import Rotation
+
+    ph, V, F, inlet, outlet = phantom_frame()
+    X0 = frame_grid(V, F, inlet, outlet)
+    R = Rotation.from_euler("xyz", angles).as_matrix()
+    X1 = frame_grid(V @ R.T + shift, F, inlet, outlet)
+    assert np.abs(X1 - (X0 @ R.T + shift)).max() < 1e-5
+
+
+def test_grid_is_stable_under_refinement():
+    ph = Phantom(PhantomParams(n_frames=4))
+    grids = []
+    for n in (3000, 9000):
+        p = PhantomParams(n_frames=4, vertices_min=n, vertices_max=n)
+        V, F = Phantom(p).mesh("outer", 100.0, np.random.default_rng(5))
+        topo = check_tube(V, F)
+        s0, _ = ph.window_coordinates(V[topo.loops[0]])
+        inlet, outlet = topo.loops if s0.mean() < 0.5 else topo.loops[::-1]
+        grids.append(frame_grid(V, topo.F, inlet, outlet))
+    spacing = np.linalg.norm(np.diff(grids[1], axis=1), axis=-1).mean()
+    assert np.abs(grids[0] - grids[1]).max() < 0.3 * spacing

@@ -66,7 +66,8 @@ def parameterize_dataset(ds: Dataset, options: GridOptions, *, quiet: bool = Fal
     p_out = np.empty((n_t, 3))
     for t in range(n_t):
         tb = ds.tube("outer", t)
-        p_in[t], p_out[t], _ = seam_endpoints(tb.V, tb.F, tb.inlet, tb.outlet)
+        p_in[t], p_out[t], _ = seam_endpoints(tb.V, tb.F, tb.inlet, tb.outlet,
+                                              method=options.seam_method)
         bar.advance()
     p_in = smooth_endpoints(p_in, options.seam_smoothing_frames)
     p_out = smooth_endpoints(p_out, options.seam_smoothing_frames)

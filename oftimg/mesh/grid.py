@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from .geodesic import GeodesicSolver, insert_boundary_point, insert_path, locate_on_edges
+from .geodesic import (METHODS, GeodesicSolver, insert_boundary_point, insert_path,
+                       locate_on_edges)
 from .parameterize import FlatSampler, cut_and_map, even_grid
 
 
@@ -23,12 +24,15 @@ class GridOptions:
     authalic_weight: float = 0.5
     respace: bool = True
     seam_smoothing_frames: float = 1.0
+    seam_method: str = "exact"
 
     def __post_init__(self):
         if self.n_u < 3 or self.n_v < 2:
             raise ValueError(f"grid must be at least 3 x 2, found {self.n_u} x {self.n_v}")
         if self.seam_smoothing_frames < 0:
             raise ValueError("seam_smoothing_frames must be >= 0")
+        if self.seam_method not in METHODS:
+            raise ValueError(f"seam_method must be one of {METHODS}, found {self.seam_method!r}")
 
 
 @dataclass(frozen=True)
@@ -42,9 +46,10 @@ class FrameGrid:
     seam_out: np.ndarray
 
 
-def seam_endpoints(V, F, inlet, outlet) -> tuple[np.ndarray, np.ndarray, float]:
+def seam_endpoints(V, F, inlet, outlet, *, method: str = "exact"
+                   ) -> tuple[np.ndarray, np.ndarray, float]:
     """End points (mm) and length of the shortest inlet-to-outlet geodesic."""
-    src, tgt, length = GeodesicSolver(V, F).shortest_between(inlet, outlet)
+    src, tgt, length = GeodesicSolver(V, F, method=method).shortest_between(inlet, outlet)
     return V[src].copy(), V[tgt].copy(), length
 
 

@@ -85,10 +85,10 @@ def harmonic_map(W: sp.csr_matrix, boundary: np.ndarray, boundary_uv: np.ndarray
     return UV
 
 
-def _half_edge_faces(F):
-    """Map directed half-edge (a, b) -> face index."""
+def _half_edge_faces(F, faces):
+    """Map directed half-edge (a, b) -> face index, for the given faces."""
     out = {}
-    for f, (a, b, c) in enumerate(F.tolist()):
+    for f, (a, b, c) in zip(faces.tolist(), F[faces].tolist()):
         out[(a, b)] = f
         out[(b, c)] = f
         out[(c, a)] = f
@@ -106,8 +106,9 @@ def seam_sides(F: np.ndarray, chain: np.ndarray) -> np.ndarray:
     the half-edge ``c_i -> c_{i+1}`` (which lies towards -u, i.e. at u ~ 1)
     until the previous seam edge or the boundary is reached.
     """
-    he = _half_edge_faces(F)
-    Fl = F.tolist()
+    near = np.nonzero(np.isin(F, chain).any(axis=1))[0]
+    he = _half_edge_faces(F, near)
+    Fl = {f: F[f].tolist() for f in near.tolist()}
     high = np.zeros(len(F), dtype=bool)
     m = len(chain) - 1
     for i in range(m + 1):

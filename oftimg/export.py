@@ -82,15 +82,60 @@ def write_arrays(folder: Path, arrays: dict[str, np.ndarray], described: dict[st
     if missing:
         raise ValueError(f"arrays without a description: {sorted(missing)}")
     np.savez_compressed(folder / "arrays.npz", **arrays)
-    desc = {k: dict(described[k], shape=list(np.shape(v)), dtype=str(np.asarray(v).dtype))
-            for k, v in arrays.items()}
+    desc = {k: dict(d, file="grids.npz" if k not in arrays else "arrays.npz")
+            for k, d in described.items()}
+    for k, v in arrays.items():
+        desc[k].update(shape=list(np.shape(v)), dtype=str(np.asarray(v).dtype))
     write_json(folder / "arrays.json", desc)
 
 
+WALLS = ("outer", "inner", "lumen")
+
+
+def describe_array(name: str) -> dict:
+    """Dims (u, v, t order) and unit of an array in ``arrays.npz`` / ``grids.npz``."""
+    fixed = {
+        "s_mm": (["v"], "mm", "arc length from the inlet along the outer contours' centroid line, "
+                              "time average"),
+        "t_ms": (["t"], "ms", "frame time after alignment (t = 0: minimum outer volume)"),
+        "clip_v": (["t"], "1", "v of the Lagrangian clipping plane (constant myocardial volume)"),
+        "trim_percent": (["t"], "%", "trim distance along the centroid line, % of its length"),
+        "volume_myocardium_mm3": (["t"], "mm^3", "outer minus inner capped volume"),
+        "centroid_outer_mm": (["v", "t", "xyz"], "mm", "centroids of the outer section contours"),
+        "plane_origin_mm": (["v", "t", "xyz"], "mm", "a point of each cross-section plane"),
+        "plane_normal": (["v", "t", "xyz"], "1", "unit normal of each cross-section plane, "
+                                                 "towards the outlet"),
+    }
+    if name in fixed:
+        dims, unit, text = fixed[name]
+        return {"dims": dims, "unit": unit, "description": text}
+    for w in WALLS:
+        if name == f"area_{w}_mm2":
+            return {"dims": ["v", "t"], "unit": "mm^2",
+                    "description": f"area inside the {w} section contour"}
+        if name == f"volume_{w}_mm3":
+            return {"dims": ["t"], "unit": "mm^3",
+                    "description": f"volume inside the {w} wall closed by its end caps"}
+        if name == f"contour_{w}_mm":
+            return {"dims": ["u", "v", "t", "xyz"], "unit": "mm",
+                    "description": f"{w} section contours, n_u points evenly spaced by arc "
+                                   "length from the seam, in u order"}
+        if name == w:
+            return {"dims": ["u", "v", "t", "xyz"], "unit": "mm",
+                    "description": f"{w} grid G_t(u, v), Eulerian (fixed window)"}
+        if name == f"{w}_clipped":
+            return {"dims": ["u", "v", "t", "xyz"], "unit": "mm",
+                    "description": f"{w} grid clipped at the Lagrangian plane and resampled"}
+    raise KeyError(f"no description for array {name!r}")
+
+
 def write_dataset_results(folder: Path, result: dict) -> None:
-    """``summary.json``, ``grids.npz`` (float32 mm, (n_u, n_v, n_t, 3)), figures/, videos/."""
+    """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/."""
     (folder / "figures").mkdir(exist_ok=True)
     (folder / "videos").mkdir(exist_ok=True)
-    grids = {w: g.X.astype(np.float32) for w, g in result["grids"].items()}
+    grids = {w: g.astype(np.float32) for w, g in result["grids"].items()}
     np.savez_compressed(folder / "grids.npz", **grids)
+    arrays = result["arrays"]
+    described = {k: describe_array(k) for k in list(arrays) + list(grids)}
+    write_arrays(folder, arrays, described)
     write_json(folder / "summary.json", result["summary"])

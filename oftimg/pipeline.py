@@ -10,8 +10,12 @@ import numpy as np
 
 from . import __version__
 from .io import Dataset, OftimgWarning
+from .cycle import cycle_timing, roll_time
+from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import (GridOptions, closest_points, grid_frame, seam_endpoints,
                         smooth_endpoints)
+from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
+from .mesh.topology import capped_signed_volume
 from .progress import Progress
 
 
@@ -30,94 +34,161 @@ class PipelineOptions:
         return {"grid": asdict(self.grid)}
 
 
-@dataclass
-class WallGrids:
-    """Deforming grid of one wall: ``X (n_u, n_v, n_t, 3)`` mm, input time order."""
+def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
+                  options: GridOptions) -> dict:
+    """Everything that needs frame ``t``'s meshes, for all walls at once.
 
-    X: np.ndarray
-    seam_length_mm: np.ndarray
-    flipped: np.ndarray
-    seam_in: np.ndarray
-    seam_out: np.ndarray
-
-
-def _stack(frames) -> WallGrids:
-    return WallGrids(
-        X=np.stack([g.X for g in frames], axis=2),
-        seam_length_mm=np.array([g.seam_length_mm for g in frames]),
-        flipped=np.array([g.flipped for g in frames]),
-        seam_in=np.stack([g.seam_in for g in frames]),
-        seam_out=np.stack([g.seam_out for g in frames]),
-    )
-
-
-def parameterize_dataset(ds: Dataset, options: GridOptions, *, quiet: bool = False
-                         ) -> dict[str, WallGrids]:
-    """Grids of every wall of ``ds`` (paper section 4.1).
-
-    Outer wall: per-frame shortest seam, end points smoothed in time,
-    geodesic between the smoothed points, Desbrun map, even grid. Inner wall:
-    closest-point projection of the outer grid. Lumen: its own map, its seam
-    joining the outer seam's end points projected onto its loops.
+    Grids (paper section 4.1), section planes through G(0, v), G(1/3, v),
+    G(2/3, v) made non-crossing, each wall's section areas and contours on its
+    original mesh, and each wall's capped volume.
     """
+    n_c = options.n_u
+    out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}}
+    tb = ds.tube("outer", t)
+    g = grid_frame(tb.V, tb.F, tb.inlet, tb.outlet, p_in, p_out, options)
+    X = g.X
+    origins, normals = section_planes(X)
+    normals, fixes = fix_crossing_planes(X, origins, normals)
+    out.update(origins=origins, normals=normals, plane_fixes=fixes,
+               seam_in=g.seam_in, seam_out=g.seam_out, seam_length_mm=g.seam_length_mm)
+    walls = {"outer": (tb, X, g.flipped)}
+    if "inner" in ds.surfaces:
+        ti = ds.tube("inner", t)
+        walls["inner"] = (ti, closest_points(ti.V, ti.F, X), 0)
+    if "lumen" in ds.surfaces:
+        tl = ds.tube("lumen", t)
+        gl = grid_frame(tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out, options)
+        walls["lumen"] = (tl, gl.X, gl.flipped)
+    for wall, (tube, Xw, flipped) in walls.items():
+        area, centroid, contour = sections_of_mesh(tube.V, tube.F, origins, normals,
+                                                   Xw[0], n_c)
+        out["grid"][wall] = Xw
+        out["flipped"][wall] = flipped
+        out["area"][wall] = area
+        out["contour"][wall] = contour
+        out["volume"][wall] = capped_signed_volume(tube.V, tube.F, [tube.inlet, tube.outlet])
+        if wall == "outer":
+            out["centroid"] = centroid
+    return out
+
+
+def seam_end_points(ds: Dataset, options: GridOptions, progress=None):
+    """Pass 1: per-frame shortest-seam end points, smoothed in time ``(n_t, 3)`` each."""
     n_t = ds.n_frames
-    bar = Progress(n_t * (1 + len(ds.surfaces)), f"{ds.meta.name}: grids", quiet=quiet)
     p_in = np.empty((n_t, 3))
     p_out = np.empty((n_t, 3))
     for t in range(n_t):
         tb = ds.tube("outer", t)
         p_in[t], p_out[t], _ = seam_endpoints(tb.V, tb.F, tb.inlet, tb.outlet,
                                               method=options.seam_method)
-        bar.advance()
-    p_in = smooth_endpoints(p_in, options.seam_smoothing_frames)
-    p_out = smooth_endpoints(p_out, options.seam_smoothing_frames)
-    outer = []
-    for t in range(n_t):
-        tb = ds.tube("outer", t)
-        outer.append(grid_frame(tb.V, tb.F, tb.inlet, tb.outlet, p_in[t], p_out[t], options))
-        bar.advance()
-    grids = {"outer": _stack(outer)}
-    if "inner" in ds.surfaces:
-        X = np.empty_like(grids["outer"].X)
-        for t in range(n_t):
-            tb = ds.tube("inner", t)
-            X[:, :, t] = closest_points(tb.V, tb.F, grids["outer"].X[:, :, t])
-            bar.advance()
-        grids["inner"] = WallGrids(X=X, seam_length_mm=grids["outer"].seam_length_mm * np.nan,
-                                   flipped=np.zeros(n_t, int), seam_in=X[0, 0].copy(),
-                                   seam_out=X[0, -1].copy())
-    if "lumen" in ds.surfaces:
-        lumen = []
-        for t in range(n_t):
-            tb = ds.tube("lumen", t)
-            lumen.append(grid_frame(tb.V, tb.F, tb.inlet, tb.outlet,
-                                    grids["outer"].seam_in[t], grids["outer"].seam_out[t],
-                                    options))
-            bar.advance()
-        grids["lumen"] = _stack(lumen)
-    bar.close()
-    n_flipped = sum(int(g.flipped.sum()) for g in grids.values())
-    if n_flipped:
-        warnings.warn(f"{ds.path}: {n_flipped} flipped triangles in the (u, v) maps "
-                      "(the map is not one-to-one there)", OftimgWarning, stacklevel=2)
-    return grids
+        if progress:
+            progress()
+    return (smooth_endpoints(p_in, options.seam_smoothing_frames),
+            smooth_endpoints(p_out, options.seam_smoothing_frames))
+
+
+def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
+    """Arc length (mm) from the inlet along the centroid line, ``(n_v, n_t)``."""
+    step = np.linalg.norm(np.diff(centroid, axis=0), axis=-1)
+    step = np.where(np.isfinite(step), step, 0.0)
+    return np.concatenate([np.zeros((1,) + step.shape[1:]), np.cumsum(step, axis=0)], axis=0)
 
 
 def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = False) -> dict:
-    """All stages for one dataset; returns ``summary``, ``grids``, ``timings``."""
+    """All stages for one dataset. Returns ``summary``, ``arrays``, ``grids``.
+
+    Every time axis of the result starts at the frame of minimum outer volume
+    (``summary["t0_frame"]`` is its input index).
+    """
+    opts = options.grid
     timings = {}
-    t0 = time.perf_counter()
-    grids = parameterize_dataset(ds, options.grid, quiet=quiet)
-    timings["parameterize_s"] = time.perf_counter() - t0
+    n_t = ds.n_frames
+    bar = Progress(2 * n_t, f"{ds.meta.name}", quiet=quiet)
+    tick = time.perf_counter()
+    p_in, p_out = seam_end_points(ds, opts, progress=bar.advance)
+    timings["seam_end_points_s"] = time.perf_counter() - tick
+    tick = time.perf_counter()
+    frames = []
+    for t in range(n_t):
+        frames.append(process_frame(ds, t, p_in[t], p_out[t], opts))
+        bar.advance()
+    bar.close()
+    timings["frames_s"] = time.perf_counter() - tick
+    walls = list(frames[0]["grid"])
+    grid = {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls}
+    area = {w: np.stack([f["area"][w] for f in frames], axis=1) for w in walls}
+    contour = {w: np.stack([f["contour"][w] for f in frames], axis=2) for w in walls}
+    volume = {w: np.array([f["volume"][w] for f in frames]) for w in walls}
+    flipped = {w: int(sum(f["flipped"][w] for f in frames)) for w in walls}
+    centroid = np.stack([f["centroid"] for f in frames], axis=1)      # (n_v, n_t, 3)
+    origins = np.stack([f["origins"] for f in frames], axis=1)
+    normals = np.stack([f["normals"] for f in frames], axis=1)
+    plane_fixes = int(sum(f["plane_fixes"] for f in frames))
+    n_missing = {w: int(np.isnan(a).sum()) for w, a in area.items()}
+    for w, k in n_missing.items():
+        if k:
+            warnings.warn(f"{ds.path}: {k} of {area[w].size} {w} sections have no closed "
+                          "contour around the tube's axis (NaN)", OftimgWarning, stacklevel=2)
+    if sum(flipped.values()):
+        warnings.warn(f"{ds.path}: {sum(flipped.values())} flipped triangles in the (u, v) "
+                      "maps (the map is not one-to-one there)", OftimgWarning, stacklevel=2)
+
+    # time alignment: t = 0 at minimum outer volume
+    timing = cycle_timing(volume["outer"], ds.meta.period_ms)
+    t0 = timing["t0_frame"]
+    grid = {w: roll_time(g, t0, axis=2) for w, g in grid.items()}
+    area = {w: roll_time(a, t0, axis=1) for w, a in area.items()}
+    contour = {w: roll_time(c, t0, axis=2) for w, c in contour.items()}
+    volume = {w: roll_time(v, t0) for w, v in volume.items()}
+    centroid = roll_time(centroid, t0, axis=1)
+    origins = roll_time(origins, t0, axis=1)
+    normals = roll_time(normals, t0, axis=1)
+    s_rows = centroid_arc_length(centroid)                              # (n_v, n_t)
+    s_mm = s_rows.mean(axis=1)
+    t_ms = np.arange(n_t) * ds.meta.period_ms / n_t
+
+    arrays = {"s_mm": s_mm, "t_ms": t_ms}
+    for w in walls:
+        arrays[f"area_{w}_mm2"] = area[w]
+        arrays[f"volume_{w}_mm3"] = volume[w]
+        arrays[f"contour_{w}_mm"] = contour[w].astype(np.float32)
+    arrays["centroid_outer_mm"] = centroid
+    arrays["plane_origin_mm"] = origins
+    arrays["plane_normal"] = normals
     summary = {
-        "name": ds.meta.name, "group": ds.meta.group, "n_frames": ds.n_frames,
+        "name": ds.meta.name, "group": ds.meta.group, "n_frames": n_t,
         "period_ms": ds.meta.period_ms,
-        "flipped_triangles": {w: int(g.flipped.sum()) for w, g in grids.items()},
+        "t0_frame": t0,
+        "expand_fraction": timing["expand_fraction"],
+        "contract_fraction": timing["contract_fraction"],
+        "expand_contract_ratio": timing["expand_contract_ratio"],
+        "expand_ms": timing["expand_ms"], "contract_ms": timing["contract_ms"],
+        "tube_length_mm": float(s_mm[-1]),
+        "t_max_volume_ms": ((timing["t_max_frame"] - t0) % n_t) * ds.meta.period_ms / n_t,
+    }
+    if "inner" in walls:
+        myo = volume["outer"] - volume["inner"]
+        arrays["volume_myocardium_mm3"] = myo
+        summary["myocardial_volume_change"] = float((myo.max() - myo.min()) / myo.min())
+        clip_v, target = clip_positions(area["outer"] - area["inner"], s_rows)
+        arrays["clip_v"] = clip_v
+        arrays["trim_percent"] = 100.0 * np.array(
+            [np.interp(v * (len(s_mm) - 1), np.arange(len(s_mm)), s_rows[:, t]) / s_rows[-1, t]
+             for t, v in enumerate(clip_v)])
+        summary["clipped_myocardial_volume_mm3"] = target
+        for w in walls:
+            grid[f"{w}_clipped"] = np.stack(
+                [clip_grid(grid[w][:, :, t], *plane_at(origins[:, t], normals[:, t], clip_v[t]))
+                 for t in range(n_t)], axis=2)
+    summary.update({
+        "flipped_triangles": flipped,
+        "section_plane_fixes": plane_fixes,
+        "sections_without_contour": n_missing,
         "provenance": {
             "oftimg_version": __version__, "options": options.as_dict(),
             "inputs": {s: [{"file": str(p), "bytes": p.stat().st_size} for p in files]
                        for s, files in ds.frames.items()},
         },
         "timings_s": timings,
-    }
-    return {"summary": summary, "grids": grids}
+    })
+    return {"summary": summary, "arrays": arrays, "grids": grid}

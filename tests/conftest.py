@@ -26,3 +26,24 @@ def _oftimg_warnings_visible():
     with warnings.catch_warnings():
         warnings.simplefilter("always", OftimgWarning)
         yield
+
+
+@pytest.fixture(scope="session")
+def analysed_normal(phantom_normal):
+    """(model, truth, analyse_dataset result) for the small normal phantom."""
+    from oftimg.io import load_dataset
+    from oftimg.phantom import read_truth
+    from oftimg.pipeline import PipelineOptions, analyse_dataset
+
+    ph, truth = read_truth(phantom_normal)
+    return ph, truth, analyse_dataset(load_dataset(phantom_normal), PipelineOptions(), quiet=True)
+
+
+@pytest.fixture(scope="session")
+def analysed_banded(phantom_banded):
+    from oftimg.io import load_dataset
+    from oftimg.phantom import read_truth
+    from oftimg.pipeline import PipelineOptions, analyse_dataset
+
+    ph, truth = read_truth(phantom_banded)
+    return ph, truth, analyse_dataset(load_dataset(phantom_banded), PipelineOptions(), quiet=True)

@@ -2,42 +2,43 @@
 import numpy as np
 import pytest
 
-from oftimg.io import load_dataset
-from oftimg.mesh.grid import GridOptions
 from oftimg.mesh.sections import crossing_planes, section_planes
-from oftimg.phantom import read_truth
-from oftimg.pipeline import parameterize_dataset
 
 pytestmark = pytest.mark.slow
 
 
-@pytest.fixture(scope="module")
-def normal_grids(phantom_normal):
-    ds = load_dataset(phantom_normal)
-    return read_truth(phantom_normal), parameterize_dataset(ds, GridOptions(), quiet=True)
+def _as_grids(analysed):
+    ph, truth, res = analysed
+    t0 = res["summary"]["t0_frame"]
+    truth = dict(truth, t_ms=np.roll(truth["t_ms"], -t0))  # aligned order, as the grids
+    return (ph, truth), res["grids"], res["summary"]
 
 
 @pytest.fixture(scope="module")
-def banded_grids(phantom_banded):
-    ds = load_dataset(phantom_banded)
-    return read_truth(phantom_banded), parameterize_dataset(ds, GridOptions(), quiet=True)
+def normal_grids(analysed_normal):
+    return _as_grids(analysed_normal)
+
+
+@pytest.fixture(scope="module")
+def banded_grids(analysed_banded):
+    return _as_grids(analysed_banded)
 
 
 def test_no_twist_no_slide(normal_grids):
-    (ph, truth), grids = normal_grids
-    X = grids["outer"].X
+    (ph, truth), grids, summary = normal_grids
+    X = grids["outer"]
     assert X.shape == (80, 50, 10, 3)
     s, theta = ph.window_coordinates(X)
     theta_std = np.unwrap(theta, axis=2).std(axis=2)
     assert np.median(theta_std) < 0.05
     assert np.median(s.std(axis=2)) < 0.02 * ph.p.length_mm
     assert np.abs(theta[0]).max() < 0.3  # the seam is on the inside of the bend
-    assert grids["outer"].flipped.sum() == 0 and grids["lumen"].flipped.sum() == 0
+    assert summary["flipped_triangles"] == {"outer": 0, "inner": 0, "lumen": 0}
 
 
 def test_even_geodesic_spacing(normal_grids):
-    _, grids = normal_grids
-    X = grids["outer"].X
+    _, grids, _ = normal_grids
+    X = grids["outer"]
     ring = np.linalg.norm(np.diff(np.concatenate([X, X[:1]]), axis=0), axis=-1)
     line = np.linalg.norm(np.diff(X, axis=1), axis=-1)
     ratio_ring = ring.max(axis=0) / ring.min(axis=0)
@@ -47,8 +48,8 @@ def test_even_geodesic_spacing(normal_grids):
 
 
 def test_three_walls_agree(normal_grids):
-    (ph, truth), grids = normal_grids
-    X, inner, lumen = grids["outer"].X, grids["inner"].X, grids["lumen"].X
+    (ph, truth), grids, _ = normal_grids
+    X, inner, lumen = grids["outer"], grids["inner"], grids["lumen"]
     s, theta = ph.window_coordinates(X)
     t_ms = np.asarray(truth["t_ms"])[None, None, :]
     thickness = ph.wall_thickness(s, theta, t_ms)
@@ -62,8 +63,8 @@ def test_three_walls_agree(normal_grids):
 
 @pytest.mark.parametrize("which", ["normal", "banded"])
 def test_section_planes_do_not_cross_inside(which, normal_grids, banded_grids):
-    _, grids = normal_grids if which == "normal" else banded_grids
-    X = grids["outer"].X
+    _, grids, _ = normal_grids if which == "normal" else banded_grids
+    X = grids["outer"]
     origins, normals = section_planes(X)
     for t in range(X.shape[2]):
         assert not crossing_planes(X[:, :, t], origins[:, t], normals[:, t]).any()

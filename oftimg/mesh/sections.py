@@ -7,11 +7,11 @@ from .topology import edge_incidence
 
 
 def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.ndarray
-                   ) -> list[np.ndarray]:
+                   ) -> list[tuple[np.ndarray, bool]]:
     """All contours where the plane ``(origin, normal)`` cuts the mesh.
 
-    Returns a list of polylines ``(n_pts, 3)`` mm; closed ones have their first
-    point not repeated, open ones (ending on the mesh boundary) are included too.
+    Returns a list of ``(points (n_pts, 3) mm, closed)``; a closed contour's
+    first point is not repeated; open ones end on the mesh boundary.
     """
     normal = np.asarray(normal, float) / np.linalg.norm(normal)
     d = (V - origin) @ normal
@@ -51,7 +51,8 @@ def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.
             prev, cur = cur, nxt[0]
             chain.append(cur)
             seen.add(cur)
-        contours.append(P[chain])
+        closed = len(chain) > 2 and chain[0] in nbrs[chain[-1]]
+        contours.append((P[chain], closed))
     return contours
 
 
@@ -63,8 +64,8 @@ def polygon_area(P: np.ndarray, normal: np.ndarray | None = None) -> float:
     return float(abs(A @ (np.asarray(normal) / np.linalg.norm(normal))))
 
 
-def contour_around(contours: list[np.ndarray], center: np.ndarray, normal: np.ndarray
-                   ) -> np.ndarray | None:
+def contour_around(contours: list[tuple[np.ndarray, bool]], center: np.ndarray,
+                   normal: np.ndarray) -> np.ndarray | None:
     """The closed contour whose projection on the plane encloses ``center``.
 
     Among several, the one whose centroid is nearest. ``None`` if none does.
@@ -76,9 +77,9 @@ def contour_around(contours: list[np.ndarray], center: np.ndarray, normal: np.nd
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(normal, e1)
     best, best_d = None, np.inf
-    for C in contours:
-        if len(C) < 3:
-            continue
+    for C, closed in contours:
+        if not closed:
+            continue  # ends on the mesh boundary
         Q = np.column_stack([(C - center) @ e1, (C - center) @ e2])
         if _winding(Q) == 0:
             continue
@@ -86,6 +87,7 @@ def contour_around(contours: list[np.ndarray], center: np.ndarray, normal: np.nd
         if dist < best_d:
             best, best_d = C, dist
     return best
+
 
 
 def _winding(Q: np.ndarray) -> int:
@@ -136,3 +138,95 @@ def crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray) -> 
     bad_front = (side.min(axis=2) <= 0) & later      # ring k behind plane j
     bad_back = (side.max(axis=2) >= 0) & later.T     # ring k (earlier) in front of plane j
     return bad_front.any(axis=1) | bad_back.any(axis=1)
+
+
+def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray, *,
+                        max_iter: int = 100) -> tuple[np.ndarray, int]:
+    """Blend the normals of crossing planes toward their neighbours until none cross.
+
+    One frame: ``X (n_u, n_v, 3)``, ``origins``/``normals (n_v, 3)``. The end
+    rows keep their planes. Returns the fixed normals and how many row
+    normals were changed (0 when the planes did not cross). Raises
+    ``ValueError`` if blending does not separate them.
+    """
+    normals = normals.copy()
+    changed = np.zeros(len(normals), dtype=bool)
+    for _ in range(max_iter):
+        bad = crossing_planes(X, origins, normals)
+        if not bad.any():
+            return normals, int(changed.sum())
+        rows = np.nonzero(bad)[0]
+        rows = rows[(rows > 0) & (rows < len(normals) - 1)]
+        if len(rows) == 0:
+            break
+        blended = normals[rows] + 0.5 * (normals[rows - 1] + normals[rows + 1])
+        normals[rows] = blended / np.linalg.norm(blended, axis=1, keepdims=True)
+        changed[rows] = True
+    raise ValueError("cross-section planes still cross after blending their normals")
+
+
+def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n: int
+                        ) -> np.ndarray:
+    """Contour ``C`` as ``n`` points evenly spaced by arc length, in u order.
+
+    Starts at the contour point nearest ``start`` (the seam node) and turns
+    positively about ``normal`` (the v direction), as u does.
+    """
+    if loop_vector(C) @ normal < 0:
+        C = C[::-1]
+    closed = np.concatenate([C, C[:1]])
+    seg = np.linalg.norm(np.diff(closed, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    # arc-length position of the point of the contour closest to ``start``
+    A, AB = closed[:-1], np.diff(closed, axis=0)
+    t = np.clip(np.einsum("ij,ij->i", start - A, AB) / np.maximum(seg ** 2, 1e-300), 0, 1)
+    k = int(np.argmin(np.linalg.norm(A + t[:, None] * AB - start, axis=1)))
+    s0 = s[k] + t[k] * seg[k]
+    target = (s0 + np.arange(n) / n * s[-1]) % s[-1]
+    return np.stack([np.interp(target, s, closed[:, d]) for d in range(3)], axis=-1)
+
+
+def loop_vector(C: np.ndarray) -> np.ndarray:
+    """Vector area of a closed polygon (its norm is the area)."""
+    return 0.5 * np.cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
+
+
+def polygon_centroid(C: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Area centroid of a planar closed polygon ``C (n, 3)``."""
+    c0 = C.mean(axis=0)
+    P, Q = C - c0, np.roll(C, -1, axis=0) - c0
+    w = np.cross(P, Q) @ normal  # twice the signed triangle areas
+    if abs(w.sum()) < 1e-300:
+        return c0
+    return c0 + ((P + Q) * w[:, None]).sum(axis=0) / (3.0 * w.sum())
+
+
+def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray,
+                     seam_points: np.ndarray, n_points: int):
+    """Cut one frame's mesh with every plane; keep the contour around the axis.
+
+    ``origins``, ``normals``, ``seam_points`` are ``(n_v, 3)``. Returns
+    ``area (n_v,)`` mm^2 (NaN where no closed contour encloses the plane's
+    origin), ``centroid (n_v, 3)`` mm and ``contour (n_points, n_v, 3)`` mm.
+    """
+    n_v = len(origins)
+    area = np.full(n_v, np.nan)
+    centroid = np.full((n_v, 3), np.nan)
+    contour = np.full((n_points, n_v, 3), np.nan)
+    # The end planes lie on the mesh's boundary loops: cut 5 % of a row inside,
+    # and move what is found back onto the plane.
+    step = np.linalg.norm(np.diff(origins, axis=0), axis=1).mean()
+    shift = np.zeros((n_v, 3))
+    shift[0] = 0.05 * step * normals[0]
+    shift[-1] = -0.05 * step * normals[-1]
+    for j in range(n_v):
+        o = origins[j] + shift[j]
+        C = contour_around(plane_contours(V, F, o, normals[j]), o, normals[j])
+        if C is None:
+            continue
+        C = C - shift[j]
+        area[j] = polygon_area(C, normals[j])
+        centroid[j] = polygon_centroid(C, normals[j])
+        contour[:, j] = orient_and_resample(C, normals[j], seam_points[j], n_points)
+    return area, centroid, contour
+

@@ -1,0 +1,70 @@
+"""The cardiac cycle: time alignment at minimum volume, expansion timing, warps.
+
+Pure functions on ``(..., n_t)`` arrays whose time axis is periodic.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def periodic_peak(y: np.ndarray, *, find: str = "max") -> float:
+    """Sub-frame index (in [0, n)) of the maximum or minimum of a periodic signal.
+
+    Parabolic interpolation through the extreme sample and its two neighbours.
+    """
+    y = np.asarray(y, dtype=float)
+    if find not in ("max", "min"):
+        raise ValueError(f"find must be 'max' or 'min', found {find!r}")
+    if find == "min":
+        y = -y
+    n = len(y)
+    k = int(np.nanargmax(y))
+    ym, y0, yp = y[(k - 1) % n], y[k], y[(k + 1) % n]
+    denom = ym - 2 * y0 + yp
+    offset = 0.5 * (ym - yp) / denom if denom < 0 else 0.0
+    return float((k + np.clip(offset, -0.5, 0.5)) % n)
+
+
+def cycle_timing(volume: np.ndarray, period_ms: float) -> dict:
+    """Expansion (minimum to maximum volume) and contraction of a cycle.
+
+    ``volume (n_t,)`` mm^3 in input frame order. Returns the paper's Table 1
+    quantities and ``t0_frame``, the input index of the minimum volume.
+    """
+    n = len(volume)
+    t_min = periodic_peak(volume, find="min")
+    t_max = periodic_peak(volume, find="max")
+    expand = ((t_max - t_min) % n) / n
+    return {
+        "t0_frame": int(np.argmin(volume)),
+        "t_min_frame": t_min, "t_max_frame": t_max,
+        "expand_fraction": expand, "contract_fraction": 1.0 - expand,
+        "expand_contract_ratio": expand / (1.0 - expand) if expand < 1 else np.inf,
+        "expand_ms": expand * period_ms, "contract_ms": (1.0 - expand) * period_ms,
+    }
+
+
+def roll_time(a: np.ndarray, t0: int, *, axis: int = -1) -> np.ndarray:
+    """Roll a periodic time axis so that input frame ``t0`` comes first."""
+    return np.roll(a, -int(t0), axis=axis)
+
+
+def two_segment_warp(n_t: int, t_max: float) -> np.ndarray:
+    """Input frame positions (after alignment) sampled so maximum expansion is at 0.5.
+
+    Returns ``(n_t,)`` fractional frame indices: the first half of the output
+    cycle samples [0, t_max), the second half [t_max, n_t). Use with
+    :func:`resample_time`.
+    """
+    out = np.arange(n_t) / n_t
+    return np.where(out < 0.5, out / 0.5 * t_max, t_max + (out - 0.5) / 0.5 * (n_t - t_max))
+
+
+def resample_time(a: np.ndarray, positions: np.ndarray, *, axis: int = -1) -> np.ndarray:
+    """Linear periodic interpolation of ``a`` along ``axis`` at fractional frames."""
+    a = np.moveaxis(np.asarray(a), axis, -1)
+    n = a.shape[-1]
+    k = np.floor(positions).astype(int) % n
+    f = positions - np.floor(positions)
+    out = a[..., k] * (1 - f) + a[..., (k + 1) % n] * f
+    return np.moveaxis(out, -1, axis)

@@ -1,0 +1,198 @@
+"""Cross-sections, areas, volumes, time alignment and clipping (issue 5)."""
+import numpy as np
+import pytest
+
+from helpers import tube_mesh
+from oftimg.cycle import cycle_timing, periodic_peak, resample_time, roll_time, two_segment_warp
+from oftimg.mesh.clip import clip_grid, clip_positions, cumulative_from_outlet
+from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
+from oftimg.mesh.sections import (contour_around, crossing_planes, fix_crossing_planes,
+                                  orient_and_resample, plane_contours, polygon_area,
+                                  section_planes, sections_of_mesh)
+from oftimg.mesh.topology import capped_signed_volume, check_tube
+
+OPTS = GridOptions(n_u=60, n_v=25)
+
+
+def analytic_sections(r_in, r_out, ellipse=1.0, length=1.0):
+    V, F = tube_mesh(r_in, r_out, length=length, n_theta=160, n_s=60, ellipse=ellipse)
+    topo = check_tube(V, F)
+    inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < 0.5 else topo.loops[::-1]
+    p_in, p_out, _ = seam_endpoints(V, topo.F, inlet, outlet)
+    g = grid_frame(V, topo.F, inlet, outlet, p_in, p_out, OPTS)
+    origins, normals = section_planes(g.X)
+    area, centroid, contour = sections_of_mesh(V, topo.F, origins, normals, g.X[0], 60)
+    vol = capped_signed_volume(V, topo.F, [inlet, outlet])
+    return origins, area, centroid, contour, vol
+
+
+@pytest.mark.parametrize("r_in, r_out, ellipse", [(0.2, 0.2, 1.0), (0.2, 0.1, 1.0),
+                                                  (0.2, 0.2, 0.5)])
+def test_analytic_tube_areas_and_volumes(r_in, r_out, ellipse):
+    origins, area, centroid, contour, vol = analytic_sections(r_in, r_out, ellipse)
+    z = origins[:, 2]
+    r = r_in + (r_out - r_in) * z
+    expected = np.pi * r ** 2 * ellipse
+    assert np.allclose(area[1:-1], expected[1:-1], rtol=2e-3)
+    assert np.allclose(area, expected, rtol=5e-3)  # end rows are cut 5 % of a row inside
+    h = 1.0
+    exact_vol = np.pi * ellipse * h / 3 * (r_in ** 2 + r_in * r_out + r_out ** 2)
+    assert vol == pytest.approx(exact_vol, rel=2e-3)
+    assert np.allclose(centroid[:, :2], 0, atol=1e-3)
+    assert np.allclose(np.linalg.norm(np.diff(centroid, axis=0), axis=1).sum(), 1.0, rtol=1e-3)
+    # contours in u order: start at the seam node, turn positively about +z
+    c = contour[:, 10]
+    assert c[0, 0] * c[1, 1] - c[0, 1] * c[1, 0] > 0
+
+
+def test_contour_around_picks_the_right_piece_of_a_bent_tube():
+    """A plane through a U-shaped tube cuts it twice; keep the section around the centre."""
+    from oftimg.phantom import Phantom, PhantomParams
+
+    ph = Phantom(PhantomParams(n_frames=3, length_mm=3.0, bend_radius_mm=0.5,
+                               radius_inlet_mm=0.15, radius_outlet_mm=0.15, contraction=0))
+    V, F = ph.mesh("outer", 0.0, np.random.default_rng(0))
+    s = 0.3
+    c, N, B = ph.frame_axes(s)
+    tangent = np.cross(B, N)
+    pieces = plane_contours(V, F, c, tangent)
+    assert len(pieces) >= 2
+    C = contour_around(pieces, c, tangent)
+    assert np.linalg.norm(C.mean(axis=0) - c) < 0.01
+    assert polygon_area(C, tangent) == pytest.approx(ph.area_mm2("outer", s, 0.0), rel=0.01)
+
+
+def test_orient_and_resample_starts_at_seam():
+    th = np.linspace(0, 2 * np.pi, 50, endpoint=False)
+    C = np.stack([np.cos(th), np.sin(th), np.zeros_like(th)], -1)[::-1]  # clockwise
+    R = orient_and_resample(C, np.array([0, 0, 1.0]), np.array([0, 1.0, 0]), 8)
+    assert np.allclose(R[0], [0, 1, 0], atol=2e-3)  # on the chord nearest the seam node
+    assert R[0, 0] == pytest.approx(0, abs=1e-12)
+    assert np.allclose(R[2], [-1, 0, 0], atol=0.01)  # positive turn about +z
+
+
+def test_crossing_planes_are_detected_and_fixed():
+    z = np.linspace(0, 1, 12)
+    th = np.linspace(0, 2 * np.pi, 30, endpoint=False)
+    X = np.stack([0.2 * np.cos(th)[:, None] * np.ones_like(z), 0.2 * np.sin(th)[:, None]
+                  * np.ones_like(z), np.ones_like(th)[:, None] * z], -1)
+    origins, normals = section_planes(X)
+    assert not crossing_planes(X, origins, normals).any()
+    tilted = normals.copy()
+    tilted[5] = [0.8, 0, 0.6]  # tilted far enough to cut the neighbouring rings
+    assert crossing_planes(X, origins, tilted)[5]
+    fixed, count = fix_crossing_planes(X, origins, tilted)
+    assert count >= 1 and not crossing_planes(X, origins, fixed).any()
+
+
+# ----------------------------------------------------------------- cycle timing
+def test_periodic_peak_and_timing():
+    n = 40
+    t = np.arange(n)
+    y = np.cos(2 * np.pi * (t - 10.3) / n)
+    assert periodic_peak(y) == pytest.approx(10.3, abs=0.05)
+    assert periodic_peak(y, find="min") == pytest.approx(30.3, abs=0.05)
+    tim = cycle_timing(y, 400.0)
+    assert tim["t0_frame"] == 30 and tim["expand_fraction"] == pytest.approx(0.5, abs=0.01)
+    assert tim["expand_ms"] + tim["contract_ms"] == pytest.approx(400.0)
+    assert np.array_equal(roll_time(t, 30)[:2], [30, 31])
+
+
+def test_two_segment_warp_puts_maximum_at_half():
+    n = 50
+    t = np.arange(n)
+    t_max = 18.0
+    y = np.interp(t, [0, t_max, n], [0, 1, 0])  # min at 0, max at 18
+    warped = resample_time(y, two_segment_warp(n, t_max))
+    assert np.argmax(warped) == n // 2
+
+
+# ----------------------------------------------------------------- clipping
+def test_clipping_of_a_sliding_cylinder():
+    """Myocardial area uniform: clipping must cut the extra length off."""
+    n_v, n_t = 21, 8
+    length = 1.0 + 0.2 * np.sin(np.linspace(0, 2 * np.pi, n_t, endpoint=False)) ** 2
+    s = np.linspace(0, 1, n_v)[:, None] * length[None, :]
+    myo = np.full((n_v, n_t), 0.05)
+    v_c, target = clip_positions(myo, s)
+    assert target == pytest.approx(0.05)
+    kept = (1 - v_c) * length
+    assert np.allclose(kept, 1.0, atol=1e-9)
+    assert np.allclose(cumulative_from_outlet(myo, s)[0], 0.05 * length)
+
+
+def test_clip_grid_resamples_beyond_the_plane():
+    z = np.linspace(0, 1, 11)
+    th = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    X = np.stack([np.cos(th)[:, None] * np.ones_like(z), np.sin(th)[:, None] * np.ones_like(z),
+                  np.ones_like(th)[:, None] * z], -1)
+    Y = clip_grid(X, np.array([0, 0, 0.35]), np.array([0, 0, 1.0]))
+    assert np.allclose(Y[:, 0, 2], 0.35) and np.allclose(Y[:, -1, 2], 1.0)
+    assert np.allclose(np.diff(Y[..., 2], axis=1), 0.65 / 10)
+
+
+# ----------------------------------------------------------------- phantom truth
+@pytest.mark.slow
+@pytest.mark.parametrize("wall, median_tol", [("outer", 0.02), ("inner", 0.02),
+                                              ("lumen", 0.05)])
+def test_phantom_areas_match_truth(analysed_normal, wall, median_tol):
+    ph, truth, res = analysed_normal
+    t0 = res["summary"]["t0_frame"]
+    t_ms = np.roll(truth["t_ms"], -t0)
+    s_mm = res["arrays"]["s_mm"]
+    measured = res["arrays"][f"area_{wall}_mm2"]
+    expected = ph.area_mm2(wall, s_mm[:, None], t_ms[None, :])
+    rel = np.abs(measured / expected - 1)
+    assert np.median(rel) < median_tol
+    assert rel.max() < 0.10
+
+
+@pytest.mark.slow
+def test_phantom_timing_length_volume(analysed_normal):
+    ph, truth, res = analysed_normal
+    summ, arr = res["summary"], res["arrays"]
+    t0 = summ["t0_frame"]
+    assert summ["expand_fraction"] == pytest.approx(truth["expand_fraction"], abs=0.03)
+    assert summ["tube_length_mm"] == pytest.approx(truth["tube_length_mm"], rel=0.03)
+    vol_truth = np.roll(truth["volume_mm3"]["outer"], -t0)
+    assert np.allclose(arr["volume_outer_mm3"], vol_truth, rtol=0.02)
+    assert np.argmin(arr["volume_outer_mm3"]) == 0
+    assert summ["myocardial_volume_change"] == pytest.approx(
+        truth["myocardial_volume_change"], abs=0.03)
+
+
+@pytest.mark.slow
+def test_phantom_clipping_keeps_myocardial_volume(analysed_normal, phantom_normal):
+    """Re-cut the original meshes with planes of the clipped grids (not the planes
+    clipping used) and integrate the myocardial area: constant within 1 %."""
+    from oftimg.io import load_dataset
+
+    _, _, res = analysed_normal
+    ds = load_dataset(phantom_normal)
+    t0, n_t = res["summary"]["t0_frame"], ds.n_frames
+    vols = []
+    for t in range(n_t):
+        Xc = res["grids"]["outer_clipped"][:, :, t].astype(float)
+        o, n = section_planes(Xc)
+        cut = {}
+        for wall in ("outer", "inner"):
+            tube = ds.tube(wall, (t + t0) % n_t)
+            cut[wall] = sections_of_mesh(tube.V, tube.F, o, n, Xc[0], 20)
+        cen = cut["outer"][1]
+        s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(cen, axis=0), axis=1))])
+        myo = (cut["outer"][0] - cut["inner"][0])[:, None]
+        vols.append(cumulative_from_outlet(myo, s[:, None])[0, 0])
+    vols = np.array(vols)
+    target = res["summary"]["clipped_myocardial_volume_mm3"]
+    assert np.abs(vols / target - 1).max() < 0.01
+    assert res["arrays"]["clip_v"][0] == pytest.approx(0.0, abs=0.02)
+    assert res["arrays"]["trim_percent"].max() > 5  # the tissue really slides
+
+
+@pytest.mark.slow
+def test_final_planes_do_not_cross_on_a_banded_phantom(analysed_banded):
+    _, _, res = analysed_banded
+    X = res["grids"]["outer"]
+    o, n = res["arrays"]["plane_origin_mm"], res["arrays"]["plane_normal"]
+    for t in range(X.shape[2]):
+        assert not crossing_planes(X[:, :, t], o[:, t], n[:, t]).any()

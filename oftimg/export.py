@@ -138,4 +138,7 @@ def write_dataset_results(folder: Path, result: dict) -> None:
     arrays = result["arrays"]
     described = {k: describe_array(k) for k in list(arrays) + list(grids)}
     write_arrays(folder, arrays, described)
+    from .figures import dataset_figures
+
+    dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])
     write_json(folder / "summary.json", result["summary"])

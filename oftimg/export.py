@@ -105,10 +105,34 @@ def describe_array(name: str) -> dict:
         "plane_origin_mm": (["v", "t", "xyz"], "mm", "a point of each cross-section plane"),
         "plane_normal": (["v", "t", "xyz"], "1", "unit normal of each cross-section plane, "
                                                  "towards the outlet"),
+        "plane_crossing": (["v", "t"], "bool", "planes that still cross another inside the "
+                                               "tube after blending (should be all False)"),
     }
+    fixed.update({
+        "ridge_t_ms": (["v"], "ms", "time of each row's maximum outer area (sub-frame, unwrapped)"),
+        "local_speed_mm_s": (["v"], "mm/s", "local peristaltic wave speed ds/dt along the ridge "
+                                            "(7-row least-squares slope; negative: backwards)"),
+    })
     if name in fixed:
         dims, unit, text = fixed[name]
         return {"dims": dims, "unit": unit, "description": text}
+    per_wall = {
+        "max_area_{w}_mm2": (["v"], "mm^2", "maximum over the cycle of the {w} area"),
+        "expanded_fraction_75_{w}": (["v"], "1", "share of the cycle with {w} area >= 75 % of "
+                                                 "its maximum"),
+        "expanded_fraction_sigma_{w}": (["v"], "1", "share of the cycle within one sigma of the "
+                                                    "{w} area's peak (Gaussian fit; NaN: no fit)"),
+        "expanded_mask_75_{w}": (["v", "t"], "bool", "cells with {w} area >= 75 % of the row max"),
+        "expanded_mask_sigma_{w}": (["v", "t"], "bool", "cells within one sigma of the row's peak"),
+        "crossing_75_{w}_ms": (["up/down", "v"], "ms", "times the {w} area rises above and falls "
+                                                       "below 75 % of its maximum (periodic)"),
+        "gaussian_sigma_{w}_ms": (["v"], "ms", "sigma of the Gaussian fitted to the {w} area"),
+        "gaussian_fit_r2_{w}": (["v"], "1", "R^2 of that Gaussian fit"),
+    }
+    for w in WALLS:
+        for pattern, (dims, unit, text) in per_wall.items():
+            if name == pattern.format(w=w):
+                return {"dims": dims, "unit": unit, "description": text.format(w=w)}
     for w in WALLS:
         if name == f"area_{w}_mm2":
             return {"dims": ["v", "t"], "unit": "mm^2",

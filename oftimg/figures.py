@@ -104,4 +104,150 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
     written.append(frame_with_contours(grids["outer"][:, :, 0], contours,
                                        folder / "frame_t0_contours.png",
                                        title=f"{name}: t = 0 (minimum volume)"))
+    if "ridge_t_ms" in arrays:
+        written += map_figures(folder, name, arrays, summary, summary["period_ms"])
+    return written
+
+
+# ------------------------------------------------------------------ (v, t) maps
+def _map_extent(s_mm, t_ms):
+    dt = t_ms[1] - t_ms[0] if len(t_ms) > 1 else 1.0
+    return [t_ms[0] - dt / 2, t_ms[-1] + dt / 2, s_mm[0], s_mm[-1]]
+
+
+def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Path, *,
+             ridge_t_ms=None, crossings_75_ms=None, sigma_ms=None, title: str = "") -> Path:
+    """The paper's Fig. 'area to line' A: area as colour, v up (inlet at the bottom),
+    t to the right, with the ridge (line), 75 % crossings (x) and one-sigma times (*)."""
+    period = t_ms[-1] + (t_ms[1] - t_ms[0])
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    im = ax.imshow(area_mm2, origin="lower", aspect="auto", cmap="jet",
+                   extent=_map_extent(s_mm, t_ms), interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="cross-sectional area (mm$^2$)")
+    if ridge_t_ms is not None:
+        ax.plot(np.mod(ridge_t_ms, period), s_mm, "k.", ms=3, label="maximum area")
+    if crossings_75_ms is not None:
+        for row in crossings_75_ms:
+            ax.plot(np.mod(row, period), s_mm, "kx", ms=3)
+        ax.plot([], [], "kx", label="75 % of maximum")
+    if sigma_ms is not None and ridge_t_ms is not None:
+        for sign in (-1, 1):
+            ax.plot(np.mod(ridge_t_ms + sign * sigma_ms, period), s_mm, "w*", ms=3)
+        ax.plot([], [], "w*", label="one sigma")
+    ax.set_xlabel("time since minimum volume (ms)")
+    ax.set_ylabel("position along the tube s (mm)")
+    ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, loc="upper right", framealpha=0.6)
+    return _save(fig, path)
+
+
+def max_area_profile(s_mm, max_area: dict, path: Path, *, sigma_area: dict | None = None,
+                     title: str = "") -> Path:
+    """Fig. B: maximum area vs position, with the 75 % and one-sigma areas."""
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    for wall, a in max_area.items():
+        c = WALL_COLOURS[wall]
+        ax.plot(s_mm, a, color=c, lw=1.8, label=f"{wall} maximum")
+        ax.plot(s_mm, 0.75 * a, color=c, lw=1, ls="--", label=f"{wall} 75 %")
+        if sigma_area and wall in sigma_area:
+            ax.plot(s_mm, sigma_area[wall], color=c, lw=1, ls=":", label=f"{wall} one sigma")
+    ax.set_xlabel("position along the tube s (mm)")
+    ax.set_ylabel("cross-sectional area (mm$^2$)")
+    ax.legend(fontsize=6, ncol=3)
+    ax.grid(alpha=0.3)
+    ax.set_title(title, fontsize=9)
+    return _save(fig, path)
+
+
+def time_expanded(s_mm, shares: dict[str, np.ndarray], path: Path, *, title: str = "") -> Path:
+    """Fig. C: % of the cycle each section is expanded."""
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    for label, share in shares.items():
+        ax.plot(s_mm, 100 * share, lw=1.6, label=label)
+    ax.set_xlabel("position along the tube s (mm)")
+    ax.set_ylabel("time expanded (% of cycle)")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    ax.set_title(title, fontsize=9)
+    return _save(fig, path)
+
+
+def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
+                     title: str = "") -> Path:
+    """Fig. D: gradient angle as hue, magnitude as intensity, with the colour wheel."""
+    from .image.gradient import colour_wheel
+
+    fig = plt.figure(figsize=(6.8, 4.0))
+    ax = fig.add_axes([0.1, 0.13, 0.62, 0.77])
+    ax.imshow(rgb, origin="lower", aspect="auto", extent=_map_extent(s_mm, t_ms),
+              interpolation="nearest")
+    ax.set_xlabel("time since minimum volume (ms)")
+    ax.set_ylabel("position along the tube s (mm)")
+    ax.set_title(title, fontsize=9)
+    wax = fig.add_axes([0.76, 0.45, 0.22, 0.4])
+    wax.imshow(colour_wheel(), origin="upper")
+    wax.set_axis_off()
+    wax.set_title("d/dt right, d/ds up", fontsize=7)
+    if rates is not None:
+        fig.text(0.76, 0.3, "max expansion\n%.2e mm$^2$/ms\nmax contraction\n%.2e mm$^2$/ms"
+                 % rates, fontsize=7)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, title: str = "") -> Path:
+    """Time of maximum expansion vs position, with the two-segment fit and local speed."""
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
+    axes[0].plot(s_mm, ridge_t_ms, "k.", label="ridge")
+    if knee is not None and np.isfinite(knee["knee_mm"]):
+        k = knee["knee_mm"]
+        t_k = np.interp(k, s_mm, ridge_t_ms)
+        for s_end, c in ((s_mm[0], knee["speed_proximal_mm_s"]),
+                         (s_mm[-1], knee["speed_distal_mm_s"])):
+            axes[0].plot([s_end, k], [t_k + 1e3 * (s_end - k) / c, t_k], "r-", lw=1.2)
+        axes[0].axvline(k, color="r", ls=":", lw=0.8, label=f"knee {k:.2f} mm")
+    axes[0].set_xlabel("position along the tube s (mm)")
+    axes[0].set_ylabel("time of maximum area (ms)")
+    axes[0].legend(fontsize=7)
+    if speed is not None:
+        axes[1].plot(s_mm, speed, "b.-", lw=0.8)
+        axes[1].axhline(0, color="k", lw=0.5)
+    axes[1].set_xlabel("position along the tube s (mm)")
+    axes[1].set_ylabel("local wave speed (mm/s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.suptitle(title, fontsize=10)
+    return _save(fig, path)
+
+
+def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms: float
+                ) -> list[Path]:
+    """The (v, t) map figures of one dataset."""
+    from .image.gradient import gradient_hsv
+
+    s_mm, t_ms = arrays["s_mm"], arrays["t_ms"]
+    area = arrays["area_outer_mm2"]
+    written = [area_map(area, s_mm, t_ms, folder / "area_map_outer.png",
+                        ridge_t_ms=arrays["ridge_t_ms"],
+                        crossings_75_ms=arrays["crossing_75_outer_ms"],
+                        sigma_ms=arrays["gaussian_sigma_outer_ms"],
+                        title=f"{name}: outer cross-sectional area")]
+    walls = [w for w in ("outer", "inner", "lumen") if f"max_area_{w}_mm2" in arrays]
+    written.append(max_area_profile(
+        s_mm, {w: arrays[f"max_area_{w}_mm2"] for w in walls}, folder / "max_area_profile.png",
+        title=name))
+    shares = {}
+    for w in walls:
+        shares[f"{w}, >= 75 % of max"] = arrays[f"expanded_fraction_75_{w}"]
+        shares[f"{w}, within one sigma"] = arrays[f"expanded_fraction_sigma_{w}"]
+    written.append(time_expanded(s_mm, shares, folder / "time_expanded.png", title=name))
+    rates = (summary["max_expansion_rate_mm2_ms"], summary["max_contraction_rate_mm2_ms"])
+    written.append(derivative_image(gradient_hsv(area), s_mm, t_ms,
+                                    folder / "area_derivative_outer.png", rates=rates,
+                                    title=f"{name}: derivative of the outer area map"))
+    written.append(ridge_plot(s_mm, arrays["ridge_t_ms"], folder / "ridge_speed.png",
+                              knee=summary["wave_two_segment"], speed=arrays["local_speed_mm_s"],
+                              title=name))
     return written

@@ -11,6 +11,7 @@ import numpy as np
 from . import __version__
 from .io import Dataset, OftimgWarning
 from .cycle import cycle_timing, roll_time
+from .image.analysis import analyse_area_maps
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import (GridOptions, closest_points, grid_frame, seam_endpoints,
                         smooth_endpoints)
@@ -43,27 +44,28 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
     original mesh, and each wall's capped volume.
     """
     n_c = options.n_u
-    out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}}
+    out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {}}
     tb = ds.tube("outer", t)
     g = grid_frame(tb.V, tb.F, tb.inlet, tb.outlet, p_in, p_out, options)
     X = g.X
     origins, normals = section_planes(X)
-    normals, fixes = fix_crossing_planes(X, origins, normals)
-    out.update(origins=origins, normals=normals, plane_fixes=fixes,
+    normals, fixes, crossing = fix_crossing_planes(X, origins, normals)
+    out.update(origins=origins, normals=normals, plane_fixes=fixes, crossing=crossing,
                seam_in=g.seam_in, seam_out=g.seam_out, seam_length_mm=g.seam_length_mm)
-    walls = {"outer": (tb, X, g.flipped)}
+    walls = {"outer": (tb, X, g)}
     if "inner" in ds.surfaces:
         ti = ds.tube("inner", t)
-        walls["inner"] = (ti, closest_points(ti.V, ti.F, X), 0)
+        walls["inner"] = (ti, closest_points(ti.V, ti.F, X), None)
     if "lumen" in ds.surfaces:
         tl = ds.tube("lumen", t)
         gl = grid_frame(tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out, options)
-        walls["lumen"] = (tl, gl.X, gl.flipped)
-    for wall, (tube, Xw, flipped) in walls.items():
+        walls["lumen"] = (tl, gl.X, gl)
+    for wall, (tube, Xw, gw) in walls.items():
         area, centroid, contour = sections_of_mesh(tube.V, tube.F, origins, normals,
                                                    Xw[0], n_c)
         out["grid"][wall] = Xw
-        out["flipped"][wall] = flipped
+        out["flipped"][wall] = gw.flipped if gw else 0
+        out["repaired"][wall] = int(bool(gw and gw.flipped_before_repair))
         out["area"][wall] = area
         out["contour"][wall] = contour
         out["volume"][wall] = capped_signed_volume(tube.V, tube.F, [tube.inlet, tube.outlet])
@@ -120,10 +122,16 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     contour = {w: np.stack([f["contour"][w] for f in frames], axis=2) for w in walls}
     volume = {w: np.array([f["volume"][w] for f in frames]) for w in walls}
     flipped = {w: int(sum(f["flipped"][w] for f in frames)) for w in walls}
+    repaired = {w: int(sum(f["repaired"][w] for f in frames)) for w in walls}
     centroid = np.stack([f["centroid"] for f in frames], axis=1)      # (n_v, n_t, 3)
     origins = np.stack([f["origins"] for f in frames], axis=1)
     normals = np.stack([f["normals"] for f in frames], axis=1)
     plane_fixes = int(sum(f["plane_fixes"] for f in frames))
+    crossing = np.stack([f["crossing"] for f in frames], axis=1)       # (n_v, n_t)
+    if crossing.any():
+        warnings.warn(f"{ds.path}: {int(crossing.sum())} section planes still cross another "
+                      "inside the tube after blending (see plane_crossing)", OftimgWarning,
+                      stacklevel=2)
     n_missing = {w: int(np.isnan(a).sum()) for w, a in area.items()}
     for w, k in n_missing.items():
         if k:
@@ -143,6 +151,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     centroid = roll_time(centroid, t0, axis=1)
     origins = roll_time(origins, t0, axis=1)
     normals = roll_time(normals, t0, axis=1)
+    crossing = roll_time(crossing, t0, axis=1)
     s_rows = centroid_arc_length(centroid)                              # (n_v, n_t)
     s_mm = s_rows.mean(axis=1)
     t_ms = np.arange(n_t) * ds.meta.period_ms / n_t
@@ -155,6 +164,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     arrays["centroid_outer_mm"] = centroid
     arrays["plane_origin_mm"] = origins
     arrays["plane_normal"] = normals
+    arrays["plane_crossing"] = crossing
     summary = {
         "name": ds.meta.name, "group": ds.meta.group, "n_frames": n_t,
         "period_ms": ds.meta.period_ms,
@@ -180,9 +190,18 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             grid[f"{w}_clipped"] = np.stack(
                 [clip_grid(grid[w][:, :, t], *plane_at(origins[:, t], normals[:, t], clip_v[t]))
                  for t in range(n_t)], axis=2)
+    tick = time.perf_counter()
+    map_arrays, map_summary = analyse_area_maps(area, s_mm, ds.meta.period_ms)
+    timings["image_analysis_s"] = time.perf_counter() - tick
+    for note in map_summary["image_analysis_notes"]:
+        warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
+    arrays.update(map_arrays)
+    summary.update(map_summary)
     summary.update({
         "flipped_triangles": flipped,
+        "maps_with_clamped_weights": repaired,
         "section_plane_fixes": plane_fixes,
+        "section_planes_still_crossing": int(crossing.sum()),
         "sections_without_contour": n_missing,
         "provenance": {
             "oftimg_version": __version__, "options": options.as_dict(),

@@ -47,8 +47,7 @@ def main():
             path = GeodesicSolver(V, F).path(a, b)
             times["seam path"] = time.perf_counter() - tick
             tick = time.perf_counter()
-            events = locate_on_edges(V, F, path)
-            events[0], events[-1] = ("v", a), ("v", b)
+            events = locate_on_edges(V, F, path, a, b)
             V2, F2, chain = insert_path(V, F, events)
             times["seam insertion"] = time.perf_counter() - tick
             tick = time.perf_counter()

@@ -5,7 +5,7 @@ import pytest
 from oftimg.io import OftimgWarning
 from oftimg.phantom import sample_params, write_phantom
 
-SMALL = dict(n_frames=10, vertices_min=2500, vertices_max=3500)
+SMALL = dict(n_frames=36, vertices_min=2500, vertices_max=3500)
 
 
 @pytest.fixture(scope="session")

@@ -26,10 +26,10 @@ def test_output_contract(run_out, phantom_normal):
     summary = json.loads((folder / "summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
     assert summary["provenance"]["oftimg_version"]
-    assert len(summary["provenance"]["inputs"]["outer"]) == 10
+    assert len(summary["provenance"]["inputs"]["outer"]) == 36
     grids = np.load(folder / "grids.npz")
     for wall in ("outer", "inner", "lumen"):
-        assert grids[wall].shape == (80, 50, 10, 3) and grids[wall].dtype == np.float32
+        assert grids[wall].shape == (80, 50, 36, 3) and grids[wall].dtype == np.float32
     arrays = np.load(folder / "arrays.npz")
     described = json.loads((folder / "arrays.json").read_text())
     assert set(arrays.files) | set(grids.files) == set(described)
@@ -39,7 +39,7 @@ def test_output_contract(run_out, phantom_normal):
         if "v" in described[name]["dims"] and "t" in described[name]["dims"]:
             dims = described[name]["dims"]
             assert arrays[name].shape[dims.index("v")] == 50
-            assert arrays[name].shape[dims.index("t")] == 10
+            assert arrays[name].shape[dims.index("t")] == 36
     for fig in ("volume_over_cycle.png", "trim_over_cycle.png", "frame_t0_contours.png"):
         assert (folder / "figures" / fig).stat().st_size > 10_000
     rows = list(csv.DictReader(open(run_out / "cohort.csv")))

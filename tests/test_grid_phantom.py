@@ -27,7 +27,7 @@ def banded_grids(analysed_banded):
 def test_no_twist_no_slide(normal_grids):
     (ph, truth), grids, summary = normal_grids
     X = grids["outer"]
-    assert X.shape == (80, 50, 10, 3)
+    assert X.shape == (80, 50, truth["params"]["n_frames"], 3)
     s, theta = ph.window_coordinates(X)
     theta_std = np.unwrap(theta, axis=2).std(axis=2)
     assert np.median(theta_std) < 0.05

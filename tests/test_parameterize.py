@@ -106,7 +106,7 @@ def test_seam_is_a_surface_geodesic_not_an_edge_path():
     a = int(np.argmin(np.linalg.norm(V - p_in, axis=1)))
     b = int(np.argmin(np.linalg.norm(V - p_out, axis=1)))
     path = solver.path(a, b)
-    V2, F2, chain = insert_path(V, topo.F, locate_on_edges(V, topo.F, path))
+    V2, F2, chain = insert_path(V, topo.F, locate_on_edges(V, topo.F, path, a, b))
     chain_len = np.linalg.norm(np.diff(V2[chain], axis=0), axis=1).sum()
     assert chain_len == pytest.approx(np.linalg.norm(np.diff(path, axis=0), axis=1).sum(),
                                       rel=1e-3)  # 2 % end snapping

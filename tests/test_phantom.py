@@ -13,7 +13,7 @@ def test_every_frame_is_a_tube_and_frames_differ(phantom_normal):
     ds = load_dataset(phantom_normal)
     report = validate_dataset(ds)
     assert set(report["surfaces"]) == {"outer", "inner", "lumen"}
-    assert all(s["frames"] == 10 for s in report["surfaces"].values())
+    assert all(s["frames"] == 36 for s in report["surfaces"].values())
     a, b = ds.tube("outer", 0), ds.tube("outer", 1)
     assert len(a.V) != len(b.V) or not np.allclose(a.V[:50], b.V[:50])
     counts = {len(ds.tube("outer", t).V) for t in range(10)}

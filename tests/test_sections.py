@@ -81,8 +81,8 @@ def test_crossing_planes_are_detected_and_fixed():
     tilted = normals.copy()
     tilted[5] = [0.8, 0, 0.6]  # tilted far enough to cut the neighbouring rings
     assert crossing_planes(X, origins, tilted)[5]
-    fixed, count = fix_crossing_planes(X, origins, tilted)
-    assert count >= 1 and not crossing_planes(X, origins, fixed).any()
+    fixed, count, still = fix_crossing_planes(X, origins, tilted)
+    assert count >= 1 and not still.any() and not crossing_planes(X, origins, fixed).any()
 
 
 # ----------------------------------------------------------------- cycle timing
@@ -185,7 +185,9 @@ def test_phantom_clipping_keeps_myocardial_volume(analysed_normal, phantom_norma
     vols = np.array(vols)
     target = res["summary"]["clipped_myocardial_volume_mm3"]
     assert np.abs(vols / target - 1).max() < 0.01
-    assert res["arrays"]["clip_v"][0] == pytest.approx(0.0, abs=0.02)
+    # nothing is clipped at the frame of minimum myocardial volume
+    t_min = np.argmin(res["arrays"]["volume_myocardium_mm3"])
+    assert res["arrays"]["clip_v"][t_min] == pytest.approx(0.0, abs=0.02)
     assert res["arrays"]["trim_percent"].max() > 5  # the tissue really slides
 
 

@@ -19,9 +19,8 @@ from __future__ import annotations
 import numpy as np
 import potpourri3d as pp3d
 import pygeodesic.geodesic as pyg
-from scipy.spatial import cKDTree
 
-from .topology import MeshError, edge_incidence
+from .topology import MeshError
 
 SNAP = 0.02  # edge points closer than this fraction of the edge to a corner snap to it
 METHODS = ("exact", "heat")
@@ -80,50 +79,51 @@ def _point_segment(P, A, B):
     return np.linalg.norm(A + t[:, None] * AB - P, axis=1), t
 
 
-def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, *, k: int = 6):
-    """Locate polyline points on mesh edges.
+def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, start: int, end: int):
+    """Locate a geodesic polyline's points on mesh edges by walking from face to face.
 
-    Returns a list of events: ``("v", i)`` for a point at vertex i or
-    ``("e", i, j, t)`` for the point ``(1 - t) V[i] + t V[j]`` with i < j.
+    ``P (n_pts, 3)`` runs from vertex ``start`` to vertex ``end``. Each point
+    is looked for on the edges of the faces around the previous event (so
+    consecutive events always share a face); when it is not there, the path
+    went through a vertex of the previous event (a saddle), which is put in
+    between. Returns events ``("v", i)`` or ``("e", i, j, t)`` for the point
+    ``(1 - t) V[i] + t V[j]``.
     """
-    edges, _, _ = edge_incidence(F)
     n = len(V)
-    # vertex -> incident edges (CSR)
-    ends = np.concatenate([edges[:, 0], edges[:, 1]])
-    eid = np.concatenate([np.arange(len(edges))] * 2)
-    order = np.argsort(ends, kind="stable")
-    ptr = np.searchsorted(ends[order], np.arange(n + 1))
-    inc = eid[order]
-    tree = cKDTree(V)
-    _, near = tree.query(P, k=min(k, n))
-    raw = []
-    for p, nv in zip(P, near):
-        cand = np.unique(np.concatenate([inc[ptr[v]:ptr[v + 1]] for v in nv]))
-        e = edges[cand]
-        d, t = _point_segment(np.broadcast_to(p, (len(cand), 3)), V[e[:, 0]], V[e[:, 1]])
-        best = int(np.argmin(d))
-        raw.append((int(e[best, 0]), int(e[best, 1]), float(t[best])))
-    faces_of = _faces_of_vertex(F, n)
-    events = [_snap(i, j, t) for i, j, t in raw]
-    # A snap must not break the chain: neighbours must still share a face.
-    for k in range(len(events)):
-        if events[k][0] == "v" and 0 < raw[k][2] < 1:
-            nb = [events[m] for m in (k - 1, k + 1) if 0 <= m < len(events)]
-            if not all(_share_face(events[k], o, F, faces_of) for o in nb):
-                events[k] = ("e",) + raw[k]
-    events = _clean_events(events)
-    # A geodesic may pass through a (saddle) vertex between two edge points:
-    # put that vertex into the chain.
-    fixed = [events[0]]
-    for b in events[1:]:
-        a = fixed[-1]
-        if not _share_face(a, b, F, faces_of):
-            common = _verts(a) & _verts(b)
-            if len(common) != 1:
+    face_idx, ptr, face_sets = _faces_of_vertex(F, n)
+    Fl = F.tolist()
+    tol = 1e-6 * float(np.linalg.norm(np.ptp(V, axis=0)))
+
+    def faces_around(ev, strict):
+        vs = list(_verts(ev))
+        sets = [set(face_idx[ptr[v]:ptr[v + 1]]) for v in vs]
+        return set.intersection(*sets) if strict else set.union(*sets)
+
+    def nearest_on(faces, p):
+        cand = {(min(a, b), max(a, b)) for f in faces
+                for a, b in ((Fl[f][0], Fl[f][1]), (Fl[f][1], Fl[f][2]), (Fl[f][2], Fl[f][0]))}
+        e = np.array(sorted(cand))
+        d, t = _point_segment(np.broadcast_to(p, (len(e), 3)), V[e[:, 0]], V[e[:, 1]])
+        k = int(np.argmin(d))
+        return float(d[k]), _snap(int(e[k, 0]), int(e[k, 1]), float(t[k]))
+
+    events = [("v", int(start))]
+    for p in P[1:-1]:
+        cur = events[-1]
+        d, ev = nearest_on(faces_around(cur, True), p)
+        if d > tol:
+            d, ev = nearest_on(faces_around(cur, False), p)
+            if d > tol:
                 raise MeshError("the geodesic path could not be located on the mesh edges")
-            fixed.append(("v", common.pop()))
-        fixed.append(b)
-    events = _clean_events(fixed)
+            common = _verts(cur) & next(face_sets[f] for f in faces_around(cur, False)
+                                        if _verts(ev) <= face_sets[f])
+            if cur[0] == "e" and len(common) == 1:
+                events.append(("v", common.pop()))
+        if ev != events[-1]:
+            events.append(ev)
+    events.append(("v", int(end)))
+    events = _clean_events(events)
+    faces_of = (face_idx, ptr, face_sets)
     for a, b in zip(events[:-1], events[1:]):
         if not _share_face(a, b, F, faces_of):
             raise MeshError("the geodesic path could not be located on the mesh edges")

@@ -13,6 +13,7 @@ from scipy.ndimage import gaussian_filter1d
 from .geodesic import (METHODS, GeodesicSolver, insert_boundary_point, insert_path,
                        locate_on_edges)
 from .parameterize import FlatSampler, cut_and_map, even_grid
+from .topology import MeshError
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,7 @@ class FrameGrid:
     flipped: int
     seam_in: np.ndarray
     seam_out: np.ndarray
+    flipped_before_repair: int = 0
 
 
 def seam_endpoints(V, F, inlet, outlet, *, method: str = "exact"
@@ -66,14 +68,28 @@ def grid_frame(V, F, inlet, outlet, p_in, p_out, options: GridOptions) -> FrameG
     V, F, outlet, b = insert_boundary_point(V, F, outlet, p_out)
     solver = GeodesicSolver(V, F)
     path = solver.path(a, b)
-    events = locate_on_edges(V, F, path)
-    events[0], events[-1] = ("v", a), ("v", b)
+    events = locate_on_edges(V, F, path, a, b)
     V2, F2, chain = insert_path(V, F, events)
+    chain = trim_to_loops(chain, inlet, outlet)
+    a, b = int(chain[0]), int(chain[-1])
     flat = cut_and_map(V2, F2, inlet, outlet, chain, authalic_weight=options.authalic_weight)
     X, _, _ = even_grid(FlatSampler(flat), options.n_u, options.n_v, respace=options.respace)
     seam_len = float(np.linalg.norm(np.diff(V2[chain], axis=0), axis=1).sum())
     return FrameGrid(X=X, seam_length_mm=seam_len, flipped=flat.flipped,
-                     seam_in=V[a].copy(), seam_out=V[b].copy())
+                     seam_in=V2[a].copy(), seam_out=V2[b].copy(),
+                     flipped_before_repair=flat.flipped_before_repair)
+
+
+def trim_to_loops(chain: np.ndarray, inlet: np.ndarray, outlet: np.ndarray) -> np.ndarray:
+    """The part of a seam chain between its last inlet vertex and the first outlet
+    vertex after it (a geodesic may run along a boundary edge at either end)."""
+    on_in = np.isin(chain, inlet)
+    on_out = np.isin(chain, outlet)
+    start = int(np.nonzero(on_in)[0].max())
+    after = np.nonzero(on_out[start:])[0]
+    if len(after) == 0:
+        raise MeshError("the seam does not reach the outlet loop")
+    return chain[start:start + int(after[0]) + 1]
 
 
 def closest_points(V: np.ndarray, F: np.ndarray, X: np.ndarray) -> np.ndarray:

@@ -146,13 +146,15 @@ class FlatTube:
 
     ``V (n, 3)`` mm and ``F (m, 3)`` of the cut mesh (seam vertices doubled),
     ``UV (n, 2)`` the map, ``flipped`` the count of triangles with reversed
-    orientation in the map.
+    orientation in the map, ``flipped_before_repair`` that count before
+    negative weights were clamped (0 when the Desbrun map was one-to-one).
     """
 
     V: np.ndarray
     F: np.ndarray
     UV: np.ndarray
     flipped: int
+    flipped_before_repair: int = 0
 
 
 def _arc_fraction(P: np.ndarray, closed: bool) -> np.ndarray:
@@ -175,6 +177,8 @@ def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndar
         raise MeshError("the seam must run from the inlet loop to the outlet loop")
     if len(np.unique(chain)) != len(chain):
         raise MeshError("the seam path visits a vertex twice")
+    if np.isin(chain[1:-1], np.concatenate([inlet, outlet])).any():
+        raise MeshError("the seam touches a boundary loop between its ends")
     high = seam_sides(F, chain)
     n = len(V)
     copy = {int(c): n + k for k, c in enumerate(chain)}
@@ -204,7 +208,18 @@ def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndar
     ])
     W = intrinsic_weights(Vc, Fc, authalic_weight=authalic_weight)
     UV = harmonic_map(W, boundary, uv)
-    return FlatTube(V=Vc, F=Fc, UV=UV, flipped=count_flipped(UV, Fc))
+    flipped = count_flipped(UV, Fc)
+    first_flipped = flipped
+    if flipped:
+        # Negative weights (obtuse or skinny triangles) can fold the map. With
+        # positive weights and a convex border it is one-to-one (Tutte), so
+        # clamp them and solve again; the first count is kept as a diagnostic.
+        W = W.tocoo()
+        floor = 1e-3 * float(np.median(np.abs(W.data)))
+        W = sp.csr_matrix((np.maximum(W.data, floor), (W.row, W.col)), shape=W.shape)
+        UV = harmonic_map(W, boundary, uv)
+        flipped = count_flipped(UV, Fc)
+    return FlatTube(V=Vc, F=Fc, UV=UV, flipped=flipped, flipped_before_repair=first_flipped)
 
 
 def count_flipped(UV: np.ndarray, F: np.ndarray) -> int:

@@ -141,20 +141,21 @@ def crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray) -> 
 
 
 def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray, *,
-                        max_iter: int = 100) -> tuple[np.ndarray, int]:
+                        max_iter: int = 100) -> tuple[np.ndarray, int, np.ndarray]:
     """Blend the normals of crossing planes toward their neighbours until none cross.
 
     One frame: ``X (n_u, n_v, 3)``, ``origins``/``normals (n_v, 3)``. The end
-    rows keep their planes. Returns the fixed normals and how many row
-    normals were changed (0 when the planes did not cross). Raises
-    ``ValueError`` if blending does not separate them.
+    rows keep their planes. Returns the fixed normals, how many row normals
+    were changed (0 when the planes did not cross) and a boolean ``(n_v,)`` of
+    rows still crossing when blending could not separate them (data, not an
+    error: the caller counts and reports them).
     """
     normals = normals.copy()
     changed = np.zeros(len(normals), dtype=bool)
     for _ in range(max_iter):
         bad = crossing_planes(X, origins, normals)
         if not bad.any():
-            return normals, int(changed.sum())
+            return normals, int(changed.sum()), bad
         rows = np.nonzero(bad)[0]
         rows = rows[(rows > 0) & (rows < len(normals) - 1)]
         if len(rows) == 0:
@@ -162,7 +163,7 @@ def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray,
         blended = normals[rows] + 0.5 * (normals[rows - 1] + normals[rows + 1])
         normals[rows] = blended / np.linalg.norm(blended, axis=1, keepdims=True)
         changed[rows] = True
-    raise ValueError("cross-section planes still cross after blending their normals")
+    return normals, int(changed.sum()), crossing_planes(X, origins, normals)
 
 
 def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n: int

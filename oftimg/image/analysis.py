@@ -1,0 +1,54 @@
+"""The (v, t) area-map analyses of one dataset, wired together (paper section 5)."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .band import detect_band
+from .gradient import area_rates
+from .kymograph import cycle_speed, local_speed, ridge_times, two_segment_fit, wave_speed_summary
+from .masks import expanded_75, expanded_sigma
+
+
+def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float
+                      ) -> tuple[dict, dict]:
+    """Ridge, wave speeds, knee, expansion fractions and masks, rates, band.
+
+    ``area[wall] (n_v, n_t)`` mm^2 over one aligned cycle, ``s_mm (n_v,)``.
+    Speeds and the band come from the outer wall; expansion fractions from
+    every wall. Returns ``(arrays, summary)``.
+    """
+    n_t = area["outer"].shape[1]
+    arrays, summary = {}, {}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ridge = ridge_times(area["outer"], period_ms)
+        speed = local_speed(s_mm, ridge)
+        cycle = cycle_speed(s_mm, ridge)
+        knee = two_segment_fit(s_mm, ridge)
+        for wall, a in area.items():
+            share75, up, down, mask75 = expanded_75(a)
+            share_sig, sigma, r2, mask_sig = expanded_sigma(a)
+            arrays[f"max_area_{wall}_mm2"] = np.nanmax(a, axis=1)
+            arrays[f"expanded_fraction_75_{wall}"] = share75
+            arrays[f"expanded_fraction_sigma_{wall}"] = share_sig
+            arrays[f"expanded_mask_75_{wall}"] = mask75
+            arrays[f"expanded_mask_sigma_{wall}"] = mask_sig
+            arrays[f"crossing_75_{wall}_ms"] = np.stack([up, down]) * period_ms / n_t
+            arrays[f"gaussian_sigma_{wall}_ms"] = sigma * period_ms / n_t
+            arrays[f"gaussian_fit_r2_{wall}"] = r2
+    notes = sorted({str(w.message) for w in caught})
+    expand_rate, contract_rate = area_rates(area["outer"], period_ms / n_t)
+    arrays["ridge_t_ms"] = ridge
+    arrays["local_speed_mm_s"] = speed
+    summary["wave_speed_mm_s"] = wave_speed_summary(speed, cycle)
+    summary["wave_two_segment"] = {"speed_proximal_mm_s": knee.speed_proximal_mm_s,
+                                   "speed_distal_mm_s": knee.speed_distal_mm_s,
+                                   "knee_mm": knee.knee_mm, "rms_ms": knee.rms_ms}
+    summary["max_expansion_rate_mm2_ms"] = expand_rate
+    summary["max_contraction_rate_mm2_ms"] = contract_rate
+    summary["band_position_mm"] = detect_band(area["outer"], s_mm)
+    summary["expanded_fraction_75_mean"] = float(np.nanmean(arrays["expanded_fraction_75_outer"]))
+    summary["image_analysis_notes"] = notes
+    return arrays, summary

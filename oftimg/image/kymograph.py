@@ -1,0 +1,153 @@
+"""(v, t) maps: ridge of maximum area, peristaltic wave speed, knee fit.
+
+Functions of ``(n_v, n_t)`` arrays (rows along the tube from the inlet, columns
+one periodic cycle), so a kymograph from anywhere can be fed in.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..cycle import periodic_peak
+
+FLAT_REL = 1e-3  # rows whose relative temporal range is below this have no ridge
+
+
+def _check_map(area: np.ndarray, s_mm: np.ndarray | None = None) -> np.ndarray:
+    area = np.asarray(area, dtype=float)
+    if area.ndim != 2 or area.shape[1] < 3:
+        raise ValueError(f"a (v, t) map must be 2-D with at least 3 frames, found {area.shape}")
+    if s_mm is not None and np.shape(s_mm) != (area.shape[0],):
+        raise ValueError(f"s_mm must have one value per row ({area.shape[0]}), "
+                         f"found shape {np.shape(s_mm)}")
+    return area
+
+
+def flat_rows(area: np.ndarray) -> np.ndarray:
+    """Rows that do not change over time (or hold NaN): no ridge there."""
+    area = _check_map(area)
+    scale = np.nanmax(np.abs(area), axis=1)
+    rng = np.nanmax(area, axis=1) - np.nanmin(area, axis=1)
+    return ~np.isfinite(rng) | (rng <= FLAT_REL * np.where(scale > 0, scale, 1.0))
+
+
+def ridge_times(area: np.ndarray, period_ms: float) -> np.ndarray:
+    """Time (ms) of each row's maximum, sub-frame, unwrapped along v: ``(n_v,)``.
+
+    Parabolic interpolation of the periodic peak; unwrapping keeps neighbouring
+    rows within half a period of each other. NaN (with a warning) for rows
+    that do not change over time.
+    """
+    area = _check_map(area)
+    n_t = area.shape[1]
+    flat = flat_rows(area)
+    t = np.full(area.shape[0], np.nan)
+    for j in np.nonzero(~flat)[0]:
+        t[j] = periodic_peak(area[j], find="max") * period_ms / n_t
+    if flat.any():
+        warnings.warn(f"{int(flat.sum())} of {len(flat)} rows of the map do not change over "
+                      "time: no ridge there (NaN)", RuntimeWarning, stacklevel=2)
+    ok = np.isfinite(t)
+    if ok.sum() > 1:
+        t[ok] = np.unwrap(t[ok], period=period_ms)
+        # start the unwrapped ridge in [0, period)
+        t[ok] -= period_ms * np.floor(t[ok][0] / period_ms)
+    return t
+
+
+def local_speed(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, half_window: int = 3) -> np.ndarray:
+    """Local wave speed ds/dt (mm/s) along the ridge, ``(n_v,)``.
+
+    Least-squares slope of t(s) over ``2 half_window + 1`` rows (fewer at the
+    ends), so a single noisy pixel cannot make a wild value. Negative where
+    the wave runs backwards; NaN where the ridge is undefined.
+    """
+    s = np.asarray(s_mm, float)
+    t = np.asarray(ridge_t_ms, float)
+    n = len(s)
+    speed = np.full(n, np.nan)
+    for j in range(n):
+        lo, hi = max(0, j - half_window), min(n, j + half_window + 1)
+        ss, tt = s[lo:hi], t[lo:hi]
+        ok = np.isfinite(tt)
+        if ok.sum() < 3:
+            continue
+        ss, tt = ss[ok], tt[ok]
+        ds = ss - ss.mean()
+        denom = (ds ** 2).sum()
+        if denom <= 0:
+            continue
+        slope = (ds * (tt - tt.mean())).sum() / denom  # ms per mm
+        speed[j] = 1e3 / slope if slope != 0 else np.inf
+    return speed
+
+
+def cycle_speed(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, end_rows: int = 2) -> float:
+    """End-to-end wave speed (mm/s): first to last row of the ridge.
+
+    Each end's time is the mean of ``end_rows`` rows at that end.
+    """
+    s = np.asarray(s_mm, float)
+    t = np.asarray(ridge_t_ms, float)
+    ok = np.isfinite(t)
+    if ok.sum() < 2 * end_rows:
+        return float("nan")
+    s, t = s[ok], t[ok]
+    dt = t[-end_rows:].mean() - t[:end_rows].mean()
+    ds = s[-end_rows:].mean() - s[:end_rows].mean()
+    return float(1e3 * ds / dt) if dt != 0 else float("inf")
+
+
+@dataclass(frozen=True)
+class KneeFit:
+    """Continuous two-segment line t(s): slopes as speeds and the knee."""
+
+    knee_mm: float
+    knee_row: float
+    speed_proximal_mm_s: float
+    speed_distal_mm_s: float
+    rms_ms: float
+
+
+def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int = 3,
+                    refine: int = 10) -> KneeFit:
+    """Fit ``t = a + b s + c max(0, s - s_k)`` by least squares over the knee s_k.
+
+    The knee is searched on a grid ``refine`` times finer than the rows, with
+    at least ``min_rows`` rows on each side.
+    """
+    s = np.asarray(s_mm, float)
+    t = np.asarray(ridge_t_ms, float)
+    ok = np.isfinite(t)
+    s, t = s[ok], t[ok]
+    if len(s) < 2 * min_rows + 1:
+        return KneeFit(np.nan, np.nan, np.nan, np.nan, np.nan)
+    knees = np.linspace(s[min_rows - 1], s[-min_rows], refine * (len(s) - 2 * min_rows) + 1)
+    best = None
+    for k in knees:
+        A = np.column_stack([np.ones_like(s), s, np.maximum(0.0, s - k)])
+        coef, *_ = np.linalg.lstsq(A, t, rcond=None)
+        sse = float(((A @ coef - t) ** 2).sum())
+        if best is None or sse < best[0]:
+            best = (sse, k, coef)
+    sse, k, (a, b, c) = best
+    rows = np.interp(k, np.asarray(s_mm, float)[ok], np.nonzero(ok)[0].astype(float))
+
+    def to_speed(slope):
+        return 1e3 / slope if slope != 0 else np.inf
+
+    return KneeFit(knee_mm=float(k), knee_row=float(rows), speed_proximal_mm_s=to_speed(b),
+                   speed_distal_mm_s=to_speed(b + c), rms_ms=float(np.sqrt(sse / len(s))))
+
+
+def wave_speed_summary(speed_mm_s: np.ndarray, cycle_mm_s: float) -> dict:
+    """``min, max, mean, std, cycle`` of the local speeds (mm/s), NaN-aware."""
+    v = np.asarray(speed_mm_s, float)
+    v = v[np.isfinite(v)]
+    if len(v) == 0:
+        return {"min": np.nan, "max": np.nan, "mean": np.nan, "std": np.nan,
+                "cycle": cycle_mm_s}
+    return {"min": float(v.min()), "max": float(v.max()), "mean": float(v.mean()),
+            "std": float(v.std()), "cycle": float(cycle_mm_s)}

@@ -1,0 +1,76 @@
+"""Golden-image tests: every figure type drawn from a small fixed map.
+
+Compared with a tolerance, never byte for byte. To accept intended changes:
+``OFTIMG_REGEN_GOLDEN=1 python -m pytest tests/test_figures.py`` and look at
+the new files in tests/golden/ before committing them.
+"""
+import os
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from oftimg import figures
+from oftimg.image.analysis import analyse_area_maps
+from oftimg.image.gradient import gradient_hsv
+
+GOLDEN = Path(__file__).parent / "golden"
+REGEN = os.environ.get("OFTIMG_REGEN_GOLDEN") == "1"
+
+
+def fixed_map():
+    n_v, n_t, period = 24, 40, 360.0
+    s = np.linspace(0, 1.2, n_v)
+    t = np.arange(n_t) * period / n_t
+    arrival = 1e3 * s / 12.0
+    phase = ((t[None, :] - arrival[:, None]) / period) % 1.0
+    taper = 0.12 - 0.05 * s / 1.2
+    outer = taper[:, None] * (0.6 + 0.4 * np.sin(np.pi * phase) ** 2)
+    area = {"outer": outer, "inner": 0.7 * outer, "lumen": 0.4 * outer}
+    arrays, summary = analyse_area_maps(area, s, period)
+    arrays.update(s_mm=s, t_ms=t, area_outer_mm2=outer)
+    return arrays, summary, period
+
+
+def figure_cases(tmp):
+    arrays, summary, period = fixed_map()
+    s, t = arrays["s_mm"], arrays["t_ms"]
+    vol = {"outer": 0.1 + 0.02 * np.sin(2 * np.pi * t / period), "myocardium": 0.03 + 0 * t}
+    return {
+        "area_map": lambda p: figures.area_map(
+            arrays["area_outer_mm2"], s, t, p, ridge_t_ms=arrays["ridge_t_ms"],
+            crossings_75_ms=arrays["crossing_75_outer_ms"],
+            sigma_ms=arrays["gaussian_sigma_outer_ms"], title="golden"),
+        "max_area_profile": lambda p: figures.max_area_profile(
+            s, {w: arrays[f"max_area_{w}_mm2"] for w in ("outer", "inner", "lumen")}, p),
+        "time_expanded": lambda p: figures.time_expanded(
+            s, {"75 %": arrays["expanded_fraction_75_outer"],
+                "sigma": arrays["expanded_fraction_sigma_outer"]}, p),
+        "derivative_image": lambda p: figures.derivative_image(
+            gradient_hsv(arrays["area_outer_mm2"]), s, t, p, rates=(1e-3, 2e-3)),
+        "ridge_plot": lambda p: figures.ridge_plot(
+            s, arrays["ridge_t_ms"], p, knee=summary["wave_two_segment"],
+            speed=arrays["local_speed_mm_s"]),
+        "volume_over_cycle": lambda p: figures.volume_over_cycle(t, vol, p),
+        "trim_over_cycle": lambda p: figures.trim_over_cycle(t, 5 + 5 * np.sin(t / 50), vol["myocardium"], p),
+    }
+
+
+@pytest.mark.parametrize("name", ["area_map", "max_area_profile", "time_expanded",
+                                  "derivative_image", "ridge_plot", "volume_over_cycle",
+                                  "trim_over_cycle"])
+def test_figure_matches_golden(name, tmp_path):
+    path = tmp_path / f"{name}.png"
+    figure_cases(tmp_path)[name](path)
+    new = iio.imread(path).astype(float)
+    golden = GOLDEN / f"{name}.png"
+    if REGEN:
+        GOLDEN.mkdir(exist_ok=True)
+        golden.write_bytes(path.read_bytes())
+        pytest.skip("golden image regenerated")
+    old = iio.imread(golden).astype(float)
+    assert new.shape == old.shape
+    diff = np.abs(new - old)
+    assert diff.mean() < 3.0, f"mean difference {diff.mean():.2f} of 255"
+    assert (diff.max(axis=-1) > 60).mean() < 0.02

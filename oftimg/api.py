@@ -5,6 +5,7 @@ science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
 """
 from __future__ import annotations
 
+import os
 import platform
 import sys
 import time
@@ -23,11 +24,26 @@ def _as_dataset_paths(source) -> list[Path]:
     return find_datasets(source)
 
 
+def make_executor(jobs: int | None):
+    """A process pool for ``jobs`` > 1 workers (default: all cores), else None."""
+    jobs = (os.cpu_count() or 1) if jobs is None else int(jobs)
+    if jobs < 1:
+        raise ValueError(f"--jobs must be at least 1, found {jobs}")
+    if jobs == 1:
+        return None
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    # spawn: open3d and BLAS threads do not survive fork reliably
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
+
+
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
-        options: dict | None = None) -> Path:
+        options: dict | None = None, jobs: int | None = None) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
-    Every frame of every dataset is validated before any work. Results are
+    Every frame of every dataset is validated before any work. Per-frame work
+    runs in ``jobs`` worker processes (default: all cores). Results are
     written to a temporary folder and moved to ``out`` at the end; a failed
     run leaves ``out`` as it was. Returns ``out``.
     """
@@ -45,12 +61,13 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     for ds in datasets:
         reports[ds.meta.name] = validate_dataset(ds)
     started = time.time()
-    with staged_output(out, overwrite=overwrite) as tmp:
+    executor = make_executor(jobs)
+    with staged_output(out, overwrite=overwrite) as tmp, _closing(executor):
         summaries = []
         for ds in datasets:
             folder = tmp / ds.meta.name
             folder.mkdir()
-            result = analyse_dataset(ds, opts, quiet=quiet)
+            result = analyse_dataset(ds, opts, quiet=quiet, executor=executor)
             summary = result["summary"]
             summary["validation"] = reports[ds.meta.name]
             write_dataset_results(folder, result)
@@ -65,6 +82,18 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     return out
 
 
+class _closing:
+    def __init__(self, executor):
+        self.executor = executor
+
+    def __enter__(self):
+        return self.executor
+
+    def __exit__(self, *exc):
+        if self.executor is not None:
+            self.executor.shutdown(cancel_futures=True)
+
+
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,
                  quiet: bool = False, **overrides) -> Path:
     """Write one phantom dataset (see :mod:`oftimg.phantom`) to ``out``."""
@@ -76,7 +105,8 @@ def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195
     return Path(out)
 
 
-def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = False) -> Path:
+def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = False,
+         jobs: int | None = None) -> Path:
     """Generate the built-in phantom cohort and run the whole pipeline on it.
 
     Small (default): one normal and one banded embryo, 40 frames, smaller
@@ -96,5 +126,5 @@ def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = Fals
         data.mkdir()
         for group, seed in specs:
             make_phantom(data / f"{group}_{seed}", group=group, seed=seed, quiet=quiet, **kwargs)
-        run(data, tmp / "results", quiet=quiet)
+        run(data, tmp / "results", quiet=quiet, jobs=jobs)
     return out

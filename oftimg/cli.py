@@ -27,6 +27,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", type=Path, required=True, help="results folder (created)")
     r.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
     r.add_argument("--quiet", action="store_true", help="no progress bars")
+    r.add_argument("--jobs", type=int, default=None,
+                   help="worker processes for per-frame work (default: all cores)")
     r.add_argument("--n-u", type=int, default=80, help="grid nodes around (default 80)")
     r.add_argument("--n-v", type=int, default=50, help="grid nodes along (default 50)")
     r.add_argument("--authalic-weight", type=float, default=0.5,
@@ -37,6 +39,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--full", action="store_true", help="4 normal + 4 banded, 195 frames")
     d.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
     d.add_argument("--quiet", action="store_true", help="no progress bars")
+    d.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
 
     ph = sub.add_parser("phantom", help="write a synthetic beating OFT dataset with truth.json")
     ph.add_argument("out", type=Path, help="dataset folder to create")
@@ -75,11 +78,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
-                          options={"n_u": args.n_u, "n_v": args.n_v,
+                          jobs=args.jobs, options={"n_u": args.n_u, "n_v": args.n_v,
                                    "authalic_weight": args.authalic_weight})
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
         elif args.command == "demo":
-            out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet)
+            out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
+                           jobs=args.jobs)
             print(f"demo data: {out / 'data'}\nresults: {out / 'results'}\n"
                   f"cohort table: {out / 'results' / 'cohort.csv'}")
         elif args.command == "phantom":

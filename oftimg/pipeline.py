@@ -74,17 +74,41 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
     return out
 
 
-def seam_end_points(ds: Dataset, options: GridOptions, progress=None):
-    """Pass 1: per-frame shortest-seam end points, smoothed in time ``(n_t, 3)`` each."""
-    n_t = ds.n_frames
-    p_in = np.empty((n_t, 3))
-    p_out = np.empty((n_t, 3))
-    for t in range(n_t):
-        tb = ds.tube("outer", t)
-        p_in[t], p_out[t], _ = seam_endpoints(tb.V, tb.F, tb.inlet, tb.outlet,
-                                              method=options.seam_method)
+def frame_seam_end_points(ds: Dataset, t: int, method: str):
+    """End points (mm) of frame ``t``'s shortest inlet-to-outlet geodesic."""
+    tb = ds.tube("outer", t)
+    p_in, p_out, _ = seam_endpoints(tb.V, tb.F, tb.inlet, tb.outlet, method=method)
+    return p_in, p_out
+
+
+def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> list:
+    """``[fn(*args) for args in arg_tuples]``, in worker processes when an
+    ``executor`` (any ``concurrent.futures.Executor``) is given; results in order."""
+    if executor is None:
+        out = []
+        for args in arg_tuples:
+            out.append(fn(*args))
+            if progress:
+                progress()
+        return out
+    from concurrent.futures import as_completed
+
+    futures = {executor.submit(fn, *args): k for k, args in enumerate(arg_tuples)}
+    out = [None] * len(futures)
+    for fut in as_completed(futures):
+        out[futures[fut]] = fut.result()
         if progress:
             progress()
+    return out
+
+
+def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=None):
+    """Pass 1: per-frame shortest-seam end points, smoothed in time ``(n_t, 3)`` each."""
+    pts = run_tasks(frame_seam_end_points,
+                    [(ds, t, options.seam_method) for t in range(ds.n_frames)],
+                    executor=executor, progress=progress)
+    p_in = np.array([p[0] for p in pts])
+    p_out = np.array([p[1] for p in pts])
     return (smooth_endpoints(p_in, options.seam_smoothing_frames),
             smooth_endpoints(p_out, options.seam_smoothing_frames))
 
@@ -96,24 +120,25 @@ def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
     return np.concatenate([np.zeros((1,) + step.shape[1:]), np.cumsum(step, axis=0)], axis=0)
 
 
-def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = False) -> dict:
+def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = False,
+                    executor=None) -> dict:
     """All stages for one dataset. Returns ``summary``, ``arrays``, ``grids``.
 
     Every time axis of the result starts at the frame of minimum outer volume
-    (``summary["t0_frame"]`` is its input index).
+    (``summary["t0_frame"]`` is its input index). The per-frame work runs in
+    ``executor``'s workers when one is given; the temporally coupled steps
+    (seam end-point smoothing, alignment, clipping) run here.
     """
     opts = options.grid
     timings = {}
     n_t = ds.n_frames
     bar = Progress(2 * n_t, f"{ds.meta.name}", quiet=quiet)
     tick = time.perf_counter()
-    p_in, p_out = seam_end_points(ds, opts, progress=bar.advance)
+    p_in, p_out = seam_end_points(ds, opts, progress=bar.advance, executor=executor)
     timings["seam_end_points_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    frames = []
-    for t in range(n_t):
-        frames.append(process_frame(ds, t, p_in[t], p_out[t], opts))
-        bar.advance()
+    frames = run_tasks(process_frame, [(ds, t, p_in[t], p_out[t], opts) for t in range(n_t)],
+                       executor=executor, progress=bar.advance)
     bar.close()
     timings["frames_s"] = time.perf_counter() - tick
     walls = list(frames[0]["grid"])

@@ -33,6 +33,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--n-v", type=int, default=50, help="grid nodes along (default 50)")
     r.add_argument("--authalic-weight", type=float, default=0.5,
                    help="Desbrun blend: 0 conformal, 1 authalic (default 0.5)")
+    r.add_argument("--warp", action="store_true",
+                   help="resample time in two segments so maximum expansion is at mid-cycle")
 
     d = sub.add_parser("demo", help="make the built-in phantom cohort and process it")
     d.add_argument("--out", type=Path, default=Path("oftimg-demo"), help="results folder")
@@ -46,8 +48,10 @@ def _parser() -> argparse.ArgumentParser:
     ph.add_argument("--group", choices=["normal", "banded"], default="normal")
     ph.add_argument("--seed", type=int, default=0)
     ph.add_argument("--frames", type=int, default=195)
-    ph.add_argument("--vertices", type=int, nargs=2, metavar=("MIN", "MAX"),
+    ph.add_argument("--vertices", "--resolution", type=int, nargs=2, metavar=("MIN", "MAX"),
                     help="vertex count range of each frame's mesh (default 4000 8000)")
+    ph.add_argument("--noise-mm", type=float, default=0.0,
+                    help="radial surface noise, standard deviation in mm (e.g. 0.001)")
     ph.add_argument("--quiet", action="store_true")
 
     v = sub.add_parser("validate", help="check a dataset and print a per-surface report")
@@ -87,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"demo data: {out / 'data'}\nresults: {out / 'results'}\n"
                   f"cohort table: {out / 'results' / 'cohort.csv'}")
         elif args.command == "phantom":
-            extra = {}
+            extra = {"noise_mm": args.noise_mm}
             if args.vertices:
                 extra = {"vertices_min": args.vertices[0], "vertices_max": args.vertices[1]}
             out = api.make_phantom(args.out, group=args.group, seed=args.seed,

@@ -97,7 +97,8 @@ def describe_array(name: str) -> dict:
     fixed = {
         "s_mm": (["v"], "mm", "arc length from the inlet along the outer contours' centroid line, "
                               "time average"),
-        "t_ms": (["t"], "ms", "frame time after alignment (t = 0: minimum outer volume)"),
+        "t_ms": (["t"], "ms", "time since the minimum outer volume of each sample (with --warp: "
+                              "two segments, maximum expansion at the middle sample)"),
         "clip_v": (["t"], "1", "v of the Lagrangian clipping plane (constant myocardial volume)"),
         "trim_percent": (["t"], "%", "trim distance along the centroid line, % of its length"),
         "volume_myocardium_mm3": (["t"], "mm^3", "outer minus inner capped volume"),

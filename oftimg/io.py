@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import re
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -65,7 +65,9 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if path.stat().st_size == 0:
         raise DatasetError(f"{path}: file is empty")
     suffix = path.suffix.lower()
-    if suffix in (".vtk", ".vtp"):
+    if suffix == ".vtp":
+        V, F = _read_vtp(path)
+    elif suffix == ".vtk":
         import meshio
 
         try:
@@ -93,6 +95,30 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if F.min() < 0 or F.max() >= len(V):
         raise DatasetError(f"{path}: face indices out of range 0..{len(V) - 1}")
     return V, F
+
+
+def _read_vtp(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """VTK XML PolyData through the vtk package (meshio does not read .vtp)."""
+    try:
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+        from vtkmodules.vtkFiltersCore import vtkTriangleFilter
+        from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+    except ImportError:
+        raise DatasetError(f"{path}: reading .vtp needs the vtk package "
+                           "(pip install 'oftimg[vtk]')") from None
+    reader = vtkXMLPolyDataReader()
+    if not reader.CanReadFile(str(path)):
+        raise DatasetError(f"{path}: cannot be read as VTK XML PolyData")
+    reader.SetFileName(str(path))
+    tri = vtkTriangleFilter()
+    tri.SetInputConnection(reader.GetOutputPort())
+    tri.Update()
+    poly = tri.GetOutput()
+    if poly.GetNumberOfPoints() == 0 or poly.GetNumberOfPolys() == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    V = vtk_to_numpy(poly.GetPoints().GetData()).astype(np.float64)
+    conn = vtk_to_numpy(poly.GetPolys().GetConnectivityArray()).astype(np.int64)
+    return V, conn.reshape(-1, 3)
 
 
 def write_ply(path: str | Path, V: np.ndarray, F: np.ndarray) -> None:
@@ -144,6 +170,8 @@ def load_tube(path: str | Path, *, unit_scale: float = 1.0,
         topo = check_tube(V, F)
     except MeshError as exc:
         raise DatasetError(f"{path}: {exc}") from None
+    if Path(path).suffix.lower() == ".stl":  # STL stores every triangle's corners apart
+        counts = replace(counts, merged_vertices=0)
     if counts:
         warnings.warn(f"{path}: {counts.describe()}", OftimgWarning, stacklevel=2)
     a, b = topo.loops

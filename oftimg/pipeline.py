@@ -10,7 +10,7 @@ import numpy as np
 
 from . import __version__
 from .io import Dataset, OftimgWarning
-from .cycle import cycle_timing, roll_time
+from .cycle import cycle_timing, resample_time, roll_time, two_segment_warp
 from .image.analysis import analyse_area_maps
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import (GridOptions, closest_points, grid_frame, seam_endpoints,
@@ -25,14 +25,17 @@ class PipelineOptions:
     """All options of a run (recorded in summary.json)."""
 
     grid: GridOptions = field(default_factory=GridOptions)
+    warp: bool = False
 
-    def __init__(self, grid: GridOptions | dict | None = None, **grid_kwargs):
+    def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
+                 **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
         object.__setattr__(self, "grid", grid or GridOptions(**grid_kwargs))
+        object.__setattr__(self, "warp", bool(warp))
 
     def as_dict(self) -> dict:
-        return {"grid": asdict(self.grid)}
+        return {"grid": asdict(self.grid), "warp": self.warp}
 
 
 def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
@@ -177,9 +180,22 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     origins = roll_time(origins, t0, axis=1)
     normals = roll_time(normals, t0, axis=1)
     crossing = roll_time(crossing, t0, axis=1)
+    t_frames = np.arange(n_t, dtype=float)
+    if options.warp:
+        # two segments: minimum volume at 0, maximum expansion at half the cycle
+        t_frames = two_segment_warp(n_t, (timing["t_max_frame"] - t0) % n_t)
+        grid = {w: resample_time(g, t_frames, axis=2) for w, g in grid.items()}
+        area = {w: resample_time(a, t_frames, axis=1) for w, a in area.items()}
+        contour = {w: resample_time(c, t_frames, axis=2) for w, c in contour.items()}
+        volume = {w: resample_time(v, t_frames) for w, v in volume.items()}
+        centroid = resample_time(centroid, t_frames, axis=1)
+        origins = resample_time(origins, t_frames, axis=1)
+        normals = resample_time(normals, t_frames, axis=1)
+        normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+        crossing = resample_time(crossing.astype(float), t_frames, axis=1) > 0
     s_rows = centroid_arc_length(centroid)                              # (n_v, n_t)
     s_mm = s_rows.mean(axis=1)
-    t_ms = np.arange(n_t) * ds.meta.period_ms / n_t
+    t_ms = t_frames * ds.meta.period_ms / n_t
 
     arrays = {"s_mm": s_mm, "t_ms": t_ms}
     for w in walls:
@@ -194,6 +210,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "name": ds.meta.name, "group": ds.meta.group, "n_frames": n_t,
         "period_ms": ds.meta.period_ms,
         "t0_frame": t0,
+        "time_warp": options.warp,
         "expand_fraction": timing["expand_fraction"],
         "contract_fraction": timing["contract_fraction"],
         "expand_contract_ratio": timing["expand_contract_ratio"],

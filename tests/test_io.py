@@ -95,6 +95,37 @@ def test_meta_inlet_point_decides(tmp_path):
     assert tube.V[tube.inlet, 2].mean() == pytest.approx(1.0)
 
 
+@pytest.mark.parametrize("suffix", [".vtk", ".vtp", ".obj", ".stl", ".off"])
+def test_other_formats_load_the_same_tube(tmp_path, suffix):
+    import meshio
+
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    path = tmp_path / f"f0{suffix}"
+    if suffix == ".vtp":
+        from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+        from vtkmodules.vtkCommonCore import vtkPoints
+        from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+        from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+        pts = vtkPoints()
+        pts.SetData(numpy_to_vtk(V))
+        cells = vtkCellArray()
+        cells.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 3 * len(F) + 1, 3)),
+                      numpy_to_vtkIdTypeArray(F.ravel().copy()))
+        poly = vtkPolyData()
+        poly.SetPoints(pts)
+        poly.SetPolys(cells)
+        writer = vtkXMLPolyDataWriter()
+        writer.SetFileName(str(path))
+        writer.SetInputData(poly)
+        writer.Write()
+    else:
+        meshio.write(path, meshio.Mesh(V, [("triangle", F)]))
+    tube = load_tube(path)
+    assert len(tube.F) == len(F)
+    assert np.allclose(np.sort(tube.V[:, 2]), np.sort(V[:, 2]), atol=1e-5)
+
+
 def test_repairs_are_counted(tmp_path):
     V, F = tube_mesh(n_theta=20, n_s=6)
     V2 = np.concatenate([V, V[:3]])  # 3 duplicate vertices used by one face each

@@ -117,6 +117,28 @@ def describe_array(name: str) -> dict:
     if name in fixed:
         dims, unit, text = fixed[name]
         return {"dims": dims, "unit": unit, "description": text}
+    if name == "corner_count_per_row":
+        return {"dims": ["v"], "unit": "1", "description": "curvature maxima around the outer "
+                "contour at each row's minimum-area frame"}
+    fields = {
+        "radial_curvature_{w}_per_mm": ("1/mm", "signed in-plane curvature of the {w} section "
+                                                "contours (Savitzky-Golay, 7 points)"),
+        "strain_energy_{w}": ("1", "(l1-1)^2 + (l2-1)^2 of the {w} grid against t = 0"),
+        "mean_curvature_lumen_per_mm": ("1/mm", "mean curvature of the lumen (cotangent "
+                                                "Laplacian; rim vertices: mean of neighbours)"),
+    }
+    for w in WALLS:
+        for pattern, (unit, text) in fields.items():
+            f = pattern.format(w=w)
+            if name == f:
+                return {"dims": ["u", "v", "t"], "unit": unit, "description": text.format(w=w)}
+            for which in ("max", "min"):
+                if name == f"phase_{which}_{f}_ms":
+                    return {"dims": ["u", "v"], "unit": "ms",
+                            "description": f"time of each pixel's {which}imum of {f}"}
+        if name == f"principal_stretch_{w}":
+            return {"dims": ["u", "v", "t", "l1,l2"], "unit": "1",
+                    "description": f"principal stretches of the {w} grid against t = 0"}
     per_wall = {
         "max_area_{w}_mm2": (["v"], "mm^2", "maximum over the cycle of the {w} area"),
         "expanded_fraction_75_{w}": (["v"], "1", "share of the cycle with {w} area >= 75 % of "
@@ -166,4 +188,7 @@ def write_dataset_results(folder: Path, result: dict) -> None:
     from .figures import dataset_figures
 
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])
+    from .video import dataset_videos
+
+    dataset_videos(folder / "videos", arrays)
     write_json(folder / "summary.json", result["summary"])

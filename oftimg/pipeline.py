@@ -12,10 +12,14 @@ from . import __version__
 from .io import Dataset, OftimgWarning
 from .cycle import cycle_timing, resample_time, roll_time, two_segment_warp
 from .image.analysis import analyse_area_maps
+from .image.normalize import phase_maps
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import (GridOptions, closest_points, grid_frame, seam_endpoints,
                         smooth_endpoints)
 from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
+from .mesh.curvature import (contour_curvature, count_corners, fill_boundary,
+                             vertex_mean_curvature)
+from .mesh.strain import grid_strain
 from .mesh.topology import capped_signed_volume
 from .progress import Progress
 
@@ -63,6 +67,9 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
         tl = ds.tube("lumen", t)
         gl = grid_frame(tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out, options)
         walls["lumen"] = (tl, gl.X, gl)
+        rim = np.concatenate([tl.inlet, tl.outlet])
+        H = fill_boundary(vertex_mean_curvature(tl.V, tl.F, rim), tl.F, rim)
+        out["mean_curvature_lumen"] = closest_points(tl.V, tl.F, gl.X, H)[1]
     for wall, (tube, Xw, gw) in walls.items():
         area, centroid, contour = sections_of_mesh(tube.V, tube.F, origins, normals,
                                                    Xw[0], n_c)
@@ -114,6 +121,39 @@ def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=N
     p_out = np.array([p[1] for p in pts])
     return (smooth_endpoints(p_in, options.seam_smoothing_frames),
             smooth_endpoints(p_out, options.seam_smoothing_frames))
+
+
+def shape_fields(grid, contour, normals, area, frames, t0, warp_frames, period_ms) -> dict:
+    """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
+
+    Radial curvature of the outer and inner section contours, lumen mean
+    curvature on the lumen grid, strain energy and principal stretches of the
+    outer and inner grids against t = 0, their phase maps, and the corner
+    count of the outer contours at each row's own maximum contraction.
+    """
+    arrays = {}
+    for w in ("outer", "inner"):
+        if w in contour:
+            k = contour_curvature(contour[w], normals[None])
+            arrays[f"radial_curvature_{w}_per_mm"] = k.astype(np.float32)
+            energy, stretch = grid_strain(grid[w])
+            arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
+            arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
+    if "mean_curvature_lumen" in frames[0]:
+        H = roll_time(np.stack([f["mean_curvature_lumen"] for f in frames], axis=2), t0, axis=2)
+        if warp_frames is not None:
+            H = resample_time(H, warp_frames, axis=2)
+        arrays["mean_curvature_lumen_per_mm"] = H.astype(np.float32)
+    for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv"))]:
+        t_max, t_min = phase_maps(arrays[name], period_ms)
+        arrays[f"phase_max_{name}_ms"] = t_max.astype(np.float32)
+        arrays[f"phase_min_{name}_ms"] = t_min.astype(np.float32)
+    k = arrays["radial_curvature_outer_per_mm"]
+    rows_min = np.nanargmin(area["outer"], axis=1)
+    counts = np.array([count_corners(k[:, j, rows_min[j]]) for j in range(k.shape[1])])
+    arrays["corner_count_per_row"] = counts
+    values, freq = np.unique(counts[1:-1], return_counts=True)
+    return {"arrays": arrays, "corner_count": int(values[np.argmax(freq)])}
 
 
 def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
@@ -232,6 +272,12 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             grid[f"{w}_clipped"] = np.stack(
                 [clip_grid(grid[w][:, :, t], *plane_at(origins[:, t], normals[:, t], clip_v[t]))
                  for t in range(n_t)], axis=2)
+    tick = time.perf_counter()
+    fields = shape_fields(grid, contour, normals, area, frames, t0, t_frames if options.warp
+                          else None, ds.meta.period_ms)
+    arrays.update(fields.pop("arrays"))
+    summary.update(fields)
+    timings["fields_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     map_arrays, map_summary = analyse_area_maps(area, s_mm, ds.meta.period_ms)
     timings["image_analysis_s"] = time.perf_counter() - tick

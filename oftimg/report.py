@@ -26,6 +26,7 @@ COHORT_COLUMNS = [
     ("max_expansion_rate_mm2_ms", ("max_expansion_rate_mm2_ms",)),
     ("max_contraction_rate_mm2_ms", ("max_contraction_rate_mm2_ms",)),
     ("band_position_mm", ("band_position_mm",)),
+    ("corner_count", ("corner_count",)),
     ("tube_length_mm", ("tube_length_mm",)),
     ("myocardial_volume_change", ("myocardial_volume_change",)),
     ("flipped_triangles_outer", ("flipped_triangles", "outer")),

@@ -52,3 +52,43 @@ def test_rerun_needs_overwrite_and_keeps_results(run_out, phantom_normal, capsys
     assert main(["run", str(phantom_normal), "--out", str(run_out), "--quiet"]) == 2
     assert (run_out / "normal" / "summary.json").read_text() == before
     assert not [p for p in run_out.parent.iterdir() if ".partial-" in p.name]
+
+
+def test_videos_read_back(run_out):
+    import imageio.v2 as imageio
+
+    videos = sorted((run_out / "normal" / "videos").glob("*.mp4"))
+    assert {v.name for v in videos} >= {"radial_curvature_outer.mp4",
+                                        "radial_curvature_outer_normalized.mp4",
+                                        "strain_energy_outer.mp4",
+                                        "strain_energy_outer_per_frame.mp4",
+                                        "mean_curvature_lumen.mp4", "area_map_cursor.mp4"}
+    for path in videos:
+        reader = imageio.get_reader(path)
+        meta = reader.get_meta_data()
+        assert meta["codec"] == "h264" and meta["pix_fmt"].startswith("yuv420p")
+        w, h = meta["size"]
+        assert w % 2 == 0 and h % 2 == 0
+        assert reader.count_frames() == 36
+        first, mid = reader.get_data(0).astype(float), reader.get_data(18).astype(float)
+        assert np.abs(first - mid).mean() > 1.0  # the picture changes over the cycle
+        reader.close()
+
+
+def test_fields_on_the_phantom(run_out, phantom_normal):
+    truth = json.loads((phantom_normal / "truth.json").read_text())
+    summary = json.loads((run_out / "normal" / "summary.json").read_text())
+    assert summary["corner_count"] == truth["corner_count"]
+    a = np.load(run_out / "normal" / "arrays.npz")
+    k = a["radial_curvature_outer_per_mm"]
+    area = a["area_outer_mm2"]
+    assert k.shape == (80, 50, 36) and k.dtype == np.float32
+    # rounder when expanded: curvature varies less around the contour (paper 7.3)
+    rows = range(5, 45)
+    cv = lambda t, j: k[:, j, t].std() / k[:, j, t].mean()  # noqa: E731
+    expanded = np.mean([cv(np.argmax(area[j]), j) for j in rows])
+    contracted = np.mean([cv(np.argmin(area[j]), j) for j in rows])
+    assert expanded < contracted
+    e = a["strain_energy_outer"]
+    assert np.nanmax(np.abs(e[:, :, 0])) < 1e-12  # the reference frame itself
+    assert a["mean_curvature_lumen_per_mm"].shape == (80, 50, 36)

@@ -1,0 +1,94 @@
+"""Curvature: radial (in-plane) curvature of section contours, mean curvature of surfaces."""
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import find_peaks, savgol_filter
+
+from .parameterize import corner_cotangents
+
+
+def contour_curvature(C: np.ndarray, normal: np.ndarray, *, window: int = 7) -> np.ndarray:
+    """Signed curvature (1/mm) of closed planar contours within their plane.
+
+    ``C (n, ..., 3)``: points evenly spaced by arc length, turning positively
+    about ``normal (..., 3)`` (as u does); positive where the contour is
+    convex. Derivatives come from a Savitzky-Golay fit (quadratic, ``window``
+    points, periodic), which keeps point noise from blowing up the second
+    derivative.
+    """
+    C = np.asarray(C, float)
+    normal = np.asarray(normal, float)
+    normal = normal / np.linalg.norm(normal, axis=-1, keepdims=True)
+    # derivatives per sample: (x' x x'') . n / |x'|^3 does not depend on the parameter
+    d1 = savgol_filter(C, window, 2, deriv=1, axis=0, mode="wrap")
+    d2 = savgol_filter(C, window, 2, deriv=2, axis=0, mode="wrap")
+    cross = np.einsum("...i,...i", np.cross(d1, d2), np.broadcast_to(normal, C.shape))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return cross / np.linalg.norm(d1, axis=-1) ** 3
+
+
+def count_corners(curvature: np.ndarray, *, min_prominence: float = 0.2) -> int:
+    """Number of curvature maxima around a closed contour ``(n,)``.
+
+    A maximum counts when its prominence is at least ``min_prominence`` times
+    the curvature's range around the contour (periodic).
+    """
+    k = np.asarray(curvature, float)
+    if not np.all(np.isfinite(k)) or np.ptp(k) == 0:
+        return 0
+    n = len(k)
+    tiled = np.concatenate([k, k, k])
+    peaks, _ = find_peaks(tiled, prominence=min_prominence * np.ptp(k))
+    return int(np.count_nonzero((peaks >= n) & (peaks < 2 * n)))
+
+
+def vertex_mean_curvature(V: np.ndarray, F: np.ndarray, boundary: np.ndarray | None = None
+                          ) -> np.ndarray:
+    """Mean curvature (1/mm) at each vertex: half the cotangent-Laplacian
+    mean-curvature normal's length over the mixed (barycentric) area, signed
+    positive where the surface bends away from its (outward) normal, as a
+    cylinder does. Boundary vertices (``boundary``) are NaN: their one-ring is
+    not closed.
+    """
+    cots = corner_cotangents(V, F)
+    n = len(V)
+    LV = np.zeros((n, 3))
+    for k in range(3):
+        i, j, o = F[:, k], F[:, (k + 1) % 3], F[:, (k + 2) % 3]
+        w = cots[:, (k + 2) % 3][:, None] * (V[j] - V[i])  # opposite angle of edge (i, j)
+        np.add.at(LV, i, w)
+        np.add.at(LV, j, -w)
+    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
+    fn = np.cross(e1, e2)
+    area = 0.5 * np.linalg.norm(fn, axis=1)
+    A = np.zeros(n)
+    for k in range(3):
+        np.add.at(A, F[:, k], area / 3.0)
+    normals = np.zeros((n, 3))
+    for k in range(3):
+        np.add.at(normals, F[:, k], fn)
+    # LV = sum_j (cot a_ij + cot b_ij) (x_j - x_i) = -4 A H n (Meyer et al. 2003)
+    H = np.linalg.norm(LV, axis=1) / (4.0 * np.maximum(A, 1e-300))
+    sign = -np.sign(np.einsum("ij,ij->i", LV, normals))
+    H = H * np.where(sign == 0, 1.0, sign)
+    if boundary is not None:
+        H[np.asarray(boundary)] = np.nan
+    return H
+
+
+def fill_boundary(values: np.ndarray, F: np.ndarray, boundary: np.ndarray) -> np.ndarray:
+    """Boundary vertices get the mean of their interior neighbours' values."""
+    out = values.copy()
+    b = np.zeros(len(values), dtype=bool)
+    b[boundary] = True
+    total = np.zeros(len(values))
+    count = np.zeros(len(values))
+    for k in range(3):
+        i, j = F[:, k], F[:, (k + 1) % 3]
+        for x, y in ((i, j), (j, i)):
+            take = b[x] & ~b[y] & np.isfinite(values[y])
+            np.add.at(total, x[take], values[y[take]])
+            np.add.at(count, x[take], 1)
+    fill = b & (count > 0)
+    out[fill] = total[fill] / count[fill]
+    return out

@@ -1,0 +1,116 @@
+"""Shape fields with analytic answers (issue 7)."""
+import numpy as np
+import pytest
+
+from helpers import tube_mesh
+from oftimg.image.normalize import per_pixel_normalize, phase_maps
+from oftimg.mesh.curvature import contour_curvature, count_corners, vertex_mean_curvature
+from oftimg.mesh.strain import grid_strain, grid_triangles, principal_stretches
+from oftimg.mesh.topology import check_tube
+
+Z = np.array([0.0, 0.0, 1.0])
+
+
+def even_ellipse(a, b, n=400):
+    """Ellipse points evenly spaced by arc length (counter-clockwise about +z)."""
+    th = np.linspace(0, 2 * np.pi, 20000, endpoint=False)
+    P = np.stack([a * np.cos(th), b * np.sin(th)], -1)
+    s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(np.vstack([P, P[:1]]), axis=0),
+                                                      axis=1))])
+    target = np.linspace(0, s[-1], n, endpoint=False)
+    th_even = np.interp(target, s, np.concatenate([th, [2 * np.pi]]))
+    return np.stack([a * np.cos(th_even), b * np.sin(th_even), np.zeros(n)], -1), th_even
+
+
+def test_circle_curvature():
+    r = 0.15
+    th = np.linspace(0, 2 * np.pi, 80, endpoint=False)
+    C = np.stack([r * np.cos(th), r * np.sin(th), np.zeros_like(th)], -1)
+    k = contour_curvature(C, Z)
+    assert np.allclose(k, 1 / r, rtol=0.01)
+    assert np.allclose(contour_curvature(C[::-1], Z), -1 / r, rtol=0.01)  # turning the other way
+
+
+def test_ellipse_curvature():
+    a, b = 0.2, 0.1
+    C, th = even_ellipse(a, b, 200)
+    k = contour_curvature(C, Z)
+    exact = a * b / (a ** 2 * np.sin(th) ** 2 + b ** 2 * np.cos(th) ** 2) ** 1.5
+    assert np.allclose(k, exact, rtol=0.03)
+
+
+def test_curvature_is_stable_under_noise():
+    r = 0.15
+    th = np.linspace(0, 2 * np.pi, 80, endpoint=False)
+    rng = np.random.default_rng(0)
+    C = np.stack([r * np.cos(th), r * np.sin(th), np.zeros_like(th)], -1)
+    C[:, :2] += rng.normal(0, 2e-4, (80, 2))  # 0.2 um noise on a 150 um circle
+    assert np.median(np.abs(contour_curvature(C, Z) * r - 1)) < 0.1
+
+
+def test_corner_count():
+    th = np.linspace(0, 2 * np.pi, 120, endpoint=False)
+    for k in (3, 4, 5):
+        r = 0.1 * (1 + 0.08 * np.cos(k * th) + 0.03 * np.cos(2 * th))
+        C = np.stack([r * np.cos(th), r * np.sin(th), np.zeros_like(th)], -1)
+        assert count_corners(contour_curvature(C, Z)) == k
+
+
+def test_cylinder_mean_curvature():
+    r = 0.2
+    V, F = tube_mesh(r, length=1.0, n_theta=64, n_s=60)
+    topo = check_tube(V, F)
+    H = vertex_mean_curvature(V, topo.F, np.concatenate(topo.loops))
+    interior = (V[:, 2] > 0.1) & (V[:, 2] < 0.9)
+    assert np.allclose(H[interior], 1 / (2 * r), rtol=0.02)
+    assert np.isnan(H[np.concatenate(topo.loops)]).all()
+
+
+def grid_of(points_fn, n_u=12, n_v=6, n_t=3):
+    u = np.arange(n_u) / n_u
+    v = np.linspace(0, 1, n_v)
+    G = np.empty((n_u, n_v, n_t, 3))
+    for t in range(n_t):
+        G[:, :, t] = points_fn(u[:, None], v[None, :], t)
+    return G
+
+
+def cylinder(r, length):
+    def fn(u, v, t):
+        th = 2 * np.pi * u * np.ones_like(v)
+        return np.stack([r * np.cos(th), r * np.sin(th), length * v * np.ones_like(u)], -1)
+    return fn
+
+
+def test_rigid_motion_has_no_strain():
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.from_euler("xyz", [0.3, -0.2, 1.0]).as_matrix()
+    base = cylinder(0.2, 1.0)
+    G = grid_of(lambda u, v, t: base(u, v, t) @ (R.T if t else np.eye(3)) + t * 0.5)
+    energy, stretch = grid_strain(G)
+    assert np.abs(energy).max() < 1e-20 and np.allclose(stretch, 1.0)
+
+
+def test_uniform_stretch_and_pure_shear():
+    lam = 1.3
+    G = grid_of(lambda u, v, t: cylinder(0.2 * (lam if t else 1), 1.0 * (lam if t else 1))(u, v, t))
+    energy, stretch = grid_strain(G)
+    assert np.allclose(energy[:, :, 1], 2 * (lam - 1) ** 2)
+    # pure shear of a flat triangle: F = [[1, g], [0, 1]]
+    g = 0.4
+    ref = np.array([[0, 0, 0], [1.0, 0, 0], [0, 1.0, 0]])
+    sheared = ref @ np.array([[1, 0, 0], [g, 1, 0], [0, 0, 1.0]])
+    st = principal_stretches(ref, sheared, np.array([[0, 1, 2]]))[0]
+    c = (2 + g ** 2 + np.array([1, -1]) * g * np.sqrt(g ** 2 + 4)) / 2
+    assert np.allclose(st, np.sqrt(c))
+    assert grid_triangles(4, 3).shape == (16, 3)
+
+
+def test_per_pixel_normalization_and_phase():
+    t = np.arange(20)
+    f = np.stack([np.sin(2 * np.pi * (t - 3) / 20) * 5 + 7, np.ones(20)])[None]  # (1, 2, 20)
+    n = per_pixel_normalize(f)
+    assert n[0, 0].min() == 0 and n[0, 0].max() == 1 and np.all(n[0, 1] == 0.5)
+    tmax, tmin = phase_maps(f, 200.0)
+    assert tmax[0, 0] == pytest.approx(80.0) and tmin[0, 0] == pytest.approx(180.0)

@@ -190,5 +190,5 @@ def write_dataset_results(folder: Path, result: dict) -> None:
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])
     from .video import dataset_videos
 
-    dataset_videos(folder / "videos", arrays)
+    dataset_videos(folder / "videos", arrays, result["grids"])
     write_json(folder / "summary.json", result["summary"])

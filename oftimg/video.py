@@ -72,16 +72,20 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
     return np.stack(frames)
 
 
-def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, scale: int = 4, cmap="jet"):
-    """Frames of a ``(n_v, n_t)`` map with a moving time cursor."""
+def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, width: int = 400,
+                      height: int = 300, cmap="jet"):
+    """Frames of a ``(n_v, n_t)`` map (about ``width`` x ``height`` pixels) with a
+    moving time cursor."""
+    sx = max(1, round(width / area.shape[1]))
+    sy = max(1, round(height / area.shape[0]))
     base = cv2.resize(to_rgb(area[::-1], np.nanmin(area), np.nanmax(area), cmap), None,
-                      fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
+                      fx=sx, fy=sy, interpolation=cv2.INTER_NEAREST)
     base = np.concatenate([base, _colour_bar(base.shape[0], np.nanmin(area), np.nanmax(area),
                                              cmap, "area mm^2")], axis=1)
     frames = []
     for t in range(area.shape[1]):
         img = base.copy()
-        x = int((t + 0.5) * scale)
+        x = int((t + 0.5) * sx)
         img[:, max(0, x - 1):x + 1] = 255
         cv2.putText(img, f"t = {t_ms[t]:.0f} ms", (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
                     (255, 255, 255), 1, cv2.LINE_AA)
@@ -92,7 +96,8 @@ def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, scale: int = 4, cma
 def write_mp4(path: Path, frames: np.ndarray, *, fps: float = 30.0) -> Path:
     """Encode ``frames (n, rows, cols, 3) uint8`` as H.264/yuv420p MP4."""
     writer = imageio.get_writer(str(path), fps=fps, codec="libx264", pixelformat="yuv420p",
-                                macro_block_size=16, quality=8, ffmpeg_log_level="error")
+                                macro_block_size=16, quality=8, ffmpeg_log_level="error",
+                                ffmpeg_params=["-preset", "veryfast"])
     try:
         for frame in frames:
             writer.append_data(frame)
@@ -101,7 +106,8 @@ def write_mp4(path: Path, frames: np.ndarray, *, fps: float = 30.0) -> Path:
     return path
 
 
-def dataset_videos(folder: Path, arrays: dict, *, fps: float = 30.0) -> list[Path]:
+def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
+                   fps: float = 30.0) -> list[Path]:
     """All per-dataset videos into ``folder`` (``videos/``)."""
     from .image.normalize import per_pixel_normalize
 
@@ -130,4 +136,94 @@ def dataset_videos(folder: Path, arrays: dict, *, fps: float = 30.0) -> list[Pat
                              fps=fps))
     out.append(write_mp4(folder / "area_map_cursor.mp4",
                          map_cursor_frames(arrays["area_outer_mm2"], t_ms), fps=fps))
+    if grids is not None and h is not None and "lumen" in grids:
+        out.append(write_mp4(folder / "lumen_mean_curvature_3d.mp4",
+                             surface_and_map_frames(grids["lumen"], h, t_ms,
+                                                    label="mean curv. 1/mm"), fps=fps))
+    if grids is not None:
+        G = grids["outer"]
+        area_field = np.broadcast_to(arrays["area_outer_mm2"][None], G.shape[:3])
+        out.append(write_mp4(folder / "outer_wall_3d_area_map.mp4",
+                             surface_and_map_frames(G, area_field, t_ms, cmap="jet",
+                                                    flat=map_cursor_frames(
+                                                        arrays["area_outer_mm2"], t_ms)),
+                             fps=fps))
     return out
+
+
+# ------------------------------------------------------------------ 3-D renders
+class SurfaceCamera:
+    """A fixed pinhole camera looking at a deforming grid along its thinnest axis.
+
+    Set up once from all frames ``G (n_u, n_v, n_t, 3)`` so every frame is
+    seen from the same place; renders headless with open3d's ray casting (no
+    display, no GPU).
+    """
+
+    def __init__(self, G: np.ndarray, *, size: int = 320, fov_deg: float = 40.0):
+        pts = G.reshape(-1, 3)
+        pts = pts[np.isfinite(pts).all(axis=1)]
+        center = pts.mean(axis=0)
+        _, _, axes = np.linalg.svd(pts - center, full_matrices=False)
+        view = axes[2]                        # normal of the plane the tube bends in
+        radius = np.linalg.norm(pts - center, axis=1).max()
+        dist = 1.15 * radius / np.sin(np.radians(fov_deg) / 2)
+        self.eye = center + dist * view
+        self.center, self.up, self.size, self.fov = center, axes[0], size, fov_deg
+        self.light = view
+
+    def render(self, X: np.ndarray, values: np.ndarray, *, vmin: float, vmax: float,
+               cmap: str = "coolwarm") -> np.ndarray:
+        """RGB uint8 ``(size, size, 3)`` of the grid surface ``X (n_u, n_v, 3)`` coloured
+        by ``values (n_u, n_v)`` with simple Lambert shading on a white background."""
+        import open3d as o3d
+
+        from .mesh.strain import grid_triangles
+
+        n_u, n_v, _ = X.shape
+        F = grid_triangles(n_u, n_v)
+        V = X.reshape(-1, 3)
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
+                            o3d.core.Tensor(F.astype(np.uint32)))
+        rays = scene.create_rays_pinhole(self.fov, self.center.tolist(), self.eye.tolist(),
+                                         self.up.tolist(), self.size, self.size)
+        hit = scene.cast_rays(rays)
+        prim = hit["primitive_ids"].numpy().astype(np.int64)
+        ok = prim != np.iinfo(np.uint32).max
+        img = np.full((self.size, self.size, 3), 255, np.uint8)
+        if not ok.any():
+            return img
+        tri = F[prim[ok]]
+        b = hit["primitive_uvs"].numpy()[ok].astype(float)
+        w = np.column_stack([1 - b.sum(axis=1), b])
+        val = np.einsum("ij,ij->i", w, values.reshape(-1)[tri])
+        normals = hit["primitive_normals"].numpy()[ok]
+        shade = 0.35 + 0.65 * np.abs(normals @ self.light)
+        rgb = to_rgb(val, vmin, vmax, cmap).astype(float) * shade[:, None]
+        img[ok] = np.clip(rgb, 0, 255).astype(np.uint8)
+        return img
+
+
+def _fit_height(img: np.ndarray, height: int) -> np.ndarray:
+    scale = height / img.shape[0]
+    return cv2.resize(img, (int(round(img.shape[1] * scale)), height),
+                      interpolation=cv2.INTER_NEAREST)
+
+
+def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, *,
+                           flat: np.ndarray | None = None, cmap: str = "coolwarm",
+                           label: str = "", size: int = 320):
+    """Frames: the 3-D grid surface coloured by ``values (n_u, n_v, n_t)`` next to a
+    flat picture (default the unfolded (u, v) map of the same values)."""
+    finite = values[np.isfinite(values)]
+    lo, hi = np.percentile(finite, [1, 99])
+    camera = SurfaceCamera(G, size=size)
+    if flat is None:
+        flat = field_frames(values, t_ms, vmin=lo, vmax=hi, cmap=cmap, label=label, scale=4)
+    frames = []
+    for t in range(G.shape[2]):
+        view = camera.render(G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap)
+        side = _fit_height(flat[t], size)
+        frames.append(_even(np.concatenate([view, side], axis=1)))
+    return np.stack(frames)

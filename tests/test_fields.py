@@ -114,3 +114,22 @@ def test_per_pixel_normalization_and_phase():
     assert n[0, 0].min() == 0 and n[0, 0].max() == 1 and np.all(n[0, 1] == 0.5)
     tmax, tmin = phase_maps(f, 200.0)
     assert tmax[0, 0] == pytest.approx(80.0) and tmin[0, 0] == pytest.approx(180.0)
+
+
+def test_surface_render_covers_the_view_and_follows_the_motion():
+    from oftimg.video import SurfaceCamera
+
+    n_t = 8
+
+    def pulsing(u, v, t):
+        r = 0.2 * (1 + 0.4 * np.sin(2 * np.pi * t / n_t))
+        th = 2 * np.pi * u * np.ones_like(v)
+        return np.stack([r * np.cos(th), 1.0 * v * np.ones_like(u), r * np.sin(th)], -1)
+
+    G = grid_of(pulsing, n_u=40, n_v=20, n_t=n_t)
+    cam = SurfaceCamera(G, size=160)
+    values = np.broadcast_to(np.linspace(0, 1, 20)[None, :], (40, 20))
+    imgs = [cam.render(G[:, :, t], values, vmin=0, vmax=1) for t in (0, 2)]
+    covered = [(img < 250).any(axis=-1).mean() for img in imgs]
+    assert all(0.05 < c < 0.9 for c in covered)
+    assert covered[1] > covered[0] * 1.2  # expanded tube covers more of the picture

@@ -24,8 +24,20 @@ def _as_dataset_paths(source) -> list[Path]:
     return find_datasets(source)
 
 
-def make_executor(jobs: int | None):
-    """A process pool for ``jobs`` > 1 workers (default: all cores), else None."""
+def make_executor(jobs: int | None, scheduler: str | None = None):
+    """Where per-frame tasks run: a Dask cluster at ``scheduler`` (address), a
+    process pool for ``jobs`` > 1 workers (default: all cores), else None (here).
+
+    With a Dask cluster, every worker must see the dataset files at the same
+    paths (a shared file system).
+    """
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ValueError("--scheduler needs dask.distributed: pip install 'oftimg[dask]'") \
+                from None
+        return Client(scheduler).get_executor()
     jobs = (os.cpu_count() or 1) if jobs is None else int(jobs)
     if jobs < 1:
         raise ValueError(f"--jobs must be at least 1, found {jobs}")
@@ -39,7 +51,8 @@ def make_executor(jobs: int | None):
 
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
-        options: dict | None = None, jobs: int | None = None) -> Path:
+        options: dict | None = None, jobs: int | None = None,
+        scheduler: str | None = None) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
     Every frame of every dataset is validated before any work. Per-frame work
@@ -57,12 +70,22 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     names = [d.meta.name for d in datasets]
     if len(set(names)) != len(names):
         raise ValueError(f"dataset names are not unique: {names}")
-    reports = {}
-    for ds in datasets:
-        reports[ds.meta.name] = validate_dataset(ds)
     started = time.time()
-    executor = make_executor(jobs)
-    with staged_output(out, overwrite=overwrite) as tmp, _closing(executor):
+    executor = make_executor(jobs, scheduler)
+    with _closing(executor):
+        reports = {}
+        for ds in datasets:
+            tick = time.time()
+            reports[ds.meta.name] = validate_dataset(ds, executor=executor)
+            reports[ds.meta.name]["seconds"] = round(time.time() - tick, 2)
+        return _run_validated(datasets, reports, out, paths, opts, executor,
+                              overwrite=overwrite, quiet=quiet, started=started)
+
+
+def _run_validated(datasets, reports, out, paths, opts, executor, *, overwrite, quiet, started):
+    from .pipeline import analyse_dataset
+
+    with staged_output(out, overwrite=overwrite) as tmp:
         summaries = []
         for ds in datasets:
             folder = tmp / ds.meta.name
@@ -91,7 +114,10 @@ class _closing:
 
     def __exit__(self, *exc):
         if self.executor is not None:
-            self.executor.shutdown(cancel_futures=True)
+            try:
+                self.executor.shutdown(cancel_futures=True)
+            except TypeError:  # Dask's ClientExecutor has no cancel_futures
+                self.executor.shutdown()
 
 
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,

@@ -29,6 +29,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.add_argument("--jobs", type=int, default=None,
                    help="worker processes for per-frame work (default: all cores)")
+    r.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run per-frame work on a Dask cluster (e.g. tcp://host:8786)")
     r.add_argument("--n-u", type=int, default=80, help="grid nodes around (default 80)")
     r.add_argument("--n-v", type=int, default=50, help="grid nodes along (default 50)")
     r.add_argument("--authalic-weight", type=float, default=0.5,
@@ -82,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
-                          jobs=args.jobs, options={"n_u": args.n_u, "n_v": args.n_v,
+                          jobs=args.jobs, scheduler=args.scheduler, options={"n_u": args.n_u, "n_v": args.n_v,
                                    "authalic_weight": args.authalic_weight})
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
         elif args.command == "demo":

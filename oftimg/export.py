@@ -178,6 +178,13 @@ def describe_array(name: str) -> dict:
 
 def write_dataset_results(folder: Path, result: dict) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/."""
+    import time
+
+    from .figures import dataset_figures
+    from .video import dataset_videos
+
+    timings = result["summary"].setdefault("timings_s", {})
+    tick = time.perf_counter()
     (folder / "figures").mkdir(exist_ok=True)
     (folder / "videos").mkdir(exist_ok=True)
     grids = {w: g.astype(np.float32) for w, g in result["grids"].items()}
@@ -185,10 +192,11 @@ def write_dataset_results(folder: Path, result: dict) -> None:
     arrays = result["arrays"]
     described = {k: describe_array(k) for k in list(arrays) + list(grids)}
     write_arrays(folder, arrays, described)
-    from .figures import dataset_figures
-
+    timings["write_arrays_s"] = time.perf_counter() - tick
+    tick = time.perf_counter()
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])
-    from .video import dataset_videos
-
+    timings["figures_s"] = time.perf_counter() - tick
+    tick = time.perf_counter()
     dataset_videos(folder / "videos", arrays, result["grids"])
+    timings["videos_s"] = time.perf_counter() - tick
     write_json(folder / "summary.json", result["summary"])

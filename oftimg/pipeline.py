@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from . import __version__
-from .io import Dataset, OftimgWarning
+from .io import Dataset, DatasetError, OftimgWarning
 from .cycle import cycle_timing, resample_time, roll_time, two_segment_warp
 from .image.analysis import analyse_area_maps
 from .image.normalize import phase_maps
@@ -20,7 +20,7 @@ from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
 from .mesh.curvature import (contour_curvature, count_corners, fill_boundary,
                              vertex_mean_curvature)
 from .mesh.strain import grid_strain
-from .mesh.topology import capped_signed_volume
+from .mesh.topology import MeshError, capped_signed_volume
 from .progress import Progress
 
 
@@ -42,43 +42,83 @@ class PipelineOptions:
         return {"grid": asdict(self.grid), "warp": self.warp}
 
 
+class _Clock:
+    """Adds the seconds spent in ``with clock("stage"):`` blocks to a dict."""
+
+    def __init__(self, totals: dict):
+        self.totals = totals
+        self.stage = None
+
+    def __call__(self, stage: str):
+        self.stage = stage
+        return self
+
+    def __enter__(self):
+        self.start = time.perf_counter()
+
+    def __exit__(self, *exc):
+        self.totals[self.stage] = self.totals.get(self.stage, 0.0) + time.perf_counter() - self.start
+
+
+def _named(tube, fn, *args, **kwargs):
+    """Run ``fn``; a mesh problem is reported with the frame's file name."""
+    try:
+        return fn(*args, **kwargs)
+    except MeshError as exc:
+        raise DatasetError(f"{tube.source}: {exc}") from None
+
+
 def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
                   options: GridOptions) -> dict:
     """Everything that needs frame ``t``'s meshes, for all walls at once.
 
     Grids (paper section 4.1), section planes through G(0, v), G(1/3, v),
     G(2/3, v) made non-crossing, each wall's section areas and contours on its
-    original mesh, and each wall's capped volume.
+    original mesh, each wall's capped volume, the lumen's mean curvature.
+    ``out["cpu_s"]`` holds the seconds spent per stage.
     """
     n_c = options.n_u
-    out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {}}
-    tb = ds.tube("outer", t)
-    g = grid_frame(tb.V, tb.F, tb.inlet, tb.outlet, p_in, p_out, options)
+    out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {},
+           "cpu_s": {}}
+    clock = _Clock(out["cpu_s"])
+    with clock("load"):
+        tb = ds.tube("outer", t)
+    with clock("grid"):
+        g = _named(tb, grid_frame, tb.V, tb.F, tb.inlet, tb.outlet, p_in, p_out, options)
     X = g.X
-    origins, normals = section_planes(X)
-    normals, fixes, crossing = fix_crossing_planes(X, origins, normals)
+    with clock("sections"):
+        origins, normals = section_planes(X)
+        normals, fixes, crossing = fix_crossing_planes(X, origins, normals)
     out.update(origins=origins, normals=normals, plane_fixes=fixes, crossing=crossing,
                seam_in=g.seam_in, seam_out=g.seam_out, seam_length_mm=g.seam_length_mm)
     walls = {"outer": (tb, X, g)}
     if "inner" in ds.surfaces:
-        ti = ds.tube("inner", t)
-        walls["inner"] = (ti, closest_points(ti.V, ti.F, X), None)
+        with clock("load"):
+            ti = ds.tube("inner", t)
+        with clock("grid"):
+            walls["inner"] = (ti, closest_points(ti.V, ti.F, X), None)
     if "lumen" in ds.surfaces:
-        tl = ds.tube("lumen", t)
-        gl = grid_frame(tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out, options)
+        with clock("load"):
+            tl = ds.tube("lumen", t)
+        with clock("grid"):
+            gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
+                        options)
         walls["lumen"] = (tl, gl.X, gl)
-        rim = np.concatenate([tl.inlet, tl.outlet])
-        H = fill_boundary(vertex_mean_curvature(tl.V, tl.F, rim), tl.F, rim)
-        out["mean_curvature_lumen"] = closest_points(tl.V, tl.F, gl.X, H)[1]
+        with clock("fields"):
+            rim = np.concatenate([tl.inlet, tl.outlet])
+            H = fill_boundary(vertex_mean_curvature(tl.V, tl.F, rim), tl.F, rim)
+            out["mean_curvature_lumen"] = closest_points(tl.V, tl.F, gl.X, H)[1]
     for wall, (tube, Xw, gw) in walls.items():
-        area, centroid, contour = sections_of_mesh(tube.V, tube.F, origins, normals,
-                                                   Xw[0], n_c)
+        with clock("sections"):
+            area, centroid, contour = sections_of_mesh(tube.V, tube.F, origins, normals,
+                                                       Xw[0], n_c)
         out["grid"][wall] = Xw
         out["flipped"][wall] = gw.flipped if gw else 0
         out["repaired"][wall] = int(bool(gw and gw.flipped_before_repair))
         out["area"][wall] = area
         out["contour"][wall] = contour
-        out["volume"][wall] = capped_signed_volume(tube.V, tube.F, [tube.inlet, tube.outlet])
+        with clock("volumes"):
+            out["volume"][wall] = capped_signed_volume(tube.V, tube.F, [tube.inlet, tube.outlet])
         if wall == "outer":
             out["centroid"] = centroid
     return out
@@ -87,7 +127,7 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
 def frame_seam_end_points(ds: Dataset, t: int, method: str):
     """End points (mm) of frame ``t``'s shortest inlet-to-outlet geodesic."""
     tb = ds.tube("outer", t)
-    p_in, p_out, _ = seam_endpoints(tb.V, tb.F, tb.inlet, tb.outlet, method=method)
+    p_in, p_out, _ = _named(tb, seam_endpoints, tb.V, tb.F, tb.inlet, tb.outlet, method=method)
     return p_in, p_out
 
 
@@ -184,6 +224,11 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                        executor=executor, progress=bar.advance)
     bar.close()
     timings["frames_s"] = time.perf_counter() - tick
+    cpu = {}
+    for f in frames:
+        for k, v in f["cpu_s"].items():
+            cpu[k] = cpu.get(k, 0.0) + v
+    timings["frames_cpu_s"] = cpu
     walls = list(frames[0]["grid"])
     grid = {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls}
     area = {w: np.stack([f["area"][w] for f in frames], axis=1) for w in walls}

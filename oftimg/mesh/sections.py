@@ -13,23 +13,40 @@ def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.
     Returns a list of ``(points (n_pts, 3) mm, closed)``; a closed contour's
     first point is not repeated; open ones end on the mesh boundary.
     """
-    normal = np.asarray(normal, float) / np.linalg.norm(normal)
-    d = (V - origin) @ normal
-    scale = np.abs(d).max() if len(d) else 1.0
-    d = np.where(np.abs(d) < 1e-12 * scale, 1e-12 * scale, d)  # no vertex exactly on the plane
-    side = d > 0
-    cut = side[F].any(axis=1) & ~side[F].all(axis=1)
-    Fc = F[cut]
+    return planes_contours(V, F, np.asarray(origin)[None], np.asarray(normal)[None])[0]
+
+
+def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray
+                    ) -> list[list[tuple[np.ndarray, bool]]]:
+    """:func:`plane_contours` for many planes ``(n_planes, 3)`` at once.
+
+    The signed distances of all vertices to all planes are one matrix product,
+    and each plane then only touches the faces it cuts.
+    """
+    normals = np.asarray(normals, float)
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    D = V @ normals.T - np.einsum("ij,ij->i", origins, normals)[None, :]   # (n_vert, n_planes)
+    scale = np.abs(D).max(axis=0, keepdims=True)
+    D = np.where(np.abs(D) < 1e-12 * scale, 1e-12 * scale, D)  # no vertex exactly on a plane
+    DT = np.ascontiguousarray(D.T)                                          # (n_planes, n_vert)
+    a, b, c = DT[:, F[:, 0]], DT[:, F[:, 1]], DT[:, F[:, 2]]
+    cut = (np.maximum(np.maximum(a, b), c) > 0) & (np.minimum(np.minimum(a, b), c) < 0)
+    return [_contours_of(V, F[cut[k]], DT[k]) for k in range(len(normals))]
+
+
+def _contours_of(V: np.ndarray, Fc: np.ndarray, d: np.ndarray) -> list[tuple[np.ndarray, bool]]:
+    """Chain the segments of the cut faces ``Fc`` of one plane into contours."""
     if len(Fc) == 0:
         return []
+    side = d > 0
     edges, face_edge, _ = edge_incidence(Fc)
     crosses = side[edges[:, 0]] != side[edges[:, 1]]
     da, db = d[edges[:, 0]], d[edges[:, 1]]
     t = np.where(crosses, da / np.where(crosses, da - db, 1.0), 0.0)
     P = V[edges[:, 0]] + t[:, None] * (V[edges[:, 1]] - V[edges[:, 0]])
     # each cut face joins its two crossing edges
-    fe = face_edge
-    pairs = np.array([row[crosses[row]] for row in fe])
+    fe_cross = crosses[face_edge]
+    pairs = face_edge[fe_cross].reshape(-1, 2)
     nbrs: dict[int, list[int]] = {}
     for a, b in pairs.tolist():
         nbrs.setdefault(a, []).append(b)
@@ -220,9 +237,10 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     shift = np.zeros((n_v, 3))
     shift[0] = 0.05 * step * normals[0]
     shift[-1] = -0.05 * step * normals[-1]
+    all_contours = planes_contours(V, F, origins + shift, normals)
     for j in range(n_v):
         o = origins[j] + shift[j]
-        C = contour_around(plane_contours(V, F, o, normals[j]), o, normals[j])
+        C = contour_around(all_contours[j], o, normals[j])
         if C is None:
             continue
         C = C - shift[j]

@@ -1,0 +1,114 @@
+"""End-to-end benchmark of one embryo: seconds per stage, share, peak memory.
+
+    python scripts/bench.py [--frames 195] [--vertices 5500] [--jobs 2] [--json]
+    python scripts/bench.py --sweep          # 49/98/195 frames and 2k/5.5k/20k vertices
+
+Generates (or reuses, in --cache) a phantom of 3 walls, runs the whole pipeline
+(`oftimg.run`), and prints each stage's wall seconds (per-frame stages: CPU
+seconds summed over the workers, scaled to wall time), the time merely to read
+all meshes (the floor no pipeline can beat) and total / read-only.
+Targets (issue 9): 195 frames x 3 walls x 5.5k vertices in < 60 s with 2 jobs,
+< 25 x the read-only time, peak memory < 2 GB.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import oftimg
+from oftimg.io import load_dataset, read_mesh_file
+from oftimg.phantom import sample_params, write_phantom
+
+
+def phantom(cache: Path, frames: int, vertices: int) -> Path:
+    path = cache / f"bench_{frames}f_{vertices}v"
+    if not (path / "truth.json").exists():
+        shutil.rmtree(path, ignore_errors=True)
+        lo, hi = int(vertices * 0.9), int(vertices * 1.1)
+        write_phantom(path, sample_params("normal", 0, n_frames=frames, vertices_min=lo,
+                                          vertices_max=hi))
+    return path
+
+
+def read_only_seconds(path: Path) -> float:
+    ds = load_dataset(path)
+    tick = time.perf_counter()
+    for files in ds.frames.values():
+        for f in files:
+            read_mesh_file(f)
+    return time.perf_counter() - tick
+
+
+def peak_mb() -> float:
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    return max(own, kids) / 1024
+
+
+def bench(path: Path, jobs: int) -> dict:
+    read_s = read_only_seconds(path)
+    with tempfile.TemporaryDirectory() as tmp:
+        tick = time.perf_counter()
+        out = oftimg.run(path, Path(tmp) / "out", quiet=True, jobs=jobs)
+        total = time.perf_counter() - tick
+        summary = json.loads(next(out.glob("*/summary.json")).read_text())
+    tm = summary["timings_s"]
+    frames_wall = tm["frames_s"]
+    cpu = tm["frames_cpu_s"]
+    scale = frames_wall / max(sum(cpu.values()), 1e-9)
+    stages = {"validate (read+check)": summary["validation"]["seconds"],
+              "seam end points": tm["seam_end_points_s"]}
+    stages.update({f"per-frame: {k}": v * scale for k, v in cpu.items()})
+    stages.update({"fields": tm["fields_s"], "image analysis": tm["image_analysis_s"],
+                   "write arrays": tm["write_arrays_s"], "figures": tm["figures_s"],
+                   "videos": tm["videos_s"]})
+    return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total, "read_only_s": read_s,
+            "ratio": total / read_s, "peak_mb": peak_mb(), "stages_s": stages}
+
+
+def print_table(r: dict) -> None:
+    print(f"{r['frames']} frames, jobs {r['jobs']}: total {r['total_s']:.1f} s, read-only "
+          f"{r['read_only_s']:.2f} s (x{r['ratio']:.0f}), peak memory {r['peak_mb']:.0f} MB")
+    for k, v in r["stages_s"].items():
+        print(f"  {k:28s} {v:7.2f} s  {100 * v / r['total_s']:5.1f} %")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--frames", type=int, default=195)
+    ap.add_argument("--vertices", type=int, default=5500)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "oftimg-bench")
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--sweep", action="store_true")
+    args = ap.parse_args()
+    args.cache.mkdir(parents=True, exist_ok=True)
+    if args.sweep:
+        rows = []
+        for f in (49, 98, 195):
+            rows.append(("frames", f, bench(phantom(args.cache, f, args.vertices), args.jobs)))
+        for v in (2000, 5500, 20000):
+            rows.append(("vertices", v, bench(phantom(args.cache, 49, v), args.jobs)))
+        for kind in ("frames", "vertices"):
+            x = np.array([n for k, n, _ in rows if k == kind], float)
+            y = np.array([r["total_s"] for k, _, r in rows if k == kind])
+            slope = np.polyfit(np.log(x), np.log(y), 1)[0]
+            for n, t in zip(x, y):
+                print(f"{kind} {n:7.0f}: {t:7.1f} s")
+            print(f"  time ~ {kind}^{slope:.2f}")
+        return
+    r = bench(phantom(args.cache, args.frames, args.vertices), args.jobs)
+    print(json.dumps(r, indent=2) if args.json else "", end="")
+    if not args.json:
+        print_table(r)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,6 +1,7 @@
 # Two entry points for a fresh machine: `make demo` and `make test`.
 # Both create .venv, install oftimg with its test extras, and install the
-# system library open3d needs (libusb-1.0-0) when `import open3d` fails.
+# system library open3d needs (libusb-1.0-0) when `import open3d` fails;
+# `make test` also installs Debian's chromium for the HTML report test.
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
@@ -25,6 +26,10 @@ demo: $(STAMP)
 	$(VENV)/bin/oftimg demo --out $(DEMO_OUT) --overwrite
 
 test: $(STAMP)
+	command -v chromium >/dev/null || { \
+	  echo "the report test needs a headless browser: installing chromium with apt-get"; \
+	  SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo sudo); \
+	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq chromium; }
 	$(PY) -m pytest
 
 clean:

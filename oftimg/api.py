@@ -95,13 +95,26 @@ def _run_validated(datasets, reports, out, paths, opts, executor, *, overwrite, 
             summary["validation"] = reports[ds.meta.name]
             write_dataset_results(folder, result)
             summaries.append(summary)
-        from .report import write_cohort_table
+        from .report import write_cohort_markdown, write_cohort_table, write_groups_table
+
+        from .figures import group_figures
+        from .html import cohort_page, dataset_page
 
         write_cohort_table(tmp, summaries)
-        write_json(tmp / "run.json", {
+        write_cohort_markdown(tmp, summaries)
+        write_groups_table(tmp, summaries)
+        group_figs = []
+        if len({s["group"] for s in summaries}) >= 2:
+            (tmp / "figures").mkdir()
+            group_figs = group_figures(tmp, summaries, tmp / "figures")
+        for s in summaries:
+            dataset_page(tmp / s["name"], s)
+        run_info = {
             "oftimg_version": __version__, "python": sys.version.split()[0],
             "platform": platform.platform(), "inputs": [str(p) for p in paths],
-            "options": opts.as_dict(), "seconds": round(time.time() - started, 2)})
+            "options": opts.as_dict(), "seconds": round(time.time() - started, 2)}
+        write_json(tmp / "run.json", run_info)
+        cohort_page(tmp, summaries, run_info, group_figs)
     return out
 
 

@@ -138,7 +138,8 @@ def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Pat
     ax.set_ylabel("position along the tube s (mm)")
     ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7, loc="upper right", framealpha=0.6)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="upper right", framealpha=0.6)
     return _save(fig, path)
 
 
@@ -250,4 +251,49 @@ def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms:
     written.append(ridge_plot(s_mm, arrays["ridge_t_ms"], folder / "ridge_speed.png",
                               knee=summary["wave_two_segment"], speed=arrays["local_speed_mm_s"],
                               title=name))
+    return written
+
+
+# ------------------------------------------------------------------ cohort figures
+def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Path]:
+    """Groups overlaid (normals left, banded right, as the paper): maximum area,
+    ridge time and % time expanded vs position, and volume over the aligned cycle.
+    Reads each dataset's ``arrays.npz`` from ``results``."""
+    groups = sorted({s["group"] for s in summaries}, key=lambda g: (g != "normal", g))
+    data = {s["name"]: np.load(Path(results) / s["name"] / "arrays.npz") for s in summaries}
+    panels = [("max_area_outer_mm2", "maximum outer area (mm$^2$)", "group_max_area.png"),
+              ("ridge_t_ms", "time of maximum area (ms)", "group_ridge_time.png"),
+              ("expanded_fraction_sigma_outer", "time expanded, one sigma (% of cycle)",
+               "group_time_expanded.png")]
+    written = []
+    for key, ylabel, fname in panels:
+        fig, axes = plt.subplots(1, len(groups), figsize=(4.5 * len(groups), 3.6), sharey=True,
+                                 squeeze=False)
+        for ax, g in zip(axes[0], groups):
+            for s in summaries:
+                if s["group"] != g:
+                    continue
+                a = data[s["name"]]
+                y = a[key] * (100 if "fraction" in key else 1)
+                ax.plot(a["s_mm"], y, lw=1.4, label=s["name"])
+            ax.set_title(g, fontsize=10)
+            ax.set_xlabel("position along the tube s (mm)")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7)
+        axes[0][0].set_ylabel(ylabel)
+        written.append(_save(fig, folder / fname))
+    fig, ax = plt.subplots(figsize=(6, 3.6))
+    colours = dict(zip(groups, ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")))
+    for s in summaries:
+        a = data[s["name"]]
+        v = a["volume_outer_mm3"]
+        ax.plot(a["t_ms"] / s["period_ms"], v / v.mean(), color=colours[s["group"]], lw=1.2,
+                label=s["group"])
+    handles, labels = ax.get_legend_handles_labels()
+    uniq = dict(zip(labels, handles))
+    ax.legend(uniq.values(), uniq.keys(), fontsize=8)
+    ax.set_xlabel("fraction of the cycle since minimum volume")
+    ax.set_ylabel("outer volume / its mean")
+    ax.grid(alpha=0.3)
+    written.append(_save(fig, folder / "group_volume.png"))
     return written

@@ -5,7 +5,7 @@ import warnings
 
 import numpy as np
 
-from .band import detect_band
+from .band import detect_band, neck_depth
 from .gradient import area_rates
 from .kymograph import cycle_speed, local_speed, ridge_times, two_segment_fit, wave_speed_summary
 from .masks import expanded_75, expanded_sigma
@@ -49,6 +49,7 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     summary["max_expansion_rate_mm2_ms"] = expand_rate
     summary["max_contraction_rate_mm2_ms"] = contract_rate
     summary["band_position_mm"] = detect_band(area["outer"], s_mm)
+    summary["max_area_neck_depth"] = neck_depth(area["outer"])
     summary["expanded_fraction_75_mean"] = float(np.nanmean(arrays["expanded_fraction_75_outer"]))
     summary["image_analysis_notes"] = notes
     return arrays, summary

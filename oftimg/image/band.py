@@ -35,3 +35,17 @@ def detect_band(area: np.ndarray, s_mm: np.ndarray, *, min_prominence: float = 0
     denom = y0 - 2 * y1 + y2
     off = 0.5 * (y0 - y2) / denom if denom > 0 else 0.0
     return float(np.interp(j + np.clip(off, -0.5, 0.5), np.arange(len(s)), s))
+
+
+def neck_depth(area: np.ndarray) -> float:
+    """Deepest interior neck of the maximum-area profile, relative to its median.
+
+    The largest prominence of a local minimum of ``max_t A(v, t)`` divided by
+    the profile's median; 0 for a profile without interior minima (a plain
+    taper). Defined for every embryo, so groups can be compared on it.
+    """
+    amax = np.nanmax(np.asarray(area, float), axis=1)
+    _, props = find_peaks(-amax, prominence=0)
+    if len(props["prominences"]) == 0:
+        return 0.0
+    return float(props["prominences"].max() / np.nanmedian(amax))

@@ -1,0 +1,130 @@
+"""A static HTML report that opens offline from the file system (no server, no CDN)."""
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+from .report import COHORT_COLUMNS, cohort_rows, group_comparison
+
+STYLE = """
+body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1200px;color:#222}
+table{border-collapse:collapse;font-size:0.85em;margin:1em 0}
+th,td{border:1px solid #ccc;padding:3px 6px;text-align:right}
+th{background:#f3f3f3} td:first-child,th:first-child{text-align:left}
+img{max-width:100%;border:1px solid #eee;margin:4px 0}
+video{max-width:100%;margin:4px 0;background:#000}
+.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(480px,1fr));gap:10px}
+.small{color:#666;font-size:0.85em} .sig{background:#fde2e2}
+"""
+
+# Checks, once the page has loaded, that every picture and video could be read;
+# the result lands in #oftimg-check (used by the browser test).
+CHECK = """
+<div id="oftimg-check" hidden>pending</div>
+<script>
+window.addEventListener('load', function () {
+  var bad = [];
+  document.querySelectorAll('img').forEach(function (i) {
+    if (!i.complete || i.naturalWidth === 0) bad.push(i.getAttribute('src'));
+  });
+  var vids = Array.prototype.slice.call(document.querySelectorAll('video'));
+  var waits = vids.map(function (v) {
+    return new Promise(function (done) {
+      if (v.readyState >= 1) return done();
+      v.addEventListener('loadedmetadata', function () { done(); });
+      v.addEventListener('error', function () { bad.push(v.getAttribute('src')); done(); });
+      setTimeout(done, 4000);
+    });
+  });
+  Promise.all(waits).then(function () {
+    vids.forEach(function (v) { if (v.readyState < 1) bad.push(v.getAttribute('src')); });
+    document.getElementById('oftimg-check').textContent =
+      bad.length ? 'missing: ' + bad.join(', ') : 'all resources loaded';
+  });
+});
+</script>
+"""
+
+
+def _fmt(x) -> str:
+    if isinstance(x, float):
+        return "nan" if x != x else f"{x:.4g}"
+    return html.escape("" if x is None else str(x))
+
+
+def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None) -> str:
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in cols)
+    body = []
+    for r in rows:
+        cells = []
+        for c in cols:
+            text = _fmt(r.get(c))
+            if link and c == cols[0]:
+                text = f'<a href="{html.escape(link(r))}">{text}</a>'
+            cells.append(f"<td>{text}</td>")
+        cls = ' class="sig"' if highlight and highlight(r) else ""
+        body.append(f"<tr{cls}>{''.join(cells)}</tr>")
+    return (f"<div style=\"overflow-x:auto\"><table><tr>{head}</tr>{''.join(body)}</table>"
+            "</div>")
+
+
+def _page(title: str, body: str) -> str:
+    return (f"<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>{html.escape(title)}</title><style>{STYLE}</style></head>"
+            f"<body>{body}{CHECK}</body></html>")
+
+
+def dataset_page(folder: Path, summary: dict) -> Path:
+    """``<name>/index.html``: the numbers, every figure and every video of one dataset."""
+    figs = sorted((folder / "figures").glob("*.png"))
+    vids = sorted((folder / "videos").glob("*.mp4"))
+    keys = ["group", "n_frames", "period_ms", "t0_frame", "expand_fraction", "contract_fraction",
+            "expand_ms", "contract_ms", "tube_length_mm", "myocardial_volume_change",
+            "band_position_mm", "corner_count"]
+    rows = [{"quantity": k, "value": summary.get(k)} for k in keys if k in summary]
+    for k, v in (summary.get("wave_speed_mm_s") or {}).items():
+        rows.append({"quantity": f"wave speed {k} (mm/s)", "value": v})
+    body = [f"<p><a href=\"../index.html\">cohort</a></p><h1>{html.escape(summary['name'])}</h1>",
+            _table(rows, ["quantity", "value"]), "<h2>Figures</h2><div class=\"grid\">"]
+    body += [f'<figure><img src="figures/{f.name}" alt="{f.stem}"><figcaption class="small">'
+             f'{f.stem}</figcaption></figure>' for f in figs]
+    body.append("</div><h2>Videos</h2><div class=\"grid\">")
+    body += [f'<figure><video src="videos/{v.name}" controls muted loop preload="metadata">'
+             f'</video><figcaption class="small">{v.stem}</figcaption></figure>' for v in vids]
+    body.append("</div><h2>Provenance</h2><pre class=\"small\">"
+                + html.escape(json.dumps({k: summary.get(k) for k in
+                                          ("provenance", "timings_s")}, indent=1)[:20000])
+                + "</pre>")
+    path = folder / "index.html"
+    path.write_text(_page(summary["name"], "".join(body)))
+    return path
+
+
+def cohort_page(out: Path, summaries: list[dict], run_info: dict,
+                group_figs: list[Path]) -> Path:
+    """``index.html``: cohort table, group comparison and figures, provenance."""
+    cols = [c for c, _ in COHORT_COLUMNS]
+    body = ["<h1>oftimg results</h1>",
+            f"<p class=\"small\">{len(summaries)} datasets; oftimg "
+            f"{html.escape(str(run_info.get('oftimg_version')))}, "
+            f"{_fmt(run_info.get('seconds'))} s</p>",
+            "<h2>Cohort (Table 1)</h2>",
+            _table(cohort_rows(summaries), cols, link=lambda r: f"{r['name']}/index.html")]
+    comp = group_comparison(summaries)
+    if comp and len({s["group"] for s in summaries}) >= 2:
+        ccols = list(comp[0])
+        body += ["<h2>Groups</h2><p class=\"small\">two-sided permutation test of the "
+                 "difference of means (exact for up to 10 per group); p &lt; 0.05 shaded</p>",
+                 _table(comp, ccols, highlight=lambda r: r["p_value"] == r["p_value"]
+                        and r["p_value"] < 0.05)]
+    if group_figs:
+        body.append("<div class=\"grid\">")
+        body += [f'<img src="{p.relative_to(out).as_posix()}" alt="{p.stem}">'
+                 for p in group_figs]
+        body.append("</div>")
+    body.append("<h2>Run</h2><pre class=\"small\">"
+                + html.escape(json.dumps(run_info, indent=1)) + "</pre>")
+    path = out / "index.html"
+    path.write_text(_page("oftimg results", "".join(body)))
+    return path

@@ -1,0 +1,85 @@
+"""The offline HTML report, opened in a real headless browser (Debian's chromium)."""
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from oftimg.cli import main
+
+pytestmark = pytest.mark.slow
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--allow-file-access-from-files", "--autoplay-policy=no-user-gesture-required"]
+
+
+@pytest.fixture(scope="module")
+def cohort_out(phantom_normal, phantom_banded, tmp_path_factory):
+    cohort = tmp_path_factory.mktemp("cohort")
+    for p in (phantom_normal, phantom_banded):
+        (cohort / p.name).symlink_to(p, target_is_directory=True)
+    out = tmp_path_factory.mktemp("report") / "out"
+    assert main(["run", str(cohort), "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+def local_links(page: Path) -> list[str]:
+    text = page.read_text()
+    links = re.findall(r'(?:src|href)="([^"]+)"', text)
+    assert "http://" not in text and "https://" not in text  # offline: no CDN
+    return [link for link in links if not link.startswith("#")]
+
+
+def test_every_link_resolves_and_tables_are_there(cohort_out):
+    index = cohort_out / "index.html"
+    text = index.read_text()
+    assert "normal" in text and "banded" in text and "permutation" in text
+    pages = [index] + sorted(cohort_out.glob("*/index.html"))
+    assert len(pages) == 3
+    for page in pages:
+        for link in local_links(page):
+            assert (page.parent / link).exists(), f"{page}: {link}"
+    assert (cohort_out / "cohort.md").read_text().count("\n") == 4
+    assert (cohort_out / "groups.csv").exists()
+
+
+@pytest.mark.skipif(CHROMIUM is None and not os.environ.get("CI"),
+                    reason="chromium is installed by `make test` (required in CI)")
+@pytest.mark.parametrize("page", ["index.html", "normal/index.html"])
+def test_page_loads_in_a_browser(cohort_out, page, tmp_path):
+    url = (cohort_out / page).resolve().as_uri()
+    profile = tmp_path / "profile"
+    dom = subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}",
+                          "--virtual-time-budget=8000", "--enable-logging=stderr", "--v=0",
+                          "--dump-dom", url], capture_output=True, text=True, timeout=120)
+    assert "all resources loaded" in dom.stdout, dom.stdout[-2000:]
+    console_errors = [line for line in dom.stderr.splitlines()
+                      if "CONSOLE" in line and ("Uncaught" in line or "Error" in line)]
+    assert not console_errors
+    shot = tmp_path / "shot.png"
+    subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}", "--window-size=1200,900",
+                    f"--screenshot={shot}", url], capture_output=True, timeout=120)
+    import imageio.v3 as iio
+    import numpy as np
+
+    img = iio.imread(shot)
+    assert img.shape[0] > 500 and img.shape[1] > 800
+    assert np.asarray(img, float).std() > 10  # not blank
+
+
+def test_paper_figures_script_needs_only_the_results(cohort_out, tmp_path):
+    import sys
+
+    script = Path(__file__).resolve().parent.parent / "scripts" / "paper_figures.py"
+    res = subprocess.run([sys.executable, str(script), str(cohort_out), "--to", str(tmp_path)],
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    for tag in ("fig04A_area_to_line", "fig05_radial_curvature", "fig08_volume_normalization",
+                "fig10_ridge_time", "fig12_derivative", "fig13_lumen_mean_curvature"):
+        for ext in ("png", "pdf"):
+            assert (tmp_path / f"{tag}_normal.{ext}").stat().st_size > 5000
+    assert (tmp_path / "groups" / "group_max_area.png").exists()

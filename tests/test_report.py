@@ -1,0 +1,33 @@
+"""Cohort tables and the group comparison (issue 10)."""
+import numpy as np
+import pytest
+
+from oftimg.report import cohort_rows, group_comparison, permutation_test
+
+
+def test_exact_permutation_test():
+    a, b = [1.0, 2.0, 3.0, 4.0], [11.0, 12.0, 13.0, 14.0]
+    # complete separation of 4 vs 4: the two extreme relabellings out of 70
+    assert permutation_test(a, b) == pytest.approx(2 / 70)
+    assert permutation_test([1, 2, 3, 4], [1, 2, 3, 4]) == pytest.approx(1.0)
+    assert np.isnan(permutation_test([1.0], [2.0, 3.0]))
+
+
+def test_random_permutation_test_for_large_groups():
+    rng = np.random.default_rng(1)
+    a, b = rng.normal(0, 1, 15), rng.normal(0, 1, 15) + 3
+    assert permutation_test(a, b, n_random=2000) < 0.01
+    same = permutation_test(rng.normal(0, 1, 15), rng.normal(0, 1, 15), n_random=2000)
+    assert same > 0.01
+
+
+def test_group_comparison_rows():
+    summaries = [{"name": f"n{k}", "group": "normal", "period_ms": 350.0 + k,
+                  "max_area_neck_depth": 0.0} for k in range(4)]
+    summaries += [{"name": f"b{k}", "group": "banded", "period_ms": 351.0 + k,
+                   "max_area_neck_depth": 0.3 + 0.01 * k} for k in range(4)]
+    rows = {r["metric"]: r for r in group_comparison(summaries)}
+    assert rows["max_area_neck_depth"]["p_value"] == pytest.approx(2 / 70)
+    assert rows["period_ms"]["p_value"] > 0.3
+    assert rows["period_ms"]["normal_mean"] == pytest.approx(351.5)
+    assert len(cohort_rows(summaries)) == 8

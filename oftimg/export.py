@@ -176,6 +176,19 @@ def describe_array(name: str) -> dict:
     raise KeyError(f"no description for array {name!r}")
 
 
+def describe_pca(name: str) -> dict:
+    """Dims and unit of an array in ``pca.npz`` (``pca_row{k}_{phase}_{what}``)."""
+    what = {"mean_mm": (["u", "xy"], "mm", "mean contour in its plane (Karcher mean, SRVF)"),
+            "displacement_mm": (["mode", "u", "xy"], "mm",
+                                "displacement of the mean contour at +1 sd of each mode"),
+            "explained": (["mode"], "1", "share of the total shape variance"),
+            "scores": (["contour", "mode"], "SRVF", "each contour's coordinates on the modes")}
+    for key, (dims, unit, text) in what.items():
+        if name.endswith(key):
+            return {"dims": dims, "unit": unit, "description": text}
+    raise KeyError(f"no description for array {name!r}")
+
+
 def write_dataset_results(folder: Path, result: dict) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/."""
     import time
@@ -192,9 +205,21 @@ def write_dataset_results(folder: Path, result: dict) -> None:
     arrays = result["arrays"]
     described = {k: describe_array(k) for k in list(arrays) + list(grids)}
     write_arrays(folder, arrays, described)
+    if result.get("pca"):
+        np.savez_compressed(folder / "pca.npz", **result["pca"])
+        desc = json.loads((folder / "arrays.json").read_text())
+        for name, value in result["pca"].items():
+            desc[name] = dict(describe_pca(name), file="pca.npz", shape=list(value.shape),
+                              dtype=str(value.dtype))
+        write_json(folder / "arrays.json", desc)
     timings["write_arrays_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])
+    if result.get("pca"):
+        from .figures import pca_figure
+
+        pca_figure(result["pca"], result["summary"]["pca"], folder / "figures" / "shape_pca.png",
+                   title=f"{result['summary']['name']}: cross-section shape modes")
     timings["figures_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     dataset_videos(folder / "videos", arrays, result["grids"])

@@ -297,3 +297,48 @@ def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Pa
     ax.grid(alpha=0.3)
     written.append(_save(fig, folder / "group_volume.png"))
     return written
+
+
+# ------------------------------------------------------------------ shape PCA
+def pca_figure(pca: dict, pca_summary: dict, path: Path, *, title: str = "",
+               modes=(0, 1)) -> Path:
+    """Arrows of modes 1 and 2 on each row's mean contour, expansion and contraction,
+    and the displacement magnitude along the contour (paper Figs. 7 and 14)."""
+    rows = pca_summary["rows"]
+    phases = ("expansion", "contraction")
+    fig, axes = plt.subplots(len(modes) + 1, len(rows) * 2,
+                             figsize=(2.6 * len(rows) * 2, 2.5 * (len(modes) + 1)),
+                             squeeze=False)
+    for k, row in enumerate(rows):
+        for p, phase in enumerate(phases):
+            col = 2 * k + p
+            key = f"pca_row{k}_{phase}"
+            mean = pca[f"{key}_mean_mm"]
+            disp = pca[f"{key}_displacement_mm"]
+            expl = pca[f"{key}_explained"]
+            closed = np.vstack([mean, mean[:1]])
+            for m_i, m in enumerate(modes):
+                ax = axes[m_i][col]
+                ax.plot(closed[:, 0], closed[:, 1], "k-", lw=1)
+                step = max(1, len(mean) // 40)
+                # longest arrow: 15 % of the contour's size (each mode scaled on its own)
+                size = np.ptp(mean, axis=0).max()
+                longest = np.linalg.norm(disp[m], axis=1).max()
+                ax.quiver(mean[::step, 0], mean[::step, 1], disp[m, ::step, 0], disp[m, ::step, 1],
+                          np.linalg.norm(disp[m, ::step], axis=1), cmap="viridis",
+                          angles="xy", scale_units="xy", scale=longest / (0.15 * size),
+                          width=0.012)
+                ax.set_aspect("equal")
+                ax.set_xticks([])
+                ax.set_yticks([])
+                ax.set_title(f"v={row['v']:.1f} {phase}\nmode {m + 1}: "
+                             f"{100 * expl[m]:.0f} %", fontsize=7)
+            ax = axes[-1][col]
+            for m in modes:
+                ax.plot(np.linalg.norm(disp[m], axis=1) * 1e3, label=f"mode {m + 1}")
+            ax.set_xlabel("point around the contour (from the seam)", fontsize=7)
+            ax.set_ylabel("|displacement| (um)", fontsize=7)
+            ax.tick_params(labelsize=6)
+            ax.legend(fontsize=6)
+    fig.suptitle(title, fontsize=10)
+    return _save(fig, path)

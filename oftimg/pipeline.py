@@ -13,6 +13,7 @@ from .io import Dataset, DatasetError, OftimgWarning
 from .cycle import cycle_timing, resample_time, roll_time, two_segment_warp
 from .image.analysis import analyse_area_maps
 from .image.normalize import phase_maps
+from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import (GridOptions, closest_points, grid_frame, seam_endpoints,
                         smooth_endpoints)
@@ -330,6 +331,13 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
     arrays.update(map_arrays)
     summary.update(map_summary)
+    tick = time.perf_counter()
+    t_max = int(round((timing["t_max_frame"] - t0) % n_t)) if not options.warp else n_t // 2
+    source = grid.get("outer_clipped", grid["outer"])
+    pca = contour_pca(source, min(max(t_max, 2), n_t - 3))
+    pca["summary"]["grid"] = "outer_clipped" if "outer_clipped" in grid else "outer"
+    summary["pca"] = pca["summary"]
+    timings["pca_s"] = time.perf_counter() - tick
     summary.update({
         "flipped_triangles": flipped,
         "maps_with_clamped_weights": repaired,
@@ -343,4 +351,4 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         },
         "timings_s": timings,
     })
-    return {"summary": summary, "arrays": arrays, "grids": grid}
+    return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"]}

@@ -7,7 +7,7 @@ writes PNG and PDF files named after the paper's figures (Phan, Rugonyi, Grimm):
 fig03 cross-sections, fig04 area-to-line A-D, fig05 radial-curvature frames,
 fig06 strain frames, fig08 volume normalisation, fig09 area maps, fig10 maximum
 area and ridge time, fig11 time expanded, fig12 derivative images, fig13 lumen
-curvature frames. Figures 7 and 14 (shape PCA) come with the PCA stage.
+curvature frames, fig07 / fig14 cross-section shape PCA.
 """
 from __future__ import annotations
 
@@ -98,6 +98,12 @@ def main():
             written.append(figures.time_expanded(
                 s, {"one sigma": a["expanded_fraction_sigma_outer"]}, f("fig11_time_expanded"),
                 title=name))
+            pca_file = args.results / name / "pca.npz"
+            if pca_file.exists():
+                pca = dict(np.load(pca_file))
+                for tag in ("fig07_pca_example", "fig14_pca_modes"):
+                    written.append(figures.pca_figure(pca, summ["pca"], f(tag),
+                                                      title=f"{name}: shape modes"))
             if "mean_curvature_lumen_per_mm" in a:
                 written.append(field_pair(a["mean_curvature_lumen_per_mm"], a["area_outer_mm2"],
                                           f("fig13_lumen_mean_curvature"),

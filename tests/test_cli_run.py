@@ -32,7 +32,8 @@ def test_output_contract(run_out, phantom_normal):
         assert grids[wall].shape == (80, 50, 36, 3) and grids[wall].dtype == np.float32
     arrays = np.load(folder / "arrays.npz")
     described = json.loads((folder / "arrays.json").read_text())
-    assert set(arrays.files) | set(grids.files) == set(described)
+    pca = np.load(folder / "pca.npz")
+    assert set(arrays.files) | set(grids.files) | set(pca.files) == set(described)
     for name in arrays.files:
         assert described[name]["shape"] == list(arrays[name].shape)
         assert described[name]["unit"] and described[name]["dims"]
@@ -92,3 +93,23 @@ def test_fields_on_the_phantom(run_out, phantom_normal):
     e = a["strain_energy_outer"]
     assert np.nanmax(np.abs(e[:, :, 0])) < 1e-12  # the reference frame itself
     assert a["mean_curvature_lumen_per_mm"].shape == (80, 50, 36)
+
+
+def test_shape_pca_on_the_phantom(run_out):
+    from oftimg.image.pca import outward_normals
+
+    summary = json.loads((run_out / "normal" / "summary.json").read_text())
+    pca = np.load(run_out / "normal" / "pca.npz")
+    assert len(summary["pca"]["rows"]) == 3
+    for k, row in enumerate(summary["pca"]["rows"]):
+        for phase in ("expansion", "contraction"):
+            assert row[phase]["converged"]
+            key = f"pca_row{k}_{phase}"
+            expl = pca[f"{key}_explained"]
+            assert expl[0] > 0.7 and expl[0] == expl.max()  # mode 1 dominates: size
+            d = pca[f"{key}_displacement_mm"][0]
+            along = np.sum(d * outward_normals(pca[f"{key}_mean_mm"]), axis=1)
+            along /= np.linalg.norm(d, axis=1)
+            assert np.median(np.abs(along)) > 0.8
+            assert np.mean(along > 0) > 0.9  # one sign around the contour
+    assert (run_out / "normal" / "figures" / "shape_pca.png").stat().st_size > 20_000

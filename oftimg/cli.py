@@ -56,6 +56,20 @@ def _parser() -> argparse.ArgumentParser:
                     help="radial surface noise, standard deviation in mm (e.g. 0.001)")
     ph.add_argument("--quiet", action="store_true")
 
+    an = sub.add_parser("animate", help="turn a static open tube into a dataset with a known wave")
+    an.add_argument("mesh", type=Path, help="a mesh file of one open tube")
+    an.add_argument("out", type=Path, help="dataset folder to create")
+    an.add_argument("--speed-mm-s", type=float, required=True, help="wave speed (mm/s)")
+    an.add_argument("--amplitude", type=float, default=0.3, help="relative radial change")
+    an.add_argument("--period-ms", type=float, default=360.0)
+    an.add_argument("--frames", type=int, default=60)
+    an.add_argument("--unit", choices=["mm", "um"], default="mm", help="unit after --scale")
+    an.add_argument("--scale", type=float, default=1.0,
+                    help="multiply the file's coordinates by this (e.g. 0.2619 um per voxel)")
+    an.add_argument("--remesh", action="store_true", help="remesh every frame independently")
+    an.add_argument("--seed", type=int, default=0)
+    an.add_argument("--quiet", action="store_true")
+
     v = sub.add_parser("validate", help="check a dataset and print a per-surface report")
     v.add_argument("dataset", type=Path)
     v.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -99,6 +113,17 @@ def main(argv: list[str] | None = None) -> int:
             out = api.make_phantom(args.out, group=args.group, seed=args.seed,
                                    frames=args.frames, quiet=args.quiet, **extra)
             print(f"phantom dataset: {out}")
+        elif args.command == "animate":
+            from .animate import Animation, write_animation
+            from .progress import Progress
+
+            anim = Animation(args.speed_mm_s, args.amplitude, args.period_ms, args.frames)
+            to_mm = args.scale * (1e-3 if args.unit == "um" else 1.0)
+            bar = Progress(args.frames, f"animate {args.out.name}", quiet=args.quiet)
+            out = write_animation(args.mesh, args.out, anim, scale_to_mm=to_mm,
+                                  do_remesh=args.remesh, seed=args.seed, progress=bar.update)
+            bar.close()
+            print(f"animated dataset: {out} (coordinates x {to_mm:g} -> mm)")
         elif args.command == "validate":
             report = validate_dataset(load_dataset(args.dataset))
             if args.json:

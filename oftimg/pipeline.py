@@ -190,10 +190,14 @@ def shape_fields(grid, contour, normals, area, frames, t0, warp_frames, period_m
         arrays[f"phase_max_{name}_ms"] = t_max.astype(np.float32)
         arrays[f"phase_min_{name}_ms"] = t_min.astype(np.float32)
     k = arrays["radial_curvature_outer_per_mm"]
-    rows_min = np.nanargmin(area["outer"], axis=1)
+    a = np.where(np.isfinite(area["outer"]), area["outer"], np.inf)
+    rows_min = np.argmin(a, axis=1)          # a row without any contour gives 0 corners
     counts = np.array([count_corners(k[:, j, rows_min[j]]) for j in range(k.shape[1])])
     arrays["corner_count_per_row"] = counts
-    values, freq = np.unique(counts[1:-1], return_counts=True)
+    inner_rows = counts[1:-1][counts[1:-1] > 0]
+    if len(inner_rows) == 0:
+        return {"arrays": arrays, "corner_count": None}
+    values, freq = np.unique(inner_rows, return_counts=True)
     return {"arrays": arrays, "corner_count": int(values[np.argmax(freq)])}
 
 

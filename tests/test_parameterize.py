@@ -44,7 +44,9 @@ def test_weights_refuse_bad_blend():
 def test_count_flipped():
     UV = np.array([[0, 0], [1, 0], [0, 1.0]])
     assert count_flipped(UV, np.array([[0, 1, 2]])) == 0
-    assert count_flipped(UV, np.array([[0, 2, 1]])) == 1
+    assert count_flipped(UV, np.array([[0, 1, 2], [0, 2, 1]])) == 1
+    flat_ear = np.array([[0, 0], [0.5, 0], [1, 0.0]])  # three corners on the border
+    assert count_flipped(np.vstack([UV, flat_ear]), np.array([[0, 1, 2], [3, 4, 5]])) == 0
 
 
 def cylinder_grid(radius=0.2, length=1.0, theta0=0.3, **kw):

@@ -11,16 +11,43 @@ from .kymograph import cycle_speed, local_speed, ridge_times, two_segment_fit, w
 from .masks import expanded_75, expanded_sigma
 
 
+def fill_gaps(area: np.ndarray) -> tuple[np.ndarray, int]:
+    """NaN cells of a ``(n_v, n_t)`` map filled by periodic interpolation in time,
+    rows without any value by interpolation along v. Returns ``(filled, count)``."""
+    a = np.array(area, dtype=float)
+    bad = ~np.isfinite(a)
+    if not bad.any():
+        return a, 0
+    n_v, n_t = a.shape
+    t = np.arange(n_t)
+    for j in range(n_v):
+        ok = ~bad[j]
+        if ok.any() and not ok.all():
+            a[j, ~ok] = np.interp(t[~ok], t[ok], a[j, ok], period=n_t)
+    rows_ok = np.isfinite(a).all(axis=1)
+    if rows_ok.any() and not rows_ok.all():
+        v = np.arange(n_v)
+        for k in range(n_t):
+            a[~rows_ok, k] = np.interp(v[~rows_ok], v[rows_ok], a[rows_ok, k])
+    return a, int(bad.sum())
+
+
 def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float
                       ) -> tuple[dict, dict]:
     """Ridge, wave speeds, knee, expansion fractions and masks, rates, band.
 
-    ``area[wall] (n_v, n_t)`` mm^2 over one aligned cycle, ``s_mm (n_v,)``.
+    ``area[wall] (n_v, n_t)`` mm^2 over one aligned cycle, ``s_mm (n_v,)``;
+    cells without a contour (NaN) are interpolated first (and counted).
     Speeds and the band come from the outer wall; expansion fractions from
     every wall. Returns ``(arrays, summary)``.
     """
     n_t = area["outer"].shape[1]
     arrays, summary = {}, {}
+    filled = {}
+    area = dict(area)
+    for wall in list(area):
+        area[wall], filled[wall] = fill_gaps(area[wall])
+    summary["area_cells_interpolated"] = filled
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         ridge = ridge_times(area["outer"], period_ms)
@@ -39,6 +66,8 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
             arrays[f"gaussian_sigma_{wall}_ms"] = sigma * period_ms / n_t
             arrays[f"gaussian_fit_r2_{wall}"] = r2
     notes = sorted({str(w.message) for w in caught})
+    notes += [f"{k} {w} area cells without a contour were interpolated for the map analyses"
+              for w, k in filled.items() if k]
     expand_rate, contract_rate = area_rates(area["outer"], period_ms / n_t)
     arrays["ridge_t_ms"] = ridge
     arrays["local_speed_mm_s"] = speed

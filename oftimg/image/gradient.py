@@ -38,7 +38,7 @@ def gradient_hsv(image: np.ndarray, *, periodic_t: bool = True,
     top = np.percentile(mag, magnitude_percentile)
     value = np.clip(mag / top, 0, 1) if top > 0 else np.zeros_like(mag)
     hsv = np.stack([(angle + np.pi) / (2 * np.pi) % 1.0, np.ones_like(mag), value], axis=-1)
-    return hsv_to_rgb(hsv)
+    return np.clip(hsv_to_rgb(hsv), 0.0, 1.0)
 
 
 def colour_wheel(size: int = 101) -> np.ndarray:

@@ -223,11 +223,17 @@ def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndar
 
 
 def count_flipped(UV: np.ndarray, F: np.ndarray) -> int:
-    """Triangles whose orientation in the (u, v) plane is reversed."""
+    """Triangles whose orientation in the (u, v) plane is reversed.
+
+    Triangles of zero area are not counted: a triangle with all three corners
+    on one side of the square's border (an "ear" of a boundary loop) is
+    necessarily flat in the map, and harmless.
+    """
     P = UV[F]
     e1 = P[:, 1] - P[:, 0]
     e2 = P[:, 2] - P[:, 0]
-    return int(np.count_nonzero(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] <= 0))
+    area2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    return int(np.count_nonzero(area2 < -1e-12 * np.abs(area2).max()))
 
 
 class FlatSampler:

@@ -1,0 +1,145 @@
+"""Animate any static open tube with a known peristaltic wave (ground truth for real shapes).
+
+Axial position comes from a harmonic coordinate h (0 on the inlet loop, 1 on
+the outlet loop); the centroid of each h-slab gives a centre line whose arc
+length is s (mm). Every vertex moves away from its slab's centroid by the
+factor ``1 + A w(t - s / C)`` with the smooth periodic pulse
+``w(phi) = sin^4(pi phi)`` (period T), so a section's area peaks when
+``t = s / C + T / 2``: the wave travels at C (mm/s) from inlet to outlet.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .mesh.parameterize import harmonic_map, intrinsic_weights
+from .mesh.topology import capped_signed_volume, check_tube, face_areas, loop_centroid
+
+
+@dataclass(frozen=True)
+class Animation:
+    """The applied wave."""
+
+    speed_mm_s: float
+    amplitude: float
+    period_ms: float
+    n_frames: int
+
+    def __post_init__(self):
+        if self.speed_mm_s == 0 or not np.isfinite(self.speed_mm_s):
+            raise ValueError(f"speed_mm_s must be finite and non-zero, found {self.speed_mm_s}")
+        if not -0.9 < self.amplitude < 2:
+            raise ValueError(f"amplitude must be in (-0.9, 2), found {self.amplitude}")
+        if self.period_ms <= 0 or self.n_frames < 3:
+            raise ValueError("period_ms must be positive and n_frames at least 3")
+
+
+def pulse(phi):
+    """Smooth periodic pulse in [0, 1], maximum at phi = 0.5."""
+    return np.sin(np.pi * np.mod(phi, 1.0)) ** 4
+
+
+def axial_coordinates(V, F, inlet, outlet, *, n_slabs: int = 64):
+    """Harmonic coordinate ``h (n,)``, slab centroids ``(n_slabs, 3)``, their arc length
+    ``s (n_slabs,)`` mm and each vertex's arc length and centroid."""
+    W = intrinsic_weights(V, F, authalic_weight=0.0).tocoo()
+    floor = 1e-3 * float(np.median(np.abs(W.data)))
+    import scipy.sparse as sp
+
+    W = sp.csr_matrix((np.maximum(W.data, floor), (W.row, W.col)), shape=W.shape)
+    boundary = np.concatenate([inlet, outlet])
+    values = np.concatenate([np.zeros(len(inlet)), np.ones(len(outlet))])[:, None]
+    h = harmonic_map(W, boundary, np.repeat(values, 2, axis=1))[:, 0]
+    # vertex areas as weights of the slab centroids
+    area = np.zeros(len(V))
+    fa = face_areas(V, F)
+    for k in range(3):
+        np.add.at(area, F[:, k], fa / 3)
+    edges = np.linspace(0, 1, n_slabs + 1)
+    slab = np.clip(np.searchsorted(edges, h, side="right") - 1, 0, n_slabs - 1)
+    w = np.bincount(slab, weights=area, minlength=n_slabs)
+    cent = np.stack([np.bincount(slab, weights=area * V[:, d], minlength=n_slabs)
+                     for d in range(3)], axis=1) / np.maximum(w, 1e-300)[:, None]
+    h_mid = 0.5 * (edges[1:] + edges[:-1])
+    ok = w > 0
+    h_mid, cent = h_mid[ok], cent[ok]
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cent, axis=0), axis=1))])
+    s_v = np.interp(h, h_mid, s)
+    c_v = np.stack([np.interp(h, h_mid, cent[:, d]) for d in range(3)], axis=1)
+    return h, cent, s, s_v, c_v
+
+
+def animate_frames(V, F, inlet, outlet, anim: Animation):
+    """Yield ``(t_ms, V_t)`` for every frame (same connectivity ``F``)."""
+    _, _, _, s_v, c_v = axial_coordinates(V, F, inlet, outlet)
+    for k in range(anim.n_frames):
+        t = k * anim.period_ms / anim.n_frames
+        phi = (t - 1e3 * s_v / anim.speed_mm_s) / anim.period_ms
+        factor = 1.0 + anim.amplitude * pulse(phi)
+        yield t, c_v + (V - c_v) * factor[:, None]
+
+
+def remesh(V, F, rng, *, keep=(0.5, 0.9), tries: int = 5):
+    """Decimate to a random share of the faces (boundary kept) and shuffle the order.
+
+    Returns a new open tube ``(V, F)``; falls back to shuffling alone if
+    decimation does not leave a tube.
+    """
+    import open3d as o3d
+
+    for _ in range(tries):
+        m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(V),
+                                      o3d.utility.Vector3iVector(F.astype(np.int32)))
+        target = int(len(F) * rng.uniform(*keep))
+        d = m.simplify_quadric_decimation(target, boundary_weight=1e4)
+        d.remove_unreferenced_vertices()
+        V2, F2 = np.asarray(d.vertices), np.asarray(d.triangles).astype(np.int64)
+        try:
+            check_tube(V2, F2)
+        except ValueError:
+            continue
+        V, F = V2, F2
+        break
+    perm = rng.permutation(len(V))
+    inv = np.argsort(perm)
+    return V[perm], inv[F][rng.permutation(len(F))]
+
+
+def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0,
+                    do_remesh: bool = False, seed: int = 0, progress=None) -> Path:
+    """Write an animated dataset (meta.json, outer/, truth.json) from one static tube."""
+    from .io import load_tube, write_ply
+
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        raise FileExistsError(f"{out}: exists and is not empty")
+    tube = load_tube(mesh_path, unit_scale=scale_to_mm)
+    V, F = tube.V, tube.F
+    (out / "outer").mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    _, _, s, _, _ = axial_coordinates(V, F, tube.inlet, tube.outlet)
+    volumes = []
+    width = len(str(anim.n_frames - 1))
+    for k, (t, Vt) in enumerate(animate_frames(V, F, tube.inlet, tube.outlet, anim)):
+        volumes.append(capped_signed_volume(Vt, F, [tube.inlet, tube.outlet]))
+        Vw, Fw = remesh(Vt, F, rng) if do_remesh else (Vt, F)
+        write_ply(out / "outer" / f"f{k:0{width}d}.ply", Vw, Fw)
+        if progress:
+            progress(k + 1)
+    meta = {"name": out.name, "group": "animated", "period_ms": anim.period_ms,
+            "length_unit": "mm", "inlet": loop_centroid(V[tube.inlet]).tolist()}
+    (out / "meta.json").write_text(json.dumps(meta, indent=2))
+    s_grid = np.linspace(0, s[-1], 101)
+    truth = {"animation": asdict(anim), "source": str(mesh_path),
+             "scale_to_mm": scale_to_mm, "remeshed": do_remesh, "seed": seed,
+             "centre_line_length_mm": float(s[-1]), "s_mm": s_grid.tolist(),
+             "arrival_ms": (1e3 * s_grid / anim.speed_mm_s % anim.period_ms).tolist(),
+             "ridge_t_ms": ((1e3 * s_grid / anim.speed_mm_s + anim.period_ms / 2)
+                            % anim.period_ms).tolist(),
+             "wave_speed_mm_s": {"cycle": anim.speed_mm_s},
+             "volume_mm3": volumes}
+    (out / "truth.json").write_text(json.dumps(truth, indent=1))
+    return out

@@ -1,0 +1,50 @@
+"""Animating static tubes with a known wave (issue 11)."""
+import json
+
+import numpy as np
+import pytest
+
+from helpers import tube_mesh
+from oftimg.animate import Animation, animate_frames, axial_coordinates, pulse, write_animation
+from oftimg.io import load_dataset, write_ply
+from oftimg.mesh.topology import check_tube
+from oftimg.pipeline import PipelineOptions, analyse_dataset
+
+
+def test_pulse_and_axial_coordinate_of_a_cylinder():
+    assert pulse(0.5) == pytest.approx(1.0) and pulse(0.0) == pytest.approx(0.0)
+    V, F = tube_mesh(0.2, length=1.0, n_theta=32, n_s=30)
+    topo = check_tube(V, F)
+    inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < 0.5 else topo.loops[::-1]
+    h, cent, s, s_v, c_v = axial_coordinates(V, topo.F, inlet, outlet)
+    assert np.allclose(h, V[:, 2], atol=0.02)  # harmonic coordinate of a cylinder: z
+    assert s[-1] == pytest.approx(1.0, abs=0.05)
+    anim = Animation(10.0, 0.3, 100.0, 4)
+    frames = list(animate_frames(V, topo.F, inlet, outlet, anim))
+    assert len(frames) == 4
+    # moved away from the slab centroid: mostly radial, little along the axis
+    assert np.abs(frames[2][1][:, 2] - V[:, 2]).max() < 0.02
+    r = np.linalg.norm(frames[2][1][:, :2], axis=1)
+    assert r.max() > 0.2 * 1.2 and r.min() >= 0.2 - 1e-9
+
+
+def test_bad_animation_parameters():
+    with pytest.raises(ValueError, match="speed"):
+        Animation(0.0, 0.3, 100, 10)
+    with pytest.raises(ValueError, match="amplitude"):
+        Animation(5.0, 3.0, 100, 10)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("r_out", [0.2, 0.12])  # a cylinder and a cone
+def test_animated_tube_recovers_the_applied_speed(tmp_path, r_out):
+    V, F = tube_mesh(0.2, r_out, length=1.2, n_theta=48, n_s=60)
+    path = tmp_path / "tube.ply"
+    write_ply(path, V, F)
+    anim = Animation(speed_mm_s=8.0, amplitude=0.3, period_ms=300.0, n_frames=40)
+    ds_path = write_animation(path, tmp_path / "anim", anim, do_remesh=True, seed=1)
+    truth = json.loads((ds_path / "truth.json").read_text())
+    res = analyse_dataset(load_dataset(ds_path), PipelineOptions(n_u=40, n_v=30), quiet=True)
+    assert res["summary"]["wave_speed_mm_s"]["cycle"] == pytest.approx(8.0, rel=0.03)
+    assert np.allclose(res["arrays"]["volume_outer_mm3"],
+                       np.roll(truth["volume_mm3"], -res["summary"]["t0_frame"]), rtol=0.02)

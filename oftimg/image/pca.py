@@ -46,6 +46,13 @@ def align(beta: np.ndarray, ref: np.ndarray) -> np.ndarray:
     Both centred. For every start point the optimal rotation is the 2-D Kabsch
     solution; the pair with the smallest squared distance wins.
     """
+    shift, R = align_transform(beta, ref)
+    b = beta - beta.mean(axis=0)
+    return np.roll(b, -shift, axis=0) @ R.T
+
+
+def align_transform(beta: np.ndarray, ref: np.ndarray) -> tuple[int, np.ndarray]:
+    """The start-point shift and rotation ``R (2, 2)`` used by :func:`align`."""
     b = beta - beta.mean(axis=0)
     r = ref - ref.mean(axis=0)
     n = len(b)
@@ -56,8 +63,7 @@ def align(beta: np.ndarray, ref: np.ndarray) -> np.ndarray:
                                                                    r[:, 0])
     k = int(np.argmax(np.hypot(c, s)))
     angle = np.arctan2(s[k], c[k])
-    R = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-    return shifts[k] @ R.T
+    return k, np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
 
 
 @dataclass(frozen=True)
@@ -66,7 +72,7 @@ class ShapePCA:
 
     mean: np.ndarray              # (n, 2) mean curve
     aligned: np.ndarray           # (n_curves, n, 2) curves aligned to the mean
-    displacement: np.ndarray      # (n_modes, n, 2) mean + 1 sd of each mode, minus the mean
+    displacement: np.ndarray      # (n_modes, n, 2) linearised displacement at 1 sd of each mode
     variance: np.ndarray          # (n_modes,) variance of each mode's score (SRVF units)
     explained: np.ndarray         # (n_modes,) share of the total variance
     scores: np.ndarray            # (n_curves, n_modes)
@@ -107,12 +113,21 @@ def shape_pca(curves: np.ndarray, *, n_modes: int = 3, max_iter: int = 30,
     modes = Vt[:n_modes].copy()
     base = curve_from_srvf(q_mean.reshape(-1, 2))
     normals = outward_normals(base)
+    eps = 1e-3 * np.linalg.norm(q_mean)
+
+    def tangent(mode):
+        """Displacement of the curve per unit step along ``mode`` (central difference:
+        the map from q to the curve is quadratic, so +/- steps differ)."""
+        return (curve_from_srvf((q_mean + eps * mode).reshape(-1, 2))
+                - curve_from_srvf((q_mean - eps * mode).reshape(-1, 2))) / (2 * eps)
+
+    disp = []
     for k in range(n_modes):  # sign convention: a mode's mean displacement points outwards
-        d = curve_from_srvf((q_mean + np.sqrt(variance[k]) * modes[k]).reshape(-1, 2)) - base
+        d = tangent(modes[k]) * np.sqrt(variance[k])
         if np.sum(d * normals) < 0:
-            modes[k] = -modes[k]
-    disp = np.stack([curve_from_srvf((q_mean + np.sqrt(variance[k]) * modes[k]).reshape(-1, 2))
-                     - base for k in range(n_modes)])
+            modes[k], d = -modes[k], -d
+        disp.append(d)
+    disp = np.stack(disp)
     return ShapePCA(mean=base, aligned=aligned, displacement=disp, variance=variance[:n_modes],
                     explained=variance[:n_modes] / variance.sum(),
                     scores=(Q - q_mean) @ modes.T, iterations=iterations, converged=converged)

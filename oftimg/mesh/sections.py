@@ -140,21 +140,26 @@ def section_planes(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """Rows whose plane meets a later row's ring inside the tube, per frame.
+    """Rows whose plane cuts another row's section inside the tube, per frame.
 
     For one frame, ``X (n_u, n_v, 3)``, ``origins``/``normals (n_v, 3)``.
-    Returns a boolean ``(n_v,)``: row j is flagged when a grid node of a later
-    row lies on or behind plane j, or a node of an earlier row on or in front
-    of it (the planes then cut each other within the tube).
+    Two planes meet inside the tube when their line of intersection crosses
+    one of the two sections, i.e. when one row's ring has nodes on both sides
+    of the other's plane. Neighbouring rows must also keep their order (row
+    j + 1 in front of plane j); far rows may lie behind a plane, as they do in
+    a tube bent by more than half a turn. Returns a boolean ``(n_v,)``.
     """
     n_v = X.shape[1]
     # side[j, k, i]: signed distance of node i of ring k from plane j
-    side = np.einsum("kiv,jv->jki", X.transpose(1, 0, 2)[:, :, :], normals) \
+    side = np.einsum("kiv,jv->jki", X.transpose(1, 0, 2), normals) \
         - np.einsum("jv,jv->j", origins, normals)[:, None, None]
-    later = np.triu(np.ones((n_v, n_v), dtype=bool), k=1)
-    bad_front = (side.min(axis=2) <= 0) & later      # ring k behind plane j
-    bad_back = (side.max(axis=2) >= 0) & later.T     # ring k (earlier) in front of plane j
-    return bad_front.any(axis=1) | bad_back.any(axis=1)
+    lo, hi = side.min(axis=2), side.max(axis=2)
+    other = ~np.eye(n_v, dtype=bool)
+    straddle = (lo < 0) & (hi > 0) & other              # plane j cuts ring k
+    nxt = np.arange(n_v - 1)
+    order = np.zeros(n_v, dtype=bool)
+    order[nxt] = (lo[nxt, nxt + 1] <= 0) | (hi[nxt + 1, nxt] >= 0)  # neighbours swapped
+    return straddle.any(axis=1) | straddle.any(axis=0) | order
 
 
 def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray, *,

@@ -34,7 +34,8 @@ def volume_over_cycle(t_ms: np.ndarray, volumes_mm3: dict[str, np.ndarray], path
         ax.set_xlabel("time since minimum volume (ms)")
         ax.set_ylabel("volume (mm$^3$)")
         ax.set_title(what, fontsize=9)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
     fig.suptitle(title, fontsize=10)
     return _save(fig, path)

@@ -33,6 +33,7 @@ def gradient_hsv(image: np.ndarray, *, periodic_t: bool = True,
     by its ``magnitude_percentile``-th percentile (clipped to 1).
     """
     d_v, d_t = sobel_gradient(image, periodic_t=periodic_t)
+    d_v, d_t = np.nan_to_num(d_v), np.nan_to_num(d_t)  # cells without data: black
     angle = np.arctan2(d_v, d_t)
     mag = np.hypot(d_v, d_t)
     top = np.percentile(mag, magnitude_percentile)

@@ -7,10 +7,15 @@ import numpy as np
 def per_pixel_normalize(field: np.ndarray) -> np.ndarray:
     """Each (u, v) pixel scaled to [0, 1] by its own min and max over t (last axis).
 
-    Pixels that do not change are 0.5.
+    Pixels that do not change are 0.5; pixels without any value stay NaN.
     """
-    lo = np.nanmin(field, axis=-1, keepdims=True)
-    hi = np.nanmax(field, axis=-1, keepdims=True)
+    has = np.isfinite(field).any(axis=-1, keepdims=True)
+    safe = np.where(has, field, 0.0)
+    with np.errstate(invalid="ignore"):
+        lo = np.where(has, np.nanmin(np.where(np.isfinite(safe), safe, np.inf), axis=-1,
+                                     keepdims=True), np.nan)
+        hi = np.where(has, np.nanmax(np.where(np.isfinite(safe), safe, -np.inf), axis=-1,
+                                     keepdims=True), np.nan)
     span = hi - lo
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(span > 0, (field - lo) / np.where(span > 0, span, 1), 0.5)

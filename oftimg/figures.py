@@ -297,10 +297,56 @@ def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Pa
     ax.set_ylabel("outer volume / its mean")
     ax.grid(alpha=0.3)
     written.append(_save(fig, folder / "group_volume.png"))
+    for phase in ("expansion", "contraction"):
+        p = pca_groups_figure(results, summaries, folder / f"group_pca_{phase}.png", phase=phase)
+        if p is not None:
+            written.append(p)
     return written
 
 
 # ------------------------------------------------------------------ shape PCA
+def _mode_arrows(ax, mean, disp, title):
+    closed = np.vstack([mean, mean[:1]])
+    ax.plot(closed[:, 0], closed[:, 1], "k-", lw=1)
+    step = max(1, len(mean) // 40)
+    size = np.ptp(mean, axis=0).max()
+    longest = np.linalg.norm(disp, axis=1).max()
+    ax.quiver(mean[::step, 0], mean[::step, 1], disp[::step, 0], disp[::step, 1],
+              np.linalg.norm(disp[::step], axis=1), cmap="viridis", angles="xy",
+              scale_units="xy", scale=longest / (0.15 * size), width=0.012)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_title(title, fontsize=7)
+
+
+def pca_groups_figure(results: Path, summaries: list[dict], path: Path, *,
+                      phase: str = "expansion") -> Path | None:
+    """Paper Fig. 14: modes 1 and 2 at the three rows, one embryo per group side by side."""
+    firsts = {}
+    for s in summaries:
+        if (Path(results) / s["name"] / "pca.npz").exists():
+            firsts.setdefault(s["group"], s)
+    if len(firsts) < 2:
+        return None
+    groups = sorted(firsts, key=lambda g: (g != "normal", g))
+    n_rows = len(firsts[groups[0]]["pca"]["rows"])
+    fig, axes = plt.subplots(2, n_rows * len(groups), figsize=(2.3 * n_rows * len(groups), 5),
+                             squeeze=False)
+    for gi, g in enumerate(groups):
+        summ = firsts[g]
+        pca = np.load(Path(results) / summ["name"] / "pca.npz")
+        for k, row in enumerate(summ["pca"]["rows"]):
+            key = f"pca_row{k}_{phase}"
+            for m in (0, 1):
+                _mode_arrows(axes[m][gi * n_rows + k], pca[f"{key}_mean_mm"],
+                             pca[f"{key}_displacement_mm"][m],
+                             f"{g} ({summ['name']}) v={row['v']:.1f}\nmode {m + 1}: "
+                             f"{100 * pca[f'{key}_explained'][m]:.0f} %")
+    fig.suptitle(f"cross-section shape modes, {phase} phase", fontsize=10)
+    return _save(fig, path)
+
+
 def pca_figure(pca: dict, pca_summary: dict, path: Path, *, title: str = "",
                modes=(0, 1)) -> Path:
     """Arrows of modes 1 and 2 on each row's mean contour, expansion and contraction,
@@ -317,23 +363,10 @@ def pca_figure(pca: dict, pca_summary: dict, path: Path, *, title: str = "",
             mean = pca[f"{key}_mean_mm"]
             disp = pca[f"{key}_displacement_mm"]
             expl = pca[f"{key}_explained"]
-            closed = np.vstack([mean, mean[:1]])
             for m_i, m in enumerate(modes):
-                ax = axes[m_i][col]
-                ax.plot(closed[:, 0], closed[:, 1], "k-", lw=1)
-                step = max(1, len(mean) // 40)
                 # longest arrow: 15 % of the contour's size (each mode scaled on its own)
-                size = np.ptp(mean, axis=0).max()
-                longest = np.linalg.norm(disp[m], axis=1).max()
-                ax.quiver(mean[::step, 0], mean[::step, 1], disp[m, ::step, 0], disp[m, ::step, 1],
-                          np.linalg.norm(disp[m, ::step], axis=1), cmap="viridis",
-                          angles="xy", scale_units="xy", scale=longest / (0.15 * size),
-                          width=0.012)
-                ax.set_aspect("equal")
-                ax.set_xticks([])
-                ax.set_yticks([])
-                ax.set_title(f"v={row['v']:.1f} {phase}\nmode {m + 1}: "
-                             f"{100 * expl[m]:.0f} %", fontsize=7)
+                _mode_arrows(axes[m_i][col], mean, disp[m],
+                             f"v={row['v']:.1f} {phase}\nmode {m + 1}: {100 * expl[m]:.0f} %")
             ax = axes[-1][col]
             for m in modes:
                 ax.plot(np.linalg.norm(disp[m], axis=1) * 1e3, label=f"mode {m + 1}")

@@ -5,6 +5,7 @@ science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
 """
 from __future__ import annotations
 
+import logging
 import os
 import platform
 import sys
@@ -16,6 +17,8 @@ from .export import check_output_location, staged_output, write_dataset_results,
 from .io import Dataset, find_datasets, load_dataset, validate_dataset
 from .phantom import sample_params, write_phantom
 from .progress import Progress
+
+log = logging.getLogger("oftimg")
 
 
 def _as_dataset_paths(source) -> list[Path]:
@@ -52,7 +55,7 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         options: dict | None = None, jobs: int | None = None,
-        scheduler: str | None = None) -> Path:
+        scheduler: str | None = None, fps: float = 30.0) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
     Every frame of every dataset is validated before any work. Per-frame work
@@ -79,10 +82,11 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
             reports[ds.meta.name] = validate_dataset(ds, executor=executor)
             reports[ds.meta.name]["seconds"] = round(time.time() - tick, 2)
         return _run_validated(datasets, reports, out, paths, opts, executor,
-                              overwrite=overwrite, quiet=quiet, started=started)
+                              overwrite=overwrite, quiet=quiet, started=started, fps=fps)
 
 
-def _run_validated(datasets, reports, out, paths, opts, executor, *, overwrite, quiet, started):
+def _run_validated(datasets, reports, out, paths, opts, executor, *, overwrite, quiet, started,
+                   fps):
     from .pipeline import analyse_dataset
 
     with staged_output(out, overwrite=overwrite) as tmp:
@@ -90,11 +94,15 @@ def _run_validated(datasets, reports, out, paths, opts, executor, *, overwrite, 
         for ds in datasets:
             folder = tmp / ds.meta.name
             folder.mkdir()
+            log.info("%s: analysing %d frames (%d of %d datasets)", ds.meta.name, ds.n_frames,
+                     len(summaries) + 1, len(datasets))
             result = analyse_dataset(ds, opts, quiet=quiet, executor=executor)
             summary = result["summary"]
             summary["validation"] = reports[ds.meta.name]
-            write_dataset_results(folder, result)
+            write_dataset_results(folder, result, fps=fps)
             summaries.append(summary)
+            log.info("%s: done; expand %.3f, cycle wave speed %.2f mm/s", ds.meta.name,
+                     summary["expand_fraction"], summary["wave_speed_mm_s"]["cycle"])
         from .report import write_cohort_markdown, write_cohort_table, write_groups_table
 
         from .figures import group_figures

@@ -35,6 +35,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--n-v", type=int, default=50, help="grid nodes along (default 50)")
     r.add_argument("--authalic-weight", type=float, default=0.5,
                    help="Desbrun blend: 0 conformal, 1 authalic (default 0.5)")
+    r.add_argument("--fps", type=float, default=30.0, help="frames per second of the videos")
+    r.add_argument("--log", type=Path, default=None, metavar="FILE",
+                   help="keep a full log (progress, warnings, timings) in FILE")
     r.add_argument("--warp", action="store_true",
                    help="resample time in two segments so maximum expansion is at mid-cycle")
 
@@ -95,10 +98,20 @@ def main(argv: list[str] | None = None) -> int:
 
     warnings.simplefilter("always", OftimgWarning)
     warnings.formatwarning = lambda msg, cat, *a, **k: f"oftimg: warning: {msg}\n"
+    if getattr(args, "log", None):
+        import logging
+
+        handler = logging.FileHandler(args.log)
+        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+        for name in ("oftimg", "py.warnings"):
+            logging.getLogger(name).addHandler(handler)
+            logging.getLogger(name).setLevel(logging.INFO)
+        logging.captureWarnings(True)  # warnings then go to the log (and stderr below)
+        logging.getLogger("py.warnings").addHandler(logging.StreamHandler())
     try:
         if args.command == "run":
             out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
-                          jobs=args.jobs, scheduler=args.scheduler, options={"n_u": args.n_u, "n_v": args.n_v,
+                          jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options={"n_u": args.n_u, "n_v": args.n_v,
                                    "authalic_weight": args.authalic_weight})
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
         elif args.command == "demo":

@@ -189,7 +189,7 @@ def describe_pca(name: str) -> dict:
     raise KeyError(f"no description for array {name!r}")
 
 
-def write_dataset_results(folder: Path, result: dict) -> None:
+def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/."""
     import time
 
@@ -222,6 +222,6 @@ def write_dataset_results(folder: Path, result: dict) -> None:
                    title=f"{result['summary']['name']}: cross-section shape modes")
     timings["figures_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    dataset_videos(folder / "videos", arrays, result["grids"])
+    dataset_videos(folder / "videos", arrays, result["grids"], fps=fps)
     timings["videos_s"] = time.perf_counter() - tick
     write_json(folder / "summary.json", result["summary"])

@@ -113,3 +113,20 @@ def test_shape_pca_on_the_phantom(run_out):
             assert np.median(np.abs(along)) > 0.8
             assert np.mean(along > 0) > 0.9  # one sign around the contour
     assert (run_out / "normal" / "figures" / "shape_pca.png").stat().st_size > 20_000
+
+
+def test_log_file_and_fps(tmp_path):
+    from oftimg.phantom import sample_params, write_phantom
+
+    ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
+                                                        vertices_min=1500, vertices_max=1800))
+    log = tmp_path / "run.log"
+    out = tmp_path / "out"
+    assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1", "--fps", "10",
+                 "--log", str(log)]) == 0
+    text = log.read_text()
+    assert "tiny: analysing 5 frames" in text and "tiny: done" in text
+    import imageio.v2 as imageio
+
+    assert imageio.get_reader(out / "tiny" / "videos" / "area_map_cursor.mp4").get_meta_data()[
+        "fps"] == 10

@@ -201,6 +201,13 @@ def shape_fields(grid, contour, normals, area, frames, t0, warp_frames, period_m
     return {"arrays": arrays, "corner_count": int(values[np.argmax(freq)])}
 
 
+def _retime(f, grid, area, contour, volume, per_row):
+    """Apply ``f(array, time_axis)`` to every per-frame series of a dataset."""
+    return ({w: f(g, 2) for w, g in grid.items()}, {w: f(a, 1) for w, a in area.items()},
+            {w: f(c, 2) for w, c in contour.items()}, {w: f(v, 0) for w, v in volume.items()},
+            tuple(f(x, 1) for x in per_row))
+
+
 def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
     """Arc length (mm) from the inlet along the centroid line, ``(n_v, n_t)``."""
     step = np.linalg.norm(np.diff(centroid, axis=0), axis=-1)
@@ -262,27 +269,18 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     # time alignment: t = 0 at minimum outer volume
     timing = cycle_timing(volume["outer"], ds.meta.period_ms)
     t0 = timing["t0_frame"]
-    grid = {w: roll_time(g, t0, axis=2) for w, g in grid.items()}
-    area = {w: roll_time(a, t0, axis=1) for w, a in area.items()}
-    contour = {w: roll_time(c, t0, axis=2) for w, c in contour.items()}
-    volume = {w: roll_time(v, t0) for w, v in volume.items()}
-    centroid = roll_time(centroid, t0, axis=1)
-    origins = roll_time(origins, t0, axis=1)
-    normals = roll_time(normals, t0, axis=1)
-    crossing = roll_time(crossing, t0, axis=1)
+    grid, area, contour, volume, (centroid, origins, normals, crossing) = _retime(
+        lambda a, axis: roll_time(a, t0, axis=axis), grid, area, contour, volume,
+        (centroid, origins, normals, crossing))
     t_frames = np.arange(n_t, dtype=float)
     if options.warp:
         # two segments: minimum volume at 0, maximum expansion at half the cycle
         t_frames = two_segment_warp(n_t, (timing["t_max_frame"] - t0) % n_t)
-        grid = {w: resample_time(g, t_frames, axis=2) for w, g in grid.items()}
-        area = {w: resample_time(a, t_frames, axis=1) for w, a in area.items()}
-        contour = {w: resample_time(c, t_frames, axis=2) for w, c in contour.items()}
-        volume = {w: resample_time(v, t_frames) for w, v in volume.items()}
-        centroid = resample_time(centroid, t_frames, axis=1)
-        origins = resample_time(origins, t_frames, axis=1)
-        normals = resample_time(normals, t_frames, axis=1)
+        grid, area, contour, volume, (centroid, origins, normals, crossing) = _retime(
+            lambda a, axis: resample_time(a, t_frames, axis=axis), grid, area, contour, volume,
+            (centroid, origins, normals, crossing.astype(float)))
         normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
-        crossing = resample_time(crossing.astype(float), t_frames, axis=1) > 0
+        crossing = crossing > 0
     s_rows = centroid_arc_length(centroid)                              # (n_v, n_t)
     s_mm = s_rows.mean(axis=1)
     t_ms = t_frames * ds.meta.period_ms / n_t

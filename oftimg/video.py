@@ -112,30 +112,28 @@ def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
     from .image.normalize import per_pixel_normalize
 
     t_ms = arrays["t_ms"]
+    # (file, array, transform, field_frames options): the (u, v) field videos
+    field_videos = [
+        ("radial_curvature_outer", "radial_curvature_outer_per_mm", None,
+         dict(cmap="coolwarm", label="curvature 1/mm")),
+        ("radial_curvature_outer_normalized", "radial_curvature_outer_per_mm",
+         per_pixel_normalize, dict(vmin=0, vmax=1, cmap="gray", label="per-pixel normalized")),
+        ("strain_energy_outer", "strain_energy_outer", None,
+         dict(cmap="RdYlGn_r", label="strain energy")),
+        ("strain_energy_outer_per_frame", "strain_energy_outer", None,
+         dict(cmap="RdYlGn_r", per_frame=True, label="strain energy (frame)")),
+        ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", None,
+         dict(cmap="coolwarm", label="mean curv. 1/mm")),
+    ]
     out = []
-    k = arrays.get("radial_curvature_outer_per_mm")
-    if k is not None:
-        out.append(write_mp4(folder / "radial_curvature_outer.mp4",
-                             field_frames(k, t_ms, cmap="coolwarm", label="curvature 1/mm"),
-                             fps=fps))
-        out.append(write_mp4(folder / "radial_curvature_outer_normalized.mp4",
-                             field_frames(per_pixel_normalize(k), t_ms, vmin=0, vmax=1,
-                                          cmap="gray", label="per-pixel normalized"), fps=fps))
-    e = arrays.get("strain_energy_outer")
-    if e is not None:
-        out.append(write_mp4(folder / "strain_energy_outer.mp4",
-                             field_frames(e, t_ms, cmap="RdYlGn_r", label="strain energy"),
-                             fps=fps))
-        out.append(write_mp4(folder / "strain_energy_outer_per_frame.mp4",
-                             field_frames(e, t_ms, cmap="RdYlGn_r", per_frame=True,
-                                          label="strain energy (frame)"), fps=fps))
+    for name, key, transform, opts in field_videos:
+        if key in arrays:
+            field = transform(arrays[key]) if transform else arrays[key]
+            out.append(write_mp4(folder / f"{name}.mp4", field_frames(field, t_ms, **opts),
+                                 fps=fps))
+    cursor = map_cursor_frames(arrays["area_outer_mm2"], t_ms)
+    out.append(write_mp4(folder / "area_map_cursor.mp4", cursor, fps=fps))
     h = arrays.get("mean_curvature_lumen_per_mm")
-    if h is not None:
-        out.append(write_mp4(folder / "mean_curvature_lumen.mp4",
-                             field_frames(h, t_ms, cmap="coolwarm", label="mean curv. 1/mm"),
-                             fps=fps))
-    out.append(write_mp4(folder / "area_map_cursor.mp4",
-                         map_cursor_frames(arrays["area_outer_mm2"], t_ms), fps=fps))
     if grids is not None and h is not None and "lumen" in grids:
         out.append(write_mp4(folder / "lumen_mean_curvature_3d.mp4",
                              surface_and_map_frames(grids["lumen"], h, t_ms,
@@ -145,9 +143,7 @@ def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
         area_field = np.broadcast_to(arrays["area_outer_mm2"][None], G.shape[:3])
         out.append(write_mp4(folder / "outer_wall_3d_area_map.mp4",
                              surface_and_map_frames(G, area_field, t_ms, cmap="jet",
-                                                    flat=map_cursor_frames(
-                                                        arrays["area_outer_mm2"], t_ms)),
-                             fps=fps))
+                                                    flat=cursor), fps=fps))
     return out
 
 

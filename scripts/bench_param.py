@@ -3,7 +3,7 @@
     python scripts/bench_param.py [--vertices 5500] [--frames 5]
 
 Prints the median over frames of: reading + validation, seam end points
-(exact multi-source geodesic), seam path + insertion, cut + Desbrun map,
+(heat method + exact polish), seam path + insertion, cut + Desbrun map,
 resampling the 80 x 50 grid. Target: seam + map + resample < 60 ms per frame.
 """
 from __future__ import annotations

@@ -98,10 +98,14 @@ def test_seam_is_a_surface_geodesic_not_an_edge_path():
     topo = check_tube(V, F)
     s0, _ = ph.window_coordinates(V[topo.loops[0]])
     inlet, outlet = topo.loops if s0.mean() < 0.5 else topo.loops[::-1]
-    p_in, p_out, length = seam_endpoints(V, topo.F, inlet, outlet)
+    p_in, p_out, heat_length = seam_endpoints(V, topo.F, inlet, outlet)
     # inside line of a torus section: (R - r) * angle
     expected = (ph.p.bend_radius_mm - 0.15) * ph.p.length_mm / ph.p.bend_radius_mm
+    assert heat_length == pytest.approx(expected, rel=0.02)  # heat distances run long
+    ex_in, ex_out, length = seam_endpoints(V, topo.F, inlet, outlet, method="exact")
     assert length == pytest.approx(expected, rel=0.01)
+    edge = np.median(np.linalg.norm(V[topo.F[:, 0]] - V[topo.F[:, 1]], axis=1))
+    assert np.linalg.norm(ex_in - p_in) < 2 * edge and np.linalg.norm(ex_out - p_out) < 2 * edge
     _, th = ph.window_coordinates(np.array([p_in, p_out]))
     assert np.abs(th).max() < 0.2
     solver = GeodesicSolver(V, topo.F)
@@ -112,6 +116,7 @@ def test_seam_is_a_surface_geodesic_not_an_edge_path():
     chain_len = np.linalg.norm(np.diff(V2[chain], axis=0), axis=1).sum()
     assert chain_len == pytest.approx(np.linalg.norm(np.diff(path, axis=0), axis=1).sum(),
                                       rel=1e-3)  # 2 % end snapping
+    assert chain_len == pytest.approx(expected, rel=0.01)
     check_tube(V2, F2)  # still a valid, consistently oriented tube
 
 

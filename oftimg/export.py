@@ -151,6 +151,12 @@ def describe_array(name: str) -> dict:
                                                        "below 75 % of its maximum (periodic)"),
         "gaussian_sigma_{w}_ms": (["v"], "ms", "sigma of the Gaussian fitted to the {w} area"),
         "gaussian_fit_r2_{w}": (["v"], "1", "R^2 of that Gaussian fit"),
+        "volume_from_sections_{w}_mm3": (["t"], "mm^3", "sum over slabs of mean {w} section "
+                                                        "area x slab thickness (a check on "
+                                                        "volume_{w}_mm3)"),
+        "section_from_ring_{w}": (["v", "t"], "bool", "{w} sections measured on the grid ring "
+                                                      "projected onto the plane (no clean "
+                                                      "contour; should be rare)"),
     }
     for w in WALLS:
         for pattern, (dims, unit, text) in per_wall.items():

@@ -17,7 +17,8 @@ from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import (GridOptions, closest_points, grid_frame, seam_endpoints,
                         smooth_endpoints)
-from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
+from .mesh.sections import (fix_crossing_planes, section_planes, sections_of_mesh,
+                            slab_thickness, volume_from_sections)
 from .mesh.curvature import (contour_curvature, count_corners, fill_boundary,
                              vertex_mean_curvature)
 from .mesh.strain import grid_strain
@@ -80,7 +81,7 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
     """
     n_c = options.n_u
     out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {},
-           "cpu_s": {}}
+           "from_ring": {}, "cpu_s": {}}
     clock = _Clock(out["cpu_s"])
     with clock("load"):
         tb = ds.tube("outer", t)
@@ -111,17 +112,17 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
             out["mean_curvature_lumen"] = closest_points(tl.V, tl.F, gl.X, H)[1]
     for wall, (tube, Xw, gw) in walls.items():
         with clock("sections"):
-            area, centroid, contour = sections_of_mesh(tube.V, tube.F, origins, normals,
-                                                       Xw[0], n_c)
+            area, centroid, contour, from_ring = sections_of_mesh(tube.V, tube.F, origins,
+                                                                  normals, Xw, n_c)
         out["grid"][wall] = Xw
         out["flipped"][wall] = gw.flipped if gw else 0
         out["repaired"][wall] = int(bool(gw and gw.flipped_before_repair))
         out["area"][wall] = area
+        out["from_ring"][wall] = from_ring
+        out["centroid_" + wall] = centroid
         out["contour"][wall] = contour
         with clock("volumes"):
             out["volume"][wall] = capped_signed_volume(tube.V, tube.F, [tube.inlet, tube.outlet])
-        if wall == "outer":
-            out["centroid"] = centroid
     return out
 
 
@@ -205,7 +206,7 @@ def _retime(f, grid, area, contour, volume, per_row):
     """Apply ``f(array, time_axis)`` to every per-frame series of a dataset."""
     return ({w: f(g, 2) for w, g in grid.items()}, {w: f(a, 1) for w, a in area.items()},
             {w: f(c, 2) for w, c in contour.items()}, {w: f(v, 0) for w, v in volume.items()},
-            tuple(f(x, 1) for x in per_row))
+            {k: f(x, 1) for k, x in per_row.items()})
 
 
 def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
@@ -248,7 +249,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     volume = {w: np.array([f["volume"][w] for f in frames]) for w in walls}
     flipped = {w: int(sum(f["flipped"][w] for f in frames)) for w in walls}
     repaired = {w: int(sum(f["repaired"][w] for f in frames)) for w in walls}
-    centroid = np.stack([f["centroid"] for f in frames], axis=1)      # (n_v, n_t, 3)
+    from_ring = {w: np.stack([f["from_ring"][w] for f in frames], axis=1) for w in walls}
+    centroids = {w: np.stack([f["centroid_" + w] for f in frames], axis=1) for w in walls}
+    centroid = centroids["outer"]                                       # (n_v, n_t, 3)
     origins = np.stack([f["origins"] for f in frames], axis=1)
     normals = np.stack([f["normals"] for f in frames], axis=1)
     plane_fixes = int(sum(f["plane_fixes"] for f in frames))
@@ -257,11 +260,13 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         warnings.warn(f"{ds.path}: {int(crossing.sum())} section planes still cross another "
                       "inside the tube after blending (see plane_crossing)", OftimgWarning,
                       stacklevel=2)
-    n_missing = {w: int(np.isnan(a).sum()) for w, a in area.items()}
-    for w, k in n_missing.items():
+    n_from_ring = {w: int(r.sum()) for w, r in from_ring.items()}
+    for w, k in n_from_ring.items():
         if k:
-            warnings.warn(f"{ds.path}: {k} of {area[w].size} {w} sections have no closed "
-                          "contour around the tube's axis (NaN)", OftimgWarning, stacklevel=2)
+            warnings.warn(f"{ds.path}: {k} of {from_ring[w].size} {w} sections had no clean "
+                          "closed contour (none, or one merged with another part of the tube) "
+                          "and were measured on the grid ring projected onto the plane "
+                          f"(see section_from_ring_{w})", OftimgWarning, stacklevel=2)
     if sum(flipped.values()):
         warnings.warn(f"{ds.path}: {sum(flipped.values())} flipped triangles in the (u, v) "
                       "maps (the map is not one-to-one there)", OftimgWarning, stacklevel=2)
@@ -269,18 +274,23 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     # time alignment: t = 0 at minimum outer volume
     timing = cycle_timing(volume["outer"], ds.meta.period_ms)
     t0 = timing["t0_frame"]
-    grid, area, contour, volume, (centroid, origins, normals, crossing) = _retime(
-        lambda a, axis: roll_time(a, t0, axis=axis), grid, area, contour, volume,
-        (centroid, origins, normals, crossing))
+    rows = {"origin": origins, "normal": normals, "crossing": crossing.astype(float)}
+    rows.update({f"centroid_{w}": c for w, c in centroids.items()})
+    rows.update({f"from_ring_{w}": r.astype(float) for w, r in from_ring.items()})
+    grid, area, contour, volume, rows = _retime(
+        lambda a, axis: roll_time(a, t0, axis=axis), grid, area, contour, volume, rows)
     t_frames = np.arange(n_t, dtype=float)
     if options.warp:
         # two segments: minimum volume at 0, maximum expansion at half the cycle
         t_frames = two_segment_warp(n_t, (timing["t_max_frame"] - t0) % n_t)
-        grid, area, contour, volume, (centroid, origins, normals, crossing) = _retime(
+        grid, area, contour, volume, rows = _retime(
             lambda a, axis: resample_time(a, t_frames, axis=axis), grid, area, contour, volume,
-            (centroid, origins, normals, crossing.astype(float)))
-        normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
-        crossing = crossing > 0
+            rows)
+        rows["normal"] /= np.linalg.norm(rows["normal"], axis=-1, keepdims=True)
+    origins, normals, centroid = rows["origin"], rows["normal"], rows["centroid_outer"]
+    crossing = rows["crossing"] > 0  # after a warp: any of the blended frames crossed
+    thickness = {w: slab_thickness(rows[f"centroid_{w}"], normals) for w in walls}
+    volume_sections = {w: volume_from_sections(area[w], thickness[w]) for w in walls}
     s_rows = centroid_arc_length(centroid)                              # (n_v, n_t)
     s_mm = s_rows.mean(axis=1)
     t_ms = t_frames * ds.meta.period_ms / n_t
@@ -290,6 +300,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         arrays[f"area_{w}_mm2"] = area[w]
         arrays[f"volume_{w}_mm3"] = volume[w]
         arrays[f"contour_{w}_mm"] = contour[w].astype(np.float32)
+        arrays[f"volume_from_sections_{w}_mm3"] = volume_sections[w]
+        arrays[f"section_from_ring_{w}"] = rows[f"from_ring_{w}"] > 0
     arrays["centroid_outer_mm"] = centroid
     arrays["plane_origin_mm"] = origins
     arrays["plane_normal"] = normals
@@ -310,7 +322,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         myo = volume["outer"] - volume["inner"]
         arrays["volume_myocardium_mm3"] = myo
         summary["myocardial_volume_change"] = float((myo.max() - myo.min()) / myo.min())
-        clip_v, target = clip_positions(area["outer"] - area["inner"], s_rows)
+        clip_v, target = clip_positions(area["outer"] - area["inner"], thickness["outer"])
         arrays["clip_v"] = clip_v
         arrays["trim_percent"] = 100.0 * np.array(
             [np.interp(v * (len(s_mm) - 1), np.arange(len(s_mm)), s_rows[:, t]) / s_rows[-1, t]
@@ -345,7 +357,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "maps_with_clamped_weights": repaired,
         "section_plane_fixes": plane_fixes,
         "section_planes_still_crossing": int(crossing.sum()),
-        "sections_without_contour": n_missing,
+        "sections_from_ring": n_from_ring,
+        "section_volume_error": {
+            w: float(np.median(np.abs(volume_sections[w] / volume[w] - 1))) for w in walls},
         "provenance": {
             "oftimg_version": __version__, "options": options.as_dict(),
             "inputs": {s: [{"file": str(p), "bytes": p.stat().st_size} for p in files]

@@ -10,24 +10,26 @@ from __future__ import annotations
 import numpy as np
 
 
-def cumulative_from_outlet(area_mm2: np.ndarray, s_mm: np.ndarray) -> np.ndarray:
+def cumulative_from_outlet(area_mm2: np.ndarray, thickness_mm: np.ndarray) -> np.ndarray:
     """Volume (mm^3) between each row and the outlet, ``(n_v, n_t)``.
 
-    ``area_mm2`` and ``s_mm`` are ``(n_v, n_t)``: section areas and the arc
-    length of each row along its frame's centroid line (trapezoid rule).
+    ``area_mm2 (n_v, n_t)``: section areas; ``thickness_mm (n_v - 1, n_t)``:
+    the slabs between consecutive sections (:func:`~oftimg.mesh.sections.slab_thickness`);
+    trapezoid rule.
     """
-    slab = 0.5 * (area_mm2[1:] + area_mm2[:-1]) * np.diff(s_mm, axis=0)
+    slab = 0.5 * (area_mm2[1:] + area_mm2[:-1]) * thickness_mm
     rev = np.cumsum(slab[::-1], axis=0)[::-1]
     return np.concatenate([rev, np.zeros((1, area_mm2.shape[1]))], axis=0)
 
 
-def clip_positions(myo_area_mm2: np.ndarray, s_mm: np.ndarray) -> tuple[np.ndarray, float]:
+def clip_positions(myo_area_mm2: np.ndarray, thickness_mm: np.ndarray
+                   ) -> tuple[np.ndarray, float]:
     """Per frame, the v at which clipping leaves the minimum myocardial volume.
 
     Returns ``v_c (n_t,)`` in [0, 1] (0 at the frame of minimum volume) and the
     target volume (mm^3).
     """
-    cum = cumulative_from_outlet(myo_area_mm2, s_mm)
+    cum = cumulative_from_outlet(myo_area_mm2, thickness_mm)
     target = float(np.nanmin(cum[0]))
     n_v = cum.shape[0]
     v = np.linspace(0.0, 1.0, n_v)

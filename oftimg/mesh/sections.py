@@ -140,26 +140,38 @@ def section_planes(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """Rows whose plane cuts another row's section inside the tube, per frame.
+    """Rows whose section meets another row's section inside the tube, per frame.
 
     For one frame, ``X (n_u, n_v, 3)``, ``origins``/``normals (n_v, 3)``.
-    Two planes meet inside the tube when their line of intersection crosses
-    one of the two sections, i.e. when one row's ring has nodes on both sides
-    of the other's plane. Neighbouring rows must also keep their order (row
-    j + 1 in front of plane j); far rows may lie behind a plane, as they do in
-    a tube bent by more than half a turn. Returns a boolean ``(n_v,)``.
+    Sections j and k meet when their chords on the line where planes j and k
+    intersect overlap; each chord is spanned by the points where the other
+    ring crosses the plane (its ends for a convex section, a superset
+    otherwise). A plane that only passes through a far part of a folded tube
+    does not count. Neighbouring rows must also keep their order (row j + 1
+    in front of plane j). Returns a boolean ``(n_v,)``.
     """
     n_v = X.shape[1]
+    rings = X.transpose(1, 0, 2)                                        # (n_v, n_u, 3)
     # side[j, k, i]: signed distance of node i of ring k from plane j
-    side = np.einsum("kiv,jv->jki", X.transpose(1, 0, 2), normals) \
+    side = np.einsum("kiv,jv->jki", rings, normals) \
         - np.einsum("jv,jv->j", origins, normals)[:, None, None]
-    lo, hi = side.min(axis=2), side.max(axis=2)
-    other = ~np.eye(n_v, dtype=bool)
-    straddle = (lo < 0) & (hi > 0) & other              # plane j cuts ring k
-    nxt = np.arange(n_v - 1)
+    nxt = np.roll(side, -1, axis=2)
+    cuts = (side < 0) != (nxt < 0)                                      # ring k's edge i cuts plane j
+    frac = side / np.where(cuts, side - nxt, 1.0)
+    line = np.cross(normals[:, None, :], normals[None, :, :])          # direction of plane j ^ plane k
+    proj = np.einsum("kiv,jkv->jki", rings, line)
+    at = proj + frac * (np.roll(proj, -1, axis=2) - proj)
+    lo = np.where(cuts, at, np.inf).min(axis=2)                         # chord of section k on the line
+    hi = np.where(cuts, at, -np.inf).max(axis=2)
+    # section j's chord on the same line: ring j against plane k, direction reversed
+    lo_j, hi_j = -hi.T, -lo.T
+    meet = (np.maximum(lo, lo_j) <= np.minimum(hi, hi_j)) & np.isfinite(lo) & np.isfinite(lo_j)
+    meet &= ~np.eye(n_v, dtype=bool)
+    k = np.arange(n_v - 1)
+    lo_side, hi_side = side.min(axis=2), side.max(axis=2)
     order = np.zeros(n_v, dtype=bool)
-    order[nxt] = (lo[nxt, nxt + 1] <= 0) | (hi[nxt + 1, nxt] >= 0)  # neighbours swapped
-    return straddle.any(axis=1) | straddle.any(axis=0) | order
+    order[k] = (lo_side[k, k + 1] <= 0) | (hi_side[k + 1, k] >= 0)     # neighbours swapped
+    return meet.any(axis=1) | order
 
 
 def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray, *,
@@ -167,11 +179,14 @@ def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray,
     """Blend the normals of crossing planes toward their neighbours until none cross.
 
     One frame: ``X (n_u, n_v, 3)``, ``origins``/``normals (n_v, 3)``. The end
-    rows keep their planes. Returns the fixed normals, how many row normals
-    were changed (0 when the planes did not cross) and a boolean ``(n_v,)`` of
-    rows still crossing when blending could not separate them (data, not an
-    error: the caller counts and reports them).
+    rows keep their planes. A run of changed rows that still crosses after
+    ``max_iter`` rounds gets its original normals back: blending that cannot
+    separate the sections (at a deep neck next to a bulge, say) only tilts
+    them, which biases their areas. Returns the normals, how many row normals
+    were changed, and a boolean ``(n_v,)`` of rows still crossing (data, not
+    an error: the caller counts and reports them).
     """
+    original = normals
     normals = normals.copy()
     changed = np.zeros(len(normals), dtype=bool)
     for _ in range(max_iter):
@@ -185,7 +200,18 @@ def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray,
         blended = normals[rows] + 0.5 * (normals[rows - 1] + normals[rows + 1])
         normals[rows] = blended / np.linalg.norm(blended, axis=1, keepdims=True)
         changed[rows] = True
+    bad = crossing_planes(X, origins, normals)
+    for run in _runs(changed):
+        if bad[max(run[0] - 1, 0):run[-1] + 2].any():
+            normals[run] = original[run]
+            changed[run] = False
     return normals, int(changed.sum()), crossing_planes(X, origins, normals)
+
+
+def _runs(mask: np.ndarray) -> list[np.ndarray]:
+    """Index arrays of the runs of consecutive True values in ``mask``."""
+    idx = np.nonzero(mask)[0]
+    return np.split(idx, np.nonzero(np.diff(idx) > 1)[0] + 1) if len(idx) else []
 
 
 def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n: int
@@ -225,17 +251,27 @@ def polygon_centroid(C: np.ndarray, normal: np.ndarray) -> np.ndarray:
 
 
 def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray,
-                     seam_points: np.ndarray, n_points: int):
-    """Cut one frame's mesh with every plane; keep the contour around the axis.
+                     rings: np.ndarray, n_points: int, *, max_offset: float = 0.5):
+    """Cut one frame's mesh with every plane; keep the contour that follows the grid ring.
 
-    ``origins``, ``normals``, ``seam_points`` are ``(n_v, 3)``. Returns
-    ``area (n_v,)`` mm^2 (NaN where no closed contour encloses the plane's
-    origin), ``centroid (n_v, 3)`` mm and ``contour (n_points, n_v, 3)`` mm.
+    ``origins``, ``normals`` are ``(n_v, 3)``; ``rings (n_u, n_v, 3)`` is the
+    wall's grid (on the surface, ``rings[0]`` the seam). The section of row j
+    is the closed contour around the plane's origin; it is accepted when it
+    and ring j, projected onto the plane, are within ``max_offset`` x the
+    ring's mean radius of each other (symmetric Hausdorff distance). A plane
+    through a neck of a folded or chambered tube can also cut a neighbouring
+    bulge and return a merged contour; there, and where no closed contour
+    exists, the section is ring j projected onto the plane.
+
+    Returns ``area (n_v,)`` mm^2, ``centroid (n_v, 3)`` mm, ``contour
+    (n_points, n_v, 3)`` mm and ``from_ring (n_v,)`` (True where the
+    projected ring was used).
     """
     n_v = len(origins)
-    area = np.full(n_v, np.nan)
-    centroid = np.full((n_v, 3), np.nan)
-    contour = np.full((n_points, n_v, 3), np.nan)
+    area = np.empty(n_v)
+    centroid = np.empty((n_v, 3))
+    contour = np.empty((n_points, n_v, 3))
+    from_ring = np.zeros(n_v, dtype=bool)
     # The end planes lie on the mesh's boundary loops: cut 5 % of a row inside,
     # and move what is found back onto the plane.
     step = np.linalg.norm(np.diff(origins, axis=0), axis=1).mean()
@@ -243,14 +279,44 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     shift[0] = 0.05 * step * normals[0]
     shift[-1] = -0.05 * step * normals[-1]
     all_contours = planes_contours(V, F, origins + shift, normals)
+    # rings projected onto their planes
+    height = np.einsum("ijk,jk->ij", rings - origins, normals)
+    flat = rings - height[..., None] * normals
+    radius = np.linalg.norm(flat - flat.mean(axis=0), axis=2).mean(axis=0)
     for j in range(n_v):
-        o = origins[j] + shift[j]
-        C = contour_around(all_contours[j], o, normals[j])
+        C = contour_around(all_contours[j], origins[j] + shift[j], normals[j])
+        if C is not None:
+            C = C - shift[j]
+            if _hausdorff(C, flat[:, j]) > max_offset * radius[j]:
+                C = None
         if C is None:
-            continue
-        C = C - shift[j]
+            C = flat[:, j]
+            from_ring[j] = True
         area[j] = polygon_area(C, normals[j])
         centroid[j] = polygon_centroid(C, normals[j])
-        contour[:, j] = orient_and_resample(C, normals[j], seam_points[j], n_points)
-    return area, centroid, contour
+        contour[:, j] = orient_and_resample(C, normals[j], rings[0, j], n_points)
+    return area, centroid, contour, from_ring
 
+
+def _hausdorff(P: np.ndarray, Q: np.ndarray) -> float:
+    """Symmetric Hausdorff distance between point sets ``P (n, 3)`` and ``Q (m, 3)``."""
+    d = np.linalg.norm(P[:, None, :] - Q[None, :, :], axis=2)
+    return float(max(d.min(axis=1).max(), d.min(axis=0).max()))
+
+
+def slab_thickness(centroid: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Thickness (mm) of the slab between consecutive sections, ``(n_v - 1, ...)``.
+
+    The centroid step along the two planes' mean normal: the height of the
+    slab whose volume is area x thickness (Pappus), which the centroid
+    distance overestimates where the centroid line zig-zags sideways.
+    ``centroid``, ``normals``: ``(n_v, ..., 3)``.
+    """
+    mean_normal = normals[1:] + normals[:-1]
+    mean_normal = mean_normal / np.linalg.norm(mean_normal, axis=-1, keepdims=True)
+    return np.einsum("...i,...i", np.diff(centroid, axis=0), mean_normal)
+
+
+def volume_from_sections(area: np.ndarray, thickness: np.ndarray) -> np.ndarray:
+    """Volume (mm^3) by the trapezoid rule: ``area (n_v, ...)``, ``thickness (n_v - 1, ...)``."""
+    return (0.5 * (area[1:] + area[:-1]) * thickness).sum(axis=0)

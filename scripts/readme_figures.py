@@ -1,10 +1,16 @@
 """Pictures for the README (docs/*.png), from the phantom and a demo run.
 
-    python scripts/readme_figures.py [RESULTS_DIR]
+    python scripts/readme_figures.py [RESULTS_DIR] [--midgut MIDGUT_RESULTS]
 
 ``phantom_frame.png``: one phantom frame, all three walls, cut open to show
 the nesting. ``grid_frame.png``: the outer wall's 80 x 50 grid of a demo
 result (if RESULTS_DIR, a ``run`` output folder, is given).
+``midgut.png``: grid and normalized area map of the animated Drosophila midgut::
+
+    oftimg animate tests/data/midgut_8k.ply /tmp/mg --speed-mm-s 1.5 --frames 40 \
+        --unit um --scale 0.2619 --remesh
+    oftimg run /tmp/mg --out /tmp/mg_out
+    python scripts/readme_figures.py --midgut /tmp/mg_out
 """
 from __future__ import annotations
 
@@ -82,8 +88,51 @@ def grid_frame(results: Path, path: Path) -> None:
     plt.close(fig)
 
 
+def midgut(results: Path, path: Path) -> None:
+    """Grid of frame 0 and the area map normalized per row (chambers differ 100x in area)."""
+    name = sorted(p for p in results.iterdir() if (p / "grids.npz").exists())[0]
+    X = np.load(name / "grids.npz")["outer"][:, :, 0].astype(float) * 1e3  # um
+    arr = np.load(name / "arrays.npz")
+    fig = plt.figure(figsize=(10, 4), dpi=110)
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    for j in range(X.shape[1]):
+        ring = np.concatenate([X[:, j], X[:1, j]])
+        ax.plot(*ring.T, color="#333", lw=0.4)
+    for i in range(0, X.shape[0], 4):
+        ax.plot(*X[i].T, color="#999", lw=0.4)
+    ax.plot(*X[0].T, color="#1f4e9c", lw=2.0, label="seam u = 0")
+    ax.set_box_aspect(np.ptp(X.reshape(-1, 3), axis=0))
+    ax.set_axis_off()
+    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title("Drosophila midgut (Mitchell et al. 2022, CC BY 4.0):\n"
+                 "80 x 50 grid, frame 0", fontsize=9)
+    ax2 = fig.add_subplot(1, 2, 2)
+    area, s, t = arr["area_outer_mm2"], arr["s_mm"] * 1e3, arr["t_ms"]
+    norm = area / np.nanmax(area, axis=1, keepdims=True)
+    dt = t[1] - t[0]
+    im = ax2.imshow(norm, origin="lower", aspect="auto", cmap="jet",
+                    extent=(t[0] - dt / 2, t[-1] + dt / 2, s[0], s[-1]), interpolation="nearest")
+    fig.colorbar(im, ax=ax2, label="area / row maximum")
+    period = t[-1] + dt
+    ax2.plot(np.mod(arr["ridge_t_ms"], period), s, "k.", ms=3, label="maximum area")
+    ax2.set_xlabel("time since minimum volume (ms)")
+    ax2.set_ylabel("position along the tube s (um)")
+    summary = __import__("json").loads((name / "summary.json").read_text())
+    ax2.set_title(f"animated wave 1.5 mm/s; recovered {summary['wave_speed_mm_s']['cycle']:.2f} "
+                  "mm/s", fontsize=9)
+    ax2.legend(fontsize=7, loc="upper right", framealpha=0.6)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
 if __name__ == "__main__":
     DOCS.mkdir(exist_ok=True)
+    args = sys.argv[1:]
+    if "--midgut" in args:
+        k = args.index("--midgut")
+        midgut(Path(args[k + 1]), DOCS / "midgut.png")
+        del args[k:k + 2]
     phantom_frame(DOCS / "phantom_frame.png")
-    if len(sys.argv) > 1:
-        grid_frame(Path(sys.argv[1]), DOCS / "grid_frame.png")
+    if args:
+        grid_frame(Path(args[0]), DOCS / "grid_frame.png")

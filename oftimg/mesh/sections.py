@@ -20,8 +20,11 @@ def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: 
                     ) -> list[list[tuple[np.ndarray, bool]]]:
     """:func:`plane_contours` for many planes ``(n_planes, 3)`` at once.
 
-    The signed distances of all vertices to all planes are one matrix product,
-    and each plane then only touches the faces it cuts.
+    The signed distances of all vertices to all planes are one matrix product;
+    the mesh's edges and the faces on either side of them are found once.
+    Each cut face is entered through one edge and left through another
+    (outward-oriented faces give every contour the same sense), so a contour
+    is a walk from face to face across the exit edges.
     """
     normals = np.asarray(normals, float)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
@@ -29,47 +32,71 @@ def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: 
     scale = np.abs(D).max(axis=0, keepdims=True)
     D = np.where(np.abs(D) < 1e-12 * scale, 1e-12 * scale, D)  # no vertex exactly on a plane
     DT = np.ascontiguousarray(D.T)                                          # (n_planes, n_vert)
-    a, b, c = DT[:, F[:, 0]], DT[:, F[:, 1]], DT[:, F[:, 2]]
-    cut = (np.maximum(np.maximum(a, b), c) > 0) & (np.minimum(np.minimum(a, b), c) < 0)
-    return [_contours_of(V, F[cut[k]], DT[k]) for k in range(len(normals))]
+    edges, face_edge, _ = edge_incidence(F)
+    across = _faces_across(face_edge, len(edges))
+    out = []
+    for first in range(0, len(normals), 64):
+        # bit k of a vertex: on the positive side of plane first + k; of a face: cut by it
+        bits = (D[:, first:first + 64] > 0).astype(np.uint64) \
+            << np.arange(min(64, len(normals) - first), dtype=np.uint64)
+        side = np.bitwise_or.reduce(bits, axis=1)
+        cut = (side[F[:, 0]] ^ side[F[:, 1]]) | (side[F[:, 1]] ^ side[F[:, 2]])
+        for k in range(bits.shape[1]):
+            faces = np.nonzero((cut >> np.uint64(k)) & np.uint64(1))[0]
+            out.append(_contours_of(V, F, DT[first + k], faces, edges, face_edge, across))
+    return out
 
 
-def _contours_of(V: np.ndarray, Fc: np.ndarray, d: np.ndarray) -> list[tuple[np.ndarray, bool]]:
-    """Chain the segments of the cut faces ``Fc`` of one plane into contours."""
-    if len(Fc) == 0:
+def _faces_across(face_edge: np.ndarray, n_edges: int) -> np.ndarray:
+    """The (up to) two faces of every edge, ``(n_edges, 2)``, -1 on the boundary."""
+    fe = face_edge.ravel()
+    face = np.repeat(np.arange(len(face_edge)), 3)
+    order = np.argsort(fe, kind="stable")
+    fe, face = fe[order], face[order]
+    first = np.r_[True, fe[1:] != fe[:-1]]
+    across = np.full((n_edges, 2), -1, dtype=np.int64)
+    across[fe[first], 0] = face[first]
+    across[fe[~first], 1] = face[~first]
+    return across
+
+
+def _contours_of(V, F, d, faces, edges, face_edge, across) -> list[tuple[np.ndarray, bool]]:
+    """Chain the cut ``faces`` of the plane with vertex distances ``d`` into contours."""
+    if len(faces) == 0:
         return []
-    side = d > 0
-    edges, face_edge, _ = edge_incidence(Fc)
-    crosses = side[edges[:, 0]] != side[edges[:, 1]]
-    da, db = d[edges[:, 0]], d[edges[:, 1]]
-    t = np.where(crosses, da / np.where(crosses, da - db, 1.0), 0.0)
-    P = V[edges[:, 0]] + t[:, None] * (V[edges[:, 1]] - V[edges[:, 0]])
-    # each cut face joins its two crossing edges
-    fe_cross = crosses[face_edge]
-    pairs = face_edge[fe_cross].reshape(-1, 2)
-    nbrs: dict[int, list[int]] = {}
-    for a, b in pairs.tolist():
-        nbrs.setdefault(a, []).append(b)
-        nbrs.setdefault(b, []).append(a)
-    seen = set()
+    pos = d[F[faces]] > 0                                               # (m, 3)
+    nxt_pos = np.roll(pos, -1, axis=1)
+    rows = np.arange(len(faces))
+    e_in = face_edge[faces, np.argmax(~pos & nxt_pos, axis=1)]          # - -> + across the edge
+    e_out = face_edge[faces, np.argmax(pos & ~nxt_pos, axis=1)]         # + -> -
+
+    def crossing(e):
+        i, j = edges[e, 0], edges[e, 1]
+        t = d[i] / (d[i] - d[j])
+        return V[i] + t[:, None] * (V[j] - V[i])
+
+    P_in, P_out = crossing(e_in), crossing(e_out)
+    other = across[e_out]
+    g = np.where(other[:, 0] == faces, other[:, 1], other[:, 0])       # next face, -1: boundary
+    k = np.clip(np.searchsorted(faces, g), 0, len(faces) - 1)
+    nxt = np.where((g >= 0) & (faces[k] == g), k, -1)
+    has_prev = np.zeros(len(faces), dtype=bool)
+    has_prev[nxt[nxt >= 0]] = True
+    nxt_l = nxt.tolist()
+    seen = np.zeros(len(faces), dtype=bool)
     contours = []
-    # open chains first (start at an end), then closed loops
-    starts = [e for e, nb in nbrs.items() if len(nb) == 1] + list(nbrs)
-    for start in starts:
-        if start in seen:
+    # open chains first (from a face entered through the boundary), then closed loops
+    for start in np.r_[rows[~has_prev], rows].tolist():
+        if seen[start]:
             continue
-        chain = [start]
-        seen.add(start)
-        prev, cur = None, start
-        while True:
-            nxt = [x for x in nbrs[cur] if x != prev and x not in seen]
-            if not nxt:
-                break
-            prev, cur = cur, nxt[0]
-            chain.append(cur)
-            seen.add(cur)
-        closed = len(chain) > 2 and chain[0] in nbrs[chain[-1]]
-        contours.append((P[chain], closed))
+        chain, f = [], start
+        while f != -1 and not seen[f]:
+            seen[f] = True
+            chain.append(f)
+            f = nxt_l[f]
+        closed = f == start and len(chain) > 2
+        pts = P_in[chain] if closed else np.concatenate([P_in[chain], P_out[chain[-1:]]])
+        contours.append((pts, closed))
     return contours
 
 
@@ -155,23 +182,32 @@ def crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray) -> 
     # side[j, k, i]: signed distance of node i of ring k from plane j
     side = np.einsum("kiv,jv->jki", rings, normals) \
         - np.einsum("jv,jv->j", origins, normals)[:, None, None]
-    nxt = np.roll(side, -1, axis=2)
-    cuts = (side < 0) != (nxt < 0)                                      # ring k's edge i cuts plane j
-    frac = side / np.where(cuts, side - nxt, 1.0)
-    line = np.cross(normals[:, None, :], normals[None, :, :])          # direction of plane j ^ plane k
-    proj = np.einsum("kiv,jkv->jki", rings, line)
-    at = proj + frac * (np.roll(proj, -1, axis=2) - proj)
-    lo = np.where(cuts, at, np.inf).min(axis=2)                         # chord of section k on the line
-    hi = np.where(cuts, at, -np.inf).max(axis=2)
-    # section j's chord on the same line: ring j against plane k, direction reversed
-    lo_j, hi_j = -hi.T, -lo.T
-    meet = (np.maximum(lo, lo_j) <= np.minimum(hi, hi_j)) & np.isfinite(lo) & np.isfinite(lo_j)
-    meet &= ~np.eye(n_v, dtype=bool)
-    k = np.arange(n_v - 1)
     lo_side, hi_side = side.min(axis=2), side.max(axis=2)
-    order = np.zeros(n_v, dtype=bool)
-    order[k] = (lo_side[k, k + 1] <= 0) | (hi_side[k + 1, k] >= 0)     # neighbours swapped
-    return meet.any(axis=1) | order
+    straddle = (lo_side < 0) & (hi_side > 0)                            # plane j cuts ring k
+    k = np.arange(n_v - 1)
+    bad = np.zeros(n_v, dtype=bool)
+    bad[k] = (lo_side[k, k + 1] <= 0) | (hi_side[k + 1, k] >= 0)       # neighbours swapped
+    j, k = np.nonzero(np.triu(straddle & straddle.T, 1))                # candidate pairs
+    if len(j) == 0:
+        return bad
+    line = np.cross(normals[j], normals[k])                             # planes' common line
+    chord_k = _chord(rings[k], side[j, k], line)                        # section k on it
+    chord_j = _chord(rings[j], side[k, j], line)
+    meet = np.maximum(chord_k[0], chord_j[0]) <= np.minimum(chord_k[1], chord_j[1])
+    bad[j[meet]] = True
+    bad[k[meet]] = True
+    return bad
+
+
+def _chord(rings: np.ndarray, side: np.ndarray, line: np.ndarray):
+    """Extent along ``line (m, 3)`` of the points where ``rings (m, n_u, 3)``
+    cross a plane (``side (m, n_u)``: signed distances of their nodes)."""
+    nxt = np.roll(side, -1, axis=1)
+    cuts = (side < 0) != (nxt < 0)
+    frac = side / np.where(cuts, side - nxt, 1.0)
+    proj = np.einsum("miv,mv->mi", rings, line)
+    at = proj + frac * (np.roll(proj, -1, axis=1) - proj)
+    return np.where(cuts, at, np.inf).min(axis=1), np.where(cuts, at, -np.inf).max(axis=1)
 
 
 def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray, *,
@@ -189,10 +225,14 @@ def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray,
     original = normals
     normals = normals.copy()
     changed = np.zeros(len(normals), dtype=bool)
+    best, stalled = len(normals) + 1, 0
     for _ in range(max_iter):
         bad = crossing_planes(X, origins, normals)
         if not bad.any():
             return normals, int(changed.sum()), bad
+        best, stalled = (bad.sum(), 0) if bad.sum() < best else (best, stalled + 1)
+        if stalled >= 10:  # no progress in 10 rounds: these cannot be separated
+            break
         rows = np.nonzero(bad)[0]
         rows = rows[(rows > 0) & (rows < len(normals) - 1)]
         if len(rows) == 0:
@@ -283,25 +323,26 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     height = np.einsum("ijk,jk->ij", rings - origins, normals)
     flat = rings - height[..., None] * normals
     radius = np.linalg.norm(flat - flat.mean(axis=0), axis=2).mean(axis=0)
-    for j in range(n_v):
-        C = contour_around(all_contours[j], origins[j] + shift[j], normals[j])
-        if C is not None:
-            C = C - shift[j]
-            if _hausdorff(C, flat[:, j]) > max_offset * radius[j]:
-                C = None
-        if C is None:
-            C = flat[:, j]
-            from_ring[j] = True
+
+    def measure(j, C):
         area[j] = polygon_area(C, normals[j])
         centroid[j] = polygon_centroid(C, normals[j])
         contour[:, j] = orient_and_resample(C, normals[j], rings[0, j], n_points)
+
+    for j in range(n_v):
+        C = contour_around(all_contours[j], origins[j] + shift[j], normals[j])
+        from_ring[j] = C is None
+        measure(j, flat[:, j] if C is None else C - shift[j])
+    # symmetric Hausdorff distance of each (resampled) contour to its projected ring
+    A, B = contour.transpose(1, 0, 2), flat.transpose(1, 0, 2)          # (n_v, n, 3)
+    d2 = (np.einsum("vpk,vpk->vp", A, A)[:, :, None] + np.einsum("vuk,vuk->vu", B, B)[:, None]
+          - 2 * A @ B.transpose(0, 2, 1))                               # (n_v, n_points, n_u)
+    offset = np.sqrt(np.maximum(np.maximum(d2.min(axis=2).max(axis=1),
+                                           d2.min(axis=1).max(axis=1)), 0))
+    for j in np.nonzero(~from_ring & (offset > max_offset * radius))[0]:
+        from_ring[j] = True
+        measure(j, flat[:, j])
     return area, centroid, contour, from_ring
-
-
-def _hausdorff(P: np.ndarray, Q: np.ndarray) -> float:
-    """Symmetric Hausdorff distance between point sets ``P (n, 3)`` and ``Q (m, 3)``."""
-    d = np.linalg.norm(P[:, None, :] - Q[None, :, :], axis=2)
-    return float(max(d.min(axis=1).max(), d.min(axis=0).max()))
 
 
 def slab_thickness(centroid: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -94,14 +94,15 @@ def edge_incidence(F: np.ndarray):
     return edges, inverse.reshape(-1, 3), counts
 
 
-def boundary_loops(F: np.ndarray) -> list[np.ndarray]:
+def boundary_loops(F: np.ndarray, incidence=None) -> list[np.ndarray]:
     """Ordered boundary loops, each following its faces' half-edge direction.
 
-    Raises :class:`MeshError` if a boundary vertex is pinched (two boundary
+    ``incidence``: :func:`edge_incidence` of ``F`` if already known. Raises
+    :class:`MeshError` if a boundary vertex is pinched (two boundary
     half-edges leave it).
     """
     half = _half_edges(F)
-    _, face_edge, counts = edge_incidence(F)
+    _, face_edge, counts = incidence if incidence is not None else edge_incidence(F)
     bhalf = half[counts[face_edge.reshape(-1)] == 1]
     if len(bhalf) == 0:
         return []
@@ -160,15 +161,19 @@ def capped_signed_volume(V: np.ndarray, F: np.ndarray, loops: list[np.ndarray]) 
     return float(vol)
 
 
-def orient_consistently(F: np.ndarray) -> tuple[np.ndarray, int]:
+def orient_consistently(F: np.ndarray, incidence=None) -> tuple[np.ndarray, int]:
     """Flip faces so that every interior edge is used once in each direction.
 
-    Returns ``(F, n_flipped)``. Raises :class:`MeshError` for a non-orientable
-    surface.
+    ``incidence``: :func:`edge_incidence` of ``F`` if already known. Returns
+    ``(F, n_flipped)``. Raises :class:`MeshError` for a non-orientable surface.
     """
-    edges, face_edge, counts = edge_incidence(F)
+    edges, face_edge, counts = incidence if incidence is not None else edge_incidence(F)
     half = np.stack([F, np.roll(F, -1, axis=1)], axis=2)  # (n_face, 3, 2)
     forward = half[:, :, 0] < half[:, :, 1]  # direction of use relative to sorted edge
+    # already consistent (the usual case): every interior edge used forward exactly once
+    n_forward = np.bincount(face_edge[forward], minlength=len(edges))
+    if np.all((counts == 1) | (n_forward == 1)):
+        return F, 0
     interior = counts[face_edge] == 2
     fe = face_edge[interior]
     fi = np.nonzero(interior)[0]
@@ -225,7 +230,8 @@ def check_tube(V: np.ndarray, F: np.ndarray) -> TubeTopology:
     if not np.all(np.isfinite(V)):
         bad = int(np.count_nonzero(~np.isfinite(V).all(axis=1)))
         raise MeshError(f"has {bad} vertices with NaN or infinite coordinates")
-    edges, _, counts = edge_incidence(F)
+    incidence = edge_incidence(F)
+    edges, _, counts = incidence
     if np.any(counts > 2):
         e = edges[np.argmax(counts > 2)]
         raise MeshError(f"has {int((counts > 2).sum())} non-manifold edges "
@@ -235,14 +241,14 @@ def check_tube(V: np.ndarray, F: np.ndarray) -> TubeTopology:
     n_comp, _ = connected_components(A, directed=False)
     if n_comp != 1:
         raise MeshError(f"has {n_comp} connected components; a tube has 1")
-    loops = boundary_loops(F)
+    loops = boundary_loops(F, incidence)
     if len(loops) != 2:
         raise MeshError(f"has {len(loops)} boundary loops; a tube has 2")
     euler = n - len(edges) + len(F)
     if euler != 0:
         raise MeshError(f"has Euler characteristic {euler}; an open tube has 0 "
                         "(holes or handles in the wall?)")
-    F, flipped = orient_consistently(F)
+    F, flipped = orient_consistently(F, incidence)
     if flipped:
         loops = boundary_loops(F)
     if capped_signed_volume(V, F, loops) < 0:

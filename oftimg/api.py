@@ -105,7 +105,7 @@ def _run_validated(datasets, reports, out, paths, opts, executor, *, overwrite, 
             result = analyse_dataset(ds, opts, quiet=quiet, executor=executor)
             summary = result["summary"]
             summary["validation"] = reports[ds.meta.name]
-            write_dataset_results(folder, result, fps=fps)
+            write_dataset_results(folder, result, fps=fps, executor=executor)
             summaries.append(summary)
             log.info("%s: done; expand %.3f, cycle wave speed %.2f mm/s", ds.meta.name,
                      summary["expand_fraction"], summary["wave_speed_mm_s"]["cycle"])

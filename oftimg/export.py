@@ -195,8 +195,10 @@ def describe_pca(name: str) -> dict:
     raise KeyError(f"no description for array {name!r}")
 
 
-def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0) -> None:
-    """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/."""
+def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
+                          executor=None) -> None:
+    """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/
+    (rendered in ``executor``'s workers when one is given)."""
     import time
 
     from .figures import dataset_figures
@@ -228,6 +230,6 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0) -> N
                    title=f"{result['summary']['name']}: cross-section shape modes")
     timings["figures_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    dataset_videos(folder / "videos", arrays, result["grids"], fps=fps)
+    dataset_videos(folder / "videos", arrays, result["grids"], fps=fps, executor=executor)
     timings["videos_s"] = time.perf_counter() - tick
     write_json(folder / "summary.json", result["summary"])

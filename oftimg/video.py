@@ -106,44 +106,83 @@ def write_mp4(path: Path, frames: np.ndarray, *, fps: float = 30.0) -> Path:
     return path
 
 
-def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
-                   fps: float = 30.0) -> list[Path]:
-    """All per-dataset videos into ``folder`` (``videos/``)."""
-    from .image.normalize import per_pixel_normalize
+# (file, array, per-pixel normalized?, field_frames options): the (u, v) field videos
+FIELD_VIDEOS = [
+    ("radial_curvature_outer", "radial_curvature_outer_per_mm", False,
+     dict(cmap="coolwarm", label="curvature 1/mm")),
+    ("radial_curvature_outer_normalized", "radial_curvature_outer_per_mm", True,
+     dict(vmin=0, vmax=1, cmap="gray", label="per-pixel normalized")),
+    ("strain_energy_outer", "strain_energy_outer", False,
+     dict(cmap="RdYlGn_r", label="strain energy")),
+    ("strain_energy_outer_per_frame", "strain_energy_outer", False,
+     dict(cmap="RdYlGn_r", per_frame=True, label="strain energy (frame)")),
+    ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", False,
+     dict(cmap="coolwarm", label="mean curv. 1/mm")),
+]
 
+
+def video_tasks(arrays: dict, grids: dict | None = None) -> list[tuple]:
+    """The videos of one dataset as independent ``(kind, inputs)`` tasks for
+    :func:`render_videos`, each holding only the arrays it needs."""
     t_ms = arrays["t_ms"]
-    # (file, array, transform, field_frames options): the (u, v) field videos
-    field_videos = [
-        ("radial_curvature_outer", "radial_curvature_outer_per_mm", None,
-         dict(cmap="coolwarm", label="curvature 1/mm")),
-        ("radial_curvature_outer_normalized", "radial_curvature_outer_per_mm",
-         per_pixel_normalize, dict(vmin=0, vmax=1, cmap="gray", label="per-pixel normalized")),
-        ("strain_energy_outer", "strain_energy_outer", None,
-         dict(cmap="RdYlGn_r", label="strain energy")),
-        ("strain_energy_outer_per_frame", "strain_energy_outer", None,
-         dict(cmap="RdYlGn_r", per_frame=True, label="strain energy (frame)")),
-        ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", None,
-         dict(cmap="coolwarm", label="mean curv. 1/mm")),
-    ]
-    out = []
-    for name, key, transform, opts in field_videos:
-        if key in arrays:
-            field = transform(arrays[key]) if transform else arrays[key]
-            out.append(write_mp4(folder / f"{name}.mp4", field_frames(field, t_ms, **opts),
-                                 fps=fps))
-    cursor = map_cursor_frames(arrays["area_outer_mm2"], t_ms)
-    out.append(write_mp4(folder / "area_map_cursor.mp4", cursor, fps=fps))
+    # the slow 3-D renders first, so that workers finish together;
+    # the area-map cursor frames are drawn once for both videos that show them
+    tasks = [("area", dict(area=arrays["area_outer_mm2"], t_ms=t_ms,
+                           grid=None if grids is None else grids["outer"]))]
     h = arrays.get("mean_curvature_lumen_per_mm")
     if grids is not None and h is not None and "lumen" in grids:
-        out.append(write_mp4(folder / "lumen_mean_curvature_3d.mp4",
-                             surface_and_map_frames(grids["lumen"], h, t_ms,
-                                                    label="mean curv. 1/mm"), fps=fps))
-    if grids is not None:
-        G = grids["outer"]
-        area_field = np.broadcast_to(arrays["area_outer_mm2"][None], G.shape[:3])
-        out.append(write_mp4(folder / "outer_wall_3d_area_map.mp4",
-                             surface_and_map_frames(G, area_field, t_ms, cmap="jet",
-                                                    flat=cursor), fps=fps))
+        tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms)))
+    tasks += [("field", dict(name=name, field=arrays[key], normalize=normalize, t_ms=t_ms,
+                             options=opts))
+              for name, key, normalize, opts in FIELD_VIDEOS if key in arrays]
+    return tasks
+
+
+def render_videos(kind: str, inputs: dict, fps: float = 30.0) -> list[tuple[str, bytes]]:
+    """Encode one task's videos; returns ``(file name, MP4 bytes)`` pairs (so that
+    a worker on another machine need not see the output folder)."""
+    import tempfile
+
+    from .image.normalize import per_pixel_normalize
+
+    t_ms = inputs["t_ms"]
+    if kind == "field":
+        field = per_pixel_normalize(inputs["field"]) if inputs["normalize"] else inputs["field"]
+        movies = {inputs["name"]: field_frames(field, t_ms, **inputs["options"])}
+    elif kind == "area":
+        cursor = map_cursor_frames(inputs["area"], t_ms)
+        movies = {"area_map_cursor": cursor}
+        G = inputs["grid"]
+        if G is not None:
+            area_field = np.broadcast_to(inputs["area"][None], G.shape[:3])
+            movies["outer_wall_3d_area_map"] = surface_and_map_frames(
+                G, area_field, t_ms, cmap="jet", flat=cursor)
+    elif kind == "lumen_3d":
+        movies = {"lumen_mean_curvature_3d": surface_and_map_frames(
+            inputs["grid"], inputs["h"], t_ms, label="mean curv. 1/mm")}
+    else:
+        raise ValueError(f"unknown video task {kind!r}")
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, frames in movies.items():
+            path = write_mp4(Path(tmp) / f"{name}.mp4", frames, fps=fps)
+            out.append((path.name, path.read_bytes()))
+    return out
+
+
+def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
+                   fps: float = 30.0, executor=None) -> list[Path]:
+    """All per-dataset videos into ``folder`` (``videos/``), rendered in
+    ``executor``'s workers when one is given."""
+    from .pipeline import run_tasks
+
+    tasks = video_tasks(arrays, grids)
+    encoded = run_tasks(render_videos, [(kind, inputs, fps) for kind, inputs in tasks],
+                        executor=executor)
+    out = []
+    for name, data in (pair for task in encoded for pair in task):
+        (folder / name).write_bytes(data)
+        out.append(folder / name)
     return out
 
 

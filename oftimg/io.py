@@ -232,6 +232,24 @@ def read_meta(folder: Path, n_frames: int) -> Meta:
                 period_assumed=period_assumed)
 
 
+@dataclass(frozen=True)
+class Frame:
+    """The files of one time frame: what a worker needs to read it (small to send)."""
+
+    files: dict[str, str]
+    unit_scale: float
+    inlet_mm: tuple[float, float, float]
+
+    @property
+    def surfaces(self) -> tuple[str, ...]:
+        return tuple(s for s in SURFACES if s in self.files)
+
+    def tube(self, surface: str) -> Tube:
+        """This frame's ``surface`` as a validated :class:`Tube` in mm."""
+        return load_tube(self.files[surface], unit_scale=self.unit_scale,
+                         inlet_point=np.asarray(self.inlet_mm))
+
+
 @dataclass
 class Dataset:
     """A dataset folder: metadata and the frame files of each surface.
@@ -255,6 +273,11 @@ class Dataset:
     @property
     def unit_scale(self) -> float:
         return UNIT_TO_MM[self.meta.length_unit]
+
+    def frame(self, t: int) -> Frame:
+        """The files of frame ``t``, as sent to worker processes."""
+        return Frame({s: str(files[t]) for s, files in self.frames.items()}, self.unit_scale,
+                     tuple(float(x) for x in self.inlet_mm))
 
     def tube(self, surface: str, t: int) -> Tube:
         """Frame ``t`` of ``surface`` as a validated :class:`Tube` in mm."""
@@ -350,9 +373,9 @@ def find_datasets(path: str | Path) -> list[Path]:
     return subs
 
 
-def frame_facts(ds: Dataset, surface: str, t: int) -> tuple[int, int, float, float]:
+def frame_facts(frame: Frame, surface: str) -> tuple[int, int, float, float]:
     """Vertices, faces, inlet and outlet loop areas (mm^2) of one validated frame."""
-    tube = ds.tube(surface, t)
+    tube = frame.tube(surface)
     return (len(tube.V), len(tube.F), float(np.linalg.norm(loop_vector_area(tube.V[tube.inlet]))),
             float(np.linalg.norm(loop_vector_area(tube.V[tube.outlet]))))
 
@@ -369,10 +392,10 @@ def validate_dataset(ds: Dataset, *, executor=None) -> dict:
               "surfaces": {}}
     for surface in ds.surfaces:
         if executor is None:
-            facts = [frame_facts(ds, surface, t) for t in range(ds.n_frames)]
+            facts = [frame_facts(ds.frame(t), surface) for t in range(ds.n_frames)]
         else:
-            facts = list(executor.map(frame_facts, [ds] * ds.n_frames,
-                                      [surface] * ds.n_frames, range(ds.n_frames)))
+            facts = list(executor.map(frame_facts, [ds.frame(t) for t in range(ds.n_frames)],
+                                      [surface] * ds.n_frames))
         nv, nf, inlet_area, outlet_area = (list(x) for x in zip(*facts))
         report["surfaces"][surface] = {
             "frames": len(nv), "vertices_min": int(min(nv)), "vertices_max": int(max(nv)),

@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from . import __version__
-from .io import Dataset, DatasetError, OftimgWarning
+from .io import Dataset, DatasetError, Frame, OftimgWarning
 from .cycle import cycle_timing, resample_time, roll_time, two_segment_warp
 from .image.analysis import analyse_area_maps
 from .image.normalize import phase_maps
@@ -70,9 +70,9 @@ def _named(tube, fn, *args, **kwargs):
         raise DatasetError(f"{tube.source}: {exc}") from None
 
 
-def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
+def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
                   options: GridOptions) -> dict:
-    """Everything that needs frame ``t``'s meshes, for all walls at once.
+    """Everything that needs one frame's meshes, for all walls at once.
 
     Grids (paper section 4.1), section planes through G(0, v), G(1/3, v),
     G(2/3, v) made non-crossing, each wall's section areas and contours on its
@@ -84,7 +84,7 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
            "from_ring": {}, "cpu_s": {}}
     clock = _Clock(out["cpu_s"])
     with clock("load"):
-        tb = ds.tube("outer", t)
+        tb = frame.tube("outer")
     with clock("grid"):
         g = _named(tb, grid_frame, tb.V, tb.F, tb.inlet, tb.outlet, p_in, p_out, options)
     X = g.X
@@ -94,14 +94,14 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
     out.update(origins=origins, normals=normals, plane_fixes=fixes, crossing=crossing,
                seam_in=g.seam_in, seam_out=g.seam_out, seam_length_mm=g.seam_length_mm)
     walls = {"outer": (tb, X, g)}
-    if "inner" in ds.surfaces:
+    if "inner" in frame.surfaces:
         with clock("load"):
-            ti = ds.tube("inner", t)
+            ti = frame.tube("inner")
         with clock("grid"):
             walls["inner"] = (ti, closest_points(ti.V, ti.F, X), None)
-    if "lumen" in ds.surfaces:
+    if "lumen" in frame.surfaces:
         with clock("load"):
-            tl = ds.tube("lumen", t)
+            tl = frame.tube("lumen")
         with clock("grid"):
             gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
                         options)
@@ -126,9 +126,9 @@ def process_frame(ds: Dataset, t: int, p_in: np.ndarray, p_out: np.ndarray,
     return out
 
 
-def frame_seam_end_points(ds: Dataset, t: int, method: str):
-    """End points (mm) of frame ``t``'s shortest inlet-to-outlet geodesic."""
-    tb = ds.tube("outer", t)
+def frame_seam_end_points(frame: Frame, method: str):
+    """End points (mm) of the frame's shortest inlet-to-outlet geodesic."""
+    tb = frame.tube("outer")
     p_in, p_out, _ = _named(tb, seam_endpoints, tb.V, tb.F, tb.inlet, tb.outlet, method=method)
     return p_in, p_out
 
@@ -157,7 +157,7 @@ def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> l
 def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=None):
     """Pass 1: per-frame shortest-seam end points, smoothed in time ``(n_t, 3)`` each."""
     pts = run_tasks(frame_seam_end_points,
-                    [(ds, t, options.seam_method) for t in range(ds.n_frames)],
+                    [(ds.frame(t), options.seam_method) for t in range(ds.n_frames)],
                     executor=executor, progress=progress)
     p_in = np.array([p[0] for p in pts])
     p_out = np.array([p[1] for p in pts])
@@ -233,7 +233,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     p_in, p_out = seam_end_points(ds, opts, progress=bar.advance, executor=executor)
     timings["seam_end_points_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    frames = run_tasks(process_frame, [(ds, t, p_in[t], p_out[t], opts) for t in range(n_t)],
+    frames = run_tasks(process_frame, [(ds.frame(t), p_in[t], p_out[t], opts)
+                                       for t in range(n_t)],
                        executor=executor, progress=bar.advance)
     bar.close()
     timings["frames_s"] = time.perf_counter() - tick

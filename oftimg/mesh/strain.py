@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 
 def grid_triangles(n_u: int, n_v: int) -> np.ndarray:
@@ -14,15 +15,15 @@ def grid_triangles(n_u: int, n_v: int) -> np.ndarray:
 
 
 def _local_frame(P: np.ndarray):
-    """2-D coordinates of each triangle's edge vectors in its own orthonormal basis."""
+    """Each triangle's edges e1, e2 in its own orthonormal basis (x along e1, y
+    towards e2), as the upper-triangular ``(a, b, c)``: e1 = (a, 0), e2 = (b, c)."""
     e1 = P[..., 1, :] - P[..., 0, :]
     e2 = P[..., 2, :] - P[..., 0, :]
-    x = e1 / np.linalg.norm(e1, axis=-1, keepdims=True)
-    n = np.cross(e1, e2)
-    y = np.cross(n / np.linalg.norm(n, axis=-1, keepdims=True), x)
-    M = np.stack([np.stack([np.einsum("...i,...i", e, x), np.einsum("...i,...i", e, y)], -1)
-                  for e in (e1, e2)], axis=-1)  # columns: edges in the local basis
-    return M
+    a = np.sqrt(np.einsum("...i,...i", e1, e1))
+    (x1, y1, z1), (x2, y2, z2) = np.moveaxis(e1, -1, 0), np.moveaxis(e2, -1, 0)
+    twice_area = np.sqrt((y1 * z2 - z1 * y2) ** 2 + (z1 * x2 - x1 * z2) ** 2
+                         + (x1 * y2 - y1 * x2) ** 2)  # |e1 x e2|, no cancellation
+    return a, np.einsum("...i,...i", e1, e2) / a, twice_area / a
 
 
 def principal_stretches(X_ref: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -31,19 +32,22 @@ def principal_stretches(X_ref: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.n
     ``X_ref (n_node, 3)`` the reference positions, ``X (..., n_node, 3)`` the
     deformed ones. The 2-D deformation gradient maps the reference edges to
     the deformed ones (each in its triangle's own basis); the stretches are
-    the square roots of the eigenvalues of C = F^T F.
+    its singular values, i.e. the square roots of the eigenvalues of C = F^T F.
     """
     with np.errstate(invalid="ignore", divide="ignore"):  # degenerate triangles: NaN
-        M0 = _local_frame(X_ref[F])
-        M = _local_frame(X[..., F, :])
-        bad = ~np.isfinite(M0).all(axis=(-2, -1)) | (np.abs(np.linalg.det(M0)) < 1e-300)
-        M0 = np.where(bad[:, None, None], np.eye(2), M0)
-        Fd = M @ np.linalg.inv(M0)
-        C = np.swapaxes(Fd, -1, -2) @ Fd
-        C = np.where(np.isfinite(C), C, 0.0)
-        ev = np.linalg.eigvalsh(C)[..., ::-1]
-        lam = np.sqrt(np.clip(ev, 0, None))
-    bad = bad | ~np.isfinite(M).all(axis=(-2, -1))
+        a0, b0, c0 = _local_frame(X_ref[F])
+        a, b, c = _local_frame(X[..., F, :])
+        bad = ~(np.isfinite(a0) & np.isfinite(c0)) | (a0 * c0 < 1e-300)
+        # upper-triangular deformation gradient [[p, q], [0, r]] = M M0^-1
+        p = a / a0
+        q = (b - p * b0) / c0
+        r = c / c0
+        c11, c12, c22 = p * p, p * q, q * q + r * r
+        # eigenvalues of the symmetric 2 x 2 C, closed form
+        mean = 0.5 * (c11 + c22)
+        radius = np.hypot(0.5 * (c11 - c22), c12)
+        lam = np.sqrt(np.clip(np.stack([mean + radius, mean - radius], axis=-1), 0, None))
+    bad = bad | ~np.isfinite(lam).all(axis=-1) | ~(a * c > 0)  # collapsed triangles too
     return np.where(bad[..., None], np.nan, lam)
 
 
@@ -57,11 +61,12 @@ def node_average(values: np.ndarray, F: np.ndarray, n_node: int) -> np.ndarray:
     (NaN triangles left out; NaN where all are)."""
     ok = np.isfinite(values)
     vals = np.where(ok, values, 0.0)
-    out = np.zeros(values.shape[:-1] + (n_node,))
-    count = np.zeros(values.shape[:-1] + (n_node,))
-    for k in range(3):
-        np.add.at(out, (..., F[:, k]), vals)
-        np.add.at(count, (..., F[:, k]), ok.astype(float))
+    # triangle -> node incidence as a sparse (n_tri, n_node) matrix
+    corners = sp.csr_matrix((np.ones(F.size), (np.repeat(np.arange(len(F)), 3), F.ravel())),
+                            shape=(len(F), n_node))
+    flat = vals.reshape(-1, len(F))
+    out = (corners.T @ flat.T).T.reshape(values.shape[:-1] + (n_node,))
+    count = (corners.T @ ok.reshape(-1, len(F)).T.astype(float)).T.reshape(out.shape)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(count > 0, out / np.where(count > 0, count, 1), np.nan)
 

@@ -2,11 +2,14 @@
 
     python scripts/bench.py [--frames 195] [--vertices 5500] [--jobs 2] [--json]
     python scripts/bench.py --sweep          # 49/98/195 frames and 2k/5.5k/20k vertices
+                                             # (49 frames), fitted exponents
 
 Generates (or reuses, in --cache) a phantom of 3 walls, runs the whole pipeline
 (`oftimg.run`), and prints each stage's wall seconds (per-frame stages: CPU
 seconds summed over the workers, scaled to wall time), the time merely to read
-all meshes (the floor no pipeline can beat) and total / read-only.
+all meshes (the floor no pipeline can beat) and total / read-only. The sweep
+fits exponents to the total and to the per-frame work alone (validation, seam
+end points, per-frame stages), without the fixed costs (figures, videos, start-up).
 Targets (issue 9): 195 frames x 3 walls x 5.5k vertices in < 60 s with 2 jobs,
 < 25 x the read-only time, peak memory < 2 GB.
 """
@@ -69,8 +72,10 @@ def bench(path: Path, jobs: int) -> dict:
     stages.update({"fields": tm["fields_s"], "image analysis": tm["image_analysis_s"],
                    "write arrays": tm["write_arrays_s"], "figures": tm["figures_s"],
                    "videos": tm["videos_s"]})
+    per_frame = stages["validate (read+check)"] + stages["seam end points"] + frames_wall
     return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total, "read_only_s": read_s,
-            "ratio": total / read_s, "peak_mb": peak_mb(), "stages_s": stages}
+            "ratio": total / read_s, "peak_mb": peak_mb(), "per_frame_work_s": per_frame,
+            "stages_s": stages}
 
 
 def print_table(r: dict) -> None:
@@ -98,11 +103,13 @@ def main():
             rows.append(("vertices", v, bench(phantom(args.cache, 49, v), args.jobs)))
         for kind in ("frames", "vertices"):
             x = np.array([n for k, n, _ in rows if k == kind], float)
-            y = np.array([r["total_s"] for k, _, r in rows if k == kind])
-            slope = np.polyfit(np.log(x), np.log(y), 1)[0]
-            for n, t in zip(x, y):
-                print(f"{kind} {n:7.0f}: {t:7.1f} s")
-            print(f"  time ~ {kind}^{slope:.2f}")
+            for key, what in (("total_s", "total"), ("per_frame_work_s", "per-frame work")):
+                y = np.array([r[key] for k, _, r in rows if k == kind])
+                slope = np.polyfit(np.log(x), np.log(y), 1)[0]
+                print(f"{what}: " + ", ".join(f"{n:.0f} {kind}: {t:.1f} s" for n, t in zip(x, y))
+                      + f"; time ~ {kind}^{slope:.2f}")
+        if args.json:
+            print(json.dumps([{"kind": k, "n": n, **r} for k, n, r in rows], indent=2))
         return
     r = bench(phantom(args.cache, args.frames, args.vertices), args.jobs)
     print(json.dumps(r, indent=2) if args.json else "", end="")

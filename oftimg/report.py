@@ -30,7 +30,10 @@ COHORT_COLUMNS = [
     ("corner_count", ("corner_count",)),
     ("tube_length_mm", ("tube_length_mm",)),
     ("myocardial_volume_change", ("myocardial_volume_change",)),
+    # quality checks: 0, 0 and about 0 on good data
     ("flipped_triangles_outer", ("flipped_triangles", "outer")),
+    ("sections_from_ring_outer", ("sections_from_ring", "outer")),
+    ("section_volume_error_outer", ("section_volume_error", "outer")),
 ]
 
 

@@ -38,6 +38,22 @@ def test_ridge_unwraps_across_the_cycle_end():
     assert cycle_speed(s, ridge) == pytest.approx(12.0, rel=0.01)
 
 
+def test_one_ill_defined_row_does_not_shift_the_rest_of_the_ridge():
+    """A neck row whose maximum sits almost half a cycle early (as on the animated
+    midgut): the next row is then more than half a period from it, and unwrapping
+    against that row alone (np.unwrap) would move the rest of the ridge a period."""
+    s = np.linspace(0, 1.0, 40)
+    arrival = 20.0 + 1e3 * s / 8.0           # 3.2 ms per row, wraps past 100 ms
+    area = pulse_map(arrival % PERIOD)
+    area[18] = pulse_map(np.array([(arrival[18] - 48.0) % PERIOD]))[0]
+    ridge = ridge_times(area, PERIOD)
+    good = np.arange(40) != 18
+    assert np.allclose(ridge[good], arrival[good], atol=0.5)
+    assert cycle_speed(s, ridge) == pytest.approx(8.0, rel=0.02)
+    naive = np.unwrap(np.where(good, arrival, arrival - 48.0) % PERIOD, period=PERIOD)
+    assert not np.allclose(naive[good], arrival[good], atol=0.5)  # the failure avoided
+
+
 def test_knee_recovers_both_speeds_and_position():
     s = np.linspace(0, 1.0, 50)
     knee = s[20] + 0.004

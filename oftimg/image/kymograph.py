@@ -36,9 +36,11 @@ def flat_rows(area: np.ndarray) -> np.ndarray:
 def ridge_times(area: np.ndarray, period_ms: float) -> np.ndarray:
     """Time (ms) of each row's maximum, sub-frame, unwrapped along v: ``(n_v,)``.
 
-    Parabolic interpolation of the periodic peak; unwrapping keeps neighbouring
-    rows within half a period of each other. NaN (with a warning) for rows
-    that do not change over time.
+    Parabolic interpolation of the periodic peak; unwrapping keeps each row
+    within half a period of the median of the five rows before it, so that
+    one or two rows whose maximum is ill-defined (a neck that barely moves) cannot
+    shift the whole rest of the ridge by a period. NaN (with a warning) for
+    rows that do not change over time.
     """
     area = _check_map(area)
     n_t = area.shape[1]
@@ -51,10 +53,20 @@ def ridge_times(area: np.ndarray, period_ms: float) -> np.ndarray:
                       "time: no ridge there (NaN)", RuntimeWarning, stacklevel=2)
     ok = np.isfinite(t)
     if ok.sum() > 1:
-        t[ok] = np.unwrap(t[ok], period=period_ms)
+        t[ok] = unwrap_robust(t[ok], period_ms)
         # start the unwrapped ridge in [0, period)
         t[ok] -= period_ms * np.floor(t[ok][0] / period_ms)
     return t
+
+
+def unwrap_robust(t: np.ndarray, period: float, *, memory: int = 5) -> np.ndarray:
+    """Unwrap periodic times ``t (n,)``: each within half a period of the median
+    of the ``memory`` values before it (``np.unwrap`` uses only the one before)."""
+    out = np.array(t, dtype=float)
+    for k in range(1, len(out)):
+        ref = np.median(out[max(0, k - memory):k])
+        out[k] += period * np.round((ref - out[k]) / period)
+    return out
 
 
 def local_speed(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, half_window: int = 3) -> np.ndarray:

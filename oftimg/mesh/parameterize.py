@@ -307,7 +307,7 @@ class FlatSampler:
         return prim, bary
 
 
-def even_grid(sample, n_u: int, n_v: int, *, respace: bool = True, oversample: int = 4):
+def even_grid(sample, n_u: int, n_v: int, *, respace: bool = True, oversample: int = 2):
     """Grid positions ``(n_u, n_v, 3)`` at u = i / n_u, v = j / (n_v - 1).
 
     ``sample(u, v)`` gives positions. With ``respace``, v is first remapped so

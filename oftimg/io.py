@@ -153,13 +153,41 @@ class Tube:
     source: str = ""
 
 
+@dataclass(frozen=True)
+class Checked:
+    """What the checks of :func:`load_tube` found for one unchanged, clean file:
+    read again, it needs no repair and at most a reversal of all faces."""
+
+    size: int
+    mtime_ns: int
+    reverse: bool
+    inlet: np.ndarray
+    outlet: np.ndarray
+
+
 def load_tube(path: str | Path, *, unit_scale: float = 1.0,
-              inlet_point: np.ndarray | None = None) -> Tube:
+              inlet_point: np.ndarray | None = None, checked: Checked | None = None) -> Tube:
     """Read, repair and check one frame; pick the inlet loop.
 
     The inlet is the loop whose centroid is nearest ``inlet_point`` (mm), or
-    the loop with the larger enclosed area when no point is given.
+    the loop with the larger enclosed area when no point is given. With
+    ``checked`` (from :func:`check_tube_file`) and the file unchanged since
+    (size and modification time), the repair and checks are skipped.
     """
+    if checked is not None:
+        st = Path(path).stat()
+        if (st.st_size, st.st_mtime_ns) == (checked.size, checked.mtime_ns):
+            V, F = read_mesh_file(path)
+            return Tube(V=V * unit_scale, F=F[:, ::-1].copy() if checked.reverse else F,
+                        inlet=checked.inlet, outlet=checked.outlet, source=str(path))
+    return check_tube_file(path, unit_scale=unit_scale, inlet_point=inlet_point)[0]
+
+
+def check_tube_file(path: str | Path, *, unit_scale: float = 1.0,
+                    inlet_point: np.ndarray | None = None) -> tuple[Tube, Checked | None]:
+    """:func:`load_tube` with all checks, and a :class:`Checked` record when the
+    file needed no repair and no per-face reorientation (else None)."""
+    st = Path(path).stat() if Path(path).is_file() else None
     V, F = read_mesh_file(path)
     V = V * unit_scale
     if not np.all(np.isfinite(V)):
@@ -181,7 +209,11 @@ def load_tube(path: str | Path, *, unit_scale: float = 1.0,
         inlet_first = (np.linalg.norm(loop_centroid(V[a]) - inlet_point)
                        <= np.linalg.norm(loop_centroid(V[b]) - inlet_point))
     inlet, outlet = (a, b) if inlet_first else (b, a)
-    return Tube(V=V, F=topo.F, inlet=inlet, outlet=outlet, source=str(path))
+    tube = Tube(V=V, F=topo.F, inlet=inlet, outlet=outlet, source=str(path))
+    record = None
+    if not counts and topo.flipped_faces in (0, len(F)) and st is not None:
+        record = Checked(st.st_size, st.st_mtime_ns, topo.flipped_faces == len(F), inlet, outlet)
+    return tube, record
 
 
 # --------------------------------------------------------------------------- datasets
@@ -239,6 +271,7 @@ class Frame:
     files: dict[str, str]
     unit_scale: float
     inlet_mm: tuple[float, float, float]
+    checked: dict = field(default_factory=dict)  # surface -> Checked, from validation
 
     @property
     def surfaces(self) -> tuple[str, ...]:
@@ -247,7 +280,8 @@ class Frame:
     def tube(self, surface: str) -> Tube:
         """This frame's ``surface`` as a validated :class:`Tube` in mm."""
         return load_tube(self.files[surface], unit_scale=self.unit_scale,
-                         inlet_point=np.asarray(self.inlet_mm))
+                         inlet_point=np.asarray(self.inlet_mm),
+                         checked=self.checked.get(surface))
 
 
 @dataclass
@@ -261,6 +295,7 @@ class Dataset:
     meta: Meta
     frames: dict[str, list[Path]]
     inlet_mm: np.ndarray = field(repr=False)
+    checked: dict = field(default_factory=dict, repr=False)  # (surface, t) -> Checked
 
     @property
     def n_frames(self) -> int:
@@ -277,14 +312,15 @@ class Dataset:
     def frame(self, t: int) -> Frame:
         """The files of frame ``t``, as sent to worker processes."""
         return Frame({s: str(files[t]) for s, files in self.frames.items()}, self.unit_scale,
-                     tuple(float(x) for x in self.inlet_mm))
+                     tuple(float(x) for x in self.inlet_mm),
+                     {s: self.checked[s, t] for s in self.frames if (s, t) in self.checked})
 
     def tube(self, surface: str, t: int) -> Tube:
         """Frame ``t`` of ``surface`` as a validated :class:`Tube` in mm."""
         if surface not in self.frames:
             raise KeyError(f"{self.path}: has no {surface}/ surface")
         return load_tube(self.frames[surface][t], unit_scale=self.unit_scale,
-                         inlet_point=self.inlet_mm)
+                         inlet_point=self.inlet_mm, checked=self.checked.get((surface, t)))
 
     def iter_tubes(self, surface: str):
         for t in range(self.n_frames):
@@ -373,11 +409,14 @@ def find_datasets(path: str | Path) -> list[Path]:
     return subs
 
 
-def frame_facts(frame: Frame, surface: str) -> tuple[int, int, float, float]:
-    """Vertices, faces, inlet and outlet loop areas (mm^2) of one validated frame."""
-    tube = frame.tube(surface)
-    return (len(tube.V), len(tube.F), float(np.linalg.norm(loop_vector_area(tube.V[tube.inlet]))),
-            float(np.linalg.norm(loop_vector_area(tube.V[tube.outlet]))))
+def frame_facts(frame: Frame, surface: str) -> tuple[tuple[int, int, float, float], Checked | None]:
+    """Vertices, faces, inlet and outlet loop areas (mm^2) of one frame, checked in
+    full, and its :class:`Checked` record."""
+    tube, record = check_tube_file(frame.files[surface], unit_scale=frame.unit_scale,
+                                   inlet_point=np.asarray(frame.inlet_mm))
+    facts = (len(tube.V), len(tube.F), float(np.linalg.norm(loop_vector_area(tube.V[tube.inlet]))),
+             float(np.linalg.norm(loop_vector_area(tube.V[tube.outlet]))))
+    return facts, record
 
 
 def validate_dataset(ds: Dataset, *, executor=None) -> dict:
@@ -385,6 +424,8 @@ def validate_dataset(ds: Dataset, *, executor=None) -> dict:
 
     Raises :class:`DatasetError` at the first bad frame, naming its file. With
     an ``executor`` (``concurrent.futures``), frames are checked in its workers.
+    Remembers in ``ds.checked`` which files needed no repair, so that the
+    analysis reads them again without the checks while they are unchanged.
     """
     report = {"name": ds.meta.name, "path": str(ds.path), "n_frames": ds.n_frames,
               "inlet_mm": [round(float(x), 6) for x in ds.inlet_mm],
@@ -392,11 +433,14 @@ def validate_dataset(ds: Dataset, *, executor=None) -> dict:
               "surfaces": {}}
     for surface in ds.surfaces:
         if executor is None:
-            facts = [frame_facts(ds.frame(t), surface) for t in range(ds.n_frames)]
+            results = [frame_facts(ds.frame(t), surface) for t in range(ds.n_frames)]
         else:
-            facts = list(executor.map(frame_facts, [ds.frame(t) for t in range(ds.n_frames)],
-                                      [surface] * ds.n_frames))
-        nv, nf, inlet_area, outlet_area = (list(x) for x in zip(*facts))
+            results = list(executor.map(frame_facts, [ds.frame(t) for t in range(ds.n_frames)],
+                                        [surface] * ds.n_frames))
+        for t, (_, record) in enumerate(results):
+            if record is not None:
+                ds.checked[surface, t] = record
+        nv, nf, inlet_area, outlet_area = (list(x) for x in zip(*(f for f, _ in results)))
         report["surfaces"][surface] = {
             "frames": len(nv), "vertices_min": int(min(nv)), "vertices_max": int(max(nv)),
             "faces_min": int(min(nf)), "faces_max": int(max(nf)), "boundary_loops": 2,

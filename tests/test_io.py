@@ -34,6 +34,37 @@ def listing(folder):
     return sorted((str(p.relative_to(folder)), p.stat().st_mtime_ns) for p in folder.rglob("*"))
 
 
+def test_validated_frames_are_read_again_without_the_checks_only_while_unchanged(tmp_path):
+    """Validation remembers clean files (one with inward faces included); reading
+    them again skips the checks and gives the same tube. A file that needed
+    repair, or that changed since, goes through every check again."""
+    import os
+
+    frames = cone_frames(3)
+    V, F = frames[1]
+    frames[1] = (V, F[:, ::-1])                       # inward-facing: reversed on reading
+    V, F = frames[2]
+    frames[2] = (np.concatenate([V, V[:1]]), F)       # an unused vertex: needs repair
+    ds_path = write_series(tmp_path / "emb", frames)
+    ds = load_dataset(ds_path)
+    with pytest.warns(OftimgWarning):
+        validate_dataset(ds)
+    assert set(ds.checked) == {("outer", 0), ("outer", 1)}
+    assert ds.checked["outer", 1].reverse and not ds.checked["outer", 0].reverse
+    for t in range(2):
+        full = load_tube(ds.frames["outer"][t], inlet_point=ds.inlet_mm)
+        fast = ds.frame(t).tube("outer")
+        for name in ("V", "F", "inlet", "outlet"):
+            assert np.array_equal(getattr(full, name), getattr(fast, name))
+    # the file changes (now a broken mesh): the record no longer applies
+    path = ds.frames["outer"][0]
+    V, F = frames[0]
+    write_ply(path, V, F[: len(F) // 2])
+    os.utime(path, ns=(ds.checked["outer", 0].mtime_ns,) * 2)  # same time, other size
+    with pytest.raises(DatasetError, match=path.name):
+        ds.frame(0).tube("outer")
+
+
 def test_natural_sort(tmp_path):
     names = ["f10.ply", "f2.ply", "f1.ply", "F3.ply", "notes.txt"]
     for n in names:

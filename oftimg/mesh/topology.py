@@ -52,7 +52,8 @@ def repair(V: np.ndarray, F: np.ndarray, *, rel_tol: float = 1e-9):
 
     Vertices closer than ``rel_tol`` times the bounding-box diagonal are merged.
     A face is degenerate when two of its corners coincide or its area is below
-    ``rel_tol**2`` times the squared diagonal. Returns ``(V, F, RepairCounts)``.
+    ``rel_tol**2`` times the squared diagonal. Vertices keep their input order.
+    Returns ``(V, F, RepairCounts)``.
     """
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
@@ -61,8 +62,12 @@ def repair(V: np.ndarray, F: np.ndarray, *, rel_tol: float = 1e-9):
     keys = np.round(V / quantum).astype(np.int64)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     merged = len(V) - len(first)
-    V = V[first]
-    F = inverse.reshape(-1)[F]
+    # keep the vertices in their input order (first occurrence of each position)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    V = V[first[order]]
+    F = rank[inverse.reshape(-1)][F]
     distinct = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
     keep = distinct.copy()
     keep[distinct] = face_areas(V, F[distinct]) > (diag * rel_tol) ** 2

@@ -175,8 +175,11 @@ def load_tube(path: str | Path, *, unit_scale: float = 1.0,
     (size and modification time), the repair and checks are skipped.
     """
     if checked is not None:
-        st = Path(path).stat()
-        if (st.st_size, st.st_mtime_ns) == (checked.size, checked.mtime_ns):
+        try:
+            st = Path(path).stat()
+        except OSError:  # gone since: the full read says so, naming the file
+            st = None
+        if st is not None and (st.st_size, st.st_mtime_ns) == (checked.size, checked.mtime_ns):
             V, F = read_mesh_file(path)
             return Tube(V=V * unit_scale, F=F[:, ::-1].copy() if checked.reverse else F,
                         inlet=checked.inlet, outlet=checked.outlet, source=str(path))

@@ -63,6 +63,9 @@ def test_validated_frames_are_read_again_without_the_checks_only_while_unchanged
     os.utime(path, ns=(ds.checked["outer", 0].mtime_ns,) * 2)  # same time, other size
     with pytest.raises(DatasetError, match=path.name):
         ds.frame(0).tube("outer")
+    path.unlink()
+    with pytest.raises(DatasetError, match="file not found"):
+        ds.frame(0).tube("outer")
 
 
 def test_natural_sort(tmp_path):

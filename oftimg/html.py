@@ -48,6 +48,8 @@ window.addEventListener('load', function () {
 
 
 def _fmt(x) -> str:
+    if isinstance(x, dict):  # per wall
+        return ", ".join(f"{html.escape(str(k))} {_fmt(v)}" for k, v in x.items())
     if isinstance(x, float):
         return "nan" if x != x else f"{x:.4g}"
     return html.escape("" if x is None else str(x))
@@ -85,8 +87,18 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     rows = [{"quantity": k, "value": summary.get(k)} for k in keys if k in summary]
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():
         rows.append({"quantity": f"wave speed {k} (mm/s)", "value": v})
+    checks = [{"check": "flipped triangles in the maps (0)", "value": summary.get("flipped_triangles")},
+              {"check": "maps re-solved with clamped weights",
+               "value": summary.get("maps_with_clamped_weights")},
+              {"check": "section planes still crossing (0)",
+               "value": summary.get("section_planes_still_crossing")},
+              {"check": "sections measured on the projected grid ring (0)",
+               "value": summary.get("sections_from_ring")},
+              {"check": "median |section volume / capped volume - 1| (about 0)",
+               "value": summary.get("section_volume_error")}]
     body = [f"<p><a href=\"../index.html\">cohort</a></p><h1>{html.escape(summary['name'])}</h1>",
-            _table(rows, ["quantity", "value"]), "<h2>Figures</h2><div class=\"grid\">"]
+            _table(rows, ["quantity", "value"]), "<h2>Quality checks</h2>",
+            _table(checks, ["check", "value"]), "<h2>Figures</h2><div class=\"grid\">"]
     body += [f'<figure><img src="figures/{f.name}" alt="{f.stem}"><figcaption class="small">'
              f'{f.stem}</figcaption></figure>' for f in figs]
     body.append("</div><h2>Videos</h2><div class=\"grid\">")

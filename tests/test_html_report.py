@@ -40,6 +40,10 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
     assert "normal" in text and "banded" in text and "permutation" in text
     pages = [index] + sorted(cohort_out.glob("*/index.html"))
     assert len(pages) == 3
+    for page in pages[1:]:
+        text = page.read_text()
+        assert "Quality checks" in text and "section_volume" not in text  # formatted
+        assert "outer 0," in text  # flipped triangles per wall: none
     for page in pages:
         for link in local_links(page):
             assert (page.parent / link).exists(), f"{page}: {link}"

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from helpers import tube_mesh
 from oftimg.mesh.geodesic import GeodesicSolver, insert_path, locate_on_edges
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints, smooth_endpoints
-from oftimg.mesh.parameterize import count_flipped, cut_and_map, intrinsic_weights
+from oftimg.mesh.parameterize import count_flipped, intrinsic_weights
 from oftimg.mesh.topology import check_tube
 from oftimg.phantom import Phantom, PhantomParams
 

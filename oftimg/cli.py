@@ -110,9 +110,10 @@ def main(argv: list[str] | None = None) -> int:
         logging.getLogger("py.warnings").addHandler(logging.StreamHandler())
     try:
         if args.command == "run":
+            options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
+                       "warp": args.warp}
             out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
-                          jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options={"n_u": args.n_u, "n_v": args.n_v,
-                                   "authalic_weight": args.authalic_weight})
+                          jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options)
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
         elif args.command == "demo":
             out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,

@@ -115,7 +115,7 @@ def test_shape_pca_on_the_phantom(run_out):
     assert (run_out / "normal" / "figures" / "shape_pca.png").stat().st_size > 20_000
 
 
-def test_log_file_and_fps(tmp_path):
+def test_log_file_fps_and_options_reach_the_run(tmp_path):
     from oftimg.phantom import sample_params, write_phantom
 
     ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
@@ -123,7 +123,12 @@ def test_log_file_and_fps(tmp_path):
     log = tmp_path / "run.log"
     out = tmp_path / "out"
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1", "--fps", "10",
-                 "--log", str(log)]) == 0
+                 "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
+                 "--authalic-weight", "0.25"]) == 0
+    summary = json.loads((out / "tiny" / "summary.json").read_text())
+    assert summary["time_warp"] is True
+    assert summary["provenance"]["options"]["grid"]["authalic_weight"] == 0.25
+    assert np.load(out / "tiny" / "grids.npz")["outer"].shape[:2] == (40, 20)
     text = log.read_text()
     assert "tiny: analysing 5 frames" in text and "tiny: done" in text
     import imageio.v2 as imageio

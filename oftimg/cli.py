@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
         elif args.command == "phantom":
             extra = {"noise_mm": args.noise_mm}
             if args.vertices:
-                extra = {"vertices_min": args.vertices[0], "vertices_max": args.vertices[1]}
+                extra.update(vertices_min=args.vertices[0], vertices_max=args.vertices[1])
             out = api.make_phantom(args.out, group=args.group, seed=args.seed,
                                    frames=args.frames, quiet=args.quiet, **extra)
             print(f"phantom dataset: {out}")

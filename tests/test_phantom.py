@@ -118,3 +118,15 @@ def test_sampled_parameters_vary_by_seed_and_group():
     assert a.period_ms != b.period_ms and a.band_position_mm is None
     c = sample_params("banded", 0)
     assert 0.4 * c.length_mm <= c.band_position_mm <= 0.65 * c.length_mm
+
+
+def test_phantom_cli_passes_every_option(tmp_path):
+    from oftimg.cli import main
+
+    out = tmp_path / "ph"
+    assert main(["phantom", str(out), "--group", "banded", "--seed", "3", "--frames", "3",
+                 "--vertices", "900", "1000", "--noise-mm", "0.002", "--quiet"]) == 0
+    params = json.loads((out / "truth.json").read_text())["params"]
+    assert params["noise_mm"] == 0.002 and params["n_frames"] == 3
+    assert (params["vertices_min"], params["vertices_max"]) == (900, 1000)
+    assert params["band_position_mm"] is not None  # banded

@@ -87,7 +87,8 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     rows = [{"quantity": k, "value": summary.get(k)} for k in keys if k in summary]
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():
         rows.append({"quantity": f"wave speed {k} (mm/s)", "value": v})
-    checks = [{"check": "flipped triangles in the maps (0)", "value": summary.get("flipped_triangles")},
+    checks = [{"check": "flipped triangles in the maps (0)",
+               "value": summary.get("flipped_triangles")},
               {"check": "maps re-solved with clamped weights",
                "value": summary.get("maps_with_clamped_weights")},
               {"check": "section planes still crossing (0)",

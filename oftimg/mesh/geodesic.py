@@ -85,7 +85,11 @@ class GeodesicSolver:
             for loop, which in ((sources, 0), (targets, 1)):
                 for step in (1, -1):
                     while True:
-                        ci, cj = ((i + step) % len(loop), j) if which == 0 else (i, (j + step) % len(loop))
+                        ci, cj = (i, j)
+                        if which == 0:
+                            ci = (i + step) % len(loop)
+                        else:
+                            cj = (j + step) % len(loop)
                         cand = self.length(int(sources[ci]), int(targets[cj]))
                         if cand >= best * (1 - 1e-9):
                             break

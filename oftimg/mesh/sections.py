@@ -184,9 +184,9 @@ def crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray) -> 
         - np.einsum("jv,jv->j", origins, normals)[:, None, None]
     lo_side, hi_side = side.min(axis=2), side.max(axis=2)
     straddle = (lo_side < 0) & (hi_side > 0)                            # plane j cuts ring k
-    k = np.arange(n_v - 1)
+    row = np.arange(n_v - 1)
     bad = np.zeros(n_v, dtype=bool)
-    bad[k] = (lo_side[k, k + 1] <= 0) | (hi_side[k + 1, k] >= 0)       # neighbours swapped
+    bad[row] = (lo_side[row, row + 1] <= 0) | (hi_side[row + 1, row] >= 0)  # neighbours swapped
     j, k = np.nonzero(np.triu(straddle & straddle.T, 1))                # candidate pairs
     if len(j) == 0:
         return bad

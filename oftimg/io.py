@@ -322,8 +322,7 @@ class Dataset:
         """Frame ``t`` of ``surface`` as a validated :class:`Tube` in mm."""
         if surface not in self.frames:
             raise KeyError(f"{self.path}: has no {surface}/ surface")
-        return load_tube(self.frames[surface][t], unit_scale=self.unit_scale,
-                         inlet_point=self.inlet_mm, checked=self.checked.get((surface, t)))
+        return self.frame(t).tube(surface)
 
     def iter_tubes(self, surface: str):
         for t in range(self.n_frames):

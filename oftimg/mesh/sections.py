@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .topology import edge_incidence
+from .topology import edge_incidence, loop_vector_area
 
 
 def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.ndarray
@@ -102,7 +102,7 @@ def _contours_of(V, F, d, faces, edges, face_edge, across) -> list[tuple[np.ndar
 
 def polygon_area(P: np.ndarray, normal: np.ndarray | None = None) -> float:
     """Area (mm^2) enclosed by a closed polygon ``P (n, 3)`` (projected on ``normal``)."""
-    A = 0.5 * np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+    A = loop_vector_area(P)
     if normal is None:
         return float(np.linalg.norm(A))
     return float(abs(A @ (np.asarray(normal) / np.linalg.norm(normal))))
@@ -261,7 +261,7 @@ def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n:
     Starts at the contour point nearest ``start`` (the seam node) and turns
     positively about ``normal`` (the v direction), as u does.
     """
-    if loop_vector(C) @ normal < 0:
+    if loop_vector_area(C) @ normal < 0:
         C = C[::-1]
     closed = np.concatenate([C, C[:1]])
     seg = np.linalg.norm(np.diff(closed, axis=0), axis=1)
@@ -273,11 +273,6 @@ def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n:
     s0 = s[k] + t[k] * seg[k]
     target = (s0 + np.arange(n) / n * s[-1]) % s[-1]
     return np.stack([np.interp(target, s, closed[:, d]) for d in range(3)], axis=-1)
-
-
-def loop_vector(C: np.ndarray) -> np.ndarray:
-    """Vector area of a closed polygon (its norm is the area)."""
-    return 0.5 * np.cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
 
 
 def polygon_centroid(C: np.ndarray, normal: np.ndarray) -> np.ndarray:

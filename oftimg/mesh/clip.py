@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .sections import slab_volumes
+
 
 def cumulative_from_outlet(area_mm2: np.ndarray, thickness_mm: np.ndarray) -> np.ndarray:
     """Volume (mm^3) between each row and the outlet, ``(n_v, n_t)``.
@@ -17,7 +19,7 @@ def cumulative_from_outlet(area_mm2: np.ndarray, thickness_mm: np.ndarray) -> np
     the slabs between consecutive sections (:func:`~oftimg.mesh.sections.slab_thickness`);
     trapezoid rule.
     """
-    slab = 0.5 * (area_mm2[1:] + area_mm2[:-1]) * thickness_mm
+    slab = slab_volumes(area_mm2, thickness_mm)
     rev = np.cumsum(slab[::-1], axis=0)[::-1]
     return np.concatenate([rev, np.zeros((1, area_mm2.shape[1]))], axis=0)
 

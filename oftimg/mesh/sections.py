@@ -353,6 +353,12 @@ def slab_thickness(centroid: np.ndarray, normals: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i", np.diff(centroid, axis=0), mean_normal)
 
 
+def slab_volumes(area: np.ndarray, thickness: np.ndarray) -> np.ndarray:
+    """Volume (mm^3) of each slab between consecutive sections, trapezoid rule:
+    ``area (n_v, ...)``, ``thickness (n_v - 1, ...)`` -> ``(n_v - 1, ...)``."""
+    return 0.5 * (area[1:] + area[:-1]) * thickness
+
+
 def volume_from_sections(area: np.ndarray, thickness: np.ndarray) -> np.ndarray:
-    """Volume (mm^3) by the trapezoid rule: ``area (n_v, ...)``, ``thickness (n_v - 1, ...)``."""
-    return (0.5 * (area[1:] + area[:-1]) * thickness).sum(axis=0)
+    """Sum of :func:`slab_volumes` (mm^3)."""
+    return slab_volumes(area, thickness).sum(axis=0)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .topology import edge_incidence, loop_vector_area
+from .topology import cross3, edge_incidence, loop_vector_area
 
 
 def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.ndarray
@@ -21,72 +21,48 @@ def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: 
     """:func:`plane_contours` for many planes ``(n_planes, 3)`` at once.
 
     The signed distances of all vertices to all planes are one matrix product;
-    the mesh's edges and the faces on either side of them are found once.
-    Each cut face is entered through one edge and left through another
-    (outward-oriented faces give every contour the same sense), so a contour
-    is a walk from face to face across the exit edges.
+    the mesh's edges and the faces on either side of them are found once, and
+    every (plane, cut face) pair is handled in one array. Each cut face is
+    entered through one edge and left through another (outward-oriented faces
+    give every contour the same sense), so a contour is a walk from face to
+    face across the exit edges.
     """
     normals = np.asarray(normals, float)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     D = V @ normals.T - np.einsum("ij,ij->i", origins, normals)[None, :]   # (n_vert, n_planes)
     scale = np.abs(D).max(axis=0, keepdims=True)
     D = np.where(np.abs(D) < 1e-12 * scale, 1e-12 * scale, D)  # no vertex exactly on a plane
-    DT = np.ascontiguousarray(D.T)                                          # (n_planes, n_vert)
-    edges, face_edge, _ = edge_incidence(F)
-    across = _faces_across(face_edge, len(edges))
-    out = []
-    for first in range(0, len(normals), 64):
-        # bit k of a vertex: on the positive side of plane first + k; of a face: cut by it
-        bits = (D[:, first:first + 64] > 0).astype(np.uint64) \
-            << np.arange(min(64, len(normals) - first), dtype=np.uint64)
-        side = np.bitwise_or.reduce(bits, axis=1)
-        cut = (side[F[:, 0]] ^ side[F[:, 1]]) | (side[F[:, 1]] ^ side[F[:, 2]])
-        for k in range(bits.shape[1]):
-            faces = np.nonzero((cut >> np.uint64(k)) & np.uint64(1))[0]
-            out.append(_contours_of(V, F, DT[first + k], faces, edges, face_edge, across))
-    return out
-
-
-def _faces_across(face_edge: np.ndarray, n_edges: int) -> np.ndarray:
-    """The (up to) two faces of every edge, ``(n_edges, 2)``, -1 on the boundary."""
-    fe = face_edge.ravel()
-    face = np.repeat(np.arange(len(face_edge)), 3)
-    order = np.argsort(fe, kind="stable")
-    fe, face = fe[order], face[order]
-    first = np.r_[True, fe[1:] != fe[:-1]]
-    across = np.full((n_edges, 2), -1, dtype=np.int64)
-    across[fe[first], 0] = face[first]
-    across[fe[~first], 1] = face[~first]
-    return across
-
-
-def _contours_of(V, F, d, faces, edges, face_edge, across) -> list[tuple[np.ndarray, bool]]:
-    """Chain the cut ``faces`` of the plane with vertex distances ``d`` into contours."""
-    if len(faces) == 0:
-        return []
-    pos = d[F[faces]] > 0                                               # (m, 3)
+    edges, face_edge, _, across = edge_incidence(F, faces=True)
+    side = (D > 0).T                                                        # (n_planes, n_vert)
+    corner_side = side[:, F]                                                # (n_planes, n_face, 3)
+    cut = (corner_side[..., 0] != corner_side[..., 1]) | (corner_side[..., 1] != corner_side[..., 2])
+    plane, face = np.nonzero(cut)                            # cut pairs, by plane then face
+    pos = corner_side[plane, face]                                          # (m, 3)
     nxt_pos = np.roll(pos, -1, axis=1)
-    rows = np.arange(len(faces))
-    e_in = face_edge[faces, np.argmax(~pos & nxt_pos, axis=1)]          # - -> + across the edge
-    e_out = face_edge[faces, np.argmax(pos & ~nxt_pos, axis=1)]         # + -> -
+    e_in = face_edge[face, np.argmax(~pos & nxt_pos, axis=1)]           # - -> + across the edge
+    e_out = face_edge[face, np.argmax(pos & ~nxt_pos, axis=1)]          # + -> -
 
     def crossing(e):
         i, j = edges[e, 0], edges[e, 1]
-        t = d[i] / (d[i] - d[j])
+        di, dj = D[i, plane], D[j, plane]
+        t = di / (di - dj)
         return V[i] + t[:, None] * (V[j] - V[i])
 
     P_in, P_out = crossing(e_in), crossing(e_out)
     other = across[e_out]
-    g = np.where(other[:, 0] == faces, other[:, 1], other[:, 0])       # next face, -1: boundary
-    k = np.clip(np.searchsorted(faces, g), 0, len(faces) - 1)
-    nxt = np.where((g >= 0) & (faces[k] == g), k, -1)
-    has_prev = np.zeros(len(faces), dtype=bool)
+    g = np.where(other[:, 0] == face, other[:, 1], other[:, 0])        # next face, -1: boundary
+    key = plane * len(F) + face                                         # sorted
+    g_key = plane * len(F) + g
+    k = np.clip(np.searchsorted(key, g_key), 0, len(key) - 1)
+    nxt = np.where((g >= 0) & (key[k] == g_key), k, -1)
+    has_prev = np.zeros(len(key), dtype=bool)
     has_prev[nxt[nxt >= 0]] = True
+    out = [[] for _ in range(len(normals))]
     nxt_l = nxt.tolist()
-    seen = np.zeros(len(faces), dtype=bool)
-    contours = []
-    # open chains first (from a face entered through the boundary), then closed loops
-    for start in np.r_[rows[~has_prev], rows].tolist():
+    plane_l = plane.tolist()
+    seen = [False] * len(key)
+    # per plane: open chains first (from a face entered through the boundary), then loops
+    for start in np.r_[np.nonzero(~has_prev)[0], np.arange(len(key))].tolist():
         if seen[start]:
             continue
         chain, f = [], start
@@ -96,8 +72,8 @@ def _contours_of(V, F, d, faces, edges, face_edge, across) -> list[tuple[np.ndar
             f = nxt_l[f]
         closed = f == start and len(chain) > 2
         pts = P_in[chain] if closed else np.concatenate([P_in[chain], P_out[chain[-1:]]])
-        contours.append((pts, closed))
-    return contours
+        out[plane_l[start]].append((pts, closed))
+    return out
 
 
 def polygon_area(P: np.ndarray, normal: np.ndarray | None = None) -> float:
@@ -115,11 +91,11 @@ def contour_around(contours: list[tuple[np.ndarray, bool]], center: np.ndarray,
     Among several, the one whose centroid is nearest. ``None`` if none does.
     """
     normal = np.asarray(normal, float) / np.linalg.norm(normal)
-    e1 = np.cross(normal, [1.0, 0, 0])
+    e1 = cross3(normal, np.array([1.0, 0, 0]))
     if np.linalg.norm(e1) < 0.1:
-        e1 = np.cross(normal, [0, 1.0, 0])
+        e1 = cross3(normal, np.array([0, 1.0, 0]))
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(normal, e1)
+    e2 = cross3(normal, e1)
     best, best_d = None, np.inf
     for C, closed in contours:
         if not closed:
@@ -261,28 +237,37 @@ def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n:
     Starts at the contour point nearest ``start`` (the seam node) and turns
     positively about ``normal`` (the v direction), as u does.
     """
-    if loop_vector_area(C) @ normal < 0:
-        C = C[::-1]
+    return _resample_from(C if loop_vector_area(C) @ normal >= 0 else C[::-1], start, n)
+
+
+def _resample_from(C: np.ndarray, start: np.ndarray, n: int) -> np.ndarray:
+    """``n`` points evenly spaced by arc length along the closed polygon ``C``,
+    from its point nearest ``start``, in ``C``'s order."""
     closed = np.concatenate([C, C[:1]])
-    seg = np.linalg.norm(np.diff(closed, axis=0), axis=1)
+    AB = np.diff(closed, axis=0)
+    seg = np.sqrt(np.einsum("ij,ij->i", AB, AB))
     s = np.concatenate([[0.0], np.cumsum(seg)])
     # arc-length position of the point of the contour closest to ``start``
-    A, AB = closed[:-1], np.diff(closed, axis=0)
+    A = closed[:-1]
     t = np.clip(np.einsum("ij,ij->i", start - A, AB) / np.maximum(seg ** 2, 1e-300), 0, 1)
-    k = int(np.argmin(np.linalg.norm(A + t[:, None] * AB - start, axis=1)))
+    off = A + t[:, None] * AB - start
+    k = int(np.argmin(np.einsum("ij,ij->i", off, off)))
     s0 = s[k] + t[k] * seg[k]
     target = (s0 + np.arange(n) / n * s[-1]) % s[-1]
     return np.stack([np.interp(target, s, closed[:, d]) for d in range(3)], axis=-1)
 
 
-def polygon_centroid(C: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """Area centroid of a planar closed polygon ``C (n, 3)``."""
+def polygon_moments(C: np.ndarray, normal: np.ndarray) -> tuple[float, np.ndarray]:
+    """Signed area (mm^2, positive when ``C`` turns positively about the unit
+    ``normal``) and area centroid of a planar closed polygon ``C (n, 3)``."""
     c0 = C.mean(axis=0)
-    P, Q = C - c0, np.roll(C, -1, axis=0) - c0
-    w = np.cross(P, Q) @ normal  # twice the signed triangle areas
-    if abs(w.sum()) < 1e-300:
-        return c0
-    return c0 + ((P + Q) * w[:, None]).sum(axis=0) / (3.0 * w.sum())
+    P = C - c0
+    Q = np.roll(P, -1, axis=0)
+    w = cross3(P, Q) @ normal  # twice the signed triangle areas
+    total = w.sum()
+    if abs(total) < 1e-300:
+        return 0.0, c0
+    return 0.5 * float(total), c0 + ((P + Q) * w[:, None]).sum(axis=0) / (3.0 * total)
 
 
 def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray,
@@ -303,6 +288,7 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     projected ring was used).
     """
     n_v = len(origins)
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     area = np.empty(n_v)
     centroid = np.empty((n_v, 3))
     contour = np.empty((n_points, n_v, 3))
@@ -320,9 +306,9 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     radius = np.linalg.norm(flat - flat.mean(axis=0), axis=2).mean(axis=0)
 
     def measure(j, C):
-        area[j] = polygon_area(C, normals[j])
-        centroid[j] = polygon_centroid(C, normals[j])
-        contour[:, j] = orient_and_resample(C, normals[j], rings[0, j], n_points)
+        signed, centroid[j] = polygon_moments(C, normals[j])
+        area[j] = abs(signed)
+        contour[:, j] = _resample_from(C if signed >= 0 else C[::-1], rings[0, j], n_points)
 
     for j in range(n_v):
         C = contour_around(all_contours[j], origins[j] + shift[j], normals[j])

@@ -76,9 +76,13 @@ class GeodesicSolver:
 
         The heat method's arg-min can sit one loop vertex off on coarse meshes
         (its distances are smoothed over a few edges); a handful of exact
-        edge-flip lengths finds the local optimum next to it.
+        edge-flip lengths finds the local optimum next to it. A move is only
+        tried where the current path's end direction says it shortens the path
+        to first order (moving an end by ``d`` changes the length by about
+        ``d`` along the path's outward end direction).
         """
-        best = self.length(int(sources[i]), int(targets[j]))
+        best_path = self.path(int(sources[i]), int(targets[j]))
+        best = _polyline_length(best_path)
         moved = True
         while moved:
             moved = False
@@ -88,17 +92,23 @@ class GeodesicSolver:
                         ci, cj = (i, j)
                         if which == 0:
                             ci = (i + step) % len(loop)
+                            end, inward, new = best_path[0], best_path[1], self.V[sources[ci]]
                         else:
                             cj = (j + step) % len(loop)
-                        cand = self.length(int(sources[ci]), int(targets[cj]))
+                            end, inward, new = best_path[-1], best_path[-2], self.V[targets[cj]]
+                        outward = (end - inward) / max(np.linalg.norm(end - inward), 1e-300)
+                        if outward @ (new - end) >= 0:
+                            break
+                        cand_path = self.path(int(sources[ci]), int(targets[cj]))
+                        cand = _polyline_length(cand_path)
                         if cand >= best * (1 - 1e-9):
                             break
-                        i, j, best, moved = ci, cj, cand, True
+                        i, j, best, best_path, moved = ci, cj, cand, cand_path, True
         return int(sources[i]), int(targets[j]), best
 
     def length(self, source: int, target: int) -> float:
         """Exact polyhedral geodesic distance (mm) between two vertices."""
-        return float(np.linalg.norm(np.diff(self.path(source, target), axis=0), axis=1).sum())
+        return _polyline_length(self.path(source, target))
 
     def path(self, source: int, target: int) -> np.ndarray:
         """Geodesic polyline ``(n_pts, 3)`` from vertex ``source`` to ``target``."""
@@ -110,6 +120,10 @@ class GeodesicSolver:
         if np.linalg.norm(pts[0] - self.V[source]) > np.linalg.norm(pts[-1] - self.V[source]):
             pts = pts[::-1]
         return pts
+
+
+def _polyline_length(P: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(P, axis=0), axis=1).sum())
 
 
 def _point_segment(P, A, B):

@@ -203,7 +203,7 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
     import time
 
     from .figures import dataset_figures
-    from .video import dataset_videos
+    from .video import save_videos, start_videos
 
     timings = result["summary"].setdefault("timings_s", {})
     tick = time.perf_counter()
@@ -223,6 +223,10 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
         write_json(folder / "arrays.json", desc)
     timings["write_arrays_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
+    # the workers render the videos while this process draws the figures
+    videos = start_videos(arrays, result["grids"], fps=fps, executor=executor)
+    timings["videos_s"] = time.perf_counter() - tick
+    tick = time.perf_counter()
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])
     if result.get("pca"):
         from .figures import pca_figure
@@ -231,6 +235,6 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
                    title=f"{result['summary']['name']}: cross-section shape modes")
     timings["figures_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    dataset_videos(folder / "videos", arrays, result["grids"], fps=fps, executor=executor)
-    timings["videos_s"] = time.perf_counter() - tick
+    save_videos(folder / "videos", videos)
+    timings["videos_s"] += time.perf_counter() - tick
     write_json(folder / "summary.json", result["summary"])

@@ -197,20 +197,32 @@ def render_videos(kind: str, inputs: dict, fps: float = 30.0) -> list[tuple[str,
     return out
 
 
+def start_videos(arrays: dict, grids: dict | None = None, *, fps: float = 30.0,
+                 executor=None):
+    """Submit a dataset's video tasks to ``executor`` (without one, render them
+    now); pass the result to :func:`save_videos`. In between the caller is free
+    to do other work (the figures) while the workers render."""
+    tasks = [(kind, inputs, fps) for kind, inputs in video_tasks(arrays, grids)]
+    if executor is None:
+        return [render_videos(*args) for args in tasks]
+    return [executor.submit(render_videos, *args) for args in tasks]
+
+
+def save_videos(folder: Path, pending: list) -> list[Path]:
+    """Write the videos of :func:`start_videos` into ``folder``; returns their paths."""
+    out = []
+    for task in pending:
+        for name, data in (task.result() if hasattr(task, "result") else task):
+            (folder / name).write_bytes(data)
+            out.append(folder / name)
+    return out
+
+
 def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
                    fps: float = 30.0, executor=None) -> list[Path]:
     """All per-dataset videos into ``folder`` (``videos/``), rendered in
     ``executor``'s workers when one is given."""
-    from .pipeline import run_tasks
-
-    tasks = video_tasks(arrays, grids)
-    encoded = run_tasks(render_videos, [(kind, inputs, fps) for kind, inputs in tasks],
-                        executor=executor)
-    out = []
-    for name, data in (pair for task in encoded for pair in task):
-        (folder / name).write_bytes(data)
-        out.append(folder / name)
-    return out
+    return save_videos(folder, start_videos(arrays, grids, fps=fps, executor=executor))
 
 
 # ------------------------------------------------------------------ 3-D renders

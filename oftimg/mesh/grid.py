@@ -25,7 +25,7 @@ class GridOptions:
     authalic_weight: float = 0.5
     respace: bool = True
     seam_smoothing_frames: float = 1.0
-    seam_method: str = "heat"
+    seam_method: str = "graph"
 
     def __post_init__(self):
         if self.n_u < 3 or self.n_v < 2:
@@ -48,7 +48,7 @@ class FrameGrid:
     flipped_before_repair: int = 0
 
 
-def seam_endpoints(V, F, inlet, outlet, *, method: str = "heat"
+def seam_endpoints(V, F, inlet, outlet, *, method: str = "graph"
                    ) -> tuple[np.ndarray, np.ndarray, float]:
     """End points (mm) and length of the shortest inlet-to-outlet geodesic."""
     src, tgt, length = GeodesicSolver(V, F, method=method).shortest_between(inlet, outlet)

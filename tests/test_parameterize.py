@@ -152,6 +152,25 @@ def test_seam_search_finds_the_shorter_of_two_basins(seed):
     assert found[2] == pytest.approx(exact[2], rel=0.005)
 
 
+@pytest.mark.parametrize("rings", [8, 1])
+def test_band_path_is_the_whole_mesh_path(rings, monkeypatch):
+    """The edge-flip path on a band around the edge path is the whole mesh's path;
+    with a band too thin to hold it (1 ring), the fallback gives it too."""
+    import potpourri3d as pp3d
+
+    import oftimg.mesh.geodesic as geodesic
+
+    monkeypatch.setattr(geodesic, "BAND_RINGS", rings)
+    _, V, F, inlet, outlet = phantom_frame()
+    whole = pp3d.EdgeFlipGeodesicSolver(V, F)
+    for a, b in [(inlet[0], outlet[0]), (inlet[7], outlet[20]), (inlet[3], inlet[9])]:
+        expected = np.asarray(whole.find_geodesic_path(int(a), int(b)))
+        if np.linalg.norm(expected[0] - V[a]) > np.linalg.norm(expected[-1] - V[a]):
+            expected = expected[::-1]
+        got = GeodesicSolver(V, F).path(a, b)
+        assert got.shape == expected.shape and np.abs(got - expected).max() < 1e-12
+
+
 def test_smoothing_is_periodic():
     P = np.zeros((10, 3))
     P[0] = [1.0, 0, 0]

@@ -266,6 +266,12 @@ def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, start: int, end
     """
     vf = _VertexFaces(F, len(V))
     tol = 1e-6 * float(np.linalg.norm(np.ptp(V, axis=0)))
+    position = {}  # vertex -> (x, y, z) as Python floats: a handful per point, no NumPy calls
+
+    def xyz(v):
+        if v not in position:
+            position[v] = V[v].tolist()
+        return position[v]
 
     def faces_around(ev, strict):
         sets = [set(vf.faces(v)) for v in _verts(ev)]
@@ -274,13 +280,23 @@ def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, start: int, end
     def nearest_on(faces, p):
         cand = {(min(a, b), max(a, b)) for f in faces
                 for a, b in zip(vf.corners(f), vf.corners(f)[1:] + vf.corners(f)[:1])}
-        e = np.array(sorted(cand))
-        d, t = _point_segment(np.broadcast_to(p, (len(e), 3)), V[e[:, 0]], V[e[:, 1]])
-        k = int(np.argmin(d))
-        return float(d[k]), _snap(int(e[k, 0]), int(e[k, 1]), float(t[k]))
+        px, py, pz = p
+        best = (np.inf, None)
+        for a, b in sorted(cand):
+            (ax, ay, az), (bx, by, bz) = xyz(a), xyz(b)
+            ux, uy, uz = bx - ax, by - ay, bz - az
+            t = ((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / max(
+                ux * ux + uy * uy + uz * uz, 1e-300)
+            t = min(max(t, 0.0), 1.0)
+            dx, dy, dz = ax + t * ux - px, ay + t * uy - py, az + t * uz - pz
+            d = (dx * dx + dy * dy + dz * dz) ** 0.5
+            if d < best[0]:
+                best = (d, (a, b, t))
+        a, b, t = best[1]
+        return best[0], _snap(a, b, t)
 
     events = [("v", int(start))]
-    for p in P[1:-1]:
+    for p in P[1:-1].tolist():
         cur = events[-1]
         d, ev = nearest_on(faces_around(cur, True), p)
         if d > tol:
@@ -317,9 +333,9 @@ class _VertexFaces:
     """Faces around a vertex (CSR built once), face corners as Python lists on demand."""
 
     def __init__(self, F: np.ndarray, n: int):
-        order = np.argsort(F.ravel(), kind="stable")
-        self._face_of = order // 3
-        self._ptr = np.searchsorted(F.ravel()[order], np.arange(n + 1))
+        faces = np.repeat(np.arange(len(F)), 3)
+        csr = sp.csr_matrix((faces, (F.ravel(), faces)), shape=(n, len(F)))  # counting sort
+        self._face_of, self._ptr = csr.indices, csr.indptr
         self._F = F
 
     def faces(self, v: int) -> list:

@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .topology import MeshError
+from .topology import MeshError, cross3
 
 
 def corner_cotangents(V: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -30,8 +30,8 @@ def corner_cotangents(V: np.ndarray, F: np.ndarray) -> np.ndarray:
         a = P[:, (k + 1) % 3] - P[:, k]
         b = P[:, (k + 2) % 3] - P[:, k]
         dot = np.einsum("ij,ij->i", a, b)
-        cross = np.linalg.norm(np.cross(a, b), axis=1)
-        cots[:, k] = dot / np.maximum(cross, 1e-300)
+        c = cross3(a, b)
+        cots[:, k] = dot / np.maximum(np.sqrt(np.einsum("ij,ij->i", c, c)), 1e-300)
     return cots
 
 
@@ -73,12 +73,21 @@ def harmonic_map(W: sp.csr_matrix, boundary: np.ndarray, boundary_uv: np.ndarray
     One LU factorisation, both coordinates as right-hand sides.
     """
     n = W.shape[0]
-    L = (W - sp.diags(np.asarray(W.sum(axis=1)).ravel())).tocsr()
     interior = np.ones(n, dtype=bool)
     interior[boundary] = False
     idx = np.nonzero(interior)[0]
-    A = L[idx][:, idx].tocsc()
-    rhs = -(L[idx][:, boundary] @ boundary_uv)
+    fixed = np.zeros((n, 2))
+    fixed[boundary] = boundary_uv
+    rhs = -(W @ fixed)[idx]                              # the boundary's pull on each row
+    # A = (W - diag(row sums)) restricted to the interior, assembled directly
+    Wc = W.tocoo()
+    keep = interior[Wc.row] & interior[Wc.col]
+    pos = np.full(n, -1)
+    pos[idx] = np.arange(len(idx))
+    diag = np.arange(len(idx))
+    A = sp.csc_matrix((np.concatenate([Wc.data[keep], -np.asarray(W.sum(axis=1)).ravel()[idx]]),
+                       (np.concatenate([pos[Wc.row[keep]], diag]),
+                        np.concatenate([pos[Wc.col[keep]], diag]))), shape=(len(idx), len(idx)))
     UV = np.empty((n, 2))
     UV[boundary] = boundary_uv
     UV[idx] = _solve(A, np.ascontiguousarray(rhs))

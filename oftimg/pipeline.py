@@ -329,10 +329,12 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             [np.interp(v * (len(s_mm) - 1), np.arange(len(s_mm)), s_rows[:, t]) / s_rows[-1, t]
              for t, v in enumerate(clip_v)])
         summary["clipped_myocardial_volume_mm3"] = target
-        for w in walls:
-            grid[f"{w}_clipped"] = np.stack(
-                [clip_grid(grid[w][:, :, t], *plane_at(origins[:, t], normals[:, t], clip_v[t]))
-                 for t in range(n_t)], axis=2)
+        planes = [plane_at(origins[:, t], normals[:, t], clip_v[t]) for t in range(n_t)]
+        plane_origin = np.array([o for o, _ in planes])                     # (n_t, 3)
+        plane_normal = np.array([n for _, n in planes])
+        for w in walls:  # u-lines of all frames at once: (n_u, n_t, n_v, 3)
+            lines = clip_grid(grid[w].transpose(0, 2, 1, 3), plane_origin, plane_normal)
+            grid[f"{w}_clipped"] = lines.transpose(0, 2, 1, 3)
     tick = time.perf_counter()
     fields = shape_fields(grid, contour, normals, area, frames, t0, t_frames if options.warp
                           else None, ds.meta.period_ms)

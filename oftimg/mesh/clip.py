@@ -53,26 +53,33 @@ def plane_at(origins: np.ndarray, normals: np.ndarray, v: float):
 
 
 def clip_grid(X: np.ndarray, origin: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """Re-parameterize one frame's grid ``X (n_u, n_v, 3)`` to the part beyond a plane.
+    """Re-parameterize grid lines ``X (..., n_v, 3)`` to their part beyond a plane.
 
-    Each u-line is cut where it crosses the plane and resampled by arc length
-    into ``n_v`` nodes from the plane to the outlet.
+    Each line (a u-line of a frame's grid ``(n_u, n_v, 3)``, or of several
+    frames at once with ``origin``, ``normal`` broadcasting against ``X[..., 0, :]``)
+    is cut where it last crosses to the plane's positive side and resampled by
+    arc length into ``n_v`` nodes from the plane to the outlet end.
     """
-    n_u, n_v, _ = X.shape
-    out = np.empty_like(X)
-    for i in range(n_u):
-        line = X[i]
-        d = (line - origin) @ normal
-        behind = np.nonzero(d < 0)[0]
-        if len(behind) == 0:
-            start, seg = line[0], line
-        else:
-            k = min(int(behind.max()), n_v - 2)
-            f = d[k] / (d[k] - d[k + 1]) if d[k] != d[k + 1] else 0.0
-            start = line[k] + np.clip(f, 0, 1) * (line[k + 1] - line[k])
-            seg = np.concatenate([start[None], line[k + 1:]])
-        step = np.linalg.norm(np.diff(seg, axis=0), axis=1)
-        s = np.concatenate([[0.0], np.cumsum(step)])
-        target = np.linspace(0, s[-1], n_v)
-        out[i] = np.stack([np.interp(target, s, seg[:, c]) for c in range(3)], axis=-1)
-    return out
+    n_v = X.shape[-2]
+    lines = X.reshape(-1, n_v, 3)
+    origin = np.broadcast_to(origin, X.shape[:-2] + (3,)).reshape(-1, 3)
+    normal = np.broadcast_to(normal, X.shape[:-2] + (3,)).reshape(-1, 3)
+    rows = np.arange(len(lines))
+    d = np.einsum("lvk,lk->lv", lines - origin[:, None], normal)
+    behind = d < 0
+    k = np.where(behind.any(axis=1), n_v - 1 - np.argmax(behind[:, ::-1], axis=1), 0)
+    k = np.minimum(k, n_v - 2)
+    dk, dk1 = d[rows, k], d[rows, k + 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f = np.where((dk != dk1) & behind.any(axis=1), dk / (dk - dk1), 0.0)
+    f = np.clip(f, 0.0, 1.0)
+    # arc length along each whole line; the clipped line is its part from s_start
+    s = np.concatenate([np.zeros((len(lines), 1)),
+                        np.cumsum(np.linalg.norm(np.diff(lines, axis=1), axis=2), axis=1)], axis=1)
+    s_start = s[rows, k] + f * (s[rows, k + 1] - s[rows, k])
+    target = s_start[:, None] + np.linspace(0.0, 1.0, n_v) * (s[:, -1] - s_start)[:, None]
+    # one np.interp for all lines: each line's arc length shifted past the previous one's
+    offset = (2.0 * float(s[:, -1].max()) + 1.0) * rows[:, None]
+    xp, x = (s + offset).ravel(), (target + offset).ravel()
+    out = np.stack([np.interp(x, xp, lines[..., c].ravel()) for c in range(3)], axis=-1)
+    return out.reshape(X.shape)

@@ -71,7 +71,8 @@ def bench(path: Path, jobs: int) -> dict:
     stages.update({f"per-frame: {k}": v * scale for k, v in cpu.items()})
     stages.update({"fields": tm["fields_s"], "image analysis": tm["image_analysis_s"],
                    "write arrays": tm["write_arrays_s"], "figures": tm["figures_s"],
-                   "videos (beyond the figures)": tm["videos_s"]})
+                   "videos (beyond the figures)": tm["videos_s"], "PCA": tm["pca_s"]})
+    stages["other (start-up, alignment, clipping, reports)"] = total - sum(stages.values())
     per_frame = stages["validate (read+check)"] + stages["seam end points"] + frames_wall
     return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total, "read_only_s": read_s,
             "ratio": total / read_s, "peak_mb": peak_mb(), "per_frame_work_s": per_frame,

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..mesh.topology import loop_vector_area
+
 
 def srvf(beta: np.ndarray) -> np.ndarray:
     """SRVF ``(..., n, 2)`` of closed curves ``beta (..., n, 2)``.
@@ -152,7 +154,7 @@ def ring_to_plane(ring: np.ndarray) -> np.ndarray:
     """
     c = ring.mean(axis=-2, keepdims=True)
     X = ring - c
-    vec_area = 0.5 * np.cross(X, np.roll(X, -1, axis=-2)).sum(axis=-2)
+    vec_area = loop_vector_area(X)
     normal = vec_area / np.linalg.norm(vec_area, axis=-1, keepdims=True)
     first = X[..., 0, :]
     e1 = first - np.sum(first * normal, axis=-1, keepdims=True) * normal

@@ -91,31 +91,7 @@ def contour_around(contours: list[tuple[np.ndarray, bool]], center: np.ndarray,
     Among several, the one whose centroid is nearest. ``None`` if none does.
     """
     normal = np.asarray(normal, float) / np.linalg.norm(normal)
-    e1 = cross3(normal, np.array([1.0, 0, 0]))
-    if np.linalg.norm(e1) < 0.1:
-        e1 = cross3(normal, np.array([0, 1.0, 0]))
-    e1 /= np.linalg.norm(e1)
-    e2 = cross3(normal, e1)
-    best, best_d = None, np.inf
-    for C, closed in contours:
-        if not closed:
-            continue  # ends on the mesh boundary
-        Q = np.column_stack([(C - center) @ e1, (C - center) @ e2])
-        if _winding(Q) == 0:
-            continue
-        dist = np.linalg.norm(C.mean(axis=0) - center)
-        if dist < best_d:
-            best, best_d = C, dist
-    return best
-
-
-
-def _winding(Q: np.ndarray) -> int:
-    """Winding number of the closed 2-D polygon ``Q`` around the origin."""
-    ang = np.arctan2(Q[:, 1], Q[:, 0])
-    dang = np.diff(np.concatenate([ang, ang[:1]]))
-    dang = (dang + np.pi) % (2 * np.pi) - np.pi
-    return int(round(dang.sum() / (2 * np.pi)))
+    return _contours_around([contours], np.asarray(center, float)[None], normal[None])[0]
 
 
 def ring_point(X: np.ndarray, u: float) -> np.ndarray:
@@ -237,37 +213,9 @@ def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n:
     Starts at the contour point nearest ``start`` (the seam node) and turns
     positively about ``normal`` (the v direction), as u does.
     """
-    return _resample_from(C if loop_vector_area(C) @ normal >= 0 else C[::-1], start, n)
-
-
-def _resample_from(C: np.ndarray, start: np.ndarray, n: int) -> np.ndarray:
-    """``n`` points evenly spaced by arc length along the closed polygon ``C``,
-    from its point nearest ``start``, in ``C``'s order."""
-    closed = np.concatenate([C, C[:1]])
-    AB = np.diff(closed, axis=0)
-    seg = np.sqrt(np.einsum("ij,ij->i", AB, AB))
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    # arc-length position of the point of the contour closest to ``start``
-    A = closed[:-1]
-    t = np.clip(np.einsum("ij,ij->i", start - A, AB) / np.maximum(seg ** 2, 1e-300), 0, 1)
-    off = A + t[:, None] * AB - start
-    k = int(np.argmin(np.einsum("ij,ij->i", off, off)))
-    s0 = s[k] + t[k] * seg[k]
-    target = (s0 + np.arange(n) / n * s[-1]) % s[-1]
-    return np.stack([np.interp(target, s, closed[:, d]) for d in range(3)], axis=-1)
-
-
-def polygon_moments(C: np.ndarray, normal: np.ndarray) -> tuple[float, np.ndarray]:
-    """Signed area (mm^2, positive when ``C`` turns positively about the unit
-    ``normal``) and area centroid of a planar closed polygon ``C (n, 3)``."""
-    c0 = C.mean(axis=0)
-    P = C - c0
-    Q = np.roll(P, -1, axis=0)
-    w = cross3(P, Q) @ normal  # twice the signed triangle areas
-    total = w.sum()
-    if abs(total) < 1e-300:
-        return 0.0, c0
-    return 0.5 * float(total), c0 + ((P + Q) * w[:, None]).sum(axis=0) / (3.0 * total)
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    return _measure_polygons([np.asarray(C, float)], normal[None],
+                             np.asarray(start, float)[None], n)[2][0]
 
 
 def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray,
@@ -289,10 +237,6 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     """
     n_v = len(origins)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
-    area = np.empty(n_v)
-    centroid = np.empty((n_v, 3))
-    contour = np.empty((n_points, n_v, 3))
-    from_ring = np.zeros(n_v, dtype=bool)
     # The end planes lie on the mesh's boundary loops: cut 5 % of a row inside,
     # and move what is found back onto the plane.
     step = np.linalg.norm(np.diff(origins, axis=0), axis=1).mean()
@@ -305,25 +249,116 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     flat = rings - height[..., None] * normals
     radius = np.linalg.norm(flat - flat.mean(axis=0), axis=2).mean(axis=0)
 
-    def measure(j, C):
-        signed, centroid[j] = polygon_moments(C, normals[j])
-        area[j] = abs(signed)
-        contour[:, j] = _resample_from(C if signed >= 0 else C[::-1], rings[0, j], n_points)
-
-    for j in range(n_v):
-        C = contour_around(all_contours[j], origins[j] + shift[j], normals[j])
-        from_ring[j] = C is None
-        measure(j, flat[:, j] if C is None else C - shift[j])
+    chosen = _contours_around(all_contours, origins + shift, normals)
+    from_ring = np.array([C is None for C in chosen])
+    polygons = [flat[:, j] if C is None else C - shift[j] for j, C in enumerate(chosen)]
+    area, centroid, resampled = _measure_polygons(polygons, normals, rings[0], n_points)
     # symmetric Hausdorff distance of each (resampled) contour to its projected ring
-    A, B = contour.transpose(1, 0, 2), flat.transpose(1, 0, 2)          # (n_v, n, 3)
-    d2 = (np.einsum("vpk,vpk->vp", A, A)[:, :, None] + np.einsum("vuk,vuk->vu", B, B)[:, None]
-          - 2 * A @ B.transpose(0, 2, 1))                               # (n_v, n_points, n_u)
+    B = flat.transpose(1, 0, 2)                                         # (n_v, n_u, 3)
+    d2 = (np.einsum("vpk,vpk->vp", resampled, resampled)[:, :, None]
+          + np.einsum("vuk,vuk->vu", B, B)[:, None] - 2 * resampled @ B.transpose(0, 2, 1))
     offset = np.sqrt(np.maximum(np.maximum(d2.min(axis=2).max(axis=1),
                                            d2.min(axis=1).max(axis=1)), 0))
-    for j in np.nonzero(~from_ring & (offset > max_offset * radius))[0]:
-        from_ring[j] = True
-        measure(j, flat[:, j])
-    return area, centroid, contour, from_ring
+    redo = np.nonzero(~from_ring & (offset > max_offset * radius))[0]
+    if len(redo):
+        from_ring[redo] = True
+        area[redo], centroid[redo], resampled[redo] = _measure_polygons(
+            [flat[:, j] for j in redo], normals[redo], rings[0, redo], n_points)
+    return area, centroid, resampled.transpose(1, 0, 2), from_ring
+
+
+def _closed_polygons(polygons: list[np.ndarray]):
+    """Closed polygons of different lengths as one array: points ``(N, 3)``, each
+    polygon's first index, its length, each point's polygon and its successor."""
+    lengths = np.array([len(P) for P in polygons])
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+    poly = np.repeat(np.arange(len(polygons)), lengths)
+    succ = np.arange(lengths.sum()) + 1
+    succ[starts + lengths - 1] = starts
+    return np.concatenate(polygons), starts, lengths, poly, succ
+
+
+def _plane_bases(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors spanning each plane, ``(n, 3)`` each."""
+    e1 = cross3(normals, np.array([1.0, 0, 0]))
+    tilted = np.linalg.norm(e1, axis=1) < 0.1
+    e1[tilted] = cross3(normals[tilted], np.array([0, 1.0, 0]))
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    return e1, cross3(normals, e1)
+
+
+def _contours_around(all_contours: list, centers: np.ndarray, normals: np.ndarray) -> list:
+    """:func:`contour_around` for every plane at once: per plane the closed contour
+    whose projection encloses its center (the nearest by centroid), or None."""
+    rows = [j for j, cs in enumerate(all_contours) for _, closed in cs if closed]
+    found = [C for cs in all_contours for C, closed in cs if closed]
+    chosen = [None] * len(all_contours)
+    if not found:
+        return chosen
+    P, starts, lengths, poly, succ = _closed_polygons(found)
+    rows = np.asarray(rows)
+    row = rows[poly]
+    e1, e2 = _plane_bases(normals)
+    rel = P - centers[row]
+    ang = np.arctan2(np.einsum("ij,ij->i", rel, e2[row]), np.einsum("ij,ij->i", rel, e1[row]))
+    turn = (ang[succ] - ang + np.pi) % (2 * np.pi) - np.pi
+    winding = np.rint(np.add.reduceat(turn, starts) / (2 * np.pi))
+    dist = np.linalg.norm(np.add.reduceat(P, starts) / lengths[:, None] - centers[rows], axis=1)
+    for c in np.lexsort((np.arange(len(found)), dist, rows)):  # by plane, nearest first
+        if winding[c] != 0 and chosen[rows[c]] is None:
+            chosen[rows[c]] = found[c]
+    return chosen
+
+
+def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_near: np.ndarray,
+                      n: int):
+    """Area (mm^2), area centroid ``(k, 3)`` and ``n`` points evenly spaced by arc
+    length ``(k, n, 3)`` of planar closed polygons, all at once.
+
+    The points turn positively about the polygon's unit normal (``normals (k,
+    3)``) and start at the polygon point nearest ``starts_near (k, 3)`` (the
+    seam).
+    """
+    P, starts, lengths, poly, succ = _closed_polygons(polygons)
+    k = len(polygons)
+    c0 = np.add.reduceat(P, starts) / lengths[:, None]
+    Pc = P - c0[poly]
+    Qc = Pc[succ]
+    w = np.einsum("ij,ij->i", cross3(Pc, Qc), normals[poly])  # twice the signed triangle areas
+    total = np.add.reduceat(w, starts)
+    degenerate = np.abs(total) < 1e-300
+    safe = np.where(degenerate, 1.0, total)
+    centroid = c0 + np.where(degenerate[:, None], 0.0,
+                             np.add.reduceat((Pc + Qc) * w[:, None], starts) / (3.0 * safe[:, None]))
+    area = 0.5 * np.abs(total)
+    # orient: reverse the polygons that turn negatively
+    idx = np.arange(len(P))
+    flip = (total < 0)[poly]
+    idx[flip] = (2 * starts + lengths - 1)[poly[flip]] - idx[flip]
+    P = P[idx]
+    AB = P[succ] - P
+    seg = np.sqrt(np.einsum("ij,ij->i", AB, AB))
+    length = np.add.reduceat(seg, starts)
+    s = np.cumsum(seg) - seg                                            # arc length at each point
+    s -= s[starts][poly]
+    # arc-length position of the point of each polygon closest to its start point
+    near = starts_near[poly]
+    t = np.clip(np.einsum("ij,ij->i", near - P, AB) / np.maximum(seg ** 2, 1e-300), 0, 1)
+    off = P + t[:, None] * AB - near
+    d2 = np.einsum("ij,ij->i", off, off)
+    is_min = d2 == np.minimum.reduceat(d2, starts)[poly]
+    first = np.minimum.reduceat(np.where(is_min, np.arange(len(P)), len(P)), starts)
+    s0 = s[first] + t[first] * seg[first]
+    target = (s0[:, None] + np.arange(n) / n * length[:, None]) % length[:, None]   # (k, n)
+    # one np.interp for all: each polygon closed (first point again at its length),
+    # its arc length shifted past the previous polygon's
+    ends = starts + lengths
+    nodes = np.insert(P, ends, P[starts], axis=0)
+    spacing = 2.0 * float(length.max()) + 1.0
+    xp = np.insert(s, ends, length) + spacing * np.insert(poly, ends, np.arange(k))
+    x = (target + spacing * np.arange(k)[:, None]).ravel()
+    resampled = np.stack([np.interp(x, xp, nodes[:, c]) for c in range(3)], axis=-1)
+    return area, centroid, resampled.reshape(k, n, 3)
 
 
 def slab_thickness(centroid: np.ndarray, normals: np.ndarray) -> np.ndarray:

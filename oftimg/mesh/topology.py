@@ -163,8 +163,9 @@ def boundary_loops(F: np.ndarray, incidence=None) -> list[np.ndarray]:
 
 
 def loop_vector_area(P: np.ndarray) -> np.ndarray:
-    """Vector area of a closed polygon ``P (n, 3)``; its norm is the enclosed area."""
-    return 0.5 * cross3(P, np.roll(P, -1, axis=0)).sum(axis=0)
+    """Vector area ``(..., 3)`` of closed polygons ``P (..., n, 3)``; its norm is the
+    enclosed area."""
+    return 0.5 * cross3(P, np.roll(P, -1, axis=-2)).sum(axis=-2)
 
 
 def loop_centroid(P: np.ndarray) -> np.ndarray:

@@ -116,8 +116,9 @@ class GeodesicSolver:
         """Walk the pair ``(sources[i], targets[j])`` along the two loops (ordered
         polylines) while the exact geodesic between them gets shorter.
 
-        The heat method's arg-min can sit one loop vertex off on coarse meshes
-        (its distances are smoothed over a few edges); a handful of exact
+        The seed (an arg-min of edge-path or heat-method distances) can sit a
+        few loop vertices off: edge paths run long by how the edges line up,
+        heat distances are smoothed over a few edges. A handful of exact
         edge-flip lengths finds the local optimum next to it. A move is only
         tried where the current path's end direction says it shortens the path
         to first order (moving an end by ``d`` changes the length by about

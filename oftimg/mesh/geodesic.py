@@ -54,6 +54,7 @@ class GeodesicSolver:
         self.method = method
         self._exact = self._heat = self._flip = self._graph = None
         self._bands = []
+        self._trees = {}  # vertex -> Dijkstra predecessors from it, when already known
 
     def shortest_between(self, sources: np.ndarray, targets: np.ndarray) -> tuple[int, int, float]:
         """The closest (source, target) vertex pair and its geodesic distance (mm).
@@ -106,8 +107,9 @@ class GeodesicSolver:
         near = (d <= np.roll(d, 1)) & (d <= np.roll(d, -1)) & (d <= d.min() * (1 + BASIN_TOLERANCE))
         best = None
         for j in np.nonzero(near)[0][np.argsort(d[near])][:4].tolist():
-            d_back = dijkstra(graph, directed=False, indices=int(targets[j]))[sources]
-            pair = self._polish(sources, targets, int(np.argmin(d_back)), j)
+            d_back, self._trees[int(targets[j])] = dijkstra(
+                graph, directed=False, indices=int(targets[j]), return_predecessors=True)
+            pair = self._polish(sources, targets, int(np.argmin(d_back[sources])), j)
             if best is None or pair[2] < best[2]:
                 best = pair
         return best
@@ -206,7 +208,12 @@ class _Band:
     def around(cls, mesh: GeodesicSolver, source: int, target: int, rings: int):
         """The band for ``source -> target``; None if it cannot be built (no edge
         path, or the band is not a manifold surface)."""
-        _, pred = dijkstra(mesh.graph, directed=False, indices=source, return_predecessors=True)
+        if target in mesh._trees:                    # the edge path from the other end
+            source, target = target, source
+        pred = mesh._trees.get(source)
+        if pred is None:
+            _, pred = dijkstra(mesh.graph, directed=False, indices=source,
+                               return_predecessors=True)
         if pred[target] < 0:
             return None
         chain = [target]

@@ -35,6 +35,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--n-v", type=int, default=50, help="grid nodes along (default 50)")
     r.add_argument("--authalic-weight", type=float, default=0.5,
                    help="Desbrun blend: 0 conformal, 1 authalic (default 0.5)")
+    r.add_argument("--seam-method", default="graph", metavar="METHOD",
+                   help="seed of the shortest-seam search: graph (Dijkstra, default), heat "
+                        "(heat method), exact (MMP distances, 5x slower; a cross-check)")
     r.add_argument("--fps", type=float, default=30.0, help="frames per second of the videos")
     r.add_argument("--log", type=Path, default=None, metavar="FILE",
                    help="keep a full log (progress, warnings, timings) in FILE")
@@ -111,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
-                       "warp": args.warp}
+                       "seam_method": args.seam_method, "warp": args.warp}
             out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                           jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options)
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")

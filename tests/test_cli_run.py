@@ -124,10 +124,11 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     out = tmp_path / "out"
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1", "--fps", "10",
                  "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
-                 "--authalic-weight", "0.25"]) == 0
+                 "--authalic-weight", "0.25", "--seam-method", "heat"]) == 0
     summary = json.loads((out / "tiny" / "summary.json").read_text())
     assert summary["time_warp"] is True
     assert summary["provenance"]["options"]["grid"]["authalic_weight"] == 0.25
+    assert summary["provenance"]["options"]["grid"]["seam_method"] == "heat"
     assert np.load(out / "tiny" / "grids.npz")["outer"].shape[:2] == (40, 20)
     text = log.read_text()
     assert "tiny: analysing 5 frames" in text and "tiny: done" in text

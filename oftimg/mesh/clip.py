@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sections import slab_volumes
+from .sections import interp_grouped, slab_volumes
 
 
 def cumulative_from_outlet(area_mm2: np.ndarray, thickness_mm: np.ndarray) -> np.ndarray:
@@ -78,8 +78,5 @@ def clip_grid(X: np.ndarray, origin: np.ndarray, normal: np.ndarray) -> np.ndarr
                         np.cumsum(np.linalg.norm(np.diff(lines, axis=1), axis=2), axis=1)], axis=1)
     s_start = s[rows, k] + f * (s[rows, k + 1] - s[rows, k])
     target = s_start[:, None] + np.linspace(0.0, 1.0, n_v) * (s[:, -1] - s_start)[:, None]
-    # one np.interp for all lines: each line's arc length shifted past the previous one's
-    offset = (2.0 * float(s[:, -1].max()) + 1.0) * rows[:, None]
-    xp, x = (s + offset).ravel(), (target + offset).ravel()
-    out = np.stack([np.interp(x, xp, lines[..., c].ravel()) for c in range(3)], axis=-1)
+    out = interp_grouped(target, s.ravel(), lines.reshape(-1, 3), np.repeat(rows, n_v))
     return out.reshape(X.shape)

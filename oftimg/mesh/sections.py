@@ -352,13 +352,25 @@ def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_ne
     target = (s0[:, None] + np.arange(n) / n * length[:, None]) % length[:, None]   # (k, n)
     # one np.interp for all: each polygon closed (first point again at its length),
     # its arc length shifted past the previous polygon's
-    ends = starts + lengths
-    nodes = np.insert(P, ends, P[starts], axis=0)
-    spacing = 2.0 * float(length.max()) + 1.0
-    xp = np.insert(s, ends, length) + spacing * np.insert(poly, ends, np.arange(k))
-    x = (target + spacing * np.arange(k)[:, None]).ravel()
-    resampled = np.stack([np.interp(x, xp, nodes[:, c]) for c in range(3)], axis=-1)
-    return area, centroid, resampled.reshape(k, n, 3)
+    ends = starts + lengths                  # each polygon closed: its first point again
+    resampled = interp_grouped(target, np.insert(s, ends, length),
+                               np.insert(P, ends, P[starts], axis=0), np.insert(poly, ends, np.arange(k)))
+    return area, centroid, resampled
+
+
+def interp_grouped(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, group: np.ndarray
+                   ) -> np.ndarray:
+    """``np.interp`` of each row k of ``x (k, n)`` on the sample points of group k.
+
+    ``xp (m,)`` >= 0, increasing within each group; ``fp (m, d)`` the values;
+    ``group (m,)`` sorted, 0 to k - 1. Returns ``(k, n, d)``. One call per
+    column for all groups: each group's abscissae are shifted past the previous one's.
+    """
+    spacing = 2.0 * float(max(xp.max(), x.max())) + 1.0
+    xs = xp + spacing * group
+    xq = (x + spacing * np.arange(len(x))[:, None]).ravel()
+    out = np.stack([np.interp(xq, xs, fp[:, c]) for c in range(fp.shape[1])], axis=-1)
+    return out.reshape(x.shape + (fp.shape[1],))
 
 
 def slab_thickness(centroid: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -151,10 +151,6 @@ class GeodesicSolver:
                         i, j, best, best_path, moved = ci, cj, cand, cand_path, True
         return int(sources[i]), int(targets[j]), best
 
-    def length(self, source: int, target: int) -> float:
-        """Exact polyhedral geodesic distance (mm) between two vertices."""
-        return _polyline_length(self.path(source, target))
-
     def path(self, source: int, target: int) -> np.ndarray:
         """Geodesic polyline ``(n_pts, 3)`` from vertex ``source`` to ``target``.
 

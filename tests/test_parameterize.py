@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from helpers import tube_mesh
 from oftimg.mesh.geodesic import GeodesicSolver, insert_path, locate_on_edges
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints, smooth_endpoints
-from oftimg.mesh.parameterize import count_flipped, intrinsic_weights
+from oftimg.mesh.parameterize import FlatSampler, FlatTube, count_flipped, intrinsic_weights
 from oftimg.mesh.topology import check_tube
 from oftimg.phantom import Phantom, PhantomParams
 
@@ -48,6 +48,39 @@ def test_count_flipped():
     flat_ear = np.array([[0, 0], [0.5, 0], [1, 0.0]])  # three corners on the border
     assert count_flipped(np.vstack([UV, flat_ear]), np.array([[0, 1, 2], [3, 4, 5]])) == 0
 
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_flat_sampler_interpolates_linear_positions_exactly(seed):
+    """Barycentric interpolation reproduces an affine (u, v) -> 3-D map at any
+    point: inside triangles, on edges and vertices, on the square's border."""
+    UV, F, _ = flat_patch(seed, n=9)
+    UV = UV[:, :2]
+    affine = np.array([[2.0, 0.5, -1.0], [0.3, -1.5, 0.25]])
+    X = UV @ affine + [1.0, 2.0, 3.0]
+    sample = FlatSampler(FlatTube(V=X, F=F, UV=UV, flipped=0))
+    rng = np.random.default_rng(seed)
+    u = np.concatenate([rng.uniform(0, 1, 300), UV[:, 0], [0.0, 1.0, 0.5]])
+    v = np.concatenate([rng.uniform(0, 1, 300), UV[:, 1], [0.0, 1.0, 1.0]])
+    expected = np.clip(np.column_stack([u, v]), FlatSampler.EPS, 1 - FlatSampler.EPS) @ affine
+    assert np.abs(sample(u, v) - expected - [1.0, 2.0, 3.0]).max() < 1e-12
+    grid = sample(np.linspace(0, 1, 17)[:, None], np.linspace(0, 1, 5)[None, :])  # rows of equal v
+    assert grid.shape == (17, 5, 3)
+    uv = np.clip(np.stack(np.meshgrid(np.linspace(0, 1, 17), np.linspace(0, 1, 5),
+                                      indexing="ij"), -1), FlatSampler.EPS, 1 - FlatSampler.EPS)
+    assert np.abs(grid - uv @ affine - [1.0, 2.0, 3.0]).max() < 1e-12
+
+
+
+def test_flat_sampler_falls_back_to_the_nearest_triangle_in_a_hole():
+    UV, F, _ = flat_patch(0, n=9)
+    UV = UV[:, :2]
+    hole = F[40]
+    sample = FlatSampler(FlatTube(V=np.column_stack([UV, np.zeros(len(UV))]),
+                                  F=np.delete(F, 40, axis=0), UV=UV, flipped=0))
+    centre = UV[hole].mean(axis=0)
+    X = sample(centre[0], centre[1])
+    edge = np.linalg.norm(UV[hole] - np.roll(UV[hole], 1, axis=0), axis=1).max()
+    assert np.isfinite(X).all() and 0 < np.linalg.norm(X[:2] - centre) < edge
 
 def cylinder_grid(radius=0.2, length=1.0, theta0=0.3, **kw):
     V, F = tube_mesh(radius, length=length, n_theta=64, n_s=40, theta0=theta0, **kw)

@@ -6,8 +6,9 @@ from hypothesis import strategies as st
 from helpers import tube_mesh
 from oftimg.mesh.geodesic import GeodesicSolver, insert_path, locate_on_edges
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints, smooth_endpoints
-from oftimg.mesh.parameterize import FlatSampler, FlatTube, count_flipped, intrinsic_weights
-from oftimg.mesh.topology import check_tube
+from oftimg.mesh.parameterize import (FlatSampler, FlatTube, count_flipped, intrinsic_weights,
+                                      seam_sides)
+from oftimg.mesh.topology import MeshError, check_tube
 from oftimg.phantom import Phantom, PhantomParams
 
 OPTS = GridOptions(n_u=40, n_v=20)
@@ -81,6 +82,20 @@ def test_flat_sampler_falls_back_to_the_nearest_triangle_in_a_hole():
     X = sample(centre[0], centre[1])
     edge = np.linalg.norm(UV[hole] - np.roll(UV[hole], 1, axis=0), axis=1).max()
     assert np.isfinite(X).all() and 0 < np.linalg.norm(X[:2] - centre) < edge
+
+
+def test_seam_sides_split_the_faces_along_the_seam():
+    V, F = tube_mesh(0.2, n_theta=12, n_s=6)          # ring k holds vertices 12 k .. 12 k + 11
+    chain = np.arange(6) * 12                          # the straight line theta = 0
+    high = seam_sides(F, chain)
+    touching = np.isin(F, chain).any(axis=1)
+    assert touching[high].all() and 0 < high.sum() < touching.sum()
+    angle = np.arctan2(V[F][..., 1], V[F][..., 0]).mean(axis=1)
+    assert (angle[high] < 0).all() and (angle[touching & ~high] > 0).all()  # u = 1 is at -theta
+    with pytest.raises(MeshError, match="split"):
+        seam_sides(F, chain[:2])                       # ends inside: one side all round
+    with pytest.raises(MeshError, match="joined"):
+        seam_sides(F, np.array([0, 25, 48]))           # 0 -> 25 is not an edge
 
 def cylinder_grid(radius=0.2, length=1.0, theta0=0.3, **kw):
     V, F = tube_mesh(radius, length=length, n_theta=64, n_s=40, theta0=theta0, **kw)

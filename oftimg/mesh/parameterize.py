@@ -18,21 +18,30 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
-from .topology import MeshError, cross3
+from .topology import MeshError, cross3, edge_incidence
+
+
+def _corner_terms(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cotangents of the corner angles and squared edge lengths, both ``(n_face, 3)``.
+
+    Edge k runs from corner k to corner k + 1. By the law of cosines the
+    cotangent at corner k is ``(l_k^2 + l_{k+2}^2 - l_{k+1}^2) / (4 A)``, with
+    the face's area A from one cross product.
+    """
+    P = V[F]
+    E = P[:, [1, 2, 0]] - P
+    l2 = np.einsum("fkd,fkd->fk", E, E)
+    c = cross3(E[:, 0], E[:, 1])
+    four_area = 2.0 * np.maximum(np.sqrt(np.einsum("ij,ij->i", c, c)), 1e-300)
+    cots = (l2 + l2[:, [2, 0, 1]] - l2[:, [1, 2, 0]]) / four_area[:, None]
+    return cots, l2
 
 
 def corner_cotangents(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Cotangent of each face corner's angle, ``(n_face, 3)``."""
-    P = V[F]
-    cots = np.empty(F.shape)
-    for k in range(3):
-        a = P[:, (k + 1) % 3] - P[:, k]
-        b = P[:, (k + 2) % 3] - P[:, k]
-        dot = np.einsum("ij,ij->i", a, b)
-        c = cross3(a, b)
-        cots[:, k] = dot / np.maximum(np.sqrt(np.einsum("ij,ij->i", c, c)), 1e-300)
-    return cots
+    return _corner_terms(V, F)[0]
 
 
 def intrinsic_weights(V: np.ndarray, F: np.ndarray, *, authalic_weight: float) -> sp.csr_matrix:
@@ -45,26 +54,17 @@ def intrinsic_weights(V: np.ndarray, F: np.ndarray, *, authalic_weight: float) -
     """
     if not 0.0 <= authalic_weight <= 1.0:
         raise ValueError(f"authalic_weight must be in [0, 1], found {authalic_weight}")
-    cots = corner_cotangents(V, F)
-    rows, cols, vals = [], [], []
-    sq_len = []
-    for k in range(3):
-        i, j, o = F[:, k], F[:, (k + 1) % 3], F[:, (k + 2) % 3]
-        l2 = np.einsum("ij,ij->i", V[i] - V[j], V[i] - V[j])
-        sq_len.append(l2)
-    scale = float(np.mean(np.concatenate(sq_len)))
-    for k in range(3):
-        i, j = F[:, k], F[:, (k + 1) % 3]
-        l2 = sq_len[k]
-        conf = 0.5 * cots[:, (k + 2) % 3]  # angle opposite edge (i, j)
-        w_ij = (1 - authalic_weight) * conf + authalic_weight * scale * cots[:, (k + 1) % 3] / l2
-        w_ji = (1 - authalic_weight) * conf + authalic_weight * scale * cots[:, k] / l2
-        rows += [i, j]
-        cols += [j, i]
-        vals += [w_ij, w_ji]
+    cots, l2 = _corner_terms(V, F)
+    scale = float(l2.mean())                        # makes the blend unit-free
+    # edge k = (i, j) = (corner k, corner k + 1); its opposite corner is k + 2
+    conf = (1 - authalic_weight) * 0.5 * cots[:, [2, 0, 1]]
+    auth = authalic_weight * scale / np.maximum(l2, 1e-300)
+    w_ij = conf + auth * cots[:, [1, 2, 0]]         # the angle at j
+    w_ji = conf + auth * cots                       # the angle at i
+    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
     n = len(V)
-    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(n, n))
+    return sp.csr_matrix((np.concatenate([w_ij.ravel(), w_ji.ravel()]),
+                          (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
 
 
 def harmonic_map(W: sp.csr_matrix, boundary: np.ndarray, boundary_uv: np.ndarray) -> np.ndarray:
@@ -114,59 +114,32 @@ def _solve(A: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:
     return spla.splu(A).solve(rhs)
 
 
-def _half_edge_faces(F, faces):
-    """Map directed half-edge (a, b) -> face index, for the given faces."""
-    out = {}
-    for f, (a, b, c) in zip(faces.tolist(), F[faces].tolist()):
-        out[(a, b)] = f
-        out[(b, c)] = f
-        out[(c, a)] = f
-    return out
-
-
-def _third(face, a, b):
-    return next(x for x in face if x != a and x != b)
-
-
 def seam_sides(F: np.ndarray, chain: np.ndarray) -> np.ndarray:
     """Boolean ``(n_face,)``: faces on the u = 1 side of the seam ``chain``.
 
-    Around each seam vertex the fan of faces is walked from the face holding
-    the half-edge ``c_i -> c_{i+1}`` (which lies towards -u, i.e. at u ~ 1)
-    until the previous seam edge or the boundary is reached.
+    The faces touching the seam, joined across their shared edges except the
+    seam's own, fall into two sides; the u = 1 side holds the half-edge
+    ``chain[0] -> chain[1]`` (the faces' orientation puts it towards -u).
     """
-    near = np.nonzero(np.isin(F, chain).any(axis=1))[0]
-    he = _half_edge_faces(F, near)
-    Fl = {f: F[f].tolist() for f in near.tolist()}
+    n = int(F.max()) + 1
+    on_seam = np.zeros(n, dtype=bool)
+    on_seam[chain] = True
+    strip = np.nonzero(on_seam[F].any(axis=1))[0]
+    edges, _, _, across = edge_incidence(F[strip], faces=True)
+    seam = np.sort(np.stack([chain[:-1], chain[1:]], axis=1), axis=1)
+    joins = (across[:, 1] >= 0) & ~np.isin(edges[:, 0] * n + edges[:, 1], seam[:, 0] * n + seam[:, 1])
+    a, b = across[joins].T
+    graph = sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(len(strip),) * 2)
+    n_sides, side = connected_components(graph, directed=False)
+    if n_sides != 2:
+        raise MeshError(f"the seam does not split the faces around it in two ({n_sides} parts)")
+    Fs = F[strip]
+    starts = ((Fs == chain[0]) & (Fs[:, [1, 2, 0]] == chain[1])).any(axis=1)
+    if not starts.any():
+        raise MeshError(f"seam vertex {chain[0]} is not joined to the next by an edge")
     high = np.zeros(len(F), dtype=bool)
-    m = len(chain) - 1
-    for i in range(m + 1):
-        c = int(chain[i])
-        if i < m:
-            f = he.get((c, int(chain[i + 1])))
-            stop_in = int(chain[i - 1]) if i > 0 else None
-            start = f
-            while f is not None:
-                high[f] = True
-                y = _third(Fl[f], c, _next_out(Fl[f], c))
-                if stop_in is not None and y == stop_in:
-                    break
-                f = he.get((c, y))
-                if f == start:
-                    raise MeshError(f"seam vertex {c} is not joined to the next by an edge")
-        else:
-            f = he.get((int(chain[i - 1]), c))
-            while f is not None:
-                high[f] = True
-                x = _next_out(Fl[f], c)
-                f = he.get((x, c))
+    high[strip[side == side[np.argmax(starts)]]] = True
     return high
-
-
-def _next_out(face, c):
-    """The vertex x with half-edge c -> x in ``face``."""
-    k = face.index(c)
-    return face[(k + 1) % 3]
 
 
 @dataclass(frozen=True)
@@ -210,11 +183,11 @@ def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndar
         raise MeshError("the seam touches a boundary loop between its ends")
     high = seam_sides(F, chain)
     n = len(V)
-    copy = {int(c): n + k for k, c in enumerate(chain)}
+    hi_chain = n + np.arange(len(chain))                  # the seam's copies at u = 1
+    relabel = np.arange(n)
+    relabel[chain] = hi_chain
     Fc = F.copy()
-    rows = np.nonzero(high)[0]
-    for f in rows:
-        Fc[f] = [copy.get(int(x), int(x)) for x in F[f]]
+    Fc[high] = relabel[F[high]]
     Vc = np.concatenate([V, V[chain]])
     # border of the square
     inl = np.roll(inlet, -int(np.nonzero(inlet == chain[0])[0][0]))
@@ -223,7 +196,6 @@ def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndar
     u_in = _arc_fraction(V[inl], closed=True)
     u_out = _arc_fraction(V[out], closed=True)
     v_seam = _arc_fraction(V[chain], closed=False)
-    hi_chain = np.array([copy[int(c)] for c in chain])
     boundary = np.concatenate([inl, [hi_chain[0]], out[1:], [hi_chain[-1]],
                                chain[1:-1], hi_chain[1:-1], [out[0]]])
     uv = np.concatenate([

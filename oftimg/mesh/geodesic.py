@@ -37,7 +37,7 @@ from scipy.spatial import cKDTree
 
 from .topology import MeshError
 
-BAND_RINGS = 8  # edge rings around the Dijkstra path kept for an edge-flip path
+BAND_RINGS = 6  # edge rings around the Dijkstra path kept for an edge-flip path
 SNAP = 0.02  # edge points closer than this fraction of the edge to a corner snap to it
 METHODS = ("graph", "heat", "exact")
 BASIN_TOLERANCE = 0.10  # edge-path minima this close to the shortest are all polished
@@ -93,8 +93,9 @@ class GeodesicSolver:
     def graph(self) -> sp.csr_matrix:
         """The edge graph, edge lengths (mm) as weights (each half-edge once)."""
         if self._graph is None:
-            a, b = self.F.ravel(), np.roll(self.F, -1, axis=1).ravel()
-            self._graph = sp.csr_matrix((np.linalg.norm(self.V[a] - self.V[b], axis=1), (a, b)),
+            a, b = self.F.ravel(), self.F[:, [1, 2, 0]].ravel()
+            d = self.V[a] - self.V[b]
+            self._graph = sp.csr_matrix((np.sqrt(np.einsum("ij,ij->i", d, d)), (a, b)),
                                         shape=(len(self.V),) * 2)
         return self._graph
 
@@ -227,7 +228,9 @@ class _Band:
                 return None                           # the band is the whole mesh
             depth[front] = r
         faces = mesh.F[(depth[mesh.F] >= 0).all(axis=1)]
-        vertices = np.unique(faces)
+        used = np.zeros(n, dtype=bool)
+        used[faces] = True
+        vertices = np.nonzero(used)[0]
         if len(vertices) == n:
             return None                               # the whole mesh: no band
         try:
@@ -282,8 +285,10 @@ def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, start: int, end
         return set.intersection(*sets) if strict else set.union(*sets)
 
     def nearest_on(faces, p):
-        cand = {(min(a, b), max(a, b)) for f in faces
-                for a, b in zip(vf.corners(f), vf.corners(f)[1:] + vf.corners(f)[:1])}
+        cand = set()
+        for f in faces:
+            a, b, c = vf.corners(f)
+            cand.update(((min(a, b), max(a, b)), (min(b, c), max(b, c)), (min(c, a), max(c, a))))
         px, py, pz = p
         best = (np.inf, None)
         for a, b in sorted(cand):
@@ -341,15 +346,18 @@ class _VertexFaces:
         csr = sp.csr_matrix((faces, (F.ravel(), faces)), shape=(n, len(F)))  # counting sort
         self._face_of, self._ptr = csr.indices, csr.indptr
         self._F = F
+        self._corners = {}
 
     def faces(self, v: int) -> list:
         return self._face_of[self._ptr[v]:self._ptr[v + 1]].tolist()
 
     def corners(self, f: int) -> list:
-        return self._F[f].tolist()
+        if f not in self._corners:
+            self._corners[f] = self._F[f].tolist()
+        return self._corners[f]
 
     def face_set(self, f: int) -> set:
-        return set(self._F[f].tolist())
+        return set(self.corners(f))
 
 
 def _share_face(a, b, vf: _VertexFaces) -> bool:
@@ -411,12 +419,13 @@ def insert_path(V: np.ndarray, F: np.ndarray, events) -> tuple[np.ndarray, np.nd
     V = np.concatenate(V_new)
     if len(chain) < 2:
         raise MeshError("the seam path has fewer than two points")
-    # the faces that hold a split edge (in either direction)
-    n_old = len(V) - len(edge_vertex)
-    keys = F * n_old + np.roll(F, -1, axis=1)
-    split_keys = np.array([a * n_old + b for i, j in edge_vertex for a, b in ((i, j), (j, i))],
-                          dtype=np.int64)
-    drop = np.nonzero(np.isin(keys, split_keys).any(axis=1))[0].tolist()
+    # the faces that hold a split edge: among those with two corners on split edges
+    on_split = np.zeros(len(V), dtype=bool)
+    on_split[[v for edge in edge_vertex for v in edge]] = True
+    near = np.nonzero(on_split[F].sum(axis=1) >= 2)[0]
+    drop = [f for f, (a, b, c) in zip(near.tolist(), F[near].tolist())
+            if (min(a, b), max(a, b)) in edge_vertex or (min(b, c), max(b, c)) in edge_vertex
+            or (min(c, a), max(c, a)) in edge_vertex]
     # Re-triangulate each touched face so that the seam segment is an edge.
     new_faces = []
     split_vertices = set(edge_vertex.values())

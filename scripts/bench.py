@@ -8,7 +8,7 @@ Generates (or reuses, in --cache) a phantom of 3 walls, runs the whole pipeline
 (`oftimg.run`), and prints each stage's wall seconds (per-frame stages: CPU
 seconds summed over the workers, scaled to wall time), the time merely to read
 all meshes (the floor no pipeline can beat: the median of 3 passes, so that the
-mesh reader's one-off import, ~1 s, is not counted) and total / read-only. The sweep
+mesh reader's one-off import, ~1 s, is not counted) and total (without the PCA, as the targets) / read-only. The sweep
 fits exponents to the total and to the per-frame work alone (validation, seam
 end points, per-frame stages), without the fixed costs (figures, videos, start-up).
 Targets (issue 9): 195 frames x 3 walls x 5.5k vertices in < 60 s with 2 jobs,
@@ -79,14 +79,17 @@ def bench(path: Path, jobs: int) -> dict:
                    "videos (beyond the figures)": tm["videos_s"], "PCA": tm["pca_s"]})
     stages["other (start-up, alignment, clipping, reports)"] = total - sum(stages.values())
     per_frame = stages["validate (read+check)"] + stages["seam end points"] + frames_wall
-    return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total, "read_only_s": read_s,
-            "ratio": total / read_s, "peak_mb": peak_mb(), "per_frame_work_s": per_frame,
-            "stages_s": stages}
+    target = total - stages["PCA"]                  # the issue's targets exclude the PCA
+    return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total,
+            "total_without_pca_s": target, "read_only_s": read_s, "ratio": target / read_s,
+            "peak_mb": peak_mb(), "per_frame_work_s": per_frame, "stages_s": stages}
 
 
 def print_table(r: dict) -> None:
-    print(f"{r['frames']} frames, jobs {r['jobs']}: total {r['total_s']:.1f} s, read-only "
-          f"{r['read_only_s']:.2f} s (x{r['ratio']:.0f}), peak memory {r['peak_mb']:.0f} MB")
+    print(f"{r['frames']} frames, jobs {r['jobs']}: total {r['total_s']:.1f} s, "
+          f"{r['total_without_pca_s']:.1f} s without PCA (targets: < 60 s and < 25 x read-only), "
+          f"read-only {r['read_only_s']:.2f} s (x{r['ratio']:.0f}), peak memory "
+          f"{r['peak_mb']:.0f} MB")
     for k, v in r["stages_s"].items():
         print(f"  {k:28s} {v:7.2f} s  {100 * v / r['total_s']:5.1f} %")
 

@@ -243,8 +243,9 @@ class FlatSampler:
     The queries are binned by row (equal v) and by u into a few buckets per
     query; each triangle looks at the buckets its bounding box covers on the
     rows it spans, and the barycentric coordinates of the queries it holds
-    interpolate its 3-D corners. Plain float64 NumPy, no spatial index to
-    build (3x faster than ray casting a BVH per frame).
+    interpolate its 3-D corners. Plain float64 NumPy and no spatial index to
+    build: the 80 x 50 resampling of a 5.5k frame takes 2/3 of the time of
+    open3d ray casting, which builds a BVH per frame.
     """
 
     EPS = 1e-9   # queries are clipped this far inside the unit square

@@ -9,8 +9,9 @@ Generates (or reuses, in --cache) a phantom of 3 walls, runs the whole pipeline
 seconds summed over the workers, scaled to wall time), the time merely to read
 all meshes (the floor no pipeline can beat: the median of 3 passes, so that the
 mesh reader's one-off import, ~1 s, is not counted) and total / read-only, where
-the total leaves out the PCA, as the targets do. The sweep fits exponents to the total and to the per-frame work alone (validation, seam
-end points, per-frame stages), without the fixed costs (figures, videos, start-up).
+the total leaves out the PCA, as the targets do. The sweep fits exponents to the
+total and to the per-frame work alone (validation, seam end points, per-frame
+stages), without the fixed costs (figures, videos, start-up).
 Targets (issue 9): 195 frames x 3 walls x 5.5k vertices in < 60 s with 2 jobs,
 < 25 x the read-only time, peak memory < 2 GB.
 """

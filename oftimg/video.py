@@ -115,8 +115,9 @@ def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, width: int = 400,
     return _stack(area.shape[1], draw)
 
 
-def write_mp4(path: Path, frames: np.ndarray, *, fps: float = 30.0) -> Path:
-    """Encode ``frames (n, rows, cols, 3) uint8`` as H.264/yuv420p MP4.
+def write_mp4(path: Path, frames, *, fps: float = 30.0) -> Path:
+    """Encode ``frames`` (``(n, rows, cols, 3)`` uint8, or an iterable of
+    ``(rows, cols, 3)`` frames) as H.264/yuv420p MP4.
 
     x264's "superfast" preset: the same picture quality (``quality=8``) for
     about 2/3 of the encoder's CPU time of "veryfast", at about twice the file
@@ -245,7 +246,33 @@ class SurfaceCamera:
         self.eye = center + dist * view
         self.center, self.up, self.size, self.fov = center, axes[0], size, fov_deg
         self.light = view
-        self._rays = None  # the same rays for every frame, made on first use
+        self._rays = None  # the rays of the pixels any frame can cover, made on first use
+        self._window = self.window(pts)
+
+    def _all_rays(self) -> np.ndarray:
+        """Ray origins and directions ``(size, size, 6)`` of every pixel."""
+        import open3d as o3d
+
+        return o3d.t.geometry.RaycastingScene.create_rays_pinhole(
+            self.fov, self.center.tolist(), self.eye.tolist(), self.up.tolist(), self.size,
+            self.size).numpy()
+
+    def window(self, pts: np.ndarray, margin: int = 2) -> tuple[slice, slice]:
+        """Rows and columns of the pixels onto which the points ``pts (n, 3)`` project
+        (plus ``margin``): the pinhole's ray directions are affine in the pixel indices
+        on the plane of their tips, so two steps of it invert the projection."""
+        rays = self._all_rays()
+        d00, d01, d10 = rays[0, 0, 3:], rays[0, 1, 3:], rays[1, 0, 3:]
+        col_step, row_step = d01 - d00, d10 - d00
+        ahead = np.cross(col_step, row_step)          # normal of the tips' plane
+        rel = pts - self.eye
+        tips = rel * ((d00 @ ahead) / (rel @ ahead))[:, None] - d00
+        col = tips @ col_step / (col_step @ col_step)
+        row = tips @ row_step / (row_step @ row_step)
+        lo = np.floor([row.min(), col.min()]).astype(int) - margin
+        hi = np.ceil([row.max(), col.max()]).astype(int) + margin + 1
+        lo, hi = np.clip(lo, 0, self.size), np.clip(hi, 0, self.size)
+        return slice(lo[0], hi[0]), slice(lo[1], hi[1])
 
     def render(self, X: np.ndarray, values: np.ndarray, *, vmin: float, vmax: float,
                cmap: str = "coolwarm") -> np.ndarray:
@@ -262,15 +289,15 @@ class SurfaceCamera:
         scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
                             o3d.core.Tensor(F.astype(np.uint32)))
         if self._rays is None:
-            self._rays = scene.create_rays_pinhole(self.fov, self.center.tolist(),
-                                                   self.eye.tolist(), self.up.tolist(),
-                                                   self.size, self.size)
+            rows, cols = self._window
+            self._rays = o3d.core.Tensor(np.ascontiguousarray(self._all_rays()[rows, cols]))
         hit = scene.cast_rays(self._rays)
         prim = hit["primitive_ids"].numpy().astype(np.int64)
         ok = prim != np.iinfo(np.uint32).max
         img = np.full((self.size, self.size, 3), 255, np.uint8)
         if not ok.any():
             return img
+        view = img[self._window]                      # only its pixels can show the tube
         tri = F[prim[ok]]
         b = hit["primitive_uvs"].numpy()[ok].astype(float)
         w = np.column_stack([1 - b.sum(axis=1), b])
@@ -278,7 +305,7 @@ class SurfaceCamera:
         normals = hit["primitive_normals"].numpy()[ok]
         shade = 0.35 + 0.65 * np.abs(normals @ self.light)
         rgb = to_rgb(val, vmin, vmax, cmap).astype(float) * shade[:, None]
-        img[ok] = np.clip(rgb, 0, 255).astype(np.uint8)
+        view[ok] = np.clip(rgb, 0, 255).astype(np.uint8)
         return img
 
 
@@ -291,7 +318,8 @@ def _fit_height(img: np.ndarray, height: int) -> np.ndarray:
 def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, *,
                            flat: np.ndarray | None = None, cmap: str = "coolwarm",
                            label: str = "", size: int = 320):
-    """Frames: the 3-D grid surface coloured by ``values (n_u, n_v, n_t)`` next to a
+    """Frames ``(rows, cols, 3)`` uint8, one at a time (a 195-frame video would hold
+    ~190 MB): the 3-D grid surface coloured by ``values (n_u, n_v, n_t)`` next to a
     flat picture (default the unfolded (u, v) map of the same values)."""
     finite = values[np.isfinite(values)]
     lo, hi = np.percentile(finite, [1, 99])
@@ -302,4 +330,4 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
         view = camera.render(G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap)
         return _even(np.concatenate([view, _fit_height(flat[t], size)], axis=1))
 
-    return _stack(G.shape[2], draw)
+    return (draw(t) for t in range(G.shape[2]))

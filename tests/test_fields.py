@@ -133,3 +133,10 @@ def test_surface_render_covers_the_view_and_follows_the_motion():
     covered = [(img < 250).any(axis=-1).mean() for img in imgs]
     assert all(0.05 < c < 0.9 for c in covered)
     assert covered[1] > covered[0] * 1.2  # expanded tube covers more of the picture
+    # rays are cast only in the window the tube can cover: the same pictures
+    rows, cols = cam._window
+    assert (rows.stop - rows.start) * (cols.stop - cols.start) < 0.8 * 160 ** 2
+    whole = SurfaceCamera(G, size=160)
+    whole._window = (slice(0, 160), slice(0, 160))
+    for t, img in zip((0, 2), imgs):
+        assert np.array_equal(whole.render(G[:, :, t], values, vmin=0, vmax=1), img)

@@ -217,16 +217,9 @@ class _Band:
         while chain[-1] != source:
             chain.append(int(pred[chain[-1]]))
         n = len(mesh.V)
-        adjacency = (mesh.graph + mesh.graph.T).tocsr()
-        depth = np.full(n, -1, dtype=np.int64)
-        depth[chain] = 0
-        front = np.zeros(n, dtype=bool)
-        front[chain] = True
-        for r in range(1, rings + 1):
-            front = (adjacency @ front > 0) & (depth < 0)
-            if not front.any():
-                return None                           # the band is the whole mesh
-            depth[front] = r
+        hops = dijkstra(mesh.graph, directed=False, indices=chain, unweighted=True,
+                        limit=rings + 0.5, min_only=True)        # edge rings from the path
+        depth = np.where(np.isfinite(hops), hops, -1).astype(np.int64)
         faces = mesh.F[(depth[mesh.F] >= 0).all(axis=1)]
         used = np.zeros(n, dtype=bool)
         used[faces] = True

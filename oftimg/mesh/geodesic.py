@@ -37,7 +37,7 @@ from scipy.spatial import cKDTree
 
 from .topology import MeshError
 
-BAND_RINGS = 6  # edge rings around the Dijkstra path kept for an edge-flip path
+BAND_RINGS = 5  # edge rings around the Dijkstra path kept for an edge-flip path
 SNAP = 0.02  # edge points closer than this fraction of the edge to a corner snap to it
 METHODS = ("graph", "heat", "exact")
 BASIN_TOLERANCE = 0.10  # edge-path minima this close to the shortest are all polished

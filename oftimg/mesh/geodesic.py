@@ -340,9 +340,12 @@ class _VertexFaces:
         self._face_of, self._ptr = csr.indices, csr.indptr
         self._F = F
         self._corners = {}
+        self._faces = {}
 
     def faces(self, v: int) -> list:
-        return self._face_of[self._ptr[v]:self._ptr[v + 1]].tolist()
+        if v not in self._faces:
+            self._faces[v] = self._face_of[self._ptr[v]:self._ptr[v + 1]].tolist()
+        return self._faces[v]
 
     def corners(self, f: int) -> list:
         if f not in self._corners:

@@ -54,6 +54,7 @@ class GeodesicSolver:
         self.method = method
         self._exact = self._heat = self._flip = self._graph = None
         self._bands = []
+        self._paths = {}  # (source, target) -> polyline, for pairs asked for again
         self._trees = {}  # vertex -> Dijkstra predecessors from it, when already known
 
     def shortest_between(self, sources: np.ndarray, targets: np.ndarray) -> tuple[int, int, float]:
@@ -164,6 +165,11 @@ class GeodesicSolver:
         rim is the one the whole mesh gives.)
         """
         source, target = int(source), int(target)
+        if (source, target) not in self._paths:      # the polish asks for some pairs again
+            self._paths[source, target] = self._path(source, target)
+        return self._paths[source, target]
+
+    def _path(self, source: int, target: int) -> np.ndarray:
         for band in self._bands:
             pts = band.path(source, target)
             if pts is not None:

@@ -127,7 +127,8 @@ def seam_sides(F: np.ndarray, chain: np.ndarray) -> np.ndarray:
     strip = np.nonzero(on_seam[F].any(axis=1))[0]
     edges, _, _, across = edge_incidence(F[strip], faces=True)
     seam = np.sort(np.stack([chain[:-1], chain[1:]], axis=1), axis=1)
-    joins = (across[:, 1] >= 0) & ~np.isin(edges[:, 0] * n + edges[:, 1], seam[:, 0] * n + seam[:, 1])
+    is_seam = np.isin(edges[:, 0] * n + edges[:, 1], seam[:, 0] * n + seam[:, 1])
+    joins = (across[:, 1] >= 0) & ~is_seam
     a, b = across[joins].T
     graph = sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(len(strip),) * 2)
     n_sides, side = connected_components(graph, directed=False)
@@ -253,12 +254,13 @@ class FlatSampler:
 
     def __init__(self, flat: FlatTube):
         self.flat = flat
-        v_lo = flat.UV[flat.F, 1].min(axis=1)
-        self._F = flat.F[np.argsort(v_lo)]               # by lowest v: sorted searches below
+        self._F = flat.F[np.argsort(flat.UV[flat.F, 1].min(axis=1))]  # by lowest v: sorted searches
         (u0, v0), (u1, v1), (u2, v2) = (flat.UV[self._F[:, k]].T for k in range(3))
         self._u0, self._v0 = u0, v0
-        self._u_lo, self._u_hi = np.minimum(np.minimum(u0, u1), u2), np.maximum(np.maximum(u0, u1), u2)
-        self._v_lo, self._v_hi = np.minimum(np.minimum(v0, v1), v2), np.maximum(np.maximum(v0, v1), v2)
+        self._u_lo = np.minimum(np.minimum(u0, u1), u2)
+        self._u_hi = np.maximum(np.maximum(u0, u1), u2)
+        self._v_lo = np.minimum(np.minimum(v0, v1), v2)
+        self._v_hi = np.maximum(np.maximum(v0, v1), v2)
         a, b, c, d = u1 - u0, u2 - u0, v1 - v0, v2 - v0    # (l1, l2) = [[a, b], [c, d]]^-1 (du, dv)
         det = a * d - b * c
         det[det == 0] = np.inf                             # degenerate: holds nothing
@@ -297,7 +299,8 @@ class FlatSampler:
         if missed.any():
             prim[missed], l1[missed], l2[missed] = self._nearest(uu[missed], vv[missed])
         F, V = self._F[prim], self.flat.V
-        X = V[F[:, 0]] * (1 - l1 - l2)[:, None] + V[F[:, 1]] * l1[:, None] + V[F[:, 2]] * l2[:, None]
+        X = (V[F[:, 0]] * (1 - l1 - l2)[:, None] + V[F[:, 1]] * l1[:, None]
+             + V[F[:, 2]] * l2[:, None])
         return X.reshape(shape + (3,))
 
     def _nearest(self, uu, vv):

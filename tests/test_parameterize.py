@@ -60,8 +60,8 @@ def test_flat_sampler_interpolates_linear_positions_exactly(seed):
     X = UV @ affine + [1.0, 2.0, 3.0]
     sample = FlatSampler(FlatTube(V=X, F=F, UV=UV, flipped=0))
     rng = np.random.default_rng(seed)
-    u = np.concatenate([rng.uniform(0, 1, 300), UV[:, 0], [0.0, 1.0, 0.5]])
-    v = np.concatenate([rng.uniform(0, 1, 300), UV[:, 1], [0.0, 1.0, 1.0]])
+    u = np.concatenate([rng.uniform(0, 1, 3000), UV[:, 0], [0.0, 1.0, 0.5]])
+    v = np.concatenate([rng.uniform(0, 1, 3000), UV[:, 1], [0.0, 1.0, 1.0]])  # scattered rows
     expected = np.clip(np.column_stack([u, v]), FlatSampler.EPS, 1 - FlatSampler.EPS) @ affine
     assert np.abs(sample(u, v) - expected - [1.0, 2.0, 3.0]).max() < 1e-12
     grid = sample(np.linspace(0, 1, 17)[:, None], np.linspace(0, 1, 5)[None, :])  # rows of equal v

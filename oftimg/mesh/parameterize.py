@@ -251,6 +251,7 @@ class FlatSampler:
 
     EPS = 1e-9   # queries are clipped this far inside the unit square
     TOL = 1e-9   # barycentric slack for points on an edge
+    MAX_ROWS = 256  # distinct v values located at once
 
     def __init__(self, flat: FlatTube):
         self.flat = flat
@@ -273,6 +274,23 @@ class FlatSampler:
         uu = np.clip(u.ravel(), self.EPS, 1 - self.EPS)
         vv = np.clip(v.ravel(), self.EPS, 1 - self.EPS)
         rows, row_of = np.unique(vv, return_inverse=True)
+        if len(rows) <= self.MAX_ROWS:                    # a grid's rows: the usual case
+            prim, l1, l2 = self._locate(uu, vv, rows, row_of)
+        else:  # scattered queries in batches of rows: a few (triangle, row) pairs per triangle
+            prim = np.empty(len(uu), dtype=np.int64)
+            l1, l2 = np.empty(len(uu)), np.empty(len(uu))
+            for first in range(0, len(rows), self.MAX_ROWS):
+                batch = np.nonzero((row_of >= first) & (row_of < first + self.MAX_ROWS))[0]
+                prim[batch], l1[batch], l2[batch] = self._locate(
+                    uu[batch], vv[batch], rows[first:first + self.MAX_ROWS], row_of[batch] - first)
+        F, V = self._F[prim], self.flat.V
+        X = (V[F[:, 0]] * (1 - l1 - l2)[:, None] + V[F[:, 1]] * l1[:, None]
+             + V[F[:, 2]] * l2[:, None])
+        return X.reshape(shape + (3,))
+
+    def _locate(self, uu, vv, rows, row_of):
+        """Triangle and barycentric coordinates ``(l1, l2)`` of each query, which
+        lies on row ``row_of`` (index into the sorted ``rows``)."""
         n_b = 2 * -(-len(uu) // len(rows))                  # buckets per row
         bucket = row_of * n_b + np.minimum((uu * n_b).astype(np.int64), n_b - 1)
         order = np.argsort(bucket, kind="stable")
@@ -298,10 +316,7 @@ class FlatSampler:
         missed = entry < 0
         if missed.any():
             prim[missed], l1[missed], l2[missed] = self._nearest(uu[missed], vv[missed])
-        F, V = self._F[prim], self.flat.V
-        X = (V[F[:, 0]] * (1 - l1 - l2)[:, None] + V[F[:, 1]] * l1[:, None]
-             + V[F[:, 2]] * l2[:, None])
-        return X.reshape(shape + (3,))
+        return prim, l1, l2
 
     def _nearest(self, uu, vv):
         """Triangle with the nearest centroid and clamped barycentric coordinates,

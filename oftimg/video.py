@@ -232,10 +232,12 @@ class SurfaceCamera:
 
     Set up once from all frames ``G (n_u, n_v, n_t, 3)`` so every frame is
     seen from the same place; renders headless with open3d's ray casting (no
-    display, no GPU).
+    display, no GPU). With ``crop``, rays are cast only in the window that any
+    frame projects into (the same pictures, fewer rays).
     """
 
-    def __init__(self, G: np.ndarray, *, size: int = 320, fov_deg: float = 40.0):
+    def __init__(self, G: np.ndarray, *, size: int = 320, fov_deg: float = 40.0,
+                 crop: bool = True):
         pts = G.reshape(-1, 3)
         pts = pts[np.isfinite(pts).all(axis=1)]
         center = pts.mean(axis=0)
@@ -246,8 +248,9 @@ class SurfaceCamera:
         self.eye = center + dist * view
         self.center, self.up, self.size, self.fov = center, axes[0], size, fov_deg
         self.light = view
-        self._rays = None  # the rays of the pixels any frame can cover, made on first use
-        self._window = self.window(pts)
+        rays = self._all_rays()
+        self._window = self.window(pts, rays) if crop else (slice(0, size), slice(0, size))
+        self._rays = np.ascontiguousarray(rays[self._window])  # the pixels any frame can cover
 
     def _all_rays(self) -> np.ndarray:
         """Ray origins and directions ``(size, size, 6)`` of every pixel."""
@@ -257,11 +260,11 @@ class SurfaceCamera:
             self.fov, self.center.tolist(), self.eye.tolist(), self.up.tolist(), self.size,
             self.size).numpy()
 
-    def window(self, pts: np.ndarray, margin: int = 2) -> tuple[slice, slice]:
+    def window(self, pts: np.ndarray, rays: np.ndarray, margin: int = 2) -> tuple[slice, slice]:
         """Rows and columns of the pixels onto which the points ``pts (n, 3)`` project
-        (plus ``margin``): the pinhole's ray directions are affine in the pixel indices
-        on the plane of their tips, so two steps of it invert the projection."""
-        rays = self._all_rays()
+        (plus ``margin``), for the camera's ``rays`` (:meth:`_all_rays`): the pinhole's
+        ray directions are affine in the pixel indices on the plane of their tips, so
+        two steps of it invert the projection."""
         d00, d01, d10 = rays[0, 0, 3:], rays[0, 1, 3:], rays[1, 0, 3:]
         col_step, row_step = d01 - d00, d10 - d00
         ahead = np.cross(col_step, row_step)          # normal of the tips' plane
@@ -288,10 +291,7 @@ class SurfaceCamera:
         scene = o3d.t.geometry.RaycastingScene()
         scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
                             o3d.core.Tensor(F.astype(np.uint32)))
-        if self._rays is None:
-            rows, cols = self._window
-            self._rays = o3d.core.Tensor(np.ascontiguousarray(self._all_rays()[rows, cols]))
-        hit = scene.cast_rays(self._rays)
+        hit = scene.cast_rays(o3d.core.Tensor(self._rays))
         prim = hit["primitive_ids"].numpy().astype(np.int64)
         ok = prim != np.iinfo(np.uint32).max
         img = np.full((self.size, self.size, 3), 255, np.uint8)

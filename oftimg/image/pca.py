@@ -58,7 +58,7 @@ def align_transform(beta: np.ndarray, ref: np.ndarray) -> tuple[int, np.ndarray]
     b = beta - beta.mean(axis=0)
     r = ref - ref.mean(axis=0)
     n = len(b)
-    shifts = np.stack([np.roll(b, -k, axis=0) for k in range(n)])      # (n, n, 2)
+    shifts = b[(np.arange(n)[:, None] + np.arange(n)) % n]              # (n, n, 2): row k = roll -k
     # sum over points of x_b*x_r + y_b*y_r and x_b*y_r - y_b*x_r
     c = np.einsum("kij,ij->k", shifts, r)
     s = np.einsum("ki,i->k", shifts[:, :, 0], r[:, 1]) - np.einsum("ki,i->k", shifts[:, :, 1],

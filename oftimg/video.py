@@ -248,9 +248,16 @@ class SurfaceCamera:
         self.eye = center + dist * view
         self.center, self.up, self.size, self.fov = center, axes[0], size, fov_deg
         self.light = view
+        import open3d as o3d
+
+        from .mesh.strain import grid_triangles
+
         rays = self._all_rays()
         self._window = self.window(pts, rays) if crop else (slice(0, size), slice(0, size))
-        self._rays = np.ascontiguousarray(rays[self._window])  # the pixels any frame can cover
+        # made once for all frames: the rays of the pixels any frame can cover, the triangles
+        self._rays = o3d.core.Tensor(np.ascontiguousarray(rays[self._window]))
+        self._F = grid_triangles(*G.shape[:2])
+        self._F_tensor = o3d.core.Tensor(self._F.astype(np.uint32))
 
     def _all_rays(self) -> np.ndarray:
         """Ray origins and directions ``(size, size, 6)`` of every pixel."""
@@ -279,19 +286,15 @@ class SurfaceCamera:
 
     def render(self, X: np.ndarray, values: np.ndarray, *, vmin: float, vmax: float,
                cmap: str = "coolwarm") -> np.ndarray:
-        """RGB uint8 ``(size, size, 3)`` of the grid surface ``X (n_u, n_v, 3)`` coloured
-        by ``values (n_u, n_v)`` with simple Lambert shading on a white background."""
+        """RGB uint8 ``(size, size, 3)`` of the grid surface ``X (n_u, n_v, 3)`` (a frame of
+        the camera's ``G``) coloured by ``values (n_u, n_v)`` with simple Lambert shading
+        on a white background."""
         import open3d as o3d
 
-        from .mesh.strain import grid_triangles
-
-        n_u, n_v, _ = X.shape
-        F = grid_triangles(n_u, n_v)
-        V = X.reshape(-1, 3)
+        F = self._F
         scene = o3d.t.geometry.RaycastingScene()
-        scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
-                            o3d.core.Tensor(F.astype(np.uint32)))
-        hit = scene.cast_rays(o3d.core.Tensor(self._rays))
+        scene.add_triangles(o3d.core.Tensor(X.reshape(-1, 3).astype(np.float32)), self._F_tensor)
+        hit = scene.cast_rays(self._rays)
         prim = hit["primitive_ids"].numpy().astype(np.int64)
         ok = prim != np.iinfo(np.uint32).max
         img = np.full((self.size, self.size, 3), 255, np.uint8)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .topology import cross3, edge_incidence, loop_vector_area
+from .topology import cross3, loop_vector_area
 
 
 def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.ndarray
@@ -20,49 +20,59 @@ def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: 
                     ) -> list[list[tuple[np.ndarray, bool]]]:
     """:func:`plane_contours` for many planes ``(n_planes, 3)`` at once.
 
-    The signed distances of all vertices to all planes are one matrix product;
-    the mesh's edges and the faces on either side of them are found once, and
-    every (plane, cut face) pair is handled in one array. Each cut face is
-    entered through one edge and left through another (outward-oriented faces
-    give every contour the same sense), so a contour is a walk from face to
-    face across the exit edges.
+    The signed distances of all vertices to all planes are one matrix product,
+    packed into one bit per plane: a face is cut where its corners' bits
+    differ, and every (plane, cut face) pair is handled in one array. Each cut
+    face is entered through one edge and left through another (outward-oriented
+    faces give every contour the same sense), so a contour is a walk from face
+    to face: the next face enters through the edge this one leaves by.
     """
     normals = np.asarray(normals, float)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    n_planes, n = len(normals), len(V)
     D = V @ normals.T - np.einsum("ij,ij->i", origins, normals)[None, :]   # (n_vert, n_planes)
     scale = np.abs(D).max(axis=0, keepdims=True)
     D = np.where(np.abs(D) < 1e-12 * scale, 1e-12 * scale, D)  # no vertex exactly on a plane
-    edges, face_edge, _, across = edge_incidence(F, faces=True)
-    side = (D > 0).T                                                        # (n_planes, n_vert)
-    corner_side = side[:, F]                                                # (n_planes, n_face, 3)
-    cut = (corner_side[..., 0] != corner_side[..., 1]) | (corner_side[..., 1] != corner_side[..., 2])
-    plane, face = np.nonzero(cut)                            # cut pairs, by plane then face
-    pos = corner_side[plane, face]                                          # (m, 3)
+    words = -(-n_planes // 64)
+    bits = np.zeros((n, 8 * words), np.uint8)
+    bits[:, :-(-n_planes // 8)] = np.packbits(D > 0, axis=1, bitorder="little")
+    bits = bits.view(np.uint64)                                             # (n_vert, words)
+    differ = (bits[F[:, 0]] ^ bits[F[:, 1]]) | (bits[F[:, 1]] ^ bits[F[:, 2]])
+    cut_faces = np.nonzero(differ.any(axis=1))[0]
+    cut = np.unpackbits(differ[cut_faces].view(np.uint8), axis=1, bitorder="little")
+    plane, k = np.nonzero(cut[:, :n_planes].T)               # cut pairs, by plane then face
+    face = cut_faces[k]
+    corners = F[face]                                                       # (m, 3)
+    pos = D[corners, plane[:, None]] > 0
     nxt_pos = np.roll(pos, -1, axis=1)
-    e_in = face_edge[face, np.argmax(~pos & nxt_pos, axis=1)]           # - -> + across the edge
-    e_out = face_edge[face, np.argmax(pos & ~nxt_pos, axis=1)]          # + -> -
+    pair = np.arange(len(face))
 
-    def crossing(e):
-        i, j = edges[e, 0], edges[e, 1]
+    def edge(k_corner):
+        """The edge from corner k to k + 1 of each cut face, as ``(first, second)``."""
+        return corners[pair, k_corner], corners[pair, (k_corner + 1) % 3]
+
+    def crossing(i, j):
+        i, j = np.minimum(i, j), np.maximum(i, j)
         di, dj = D[i, plane], D[j, plane]
         t = di / (di - dj)
         return V[i] + t[:, None] * (V[j] - V[i])
 
-    P_in, P_out = crossing(e_in), crossing(e_out)
-    other = across[e_out]
-    g = np.where(other[:, 0] == face, other[:, 1], other[:, 0])        # next face, -1: boundary
-    key = plane * len(F) + face                                         # sorted
-    g_key = plane * len(F) + g
-    k = np.clip(np.searchsorted(key, g_key), 0, len(key) - 1)
-    nxt = np.where((g >= 0) & (key[k] == g_key), k, -1)
-    has_prev = np.zeros(len(key), dtype=bool)
+    a_in, b_in = edge(np.argmax(~pos & nxt_pos, axis=1))                 # - -> + across it
+    a_out, b_out = edge(np.argmax(pos & ~nxt_pos, axis=1))               # + -> -
+    P_in, P_out = crossing(a_in, b_in), crossing(a_out, b_out)
+    in_key = (plane * n + b_in) * n + a_in          # a neighbour runs the shared edge backwards
+    out_key = (plane * n + a_out) * n + b_out
+    by_key = np.argsort(in_key)
+    at = by_key[np.clip(np.searchsorted(in_key[by_key], out_key), 0, len(by_key) - 1)]
+    nxt = np.where(in_key[at] == out_key, at, -1)                       # -1: boundary
+    has_prev = np.zeros(len(face), dtype=bool)
     has_prev[nxt[nxt >= 0]] = True
     out = [[] for _ in range(len(normals))]
     nxt_l = nxt.tolist()
     plane_l = plane.tolist()
-    seen = [False] * len(key)
+    seen = [False] * len(face)
     # per plane: open chains first (from a face entered through the boundary), then loops
-    for start in np.r_[np.nonzero(~has_prev)[0], np.arange(len(key))].tolist():
+    for start in np.r_[np.nonzero(~has_prev)[0], np.arange(len(face))].tolist():
         if seen[start]:
             continue
         chain, f = [], start

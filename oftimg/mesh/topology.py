@@ -106,11 +106,17 @@ def edge_incidence(F: np.ndarray, *, faces: bool = False):
     ``faces``, also the (up to) two faces of every edge ``(n_edge, 2)`` (-1
     where there is no second face), from the same sort.
     """
-    half = _half_edges(F)
-    n = int(F.max()) + 1
-    keys = half.min(axis=1) * n + half.max(axis=1)
-    order = np.argsort(keys, kind="stable")
-    sorted_keys = keys[order]
+    a, b = F.reshape(-1), F[:, [1, 2, 0]].reshape(-1)    # half-edges, corner k -> k+1
+    n, m = int(F.max()) + 1, len(a)
+    keys = np.minimum(a, b) * n + np.maximum(a, b)       # (n.min(axis=1) is ~30x slower)
+    if n * n * m < 2 ** 63:
+        # equal keys kept in half-edge order by sorting (key, half-edge) as one number
+        # (a value sort: ~1.7x faster than a stable argsort)
+        packed = np.sort(keys * m + np.arange(m))
+        order, sorted_keys = packed % m, packed // m
+    else:
+        order = np.argsort(keys, kind="stable")
+        sorted_keys = keys[order]
     first = np.r_[True, sorted_keys[1:] != sorted_keys[:-1]]
     edge_of = np.cumsum(first) - 1                       # edge of each sorted half-edge
     inverse = np.empty_like(edge_of)

@@ -1,0 +1,34 @@
+import numpy as np
+
+from helpers import tube_mesh
+from oftimg.mesh.topology import edge_incidence
+
+
+def test_edge_incidence_of_a_tube():
+    V, F = tube_mesh(n_theta=12, n_s=5)
+    edges, face_edge, counts, across = edge_incidence(F, faces=True)
+    assert len(edges) == len(V) + len(F)                  # Euler characteristic 0
+    assert (counts == 1).sum() == 2 * 12                  # the two end loops
+    assert set(counts.tolist()) == {1, 2}
+    assert np.all(edges[:, 0] < edges[:, 1])
+    # face corner pair k -> k+1 is the edge named for it
+    pairs = np.sort(np.stack([F, np.roll(F, -1, axis=1)], axis=2), axis=2)
+    assert np.array_equal(edges[face_edge], pairs)
+    # the faces of every edge use it, the first one has the lower index
+    for e in (0, 7, len(edges) - 1):
+        used = [f for f in across[e] if f >= 0]
+        assert len(used) == counts[e]
+        assert all(e in face_edge[f] for f in used)
+        assert used == sorted(used)
+
+
+def test_edge_incidence_with_huge_vertex_numbers_takes_the_stable_sort():
+    """Vertex numbers so large that (key, half-edge) no longer fits one int64."""
+    V, F = tube_mesh(n_theta=12, n_s=5)
+    big = F * 15_000_000 + 12345                      # n^2 < 2^63 <= n^2 x 3 n_face
+    n = int(big.max()) + 1
+    assert n ** 2 < 2 ** 63 <= n ** 2 * F.size
+    small, large = edge_incidence(F, faces=True), edge_incidence(big, faces=True)
+    assert np.array_equal(large[0], small[0] * 15_000_000 + 12345)
+    for a, b in zip(small[1:], large[1:]):
+        assert np.array_equal(a, b)

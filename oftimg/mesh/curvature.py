@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import find_peaks, savgol_filter
 
 from .parameterize import corner_cotangents
 
@@ -16,6 +15,8 @@ def contour_curvature(C: np.ndarray, normal: np.ndarray, *, window: int = 7) -> 
     points, periodic), which keeps point noise from blowing up the second
     derivative.
     """
+    from scipy.signal import savgol_filter  # here: 0.8 s to import, not needed by the workers
+
     C = np.asarray(C, float)
     normal = np.asarray(normal, float)
     normal = normal / np.linalg.norm(normal, axis=-1, keepdims=True)
@@ -33,6 +34,8 @@ def count_corners(curvature: np.ndarray, *, min_prominence: float = 0.2) -> int:
     A maximum counts when its prominence is at least ``min_prominence`` times
     the curvature's range around the contour (periodic).
     """
+    from scipy.signal import find_peaks  # here: 0.8 s to import, not needed by the workers
+
     k = np.asarray(curvature, float)
     if not np.all(np.isfinite(k)) or np.ptp(k) == 0:
         return 0

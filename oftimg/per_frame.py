@@ -1,0 +1,105 @@
+"""The work on one time frame, run in worker processes.
+
+Kept apart from :mod:`oftimg.pipeline` so that a worker imports only the mesh
+modules: the image analysis pulls in scipy.signal, about 1 s of start-up.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .io import DatasetError, Frame
+from .mesh.curvature import fill_boundary, vertex_mean_curvature
+from .mesh.grid import GridOptions, closest_points, grid_frame, seam_endpoints
+from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
+from .mesh.topology import MeshError, capped_signed_volume
+
+
+class _Clock:
+    """Adds the seconds spent in ``with clock("stage"):`` blocks to a dict."""
+
+    def __init__(self, totals: dict):
+        self.totals = totals
+        self.stage = None
+
+    def __call__(self, stage: str):
+        self.stage = stage
+        return self
+
+    def __enter__(self):
+        self.start = time.perf_counter()
+
+    def __exit__(self, *exc):
+        self.totals[self.stage] = self.totals.get(self.stage, 0.0) + time.perf_counter() - self.start
+
+
+def _named(tube, fn, *args, **kwargs):
+    """Run ``fn``; a mesh problem is reported with the frame's file name."""
+    try:
+        return fn(*args, **kwargs)
+    except MeshError as exc:
+        raise DatasetError(f"{tube.source}: {exc}") from None
+
+
+def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
+                  options: GridOptions) -> dict:
+    """Everything that needs one frame's meshes, for all walls at once.
+
+    Grids (paper section 4.1), section planes through G(0, v), G(1/3, v),
+    G(2/3, v) made non-crossing, each wall's section areas and contours on its
+    original mesh, each wall's capped volume, the lumen's mean curvature.
+    ``out["cpu_s"]`` holds the seconds spent per stage.
+    """
+    n_c = options.n_u
+    out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {},
+           "from_ring": {}, "cpu_s": {}}
+    clock = _Clock(out["cpu_s"])
+    with clock("load"):
+        tb = frame.tube("outer")
+    with clock("grid"):
+        g = _named(tb, grid_frame, tb.V, tb.F, tb.inlet, tb.outlet, p_in, p_out, options)
+    X = g.X
+    with clock("sections"):
+        origins, normals = section_planes(X)
+        normals, fixes, crossing = fix_crossing_planes(X, origins, normals)
+    out.update(origins=origins, normals=normals, plane_fixes=fixes, crossing=crossing,
+               seam_in=g.seam_in, seam_out=g.seam_out, seam_length_mm=g.seam_length_mm)
+    walls = {"outer": (tb, X, g)}
+    if "inner" in frame.surfaces:
+        with clock("load"):
+            ti = frame.tube("inner")
+        with clock("grid"):
+            walls["inner"] = (ti, closest_points(ti.V, ti.F, X), None)
+    if "lumen" in frame.surfaces:
+        with clock("load"):
+            tl = frame.tube("lumen")
+        with clock("grid"):
+            gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
+                        options)
+        walls["lumen"] = (tl, gl.X, gl)
+        with clock("fields"):
+            rim = np.concatenate([tl.inlet, tl.outlet])
+            H = fill_boundary(vertex_mean_curvature(tl.V, tl.F, rim), tl.F, rim)
+            out["mean_curvature_lumen"] = closest_points(tl.V, tl.F, gl.X, H)[1]
+    for wall, (tube, Xw, gw) in walls.items():
+        with clock("sections"):
+            area, centroid, contour, from_ring = sections_of_mesh(tube.V, tube.F, origins,
+                                                                  normals, Xw, n_c)
+        out["grid"][wall] = Xw
+        out["flipped"][wall] = gw.flipped if gw else 0
+        out["repaired"][wall] = int(bool(gw and gw.flipped_before_repair))
+        out["area"][wall] = area
+        out["from_ring"][wall] = from_ring
+        out["centroid_" + wall] = centroid
+        out["contour"][wall] = contour
+        with clock("volumes"):
+            out["volume"][wall] = capped_signed_volume(tube.V, tube.F, [tube.inlet, tube.outlet])
+    return out
+
+
+def frame_seam_end_points(frame: Frame, method: str):
+    """End points (mm) of the frame's shortest inlet-to-outlet geodesic."""
+    tb = frame.tube("outer")
+    p_in, p_out, _ = _named(tb, seam_endpoints, tb.V, tb.F, tb.inlet, tb.outlet, method=method)
+    return p_in, p_out

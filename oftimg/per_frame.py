@@ -74,14 +74,14 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     if "lumen" in frame.surfaces:
         with clock("load"):
             tl = frame.tube("lumen")
-        with clock("grid"):
-            gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
-                        options)
-        walls["lumen"] = (tl, gl.X, gl)
         with clock("fields"):
             rim = np.concatenate([tl.inlet, tl.outlet])
             H = fill_boundary(vertex_mean_curvature(tl.V, tl.F, rim), tl.F, rim)
-            out["mean_curvature_lumen"] = closest_points(tl.V, tl.F, gl.X, H)[1]
+        with clock("grid"):
+            gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
+                        options, values=H)
+        walls["lumen"] = (tl, gl.X, gl)
+        out["mean_curvature_lumen"] = gl.values
     for wall, (tube, Xw, gw) in walls.items():
         with clock("sections"):
             area, centroid, contour, from_ring = sections_of_mesh(tube.V, tube.F, origins,

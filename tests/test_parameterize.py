@@ -121,6 +121,25 @@ def test_cylinder_grid_is_exact():
     assert g.seam_length_mm == pytest.approx(1.0, rel=1e-3)
 
 
+@pytest.mark.parametrize("shift", [0.0, 0.4])
+def test_grid_values_interpolate_like_the_positions(shift):
+    """A linear function of position, given per vertex, comes back at the grid nodes
+    as that function of the nodes (the inserted loop points and seam crossings
+    included: with ``shift`` the seam ends fall between loop vertices)."""
+    V, F = tube_mesh(0.2, radius_out=0.12, n_theta=48, n_s=30, ellipse=0.7)
+    topo = check_tube(V, F)
+    inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < 0.5 else topo.loops[::-1]
+    step = 2 * np.pi / 48
+    p_in = 0.2 * np.array([np.cos(shift * step), 0.7 * np.sin(shift * step), 0.0])
+    p_out = np.array([0.1, 0.05, 1.0])
+    values = 3 * V[:, 0] - V[:, 1] + 0.5 * V[:, 2]
+    g = grid_frame(V, topo.F, inlet, outlet, p_in, p_out, OPTS, values=values)
+    assert g.values.shape == g.X.shape[:2]
+    expect = 3 * g.X[..., 0] - g.X[..., 1] + 0.5 * g.X[..., 2]
+    assert np.abs(g.values - expect).max() < 1e-12
+    assert grid_frame(V, topo.F, inlet, outlet, p_in, p_out, OPTS).values is None
+
+
 def test_cone_and_ellipse_grids_have_even_spacing():
     for kw in ({"radius_out": 0.1}, {"ellipse": 0.6}):
         V, F = tube_mesh(0.2, length=1.0, n_theta=64, n_s=40, **kw)

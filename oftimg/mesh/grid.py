@@ -46,6 +46,7 @@ class FrameGrid:
     seam_in: np.ndarray
     seam_out: np.ndarray
     flipped_before_repair: int = 0
+    values: np.ndarray | None = None   # (n_u, n_v): per-vertex values given to grid_frame
 
 
 def seam_endpoints(V, F, inlet, outlet, *, method: str = "graph"
@@ -62,8 +63,14 @@ def smooth_endpoints(P: np.ndarray, sigma_frames: float) -> np.ndarray:
     return gaussian_filter1d(P, sigma_frames, axis=0, mode="wrap")
 
 
-def grid_frame(V, F, inlet, outlet, p_in, p_out, options: GridOptions) -> FrameGrid:
-    """Grid of one frame whose seam joins the loop points nearest ``p_in``, ``p_out``."""
+def grid_frame(V, F, inlet, outlet, p_in, p_out, options: GridOptions,
+               values: np.ndarray | None = None) -> FrameGrid:
+    """Grid of one frame whose seam joins the loop points nearest ``p_in``, ``p_out``.
+
+    Per-vertex ``values (n_vert,)`` (a curvature, say) are interpolated at the
+    grid nodes like the positions are (``FrameGrid.values``).
+    """
+    n_vert = len(V)
     V, F, inlet, a = insert_boundary_point(V, F, inlet, p_in)
     V, F, outlet, b = insert_boundary_point(V, F, outlet, p_out)
     solver = GeodesicSolver(V, F)
@@ -73,11 +80,36 @@ def grid_frame(V, F, inlet, outlet, p_in, p_out, options: GridOptions) -> FrameG
     chain = trim_to_loops(chain, inlet, outlet)
     a, b = int(chain[0]), int(chain[-1])
     flat = cut_and_map(V2, F2, inlet, outlet, chain, authalic_weight=options.authalic_weight)
-    X, _, _ = even_grid(FlatSampler(flat), options.n_u, options.n_v, respace=options.respace)
+    sample = FlatSampler(flat)
+    X, U, v = even_grid(sample, options.n_u, options.n_v, respace=options.respace)
+    at_nodes = None
+    if values is not None:
+        refined = _refined_values(values, V2, n_vert, (inlet, outlet), events)
+        at_nodes = sample(U, np.broadcast_to(v, U.shape),
+                          values=np.concatenate([refined, refined[chain]]))  # cut: seam twice
     seam_len = float(np.linalg.norm(np.diff(V2[chain], axis=0), axis=1).sum())
     return FrameGrid(X=X, seam_length_mm=seam_len, flipped=flat.flipped,
                      seam_in=V2[a].copy(), seam_out=V2[b].copy(),
-                     flipped_before_repair=flat.flipped_before_repair)
+                     flipped_before_repair=flat.flipped_before_repair, values=at_nodes)
+
+
+def _refined_values(values: np.ndarray, V: np.ndarray, n_vert: int, loops, events) -> np.ndarray:
+    """``values (n_vert,)`` extended to the vertices :func:`grid_frame` inserted, each
+    on an edge of the mesh before: first the loop points (between their loop
+    neighbours), then the seam's edge crossings (``events``), in that order."""
+    out = np.empty(len(V))
+    out[:n_vert] = values
+    crossings = np.array([ev[1:] for ev in events if ev[0] == "e"]).reshape(-1, 3)
+    n_before_path = len(V) - len(crossings)
+    for x in range(n_vert, n_before_path):
+        loop = next(lp for lp in loops if x in lp)
+        k = int(np.nonzero(loop == x)[0][0])
+        i, j = loop[k - 1], loop[(k + 1) % len(loop)]
+        t = np.linalg.norm(V[x] - V[i]) / np.linalg.norm(V[j] - V[i])
+        out[x] = (1 - t) * out[i] + t * out[j]
+    i, j, t = crossings[:, 0].astype(np.int64), crossings[:, 1].astype(np.int64), crossings[:, 2]
+    out[n_before_path:] = (1 - t) * out[i] + t * out[j]
+    return out
 
 
 def trim_to_loops(chain: np.ndarray, inlet: np.ndarray, outlet: np.ndarray) -> np.ndarray:

@@ -267,8 +267,10 @@ class FlatSampler:
         det[det == 0] = np.inf                             # degenerate: holds nothing
         self._inv = (d / det, -b / det, -c / det, a / det)
 
-    def __call__(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Positions ``(..., 3)`` mm at parameters ``u, v`` (same shape, in [0, 1])."""
+    def __call__(self, u: np.ndarray, v: np.ndarray, values: np.ndarray | None = None):
+        """Positions ``(..., 3)`` mm at parameters ``u, v`` (same shape, in [0, 1]);
+        with per-vertex ``values (n_vert,)`` of the cut mesh, those interpolated
+        there ``(...)`` instead."""
         u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
         shape = u.shape
         uu = np.clip(u.ravel(), self.EPS, 1 - self.EPS)
@@ -283,10 +285,11 @@ class FlatSampler:
                 batch = np.nonzero((row_of >= first) & (row_of < first + self.MAX_ROWS))[0]
                 prim[batch], l1[batch], l2[batch] = self._locate(
                     uu[batch], vv[batch], rows[first:first + self.MAX_ROWS], row_of[batch] - first)
-        F, V = self._F[prim], self.flat.V
+        F = self._F[prim]
+        V = self.flat.V if values is None else np.asarray(values, float)[:, None]
         X = (V[F[:, 0]] * (1 - l1 - l2)[:, None] + V[F[:, 1]] * l1[:, None]
              + V[F[:, 2]] * l2[:, None])
-        return X.reshape(shape + (3,))
+        return X.reshape(shape + (3,)) if values is None else X.reshape(shape)
 
     def _locate(self, uu, vv, rows, row_of):
         """Triangle and barycentric coordinates ``(l1, l2)`` of each query, which

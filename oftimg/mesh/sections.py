@@ -52,7 +52,7 @@ def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: 
         return corners[pair, k_corner], corners[pair, (k_corner + 1) % 3]
 
     def crossing(i, j):
-        i, j = np.minimum(i, j), np.maximum(i, j)
+        i, j = np.minimum(i, j), np.maximum(i, j)   # both faces of an edge get the same point
         di, dj = D[i, plane], D[j, plane]
         t = di / (di - dj)
         return V[i] + t[:, None] * (V[j] - V[i])

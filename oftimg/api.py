@@ -85,7 +85,10 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         reports = {}
         for ds in datasets:
             tick = time.time()
-            reports[ds.meta.name] = validate_dataset(ds, executor=executor)
+            bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
+                           quiet=quiet, unit="mesh")
+            reports[ds.meta.name] = validate_dataset(ds, executor=executor, progress=bar.advance)
+            bar.close()
             reports[ds.meta.name]["seconds"] = round(time.time() - tick, 2)
         return _run_validated(datasets, reports, out, paths, opts, executor,
                               overwrite=overwrite, quiet=quiet, started=started, fps=fps)

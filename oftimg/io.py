@@ -421,24 +421,28 @@ def frame_facts(frame: Frame, surface: str) -> tuple[tuple[int, int, float, floa
     return facts, record
 
 
-def validate_dataset(ds: Dataset, *, executor=None) -> dict:
+def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
     """Read every frame of every surface once; return a per-surface report.
 
     Raises :class:`DatasetError` at the first bad frame, naming its file. With
     an ``executor`` (``concurrent.futures``), frames are checked in its workers.
     Remembers in ``ds.checked`` which files needed no repair, so that the
     analysis reads them again without the checks while they are unchanged.
+    ``progress()`` is called after each mesh.
     """
     report = {"name": ds.meta.name, "path": str(ds.path), "n_frames": ds.n_frames,
               "inlet_mm": [round(float(x), 6) for x in ds.inlet_mm],
               "inlet_from": "meta.json" if ds.meta.inlet_mm is not None else "larger end loop",
               "surfaces": {}}
     for surface in ds.surfaces:
-        if executor is None:
-            results = [frame_facts(ds.frame(t), surface) for t in range(ds.n_frames)]
-        else:
-            results = list(executor.map(frame_facts, [ds.frame(t) for t in range(ds.n_frames)],
-                                        [surface] * ds.n_frames))
+        frames = [ds.frame(t) for t in range(ds.n_frames)]
+        checks = (map(frame_facts, frames, [surface] * ds.n_frames) if executor is None
+                  else executor.map(frame_facts, frames, [surface] * ds.n_frames))
+        results = []
+        for result in checks:
+            results.append(result)
+            if progress:
+                progress()
         for t, (_, record) in enumerate(results):
             if record is not None:
                 ds.checked[surface, t] = record

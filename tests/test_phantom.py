@@ -11,7 +11,9 @@ from oftimg.phantom import Phantom, PhantomParams, read_truth, sample_params
 
 def test_every_frame_is_a_tube_and_frames_differ(phantom_normal):
     ds = load_dataset(phantom_normal)
-    report = validate_dataset(ds)
+    checked = []
+    report = validate_dataset(ds, progress=lambda: checked.append(1))
+    assert len(checked) == 3 * 36                       # progress after every mesh
     assert set(report["surfaces"]) == {"outer", "inner", "lumen"}
     assert all(s["frames"] == 36 for s in report["surfaces"].values())
     a, b = ds.tube("outer", 0), ds.tube("outer", 1)

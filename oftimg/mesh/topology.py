@@ -205,7 +205,10 @@ def capped_signed_volume(V: np.ndarray, F: np.ndarray, loops: list[np.ndarray]) 
 
     c0 = V.mean(axis=0)
     X = V - c0
-    vol = tet_sum(X[F[:, 0]], X[F[:, 1]], X[F[:, 2]])
+    x, y, z = X.T.copy()                      # one coordinate at a time: contiguous, ~3x faster
+    (x0, x1, x2), (y0, y1, y2), (z0, z1, z2) = x[F.T], y[F.T], z[F.T]
+    vol = float((x0 * (y1 * z2 - z1 * y2) + y0 * (z1 * x2 - x1 * z2)
+                 + z0 * (x1 * y2 - y1 * x2)).sum()) / 6.0
     for loop in loops:
         P = X[loop]
         c = P.mean(axis=0)

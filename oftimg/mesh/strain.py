@@ -14,16 +14,22 @@ def grid_triangles(n_u: int, n_v: int) -> np.ndarray:
                            np.stack([a, c, d], -1).reshape(-1, 3)])
 
 
-def _local_frame(P: np.ndarray):
+def _local_frame(X: np.ndarray, F: np.ndarray):
     """Each triangle's edges e1, e2 in its own orthonormal basis (x along e1, y
-    towards e2), as the upper-triangular ``(a, b, c)``: e1 = (a, 0), e2 = (b, c)."""
-    e1 = P[..., 1, :] - P[..., 0, :]
-    e2 = P[..., 2, :] - P[..., 0, :]
-    a = np.sqrt(np.einsum("...i,...i", e1, e1))
-    (x1, y1, z1), (x2, y2, z2) = np.moveaxis(e1, -1, 0), np.moveaxis(e2, -1, 0)
+    towards e2), as the upper-triangular ``(a, b, c)``: e1 = (a, 0), e2 = (b, c),
+    each ``(..., n_tri)`` for nodes ``X (..., n_node, 3)``. One coordinate at a
+    time: no ``(..., n_tri, 3, 3)`` array of corners."""
+    e1, e2 = [], []
+    for k in range(3):
+        x = X[..., k]
+        x0 = x[..., F[:, 0]]
+        e1.append(x[..., F[:, 1]] - x0)
+        e2.append(x[..., F[:, 2]] - x0)
+    (x1, y1, z1), (x2, y2, z2) = e1, e2
+    a = np.sqrt(x1 * x1 + y1 * y1 + z1 * z1)
     twice_area = np.sqrt((y1 * z2 - z1 * y2) ** 2 + (z1 * x2 - x1 * z2) ** 2
                          + (x1 * y2 - y1 * x2) ** 2)  # |e1 x e2|, no cancellation
-    return a, np.einsum("...i,...i", e1, e2) / a, twice_area / a
+    return a, (x1 * x2 + y1 * y2 + z1 * z2) / a, twice_area / a
 
 
 def principal_stretches(X_ref: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -35,8 +41,8 @@ def principal_stretches(X_ref: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.n
     its singular values, i.e. the square roots of the eigenvalues of C = F^T F.
     """
     with np.errstate(invalid="ignore", divide="ignore"):  # degenerate triangles: NaN
-        a0, b0, c0 = _local_frame(X_ref[F])
-        a, b, c = _local_frame(X[..., F, :])
+        a0, b0, c0 = _local_frame(X_ref, F)
+        a, b, c = _local_frame(X, F)
         bad = ~(np.isfinite(a0) & np.isfinite(c0)) | (a0 * c0 < 1e-300)
         # upper-triangular deformation gradient [[p, q], [0, r]] = M M0^-1
         p = a / a0

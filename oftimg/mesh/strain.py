@@ -52,9 +52,12 @@ def principal_stretches(X_ref: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.n
         # eigenvalues of the symmetric 2 x 2 C, closed form
         mean = 0.5 * (c11 + c22)
         radius = np.hypot(0.5 * (c11 - c22), c12)
-        lam = np.sqrt(np.clip(np.stack([mean + radius, mean - radius], axis=-1), 0, None))
-    bad = bad | ~np.isfinite(lam).all(axis=-1) | ~(a * c > 0)  # collapsed triangles too
-    return np.where(bad[..., None], np.nan, lam)
+        lam = np.empty(mean.shape + (2,))
+        np.sqrt(np.maximum(mean + radius, 0.0), out=lam[..., 0])
+        np.sqrt(np.maximum(mean - radius, 0.0), out=lam[..., 1])
+    bad = bad | ~(np.isfinite(lam[..., 0]) & np.isfinite(lam[..., 1]) & (a * c > 0))  # collapsed too
+    lam[bad] = np.nan
+    return lam
 
 
 def strain_energy(stretches: np.ndarray) -> np.ndarray:

@@ -68,16 +68,23 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         options: dict | None = None, jobs: int | None = None,
-        scheduler: str | None = None, fps: float = 30.0) -> Path:
+        scheduler: str | None = None, fps: float = 30.0, parallel: str = "auto") -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
-    Every frame of every dataset is validated before any work. Per-frame work
-    runs in ``jobs`` worker processes (default: all cores). Results are
+    Every frame of every dataset is validated before any work. The work runs
+    in ``jobs`` worker processes (default: all cores) or on the Dask cluster at
+    ``scheduler``, split by ``parallel``: ``"frames"`` (each dataset's frames
+    in the workers, one dataset after another), ``"embryos"`` (whole datasets
+    in the workers, each on one core: no idle workers while a dataset's
+    fields, figures and tables are made), or ``"auto"``: embryos when there
+    are at least twice as many datasets as workers, else frames. Results are
     written to a temporary folder and moved to ``out`` at the end; a failed
     run leaves ``out`` as it was. Returns ``out``.
     """
-    from .pipeline import PipelineOptions, analyse_dataset
+    from .pipeline import PipelineOptions
 
+    if parallel not in ("auto", "frames", "embryos"):
+        raise ValueError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
     out = Path(out)
     paths = _as_dataset_paths(source)
     check_output_location(out, paths, overwrite=overwrite)
@@ -97,28 +104,107 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
             reports[ds.meta.name] = validate_dataset(ds, executor=executor, progress=bar.advance)
             bar.close()
             reports[ds.meta.name]["seconds"] = round(time.time() - tick, 2)
+        if parallel == "auto":
+            parallel = ("embryos" if executor is not None
+                        and len(datasets) >= 2 * _n_workers(executor) else "frames")
         return _run_validated(datasets, reports, out, paths, opts, executor,
-                              overwrite=overwrite, quiet=quiet, started=started, fps=fps)
+                              overwrite=overwrite, quiet=quiet, started=started, fps=fps,
+                              by_embryo=parallel == "embryos" and executor is not None)
+
+
+def _n_workers(executor) -> int:
+    """Worker processes of a local pool, or worker threads of a Dask cluster."""
+    client = getattr(executor, "_client", None)  # Dask's ClientExecutor
+    if client is not None:
+        return max(1, sum(client.nthreads().values()))
+    return executor._max_workers
+
+
+def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: float,
+                      quiet: bool = True, executor=None) -> dict:
+    """One validated dataset end to end: its results into ``folder`` (which
+    exists); returns its summary."""
+    from .pipeline import analyse_dataset
+
+    result = analyse_dataset(ds, opts, quiet=quiet, executor=executor)
+    summary = result["summary"]
+    summary["validation"] = report
+    write_dataset_results(folder, result, fps=fps, executor=executor)
+    return summary
+
+
+def embryo_task(ds: Dataset, report: dict, opts, fps: float):
+    """:func:`analyse_and_write` in a worker, into a folder of its own.
+
+    Returns the summary, the files ``{path relative to the dataset's folder:
+    bytes}`` (so that a cluster worker need not see the output folder) and the
+    warnings raised, each once, for the caller to raise again.
+    """
+    import tempfile
+    import warnings
+
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        folder = Path(tmp) / ds.meta.name
+        folder.mkdir()
+        summary = analyse_and_write(ds, report, folder, opts, fps=fps)
+        files = {p.relative_to(folder).as_posix(): p.read_bytes()
+                 for p in sorted(folder.rglob("*")) if p.is_file()}
+    raised = list({(type(w.message), str(w.message)): w.message for w in caught}.values())
+    return summary, files, raised
+
+
+def _embryos_in_workers(datasets, reports, tmp: Path, opts, executor, *, fps, quiet) -> list:
+    """Every dataset as one :func:`embryo_task`; summaries in the datasets' order."""
+    import warnings
+    from concurrent.futures import as_completed
+
+    futures = {executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps): k
+               for k, ds in enumerate(datasets)}
+    log.info("%d datasets, each analysed whole in a worker", len(datasets))
+    bar = Progress(len(datasets), "datasets", quiet=quiet, unit="dataset")
+    summaries = [None] * len(datasets)
+    try:
+        for fut in as_completed(futures):
+            summary, files, raised = fut.result()
+            for message in raised:
+                warnings.warn(message, stacklevel=2)
+            for name, data in files.items():
+                path = tmp / summary["name"] / name
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_bytes(data)
+            summaries[futures[fut]] = summary
+            bar.advance()
+            _log_done(summary)
+    finally:
+        bar.close()
+    return summaries
+
+
+def _frames_in_workers(datasets, reports, tmp: Path, opts, executor, *, fps, quiet) -> list:
+    """One dataset after another, each one's frames in ``executor``'s workers."""
+    summaries = []
+    for k, ds in enumerate(datasets):
+        folder = tmp / ds.meta.name
+        folder.mkdir()
+        log.info("%s: analysing %d frames (%d of %d datasets)", ds.meta.name, ds.n_frames,
+                 k + 1, len(datasets))
+        summaries.append(analyse_and_write(ds, reports[ds.meta.name], folder, opts, fps=fps,
+                                           quiet=quiet, executor=executor))
+        _log_done(summaries[-1])
+    return summaries
+
+
+def _log_done(summary: dict) -> None:
+    log.info("%s: done; expand %.3f, cycle wave speed %.2f mm/s", summary["name"],
+             summary["expand_fraction"], summary["wave_speed_mm_s"]["cycle"])
 
 
 def _run_validated(datasets, reports, out, paths, opts, executor, *, overwrite, quiet, started,
-                   fps):
-    from .pipeline import analyse_dataset
-
+                   fps, by_embryo=False):
     with staged_output(out, overwrite=overwrite) as tmp:
-        summaries = []
-        for ds in datasets:
-            folder = tmp / ds.meta.name
-            folder.mkdir()
-            log.info("%s: analysing %d frames (%d of %d datasets)", ds.meta.name, ds.n_frames,
-                     len(summaries) + 1, len(datasets))
-            result = analyse_dataset(ds, opts, quiet=quiet, executor=executor)
-            summary = result["summary"]
-            summary["validation"] = reports[ds.meta.name]
-            write_dataset_results(folder, result, fps=fps, executor=executor)
-            summaries.append(summary)
-            log.info("%s: done; expand %.3f, cycle wave speed %.2f mm/s", ds.meta.name,
-                     summary["expand_fraction"], summary["wave_speed_mm_s"]["cycle"])
+        work = _embryos_in_workers if by_embryo else _frames_in_workers
+        summaries = work(datasets, reports, tmp, opts, executor, fps=fps, quiet=quiet)
         from .report import write_cohort_markdown, write_cohort_table, write_groups_table
 
         from .figures import group_figures
@@ -155,6 +241,7 @@ class _closing:
                 self.executor.shutdown(cancel_futures=True)
             except TypeError:  # Dask's ClientExecutor has no cancel_futures
                 self.executor.shutdown()
+                self.executor._client.close()  # the connection run() opened
 
 
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,

@@ -31,6 +31,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="worker processes for per-frame work (default: all cores)")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run per-frame work on a Dask cluster (e.g. tcp://host:8786)")
+    r.add_argument("--parallel", choices=["auto", "frames", "embryos"], default="auto",
+                   help="what the workers share out: each dataset's frames, or whole "
+                        "datasets (auto: datasets when there are at least twice as many "
+                        "as workers)")
     r.add_argument("--n-u", type=int, default=80, help="grid nodes around (default 80)")
     r.add_argument("--n-v", type=int, default=50, help="grid nodes along (default 50)")
     r.add_argument("--authalic-weight", type=float, default=0.5,
@@ -116,7 +120,8 @@ def main(argv: list[str] | None = None) -> int:
             options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
                        "seam_method": args.seam_method, "warp": args.warp}
             out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
-                          jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options)
+                          jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
+                          parallel=args.parallel)
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
         elif args.command == "demo":
             out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,

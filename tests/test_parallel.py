@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from oftimg.api import make_executor
-from oftimg.io import load_dataset
+from oftimg.io import load_dataset, read_mesh_file, write_ply
 from oftimg.phantom import sample_params, write_phantom
 from oftimg.pipeline import PipelineOptions, analyse_dataset
 
@@ -49,3 +49,56 @@ def test_jobs_must_be_positive():
     with pytest.raises(ValueError, match="--jobs"):
         make_executor(0)
     assert make_executor(1) is None
+
+
+def _files(folder):
+    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
+
+
+def test_whole_datasets_in_workers_equal_serial(tmp_path):
+    """--parallel embryos: each dataset analysed whole in a worker gives the serial
+    run's arrays, summaries and files, and its warnings reach the caller."""
+    import json
+    import warnings
+
+    from oftimg import api
+    from oftimg.io import OftimgWarning
+
+    cohort = tmp_path / "cohort"
+    for group, seed in (("normal", 7), ("banded", 8)):
+        write_phantom(cohort / f"{group}_{seed}", sample_params(
+            group, seed, n_frames=6, vertices_min=2000, vertices_max=2500))
+    # a frame with a duplicated vertex: its repair warns while it is analysed (in a worker)
+    frame = sorted((cohort / "banded_8" / "outer").iterdir())[2]
+    V, F = read_mesh_file(frame)
+    F = F.copy()
+    V = np.concatenate([V, V[F[0, 0]][None]])
+    F[0, 0] = len(V) - 1
+    write_ply(frame, V, F)
+    with warnings.catch_warnings(record=True) as serial_warnings:
+        warnings.simplefilter("always")
+        serial = api.run(cohort, tmp_path / "serial", quiet=True, jobs=1)
+    with warnings.catch_warnings(record=True) as worker_warnings:
+        warnings.simplefilter("always")
+        whole = api.run(cohort, tmp_path / "whole", quiet=True, jobs=2, parallel="embryos")
+    assert _files(whole) == _files(serial)
+    for name in ("normal_7", "banded_8"):
+        a, b = np.load(serial / name / "arrays.npz"), np.load(whole / name / "arrays.npz")
+        assert sorted(a.files) == sorted(b.files)
+        for key in a.files:
+            assert np.array_equal(a[key], b[key], equal_nan=True), (name, key)
+        s1, s2 = (json.loads((r / name / "summary.json").read_text()) for r in (serial, whole))
+        for s in (s1, s2):
+            s.pop("timings_s"), s["validation"].pop("seconds")
+        assert s1 == s2
+    ours = lambda caught: sorted({str(w.message) for w in caught  # noqa: E731
+                                  if issubclass(w.category, OftimgWarning)})
+    assert any("merged 1 duplicate" in m for m in ours(worker_warnings))
+    assert ours(worker_warnings) == ours(serial_warnings)
+
+
+def test_parallel_mode_is_checked(tmp_path):
+    from oftimg import api
+
+    with pytest.raises(ValueError, match="--parallel"):
+        api.run(tmp_path, tmp_path / "out", parallel="datasets")

@@ -28,9 +28,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.add_argument("--jobs", type=int, default=None,
-                   help="worker processes for per-frame work (default: all cores)")
+                   help="worker processes (default: all cores)")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run per-frame work on a Dask cluster (e.g. tcp://host:8786)")
+                   help="run the work on a Dask cluster (e.g. tcp://host:8786)")
     r.add_argument("--parallel", choices=["auto", "frames", "embryos"], default="auto",
                    help="what the workers share out: each dataset's frames, or whole "
                         "datasets (auto: datasets when there are at least twice as many "

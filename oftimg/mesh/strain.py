@@ -55,7 +55,8 @@ def principal_stretches(X_ref: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.n
         lam = np.empty(mean.shape + (2,))
         np.sqrt(np.maximum(mean + radius, 0.0), out=lam[..., 0])
         np.sqrt(np.maximum(mean - radius, 0.0), out=lam[..., 1])
-    bad = bad | ~(np.isfinite(lam[..., 0]) & np.isfinite(lam[..., 1]) & (a * c > 0))  # collapsed too
+    ok = np.isfinite(lam[..., 0]) & np.isfinite(lam[..., 1]) & (a * c > 0)  # not collapsed
+    bad = bad | ~ok
     lam[bad] = np.nan
     return lam
 

@@ -61,7 +61,7 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
     # per frame. Both are needed (either alone turns off the adaptive limit and is
     # slower); other C libraries ignore them.
     os.environ.setdefault("MALLOC_MMAP_THRESHOLD_", str(32 * 2 ** 20))   # glibc's maximum
-    os.environ.setdefault("MALLOC_TRIM_THRESHOLD_", str(256 * 2 ** 20))
+    os.environ.setdefault("MALLOC_TRIM_THRESHOLD_", str(64 * 2 ** 20))
     # spawn: open3d and BLAS threads do not survive fork reliably
     return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
 

@@ -271,10 +271,10 @@ def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = Fals
     else:
         specs = [("normal", 0), ("banded", 0)]
         kwargs = {"frames": 40, "vertices_min": 2500, "vertices_max": 4000}
-    with staged_output(out, overwrite=overwrite) as tmp:
-        data = tmp / "data"
-        data.mkdir()
+    # data first, then results, each staged: the results (their provenance and
+    # warnings) name the data where they stay, not a temporary folder
+    with staged_output(out / "data", overwrite=overwrite) as data:
         for group, seed in specs:
             make_phantom(data / f"{group}_{seed}", group=group, seed=seed, quiet=quiet, **kwargs)
-        run(data, tmp / "results", quiet=quiet, jobs=jobs)
+    run(out / "data", out / "results", quiet=quiet, jobs=jobs, overwrite=overwrite)
     return out

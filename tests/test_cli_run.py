@@ -1,6 +1,7 @@
 """End to end through the command line on a small phantom: the output contract."""
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -136,3 +137,21 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
 
     assert imageio.get_reader(out / "tiny" / "videos" / "area_map_cursor.mp4").get_meta_data()[
         "fps"] == 10
+
+
+def test_demo_names_its_data_where_they_stay(tmp_path, capsys):
+    """`oftimg demo`: results whose provenance points at the demo's own data folder
+    (not the temporary folder it was made in), and a second demo refused without
+    --overwrite."""
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--quiet"]) == 0
+    run_info = json.loads((out / "results" / "run.json").read_text())
+    assert sorted(run_info["inputs"]) == sorted(str(p) for p in (out / "data").iterdir())
+    for name in ("normal_0", "banded_0"):
+        summary = json.loads((out / "results" / name / "summary.json").read_text())
+        files = [f["file"] for f in summary["provenance"]["inputs"]["outer"]]
+        assert len(files) == 40
+        assert all(Path(f).parent.samefile(out / "data" / name / "outer") for f in files)
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]   # no staging left
+    assert main(["demo", "--out", str(out), "--quiet"]) == 2
+    assert "--overwrite" in capsys.readouterr().err

@@ -197,13 +197,15 @@ def describe_pca(name: str) -> dict:
 
 
 def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
-                          executor=None) -> None:
+                          executor=None, started: tuple = ((), [])) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/
-    (rendered in ``executor``'s workers when one is given)."""
+    (rendered in ``executor``'s workers when one is given). ``started``: the
+    kinds of videos already submitted and their pending results (from
+    :func:`oftimg.video.start_videos`)."""
     import time
 
     from .figures import dataset_figures
-    from .video import save_videos, start_videos
+    from .video import save_videos, start_videos, video_tasks
 
     timings = result["summary"].setdefault("timings_s", {})
     tick = time.perf_counter()
@@ -224,7 +226,10 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
     timings["write_arrays_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     # the workers render the videos while this process draws the figures
-    videos = start_videos(arrays, result["grids"], fps=fps, executor=executor)
+    early_kinds, early = started
+    later = {kind for kind, _ in video_tasks(arrays, result["grids"])} - set(early_kinds)
+    videos = early + start_videos(arrays, result["grids"], fps=fps, executor=executor,
+                                  kinds=later)
     timings["videos_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])

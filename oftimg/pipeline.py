@@ -73,13 +73,14 @@ def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=N
             smooth_endpoints(p_out, options.seam_smoothing_frames))
 
 
-def shape_fields(grid, contour, normals, area, frames, t0, warp_frames, period_ms) -> dict:
+def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
-    Radial curvature of the outer and inner section contours, lumen mean
-    curvature on the lumen grid, strain energy and principal stretches of the
-    outer and inner grids against t = 0, their phase maps, and the corner
-    count of the outer contours at each row's own maximum contraction.
+    Radial curvature of the outer and inner section contours, strain energy
+    and principal stretches of the outer and inner grids against t = 0, the
+    phase maps of these and of the lumen's mean curvature (``(n_u, n_v, n_t)``
+    on the lumen grid, or None), and the corner count of the outer contours at
+    each row's own maximum contraction.
     """
     arrays = {}
     for w in ("outer", "inner"):
@@ -89,11 +90,8 @@ def shape_fields(grid, contour, normals, area, frames, t0, warp_frames, period_m
             energy, stretch = grid_strain(grid[w])
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
             arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
-    if "mean_curvature_lumen" in frames[0]:
-        H = roll_time(np.stack([f["mean_curvature_lumen"] for f in frames], axis=2), t0, axis=2)
-        if warp_frames is not None:
-            H = resample_time(H, warp_frames, axis=2)
-        arrays["mean_curvature_lumen_per_mm"] = H.astype(np.float32)
+    if mean_curvature_lumen is not None:
+        arrays["mean_curvature_lumen_per_mm"] = mean_curvature_lumen
     for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv"))]:
         t_max, t_min = phase_maps(arrays[name], period_ms)
         arrays[f"phase_max_{name}_ms"] = t_max.astype(np.float32)
@@ -125,13 +123,17 @@ def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
 
 
 def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = False,
-                    executor=None) -> dict:
+                    executor=None, on_aligned=None) -> dict:
     """All stages for one dataset. Returns ``summary``, ``arrays``, ``grids``.
 
     Every time axis of the result starts at the frame of minimum outer volume
     (``summary["t0_frame"]`` is its input index). The per-frame work runs in
     ``executor``'s workers when one is given; the temporally coupled steps
     (seam end-point smoothing, alignment, clipping) run here.
+    ``on_aligned(arrays, grids)``, if given, is called as soon as the aligned
+    times, area maps, grids and lumen mean curvature exist (before clipping,
+    fields, image analysis and PCA), e.g. to start rendering videos; it must
+    not change them.
     """
     opts = options.grid
     timings = {}
@@ -215,6 +217,14 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     arrays["plane_origin_mm"] = origins
     arrays["plane_normal"] = normals
     arrays["plane_crossing"] = crossing
+    H = None
+    if "mean_curvature_lumen" in frames[0]:
+        H = roll_time(np.stack([f["mean_curvature_lumen"] for f in frames], axis=2), t0, axis=2)
+        if options.warp:
+            H = resample_time(H, t_frames, axis=2)
+        H = arrays["mean_curvature_lumen_per_mm"] = H.astype(np.float32)
+    if on_aligned is not None:
+        on_aligned(arrays, grid)
     summary = {
         "name": ds.meta.name, "group": ds.meta.group, "n_frames": n_t,
         "period_ms": ds.meta.period_ms,
@@ -244,8 +254,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             lines = clip_grid(grid[w].transpose(0, 2, 1, 3), plane_origin, plane_normal)
             grid[f"{w}_clipped"] = lines.transpose(0, 2, 1, 3)
     tick = time.perf_counter()
-    fields = shape_fields(grid, contour, normals, area, frames, t0, t_frames if options.warp
-                          else None, ds.meta.period_ms)
+    fields = shape_fields(grid, contour, normals, area, H, ds.meta.period_ms)
     arrays.update(fields.pop("arrays"))
     summary.update(fields)
     timings["fields_s"] = time.perf_counter() - tick

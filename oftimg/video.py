@@ -150,9 +150,17 @@ FIELD_VIDEOS = [
 ]
 
 
-def video_tasks(arrays: dict, grids: dict | None = None) -> list[tuple]:
+# the tasks that need only the aligned area maps, grids and lumen mean curvature
+# (:func:`oftimg.pipeline.analyse_dataset`'s ``on_aligned``): the slow 3-D renders
+EARLY_VIDEOS = ("area", "lumen_3d")
+
+
+def video_tasks(arrays: dict, grids: dict | None = None, kinds=None) -> list[tuple]:
     """The videos of one dataset as independent ``(kind, inputs)`` tasks for
-    :func:`render_videos`, each holding only the arrays it needs."""
+    :func:`render_videos`, each holding only the arrays it needs; only those of
+    ``kinds`` (default: all)."""
+    if kinds is not None:
+        return [t for t in video_tasks(arrays, grids) if t[0] in kinds]
     t_ms = arrays["t_ms"]
     # the slow 3-D renders first, so that workers finish together;
     # the area-map cursor frames are drawn once for both videos that show them
@@ -200,11 +208,12 @@ def render_videos(kind: str, inputs: dict, fps: float = 30.0) -> list[tuple[str,
 
 
 def start_videos(arrays: dict, grids: dict | None = None, *, fps: float = 30.0,
-                 executor=None):
-    """Submit a dataset's video tasks to ``executor`` (without one, render them
-    now); pass the result to :func:`save_videos`. In between the caller is free
-    to do other work (the figures) while the workers render."""
-    tasks = [(kind, inputs, fps) for kind, inputs in video_tasks(arrays, grids)]
+                 executor=None, kinds=None):
+    """Submit a dataset's video tasks (those of ``kinds``, default all) to
+    ``executor`` (without one, render them now); pass the result to
+    :func:`save_videos`. In between the caller is free to do other work (the
+    figures) while the workers render."""
+    tasks = [(kind, inputs, fps) for kind, inputs in video_tasks(arrays, grids, kinds)]
     if executor is None:
         return [render_videos(*args) for args in tasks]
     return [executor.submit(render_videos, *args) for args in tasks]

@@ -127,18 +127,17 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
     from .pipeline import analyse_dataset
     from .video import EARLY_VIDEOS, start_videos
 
-    started = ((), [])
+    early = None
 
     def start_early_videos(arrays, grids):  # the workers render while this process goes on
-        nonlocal started
-        started = EARLY_VIDEOS, start_videos(arrays, grids, fps=fps, executor=executor,
-                                             kinds=EARLY_VIDEOS)
+        nonlocal early
+        early = start_videos(arrays, grids, fps=fps, executor=executor, kinds=EARLY_VIDEOS)
 
     result = analyse_dataset(ds, opts, quiet=quiet, executor=executor,
                              on_aligned=start_early_videos if executor is not None else None)
     summary = result["summary"]
     summary["validation"] = report
-    write_dataset_results(folder, result, fps=fps, executor=executor, started=started)
+    write_dataset_results(folder, result, fps=fps, executor=executor, early_videos=early)
     return summary
 
 

@@ -197,15 +197,14 @@ def describe_pca(name: str) -> dict:
 
 
 def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
-                          executor=None, started: tuple = ((), [])) -> None:
+                          executor=None, early_videos: list | None = None) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/
-    (rendered in ``executor``'s workers when one is given). ``started``: the
-    kinds of videos already submitted and their pending results (from
-    :func:`oftimg.video.start_videos`)."""
+    (rendered in ``executor``'s workers when one is given). ``early_videos``: the
+    :data:`~oftimg.video.EARLY_VIDEOS` already started (:func:`oftimg.video.start_videos`)."""
     import time
 
     from .figures import dataset_figures
-    from .video import save_videos, start_videos, video_tasks
+    from .video import LATER_VIDEOS, save_videos, start_videos
 
     timings = result["summary"].setdefault("timings_s", {})
     tick = time.perf_counter()
@@ -226,10 +225,9 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
     timings["write_arrays_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     # the workers render the videos while this process draws the figures
-    early_kinds, early = started
-    later = {kind for kind, _ in video_tasks(arrays, result["grids"])} - set(early_kinds)
-    videos = early + start_videos(arrays, result["grids"], fps=fps, executor=executor,
-                                  kinds=later)
+    videos = (early_videos or []) + start_videos(
+        arrays, result["grids"], fps=fps, executor=executor,
+        kinds=None if early_videos is None else LATER_VIDEOS)
     timings["videos_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])

@@ -151,8 +151,10 @@ FIELD_VIDEOS = [
 
 
 # the tasks that need only the aligned area maps, grids and lumen mean curvature
-# (:func:`oftimg.pipeline.analyse_dataset`'s ``on_aligned``): the slow 3-D renders
+# (:func:`oftimg.pipeline.analyse_dataset`'s ``on_aligned``): the slow 3-D renders;
+# the others need the shape fields
 EARLY_VIDEOS = ("area", "lumen_3d")
+LATER_VIDEOS = ("field",)
 
 
 def video_tasks(arrays: dict, grids: dict | None = None, kinds=None) -> list[tuple]:

@@ -167,6 +167,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     normals = np.stack([f["normals"] for f in frames], axis=1)
     plane_fixes = int(sum(f["plane_fixes"] for f in frames))
     crossing = np.stack([f["crossing"] for f in frames], axis=1)       # (n_v, n_t)
+    H = (np.stack([f["mean_curvature_lumen"] for f in frames], axis=2)
+         if "mean_curvature_lumen" in frames[0] else None)
+    del frames  # each frame's arrays, stacked above: ~120 MB for 195 frames
     if crossing.any():
         warnings.warn(f"{ds.path}: {int(crossing.sum())} section planes still cross another "
                       "inside the tube after blending (see plane_crossing)", OftimgWarning,
@@ -217,9 +220,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     arrays["plane_origin_mm"] = origins
     arrays["plane_normal"] = normals
     arrays["plane_crossing"] = crossing
-    H = None
-    if "mean_curvature_lumen" in frames[0]:
-        H = roll_time(np.stack([f["mean_curvature_lumen"] for f in frames], axis=2), t0, axis=2)
+    if H is not None:
+        H = roll_time(H, t0, axis=2)
         if options.warp:
             H = resample_time(H, t_frames, axis=2)
         H = arrays["mean_curvature_lumen_per_mm"] = H.astype(np.float32)

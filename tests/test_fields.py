@@ -107,6 +107,21 @@ def test_uniform_stretch_and_pure_shear():
     assert grid_triangles(4, 3).shape == (16, 3)
 
 
+def test_strain_in_chunks_of_frames_is_against_the_one_reference():
+    # frame t stretched uniformly by 1 + 0.1 t; chunks of 2 frames, reference 0 in the first
+    scale = 1 + 0.1 * np.arange(7)
+    G = grid_of(lambda u, v, t: cylinder(0.2 * scale[t], 1.0 * scale[t])(u, v, t), n_t=7)
+    G[3, 2, 5] = np.nan                                  # a node lost in frame 5
+    energy, stretch = grid_strain(G, chunk=2)
+    whole_e, whole_s = grid_strain(G, chunk=7)
+    assert np.array_equal(energy, whole_e, equal_nan=True)
+    assert np.array_equal(stretch, whole_s, equal_nan=True)
+    ok = np.isfinite(energy)
+    assert ok.sum() == energy.size - 1 and not ok[3, 2, 5]
+    expected = np.broadcast_to(2 * (scale - 1) ** 2, energy.shape)
+    assert np.allclose(energy[ok], expected[ok])
+
+
 def test_per_pixel_normalization_and_phase():
     t = np.arange(20)
     f = np.stack([np.sin(2 * np.pi * (t - 3) / 20) * 5 + 7, np.ones(20)])[None]  # (1, 2, 20)

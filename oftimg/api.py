@@ -121,9 +121,9 @@ def _n_workers(executor) -> int:
 
 
 def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: float,
-                      quiet: bool = True, executor=None) -> dict:
+                      quiet: bool = True, executor=None, progress=None) -> dict:
     """One validated dataset end to end: its results into ``folder`` (which
-    exists); returns its summary."""
+    exists); returns its summary. ``progress``: see :func:`analyse_dataset`."""
     from .pipeline import analyse_dataset
     from .video import EARLY_VIDEOS, start_videos
 
@@ -133,7 +133,7 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
         nonlocal early
         early = start_videos(arrays, grids, fps=fps, executor=executor, kinds=EARLY_VIDEOS)
 
-    result = analyse_dataset(ds, opts, quiet=quiet, executor=executor,
+    result = analyse_dataset(ds, opts, quiet=quiet, executor=executor, progress=progress,
                              on_aligned=start_early_videos if executor is not None else None)
     summary = result["summary"]
     summary["validation"] = report
@@ -141,12 +141,13 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
     return summary
 
 
-def embryo_task(ds: Dataset, report: dict, opts, fps: float):
+def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
     """:func:`analyse_and_write` in a worker, into a folder of its own.
 
     Returns the summary, the files ``{path relative to the dataset's folder:
     bytes}`` (so that a cluster worker need not see the output folder) and the
-    warnings raised, each once, for the caller to raise again.
+    warnings raised, each once, for the caller to raise again. ``frames_done``:
+    a queue that gets a 1 for each frame of each per-frame pass, or None.
     """
     import tempfile
     import warnings
@@ -155,7 +156,8 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float):
         warnings.simplefilter("always")
         folder = Path(tmp) / ds.meta.name
         folder.mkdir()
-        summary = analyse_and_write(ds, report, folder, opts, fps=fps)
+        progress = None if frames_done is None else lambda: frames_done.put(1)
+        summary = analyse_and_write(ds, report, folder, opts, fps=fps, progress=progress)
         files = {p.relative_to(folder).as_posix(): p.read_bytes()
                  for p in sorted(folder.rglob("*")) if p.is_file()}
     raised = list({(type(w.message), str(w.message)): w.message for w in caught}.values())
@@ -163,17 +165,33 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float):
 
 
 def _embryos_in_workers(datasets, reports, tmp: Path, opts, executor, *, fps, quiet) -> list:
-    """Every dataset as one :func:`embryo_task`; summaries in the datasets' order."""
+    """Every dataset as one :func:`embryo_task`; summaries in the datasets' order.
+
+    The bar counts the frames of the two per-frame passes done in all workers
+    of a local pool (through a queue), or the datasets done on a Dask cluster.
+    """
+    import threading
     import warnings
     from concurrent.futures import as_completed
 
-    futures = {executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps): k
+    local = getattr(executor, "_client", None) is None
+    bar = Progress(2 * sum(ds.n_frames for ds in datasets) if local else len(datasets),
+                   f"{len(datasets)} datasets", quiet=quiet, unit="frame" if local else "dataset")
+    manager = frames_done = None
+    if local and bar.shown:
+        import multiprocessing as mp
+
+        manager = mp.get_context("spawn").Manager()
+        frames_done = manager.Queue()
+        drain = threading.Thread(target=lambda: [bar.advance(n) for n in iter(frames_done.get,
+                                                                               None)])
+        drain.start()
+    futures = {executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps, frames_done): k
                for k, ds in enumerate(datasets)}
     log.info("%d datasets, each analysed whole in a worker", len(datasets))
-    bar = Progress(len(datasets), "datasets", quiet=quiet, unit="dataset")
     summaries = [None] * len(datasets)
     try:
-        for fut in as_completed(futures):
+        for done, fut in enumerate(as_completed(futures), start=1):
             summary, files, raised = fut.result()
             for message in raised:
                 warnings.warn(message, stacklevel=2)
@@ -182,9 +200,15 @@ def _embryos_in_workers(datasets, reports, tmp: Path, opts, executor, *, fps, qu
                 path.parent.mkdir(parents=True, exist_ok=True)
                 path.write_bytes(data)
             summaries[futures[fut]] = summary
-            bar.advance()
+            if not local:
+                bar.advance()
+            bar.note(f"{done} of {len(datasets)} datasets done")
             _log_done(summary)
     finally:
+        if manager is not None:
+            frames_done.put(None)
+            drain.join()
+            manager.shutdown()
         bar.close()
     return summaries
 

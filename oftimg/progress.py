@@ -14,6 +14,15 @@ class Progress:
         self._bar = tqdm(total=total, desc=desc, unit=unit, disable=disable,
                          file=sys.stderr, dynamic_ncols=True, leave=False)
 
+    @property
+    def shown(self) -> bool:
+        """Whether the bar is drawn (not quiet, and stderr is a terminal)."""
+        return not self._bar.disable
+
+    def note(self, text: str) -> None:
+        """Show ``text`` after the bar."""
+        self._bar.set_postfix_str(text)
+
     def update(self, done: int) -> None:
         """Set the number of items done."""
         self._bar.update(done - self._bar.n)

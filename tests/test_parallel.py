@@ -55,9 +55,31 @@ def _files(folder):
     return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
 
 
-def test_whole_datasets_in_workers_equal_serial(tmp_path):
+class RecordingBar:
+    """A progress bar that is always 'shown' and remembers what it was told."""
+
+    bars = []
+
+    def __init__(self, total, desc, *, quiet=False, unit="frame"):
+        self.total, self.desc, self.unit, self.n, self.notes = total, desc, unit, 0, []
+        self.bars.append(self)
+
+    shown = True
+
+    def advance(self, n=1):
+        self.n += n
+
+    def note(self, text):
+        self.notes.append(text)
+
+    def close(self):
+        pass
+
+
+def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
     """--parallel embryos: each dataset analysed whole in a worker gives the serial
-    run's arrays, summaries and files, and its warnings reach the caller."""
+    run's arrays, summaries and files, its warnings reach the caller, and the
+    bar counts the frames done in the workers."""
     import json
     import warnings
 
@@ -80,7 +102,11 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path):
         serial = api.run(cohort, tmp_path / "serial", quiet=True, jobs=1)
     with warnings.catch_warnings(record=True) as worker_warnings:
         warnings.simplefilter("always")
+        monkeypatch.setattr(api, "Progress", RecordingBar)
         whole = api.run(cohort, tmp_path / "whole", quiet=True, jobs=2, parallel="embryos")
+    bar, = [b for b in RecordingBar.bars if b.desc == "2 datasets"]
+    assert (bar.unit, bar.total, bar.n) == ("frame", 2 * (6 + 6), 2 * (6 + 6))
+    assert bar.notes == ["1 of 2 datasets done", "2 of 2 datasets done"]
     assert _files(whole) == _files(serial)
     for name in ("normal_7", "banded_8"):
         a, b = np.load(serial / name / "arrays.npz"), np.load(whole / name / "arrays.npz")

@@ -44,11 +44,6 @@ def cycle_timing(volume: np.ndarray, period_ms: float) -> dict:
     }
 
 
-def roll_time(a: np.ndarray, t0: int, *, axis: int = -1) -> np.ndarray:
-    """Roll a periodic time axis so that input frame ``t0`` comes first."""
-    return np.roll(a, -int(t0), axis=axis)
-
-
 def two_segment_warp(n_t: int, t_max: float) -> np.ndarray:
     """Input frame positions (after alignment) sampled so maximum expansion is at 0.5.
 

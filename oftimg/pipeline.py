@@ -10,7 +10,7 @@ import numpy as np
 
 from . import __version__
 from .io import Dataset, OftimgWarning
-from .cycle import cycle_timing, resample_time, roll_time, two_segment_warp
+from .cycle import cycle_timing, resample_time, two_segment_warp
 from .image.analysis import analyse_area_maps
 from .image.normalize import phase_maps
 from .image.pca import contour_pca
@@ -156,6 +156,10 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             cpu[k] = cpu.get(k, 0.0) + v
     timings["frames_cpu_s"] = cpu
     walls = list(frames[0]["grid"])
+    # time alignment: t = 0 at minimum outer volume; every series is stacked in that order
+    timing = cycle_timing(np.array([f["volume"]["outer"] for f in frames]), ds.meta.period_ms)
+    t0 = timing["t0_frame"]
+    frames = frames[t0:] + frames[:t0]
     grid = {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls}
     area = {w: np.stack([f["area"][w] for f in frames], axis=1) for w in walls}
     contour = {w: np.stack([f["contour"][w] for f in frames], axis=2) for w in walls}
@@ -187,14 +191,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         warnings.warn(f"{ds.path}: {sum(flipped.values())} flipped triangles in the (u, v) "
                       "maps (the map is not one-to-one there)", OftimgWarning, stacklevel=2)
 
-    # time alignment: t = 0 at minimum outer volume
-    timing = cycle_timing(volume["outer"], ds.meta.period_ms)
-    t0 = timing["t0_frame"]
     rows = {"origin": origins, "normal": normals, "crossing": crossing.astype(float)}
     rows.update({f"centroid_{w}": c for w, c in centroids.items()})
     rows.update({f"from_ring_{w}": r.astype(float) for w, r in from_ring.items()})
-    grid, area, contour, volume, rows = _retime(
-        lambda a, axis: roll_time(a, t0, axis=axis), grid, area, contour, volume, rows)
     t_frames = np.arange(n_t, dtype=float)
     if options.warp:
         # two segments: minimum volume at 0, maximum expansion at half the cycle
@@ -223,7 +222,6 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     arrays["plane_normal"] = normals
     arrays["plane_crossing"] = crossing
     if H is not None:
-        H = roll_time(H, t0, axis=2)
         if options.warp:
             H = resample_time(H, t_frames, axis=2)
         H = arrays["mean_curvature_lumen_per_mm"] = H.astype(np.float32)

@@ -5,15 +5,18 @@ science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
 """
 from __future__ import annotations
 
+import json
 import logging
 import os
 import platform
+import shutil
 import sys
 import time
 from pathlib import Path
 
 from . import __version__
-from .export import check_output_location, staged_output, write_dataset_results, write_json
+from .export import (check_output_location, jsonable, staged_output, write_dataset_results,
+                     write_json)
 from .io import Dataset, find_datasets, load_dataset, validate_dataset
 from .phantom import sample_params, write_phantom
 from .progress import Progress
@@ -68,7 +71,8 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         options: dict | None = None, jobs: int | None = None,
-        scheduler: str | None = None, fps: float = 30.0, parallel: str = "auto") -> Path:
+        scheduler: str | None = None, fps: float = 30.0, parallel: str = "auto",
+        resume: bool = False) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
     Every frame of every dataset is validated before any work. The work runs
@@ -79,7 +83,10 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     fields, figures and tables are made), or ``"auto"``: embryos when there
     are at least twice as many datasets as workers, else frames. Results are
     written to a temporary folder and moved to ``out`` at the end; a failed
-    run leaves ``out`` as it was. Returns ``out``.
+    run leaves ``out`` as it was. Each dataset's complete results are also
+    kept in :func:`finished_folder` until the run succeeds; with ``resume``,
+    those whose inputs, options and oftimg version are unchanged are reused
+    (neither validated nor analysed again). Returns ``out``.
     """
     from .pipeline import PipelineOptions
 
@@ -94,22 +101,113 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     if len(set(names)) != len(names):
         raise ValueError(f"dataset names are not unique: {names}")
     started = time.time()
-    executor = make_executor(jobs, scheduler)
-    with _closing(executor):
-        reports = {}
-        for ds in datasets:
-            tick = time.time()
-            bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
-                           quiet=quiet, unit="mesh")
-            reports[ds.meta.name] = validate_dataset(ds, executor=executor, progress=bar.advance)
-            bar.close()
-            reports[ds.meta.name]["seconds"] = round(time.time() - tick, 2)
-        if parallel == "auto":
-            parallel = ("embryos" if executor is not None
-                        and len(datasets) >= 2 * _n_workers(executor) else "frames")
-        return _run_validated(datasets, reports, out, paths, opts, executor,
-                              overwrite=overwrite, quiet=quiet, started=started, fps=fps,
-                              by_embryo=parallel == "embryos" and executor is not None)
+    finished = Finished(finished_folder(out))
+    fingerprints = {d.meta.name: finished.fingerprint(d, opts, fps) for d in datasets}
+    reused = {}
+    if resume:
+        for name, fp in fingerprints.items():
+            summary = finished.summary_if_current(name, fp)
+            if summary is not None:
+                reused[name] = summary
+        log.info("--resume: %d of %d datasets finished before, reused", len(reused),
+                 len(datasets))
+    todo = [d for d in datasets if d.meta.name not in reused]
+    try:
+        executor = make_executor(jobs, scheduler) if todo else None
+        with _closing(executor):
+            reports = {}
+            for ds in todo:
+                tick = time.time()
+                bar = Progress(ds.n_frames * len(ds.surfaces),
+                               f"{ds.meta.name}: checking meshes", quiet=quiet, unit="mesh")
+                reports[ds.meta.name] = validate_dataset(ds, executor=executor,
+                                                         progress=bar.advance)
+                bar.close()
+                reports[ds.meta.name]["seconds"] = round(time.time() - tick, 2)
+            if parallel == "auto":
+                parallel = ("embryos" if executor is not None
+                            and len(todo) >= 2 * _n_workers(executor) else "frames")
+            work = (_embryos_in_workers if parallel == "embryos" and executor is not None
+                    else _frames_in_workers)
+            done = work(todo, reports, finished, fingerprints, opts, executor, fps=fps,
+                        quiet=quiet)
+            summaries = [reused.get(name) or done[name] for name in names]
+            _write_run(summaries, finished, out, paths, opts, overwrite=overwrite,
+                       started=started)
+    except BaseException as exc:
+        kept = finished.names()
+        if kept:
+            exc.add_note(f"the {len(kept)} datasets finished before this are kept in "
+                         f"{finished.root}: run again with --resume to reuse them")
+        else:
+            finished.remove()
+        raise
+    finished.remove()
+    return out
+
+
+def finished_folder(out: Path) -> Path:
+    """Where a run keeps each dataset's complete results until it succeeds
+    (beside ``out``, hidden): what ``resume`` reuses."""
+    out = Path(out)
+    return out.parent / f".{out.name}.finished"
+
+
+class Finished:
+    """Each dataset's complete results, ``root/<name>/``, with ``root/<name>.json``
+    recording the inputs, options and version they were made from and the summary."""
+
+    def __init__(self, root: Path):
+        self.root = root
+
+    @staticmethod
+    def fingerprint(ds: Dataset, opts, fps: float) -> dict:
+        files = [p for surface in ds.frames.values() for p in surface]
+        files += [p for p in [ds.path / "meta.json"] if p.is_file()]
+        stats = [(str(p), p.stat()) for p in files]
+        return {"oftimg_version": __version__, "options": opts.as_dict(), "fps": fps,
+                "inputs": [[p, st.st_size, st.st_mtime_ns] for p, st in stats]}
+
+    def summary_if_current(self, name: str, fingerprint: dict) -> dict | None:
+        """The summary of ``name``'s kept results if they were made from ``fingerprint``."""
+        marker = self.root / f"{name}.json"
+        if not (marker.is_file() and (self.root / name / "summary.json").is_file()):
+            return None
+        try:
+            record = json.loads(marker.read_text())
+        except ValueError:
+            return None
+        return record["summary"] if record.get("fingerprint") == fingerprint else None
+
+    def writing(self, name: str) -> Path:
+        """An empty folder to write ``name``'s results into, then :meth:`keep`."""
+        folder = self.root / f"{name}.writing"
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir(parents=True)
+        return folder
+
+    def keep(self, name: str, fingerprint: dict, summary: dict) -> None:
+        """Make the results written into :meth:`writing` the kept ones."""
+        (self.root / f"{name}.json").unlink(missing_ok=True)
+        shutil.rmtree(self.root / name, ignore_errors=True)
+        (self.root / f"{name}.writing").rename(self.root / name)
+        record = {"fingerprint": fingerprint, "summary": jsonable(summary, keep_nan=True)}
+        (self.root / f"{name}.json").write_text(json.dumps(record))  # NaN as NaN, not null
+
+    def names(self) -> list[str]:
+        return sorted(p.stem for p in self.root.glob("*.json")) if self.root.is_dir() else []
+
+    def copy_into(self, name: str, folder: Path) -> None:
+        """``name``'s kept results into ``folder/<name>`` (hard links where possible)."""
+        def link_or_copy(src, dst):
+            try:
+                os.link(src, dst)
+            except OSError:
+                shutil.copy2(src, dst)
+        shutil.copytree(self.root / name, folder / name, copy_function=link_or_copy)
+
+    def remove(self) -> None:
+        shutil.rmtree(self.root, ignore_errors=True)
 
 
 def _n_workers(executor) -> int:
@@ -164,8 +262,10 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
     return summary, files, raised
 
 
-def _embryos_in_workers(datasets, reports, tmp: Path, opts, executor, *, fps, quiet) -> list:
-    """Every dataset as one :func:`embryo_task`; summaries in the datasets' order.
+def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
+                        fps, quiet) -> dict:
+    """Every dataset as one :func:`embryo_task`, each kept in ``finished`` as it
+    ends; returns the summaries by name.
 
     The bar counts the frames of the two per-frame passes done in all workers
     of a local pool (through a queue), or the datasets done on a Dask cluster.
@@ -189,17 +289,20 @@ def _embryos_in_workers(datasets, reports, tmp: Path, opts, executor, *, fps, qu
     futures = {executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps, frames_done): k
                for k, ds in enumerate(datasets)}
     log.info("%d datasets, each analysed whole in a worker", len(datasets))
-    summaries = [None] * len(datasets)
+    summaries = {}
     try:
         for done, fut in enumerate(as_completed(futures), start=1):
             summary, files, raised = fut.result()
             for message in raised:
                 warnings.warn(message, stacklevel=2)
-            for name, data in files.items():
-                path = tmp / summary["name"] / name
+            name = summary["name"]
+            folder = finished.writing(name)
+            for relpath, data in files.items():
+                path = folder / relpath
                 path.parent.mkdir(parents=True, exist_ok=True)
                 path.write_bytes(data)
-            summaries[futures[fut]] = summary
+            finished.keep(name, fingerprints[name], summary)
+            summaries[name] = summary
             if not local:
                 bar.advance()
             bar.note(f"{done} of {len(datasets)} datasets done")
@@ -213,17 +316,20 @@ def _embryos_in_workers(datasets, reports, tmp: Path, opts, executor, *, fps, qu
     return summaries
 
 
-def _frames_in_workers(datasets, reports, tmp: Path, opts, executor, *, fps, quiet) -> list:
-    """One dataset after another, each one's frames in ``executor``'s workers."""
-    summaries = []
+def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
+                       fps, quiet) -> dict:
+    """One dataset after another, each one's frames in ``executor``'s workers, each
+    kept in ``finished`` as it ends; returns the summaries by name."""
+    summaries = {}
     for k, ds in enumerate(datasets):
-        folder = tmp / ds.meta.name
-        folder.mkdir()
-        log.info("%s: analysing %d frames (%d of %d datasets)", ds.meta.name, ds.n_frames,
-                 k + 1, len(datasets))
-        summaries.append(analyse_and_write(ds, reports[ds.meta.name], folder, opts, fps=fps,
-                                           quiet=quiet, executor=executor))
-        _log_done(summaries[-1])
+        name = ds.meta.name
+        log.info("%s: analysing %d frames (%d of %d datasets)", name, ds.n_frames, k + 1,
+                 len(datasets))
+        summary = analyse_and_write(ds, reports[name], finished.writing(name), opts, fps=fps,
+                                    quiet=quiet, executor=executor)
+        finished.keep(name, fingerprints[name], summary)
+        summaries[name] = summary
+        _log_done(summary)
     return summaries
 
 
@@ -232,11 +338,11 @@ def _log_done(summary: dict) -> None:
              summary["expand_fraction"], summary["wave_speed_mm_s"]["cycle"])
 
 
-def _run_validated(datasets, reports, out, paths, opts, executor, *, overwrite, quiet, started,
-                   fps, by_embryo=False):
+def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, started):
+    """The finished datasets and the cohort tables, figures and pages, staged into ``out``."""
     with staged_output(out, overwrite=overwrite) as tmp:
-        work = _embryos_in_workers if by_embryo else _frames_in_workers
-        summaries = work(datasets, reports, tmp, opts, executor, fps=fps, quiet=quiet)
+        for s in summaries:
+            finished.copy_into(s["name"], tmp)
         from .report import write_cohort_markdown, write_cohort_table, write_groups_table
 
         from .figures import group_figures

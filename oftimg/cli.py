@@ -26,6 +26,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("source", type=Path, help="dataset folder (with outer/) or cohort folder")
     r.add_argument("--out", type=Path, required=True, help="results folder (created)")
     r.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
+    r.add_argument("--resume", action="store_true",
+                   help="reuse the datasets a failed or interrupted run into the same --out "
+                        "finished (when their inputs, options and oftimg version are unchanged)")
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.add_argument("--jobs", type=int, default=None,
                    help="worker processes (default: all cores)")
@@ -121,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
                        "seam_method": args.seam_method, "warp": args.warp}
             out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                           jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
-                          parallel=args.parallel)
+                          parallel=args.parallel, resume=args.resume)
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
         elif args.command == "demo":
             out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
@@ -159,15 +162,21 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 _print_report(report)
     except (DatasetError, ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
-        print(f"oftimg: error: {exc}", file=sys.stderr)
+        _print_error(f"error: {exc}", exc)
         return 2
-    except KeyboardInterrupt:
-        print("oftimg: interrupted; no results were written", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        _print_error("interrupted; no results were written to --out", exc)
         return 130
     except Exception as exc:  # the CLI's one catch-all: a clear line, not a traceback
-        print(f"oftimg: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        _print_error(f"internal error: {type(exc).__name__}: {exc}", exc)
         return 1
     return 0
+
+
+def _print_error(line: str, exc: BaseException) -> None:
+    """The error line and the notes added on the way up (e.g. what --resume reuses)."""
+    for text in [line] + list(getattr(exc, "__notes__", [])):
+        print(f"oftimg: {text}", file=sys.stderr)
 
 
 if __name__ == "__main__":

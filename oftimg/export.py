@@ -53,15 +53,17 @@ def staged_output(out: str | Path, *, overwrite: bool = False):
         tmp.rename(out)
 
 
-def _jsonable(obj):
+def jsonable(obj, *, keep_nan: bool = False):
+    """``obj`` with NumPy scalars and arrays as Python numbers and lists, paths as
+    strings; NaN and infinities as None (null), or kept with ``keep_nan``."""
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v, keep_nan=keep_nan) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v, keep_nan=keep_nan) for v in obj]
     if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
+        return jsonable(obj.tolist(), keep_nan=keep_nan)
     if isinstance(obj, (np.floating, float)):
-        return None if not np.isfinite(obj) else float(obj)
+        return float(obj) if keep_nan or np.isfinite(obj) else None
     if isinstance(obj, (np.integer,)):
         return int(obj)
     if isinstance(obj, (np.bool_,)):
@@ -73,7 +75,7 @@ def _jsonable(obj):
 
 def write_json(path: Path, data: dict) -> None:
     """JSON with NaN written as null."""
-    path.write_text(json.dumps(_jsonable(data), indent=2) + "\n")
+    path.write_text(json.dumps(jsonable(data), indent=2) + "\n")
 
 
 def write_arrays(folder: Path, arrays: dict[str, np.ndarray], described: dict[str, dict]) -> None:

@@ -1,0 +1,78 @@
+"""A failed cohort run keeps its finished datasets; --resume reuses them."""
+import json
+import os
+
+import numpy as np
+import pytest
+
+from oftimg import api
+from oftimg.cli import main
+from oftimg.phantom import sample_params, write_phantom
+
+pytestmark = pytest.mark.slow
+
+
+def _files(folder):
+    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
+
+
+def test_failed_run_keeps_finished_datasets_and_resume_reuses_them(tmp_path, monkeypatch,
+                                                                   capsys):
+    cohort = tmp_path / "cohort"
+    for group, seed in (("normal", 7), ("banded", 8)):
+        write_phantom(cohort / f"{group}_{seed}", sample_params(
+            group, seed, n_frames=6, vertices_min=2000, vertices_max=2500))
+    fresh = api.run(cohort, tmp_path / "fresh", quiet=True, jobs=1)
+    assert not api.finished_folder(fresh).exists()          # removed after a good run
+
+    real = api.analyse_and_write
+    analysed, validated = [], []
+
+    def analyse(ds, *args, **kwargs):
+        analysed.append(ds.meta.name)
+        if ds.meta.name == "normal_7" and fail[0]:
+            raise RuntimeError("disk full")
+        return real(ds, *args, **kwargs)
+
+    real_validate = api.validate_dataset
+    monkeypatch.setattr(api, "analyse_and_write", analyse)
+    monkeypatch.setattr(api, "validate_dataset",
+                        lambda ds, **kw: validated.append(ds.meta.name) or real_validate(ds, **kw))
+    fail = [True]
+    out = tmp_path / "out"
+    kept = api.finished_folder(out)
+    # through the command line: the error, and where the finished dataset is kept
+    assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1"]) == 1
+    err = capsys.readouterr().err
+    assert "disk full" in err and str(kept) in err and "--resume" in err
+    assert not out.exists()
+    assert (kept / "banded_8" / "summary.json").is_file() and not (kept / "normal_7").exists()
+
+    # an input of the finished dataset changed since: analysed again, not reused
+    frame = sorted((cohort / "banded_8" / "outer").iterdir())[0]
+    os.utime(frame, ns=(frame.stat().st_atime_ns, frame.stat().st_mtime_ns + 10 ** 9))
+    analysed.clear()
+    with pytest.raises(RuntimeError, match="disk full") as failed:
+        api.run(cohort, out, quiet=True, jobs=1, resume=True)
+    assert analysed == ["banded_8", "normal_7"] and "--resume" in failed.value.__notes__[0]
+
+    # resumed: only the dataset that failed is validated and analysed
+    fail[0] = False
+    analysed.clear(), validated.clear()
+    assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1",
+                 "--resume"]) == 0
+    assert analysed == ["normal_7"] and validated == ["normal_7"]
+    assert not kept.exists()
+    # the same results as the run that never failed
+    assert _files(out) == _files(fresh)
+    for name in _files(fresh):
+        if name.endswith(".npz"):
+            a, b = np.load(fresh / name), np.load(out / name)
+            assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a.files), name
+        elif name.endswith("summary.json"):
+            a, b = (json.loads((r / name).read_text()) for r in (fresh, out))
+            for s in (a, b):                                 # seconds differ between runs
+                s.pop("timings_s"), s["validation"].pop("seconds")
+            assert a == b, name
+        elif not name.endswith(("run.json", "index.html", ".mp4", ".png")):
+            assert (fresh / name).read_bytes() == (out / name).read_bytes(), name

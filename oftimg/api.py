@@ -265,7 +265,8 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
 def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
                         fps, quiet) -> dict:
     """Every dataset as one :func:`embryo_task`, each kept in ``finished`` as it
-    ends; returns the summaries by name.
+    ends; returns the summaries by name. After a dataset fails, those not
+    started are cancelled, those running are still kept, then the error is raised.
 
     The bar counts the frames of the two per-frame passes done in all workers
     of a local pool (through a queue), or the datasets done on a Dask cluster.
@@ -290,9 +291,17 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
                for k, ds in enumerate(datasets)}
     log.info("%d datasets, each analysed whole in a worker", len(datasets))
     summaries = {}
+    error = None
     try:
-        for done, fut in enumerate(as_completed(futures), start=1):
-            summary, files, raised = fut.result()
+        for fut in as_completed(futures):
+            try:
+                summary, files, raised = fut.result()
+            except Exception as exc:  # the datasets already running go on: keep them too
+                if error is None:
+                    error = exc
+                    for other in futures:
+                        other.cancel()                # those not started
+                continue
             for message in raised:
                 warnings.warn(message, stacklevel=2)
             name = summary["name"]
@@ -305,8 +314,10 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
             summaries[name] = summary
             if not local:
                 bar.advance()
-            bar.note(f"{done} of {len(datasets)} datasets done")
+            bar.note(f"{len(summaries)} of {len(datasets)} datasets done")
             _log_done(summary)
+        if error is not None:
+            raise error
     finally:
         if manager is not None:
             frames_done.put(None)

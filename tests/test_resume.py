@@ -1,4 +1,5 @@
 """A failed cohort run keeps its finished datasets; --resume reuses them."""
+import concurrent.futures
 import json
 import os
 
@@ -76,3 +77,38 @@ def test_failed_run_keeps_finished_datasets_and_resume_reuses_them(tmp_path, mon
             assert a == b, name
         elif not name.endswith(("run.json", "index.html", ".mp4", ".png")):
             assert (fresh / name).read_bytes() == (out / name).read_bytes(), name
+
+
+class InPlace(concurrent.futures.Executor):
+    """Runs each task when it is submitted (a worker pool whose tasks all start at once)."""
+
+    def submit(self, fn, *args, **kwargs):
+        fut = concurrent.futures.Future()
+        try:
+            fut.set_result(fn(*args, **kwargs))
+        except Exception as exc:
+            fut.set_exception(exc)
+        return fut
+
+
+def test_by_embryo_the_datasets_running_when_one_fails_are_kept(tmp_path, monkeypatch):
+    cohort = tmp_path / "cohort"
+    for k in range(3):
+        write_phantom(cohort / f"e{k}", sample_params(
+            "normal", k, n_frames=5, vertices_min=1500, vertices_max=1800))
+    real = api.embryo_task
+
+    def task(ds, *args):
+        if ds.meta.name == "e0":
+            raise RuntimeError("node lost")
+        return real(ds, *args)
+
+    monkeypatch.setattr(api, "embryo_task", task)
+    monkeypatch.setattr(api, "make_executor", lambda jobs, scheduler: InPlace())
+    monkeypatch.setattr(api, "_n_workers", lambda executor: 1)
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError, match="node lost") as failed:
+        api.run(cohort, out, quiet=True, parallel="embryos")
+    assert "the 2 datasets finished before this" in failed.value.__notes__[0]
+    assert api.Finished(api.finished_folder(out)).names() == ["e1", "e2"]
+    assert not out.exists()

@@ -5,18 +5,16 @@ science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
 """
 from __future__ import annotations
 
-import json
 import logging
 import os
 import platform
-import shutil
 import sys
 import time
 from pathlib import Path
 
 from . import __version__
-from .export import (check_output_location, jsonable, staged_output, write_dataset_results,
-                     write_json)
+from .export import (Finished, check_output_location, finished_folder, staged_output,
+                     write_dataset_results, write_json)
 from .io import Dataset, find_datasets, load_dataset, validate_dataset
 from .phantom import sample_params, write_phantom
 from .progress import Progress
@@ -144,70 +142,6 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         raise
     finished.remove()
     return out
-
-
-def finished_folder(out: Path) -> Path:
-    """Where a run keeps each dataset's complete results until it succeeds
-    (beside ``out``, hidden): what ``resume`` reuses."""
-    out = Path(out)
-    return out.parent / f".{out.name}.finished"
-
-
-class Finished:
-    """Each dataset's complete results, ``root/<name>/``, with ``root/<name>.json``
-    recording the inputs, options and version they were made from and the summary."""
-
-    def __init__(self, root: Path):
-        self.root = root
-
-    @staticmethod
-    def fingerprint(ds: Dataset, opts, fps: float) -> dict:
-        files = [p for surface in ds.frames.values() for p in surface]
-        files += [p for p in [ds.path / "meta.json"] if p.is_file()]
-        stats = [(str(p), p.stat()) for p in files]
-        return {"oftimg_version": __version__, "options": opts.as_dict(), "fps": fps,
-                "inputs": [[p, st.st_size, st.st_mtime_ns] for p, st in stats]}
-
-    def summary_if_current(self, name: str, fingerprint: dict) -> dict | None:
-        """The summary of ``name``'s kept results if they were made from ``fingerprint``."""
-        marker = self.root / f"{name}.json"
-        if not (marker.is_file() and (self.root / name / "summary.json").is_file()):
-            return None
-        try:
-            record = json.loads(marker.read_text())
-        except ValueError:
-            return None
-        return record["summary"] if record.get("fingerprint") == fingerprint else None
-
-    def writing(self, name: str) -> Path:
-        """An empty folder to write ``name``'s results into, then :meth:`keep`."""
-        folder = self.root / f"{name}.writing"
-        shutil.rmtree(folder, ignore_errors=True)
-        folder.mkdir(parents=True)
-        return folder
-
-    def keep(self, name: str, fingerprint: dict, summary: dict) -> None:
-        """Make the results written into :meth:`writing` the kept ones."""
-        (self.root / f"{name}.json").unlink(missing_ok=True)
-        shutil.rmtree(self.root / name, ignore_errors=True)
-        (self.root / f"{name}.writing").rename(self.root / name)
-        record = {"fingerprint": fingerprint, "summary": jsonable(summary, keep_nan=True)}
-        (self.root / f"{name}.json").write_text(json.dumps(record))  # NaN as NaN, not null
-
-    def names(self) -> list[str]:
-        return sorted(p.stem for p in self.root.glob("*.json")) if self.root.is_dir() else []
-
-    def copy_into(self, name: str, folder: Path) -> None:
-        """``name``'s kept results into ``folder/<name>`` (hard links where possible)."""
-        def link_or_copy(src, dst):
-            try:
-                os.link(src, dst)
-            except OSError:
-                shutil.copy2(src, dst)
-        shutil.copytree(self.root / name, folder / name, copy_function=link_or_copy)
-
-    def remove(self) -> None:
-        shutil.rmtree(self.root, ignore_errors=True)
 
 
 def _n_workers(executor) -> int:

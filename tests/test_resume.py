@@ -8,6 +8,7 @@ import pytest
 
 from oftimg import api
 from oftimg.cli import main
+from oftimg.export import Finished, finished_folder
 from oftimg.phantom import sample_params, write_phantom
 
 pytestmark = pytest.mark.slow
@@ -24,7 +25,7 @@ def test_failed_run_keeps_finished_datasets_and_resume_reuses_them(tmp_path, mon
         write_phantom(cohort / f"{group}_{seed}", sample_params(
             group, seed, n_frames=6, vertices_min=2000, vertices_max=2500))
     fresh = api.run(cohort, tmp_path / "fresh", quiet=True, jobs=1)
-    assert not api.finished_folder(fresh).exists()          # removed after a good run
+    assert not finished_folder(fresh).exists()          # removed after a good run
 
     real = api.analyse_and_write
     analysed, validated = [], []
@@ -41,7 +42,7 @@ def test_failed_run_keeps_finished_datasets_and_resume_reuses_them(tmp_path, mon
                         lambda ds, **kw: validated.append(ds.meta.name) or real_validate(ds, **kw))
     fail = [True]
     out = tmp_path / "out"
-    kept = api.finished_folder(out)
+    kept = finished_folder(out)
     # through the command line: the error, and where the finished dataset is kept
     assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1"]) == 1
     err = capsys.readouterr().err
@@ -110,5 +111,5 @@ def test_by_embryo_the_datasets_running_when_one_fails_are_kept(tmp_path, monkey
     with pytest.raises(RuntimeError, match="node lost") as failed:
         api.run(cohort, out, quiet=True, parallel="embryos")
     assert "the 2 datasets finished before this" in failed.value.__notes__[0]
-    assert api.Finished(api.finished_folder(out)).names() == ["e1", "e2"]
+    assert Finished(finished_folder(out)).names() == ["e1", "e2"]
     assert not out.exists()

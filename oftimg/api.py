@@ -96,8 +96,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     opts = PipelineOptions(**(options or {}))
     datasets = [load_dataset(p) for p in paths]
     names = [d.meta.name for d in datasets]
-    if len(set(names)) != len(names):
-        raise ValueError(f"dataset names are not unique: {names}")
+    _check_names(datasets)
     started = time.time()
     finished = Finished(finished_folder(out))
     fingerprints = {d.meta.name: finished.fingerprint(d, opts, fps) for d in datasets}
@@ -142,6 +141,25 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         raise
     finished.remove()
     return out
+
+
+# what a run writes beside the datasets' folders (report, html, _write_run)
+COHORT_OUTPUTS = ("cohort.csv", "cohort.md", "groups.csv", "figures", "index.html", "run.json")
+
+
+def _check_names(datasets: list[Dataset]) -> None:
+    """Each dataset's results go to ``out/<name>``: names must differ and must not
+    be those of the cohort's own outputs."""
+    seen = {}
+    for ds in datasets:
+        name = ds.meta.name
+        if name in COHORT_OUTPUTS:
+            raise ValueError(f"{ds.path}: the dataset name {name!r} is that of the cohort's "
+                             f"own {name} in --out; set another name in its meta.json")
+        if name in seen:
+            raise ValueError(f"{seen[name]} and {ds.path} have the same dataset name {name!r} "
+                             "(their results would go to one folder); set \"name\" in meta.json")
+        seen[name] = ds.path
 
 
 def _n_workers(executor) -> int:

@@ -262,7 +262,11 @@ def read_meta(folder: Path, n_frames: int) -> Meta:
         if len(inlet) != 3 or not all(isinstance(x, (int, float)) for x in inlet):
             raise DatasetError(f"{path}: inlet must be [x, y, z], found {inlet!r}")
         inlet = tuple(float(x) * UNIT_TO_MM[unit] for x in inlet)
-    return Meta(name=str(raw.get("name", folder.name)), group=str(raw.get("group", "unknown")),
+    name = str(raw.get("name", folder.name))
+    if name in ("", ".", "..") or any(c in name for c in "/\\\0"):
+        raise DatasetError(f"{path}: name {name!r} cannot be a folder name (the dataset's "
+                           "results are written to a folder of that name)")
+    return Meta(name=name, group=str(raw.get("group", "unknown")),
                 period_ms=period, length_unit=unit, inlet_mm=inlet,
                 period_assumed=period_assumed)
 

@@ -203,6 +203,9 @@ def _bad(tmp_path, kind):
     elif kind == "meta_json":
         (ds / "meta.json").write_text("{period_ms: 3")
         return ds, ds / "meta.json"
+    elif kind == "meta_name":
+        (ds / "meta.json").write_text(json.dumps({"name": "../elsewhere"}))
+        return ds, ds / "meta.json"
     elif kind == "meta_unit":
         (ds / "meta.json").write_text(json.dumps({"length_unit": "inch"}))
         return ds, ds / "meta.json"
@@ -214,7 +217,8 @@ def _bad(tmp_path, kind):
 BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
        "three_loops": "3 boundary loops", "non_manifold": "non-manifold edge",
        "nan": "NaN", "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
-       "meta_unit": "length_unit", "missing": "not found"}
+       "meta_unit": "length_unit", "meta_name": "cannot be a folder name",
+       "missing": "not found"}
 
 
 @pytest.mark.parametrize("kind", sorted(BAD))
@@ -276,3 +280,19 @@ def test_lazy_loading_of_1000_frames_stays_small(tmp_path):
     n, peak_mb = map(int, res.stdout.split())
     assert n == 1000 * 3000
     assert peak_mb < 300, f"peak resident memory {peak_mb} MB"
+
+
+def test_dataset_names_must_make_distinct_result_folders(tmp_path, capsys):
+    cohort = tmp_path / "cohort"
+    for folder, name in (("a", "emb"), ("b", "emb")):
+        ds = write_series(cohort / folder, cone_frames())
+        (ds / "meta.json").write_text(json.dumps({"name": name, "period_ms": 3.0}))
+    out = tmp_path / "out"
+    assert main(["run", str(cohort), "--out", str(out), "--quiet"]) == 2
+    msg = capsys.readouterr().err
+    assert str(cohort / "a") in msg and str(cohort / "b") in msg and "'emb'" in msg
+    (cohort / "b" / "meta.json").write_text(json.dumps({"name": "figures", "period_ms": 3.0}))
+    assert main(["run", str(cohort), "--out", str(out), "--quiet"]) == 2
+    msg = capsys.readouterr().err
+    assert str(cohort / "b") in msg and "cohort's own figures" in msg
+    assert not out.exists()

@@ -38,7 +38,7 @@ frames share a parameterization. All truth is computed from the analytic model.
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -424,6 +424,3 @@ def read_truth(dataset: str | Path) -> tuple[Phantom, dict]:
     truth = json.loads((Path(dataset) / "truth.json").read_text())
     return Phantom(PhantomParams(**truth["params"])), truth
 
-
-def with_frames(params: PhantomParams, n_frames: int) -> PhantomParams:
-    return replace(params, n_frames=n_frames)

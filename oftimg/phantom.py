@@ -423,4 +423,3 @@ def read_truth(dataset: str | Path) -> tuple[Phantom, dict]:
     """The model and the truth.json of a phantom dataset folder."""
     truth = json.loads((Path(dataset) / "truth.json").read_text())
     return Phantom(PhantomParams(**truth["params"])), truth
-

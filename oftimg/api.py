@@ -134,8 +134,9 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     except BaseException as exc:
         kept = finished.names()
         if kept:
-            exc.add_note(f"the {len(kept)} datasets finished before this are kept in "
-                         f"{finished.root}: run again with --resume to reuse them")
+            what = "the dataset" if len(kept) == 1 else f"the {len(kept)} datasets"
+            exc.add_note(f"{what} finished before this kept in {finished.root}: "
+                         "run again with --resume to reuse")
         else:
             finished.remove()
         raise

@@ -110,6 +110,6 @@ def test_by_embryo_the_datasets_running_when_one_fails_are_kept(tmp_path, monkey
     out = tmp_path / "out"
     with pytest.raises(RuntimeError, match="node lost") as failed:
         api.run(cohort, out, quiet=True, parallel="embryos")
-    assert "the 2 datasets finished before this" in failed.value.__notes__[0]
+    assert "the 2 datasets finished before this kept in" in failed.value.__notes__[0]
     assert Finished(finished_folder(out)).names() == ["e1", "e2"]
     assert not out.exists()

@@ -77,9 +77,10 @@ class RecordingBar:
 
 
 def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
-    """--parallel embryos: each dataset analysed whole in a worker gives the serial
-    run's arrays, summaries and files, its warnings reach the caller, and the
-    bar counts the frames done in the workers."""
+    """--parallel embryos: each dataset analysed whole in a worker (a local pool,
+    then a Dask cluster) gives the serial run's arrays, summaries and files, its
+    warnings reach the caller, and the local bar counts the frames done in the
+    workers."""
     import json
     import warnings
 
@@ -107,20 +108,34 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
     bar, = [b for b in RecordingBar.bars if b.desc == "2 datasets"]
     assert (bar.unit, bar.total, bar.n) == ("frame", 2 * (6 + 6), 2 * (6 + 6))
     assert bar.notes == ["1 of 2 datasets done", "2 of 2 datasets done"]
-    assert _files(whole) == _files(serial)
-    for name in ("normal_7", "banded_8"):
-        a, b = np.load(serial / name / "arrays.npz"), np.load(whole / name / "arrays.npz")
-        assert sorted(a.files) == sorted(b.files)
-        for key in a.files:
-            assert np.array_equal(a[key], b[key], equal_nan=True), (name, key)
-        s1, s2 = (json.loads((r / name / "summary.json").read_text()) for r in (serial, whole))
-        for s in (s1, s2):
-            s.pop("timings_s"), s["validation"].pop("seconds")
-        assert s1 == s2
+    runs = {"local pool": (whole, worker_warnings)}
+    try:
+        import distributed
+    except ImportError:  # the optional extra oftimg[dask]
+        distributed = None
+    if distributed is not None:
+        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                      dashboard_address=None) as cluster, \
+                warnings.catch_warnings(record=True) as dask_warnings:
+            warnings.simplefilter("always")
+            dask = api.run(cohort, tmp_path / "dask", quiet=True, parallel="embryos",
+                           scheduler=cluster.scheduler_address)
+        runs["Dask cluster"] = (dask, dask_warnings)
     ours = lambda caught: sorted({str(w.message) for w in caught  # noqa: E731
                                   if issubclass(w.category, OftimgWarning)})
-    assert any("merged 1 duplicate" in m for m in ours(worker_warnings))
-    assert ours(worker_warnings) == ours(serial_warnings)
+    for how, (out, caught) in runs.items():
+        assert _files(out) == _files(serial), how
+        for name in ("normal_7", "banded_8"):
+            a, b = np.load(serial / name / "arrays.npz"), np.load(out / name / "arrays.npz")
+            assert sorted(a.files) == sorted(b.files)
+            for key in a.files:
+                assert np.array_equal(a[key], b[key], equal_nan=True), (how, name, key)
+            s1, s2 = (json.loads((r / name / "summary.json").read_text()) for r in (serial, out))
+            for s in (s1, s2):
+                s.pop("timings_s"), s["validation"].pop("seconds")
+            assert s1 == s2, how
+        assert any("merged 1 duplicate" in m for m in ours(caught)), how
+        assert ours(caught) == ours(serial_warnings), how
 
 
 def test_parallel_mode_is_checked(tmp_path):

@@ -5,11 +5,13 @@ science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import platform
 import sys
 import time
+import uuid
 from pathlib import Path
 
 from . import __version__
@@ -220,64 +222,93 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
     """Every dataset as one :func:`embryo_task`, each kept in ``finished`` as it
     ends; returns the summaries by name. After a dataset fails, those not
     started are cancelled, those running are still kept, then the error is raised.
-
-    The bar counts the frames of the two per-frame passes done in all workers
-    of a local pool (through a queue), or the datasets done on a Dask cluster.
+    The bar counts the frames of the two per-frame passes done in all workers.
     """
-    import threading
     import warnings
     from concurrent.futures import as_completed
 
-    local = getattr(executor, "_client", None) is None
-    bar = Progress(2 * sum(ds.n_frames for ds in datasets) if local else len(datasets),
-                   f"{len(datasets)} datasets", quiet=quiet, unit="frame" if local else "dataset")
-    manager = frames_done = None
-    if local and bar.shown:
-        import multiprocessing as mp
-
-        manager = mp.get_context("spawn").Manager()
-        frames_done = manager.Queue()
-        drain = threading.Thread(target=lambda: [bar.advance(n) for n in iter(frames_done.get,
-                                                                               None)])
-        drain.start()
-    futures = {executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps, frames_done): k
-               for k, ds in enumerate(datasets)}
+    bar = Progress(2 * sum(ds.n_frames for ds in datasets), f"{len(datasets)} datasets",
+                   quiet=quiet)
     log.info("%d datasets, each analysed whole in a worker", len(datasets))
     summaries = {}
     error = None
     try:
-        for fut in as_completed(futures):
-            try:
-                summary, files, raised = fut.result()
-            except Exception as exc:  # the datasets already running go on: keep them too
-                if error is None:
-                    error = exc
-                    for other in futures:
-                        other.cancel()                # those not started
-                continue
-            for message in raised:
-                warnings.warn(message, stacklevel=2)
-            name = summary["name"]
-            folder = finished.writing(name)
-            for relpath, data in files.items():
-                path = folder / relpath
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_bytes(data)
-            finished.keep(name, fingerprints[name], summary)
-            summaries[name] = summary
-            if not local:
-                bar.advance()
-            bar.note(f"{len(summaries)} of {len(datasets)} datasets done")
-            _log_done(summary)
-        if error is not None:
-            raise error
+        with _frame_counter(executor, bar) as frames_done:
+            futures = {executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps,
+                                       frames_done) for ds in datasets}
+            for fut in as_completed(futures):
+                try:
+                    summary, files, raised = fut.result()
+                except Exception as exc:  # the datasets already running go on: keep them
+                    if error is None:
+                        error = exc
+                        for other in futures:
+                            other.cancel()                # those not started
+                    continue
+                for message in raised:
+                    warnings.warn(message, stacklevel=2)
+                name = summary["name"]
+                folder = finished.writing(name)
+                for relpath, data in files.items():
+                    path = folder / relpath
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    path.write_bytes(data)
+                finished.keep(name, fingerprints[name], summary)
+                summaries[name] = summary
+                bar.note(f"{len(summaries)} of {len(datasets)} datasets done")
+                _log_done(summary)
+            if error is not None:
+                raise error
     finally:
-        if manager is not None:
-            frames_done.put(None)
-            drain.join()
-            manager.shutdown()
         bar.close()
     return summaries
+
+
+@contextlib.contextmanager
+def _frame_counter(executor, bar: Progress):
+    """Yield what :func:`embryo_task` reports its frames to (``put(n)``), each
+    report advancing ``bar`` here: a spawn Manager's queue for a local pool, an
+    event topic on a Dask cluster; None when the bar is not shown."""
+    if not bar.shown:
+        yield None
+        return
+    client = getattr(executor, "_client", None)  # Dask's ClientExecutor
+    if client is not None:
+        topic = f"oftimg-frames-{uuid.uuid4().hex}"
+        client.subscribe_topic(topic, lambda event: bar.advance(event[1]))
+        try:
+            yield _DaskTopic(topic)
+            deadline = time.time() + 2.0       # events may trail the tasks' results
+            while bar.n < bar.total and time.time() < deadline:
+                time.sleep(0.02)
+        finally:
+            client.unsubscribe_topic(topic)
+        return
+    import multiprocessing as mp
+    import threading
+
+    manager = mp.get_context("spawn").Manager()
+    queue = manager.Queue()
+    drain = threading.Thread(target=lambda: [bar.advance(n) for n in iter(queue.get, None)])
+    drain.start()
+    try:
+        yield queue
+    finally:
+        queue.put(None)
+        drain.join()
+        manager.shutdown()
+
+
+class _DaskTopic:
+    """``put(n)`` from a task on a Dask worker: an event on the client's topic."""
+
+    def __init__(self, topic: str):
+        self.topic = topic
+
+    def put(self, n: int) -> None:
+        from distributed import get_worker
+
+        get_worker().log_event(self.topic, n)
 
 
 def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,

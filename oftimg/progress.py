@@ -19,6 +19,15 @@ class Progress:
         """Whether the bar is drawn (not quiet, and stderr is a terminal)."""
         return not self._bar.disable
 
+    @property
+    def n(self) -> int:
+        """Items done so far."""
+        return self._bar.n
+
+    @property
+    def total(self) -> int:
+        return self._bar.total
+
     def note(self, text: str) -> None:
         """Show ``text`` after the bar."""
         self._bar.set_postfix_str(text)

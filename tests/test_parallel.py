@@ -79,8 +79,7 @@ class RecordingBar:
 def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
     """--parallel embryos: each dataset analysed whole in a worker (a local pool,
     then a Dask cluster) gives the serial run's arrays, summaries and files, its
-    warnings reach the caller, and the local bar counts the frames done in the
-    workers."""
+    warnings reach the caller, and the bar counts the frames done in the workers."""
     import json
     import warnings
 
@@ -121,6 +120,8 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
             dask = api.run(cohort, tmp_path / "dask", quiet=True, parallel="embryos",
                            scheduler=cluster.scheduler_address)
         runs["Dask cluster"] = (dask, dask_warnings)
+        bar = [b for b in RecordingBar.bars if b.desc == "2 datasets"][-1]
+        assert (bar.unit, bar.total, bar.n) == ("frame", 2 * (6 + 6), 2 * (6 + 6))
     ours = lambda caught: sorted({str(w.message) for w in caught  # noqa: E731
                                   if issubclass(w.category, OftimgWarning)})
     for how, (out, caught) in runs.items():

@@ -3,6 +3,8 @@ datasets a run has finished (for --resume), JSON, npz."""
 from __future__ import annotations
 
 import contextlib
+import functools
+import hashlib
 import json
 import os
 import shutil
@@ -64,6 +66,16 @@ def finished_folder(out: Path) -> Path:
     return out.parent / f".{out.name}.finished"
 
 
+@functools.cache
+def _source_digest() -> str:
+    """SHA-256 of oftimg's Python source files (~1 ms)."""
+    package = Path(__file__).parent
+    digest = hashlib.sha256()
+    for path in sorted(package.rglob("*.py")):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
 class Finished:
     """Each dataset's complete results, ``root/<name>/``, with ``root/<name>.json``
     recording the inputs, options and version they were made from and the summary."""
@@ -74,11 +86,13 @@ class Finished:
     @staticmethod
     def fingerprint(ds, opts, fps: float) -> dict:
         """What a dataset's results are made from: its input files (sizes and
-        modification times), the options, fps and oftimg version."""
+        modification times), the options, fps, and oftimg's version and source
+        (so that a development install's changed code is not taken for the same)."""
         files = [p for surface in ds.frames.values() for p in surface]
         files += [p for p in [ds.path / "meta.json"] if p.is_file()]
         stats = [(str(p), p.stat()) for p in files]
-        return {"oftimg_version": __version__, "options": opts.as_dict(), "fps": fps,
+        return {"oftimg_version": __version__, "oftimg_source": _source_digest(),
+                "options": opts.as_dict(), "fps": fps,
                 "inputs": [[p, st.st_size, st.st_mtime_ns] for p, st in stats]}
 
     def summary_if_current(self, name: str, fingerprint: dict) -> dict | None:

@@ -113,3 +113,26 @@ def test_by_embryo_the_datasets_running_when_one_fails_are_kept(tmp_path, monkey
     assert "the 2 datasets finished before this kept in" in failed.value.__notes__[0]
     assert Finished(finished_folder(out)).names() == ["e1", "e2"]
     assert not out.exists()
+
+
+def test_fingerprint_changes_with_inputs_options_and_code(tmp_path, monkeypatch):
+    from helpers import tube_mesh, write_series
+    from oftimg import export
+    from oftimg.io import load_dataset
+    from oftimg.pipeline import PipelineOptions
+
+    folder = write_series(tmp_path / "emb", [tube_mesh(0.2, 0.12, n_theta=16, n_s=6)] * 3)
+    (folder / "meta.json").write_text(json.dumps({"period_ms": 3.0}))
+    ds = load_dataset(folder)
+    base = Finished.fingerprint(ds, PipelineOptions(), 30.0)
+    assert Finished.fingerprint(load_dataset(folder), PipelineOptions(), 30.0) == base
+    assert Finished.fingerprint(ds, PipelineOptions(warp=True), 30.0) != base
+    assert Finished.fingerprint(ds, PipelineOptions(n_u=64), 30.0) != base
+    assert Finished.fingerprint(ds, PipelineOptions(), 25.0) != base
+    (folder / "meta.json").write_text(json.dumps({"period_ms": 3.5}))
+    assert Finished.fingerprint(ds, PipelineOptions(), 30.0) != base
+    (folder / "meta.json").write_text(json.dumps({"period_ms": 3.0}))
+    os.utime(folder / "meta.json", ns=(base["inputs"][-1][2],) * 2)
+    assert Finished.fingerprint(ds, PipelineOptions(), 30.0) == base
+    monkeypatch.setattr(export, "_source_digest", lambda: "changed code")
+    assert Finished.fingerprint(ds, PipelineOptions(), 30.0) != base

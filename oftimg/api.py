@@ -85,7 +85,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     written to a temporary folder and moved to ``out`` at the end; a failed
     run leaves ``out`` as it was. Each dataset's complete results are also
     kept in :func:`finished_folder` until the run succeeds; with ``resume``,
-    those whose inputs, options and oftimg version are unchanged are reused
+    those whose inputs, options and oftimg code are unchanged are reused
     (neither validated nor analysed again). Returns ``out``.
     """
     from .pipeline import PipelineOptions

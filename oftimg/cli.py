@@ -28,7 +28,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
     r.add_argument("--resume", action="store_true",
                    help="reuse the datasets a failed or interrupted run into the same --out "
-                        "finished (when their inputs, options and oftimg version are unchanged)")
+                        "finished (when their inputs, options and oftimg are unchanged)")
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.add_argument("--jobs", type=int, default=None,
                    help="worker processes (default: all cores)")

@@ -114,15 +114,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     try:
         executor = make_executor(jobs, scheduler) if todo else None
         with _closing(executor):
-            reports = {}
-            for ds in todo:
-                tick = time.time()
-                bar = Progress(ds.n_frames * len(ds.surfaces),
-                               f"{ds.meta.name}: checking meshes", quiet=quiet, unit="mesh")
-                reports[ds.meta.name] = validate_dataset(ds, executor=executor,
-                                                         progress=bar.advance)
-                bar.close()
-                reports[ds.meta.name]["seconds"] = round(time.time() - tick, 2)
+            reports = {ds.meta.name: _validated(ds, executor, quiet) for ds in todo}
             if parallel == "auto":
                 parallel = ("embryos" if executor is not None
                             and len(todo) >= 2 * _n_workers(executor) else "frames")
@@ -144,6 +136,19 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         raise
     finished.remove()
     return out
+
+
+def _validated(ds: Dataset, executor, quiet: bool) -> dict:
+    """:func:`validate_dataset` with a progress bar; the report records its seconds."""
+    tick = time.time()
+    bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
+                   quiet=quiet, unit="mesh")
+    try:
+        report = validate_dataset(ds, executor=executor, progress=bar.advance)
+    finally:
+        bar.close()
+    report["seconds"] = round(time.time() - tick, 2)
+    return report
 
 
 # what a run writes beside the datasets' folders (report, html, _write_run)

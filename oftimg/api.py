@@ -97,10 +97,20 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     check_output_location(out, paths, overwrite=overwrite)
     opts = PipelineOptions(**(options or {}))
     datasets = [load_dataset(p) for p in paths]
-    names = [d.meta.name for d in datasets]
     _check_names(datasets)
     started = time.time()
     finished = Finished(finished_folder(out))
+    with finished.locked(out):
+        return _run_locked(datasets, finished, out, paths, opts, resume=resume, jobs=jobs,
+                           scheduler=scheduler, parallel=parallel, overwrite=overwrite,
+                           quiet=quiet, fps=fps, started=started)
+
+
+def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs, scheduler,
+                parallel, overwrite, quiet, fps, started) -> Path:
+    """:func:`run` once it holds ``finished``: what to reuse, validation, the work,
+    the cohort outputs; on failure, the note on what is kept."""
+    names = [d.meta.name for d in datasets]
     fingerprints = {d.meta.name: finished.fingerprint(d, opts, fps) for d in datasets}
     reused = {}
     if resume:

@@ -136,6 +136,26 @@ class Finished:
     def remove(self) -> None:
         shutil.rmtree(self.root, ignore_errors=True)
 
+    @contextlib.contextmanager
+    def locked(self, out: Path):
+        """Hold the folder for one run (an advisory lock, released when the process
+        ends, however it ends): a second run into the same ``out`` stops at once
+        instead of writing over this one's datasets."""
+        try:
+            import fcntl
+        except ImportError:  # not POSIX: no lock
+            yield
+            return
+        self.root.mkdir(parents=True, exist_ok=True)
+        with open(self.root / ".lock", "w") as fh:
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                raise FileExistsError(f"--out {out}: another oftimg run is writing its results "
+                                      f"(it holds {self.root / '.lock'}); wait for it to end or "
+                                      "choose another --out") from None
+            yield
+
 
 def jsonable(obj, *, keep_nan: bool = False):
     """``obj`` with NumPy scalars and arrays as Python numbers and lists, paths as

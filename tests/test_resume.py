@@ -136,3 +136,22 @@ def test_fingerprint_changes_with_inputs_options_and_code(tmp_path, monkeypatch)
     assert Finished.fingerprint(ds, PipelineOptions(), 30.0) == base
     monkeypatch.setattr(export, "_source_digest", lambda: "changed code")
     assert Finished.fingerprint(ds, PipelineOptions(), 30.0) != base
+
+
+def test_a_second_run_into_the_same_out_stops_at_once(tmp_path, capsys):
+    import fcntl
+
+    from helpers import tube_mesh, write_series
+
+    folder = write_series(tmp_path / "emb", [tube_mesh(0.2, 0.12, n_theta=16, n_s=6)] * 3)
+    (folder / "meta.json").write_text(json.dumps({"period_ms": 3.0}))
+    out = tmp_path / "out"
+    kept = finished_folder(out)
+    kept.mkdir()
+    (kept / "emb.writing").mkdir()               # the other run's dataset in progress
+    with open(kept / ".lock", "w") as other_run:
+        fcntl.flock(other_run, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert main(["run", str(folder), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "another oftimg run is writing" in err and str(out) in err
+    assert (kept / "emb.writing").is_dir() and not out.exists()

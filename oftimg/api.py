@@ -191,21 +191,35 @@ def _n_workers(executor) -> int:
 def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: float,
                       quiet: bool = True, executor=None, progress=None) -> dict:
     """One validated dataset end to end: its results into ``folder`` (which
-    exists); returns its summary. ``progress``: see :func:`analyse_dataset`."""
+    exists); returns its summary. ``progress``: see :func:`analyse_dataset`;
+    without it, a bar over the frames that then names the stages still to come."""
     from .pipeline import analyse_dataset
     from .video import EARLY_VIDEOS, start_videos
 
+    bar = None
+    if progress is None:
+        bar = Progress(2 * ds.n_frames, ds.meta.name, quiet=quiet)
+        progress = bar.advance
     early = None
 
-    def start_early_videos(arrays, grids):  # the workers render while this process goes on
+    def aligned(arrays, grids):
         nonlocal early
-        early = start_videos(arrays, grids, fps=fps, executor=executor, kinds=EARLY_VIDEOS)
+        if bar is not None:
+            bar.note("fields, maps, shape modes")
+        if executor is not None:  # the workers render while this process goes on
+            early = start_videos(arrays, grids, fps=fps, executor=executor, kinds=EARLY_VIDEOS)
 
-    result = analyse_dataset(ds, opts, quiet=quiet, executor=executor, progress=progress,
-                             on_aligned=start_early_videos if executor is not None else None)
-    summary = result["summary"]
-    summary["validation"] = report
-    write_dataset_results(folder, result, fps=fps, executor=executor, early_videos=early)
+    try:
+        result = analyse_dataset(ds, opts, quiet=True, executor=executor, progress=progress,
+                                 on_aligned=aligned)
+        summary = result["summary"]
+        summary["validation"] = report
+        if bar is not None:
+            bar.note("figures, videos")
+        write_dataset_results(folder, result, fps=fps, executor=executor, early_videos=early)
+    finally:
+        if bar is not None:
+            bar.close()
     return summary
 
 

@@ -139,6 +139,18 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
         assert ours(caught) == ours(serial_warnings), how
 
 
+def test_one_dataset_bar_counts_frames_then_names_the_stages(tmp_path, monkeypatch):
+    from oftimg import api
+
+    path = write_phantom(tmp_path / "p", sample_params("normal", 3, n_frames=5,
+                                                       vertices_min=1500, vertices_max=1800))
+    monkeypatch.setattr(api, "Progress", RecordingBar)
+    api.run(path, tmp_path / "out", jobs=1)
+    bar, = [b for b in RecordingBar.bars if b.desc == "p"]
+    assert (bar.total, bar.n) == (10, 10)
+    assert bar.notes == ["fields, maps, shape modes", "figures, videos"]
+
+
 def test_parallel_mode_is_checked(tmp_path):
     from oftimg import api
 

@@ -1,5 +1,8 @@
-"""Analytic test shapes: meshes of cylinders, cones and elliptic tubes."""
+"""Analytic test shapes (meshes of cylinders, cones and elliptic tubes) and a
+worker pool that runs each task at once."""
 from __future__ import annotations
+
+import concurrent.futures
 
 import numpy as np
 
@@ -37,3 +40,15 @@ def write_series(folder, meshes, surface="outer"):
     for k, (V, F) in enumerate(meshes):
         write_ply(sub / f"f{k}.ply", V, F)
     return folder
+
+
+class InPlace(concurrent.futures.Executor):
+    """Runs each task when it is submitted (a worker pool whose tasks all start at once)."""
+
+    def submit(self, fn, *args, **kwargs):
+        fut = concurrent.futures.Future()
+        try:
+            fut.set_result(fn(*args, **kwargs))
+        except Exception as exc:
+            fut.set_exception(exc)
+        return fut

@@ -1,6 +1,11 @@
 """Worker processes give the same results as the serial run."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
+import threadpoolctl
+
+from helpers import InPlace
 
 from oftimg.api import make_executor
 from oftimg.io import load_dataset, read_mesh_file, write_ply
@@ -149,6 +154,28 @@ def test_one_dataset_bar_counts_frames_then_names_the_stages(tmp_path, monkeypat
     bar, = [b for b in RecordingBar.bars if b.desc == "p"]
     assert (bar.total, bar.n) == (10, 10)
     assert bar.notes == ["fields, maps, shape modes", "figures, videos"]
+
+
+def test_this_process_runs_one_blas_thread_while_its_workers_run(tmp_path, monkeypatch):
+    from oftimg import api, pipeline
+
+    def blas_threads():
+        return {p["num_threads"] for p in threadpoolctl.threadpool_info()   # numpy's, scipy's
+                if p["user_api"] == "blas"}
+
+    seen = []
+    monkeypatch.setattr(pipeline, "analyse_dataset",
+                        lambda *a, **k: seen.append(blas_threads()) or {"summary": {}})
+    monkeypatch.setattr(api, "write_dataset_results", lambda *a, **k: seen.append(blas_threads()))
+    ds = SimpleNamespace(n_frames=3, meta=SimpleNamespace(name="x"))
+    with threadpoolctl.threadpool_limits(limits=2, user_api="blas"):
+        if blas_threads() != {2}:
+            pytest.skip(f"numpy's BLAS cannot be set to 2 threads here ({blas_threads()})")
+        api.analyse_and_write(ds, {}, tmp_path, None, fps=30.0, executor=InPlace())
+        assert seen == [{1}, {1}]                   # the analysis and the figures
+        assert blas_threads() == {2}                # given back afterwards
+        api.analyse_and_write(ds, {}, tmp_path, None, fps=30.0)  # no workers: all threads
+        assert seen[2:] == [{2}, {2}]
 
 
 def test_parallel_mode_is_checked(tmp_path):

@@ -1,11 +1,11 @@
 """A failed cohort run keeps its finished datasets; --resume reuses them."""
-import concurrent.futures
 import json
 import os
 
 import numpy as np
 import pytest
 
+from helpers import InPlace
 from oftimg import api
 from oftimg.cli import main
 from oftimg.export import Finished, finished_folder
@@ -78,18 +78,6 @@ def test_failed_run_keeps_finished_datasets_and_resume_reuses_them(tmp_path, mon
             assert a == b, name
         elif not name.endswith(("run.json", "index.html", ".mp4", ".png")):
             assert (fresh / name).read_bytes() == (out / name).read_bytes(), name
-
-
-class InPlace(concurrent.futures.Executor):
-    """Runs each task when it is submitted (a worker pool whose tasks all start at once)."""
-
-    def submit(self, fn, *args, **kwargs):
-        fut = concurrent.futures.Future()
-        try:
-            fut.set_result(fn(*args, **kwargs))
-        except Exception as exc:
-            fut.set_exception(exc)
-        return fut
 
 
 def test_by_embryo_the_datasets_running_when_one_fails_are_kept(tmp_path, monkeypatch):

@@ -2,7 +2,10 @@
 from __future__ import annotations
 
 import csv
+from functools import lru_cache
 from pathlib import Path
+
+import numpy as np
 
 # (column header with unit, summary key path)
 COHORT_COLUMNS = [
@@ -82,32 +85,36 @@ def permutation_test(a, b, *, n_random: int = 20000, seed: int = 0) -> float:
     Exact (every relabelling) when both groups have at most 10 members, else
     ``n_random`` random relabellings. NaN values are left out.
     """
-    from itertools import combinations
-
-    import numpy as np
-
     a = np.asarray([x for x in a if x == x], float)
     b = np.asarray([x for x in b if x == x], float)
     if len(a) < 2 or len(b) < 2:
         return float("nan")
     pooled = np.concatenate([a, b])
     observed = abs(a.mean() - b.mean())
-    n = len(a)
+    n, m = len(a), len(b)
     tol = 1e-12 * max(1.0, abs(observed))
-    if len(a) <= 10 and len(b) <= 10:
-        total = pooled.sum()
-        diffs = []
-        for idx in combinations(range(len(pooled)), n):
-            s = pooled[list(idx)].sum()
-            diffs.append(abs(s / n - (total - s) / len(b)))
-        diffs = np.asarray(diffs)
-        return float(np.mean(diffs >= observed - tol))
+    total = pooled.sum()
+    if n <= 10 and m <= 10:
+        sums = pooled[_subsets(n + m, n)].sum(axis=1)
+        return float(np.mean(np.abs(sums / n - (total - sums) / m) >= observed - tol))
     rng = np.random.default_rng(seed)
     count = 0
-    for _ in range(n_random):
-        p = rng.permutation(pooled)
-        count += abs(p[:n].mean() - p[n:].mean()) >= observed - tol
+    for start in range(0, n_random, 2000):  # 2000 relabellings at a time: bounded memory
+        rows = min(2000, n_random - start)
+        first = np.argsort(rng.random((rows, n + m)), axis=1)[:, :n]  # a random n-subset
+        sums = pooled[first].sum(axis=1)
+        count += int(np.count_nonzero(np.abs(sums / n - (total - sums) / m) >= observed - tol))
     return float((count + 1) / (n_random + 1))
+
+
+@lru_cache(maxsize=8)
+def _subsets(size: int, k: int) -> np.ndarray:
+    """Every k-subset of ``range(size)`` as rows, ``(C(size, k), k)`` int8 (at most
+    184756 x 10 for the exact test's 10 + 10)."""
+    from itertools import chain, combinations
+
+    flat = np.fromiter(chain.from_iterable(combinations(range(size), k)), dtype=np.int8)
+    return flat.reshape(-1, k)
 
 
 def group_comparison(summaries: list[dict]) -> list[dict]:
@@ -154,3 +161,26 @@ def write_groups_table(folder: Path, summaries: list[dict]) -> Path | None:
         writer.writeheader()
         writer.writerows(rows)
     return path
+
+
+def mean_curve(curves: list[tuple], x: np.ndarray, *, period: float | None = None,
+               min_share: float = 0.5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean, SD (ddof 1) and count of a group's curves ``[(x_k, y_k), ...]`` on the
+    common ``x``.
+
+    Each curve is interpolated linearly onto ``x``: NaN outside its own range
+    (a shorter tube has no value there), or periodically with ``period`` (a
+    cycle). Where fewer than ``min_share`` of the curves (and fewer than 2)
+    have a value, mean and SD are NaN. Returns three ``(len(x),)`` arrays.
+    """
+    Y = np.array([np.interp(x, xk, yk, period=period) if period is not None
+                  else np.interp(x, xk, yk, left=np.nan, right=np.nan)
+                  for xk, yk in curves])
+    count = np.isfinite(Y).sum(axis=0)
+    enough = count >= max(2, min_share * len(curves))
+    mean = np.full(len(x), np.nan)
+    sd = np.full(len(x), np.nan)
+    if enough.any():
+        mean[enough] = np.nanmean(Y[:, enough], axis=0)
+        sd[enough] = np.nanstd(Y[:, enough], axis=0, ddof=1)
+    return mean, sd, count

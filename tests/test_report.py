@@ -13,6 +13,24 @@ def test_exact_permutation_test():
     assert np.isnan(permutation_test([1.0], [2.0, 3.0]))
 
 
+def test_exact_permutation_test_of_10_against_10():
+    a, b = np.arange(10.0), np.arange(10.0) + 100
+    assert permutation_test(a, b) == pytest.approx(2 / 184756)   # of C(20, 10) relabellings
+
+
+def test_random_permutation_test_agrees_with_every_relabelling():
+    from itertools import combinations
+
+    rng = np.random.default_rng(1)
+    a, b = rng.normal(0, 1, 11), rng.normal(1.0, 1, 3)         # 11 > 10: random relabellings
+    pooled = np.concatenate([a, b])
+    observed = abs(a.mean() - b.mean())
+    exact = np.mean([abs(np.delete(pooled, list(i)).mean() - pooled[list(i)].mean()) >= observed
+                     for i in combinations(range(14), 3)])
+    assert 0.02 < exact < 0.5
+    assert permutation_test(a, b) == pytest.approx(exact, abs=0.01)  # 4 standard errors
+
+
 def test_random_permutation_test_for_large_groups():
     rng = np.random.default_rng(1)
     a, b = rng.normal(0, 1, 15), rng.normal(0, 1, 15) + 3

@@ -256,12 +256,45 @@ def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms:
 
 
 # ------------------------------------------------------------------ cohort figures
+GROUP_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
+NAMED_CURVES_MAX = 8  # a group with more embryos is drawn as thin lines with mean and SD
+
+
+def _group_curves(ax, curves: list[tuple], colour: str, x: np.ndarray, *,
+                  period: float | None = None, label: str = "") -> None:
+    """One group's curves ``[(name, x_k, y_k), ...]`` on ``ax``: each in its own colour
+    and named in the legend when there are few; else thin lines in the group's
+    colour, the mean on the common ``x`` in bold and a +-1 SD band
+    (:func:`oftimg.report.mean_curve`)."""
+    from .report import mean_curve
+
+    if len(curves) <= NAMED_CURVES_MAX:
+        for name, xk, yk in curves:
+            ax.plot(xk, yk, lw=1.4, label=f"{label} {name}".strip())
+        return
+    for _, xk, yk in curves:
+        ax.plot(xk, yk, lw=0.6, color=colour, alpha=0.25)
+    mean, sd, _ = mean_curve([(xk, yk) for _, xk, yk in curves], x, period=period)
+    ax.fill_between(x, mean - sd, mean + sd, color=colour, alpha=0.2, lw=0)
+    ax.plot(x, mean, color=colour, lw=2.2,
+            label=f"{label} mean ± SD (n = {len(curves)})".strip())
+
+
+def _common_position(curves: list[tuple]) -> np.ndarray:
+    """Positions (mm) for a group's mean: 0 to its longest tube, 100 steps."""
+    return np.linspace(0.0, max(float(np.nanmax(xk)) for _, xk, _ in curves), 100)
+
+
 def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Path]:
-    """Groups overlaid (normals left, banded right, as the paper): maximum area,
-    ridge time and % time expanded vs position, and volume over the aligned cycle.
+    """Groups side by side (normals left, banded right, as the paper): maximum area,
+    ridge time and % time expanded vs position, and volume over the aligned cycle
+    (groups overlaid). Up to :data:`NAMED_CURVES_MAX` embryos of a group are named
+    lines; a larger group shows its mean +- SD over thin lines.
     Reads each dataset's ``arrays.npz`` from ``results``."""
     groups = sorted({s["group"] for s in summaries}, key=lambda g: (g != "normal", g))
+    colours = dict(zip(groups, GROUP_COLOURS * len(groups)))
     data = {s["name"]: np.load(Path(results) / s["name"] / "arrays.npz") for s in summaries}
+    members = {g: [s for s in summaries if s["group"] == g] for g in groups}
     panels = [("max_area_outer_mm2", "maximum outer area (mm$^2$)", "group_max_area.png"),
               ("ridge_t_ms", "time of maximum area (ms)", "group_ridge_time.png"),
               ("expanded_fraction_sigma_outer", "time expanded, one sigma (% of cycle)",
@@ -271,12 +304,10 @@ def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Pa
         fig, axes = plt.subplots(1, len(groups), figsize=(4.5 * len(groups), 3.6), sharey=True,
                                  squeeze=False)
         for ax, g in zip(axes[0], groups):
-            for s in summaries:
-                if s["group"] != g:
-                    continue
-                a = data[s["name"]]
-                y = a[key] * (100 if "fraction" in key else 1)
-                ax.plot(a["s_mm"], y, lw=1.4, label=s["name"])
+            curves = [(s["name"], data[s["name"]]["s_mm"],
+                       data[s["name"]][key] * (100 if "fraction" in key else 1))
+                      for s in members[g]]
+            _group_curves(ax, curves, colours[g], _common_position(curves))
             ax.set_title(g, fontsize=10)
             ax.set_xlabel("position along the tube s (mm)")
             ax.grid(alpha=0.3)
@@ -284,15 +315,18 @@ def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Pa
         axes[0][0].set_ylabel(ylabel)
         written.append(_save(fig, folder / fname))
     fig, ax = plt.subplots(figsize=(6, 3.6))
-    colours = dict(zip(groups, ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")))
-    for s in summaries:
-        a = data[s["name"]]
-        v = a["volume_outer_mm3"]
-        ax.plot(a["t_ms"] / s["period_ms"], v / v.mean(), color=colours[s["group"]], lw=1.2,
-                label=s["group"])
-    handles, labels = ax.get_legend_handles_labels()
-    uniq = dict(zip(labels, handles))
-    ax.legend(uniq.values(), uniq.keys(), fontsize=8)
+    cycle = np.linspace(0.0, 1.0, 101)
+    for g in groups:
+        curves = []
+        for s in members[g]:
+            v = data[s["name"]]["volume_outer_mm3"]
+            curves.append((s["name"], data[s["name"]]["t_ms"] / s["period_ms"], v / v.mean()))
+        if len(curves) <= NAMED_CURVES_MAX:   # few: every embryo, coloured by its group
+            for k, (_, xk, yk) in enumerate(curves):
+                ax.plot(xk, yk, color=colours[g], lw=1.2, label=g if k == 0 else None)
+        else:
+            _group_curves(ax, curves, colours[g], cycle, period=1.0, label=g)
+    ax.legend(fontsize=8)
     ax.set_xlabel("fraction of the cycle since minimum volume")
     ax.set_ylabel("outer volume / its mean")
     ax.grid(alpha=0.3)
@@ -314,6 +348,9 @@ def _mode_arrows(ax, mean, disp, title):
     ax.quiver(mean[::step, 0], mean[::step, 1], disp[::step, 0], disp[::step, 1],
               np.linalg.norm(disp[::step], axis=1), cmap="viridis", angles="xy",
               scale_units="xy", scale=longest / (0.15 * size), width=0.012)
+    pad = 0.18 * size                       # the longest arrow is 0.15 size: inside the axes
+    ax.set_xlim(mean[:, 0].min() - pad, mean[:, 0].max() + pad)
+    ax.set_ylim(mean[:, 1].min() - pad, mean[:, 1].max() + pad)
     ax.set_aspect("equal")
     ax.set_xticks([])
     ax.set_yticks([])
@@ -331,7 +368,7 @@ def pca_groups_figure(results: Path, summaries: list[dict], path: Path, *,
         return None
     groups = sorted(firsts, key=lambda g: (g != "normal", g))
     n_rows = len(firsts[groups[0]]["pca"]["rows"])
-    fig, axes = plt.subplots(2, n_rows * len(groups), figsize=(2.3 * n_rows * len(groups), 5),
+    fig, axes = plt.subplots(2, n_rows * len(groups), figsize=(2.3 * n_rows * len(groups), 5.8),
                              squeeze=False)
     for gi, g in enumerate(groups):
         summ = firsts[g]

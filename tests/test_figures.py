@@ -74,3 +74,37 @@ def test_figure_matches_golden(name, tmp_path):
     diff = np.abs(new - old)
     assert diff.mean() < 3.0, f"mean difference {diff.mean():.2f} of 255"
     assert (diff.max(axis=-1) > 60).mean() < 0.02
+
+
+def test_group_figures_name_few_embryos_and_summarise_many(tmp_path, monkeypatch):
+    """A group of 12 is its mean +- SD (one legend entry); a group of 3, named lines."""
+    import warnings
+
+    import matplotlib.axes
+
+    rng = np.random.default_rng(0)
+    summaries = []
+    for group, n in (("normal", 12), ("banded", 3)):
+        for k in range(n):
+            name = f"{group}{k}"
+            s = np.linspace(0, 1.1 + 0.2 * rng.random(), 50)
+            t = np.arange(20) * 18.0
+            (tmp_path / name).mkdir()
+            np.savez(tmp_path / name / "arrays.npz", s_mm=s, t_ms=t,
+                     max_area_outer_mm2=0.1 + 0.01 * k + 0 * s, ridge_t_ms=100 + 80 * s,
+                     expanded_fraction_sigma_outer=0.4 + 0 * s,
+                     volume_outer_mm3=1 + 0.2 * np.sin(2 * np.pi * t / 360))
+            summaries.append({"name": name, "group": group, "period_ms": 360.0})
+    legends = []
+    real_legend = matplotlib.axes.Axes.legend
+    monkeypatch.setattr(matplotlib.axes.Axes, "legend", lambda ax, *a, **k: legends.append(
+        [t.get_text() for t in real_legend(ax, *a, **k).get_texts()]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")              # e.g. a legend too tall for tight_layout
+        paths = figures.group_figures(tmp_path, summaries, tmp_path)
+    assert sorted(p.name for p in paths) == ["group_max_area.png", "group_ridge_time.png",
+                                             "group_time_expanded.png", "group_volume.png"]
+    normal, banded = legends[0], legends[1]         # the maximum-area figure's two panels
+    assert normal == ["mean ± SD (n = 12)"]
+    assert banded == ["banded0", "banded1", "banded2"]
+    assert legends[-1] == ["normal mean ± SD (n = 12)", "banded"]   # the volume figure

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from oftimg.report import cohort_rows, group_comparison, permutation_test
+from oftimg.report import cohort_rows, group_comparison, mean_curve, permutation_test
 
 
 def test_exact_permutation_test():
@@ -49,3 +49,18 @@ def test_group_comparison_rows():
     assert rows["period_ms"]["p_value"] > 0.3
     assert rows["period_ms"]["normal_mean"] == pytest.approx(351.5)
     assert len(cohort_rows(summaries)) == 8
+
+
+def test_mean_curve_of_a_group_on_a_common_axis():
+    x = np.array([0.0, 0.5, 1.0, 1.5, 2.0])
+    long, short = (np.array([0.0, 1.0, 2.0]), np.array([0.0, 1.0, 2.0])), \
+        (np.array([0.0, 1.0]), np.array([2.0, 3.0]))            # y = x, y = x + 2 up to 1
+    mean, sd, count = mean_curve([long, short], x)
+    assert count.tolist() == [2, 2, 2, 1, 1]
+    assert np.allclose(mean[:3], x[:3] + 1) and np.isnan(mean[3:]).all()  # one curve: none
+    assert np.allclose(sd[:3], np.sqrt(2))                      # SD with ddof 1
+    mean, _, _ = mean_curve([long, short, long], x)             # 2 of 3 reach 1.5 and 2
+    assert np.allclose(mean, [2 / 3, 7 / 6, 5 / 3, 1.5, 2.0], equal_nan=True)
+    cycle, _, _ = mean_curve([(np.array([0.0, 0.5]), np.array([0.0, 1.0]))] * 2,
+                             np.array([0.25, 0.75]), period=1.0)
+    assert np.allclose(cycle, [0.5, 0.5])                       # 0.75 lies between 0.5 and 1 = 0

@@ -380,27 +380,35 @@ def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, st
     with staged_output(out, overwrite=overwrite) as tmp:
         for s in summaries:
             finished.copy_into(s["name"], tmp)
-        from .report import write_cohort_markdown, write_cohort_table, write_groups_table
-
-        from .figures import group_figures
-        from .html import cohort_page, dataset_page
-
-        write_cohort_table(tmp, summaries)
-        write_cohort_markdown(tmp, summaries)
-        write_groups_table(tmp, summaries)
-        group_figs = []
-        if len({s["group"] for s in summaries}) >= 2:
-            (tmp / "figures").mkdir()
-            group_figs = group_figures(tmp, summaries, tmp / "figures")
-        for s in summaries:
-            dataset_page(tmp / s["name"], s)
         run_info = {
             "oftimg_version": __version__, "python": sys.version.split()[0],
             "platform": platform.platform(), "inputs": [str(p) for p in paths],
             "options": opts.as_dict(), "seconds": round(time.time() - started, 2)}
-        write_json(tmp / "run.json", run_info)
-        cohort_page(tmp, summaries, run_info, group_figs)
+        write_cohort_outputs(tmp, summaries, run_info)
     return out
+
+
+def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) -> None:
+    """Cohort table (csv, md), group comparison, group figures (two groups or more),
+    every dataset's page and the cohort's, ``run.json`` (``run_info``), into
+    ``folder``, which holds each dataset's results in ``folder/<name>``."""
+    from .figures import group_figures
+    from .html import cohort_page, dataset_page
+    from .report import (group_comparison, write_cohort_markdown, write_cohort_table,
+                         write_groups_table)
+
+    write_cohort_table(folder, summaries)
+    write_cohort_markdown(folder, summaries)
+    comparison = group_comparison(summaries)
+    write_groups_table(folder, summaries, comparison)
+    group_figs = []
+    if len({s["group"] for s in summaries}) >= 2:
+        (folder / "figures").mkdir()
+        group_figs = group_figures(folder, summaries, folder / "figures")
+    for s in summaries:
+        dataset_page(folder / s["name"], s)
+    write_json(folder / "run.json", run_info)
+    cohort_page(folder, summaries, run_info, group_figs, comparison)
 
 
 class _closing:

@@ -114,9 +114,10 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     return path
 
 
-def cohort_page(out: Path, summaries: list[dict], run_info: dict,
-                group_figs: list[Path]) -> Path:
-    """``index.html``: cohort table, group comparison and figures, provenance."""
+def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: list[Path],
+                comparison: list[dict] | None = None) -> Path:
+    """``index.html``: cohort table, group comparison and figures, provenance;
+    ``comparison``: :func:`~oftimg.report.group_comparison` if already made."""
     cols = [c for c, _ in COHORT_COLUMNS]
     body = ["<h1>oftimg results</h1>",
             f"<p class=\"small\">{len(summaries)} datasets; oftimg "
@@ -124,7 +125,7 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict,
             f"{_fmt(run_info.get('seconds'))} s</p>",
             "<h2>Cohort (Table 1)</h2>",
             _table(cohort_rows(summaries), cols, link=lambda r: f"{r['name']}/index.html")]
-    comp = group_comparison(summaries)
+    comp = group_comparison(summaries) if comparison is None else comparison
     if comp and len({s["group"] for s in summaries}) >= 2:
         ccols = list(comp[0])
         body += ["<h2>Groups</h2><p class=\"small\">two-sided permutation test of the "

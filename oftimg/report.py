@@ -120,8 +120,6 @@ def _subsets(size: int, k: int) -> np.ndarray:
 def group_comparison(summaries: list[dict]) -> list[dict]:
     """Per numeric cohort metric: each group's n, mean, sd, and the permutation p-value
     (first two groups in name order)."""
-    import numpy as np
-
     rows = cohort_rows(summaries)
     groups = sorted({r["group"] for r in rows})
     out = []
@@ -149,9 +147,11 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
     return out
 
 
-def write_groups_table(folder: Path, summaries: list[dict]) -> Path | None:
-    """``groups.csv``: group means, sds and permutation p-values (two groups or more)."""
-    rows = group_comparison(summaries)
+def write_groups_table(folder: Path, summaries: list[dict],
+                       comparison: list[dict] | None = None) -> Path | None:
+    """``groups.csv``: group means, sds and permutation p-values (two groups or more);
+    ``comparison``: :func:`group_comparison` of ``summaries`` if already made."""
+    rows = group_comparison(summaries) if comparison is None else comparison
     if not rows or len({s["group"] for s in summaries}) < 2:
         return None
     path = Path(folder) / "groups.csv"

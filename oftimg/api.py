@@ -1,4 +1,4 @@
-"""The Python API behind the command line: run, demo, make_phantom.
+"""The Python API behind the command line: run, cohort, demo, make_phantom.
 
 File access happens here and in :mod:`oftimg.io` / :mod:`oftimg.export`; the
 science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
@@ -6,18 +6,22 @@ science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import os
 import platform
+import shutil
 import sys
 import time
 import uuid
+import warnings
 from pathlib import Path
 
 from . import __version__
-from .export import (Finished, check_output_location, finished_folder, staged_output,
-                     write_dataset_results, write_json)
-from .io import Dataset, find_datasets, load_dataset, validate_dataset
+from .export import (Finished, check_output_location, finished_folder, link_or_copy,
+                     staged_output, write_dataset_results, write_json)
+from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_dataset,
+                 natural_key, validate_dataset)
 from .phantom import sample_params, write_phantom
 from .progress import Progress
 
@@ -97,7 +101,8 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     check_output_location(out, paths, overwrite=overwrite)
     opts = PipelineOptions(**(options or {}))
     datasets = [load_dataset(p) for p in paths]
-    _check_names(datasets)
+    _check_names([(d.meta.name, d.path) for d in datasets],
+                 'set another "name" in its meta.json')
     started = time.time()
     finished = Finished(finished_folder(out))
     with finished.locked(out):
@@ -165,19 +170,19 @@ def _validated(ds: Dataset, executor, quiet: bool) -> dict:
 COHORT_OUTPUTS = ("cohort.csv", "cohort.md", "groups.csv", "figures", "index.html", "run.json")
 
 
-def _check_names(datasets: list[Dataset]) -> None:
-    """Each dataset's results go to ``out/<name>``: names must differ and must not
-    be those of the cohort's own outputs."""
+def _check_names(named: list[tuple[str, Path]], fix: str) -> None:
+    """Each dataset's results go to ``out/<name>``: the names of ``(name, folder)``
+    must differ and must not be those of the cohort's own outputs; ``fix`` says
+    how to rename one."""
     seen = {}
-    for ds in datasets:
-        name = ds.meta.name
+    for name, path in named:
         if name in COHORT_OUTPUTS:
-            raise ValueError(f"{ds.path}: the dataset name {name!r} is that of the cohort's "
-                             f"own {name} in --out; set another name in its meta.json")
+            raise ValueError(f"{path}: the dataset name {name!r} is that of the cohort's "
+                             f"own {name} in --out; {fix}")
         if name in seen:
-            raise ValueError(f"{seen[name]} and {ds.path} have the same dataset name {name!r} "
-                             "(their results would go to one folder); set \"name\" in meta.json")
-        seen[name] = ds.path
+            raise ValueError(f"{seen[name]} and {path} have the same dataset name {name!r} "
+                             f"(their results would go to one folder); {fix}")
+        seen[name] = path
 
 
 def _n_workers(executor) -> int:
@@ -245,7 +250,6 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
     a queue that gets a 1 for each frame of each per-frame pass, or None.
     """
     import tempfile
-    import warnings
 
     with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -266,7 +270,6 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
     started are cancelled, those running are still kept, then the error is raised.
     The bar counts the frames of the two per-frame passes done in all workers.
     """
-    import warnings
     from concurrent.futures import as_completed
 
     bar = Progress(2 * sum(ds.n_frames for ds in datasets), f"{len(datasets)} datasets",
@@ -380,12 +383,15 @@ def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, st
     with staged_output(out, overwrite=overwrite) as tmp:
         for s in summaries:
             finished.copy_into(s["name"], tmp)
-        run_info = {
-            "oftimg_version": __version__, "python": sys.version.split()[0],
-            "platform": platform.platform(), "inputs": [str(p) for p in paths],
-            "options": opts.as_dict(), "seconds": round(time.time() - started, 2)}
-        write_cohort_outputs(tmp, summaries, run_info)
+        write_cohort_outputs(tmp, summaries, _run_info(paths, opts.as_dict(), started))
     return out
+
+
+def _run_info(inputs: list[Path], options: dict, started: float) -> dict:
+    """What ``run.json`` records: oftimg, Python, platform, inputs, options, seconds."""
+    return {"oftimg_version": __version__, "python": sys.version.split()[0],
+            "platform": platform.platform(), "inputs": [str(p) for p in inputs],
+            "options": options, "seconds": round(time.time() - started, 2)}
 
 
 def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) -> None:
@@ -409,6 +415,93 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
         dataset_page(folder / s["name"], s)
     write_json(folder / "run.json", run_info)
     cohort_page(folder, summaries, run_info, group_figs, comparison)
+
+
+def cohort(sources, out, *, overwrite: bool = False) -> Path:
+    """Gather datasets analysed separately (say one cluster job each, ``oftimg run
+    embryo_k --out results/embryo_k``) into one cohort in ``out``, with the tables,
+    group comparison, figures and pages that :func:`run` writes for a cohort.
+
+    Each source is one dataset's results (a folder with ``summary.json``) or a
+    folder of them (a run's ``--out``). All must have been analysed with the
+    same options. Their files reach ``out`` by hard links where possible (or
+    copies); the sources are never written to. Returns ``out``.
+    """
+    started = time.time()
+    out = Path(out)
+    pairs = sorted(((_read_results(f), f) for f in _result_folders(sources)),
+                   key=lambda sf: natural_key(sf[0]["name"]))     # as run orders a cohort
+    summaries, folders = [s for s, _ in pairs], [f for _, f in pairs]
+    _check_names([(s["name"], f) for s, f in zip(summaries, folders)],
+                 "analyse one again with another \"name\" in its meta.json")
+    check_output_location(out, folders, overwrite=overwrite)
+    options = summaries[0]["provenance"]["options"]
+    for s, f in zip(summaries[1:], folders[1:]):
+        a, b = _flat(options), _flat(s["provenance"]["options"])
+        differ = [f"{k} {a.get(k)} and {b.get(k)}" for k in sorted(set(a) | set(b))
+                  if a.get(k) != b.get(k)]
+        if differ:
+            raise ValueError(f"{folders[0]} and {f} were analysed with different options "
+                             f"({'; '.join(differ)}): a cohort compares like with like; "
+                             "analyse them again with the same options")
+    versions = {s["provenance"]["oftimg_version"] for s in summaries}
+    if len(versions) > 1:
+        warnings.warn(f"the datasets were analysed by different oftimg versions "
+                      f"({', '.join(sorted(versions))})", OftimgWarning, stacklevel=2)
+    with staged_output(out, overwrite=overwrite) as tmp:
+        for s, folder in zip(summaries, folders):
+            # the dataset's page is written anew (a hard link would be written through)
+            shutil.copytree(folder, tmp / s["name"], copy_function=link_or_copy,
+                            ignore=lambda d, names, top=folder: (
+                                ["index.html"] if Path(d) == top else []))
+        write_cohort_outputs(tmp, summaries, _run_info(folders, options, started))
+    return out
+
+
+def _flat(options: dict, prefix: str = "") -> dict:
+    """``{"grid": {"n_u": 80}}`` -> ``{"grid.n_u": 80}``."""
+    out = {}
+    for key, value in options.items():
+        if isinstance(value, dict):
+            out.update(_flat(value, f"{prefix}{key}."))
+        else:
+            out[prefix + key] = value
+    return out
+
+
+def _result_folders(sources) -> list[Path]:
+    """Every dataset results folder (with summary.json) among ``sources``: each one
+    such folder, or a folder of them."""
+    folders = []
+    for src in [sources] if isinstance(sources, (str, Path)) else sources:
+        src = Path(src)
+        if (src / "summary.json").is_file():
+            folders.append(src)
+            continue
+        subs = sorted((p for p in src.iterdir() if (p / "summary.json").is_file()),
+                      key=lambda p: natural_key(p.name)) if src.is_dir() else []
+        if not subs:
+            raise DatasetError(f"{src}: neither one dataset's results (no summary.json) nor "
+                               "a folder of them (an oftimg run's --out)")
+        folders += subs
+    return folders
+
+
+def _read_results(folder: Path) -> dict:
+    """A dataset results folder's summary, checked to be oftimg's, with its arrays."""
+    path = folder / "summary.json"
+    try:
+        summary = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise DatasetError(f"{path}: cannot be read as JSON ({exc})") from None
+    provenance = summary.get("provenance") if isinstance(summary, dict) else None
+    if (not isinstance(provenance, dict) or not {"name", "group"} <= set(summary)
+            or not {"options", "oftimg_version"} <= set(provenance)):
+        raise DatasetError(f"{path}: not an oftimg dataset summary (no name, group, or "
+                           "options and version in its provenance)")
+    if not (folder / "arrays.npz").is_file():
+        raise DatasetError(f"{folder}: has no arrays.npz (the cohort's figures need it)")
+    return summary
 
 
 class _closing:

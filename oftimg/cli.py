@@ -51,6 +51,14 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--warp", action="store_true",
                    help="resample time in two segments so maximum expansion is at mid-cycle")
 
+    c = sub.add_parser("cohort", help="gather datasets analysed separately (e.g. one cluster "
+                                      "job each) into one cohort with its tables and report")
+    c.add_argument("results", type=Path, nargs="+",
+                   help="one dataset's results (a folder with summary.json) or a folder of "
+                        "them (a run's --out)")
+    c.add_argument("--out", type=Path, required=True, help="cohort folder (created)")
+    c.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
+
     d = sub.add_parser("demo", help="make the built-in phantom cohort and process it")
     d.add_argument("--out", type=Path, default=Path("oftimg-demo"), help="results folder")
     d.add_argument("--full", action="store_true", help="4 normal + 4 banded, 195 frames")
@@ -126,6 +134,9 @@ def main(argv: list[str] | None = None) -> int:
                           jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                           parallel=args.parallel, resume=args.resume)
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
+        elif args.command == "cohort":
+            out = api.cohort(args.results, args.out, overwrite=args.overwrite)
+            print(f"cohort: {out}\ncohort table: {out / 'cohort.csv'}")
         elif args.command == "demo":
             out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
                            jobs=args.jobs)

@@ -59,6 +59,16 @@ def staged_output(out: str | Path, *, overwrite: bool = False):
         tmp.rename(out)
 
 
+def link_or_copy(src, dst) -> None:
+    """A hard link ``dst`` to ``src``, or a copy where links fail (another file
+    system); for ``shutil.copytree(copy_function=...)``. Writing to ``dst`` in
+    place then writes ``src`` too: replace such files, never rewrite them."""
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
+
+
 def finished_folder(out: Path) -> Path:
     """Where a run keeps each dataset's complete results until it succeeds
     (beside ``out``, hidden): what ``resume`` reuses."""
@@ -126,11 +136,6 @@ class Finished:
 
     def copy_into(self, name: str, folder: Path) -> None:
         """``name``'s kept results into ``folder/<name>`` (hard links where possible)."""
-        def link_or_copy(src, dst):
-            try:
-                os.link(src, dst)
-            except OSError:
-                shutil.copy2(src, dst)
         shutil.copytree(self.root / name, folder / name, copy_function=link_or_copy)
 
     def remove(self) -> None:

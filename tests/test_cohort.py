@@ -1,0 +1,93 @@
+"""`oftimg cohort`: datasets analysed separately (one cluster job each) gathered into
+one cohort equal to a run over all of them, without writing to the sources."""
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from oftimg import api
+from oftimg.cli import main
+from oftimg.io import DatasetError
+from oftimg.phantom import sample_params, write_phantom
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """A joint run of n0, n1 (normal) and b0 (banded); n0 alone; n1 and b0 together."""
+    root = tmp_path_factory.mktemp("cohort")
+    for name, group, seed in (("n0", "normal", 0), ("n1", "normal", 1), ("b0", "banded", 2)):
+        write_phantom(root / "all" / name, sample_params(
+            group, seed, n_frames=5, vertices_min=1500, vertices_max=1800), name=name)
+    (root / "rest").mkdir()
+    for name in ("n1", "b0"):
+        (root / "rest" / name).symlink_to(root / "all" / name, target_is_directory=True)
+    for source, out in (("all", "joint"), ("all/n0", "alone"), ("rest", "together")):
+        assert main(["run", str(root / source), "--out", str(root / out), "--quiet",
+                     "--jobs", "1"]) == 0
+    return root
+
+
+def test_separate_runs_gathered_equal_one_run(runs, tmp_path):
+    source_page = runs / "alone" / "n0" / "index.html"
+    before = source_page.read_bytes()
+    out = tmp_path / "cohort"
+    assert main(["cohort", str(runs / "alone" / "n0"), str(runs / "together"),
+                 "--out", str(out)]) == 0
+    for table in ("cohort.csv", "cohort.md", "groups.csv"):
+        assert (out / table).read_text() == (runs / "joint" / table).read_text(), table
+    for name in ("b0", "n0", "n1"):
+        a, b = np.load(out / name / "arrays.npz"), np.load(runs / "joint" / name / "arrays.npz")
+        assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a.files), name
+        assert (out / name / "index.html").is_file()
+    assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
+        p.name for p in (runs / "joint" / "figures").iterdir())
+    assert "n0/index.html" in (out / "index.html").read_text()
+    run_info = json.loads((out / "run.json").read_text())
+    assert run_info["inputs"] == [str(runs / "together" / "b0"), str(runs / "alone" / "n0"),
+                                  str(runs / "together" / "n1")]
+    # the sources are untouched: the page is a new file, the rest hard links
+    assert source_page.read_bytes() == before
+    assert (out / "n0" / "index.html").stat().st_ino != source_page.stat().st_ino
+    assert (out / "n0" / "arrays.npz").stat().st_ino == \
+        (runs / "alone" / "n0" / "arrays.npz").stat().st_ino
+
+
+def test_cohort_refuses_what_cannot_be_compared(runs, tmp_path):
+    other = tmp_path / "other"
+    shutil.copytree(runs / "alone" / "n0", other / "n0")
+    summary = json.loads((other / "n0" / "summary.json").read_text())
+    summary["provenance"]["options"]["grid"]["n_u"] = 60
+    (other / "n0" / "summary.json").write_text(json.dumps(summary))
+    with pytest.raises(ValueError, match=r"different options \(grid.n_u 80 and 60\)") as err:
+        api.cohort([runs / "together", other / "n0"], tmp_path / "out")
+    assert str(other / "n0") in str(err.value) and str(runs / "together" / "b0") in str(err.value)
+    with pytest.raises(ValueError, match="same dataset name 'n0'"):
+        api.cohort([runs / "alone", runs / "joint"], tmp_path / "out")
+    (other / "n0" / "arrays.npz").unlink()
+    with pytest.raises(DatasetError, match="has no arrays.npz"):
+        api.cohort([other], tmp_path / "out")
+    (other / "n0" / "summary.json").write_text("{")
+    with pytest.raises(DatasetError, match="cannot be read as JSON"):
+        api.cohort([other], tmp_path / "out")
+    with pytest.raises(DatasetError, match="neither one dataset's results"):
+        api.cohort([tmp_path], tmp_path / "out")
+    with pytest.raises(ValueError, match="inside the input"):
+        api.cohort([runs / "together"], runs / "together" / "b0" / "merged")
+    assert main(["cohort", str(tmp_path / "nothing"), "--out", str(tmp_path / "out")]) == 2
+    assert not (tmp_path / "out").exists()
+
+
+def test_cohort_of_several_oftimg_versions_warns(runs, tmp_path):
+    from oftimg.io import OftimgWarning
+
+    old = tmp_path / "old"
+    shutil.copytree(runs / "together", old)
+    summary = json.loads((old / "b0" / "summary.json").read_text())
+    summary["provenance"]["oftimg_version"] = "0.0.9"
+    (old / "b0" / "summary.json").write_text(json.dumps(summary))
+    with pytest.warns(OftimgWarning, match=r"different oftimg versions \(0.0.9, "):
+        api.cohort([old, runs / "alone"], tmp_path / "out")
+    assert (tmp_path / "out" / "groups.csv").is_file()

@@ -293,12 +293,16 @@ def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Pa
     Reads each dataset's ``arrays.npz`` from ``results``."""
     groups = sorted({s["group"] for s in summaries}, key=lambda g: (g != "normal", g))
     colours = dict(zip(groups, GROUP_COLOURS * len(groups)))
-    data = {s["name"]: np.load(Path(results) / s["name"] / "arrays.npz") for s in summaries}
     members = {g: [s for s in summaries if s["group"] == g] for g in groups}
     panels = [("max_area_outer_mm2", "maximum outer area (mm$^2$)", "group_max_area.png"),
               ("ridge_t_ms", "time of maximum area (ms)", "group_ridge_time.png"),
               ("expanded_fraction_sigma_outer", "time expanded, one sigma (% of cycle)",
                "group_time_expanded.png")]
+    needed = ["s_mm", "t_ms", "volume_outer_mm3"] + [key for key, _, _ in panels]
+    data = {}
+    for s in summaries:  # read and closed: hundreds of open files would hit the OS limit
+        with np.load(Path(results) / s["name"] / "arrays.npz") as arrays:
+            data[s["name"]] = {key: arrays[key] for key in needed}
     written = []
     for key, ylabel, fname in panels:
         fig, axes = plt.subplots(1, len(groups), figsize=(4.5 * len(groups), 3.6), sharey=True,

@@ -76,25 +76,45 @@ def test_figure_matches_golden(name, tmp_path):
     assert (diff.max(axis=-1) > 60).mean() < 0.02
 
 
+def cohort_results(folder, sizes: dict) -> list[dict]:
+    """Results folders with the arrays the group figures read; their summaries."""
+    rng = np.random.default_rng(0)
+    summaries = []
+    for group, n in sizes.items():
+        for k in range(n):
+            name = f"{group}{k}"
+            s = np.linspace(0, 1.1 + 0.2 * rng.random(), 50)
+            t = np.arange(20) * 18.0
+            (folder / name).mkdir()
+            np.savez(folder / name / "arrays.npz", s_mm=s, t_ms=t,
+                     max_area_outer_mm2=0.1 + 0.01 * k + 0 * s, ridge_t_ms=100 + 80 * s,
+                     expanded_fraction_sigma_outer=0.4 + 0 * s,
+                     volume_outer_mm3=1 + 0.2 * np.sin(2 * np.pi * t / 360))
+            summaries.append({"name": name, "group": group, "period_ms": 360.0})
+    return summaries
+
+
+def test_group_figures_of_more_embryos_than_open_files_allowed(tmp_path):
+    import resource
+
+    summaries = cohort_results(tmp_path, {"normal": 60, "banded": 60})
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    in_use = len(list(Path("/proc/self/fd").iterdir()))
+    resource.setrlimit(resource.RLIMIT_NOFILE, (in_use + 40, hard))    # fewer than 120
+    try:
+        paths = figures.group_figures(tmp_path, summaries, tmp_path)
+    finally:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+    assert len(paths) == 4
+
+
 def test_group_figures_name_few_embryos_and_summarise_many(tmp_path, monkeypatch):
     """A group of 12 is its mean +- SD (one legend entry); a group of 3, named lines."""
     import warnings
 
     import matplotlib.axes
 
-    rng = np.random.default_rng(0)
-    summaries = []
-    for group, n in (("normal", 12), ("banded", 3)):
-        for k in range(n):
-            name = f"{group}{k}"
-            s = np.linspace(0, 1.1 + 0.2 * rng.random(), 50)
-            t = np.arange(20) * 18.0
-            (tmp_path / name).mkdir()
-            np.savez(tmp_path / name / "arrays.npz", s_mm=s, t_ms=t,
-                     max_area_outer_mm2=0.1 + 0.01 * k + 0 * s, ridge_t_ms=100 + 80 * s,
-                     expanded_fraction_sigma_outer=0.4 + 0 * s,
-                     volume_outer_mm3=1 + 0.2 * np.sin(2 * np.pi * t / 360))
-            summaries.append({"name": name, "group": group, "period_ms": 360.0})
+    summaries = cohort_results(tmp_path, {"normal": 12, "banded": 3})
     legends = []
     real_legend = matplotlib.axes.Axes.legend
     monkeypatch.setattr(matplotlib.axes.Axes, "legend", lambda ax, *a, **k: legends.append(

@@ -147,8 +147,8 @@ def bench(path: Path, jobs: int) -> dict:
     target = total - stages["PCA"]                  # the targets exclude the PCA
     return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total,
             "total_without_pca_s": target, "read_only_s": read_s, "ratio": target / read_s,
-            "peak_mb": peak_mb(), "peak_all_processes_mb": tree.peak_mb, "cpu_s": cpu_s, "per_frame_work_s": per_frame,
-            "stages_s": stages}
+            "peak_mb": peak_mb(), "peak_all_processes_mb": tree.peak_mb, "cpu_s": cpu_s,
+            "per_frame_work_s": per_frame, "stages_s": stages}
 
 
 def print_table(r: dict) -> None:

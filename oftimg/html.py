@@ -129,9 +129,11 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
     if comp and len({s["group"] for s in summaries}) >= 2:
         ccols = list(comp[0])
         body += ["<h2>Groups</h2><p class=\"small\">two-sided permutation test of the "
-                 "difference of means (exact for up to 10 per group); p &lt; 0.05 shaded</p>",
-                 _table(comp, ccols, highlight=lambda r: r["p_value"] == r["p_value"]
-                        and r["p_value"] < 0.05)]
+                 "difference of means (exact for up to 10 per group), for each pair of groups; "
+                 "p_holm: Holm-adjusted over a metric's pairs (the same as p with two "
+                 "groups); p_holm &lt; 0.05 shaded</p>",
+                 _table(comp, ccols, highlight=lambda r: r["p_holm"] == r["p_holm"]
+                        and r["p_holm"] < 0.05)]
     if group_figs:
         body.append("<div class=\"grid\">")
         body += [f'<img src="{p.relative_to(out).as_posix()}" alt="{p.stem}">'

@@ -118,8 +118,12 @@ def _subsets(size: int, k: int) -> np.ndarray:
 
 
 def group_comparison(summaries: list[dict]) -> list[dict]:
-    """Per numeric cohort metric: each group's n, mean, sd, and the permutation p-value
-    (first two groups in name order)."""
+    """Per numeric cohort metric and pair of groups (in name order): each group's n,
+    mean and sd, the two-sided permutation p-value of the pair, and that p-value
+    Holm-adjusted over the metric's pairs (``p_holm``; the same with two groups).
+    With one group: its n, mean and sd, no p-values."""
+    from itertools import combinations
+
     rows = cohort_rows(summaries)
     groups = sorted({r["group"] for r in rows})
     out = []
@@ -134,17 +138,33 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
             values[g] = np.asarray(vals, float)
         if all(np.isnan(v).all() for v in values.values()):
             continue
-        row = {"metric": col}
+        stats = {"metric": col}
         for g in groups:
             v = values[g][np.isfinite(values[g])]
-            row[f"{g}_n"] = len(v)
-            row[f"{g}_mean"] = float(v.mean()) if len(v) else float("nan")
-            row[f"{g}_sd"] = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
-        row["p_value"] = (permutation_test(values[groups[0]], values[groups[1]])
-                          if len(groups) >= 2 else float("nan"))
-        row["groups"] = " vs ".join(groups[:2])
-        out.append(row)
+            stats[f"{g}_n"] = len(v)
+            stats[f"{g}_mean"] = float(v.mean()) if len(v) else float("nan")
+            stats[f"{g}_sd"] = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
+        pairs = list(combinations(groups, 2))
+        if not pairs:                                    # one group: its statistics alone
+            out.append({**stats, "p_value": float("nan"), "p_holm": float("nan"),
+                        "groups": groups[0]})
+        p = [permutation_test(values[a], values[b]) for a, b in pairs]
+        for (a, b), p_pair, p_adj in zip(pairs, p, holm(p)):
+            out.append({**stats, "p_value": p_pair, "p_holm": p_adj, "groups": f"{a} vs {b}"})
     return out
+
+
+def holm(p: list[float]) -> list[float]:
+    """Holm-Bonferroni adjusted p-values, in the order given; NaN stays NaN and
+    does not count as a test."""
+    p = np.asarray(p, float)
+    out = np.full(len(p), np.nan)
+    tested = np.nonzero(np.isfinite(p))[0]
+    order = tested[np.argsort(p[tested], kind="stable")]
+    m = len(order)
+    adjusted = np.maximum.accumulate((m - np.arange(m)) * p[order])
+    out[order] = np.minimum(adjusted, 1.0)
+    return out.tolist()
 
 
 def write_groups_table(folder: Path, summaries: list[dict],

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from oftimg.report import cohort_rows, group_comparison, mean_curve, permutation_test
+from oftimg.report import cohort_rows, group_comparison, holm, mean_curve, permutation_test
 
 
 def test_exact_permutation_test():
@@ -49,6 +49,26 @@ def test_group_comparison_rows():
     assert rows["period_ms"]["p_value"] > 0.3
     assert rows["period_ms"]["normal_mean"] == pytest.approx(351.5)
     assert len(cohort_rows(summaries)) == 8
+    assert rows["max_area_neck_depth"]["p_holm"] == rows["max_area_neck_depth"]["p_value"]
+    assert rows["period_ms"]["groups"] == "banded vs normal"
+
+
+def test_holm_adjusted_p_values():
+    assert holm([0.01, 0.04, 0.03]) == pytest.approx([0.03, 0.06, 0.06])
+    assert holm([0.6, 0.7]) == [1.0, 1.0]
+    adjusted = holm([float("nan"), 0.02])               # NaN is not a test
+    assert np.isnan(adjusted[0]) and adjusted[1] == pytest.approx(0.02)
+
+
+def test_every_pair_of_three_groups_is_compared():
+    summaries = [{"name": f"{g}{k}", "group": g, "period_ms": 350.0 + k + (30 if g == "c" else 0)}
+                 for g in "abc" for k in range(4)]
+    rows = {r["groups"]: r for r in group_comparison(summaries) if r["metric"] == "period_ms"}
+    assert sorted(rows) == ["a vs b", "a vs c", "b vs c"]
+    assert rows["a vs b"]["p_value"] == pytest.approx(1.0)
+    assert rows["a vs c"]["p_value"] == pytest.approx(2 / 70)   # complete separation, 4 vs 4
+    assert rows["a vs c"]["p_holm"] == pytest.approx(6 / 70)    # the smallest of 3, x 3
+    assert rows["a vs c"]["c_mean"] == pytest.approx(381.5)
 
 
 def test_mean_curve_of_a_group_on_a_common_axis():

@@ -450,10 +450,7 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
                       f"({', '.join(sorted(versions))})", OftimgWarning, stacklevel=2)
     with staged_output(out, overwrite=overwrite) as tmp:
         for s, folder in zip(summaries, folders):
-            # the dataset's page is written anew (a hard link would be written through)
-            shutil.copytree(folder, tmp / s["name"], copy_function=link_or_copy,
-                            ignore=lambda d, names, top=folder: (
-                                ["index.html"] if Path(d) == top else []))
+            shutil.copytree(folder, tmp / s["name"], copy_function=link_or_copy)
         write_cohort_outputs(tmp, summaries, _run_info(folders, options, started))
     return out
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import html
 import json
+import os
 from pathlib import Path
 
 from .report import COHORT_COLUMNS, cohort_rows, group_comparison
@@ -77,6 +78,15 @@ def _page(title: str, body: str) -> str:
             f"<body>{body}{CHECK}</body></html>")
 
 
+def _write_new(path: Path, text: str) -> None:
+    """Write ``path`` as a new file (then renamed over any old one): a page that is a
+    hard link into another results folder (:func:`oftimg.export.link_or_copy`) is
+    replaced, not written through."""
+    tmp = path.with_name(path.name + ".new")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
 def dataset_page(folder: Path, summary: dict) -> Path:
     """``<name>/index.html``: the numbers, every figure and every video of one dataset."""
     figs = sorted((folder / "figures").glob("*.png"))
@@ -110,7 +120,7 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                                           ("provenance", "timings_s")}, indent=1)[:20000])
                 + "</pre>")
     path = folder / "index.html"
-    path.write_text(_page(summary["name"], "".join(body)))
+    _write_new(path, _page(summary["name"], "".join(body)))
     return path
 
 
@@ -142,5 +152,5 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
     body.append("<h2>Run</h2><pre class=\"small\">"
                 + html.escape(json.dumps(run_info, indent=1)) + "</pre>")
     path = out / "index.html"
-    path.write_text(_page("oftimg results", "".join(body)))
+    _write_new(path, _page("oftimg results", "".join(body)))
     return path

@@ -156,7 +156,8 @@ class Tube:
 @dataclass(frozen=True)
 class Checked:
     """What the checks of :func:`load_tube` found for one unchanged, clean file:
-    read again, it needs no repair and at most a reversal of all faces."""
+    read again, it needs no repair and at most a reversal of all faces. The
+    loops are kept as int32 (a run keeps a record per mesh of every dataset)."""
 
     size: int
     mtime_ns: int
@@ -182,7 +183,8 @@ def load_tube(path: str | Path, *, unit_scale: float = 1.0,
         if st is not None and (st.st_size, st.st_mtime_ns) == (checked.size, checked.mtime_ns):
             V, F = read_mesh_file(path)
             return Tube(V=V * unit_scale, F=F[:, ::-1].copy() if checked.reverse else F,
-                        inlet=checked.inlet, outlet=checked.outlet, source=str(path))
+                        inlet=checked.inlet.astype(np.int64),
+                        outlet=checked.outlet.astype(np.int64), source=str(path))
     return check_tube_file(path, unit_scale=unit_scale, inlet_point=inlet_point)[0]
 
 
@@ -215,7 +217,8 @@ def check_tube_file(path: str | Path, *, unit_scale: float = 1.0,
     tube = Tube(V=V, F=topo.F, inlet=inlet, outlet=outlet, source=str(path))
     record = None
     if not counts and topo.flipped_faces in (0, len(F)) and st is not None:
-        record = Checked(st.st_size, st.st_mtime_ns, topo.flipped_faces == len(F), inlet, outlet)
+        record = Checked(st.st_size, st.st_mtime_ns, topo.flipped_faces == len(F),
+                         inlet.astype(np.int32), outlet.astype(np.int32))
     return tube, record
 
 

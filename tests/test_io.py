@@ -51,11 +51,13 @@ def test_validated_frames_are_read_again_without_the_checks_only_while_unchanged
         validate_dataset(ds)
     assert set(ds.checked) == {("outer", 0), ("outer", 1)}
     assert ds.checked["outer", 1].reverse and not ds.checked["outer", 0].reverse
+    assert ds.checked["outer", 0].inlet.dtype == np.int32          # kept small
     for t in range(2):
         full = load_tube(ds.frames["outer"][t], inlet_point=ds.inlet_mm)
         fast = ds.frame(t).tube("outer")
         for name in ("V", "F", "inlet", "outlet"):
             assert np.array_equal(getattr(full, name), getattr(fast, name))
+            assert getattr(full, name).dtype == getattr(fast, name).dtype
     # the file changes (now a broken mesh): the record no longer applies
     path = ds.frames["outer"][0]
     V, F = frames[0]

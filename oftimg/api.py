@@ -201,6 +201,7 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
     from .pipeline import analyse_dataset
     from .video import EARLY_VIDEOS, start_videos
 
+    started = time.perf_counter()
     bar = None
     if progress is None:
         bar = Progress(2 * ds.n_frames, ds.meta.name, quiet=quiet)
@@ -222,7 +223,8 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
             summary["validation"] = report
             if bar is not None:
                 bar.note("figures, videos")
-            write_dataset_results(folder, result, fps=fps, executor=executor, early_videos=early)
+            write_dataset_results(folder, result, fps=fps, executor=executor, early_videos=early,
+                                  started=started)
     finally:
         if bar is not None:
             bar.close()
@@ -451,8 +453,20 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
     with staged_output(out, overwrite=overwrite) as tmp:
         for s, folder in zip(summaries, folders):
             shutil.copytree(folder, tmp / s["name"], copy_function=link_or_copy)
-        write_cohort_outputs(tmp, summaries, _run_info(folders, options, started))
+        run_info = _run_info(folders, options, started)
+        run_info["datasets_seconds"] = _datasets_seconds(summaries)
+        write_cohort_outputs(tmp, summaries, run_info)
     return out
+
+
+def _datasets_seconds(summaries: list[dict]) -> float | None:
+    """Seconds the datasets' own runs took (validation, analysis, writing), summed;
+    None when a summary does not record them (written by an older oftimg)."""
+    try:
+        return round(sum(s["validation"]["seconds"] + s["timings_s"]["total_s"]
+                         for s in summaries), 2)
+    except (KeyError, TypeError):
+        return None
 
 
 def _flat(options: dict, prefix: str = "") -> dict:

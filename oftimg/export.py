@@ -308,10 +308,13 @@ def describe_pca(name: str) -> dict:
 
 
 def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
-                          executor=None, early_videos: list | None = None) -> None:
+                          executor=None, early_videos: list | None = None,
+                          started: float | None = None) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/
     (rendered in ``executor``'s workers when one is given). ``early_videos``: the
-    :data:`~oftimg.video.EARLY_VIDEOS` already started (:func:`oftimg.video.start_videos`)."""
+    :data:`~oftimg.video.EARLY_VIDEOS` already started (:func:`oftimg.video.start_videos`).
+    ``started``: the ``time.perf_counter()`` at which the analysis began; the summary's
+    ``timings_s.total_s`` then holds the seconds of analysis and writing."""
     import time
 
     from .figures import dataset_figures
@@ -351,4 +354,6 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
     tick = time.perf_counter()
     save_videos(folder / "videos", videos)
     timings["videos_s"] += time.perf_counter() - tick
+    if started is not None:
+        timings["total_s"] = time.perf_counter() - started
     write_json(folder / "summary.json", result["summary"])

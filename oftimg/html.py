@@ -132,7 +132,9 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
     body = ["<h1>oftimg results</h1>",
             f"<p class=\"small\">{len(summaries)} datasets; oftimg "
             f"{html.escape(str(run_info.get('oftimg_version')))}, "
-            f"{_fmt(run_info.get('seconds'))} s</p>",
+            f"{_fmt(run_info.get('seconds'))} s"
+            + (f" (gathered; the datasets' own runs took {_fmt(run_info['datasets_seconds'])} s)"
+               if run_info.get("datasets_seconds") is not None else "") + "</p>",
             "<h2>Cohort (Table 1)</h2>",
             _table(cohort_rows(summaries), cols, link=lambda r: f"{r['name']}/index.html")]
     comp = group_comparison(summaries) if comparison is None else comparison

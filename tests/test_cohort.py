@@ -2,6 +2,7 @@
 one cohort equal to a run over all of them, without writing to the sources."""
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -48,6 +49,14 @@ def test_separate_runs_gathered_equal_one_run(runs, tmp_path):
     run_info = json.loads((out / "run.json").read_text())
     assert run_info["inputs"] == [str(runs / "together" / "b0"), str(runs / "alone" / "n0"),
                                   str(runs / "together" / "n1")]
+    # run.json's seconds are the gathering's; the datasets' own runs are summed apart
+    own = [json.loads((Path(p) / "summary.json").read_text()) for p in run_info["inputs"]]
+    assert all(s["timings_s"]["total_s"] > s["timings_s"]["frames_s"] > 0 for s in own)
+    assert run_info["datasets_seconds"] == pytest.approx(
+        sum(s["validation"]["seconds"] + s["timings_s"]["total_s"] for s in own), abs=0.01)
+    assert "the datasets' own runs took" in (out / "index.html").read_text()
+    del own[0]["timings_s"]["total_s"]                    # a summary of an older oftimg
+    assert api._datasets_seconds(own) is None
     # the sources are untouched: the page is a new file, the rest hard links
     assert source_page.read_bytes() == before
     assert (out / "n0" / "index.html").stat().st_ino != source_page.stat().st_ino

@@ -9,12 +9,13 @@ Generates (or reuses, in --cache) a phantom of 3 walls, runs the whole pipeline
 seconds summed over the workers, scaled to wall time), the time merely to read
 all meshes (the floor no pipeline can beat: the median of 3 passes, so that the
 mesh reader's one-off import, ~1 s, is not counted) and total / read-only, where
-the total leaves out the PCA, as the targets do. It also prints the CPU seconds of all
-processes (this one, the workers, the video encoders): wall time cannot fall below
-them divided by the cores; and the peak memory of the largest process and of all
-of them together. The sweep fits exponents to the
-total and to the per-frame work alone (validation, seam end points, per-frame
-stages), without the fixed costs (figures, videos, start-up).
+the total leaves out the PCA, as the targets do. It also prints the CPU seconds
+of all processes (this one, the workers, the video encoders): wall time cannot
+fall below them divided by the cores; the CPU milliseconds per frame of the
+per-frame pass (all walls); and the peak memory of the largest process and of
+all of them together. The sweep fits exponents to the total and to the
+per-frame work alone (validation, seam end points, per-frame stages), without
+the fixed costs (figures, videos, start-up).
 Targets (issue 9): 195 frames x 3 walls x 5.5k vertices in < 60 s with 2 jobs,
 < 25 x the read-only time, peak memory < 2 GB.
 """
@@ -148,7 +149,8 @@ def bench(path: Path, jobs: int) -> dict:
     return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total,
             "total_without_pca_s": target, "read_only_s": read_s, "ratio": target / read_s,
             "peak_mb": peak_mb(), "peak_all_processes_mb": tree.peak_mb, "cpu_s": cpu_s,
-            "per_frame_work_s": per_frame, "stages_s": stages}
+            "per_frame_work_s": per_frame,
+            "frame_cpu_ms": 1e3 * sum(cpu.values()) / summary["n_frames"], "stages_s": stages}
 
 
 def print_table(r: dict) -> None:
@@ -160,7 +162,8 @@ def print_table(r: dict) -> None:
         print(f"peak memory of all processes together {r['peak_all_processes_mb']:.0f} MB "
               "(PSS, sampled every 0.25 s)")
     print(f"CPU {r['cpu_s']:.1f} s in all processes: {r['cpu_s'] / r['total_s']:.2f} cores busy "
-          f"on average (of {r['jobs']} jobs)")
+          f"on average (of {r['jobs']} jobs); the per-frame pass (all walls of a frame: grids, "
+          f"sections, volumes, curvature) {r['frame_cpu_ms']:.0f} ms CPU per frame")
     for k, v in r["stages_s"].items():
         print(f"  {k:28s} {v:7.2f} s  {100 * v / r['total_s']:5.1f} %")
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
-import os
 import platform
 import shutil
 import sys
@@ -24,6 +23,7 @@ from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_datas
                  natural_key, validate_dataset)
 from .phantom import sample_params, write_phantom
 from .progress import Progress
+from .workers import closing_executor, make_executor
 
 log = logging.getLogger("oftimg")
 
@@ -32,45 +32,6 @@ def _as_dataset_paths(source) -> list[Path]:
     if isinstance(source, Dataset):
         return [source.path]
     return find_datasets(source)
-
-
-def make_executor(jobs: int | None, scheduler: str | None = None):
-    """Where per-frame tasks run: a Dask cluster at ``scheduler`` (address), a
-    process pool for ``jobs`` > 1 workers (default: all cores), else None (here).
-
-    With a Dask cluster, every worker must see the dataset files at the same
-    paths (a shared file system).
-    """
-    if scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise ValueError("--scheduler needs dask.distributed: pip install 'oftimg[dask]'") \
-                from None
-        return Client(scheduler).get_executor()
-    jobs = (os.cpu_count() or 1) if jobs is None else int(jobs)
-    if jobs < 1:
-        raise ValueError(f"--jobs must be at least 1, found {jobs}")
-    if jobs == 1:
-        return None
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-
-    # One thread per worker: the workers already fill the cores, and BLAS or
-    # OpenMP threads on top of them made the per-frame sections 1.9x slower
-    # (49 frames, 2 jobs). Spawned workers inherit this environment; the user's
-    # own setting wins.
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
-    # glibc's malloc hands every array over 128 kB back to the system when it is
-    # freed, so the next one costs page faults (~1400 per frame, 4-7 ms of system
-    # time); with these two limits a worker reuses its memory: 8-14 % less time
-    # per frame. Both are needed (either alone turns off the adaptive limit and is
-    # slower); other C libraries ignore them.
-    os.environ.setdefault("MALLOC_MMAP_THRESHOLD_", str(32 * 2 ** 20))   # glibc's maximum
-    os.environ.setdefault("MALLOC_TRIM_THRESHOLD_", str(64 * 2 ** 20))
-    # spawn: open3d and BLAS threads do not survive fork reliably
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
 
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
@@ -128,7 +89,7 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
     todo = [d for d in datasets if d.meta.name not in reused]
     try:
         executor = make_executor(jobs, scheduler) if todo else None
-        with _closing(executor):
+        with closing_executor(executor):
             reports = {ds.meta.name: _validated(ds, executor, quiet) for ds in todo}
             if parallel == "auto":
                 parallel = ("embryos" if executor is not None
@@ -513,22 +474,6 @@ def _read_results(folder: Path) -> dict:
     if not (folder / "arrays.npz").is_file():
         raise DatasetError(f"{folder}: has no arrays.npz (the cohort's figures need it)")
     return summary
-
-
-class _closing:
-    def __init__(self, executor):
-        self.executor = executor
-
-    def __enter__(self):
-        return self.executor
-
-    def __exit__(self, *exc):
-        if self.executor is not None:
-            try:
-                self.executor.shutdown(cancel_futures=True)
-            except TypeError:  # Dask's ClientExecutor has no cancel_futures
-                self.executor.shutdown()
-                self.executor._client.close()  # the connection run() opened
 
 
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,

@@ -113,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     from . import api
     from .io import DatasetError, OftimgWarning, load_dataset, validate_dataset
+    from .workers import WorkerLost
 
     warnings.simplefilter("always", OftimgWarning)
     warnings.formatwarning = lambda msg, cat, *a, **k: f"oftimg: warning: {msg}\n"
@@ -175,6 +176,9 @@ def main(argv: list[str] | None = None) -> int:
     except (DatasetError, ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         _print_error(f"error: {exc}", exc)
         return 2
+    except WorkerLost as exc:
+        _print_error(f"error: {exc}", exc)
+        return 1
     except KeyboardInterrupt as exc:
         _print_error("interrupted; no results were written to --out", exc)
         return 130

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from oftimg.phantom import Phantom, PhantomParams
-from oftimg.api import make_executor
+from oftimg.workers import make_executor
 from oftimg.video import dataset_videos
 
 

@@ -7,7 +7,7 @@ import threadpoolctl
 
 from helpers import InPlace
 
-from oftimg.api import make_executor
+from oftimg.workers import make_executor
 from oftimg.io import load_dataset, read_mesh_file, write_ply
 from oftimg.phantom import sample_params, write_phantom
 from oftimg.pipeline import PipelineOptions, analyse_dataset

@@ -1,0 +1,178 @@
+"""Where per-frame and per-embryo tasks run: making the executor, and closing it.
+
+A local pool's worker can die without an error of oftimg's: the system's
+out-of-memory killer, a signal. CPython's ProcessPoolExecutor then fails the
+waiting tasks with ``BrokenProcessPool``, except when the worker died while
+sending a result (~1 MB per frame): its manager thread then waits for the rest
+of a message that never comes, and the run, and the interpreter's exit, hang
+(seen here: SIGKILL to a worker mid-run, one time in five). :class:`closing_executor`
+watches for that and breaks the pool instead, and reports any lost worker as
+:class:`WorkerLost`, naming the signal.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+
+class WorkerLost(RuntimeError):
+    """A worker process (or Dask worker) ended abruptly: killed by the system
+    (most often for lack of memory) or by a signal, not by an error in oftimg."""
+
+
+def make_executor(jobs: int | None, scheduler: str | None = None):
+    """Where per-frame tasks run: a Dask cluster at ``scheduler`` (address), a
+    process pool for ``jobs`` > 1 workers (default: all cores), else None (here).
+
+    With a Dask cluster, every worker must see the dataset files at the same
+    paths (a shared file system).
+    """
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ValueError("--scheduler needs dask.distributed: pip install 'oftimg[dask]'") \
+                from None
+        return Client(scheduler).get_executor()
+    jobs = (os.cpu_count() or 1) if jobs is None else int(jobs)
+    if jobs < 1:
+        raise ValueError(f"--jobs must be at least 1, found {jobs}")
+    if jobs == 1:
+        return None
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    # One thread per worker: the workers already fill the cores, and BLAS or
+    # OpenMP threads on top of them made the per-frame sections 1.9x slower
+    # (49 frames, 2 jobs). Spawned workers inherit this environment; the user's
+    # own setting wins.
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    # glibc's malloc hands every array over 128 kB back to the system when it is
+    # freed, so the next one costs page faults (~1400 per frame, 4-7 ms of system
+    # time); with these two limits a worker reuses its memory: 8-14 % less time
+    # per frame. Both are needed (either alone turns off the adaptive limit and is
+    # slower); other C libraries ignore them.
+    os.environ.setdefault("MALLOC_MMAP_THRESHOLD_", str(32 * 2 ** 20))   # glibc's maximum
+    os.environ.setdefault("MALLOC_TRIM_THRESHOLD_", str(64 * 2 ** 20))
+    # spawn: open3d and BLAS threads do not survive fork reliably
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
+
+
+class closing_executor:
+    """``with closing_executor(executor):`` shuts it down on leaving (a no-op for
+    None). Meanwhile a local pool is watched (:class:`_Watchdog`), and leaving on
+    an error that says a worker died raises :class:`WorkerLost` instead."""
+
+    def __init__(self, executor):
+        self.executor = executor
+        self.watchdog = None
+
+    def __enter__(self):
+        from concurrent.futures import ProcessPoolExecutor
+
+        if isinstance(self.executor, ProcessPoolExecutor):
+            self.watchdog = _Watchdog(self.executor)
+            self.watchdog.start()
+        return self.executor
+
+    def __exit__(self, exc_type, exc, tb):
+        if self.executor is None:
+            return
+        if self.watchdog is not None:
+            self.watchdog.stop()
+        killed = self.watchdog.killed if self.watchdog is not None else set()
+        lost = _worker_lost(exc, self.executor, killed) if exc is not None else None
+        try:
+            self.executor.shutdown(cancel_futures=True)
+        except TypeError:  # Dask's ClientExecutor has no cancel_futures
+            self.executor.shutdown()
+            self.executor._client.close()  # the connection run() opened
+        if lost is not None:
+            raise lost from exc
+
+
+class _Watchdog(threading.Thread):
+    """Breaks a process pool that a dead worker left hanging.
+
+    Every ``interval`` s: has a worker exited while the pool is not broken? The
+    pool notices a dead worker within milliseconds, unless its manager thread is
+    stuck reading a result the worker did not finish sending; after ``grace`` s
+    the other workers are killed (they may wait on the queue lock the dead one
+    held) and this process's end of the result pipe is closed, so the manager
+    thread reads end-of-file, marks the pool broken and fails every waiting task
+    with ``BrokenProcessPool``. Uses the pool's private ``_processes``,
+    ``_broken`` and ``_result_queue`` (CPython 3.9-3.13); without them it does
+    nothing.
+    """
+
+    def __init__(self, pool, interval: float = 0.5, grace: float = 2.0):
+        super().__init__(name="oftimg-pool-watchdog", daemon=True)
+        self.pool, self.interval, self.grace = pool, interval, grace
+        self.killed: set[int] = set()          # pids of the workers this killed
+        self._stopped = threading.Event()
+
+    def stop(self) -> None:
+        self._stopped.set()
+        self.join()
+
+    def run(self) -> None:
+        dead_since = None
+        while not self._stopped.wait(self.interval):
+            processes = getattr(self.pool, "_processes", None)
+            if getattr(self.pool, "_broken", False) or processes is None:
+                return                          # broken as it should, or shut down
+            if not any(p.exitcode is not None for p in list(processes.values())):
+                continue
+            dead_since = dead_since or time.monotonic()
+            if time.monotonic() - dead_since >= self.grace:
+                self._break(list(processes.values()))
+                return
+
+    def _break(self, processes) -> None:
+        for p in processes:
+            if p.exitcode is None:
+                self.killed.add(p.pid)
+                p.kill()
+        for p in processes:
+            p.join(5)
+        try:
+            self.pool._result_queue._writer.close()
+        except (AttributeError, OSError):
+            pass
+
+
+def _worker_lost(exc: BaseException, executor, killed=frozenset()) -> WorkerLost | None:
+    """:class:`WorkerLost` for ``exc`` if it says a worker died (a broken process
+    pool, Dask's KilledWorker), naming the signal that ended it (not counting
+    the workers in ``killed``, nor the SIGTERM a broken pool sends the others);
+    else None."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    if isinstance(exc, BrokenProcessPool):
+        processes = list((getattr(executor, "_processes", None) or {}).values())
+        for p in processes:  # a submit can fail before the pool has ended them all
+            p.join(1.0)
+        codes = {p.exitcode for p in processes if p.exitcode and p.pid not in killed}
+        signals = sorted(signal.Signals(-c).name for c in codes
+                         if c < 0 and -c in signal.valid_signals())
+        if len(signals) > 1 and "SIGTERM" in signals:
+            signals.remove("SIGTERM")
+        if signals:
+            how = f"was killed by {', '.join(signals)}"
+            if "SIGKILL" in signals:
+                how += " (on Linux most often the out-of-memory killer)"
+        elif codes:
+            how = f"ended with exit status {', '.join(map(str, sorted(codes)))}"
+        else:
+            how = "ended abruptly"
+        what = "a worker process"
+    elif type(exc).__name__ == "KilledWorker":      # dask.distributed
+        what, how = "a Dask worker", f"died while running a task ({exc})"
+    else:
+        return None
+    return WorkerLost(f"{what} {how}. If memory ran short, run again with fewer --jobs "
+                      "(by embryo, each worker holds a whole embryo: about 0.9 GB for 195 "
+                      "frames x 3 walls x 5.5k vertices) or with more memory")

@@ -1,0 +1,81 @@
+"""A worker process that dies (say the out-of-memory killer) ends the run with a
+clear error, never a hang. Each case runs in a subprocess with a time limit: a
+hang fails the test instead of holding up the suite."""
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from oftimg.phantom import sample_params, write_phantom
+
+pytestmark = pytest.mark.slow
+
+
+def run_python(code: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def test_a_pool_stuck_on_a_dead_worker_is_broken_not_hung():
+    """CPython's pool hangs when a worker dies while sending a result (its manager
+    thread waits for the rest of the message). Made to happen for sure here: a
+    message cut short in the result pipe, then a worker killed. Without the
+    watchdog the task never ends and the shutdown hangs."""
+    done = run_python("""
+        import os, signal, struct, time
+        from oftimg.workers import WorkerLost, closing_executor, make_executor
+
+        pool = make_executor(2)
+        try:
+            with closing_executor(pool):
+                pool.submit(time.sleep, 0.1).result(timeout=60)          # workers up
+                # the start of a 1 MB result, and no more: the pool now waits for the rest
+                os.write(pool._result_queue._writer.fileno(),
+                         struct.pack("!i", 2 ** 20) + b"x" * 10)
+                time.sleep(0.5)
+                os.kill(next(iter(pool._processes)), signal.SIGKILL)
+                pool.submit(time.sleep, 0.1).result(timeout=30)
+            print("no error")
+        except WorkerLost as exc:
+            print("lost:", exc)
+        """)
+    assert done.returncode == 0, done.stderr
+    assert "lost: a worker process was killed by SIGKILL" in done.stdout
+
+
+def test_run_with_a_killed_worker_says_so_and_writes_nothing(tmp_path):
+    data = write_phantom(tmp_path / "p", sample_params("normal", 3, n_frames=6,
+                                                       vertices_min=2000, vertices_max=2500))
+    out = tmp_path / "out"
+    done = run_python(f"""
+        import multiprocessing as mp, os, signal, sys, threading, time
+        from oftimg import cli
+
+        def kill_a_worker():
+            while len(mp.active_children()) < 2:
+                time.sleep(0.01)
+            time.sleep(1.0)
+            os.kill(mp.active_children()[0].pid, signal.SIGKILL)
+
+        threading.Thread(target=kill_a_worker, daemon=True).start()
+        sys.exit(cli.main(["run", {str(data)!r}, "--out", {str(out)!r}, "--jobs", "2",
+                           "--quiet"]))
+        """)
+    assert done.returncode == 1, done.stderr
+    assert "oftimg: error: a worker process was killed by SIGKILL" in done.stderr
+    assert "--jobs" in done.stderr and "internal error" not in done.stderr
+    assert not out.exists() and not (tmp_path / ".out.finished").exists()
+
+
+def test_a_lost_dask_worker_is_named():
+    distributed = pytest.importorskip("distributed")
+    from types import SimpleNamespace
+
+    from oftimg.workers import _worker_lost
+
+    exc = distributed.KilledWorker("process_frame-3", SimpleNamespace(address="tcp://node7:4321"),
+                                   3)
+    lost = _worker_lost(exc, executor=None)
+    assert "a Dask worker died while running a task" in str(lost) and "node7" in str(lost)
+    assert _worker_lost(ValueError("bad mesh"), executor=None) is None

@@ -81,15 +81,17 @@ class closing_executor:
     def __exit__(self, exc_type, exc, tb):
         if self.executor is None:
             return
-        if self.watchdog is not None:
-            self.watchdog.stop()
-        killed = self.watchdog.killed if self.watchdog is not None else set()
-        lost = _worker_lost(exc, self.executor, killed) if exc is not None else None
         try:
-            self.executor.shutdown(cancel_futures=True)
-        except TypeError:  # Dask's ClientExecutor has no cancel_futures
-            self.executor.shutdown()
-            self.executor._client.close()  # the connection run() opened
+            killed = self.watchdog.killed if self.watchdog is not None else set()
+            lost = _worker_lost(exc, self.executor, killed) if exc is not None else None
+            try:
+                self.executor.shutdown(cancel_futures=True)
+            except TypeError:  # Dask's ClientExecutor has no cancel_futures
+                self.executor.shutdown()
+                self.executor._client.close()  # the connection run() opened
+        finally:  # watched until here: Ctrl-C can end a worker mid-result too
+            if self.watchdog is not None:
+                self.watchdog.stop()
         if lost is not None:
             raise lost from exc
 
@@ -97,15 +99,15 @@ class closing_executor:
 class _Watchdog(threading.Thread):
     """Breaks a process pool that a dead worker left hanging.
 
-    Every ``interval`` s: has a worker exited while the pool is not broken? The
-    pool notices a dead worker within milliseconds, unless its manager thread is
-    stuck reading a result the worker did not finish sending; after ``grace`` s
-    the other workers are killed (they may wait on the queue lock the dead one
-    held) and this process's end of the result pipe is closed, so the manager
-    thread reads end-of-file, marks the pool broken and fails every waiting task
-    with ``BrokenProcessPool``. Uses the pool's private ``_processes``,
-    ``_broken`` and ``_result_queue`` (CPython 3.9-3.13); without them it does
-    nothing.
+    Every ``interval`` s: has a worker died (exited, not at the shutdown's
+    request) while the pool is not broken? The pool notices a dead worker within
+    milliseconds, unless its manager thread is stuck reading a result the worker
+    did not finish sending; after ``grace`` s the other workers are killed (they
+    may wait on the queue lock the dead one held) and this process's end of the
+    result pipe is closed, so the manager thread reads end-of-file, marks the
+    pool broken and fails every waiting task with ``BrokenProcessPool``. Uses
+    the pool's private ``_processes``, ``_broken`` and ``_result_queue``
+    (CPython's, read on 3.11); without them it does nothing.
     """
 
     def __init__(self, pool, interval: float = 0.5, grace: float = 2.0):
@@ -124,8 +126,8 @@ class _Watchdog(threading.Thread):
             processes = getattr(self.pool, "_processes", None)
             if getattr(self.pool, "_broken", False) or processes is None:
                 return                          # broken as it should, or shut down
-            if not any(p.exitcode is not None for p in list(processes.values())):
-                continue
+            if all(p.exitcode in (None, 0) for p in list(processes.values())):
+                continue                        # 0: a worker leaving at the shutdown
             dead_since = dead_since or time.monotonic()
             if time.monotonic() - dead_since >= self.grace:
                 self._break(list(processes.values()))

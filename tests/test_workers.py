@@ -44,6 +44,29 @@ def test_a_pool_stuck_on_a_dead_worker_is_broken_not_hung():
     assert "lost: a worker process was killed by SIGKILL" in done.stdout
 
 
+def test_ctrl_c_while_a_worker_sends_its_result_does_not_hang_the_shutdown():
+    """Ctrl-C reaches the workers too; one interrupted while sending its result
+    leaves the same cut-off message, and the shutdown waited on it for good."""
+    done = run_python("""
+        import os, signal, struct, time
+        from oftimg.workers import closing_executor, make_executor
+
+        pool = make_executor(2)
+        try:
+            with closing_executor(pool):
+                pool.submit(time.sleep, 0.1).result(timeout=60)
+                os.write(pool._result_queue._writer.fileno(),
+                         struct.pack("!i", 2 ** 20) + b"x" * 10)
+                time.sleep(0.5)
+                os.kill(next(iter(pool._processes)), signal.SIGINT)
+                raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            print("interrupted")
+        """)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "interrupted"
+
+
 def test_run_with_a_killed_worker_says_so_and_writes_nothing(tmp_path):
     data = write_phantom(tmp_path / "p", sample_params("normal", 3, n_frames=6,
                                                        vertices_min=2000, vertices_max=2500))

@@ -5,9 +5,10 @@ out-of-memory killer, a signal. CPython's ProcessPoolExecutor then fails the
 waiting tasks with ``BrokenProcessPool``, except when the worker died while
 sending a result (~1 MB per frame): its manager thread then waits for the rest
 of a message that never comes, and the run, and the interpreter's exit, hang
-(seen here: SIGKILL to a worker mid-run, one time in five). :class:`closing_executor`
-watches for that and breaks the pool instead, and reports any lost worker as
-:class:`WorkerLost`, naming the signal.
+(seen here: SIGKILL to a worker mid-run, one time in five; Ctrl-C likewise).
+:class:`closing_executor` watches for that and breaks the pool instead, and
+reports any lost worker as :class:`WorkerLost`, naming the signal. The other
+way round, workers end themselves when the main process is killed.
 """
 from __future__ import annotations
 
@@ -58,7 +59,20 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
     os.environ.setdefault("MALLOC_MMAP_THRESHOLD_", str(32 * 2 ** 20))   # glibc's maximum
     os.environ.setdefault("MALLOC_TRIM_THRESHOLD_", str(64 * 2 ** 20))
     # spawn: open3d and BLAS threads do not survive fork reliably
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
+                               initializer=_exit_with_parent, initargs=(os.getpid(),))
+
+
+def _exit_with_parent(parent_pid: int, interval: float = 1.0) -> None:
+    """A worker's start-up: a thread that ends the worker once the main process
+    is gone (killed, say by the out-of-memory killer). Orphaned workers would
+    otherwise wait for tasks for good, each holding its memory (~270 MB)."""
+    def watch():
+        while os.getppid() == parent_pid:
+            time.sleep(interval)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="oftimg-exit-with-parent", daemon=True).start()
 
 
 class closing_executor:

@@ -102,3 +102,41 @@ def test_a_lost_dask_worker_is_named():
     lost = _worker_lost(exc, executor=None)
     assert "a Dask worker died while running a task" in str(lost) and "node7" in str(lost)
     assert _worker_lost(ValueError("bad mesh"), executor=None) is None
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_workers_end_when_the_main_process_is_killed(tmp_path):
+    """Killed by the out-of-memory killer, the main process leaves its workers:
+    they end themselves instead of waiting for tasks for good."""
+    import os
+    import signal
+    import time
+
+    data = write_phantom(tmp_path / "p", sample_params("normal", 4, n_frames=8,
+                                                       vertices_min=2000, vertices_max=2500))
+    main = subprocess.Popen([sys.executable, "-c", "import sys; from oftimg import cli; "
+                             f"sys.exit(cli.main(['run', {str(data)!r}, '--out', "
+                             f"{str(tmp_path / 'out')!r}, '--jobs', '2', '--quiet']))"])
+    workers = []
+    deadline = time.time() + 60
+    while len(workers) < 2 and time.time() < deadline and main.poll() is None:
+        time.sleep(0.05)
+        children = open(f"/proc/{main.pid}/task/{main.pid}/children").read().split()
+        workers = [int(c) for c in children
+                   if b"spawn_main" in open(f"/proc/{c}/cmdline", "rb").read()]
+    assert len(workers) == 2, "the run did not start its workers"
+    main.send_signal(signal.SIGKILL)
+    main.wait()
+
+    def alive(pid):
+        try:
+            return open(f"/proc/{pid}/stat").read().split(")")[-1].split()[0] != "Z"
+        except FileNotFoundError:
+            return False
+    deadline = time.time() + 10
+    while any(alive(w) for w in workers) and time.time() < deadline:
+        time.sleep(0.1)
+    left = [w for w in workers if alive(w)]
+    for w in left:
+        os.kill(w, signal.SIGKILL)
+    assert not left, "workers outlived the main process"

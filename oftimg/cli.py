@@ -176,7 +176,7 @@ def main(argv: list[str] | None = None) -> int:
     except (DatasetError, ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         _print_error(f"error: {exc}", exc)
         return 2
-    except WorkerLost as exc:
+    except (WorkerLost, OSError) as exc:   # a lost worker; a full disk, no permission
         _print_error(f"error: {exc}", exc)
         return 1
     except KeyboardInterrupt as exc:

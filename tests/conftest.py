@@ -10,7 +10,7 @@ SMALL = dict(n_frames=36, vertices_min=2500, vertices_max=3500)
 
 @pytest.fixture(scope="session")
 def phantom_normal(tmp_path_factory):
-    """A small normal phantom (10 frames, 2.5-3.5k vertices per mesh)."""
+    """A small normal phantom (36 frames, 2.5-3.5k vertices per mesh)."""
     path = tmp_path_factory.mktemp("ph") / "normal"
     return write_phantom(path, sample_params("normal", 3, **SMALL))
 

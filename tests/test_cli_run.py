@@ -155,3 +155,28 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys):
     assert not [p for p in out.iterdir() if p.name.startswith(".")]   # no staging left
     assert main(["demo", "--out", str(out), "--quiet"]) == 2
     assert "--overwrite" in capsys.readouterr().err
+
+
+def test_a_full_disk_is_an_error_not_an_internal_one(tmp_path, monkeypatch, capsys):
+    """The system refusing a write (no space, no permission, a read-only disk) is
+    said as such, naming the file; nothing appears in --out."""
+    import errno
+
+    from oftimg import export
+    from oftimg.phantom import sample_params, write_phantom
+
+    ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
+                                                        vertices_min=1500, vertices_max=1800))
+    real_write_json = export.write_json
+
+    def disk_full(path, data):
+        if Path(path).name == "summary.json":
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        real_write_json(path, data)
+
+    monkeypatch.setattr(export, "write_json", disk_full)
+    out = tmp_path / "out"
+    assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1"]) == 1
+    err = capsys.readouterr().err
+    assert "oftimg: error: [Errno 28] No space left on device:" in err and "summary.json" in err
+    assert "internal error" not in err and not out.exists()

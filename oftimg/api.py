@@ -41,12 +41,13 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
     Every frame of every dataset is validated before any work. The work runs
-    in ``jobs`` worker processes (default: all cores) or on the Dask cluster at
-    ``scheduler``, split by ``parallel``: ``"frames"`` (each dataset's frames
-    in the workers, one dataset after another), ``"embryos"`` (whole datasets
-    in the workers, each on one core: no idle workers while a dataset's
-    fields, figures and tables are made), or ``"auto"``: embryos when there
-    are at least twice as many datasets as workers, else frames. Results are
+    in ``jobs`` worker processes (default: all cores this job may use) or on
+    the Dask cluster at ``scheduler``, split by ``parallel``: ``"frames"``
+    (each dataset's frames in the workers, one dataset after another),
+    ``"embryos"`` (whole datasets in the workers, each on one core: no idle
+    workers while a dataset's fields, figures and tables are made), or
+    ``"auto"``: embryos when there are at least twice as many datasets as
+    workers, else frames. Results are
     written to a temporary folder and moved to ``out`` at the end; a failed
     run leaves ``out`` as it was. Each dataset's complete results are also
     kept in :func:`finished_folder` until the run succeeds; with ``resume``,

@@ -31,7 +31,7 @@ def _parser() -> argparse.ArgumentParser:
                         "finished (when their inputs, options and oftimg are unchanged)")
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.add_argument("--jobs", type=int, default=None,
-                   help="worker processes (default: all cores)")
+                   help="worker processes (default: all cores this job may use)")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the work on a Dask cluster (e.g. tcp://host:8786)")
     r.add_argument("--parallel", choices=["auto", "frames", "embryos"], default="auto",
@@ -64,7 +64,8 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--full", action="store_true", help="4 normal + 4 banded, 195 frames")
     d.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
     d.add_argument("--quiet", action="store_true", help="no progress bars")
-    d.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    d.add_argument("--jobs", type=int, default=None,
+                   help="worker processes (default: all cores this job may use)")
 
     ph = sub.add_parser("phantom", help="write a synthetic beating OFT dataset with truth.json")
     ph.add_argument("out", type=Path, help="dataset folder to create")

@@ -25,7 +25,8 @@ class WorkerLost(RuntimeError):
 
 def make_executor(jobs: int | None, scheduler: str | None = None):
     """Where per-frame tasks run: a Dask cluster at ``scheduler`` (address), a
-    process pool for ``jobs`` > 1 workers (default: all cores), else None (here).
+    process pool for ``jobs`` > 1 workers (default: :func:`usable_cpus`), else
+    None (here).
 
     With a Dask cluster, every worker must see the dataset files at the same
     paths (a shared file system).
@@ -37,7 +38,7 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
             raise ValueError("--scheduler needs dask.distributed: pip install 'oftimg[dask]'") \
                 from None
         return Client(scheduler).get_executor()
-    jobs = (os.cpu_count() or 1) if jobs is None else int(jobs)
+    jobs = usable_cpus() if jobs is None else int(jobs)
     if jobs < 1:
         raise ValueError(f"--jobs must be at least 1, found {jobs}")
     if jobs == 1:
@@ -61,6 +62,15 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
     # spawn: open3d and BLAS threads do not survive fork reliably
     return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
                                initializer=_exit_with_parent, initargs=(os.getpid(),))
+
+
+def usable_cpus() -> int:
+    """The cores this process may run on: on a cluster node, those of its job
+    (SLURM and PBS confine a job to its cores), not all the node's."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except AttributeError:                      # macOS, Windows: no affinity
+        return os.cpu_count() or 1
 
 
 def _exit_with_parent(parent_pid: int, interval: float = 1.0) -> None:

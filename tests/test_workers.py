@@ -140,3 +140,21 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
     for w in left:
         os.kill(w, signal.SIGKILL)
     assert not left, "workers outlived the main process"
+
+
+def test_jobs_default_to_the_cores_this_job_may_use(monkeypatch):
+    """On a cluster node a job may use 2 of 64 cores: 2 workers, not 64."""
+    import os
+
+    from oftimg.workers import make_executor, usable_cpus
+
+    if not hasattr(os, "sched_getaffinity"):
+        pytest.skip("no CPU affinity on this system")
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {5, 9})
+    monkeypatch.setattr(os, "cpu_count", lambda: 64)
+    assert usable_cpus() == 2
+    pool = make_executor(None)
+    try:
+        assert pool._max_workers == 2
+    finally:
+        pool.shutdown()

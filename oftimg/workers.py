@@ -200,5 +200,5 @@ def _worker_lost(exc: BaseException, executor, killed=frozenset()) -> WorkerLost
     else:
         return None
     return WorkerLost(f"{what} {how}. If memory ran short, run again with fewer --jobs "
-                      "(by embryo, each worker holds a whole embryo: about 0.9 GB for 195 "
-                      "frames x 3 walls x 5.5k vertices) or with more memory")
+                      "(by embryo, each worker holds a whole embryo: about 0.35 GB + 3 MB "
+                      "per frame) or with more memory")

@@ -23,7 +23,7 @@ from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_datas
                  natural_key, validate_dataset)
 from .phantom import sample_params, write_phantom
 from .progress import Progress
-from .workers import closing_executor, make_executor
+from .workers import available_memory, closing_executor, make_executor
 
 log = logging.getLogger("oftimg")
 
@@ -230,47 +230,87 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
 def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
                         fps, quiet) -> dict:
     """Every dataset as one :func:`embryo_task`, each kept in ``finished`` as it
-    ends; returns the summaries by name. After a dataset fails, those not
-    started are cancelled, those running are still kept, then the error is raised.
-    The bar counts the frames of the two per-frame passes done in all workers.
+    ends; returns the summaries by name. At most :func:`embryos_at_once` run at
+    a time. After a dataset fails, no more are started, those running are still
+    kept, then the error is raised. The bar counts the frames of the two
+    per-frame passes done in all workers.
     """
-    from concurrent.futures import as_completed
+    from concurrent.futures import FIRST_COMPLETED, wait
 
     bar = Progress(2 * sum(ds.n_frames for ds in datasets), f"{len(datasets)} datasets",
                    quiet=quiet)
     log.info("%d datasets, each analysed whole in a worker", len(datasets))
+    at_once = embryos_at_once(datasets, executor)
     summaries = {}
     error = None
+    waiting = list(datasets)
+    running = set()
+
+    def top_up():                                        # none started after a failure
+        while waiting and len(running) < at_once and error is None:
+            ds = waiting.pop(0)
+            running.add(executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps,
+                                        frames_done))
+
     try:
         with _frame_counter(executor, bar) as frames_done:
-            futures = {executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps,
-                                       frames_done) for ds in datasets}
-            for fut in as_completed(futures):
-                try:
-                    summary, files, raised = fut.result()
-                except Exception as exc:  # the datasets already running go on: keep them
-                    if error is None:
-                        error = exc
-                        for other in futures:
-                            other.cancel()                # those not started
-                    continue
-                for message in raised:
-                    warnings.warn(message, stacklevel=2)
-                name = summary["name"]
-                folder = finished.writing(name)
-                for relpath, data in files.items():
-                    path = folder / relpath
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    path.write_bytes(data)
-                finished.keep(name, fingerprints[name], summary)
-                summaries[name] = summary
-                bar.note(f"{len(summaries)} of {len(datasets)} datasets done")
-                _log_done(summary)
+            top_up()
+            while running:
+                done, running = wait(running, return_when=FIRST_COMPLETED)
+                results = []
+                for fut in done:
+                    try:
+                        results.append(fut.result())
+                    except Exception as exc:  # the datasets already running go on: keep them
+                        error = error or exc
+                top_up()                          # the next start before these are written
+                for summary, files, raised in results:
+                    for message in raised:
+                        warnings.warn(message, stacklevel=2)
+                    name = summary["name"]
+                    folder = finished.writing(name)
+                    for relpath, data in files.items():
+                        path = folder / relpath
+                        path.parent.mkdir(parents=True, exist_ok=True)
+                        path.write_bytes(data)
+                    finished.keep(name, fingerprints[name], summary)
+                    summaries[name] = summary
+                    bar.note(f"{len(summaries)} of {len(datasets)} datasets done")
+                    _log_done(summary)
             if error is not None:
                 raise error
     finally:
         bar.close()
     return summaries
+
+
+# growth of a worker's memory while it analyses one embryo, beyond its idle ~0.3 GB
+# (peak RSS of embryo_task, 3 walls: 0.48 / 0.62 / 0.9 GB for 49 / 98 / 195 frames,
+# the same for 2k, 5.5k and 20k vertices)
+EMBRYO_BYTES = 60e6
+EMBRYO_BYTES_PER_FRAME = 3e6
+
+
+def embryos_at_once(datasets, executor) -> int:
+    """How many embryos a local pool may analyse at once: one per worker, or
+    fewer when the memory left (:func:`~oftimg.workers.available_memory`, with
+    10 % to spare) would not hold that many of the largest (then with a warning).
+    A Dask cluster's workers manage their own memory: one per worker thread."""
+    workers = _n_workers(executor)
+    if getattr(executor, "_client", None) is not None:
+        return workers
+    room = available_memory()
+    if room is None:
+        return workers
+    frames = max(ds.n_frames for ds in datasets)
+    each = EMBRYO_BYTES + EMBRYO_BYTES_PER_FRAME * frames
+    fit = max(1, int(0.9 * room // each))
+    if fit < workers:
+        warnings.warn(f"memory for {fit} of {workers} embryos at once ({room / 1e9:.1f} GB "
+                      f"free, about {each / 1e9:.2f} GB each for {frames} frames): the "
+                      "others wait their turn", OftimgWarning, stacklevel=2)
+        return fit
+    return workers
 
 
 @contextlib.contextmanager

@@ -73,6 +73,41 @@ def usable_cpus() -> int:
         return os.cpu_count() or 1
 
 
+def available_memory(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int | None:
+    """Bytes of memory this process's job could still take: the system's
+    MemAvailable, or less where a cgroup caps it (a SLURM or PBS job's memory
+    limit, on this cgroup or one above it; v1 and v2). None where unknown (not Linux)."""
+    room = []
+    meminfo = _read_text(f"{proc}/meminfo")
+    for line in (meminfo or "").splitlines():
+        if line.startswith("MemAvailable:"):
+            room.append(int(line.split()[1]) * 1024)
+    for line in (_read_text(f"{proc}/self/cgroup") or "").splitlines():
+        _, controllers, path = line.split(":", 2)
+        if controllers == "":                                   # v2
+            files, bases = ("memory.max", "memory.current"), (cgroup, f"{cgroup}/unified")
+        elif "memory" in controllers.split(","):                # v1
+            files, bases = ("memory.limit_in_bytes", "memory.usage_in_bytes"), (f"{cgroup}/memory",)
+        else:
+            continue
+        parts = [p for p in path.split("/") if p]
+        for base in bases:
+            for depth in range(len(parts), -1, -1):             # this cgroup, then those above
+                folder = "/".join([base] + parts[:depth])
+                limit, usage = (_read_text(f"{folder}/{f}") for f in files)
+                if limit and usage and limit.strip().isdigit() and int(limit) < 2 ** 60:
+                    room.append(max(0, int(limit) - int(usage)))
+    return min(room) if room else None
+
+
+def _read_text(path: str) -> str | None:
+    try:
+        with open(path) as f:
+            return f.read()
+    except OSError:
+        return None
+
+
 def _exit_with_parent(parent_pid: int, interval: float = 1.0) -> None:
     """A worker's start-up: a thread that ends the worker once the main process
     is gone (killed, say by the out-of-memory killer). Orphaned workers would

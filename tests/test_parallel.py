@@ -183,3 +183,57 @@ def test_parallel_mode_is_checked(tmp_path):
 
     with pytest.raises(ValueError, match="--parallel"):
         api.run(tmp_path, tmp_path / "out", parallel="datasets")
+
+
+def test_embryos_at_once_fits_the_memory_left(monkeypatch):
+    """A worker grows by ~60 MB + 3 MB per frame while it analyses an embryo: with
+    1.5 GB free, 2 embryos of 195 frames fit (0.645 GB each, 10 % kept spare)."""
+    from oftimg import api
+    from oftimg.io import OftimgWarning
+
+    pool = SimpleNamespace(_max_workers=8)
+    datasets = [SimpleNamespace(n_frames=195), SimpleNamespace(n_frames=49)]
+    monkeypatch.setattr(api, "available_memory", lambda: 1.5e9)
+    with pytest.warns(OftimgWarning, match="memory for 2 of 8 embryos at once"):
+        assert api.embryos_at_once(datasets, pool) == 2
+    monkeypatch.setattr(api, "available_memory", lambda: 0.1e9)
+    with pytest.warns(OftimgWarning, match="memory for 1 of 8"):
+        assert api.embryos_at_once(datasets, pool) == 1          # one at least
+    monkeypatch.setattr(api, "available_memory", lambda: 64e9)
+    assert api.embryos_at_once(datasets, pool) == 8
+    monkeypatch.setattr(api, "available_memory", lambda: None)   # not Linux: no limit known
+    assert api.embryos_at_once(datasets, pool) == 8
+
+
+def test_by_embryo_no_more_run_at_once_than_fit(tmp_path, monkeypatch):
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    from oftimg import api
+    from oftimg.export import Finished
+
+    running, most = [0], [0]
+    lock = threading.Lock()
+
+    def task(ds, report, opts, fps, frames_done):
+        with lock:
+            running[0] += 1
+            most[0] = max(most[0], running[0])
+        time.sleep(0.05)
+        with lock:
+            running[0] -= 1
+        return ({"name": ds.meta.name, "expand_fraction": 0.4,
+                 "wave_speed_mm_s": {"cycle": 10.0}}, {"summary.json": b"{}"}, [])
+
+    monkeypatch.setattr(api, "embryo_task", task)
+    monkeypatch.setattr(api, "embryos_at_once", lambda datasets, executor: 2)
+    datasets = [SimpleNamespace(meta=SimpleNamespace(name=f"e{k}"), n_frames=3)
+                for k in range(7)]
+    with ThreadPoolExecutor(4) as pool:
+        done = api._embryos_in_workers(datasets, {f"e{k}": {} for k in range(7)},
+                                       Finished(tmp_path / "kept"), {f"e{k}": {} for k in range(7)},
+                                       None, pool, fps=30.0, quiet=True)
+    assert sorted(done) == [f"e{k}" for k in range(7)]
+    assert most[0] == 2
+    assert Finished(tmp_path / "kept").names() == [f"e{k}" for k in range(7)]

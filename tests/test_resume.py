@@ -93,8 +93,9 @@ def test_by_embryo_the_datasets_running_when_one_fails_are_kept(tmp_path, monkey
         return real(ds, *args)
 
     monkeypatch.setattr(api, "embryo_task", task)
+    # three workers, all three datasets running (InPlace runs each as it is submitted)
     monkeypatch.setattr(api, "make_executor", lambda jobs, scheduler: InPlace())
-    monkeypatch.setattr(api, "_n_workers", lambda executor: 1)
+    monkeypatch.setattr(api, "_n_workers", lambda executor: 3)
     out = tmp_path / "out"
     with pytest.raises(RuntimeError, match="node lost") as failed:
         api.run(cohort, out, quiet=True, parallel="embryos")

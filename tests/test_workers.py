@@ -158,3 +158,31 @@ def test_jobs_default_to_the_cores_this_job_may_use(monkeypatch):
         assert pool._max_workers == 2
     finally:
         pool.shutdown()
+
+
+def test_available_memory_reads_the_jobs_cgroup(tmp_path):
+    """A SLURM job's limit sits on its cgroup or one above the process's own;
+    the least room wins, MemAvailable included; 'max' and huge values are no limit."""
+    from oftimg.workers import available_memory
+
+    proc, cg = tmp_path / "proc", tmp_path / "cgroup"
+    (proc / "self").mkdir(parents=True)
+    (proc / "meminfo").write_text("MemTotal: 67108864 kB\nMemAvailable: 33554432 kB\n")
+
+    def files(folder, **values):
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, value in values.items():
+            (folder / name.replace("_", ".", 1)).write_text(f"{value}\n")
+
+    # cgroup v2: the job's limit (3 GB, 1 GB used) one level above the step's ('max')
+    (proc / "self" / "cgroup").write_text("0::/slurm/job_7/step_0\n")
+    files(cg / "slurm" / "job_7", memory_max=3 * 2 ** 30, memory_current=2 ** 30)
+    files(cg / "slurm" / "job_7" / "step_0", memory_max="max", memory_current=2 ** 29)
+    assert available_memory(str(proc), str(cg)) == 2 * 2 ** 30
+    # cgroup v1, no limit set: MemAvailable (32 GiB)
+    (proc / "self" / "cgroup").write_text("4:memory:/user.slice\n3:cpuset:/\n")
+    files(cg / "memory" / "user.slice", memory_limit_in_bytes=9223372036854771712,
+          memory_usage_in_bytes=2 ** 30)
+    assert available_memory(str(proc), str(cg)) == 32 * 2 ** 30
+    # nothing to read (not Linux)
+    assert available_memory(str(tmp_path / "none"), str(tmp_path / "none")) is None

@@ -47,12 +47,12 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     ``"embryos"`` (whole datasets in the workers, each on one core: no idle
     workers while a dataset's fields, figures and tables are made), or
     ``"auto"``: embryos when there are at least twice as many datasets as
-    workers, else frames. Results are
-    written to a temporary folder and moved to ``out`` at the end; a failed
-    run leaves ``out`` as it was. Each dataset's complete results are also
-    kept in :func:`finished_folder` until the run succeeds; with ``resume``,
-    those whose inputs, options and oftimg code are unchanged are reused
-    (neither validated nor analysed again). Returns ``out``.
+    workers, else frames. Results are written to a temporary folder and moved
+    to ``out`` at the end; a failed run leaves ``out`` as it was. Each
+    dataset's complete results are also kept in :func:`finished_folder` until
+    the run succeeds; with ``resume``, those whose inputs, options and oftimg
+    code are unchanged are reused (neither validated nor analysed again).
+    Returns ``out``.
     """
     from .pipeline import PipelineOptions
 

@@ -1,4 +1,5 @@
-"""Where per-frame and per-embryo tasks run: making the executor, and closing it.
+"""Where per-frame and per-embryo tasks run: making the executor, closing it, and
+what the machine gives a job (:func:`usable_cpus`, :func:`available_memory`).
 
 A local pool's worker can die without an error of oftimg's: the system's
 out-of-memory killer, a signal. CPython's ProcessPoolExecutor then fails the

@@ -448,6 +448,7 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
             raise ValueError(f"{folders[0]} and {f} were analysed with different options "
                              f"({'; '.join(differ)}): a cohort compares like with like; "
                              "analyse them again with the same options")
+    _warn_unfinished_beside(folders)
     versions = {s["provenance"]["oftimg_version"] for s in summaries}
     if len(versions) > 1:
         warnings.warn(f"the datasets were analysed by different oftimg versions "
@@ -469,6 +470,21 @@ def _datasets_seconds(summaries: list[dict]) -> float | None:
                          for s in summaries), 2)
     except (KeyError, TypeError):
         return None
+
+
+def _warn_unfinished_beside(folders: list[Path]) -> None:
+    """Warn about runs that did not finish beside the gathered results (say a cluster
+    job killed at its time limit): ``.<name>.finished`` folders, which
+    :func:`finished_folder` removes once a run succeeds. Their datasets are not in
+    the cohort."""
+    unfinished = sorted({p for parent in {f.parent for f in folders}
+                         for p in parent.glob(".*.finished") if p.is_dir()})
+    if unfinished:
+        names = ", ".join(p.name[1:-len(".finished")] for p in unfinished)
+        warnings.warn(f"{unfinished[0].parent}: {len(unfinished)} run(s) into {names} did not "
+                      "finish (or are still going), so their datasets are not in this cohort; "
+                      "run them again with --resume, then gather again", OftimgWarning,
+                      stacklevel=3)
 
 
 def _flat(options: dict, prefix: str = "") -> dict:

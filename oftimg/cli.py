@@ -138,7 +138,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
         elif args.command == "cohort":
             out = api.cohort(args.results, args.out, overwrite=args.overwrite)
-            print(f"cohort: {out}\ncohort table: {out / 'cohort.csv'}")
+            n = len(json.loads((out / "run.json").read_text())["inputs"])
+            print(f"cohort: {out} ({n} dataset{'s' * (n != 1)})\n"
+                  f"cohort table: {out / 'cohort.csv'}")
         elif args.command == "demo":
             out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
                            jobs=args.jobs)

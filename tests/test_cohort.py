@@ -89,6 +89,20 @@ def test_cohort_refuses_what_cannot_be_compared(runs, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_cohort_warns_of_runs_that_did_not_finish_beside_it(runs, tmp_path, capsys):
+    """A job array where one job was killed: `oftimg cohort results/*` gathers the
+    others and says which run is missing."""
+    from oftimg.io import OftimgWarning
+
+    results = tmp_path / "results"
+    shutil.copytree(runs / "alone" / "n0", results / "n0")
+    (results / ".n7.finished").mkdir()
+    (results / ".n7.finished" / ".lock").touch()
+    with pytest.warns(OftimgWarning, match=r"1 run\(s\) into n7 did not finish"):
+        assert main(["cohort", str(results / "n0"), "--out", str(tmp_path / "out")]) == 0
+    assert f"cohort: {tmp_path / 'out'} (1 dataset)" in capsys.readouterr().out
+
+
 def test_cohort_of_several_oftimg_versions_warns(runs, tmp_path):
     from oftimg.io import OftimgWarning
 

@@ -65,13 +65,21 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
                                initializer=_exit_with_parent, initargs=(os.getpid(),))
 
 
-def usable_cpus() -> int:
-    """The cores this process may run on: on a cluster node, those of its job
-    (SLURM and PBS confine a job to its cores), not all the node's."""
+def usable_cpus(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int:
+    """The cores this process may run on: on a cluster node those of its job
+    (SLURM and PBS confine a job to its cores), and no more than a container's
+    CPU quota (docker --cpus, Kubernetes limits: a cgroup's cpu.max), not all
+    the machine's."""
     try:
-        return len(os.sched_getaffinity(0)) or 1
+        cores = len(os.sched_getaffinity(0)) or 1
     except AttributeError:                      # macOS, Windows: no affinity
-        return os.cpu_count() or 1
+        cores = os.cpu_count() or 1
+    for values in _cgroup_levels("cpu", ("cpu.max",), ("cpu.cfs_quota_us", "cpu.cfs_period_us"),
+                                 proc, cgroup):
+        quota, period = values[0].split() if len(values) == 1 else values
+        if quota.isdigit() and period.isdigit() and int(period) > 0:
+            cores = min(cores, max(1, -(-int(quota) // int(period))))
+    return cores
 
 
 def available_memory(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int | None:
@@ -79,26 +87,36 @@ def available_memory(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int
     MemAvailable, or less where a cgroup caps it (a SLURM or PBS job's memory
     limit, on this cgroup or one above it; v1 and v2). None where unknown (not Linux)."""
     room = []
-    meminfo = _read_text(f"{proc}/meminfo")
-    for line in (meminfo or "").splitlines():
+    for line in (_read_text(f"{proc}/meminfo") or "").splitlines():
         if line.startswith("MemAvailable:"):
             room.append(int(line.split()[1]) * 1024)
+    for limit, usage in _cgroup_levels("memory", ("memory.max", "memory.current"),
+                                       ("memory.limit_in_bytes", "memory.usage_in_bytes"),
+                                       proc, cgroup):
+        if limit.isdigit() and usage.isdigit() and int(limit) < 2 ** 60:
+            room.append(max(0, int(limit) - int(usage)))
+    return min(room) if room else None
+
+
+def _cgroup_levels(controller: str, v2_files: tuple, v1_files: tuple, proc: str, cgroup: str):
+    """The contents (stripped) of a controller's files in this process's cgroup and
+    each one above it, v2 (``v2_files``) or v1 (``v1_files``), one tuple per level
+    that has them all."""
     for line in (_read_text(f"{proc}/self/cgroup") or "").splitlines():
         _, controllers, path = line.split(":", 2)
-        if controllers == "":                                   # v2
-            files, bases = ("memory.max", "memory.current"), (cgroup, f"{cgroup}/unified")
-        elif "memory" in controllers.split(","):                # v1
-            files, bases = ("memory.limit_in_bytes", "memory.usage_in_bytes"), (f"{cgroup}/memory",)
+        if controllers == "":
+            files, bases = v2_files, (cgroup, f"{cgroup}/unified")
+        elif controller in controllers.split(","):
+            files, bases = v1_files, (f"{cgroup}/{controllers}", f"{cgroup}/{controller}")
         else:
             continue
         parts = [p for p in path.split("/") if p]
         for base in bases:
             for depth in range(len(parts), -1, -1):             # this cgroup, then those above
                 folder = "/".join([base] + parts[:depth])
-                limit, usage = (_read_text(f"{folder}/{f}") for f in files)
-                if limit and usage and limit.strip().isdigit() and int(limit) < 2 ** 60:
-                    room.append(max(0, int(limit) - int(usage)))
-    return min(room) if room else None
+                values = [_read_text(f"{folder}/{f}") for f in files]
+                if all(v is not None for v in values):
+                    yield tuple(v.strip() for v in values)
 
 
 def _read_text(path: str) -> str | None:

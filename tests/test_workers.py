@@ -186,3 +186,25 @@ def test_available_memory_reads_the_jobs_cgroup(tmp_path):
     assert available_memory(str(proc), str(cg)) == 32 * 2 ** 30
     # nothing to read (not Linux)
     assert available_memory(str(tmp_path / "none"), str(tmp_path / "none")) is None
+
+
+def test_usable_cpus_keeps_to_a_containers_cpu_quota(tmp_path, monkeypatch):
+    """docker --cpus 1.5 on an 8-core machine: 2 workers (the quota rounded up)."""
+    import os
+
+    from oftimg.workers import usable_cpus
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(8)), raising=False)
+    proc, cg = tmp_path / "proc", tmp_path / "cgroup"
+    (proc / "self").mkdir(parents=True)
+    (proc / "self" / "cgroup").write_text("0::/docker/abc\n")
+    (cg / "docker" / "abc").mkdir(parents=True)
+    (cg / "docker" / "abc" / "cpu.max").write_text("150000 100000\n")
+    assert usable_cpus(str(proc), str(cg)) == 2
+    (cg / "docker" / "abc" / "cpu.max").write_text("max 100000\n")        # no quota
+    assert usable_cpus(str(proc), str(cg)) == 8
+    (proc / "self" / "cgroup").write_text("2:cpu,cpuacct:/kubepods/pod1\n")  # v1
+    (cg / "cpu,cpuacct" / "kubepods" / "pod1").mkdir(parents=True)
+    (cg / "cpu,cpuacct" / "kubepods" / "pod1" / "cpu.cfs_quota_us").write_text("300000\n")
+    (cg / "cpu,cpuacct" / "kubepods" / "pod1" / "cpu.cfs_period_us").write_text("100000\n")
+    assert usable_cpus(str(proc), str(cg)) == 3

@@ -206,9 +206,13 @@ def _own_threads_limited(executor):
 
 
 # by embryo, the bar counts an embryo's fields, figures, videos and files as this many
-# passes over its frames (measured on one core, 195 frames: the two per-frame passes
-# ~33 s, the rest ~18 s), so that the time left includes them
-TAIL_FRAMES = 1
+# passes over its frames (measured with --jobs 1, 195 frames: the two per-frame passes
+# 31.5 s, the rest 10.4 s), so that the time left includes them
+TAIL_PASSES = 0.67
+
+
+def _tail_frames(n_frames: int) -> int:
+    return round(TAIL_PASSES * n_frames)
 
 
 def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
@@ -218,7 +222,7 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
     bytes}`` (so that a cluster worker need not see the output folder) and the
     warnings raised, each once, for the caller to raise again. ``frames_done``:
     a queue that gets a 1 for each frame of each per-frame pass and, once the
-    files are made, :data:`TAIL_FRAMES` x the frames for them; or None.
+    files are made, :data:`TAIL_PASSES` x the frames for them; or None.
     """
     import tempfile
 
@@ -229,7 +233,7 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
         progress = None if frames_done is None else lambda: frames_done.put(1)
         summary = analyse_and_write(ds, report, folder, opts, fps=fps, progress=progress)
         if frames_done is not None:
-            frames_done.put(TAIL_FRAMES * ds.n_frames)
+            frames_done.put(_tail_frames(ds.n_frames))
         files = {p.relative_to(folder).as_posix(): p.read_bytes()
                  for p in sorted(folder.rglob("*")) if p.is_file()}
     raised = list({(type(w.message), str(w.message)): w.message for w in caught}.values())
@@ -243,11 +247,11 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
     a time. After a dataset fails, no more are started, those running are still
     kept, then the error is raised. The bar counts the frames of the two
     per-frame passes done in all workers, and each embryo's remaining work as
-    :data:`TAIL_FRAMES` more passes.
+    :data:`TAIL_PASSES` more passes.
     """
     from concurrent.futures import FIRST_COMPLETED, wait
 
-    bar = Progress((2 + TAIL_FRAMES) * sum(ds.n_frames for ds in datasets),
+    bar = Progress(sum(2 * ds.n_frames + _tail_frames(ds.n_frames) for ds in datasets),
                    f"{len(datasets)} datasets",
                    quiet=quiet)
     log.info("%d datasets, each analysed whole in a worker", len(datasets))

@@ -110,7 +110,7 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
         monkeypatch.setattr(api, "Progress", RecordingBar)
         whole = api.run(cohort, tmp_path / "whole", quiet=True, jobs=2, parallel="embryos")
     bar, = [b for b in RecordingBar.bars if b.desc == "2 datasets"]
-    assert (bar.unit, bar.total, bar.n) == ("frame", 3 * (6 + 6), 3 * (6 + 6))
+    assert (bar.unit, bar.total, bar.n) == ("frame", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
     assert bar.notes == ["1 of 2 datasets done", "2 of 2 datasets done"]
     runs = {"local pool": (whole, worker_warnings)}
     try:
@@ -126,7 +126,7 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
                            scheduler=cluster.scheduler_address)
         runs["Dask cluster"] = (dask, dask_warnings)
         bar = [b for b in RecordingBar.bars if b.desc == "2 datasets"][-1]
-        assert (bar.unit, bar.total, bar.n) == ("frame", 3 * (6 + 6), 3 * (6 + 6))
+        assert (bar.unit, bar.total, bar.n) == ("frame", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
     ours = lambda caught: sorted({str(w.message) for w in caught  # noqa: E731
                                   if issubclass(w.category, OftimgWarning)})
     for how, (out, caught) in runs.items():

@@ -281,7 +281,8 @@ class Phantom:
         t = np.atleast_1d(np.asarray(t_ms, float))
         area, moment = self.section_moments(wall, s[:, None], t[None, :])
         integrand = area - moment / self.p.bend_radius_mm
-        return np.trapezoid(integrand, s, axis=0)
+        # the trapezoid rule along s (np.trapezoid is NumPy >= 2 only)
+        return 0.5 * (np.diff(s)[:, None] * (integrand[1:] + integrand[:-1])).sum(axis=0)
 
     # -- meshing ------------------------------------------------------------
     def mesh(self, wall: str, t_ms: float, rng: np.random.Generator):

@@ -124,9 +124,11 @@ def write_mp4(path: Path, frames, *, fps: float = 30.0) -> Path:
     0.6 s of encoder CPU instead of 0.9 and 2.0 MB instead of 2.5 MB; the
     arrays themselves are in ``arrays.npz``.
     """
-    writer = imageio.get_writer(str(path), fps=fps, codec="libx264", pixelformat="yuv420p",
-                                macro_block_size=16, quality=7, ffmpeg_log_level="error",
-                                ffmpeg_params=["-preset", "ultrafast"])
+    # format named: if imageio cannot load its ffmpeg plugin, it says so instead of
+    # handing the .mp4 to another plugin (tifffile, whose error names an "fps" argument)
+    writer = imageio.get_writer(str(path), format="FFMPEG", fps=fps, codec="libx264",
+                                pixelformat="yuv420p", macro_block_size=16, quality=7,
+                                ffmpeg_log_level="error", ffmpeg_params=["-preset", "ultrafast"])
     try:
         for frame in frames:
             writer.append_data(frame)

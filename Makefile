@@ -8,7 +8,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.oftimg-installed
 DEMO_OUT ?= oftimg-demo
 
-.PHONY: demo test setup clean
+.PHONY: demo test test-lowest setup clean
 setup: $(STAMP)
 
 $(STAMP): pyproject.toml
@@ -32,5 +32,14 @@ test: $(STAMP)
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq chromium; }
 	$(PY) -m pytest
 
+# The suite against the oldest releases pyproject.toml allows (uv's lowest-direct
+# resolution), in .venv-lowest: checks that those lower bounds are true.
+test-lowest: $(STAMP)
+	test -x $(VENV)/bin/uv || $(PY) -m pip install --quiet uv
+	$(VENV)/bin/uv venv --quiet --allow-existing --python $(PY) .venv-lowest
+	$(VENV)/bin/uv pip install --quiet --python .venv-lowest/bin/python \
+	  --resolution lowest-direct -e '.[test]'
+	.venv-lowest/bin/python -m pytest
+
 clean:
-	rm -rf $(VENV) $(DEMO_OUT)
+	rm -rf $(VENV) .venv-lowest $(DEMO_OUT)

@@ -15,8 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
 from .mesh.parameterize import harmonic_map, intrinsic_weights
-from .mesh.topology import capped_signed_volume, check_tube, face_areas, loop_centroid
+from .mesh.topology import (MeshError, capped_signed_volume, check_tube, face_areas,
+                            loop_centroid)
 
 
 @dataclass(frozen=True)
@@ -30,11 +32,11 @@ class Animation:
 
     def __post_init__(self):
         if self.speed_mm_s == 0 or not np.isfinite(self.speed_mm_s):
-            raise ValueError(f"speed_mm_s must be finite and non-zero, found {self.speed_mm_s}")
+            raise InputError(f"speed_mm_s must be finite and non-zero, found {self.speed_mm_s}")
         if not -0.9 < self.amplitude < 2:
-            raise ValueError(f"amplitude must be in (-0.9, 2), found {self.amplitude}")
+            raise InputError(f"amplitude must be in (-0.9, 2), found {self.amplitude}")
         if self.period_ms <= 0 or self.n_frames < 3:
-            raise ValueError("period_ms must be positive and n_frames at least 3")
+            raise InputError("period_ms must be positive and n_frames at least 3")
 
 
 def pulse(phi):
@@ -99,7 +101,7 @@ def remesh(V, F, rng, *, keep=(0.5, 0.9), tries: int = 5):
         V2, F2 = np.asarray(d.vertices), np.asarray(d.triangles).astype(np.int64)
         try:
             check_tube(V2, F2)
-        except ValueError:
+        except MeshError:
             continue
         V, F = V2, F2
         break

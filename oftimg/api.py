@@ -17,6 +17,7 @@ import warnings
 from pathlib import Path
 
 from . import __version__
+from .errors import InputError
 from .export import (Finished, check_output_location, finished_folder, link_or_copy,
                      staged_output, write_dataset_results, write_json)
 from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_dataset,
@@ -57,7 +58,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     from .pipeline import PipelineOptions
 
     if parallel not in ("auto", "frames", "embryos"):
-        raise ValueError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
+        raise InputError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
     out = Path(out)
     paths = _as_dataset_paths(source)
     check_output_location(out, paths, overwrite=overwrite)
@@ -139,10 +140,10 @@ def _check_names(named: list[tuple[str, Path]], fix: str) -> None:
     seen = {}
     for name, path in named:
         if name in COHORT_OUTPUTS:
-            raise ValueError(f"{path}: the dataset name {name!r} is that of the cohort's "
+            raise InputError(f"{path}: the dataset name {name!r} is that of the cohort's "
                              f"own {name} in --out; {fix}")
         if name in seen:
-            raise ValueError(f"{seen[name]} and {path} have the same dataset name {name!r} "
+            raise InputError(f"{seen[name]} and {path} have the same dataset name {name!r} "
                              f"(their results would go to one folder); {fix}")
         seen[name] = path
 
@@ -460,7 +461,7 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
         differ = [f"{k} {a.get(k)} and {b.get(k)}" for k in sorted(set(a) | set(b))
                   if a.get(k) != b.get(k)]
         if differ:
-            raise ValueError(f"{folders[0]} and {f} were analysed with different options "
+            raise InputError(f"{folders[0]} and {f} were analysed with different options "
                              f"({'; '.join(differ)}): a cohort compares like with like; "
                              "analyse them again with the same options")
     _warn_unfinished_beside(folders)

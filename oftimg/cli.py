@@ -1,7 +1,9 @@
 """Command line: a thin layer over :mod:`oftimg.api`.
 
 Only this module catches exceptions: one line to stderr, exit status 2 for
-bad input, 1 for anything else.
+bad input (:class:`~oftimg.errors.InputError`, a path that is missing or in the
+way), 1 for anything else (a ValueError or TypeError out of a library is
+oftimg's failure, not the user's).
 """
 from __future__ import annotations
 
@@ -113,7 +115,8 @@ def _print_report(report: dict) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     from . import api
-    from .io import DatasetError, OftimgWarning, load_dataset, validate_dataset
+    from .errors import InputError
+    from .io import OftimgWarning, load_dataset, validate_dataset
     from .workers import WorkerLost
 
     warnings.simplefilter("always", OftimgWarning)
@@ -176,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(json.dumps(report, indent=2))
             else:
                 _print_report(report)
-    except (DatasetError, ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
+    except (InputError, FileNotFoundError, FileExistsError) as exc:
         _print_error(f"error: {exc}", exc)
         return 2
     except (WorkerLost, OSError) as exc:   # a lost worker; a full disk, no permission

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import InputError
+
 
 def periodic_peak(y: np.ndarray, *, find: str = "max") -> float:
     """Sub-frame index (in [0, n)) of the maximum or minimum of a periodic signal.
@@ -14,7 +16,7 @@ def periodic_peak(y: np.ndarray, *, find: str = "max") -> float:
     """
     y = np.asarray(y, dtype=float)
     if find not in ("max", "min"):
-        raise ValueError(f"find must be 'max' or 'min', found {find!r}")
+        raise InputError(f"find must be 'max' or 'min', found {find!r}")
     if find == "min":
         y = -y
     n = len(y)

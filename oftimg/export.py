@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .errors import InputError
 
 
 def check_output_location(out: Path, inputs: list[Path], *, overwrite: bool) -> None:
@@ -22,14 +23,14 @@ def check_output_location(out: Path, inputs: list[Path], *, overwrite: bool) -> 
     for src in inputs:
         src_r = src.resolve()
         if out_r == src_r or src_r in out_r.parents:
-            raise ValueError(f"--out {out} is inside the input {src}; "
+            raise InputError(f"--out {out} is inside the input {src}; "
                              "oftimg never writes into a dataset folder")
         if out_r in src_r.parents:
-            raise ValueError(f"--out {out} contains the input {src}; choose another folder")
+            raise InputError(f"--out {out} contains the input {src}; choose another folder")
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} exists and is not a folder")
+        raise InputError(f"--out {out} exists and is not a folder")
     if out.exists() and any(out.iterdir()) and not overwrite:
-        raise ValueError(f"--out {out} exists and is not empty; pass --overwrite to replace it")
+        raise InputError(f"--out {out} exists and is not empty; pass --overwrite to replace it")
 
 
 @contextlib.contextmanager

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
 from .mesh.topology import MeshError, check_tube, loop_centroid, loop_vector_area, repair
 
 SURFACES = ("outer", "inner", "lumen")
@@ -32,8 +33,8 @@ META_KEYS = {"name": str, "group": str, "period_ms": (int, float),
              "length_unit": str, "inlet": list}
 
 
-class DatasetError(ValueError):
-    """Bad input: the message names the file and the problem."""
+class DatasetError(InputError):
+    """Bad input data: the message names the file and the problem."""
 
 
 class OftimgWarning(UserWarning):

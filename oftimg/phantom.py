@@ -43,6 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
+
 WALLS = ("outer", "inner", "lumen")
 
 
@@ -85,15 +87,15 @@ class PhantomParams:
 
     def __post_init__(self):
         if self.group not in ("normal", "banded"):
-            raise ValueError(f"group must be 'normal' or 'banded', found {self.group!r}")
+            raise InputError(f"group must be 'normal' or 'banded', found {self.group!r}")
         if self.n_frames < 3:
-            raise ValueError(f"n_frames must be at least 3, found {self.n_frames}")
+            raise InputError(f"n_frames must be at least 3, found {self.n_frames}")
         if not 0 < self.expand_fraction < 1:
-            raise ValueError(f"expand_fraction must be in (0, 1), found {self.expand_fraction}")
+            raise InputError(f"expand_fraction must be in (0, 1), found {self.expand_fraction}")
         if self.radius_inlet_mm * 1.3 >= self.bend_radius_mm:
-            raise ValueError("bend_radius_mm too small: the tube would intersect itself")
+            raise InputError("bend_radius_mm too small: the tube would intersect itself")
         if not 100 <= self.vertices_min <= self.vertices_max:
-            raise ValueError("need 100 <= vertices_min <= vertices_max")
+            raise InputError("need 100 <= vertices_min <= vertices_max")
 
 
 def sample_params(group: str = "normal", seed: int = 0, **overrides) -> PhantomParams:
@@ -199,7 +201,7 @@ class Phantom:
             depth = p.fold_contracted + (p.fold_expanded - p.fold_contracted) * h
             fold = 1.0 - depth * (0.5 + 0.5 * np.cos(p.folds * theta + np.pi)) ** 2
             return rho * q * p.lumen_fraction * fold
-        raise ValueError(f"wall must be one of {WALLS}, found {wall!r}")
+        raise InputError(f"wall must be one of {WALLS}, found {wall!r}")
 
     def _inner_scale(self, s, t_ms, h, m, a_k, a_e):
         """Scale of the inner contour relative to the outer one (keeps myocardial area)."""

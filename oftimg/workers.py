@@ -18,6 +18,8 @@ import signal
 import threading
 import time
 
+from .errors import InputError
+
 
 class WorkerLost(RuntimeError):
     """A worker process (or Dask worker) ended abruptly: killed by the system
@@ -36,12 +38,12 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
         try:
             from distributed import Client
         except ImportError:
-            raise ValueError("--scheduler needs dask.distributed: pip install 'oftimg[dask]'") \
+            raise InputError("--scheduler needs dask.distributed: pip install 'oftimg[dask]'") \
                 from None
         return Client(scheduler).get_executor()
     jobs = usable_cpus() if jobs is None else int(jobs)
     if jobs < 1:
-        raise ValueError(f"--jobs must be at least 1, found {jobs}")
+        raise InputError(f"--jobs must be at least 1, found {jobs}")
     if jobs == 1:
         return None
     import multiprocessing as mp

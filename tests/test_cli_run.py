@@ -180,3 +180,26 @@ def test_a_full_disk_is_an_error_not_an_internal_one(tmp_path, monkeypatch, caps
     err = capsys.readouterr().err
     assert "oftimg: error: [Errno 28] No space left on device:" in err and "summary.json" in err
     assert "internal error" not in err and not out.exists()
+
+
+def test_a_library_failing_is_an_internal_error_not_bad_input(tmp_path, monkeypatch, capsys):
+    """A TypeError or ValueError out of a library (say a plugin imageio could not
+    load) is oftimg's failure: exit status 1, "internal error", not 2 and "error"
+    as if the input were bad; oftimg's own checks still say "error" with 2."""
+    import imageio.v2 as imageio
+
+    from oftimg.phantom import sample_params, write_phantom
+
+    ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
+                                                        vertices_min=1500, vertices_max=1800))
+
+    def broken_writer(*args, **kwargs):
+        raise TypeError("TiffWriter.write() got an unexpected keyword argument 'fps'")
+
+    monkeypatch.setattr(imageio, "get_writer", broken_writer)
+    out = tmp_path / "out"
+    assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1"]) == 1
+    err = capsys.readouterr().err
+    assert "oftimg: internal error: TypeError: TiffWriter.write()" in err and not out.exists()
+    assert main(["run", str(ds), "--out", str(out), "--quiet", "--n-u", "2"]) == 2
+    assert "oftimg: error: grid must be at least 3 x 2, found 2 x 50" in capsys.readouterr().err

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cycle import periodic_peak
+from ..errors import InputError
 
 FLAT_REL = 1e-3  # rows whose relative temporal range is below this have no ridge
 
@@ -18,9 +19,9 @@ FLAT_REL = 1e-3  # rows whose relative temporal range is below this have no ridg
 def _check_map(area: np.ndarray, s_mm: np.ndarray | None = None) -> np.ndarray:
     area = np.asarray(area, dtype=float)
     if area.ndim != 2 or area.shape[1] < 3:
-        raise ValueError(f"a (v, t) map must be 2-D with at least 3 frames, found {area.shape}")
+        raise InputError(f"a (v, t) map must be 2-D with at least 3 frames, found {area.shape}")
     if s_mm is not None and np.shape(s_mm) != (area.shape[0],):
-        raise ValueError(f"s_mm must have one value per row ({area.shape[0]}), "
+        raise InputError(f"s_mm must have one value per row ({area.shape[0]}), "
                          f"found shape {np.shape(s_mm)}")
     return area
 

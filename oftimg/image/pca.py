@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..mesh.topology import loop_vector_area
 
 
@@ -105,7 +106,7 @@ def shape_pca(curves: np.ndarray, *, n_modes: int = 3, max_iter: int = 30,
     """Principal modes of closed curves ``(n_curves, n, 2)`` in SRVF space, size kept."""
     curves = np.asarray(curves, float)
     if curves.ndim != 3 or curves.shape[2] != 2 or len(curves) < 3:
-        raise ValueError(f"need at least 3 planar curves (n_curves, n, 2), found {curves.shape}")
+        raise InputError(f"need at least 3 planar curves (n_curves, n, 2), found {curves.shape}")
     mean, aligned, iterations, converged = karcher_mean(curves, max_iter=max_iter, tol=tol)
     Q = srvf(aligned).reshape(len(curves), -1)
     q_mean = Q.mean(axis=0)

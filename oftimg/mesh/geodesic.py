@@ -35,6 +35,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from ..errors import InputError
 from .topology import MeshError
 
 BAND_RINGS = 5  # edge rings around the Dijkstra path kept for an edge-flip path
@@ -48,7 +49,7 @@ class GeodesicSolver:
 
     def __init__(self, V: np.ndarray, F: np.ndarray, *, method: str = "graph"):
         if method not in METHODS:
-            raise ValueError(f"geodesic method must be one of {METHODS}, found {method!r}")
+            raise InputError(f"geodesic method must be one of {METHODS}, found {method!r}")
         self.V = np.ascontiguousarray(V, dtype=np.float64)
         self.F = np.ascontiguousarray(F, dtype=np.int64)
         self.method = method

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from ..errors import InputError
 from .geodesic import (METHODS, GeodesicSolver, insert_boundary_point, insert_path,
                        locate_on_edges)
 from .parameterize import FlatSampler, cut_and_map, even_grid
@@ -29,11 +30,11 @@ class GridOptions:
 
     def __post_init__(self):
         if self.n_u < 3 or self.n_v < 2:
-            raise ValueError(f"grid must be at least 3 x 2, found {self.n_u} x {self.n_v}")
+            raise InputError(f"grid must be at least 3 x 2, found {self.n_u} x {self.n_v}")
         if self.seam_smoothing_frames < 0:
-            raise ValueError("seam_smoothing_frames must be >= 0")
+            raise InputError("seam_smoothing_frames must be >= 0")
         if self.seam_method not in METHODS:
-            raise ValueError(f"seam_method must be one of {METHODS}, found {self.seam_method!r}")
+            raise InputError(f"seam_method must be one of {METHODS}, found {self.seam_method!r}")
 
 
 @dataclass(frozen=True)

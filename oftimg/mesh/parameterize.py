@@ -20,6 +20,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
+from ..errors import InputError
 from .topology import MeshError, cross3, edge_incidence
 
 
@@ -53,7 +54,7 @@ def intrinsic_weights(V: np.ndarray, F: np.ndarray, *, authalic_weight: float) -
     functions on a flat mesh; tested). Not symmetric when authalic_weight > 0.
     """
     if not 0.0 <= authalic_weight <= 1.0:
-        raise ValueError(f"authalic_weight must be in [0, 1], found {authalic_weight}")
+        raise InputError(f"authalic_weight must be in [0, 1], found {authalic_weight}")
     cots, l2 = _corner_terms(V, F)
     scale = float(l2.mean())                        # makes the blend unit-free
     # edge k = (i, j) = (corner k, corner k + 1); its opposite corner is k + 2

@@ -12,8 +12,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
+from ..errors import InputError
 
-class MeshError(ValueError):
+
+class MeshError(InputError):
     """A mesh that is not the open tube oftimg expects."""
 
 

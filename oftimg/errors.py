@@ -1,0 +1,11 @@
+"""The exception for its users' mistakes that oftimg raises (the CLI's exit status 2).
+
+A ``ValueError``, as the conventions ask; the CLI tells it apart from a
+``ValueError`` or ``TypeError`` out of a library, which is oftimg's own
+failure (exit status 1, "internal error"), not bad input.
+"""
+
+
+class InputError(ValueError):
+    """Bad input or a bad option: the message names it, what was expected and
+    what was found."""

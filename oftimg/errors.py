@@ -1,4 +1,4 @@
-"""The exception for its users' mistakes that oftimg raises (the CLI's exit status 2).
+"""What oftimg raises for its users' mistakes (the CLI's exit status 2).
 
 A ``ValueError``, as the conventions ask; the CLI tells it apart from a
 ``ValueError`` or ``TypeError`` out of a library, which is oftimg's own

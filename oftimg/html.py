@@ -4,6 +4,7 @@ from __future__ import annotations
 import html
 import json
 import os
+import urllib.parse
 from pathlib import Path
 
 from .report import COHORT_COLUMNS, cohort_rows, group_comparison
@@ -136,7 +137,8 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
             + (f" (gathered; the datasets' own runs took {_fmt(run_info['datasets_seconds'])} s)"
                if run_info.get("datasets_seconds") is not None else "") + "</p>",
             "<h2>Cohort (Table 1)</h2>",
-            _table(cohort_rows(summaries), cols, link=lambda r: f"{r['name']}/index.html")]
+            _table(cohort_rows(summaries), cols,
+                   link=lambda r: f"{urllib.parse.quote(r['name'], safe='')}/index.html")]
     comp = group_comparison(summaries) if comparison is None else comparison
     if comp and len({s["group"] for s in summaries}) >= 2:
         ccols = list(comp[0])

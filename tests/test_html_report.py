@@ -1,8 +1,10 @@
 """The offline HTML report, opened in a real headless browser (Debian's chromium)."""
+import html
 import os
 import re
 import shutil
 import subprocess
+import urllib.parse
 from pathlib import Path
 
 import pytest
@@ -28,10 +30,13 @@ def cohort_out(phantom_normal, phantom_banded, tmp_path_factory):
 
 
 def local_links(page: Path) -> list[str]:
+    """The files the page's links name, read as a browser reads them (percent-decoded,
+    without the #fragment)."""
     text = page.read_text()
     links = re.findall(r'(?:src|href)="([^"]+)"', text)
     assert "http://" not in text and "https://" not in text  # offline: no CDN
-    return [link for link in links if not link.startswith("#")]
+    return [urllib.parse.unquote(urllib.parse.urlsplit(html.unescape(link)).path)
+            for link in links if not link.startswith("#")]
 
 
 def test_every_link_resolves_and_tables_are_there(cohort_out):
@@ -49,6 +54,24 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
             assert (page.parent / link).exists(), f"{page}: {link}"
     assert (cohort_out / "cohort.md").read_text().count("\n") == 4
     assert (cohort_out / "groups.csv").exists()
+
+
+def test_links_to_datasets_with_any_folder_name_resolve(tmp_path):
+    """A dataset folder's name goes into the cohort page's links percent-encoded:
+    "#" began a fragment and "%20" was read as a space, so both links were dead."""
+    from oftimg.phantom import sample_params, write_phantom
+
+    cohort = tmp_path / "cohort é"
+    names = ["embryo A (1) é#2", "b%20x"]
+    for name, group in zip(names, ("normal", "banded")):
+        write_phantom(cohort / name, sample_params(group, 1, n_frames=5, vertices_min=1500,
+                                                   vertices_max=1800))
+    out = tmp_path / "out é"
+    assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1"]) == 0
+    links = local_links(out / "index.html")
+    assert sorted(n for n in names if f"{n}/index.html" in links) == sorted(names)
+    for link in links:
+        assert (out / link).exists(), link
 
 
 @pytest.mark.skipif(CHROMIUM is None and not os.environ.get("CI"),

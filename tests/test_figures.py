@@ -139,3 +139,28 @@ def test_group_figures_name_few_embryos_and_summarise_many(tmp_path, monkeypatch
     assert normal == ["mean ± SD (n = 12)"]
     assert banded == ["banded0", "banded1", "banded2"]
     assert legends[-1] == ["normal mean ± SD (n = 12)", "banded"]   # the volume figure
+
+
+def test_names_with_dollar_signs_are_drawn_as_they_are(tmp_path):
+    """A "$" in a dataset's or group's name is not matplotlib mathtext: "$x^{$" stopped
+    the run with a ParseSyntaxException."""
+    import matplotlib.text
+
+    summaries = cohort_results(tmp_path, {"normal": 2, "KO $x^{$": 2})
+    drawn = []
+    real_draw = matplotlib.text.Text.draw
+
+    def record(text, renderer):
+        drawn.append(text.get_text())
+        return real_draw(text, renderer)
+
+    matplotlib.text.Text.draw = record
+    try:
+        paths = figures.group_figures(tmp_path, summaries, tmp_path)
+        arrays, _, period = fixed_map()
+        figures.ridge_plot(arrays["s_mm"], arrays["ridge_t_ms"], tmp_path / "r.png",
+                           title="embryo $5 and $6")
+    finally:
+        matplotlib.text.Text.draw = real_draw
+    assert len(paths) == 4
+    assert r"KO \$x^{\$" in drawn and r"KO \$x^{\$0" in drawn and r"embryo \$5 and \$6" in drawn

@@ -70,7 +70,7 @@ def write_cohort_markdown(folder: Path, summaries: list[dict]) -> Path:
     def fmt(x):
         if isinstance(x, float):
             return "nan" if x != x else f"{x:.3g}"
-        return "" if x is None else str(x)
+        return "" if x is None else str(x).replace("|", r"\|")   # a name's "|": no new cell
 
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     lines += ["| " + " | ".join(fmt(r[c]) for c in cols) + " |" for r in rows]

@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from oftimg.report import cohort_rows, group_comparison, holm, mean_curve, permutation_test
+from oftimg.report import (cohort_rows, group_comparison, holm, mean_curve, permutation_test,
+                           write_cohort_markdown)
 
 
 def test_exact_permutation_test():
@@ -84,3 +85,12 @@ def test_mean_curve_of_a_group_on_a_common_axis():
     cycle, _, _ = mean_curve([(np.array([0.0, 0.5]), np.array([0.0, 1.0]))] * 2,
                              np.array([0.25, 0.75]), period=1.0)
     assert np.allclose(cycle, [0.5, 0.5])                       # 0.75 lies between 0.5 and 1 = 0
+
+
+def test_markdown_table_keeps_a_name_with_a_bar_in_its_cell(tmp_path):
+    summaries = [{"name": "WT|3", "group": "a|b", "period_ms": 350.0},
+                 {"name": "KO", "group": "c", "period_ms": 351.0}]
+    lines = write_cohort_markdown(tmp_path, summaries).read_text().splitlines()
+    cells = lambda line: len(line.replace(r"\|", "").split("|"))  # noqa: E731
+    assert cells(lines[2]) == cells(lines[0]) == cells(lines[3])
+    assert lines[2].startswith(r"| WT\|3 | a\|b | ")

@@ -16,7 +16,7 @@ WALL_COLOURS = {"outer": "#c0392b", "inner": "#e59866", "lumen": "#2e86c1",
                 "myocardium": "#6c3483"}
 
 
-def _plain(text: str) -> str:
+def plain_text(text: str) -> str:
     """``text`` drawn as it is: a dataset's or group's name with "$" in it would be
     read as matplotlib mathtext (and an unbalanced "$a^{" stops the run)."""
     return str(text).replace("$", r"\$")
@@ -43,7 +43,7 @@ def volume_over_cycle(t_ms: np.ndarray, volumes_mm3: dict[str, np.ndarray], path
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
-    fig.suptitle(_plain(title), fontsize=10)
+    fig.suptitle(plain_text(title), fontsize=10)
     return _save(fig, path)
 
 
@@ -60,7 +60,7 @@ def trim_over_cycle(t_ms: np.ndarray, trim_percent: np.ndarray, myocardial_mm3: 
     for ax in axes:
         ax.set_xlabel("time since minimum volume (ms)")
         ax.grid(alpha=0.3)
-    fig.suptitle(_plain(title), fontsize=10)
+    fig.suptitle(plain_text(title), fontsize=10)
     return _save(fig, path)
 
 
@@ -87,7 +87,7 @@ def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray],
     ax.set_ylabel("y (mm)")
     ax.set_zlabel("z (mm)")
     ax.legend(fontsize=8, loc="upper left")
-    ax.set_title(_plain(title), fontsize=9)
+    ax.set_title(plain_text(title), fontsize=9)
     return _save(fig, path)
 
 
@@ -144,7 +144,7 @@ def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Pat
     ax.set_xlabel("time since minimum volume (ms)")
     ax.set_ylabel("position along the tube s (mm)")
     ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
-    ax.set_title(_plain(title), fontsize=9)
+    ax.set_title(plain_text(title), fontsize=9)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=7, loc="upper right", framealpha=0.6)
     return _save(fig, path)
@@ -164,7 +164,7 @@ def max_area_profile(s_mm, max_area: dict, path: Path, *, sigma_area: dict | Non
     ax.set_ylabel("cross-sectional area (mm$^2$)")
     ax.legend(fontsize=6, ncol=3)
     ax.grid(alpha=0.3)
-    ax.set_title(_plain(title), fontsize=9)
+    ax.set_title(plain_text(title), fontsize=9)
     return _save(fig, path)
 
 
@@ -177,7 +177,7 @@ def time_expanded(s_mm, shares: dict[str, np.ndarray], path: Path, *, title: str
     ax.set_ylabel("time expanded (% of cycle)")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-    ax.set_title(_plain(title), fontsize=9)
+    ax.set_title(plain_text(title), fontsize=9)
     return _save(fig, path)
 
 
@@ -192,7 +192,7 @@ def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
               interpolation="nearest")
     ax.set_xlabel("time since minimum volume (ms)")
     ax.set_ylabel("position along the tube s (mm)")
-    ax.set_title(_plain(title), fontsize=9)
+    ax.set_title(plain_text(title), fontsize=9)
     wax = fig.add_axes([0.76, 0.45, 0.22, 0.4])
     wax.imshow(colour_wheel(), origin="upper")
     wax.set_axis_off()
@@ -226,7 +226,7 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, title: st
     axes[1].set_ylabel("local wave speed (mm/s)")
     for ax in axes:
         ax.grid(alpha=0.3)
-    fig.suptitle(_plain(title), fontsize=10)
+    fig.suptitle(plain_text(title), fontsize=10)
     return _save(fig, path)
 
 
@@ -276,14 +276,14 @@ def _group_curves(ax, curves: list[tuple], colour: str, x: np.ndarray, *,
 
     if len(curves) <= NAMED_CURVES_MAX:
         for name, xk, yk in curves:
-            ax.plot(xk, yk, lw=1.4, label=_plain(f"{label} {name}".strip()))
+            ax.plot(xk, yk, lw=1.4, label=plain_text(f"{label} {name}".strip()))
         return
     for _, xk, yk in curves:
         ax.plot(xk, yk, lw=0.6, color=colour, alpha=0.25)
     mean, sd, _ = mean_curve([(xk, yk) for _, xk, yk in curves], x, period=period)
     ax.fill_between(x, mean - sd, mean + sd, color=colour, alpha=0.2, lw=0)
     ax.plot(x, mean, color=colour, lw=2.2,
-            label=_plain(f"{label} mean ± SD (n = {len(curves)})".strip()))
+            label=plain_text(f"{label} mean ± SD (n = {len(curves)})".strip()))
 
 
 def _common_position(curves: list[tuple]) -> np.ndarray:
@@ -318,7 +318,7 @@ def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Pa
                        data[s["name"]][key] * (100 if "fraction" in key else 1))
                       for s in members[g]]
             _group_curves(ax, curves, colours[g], _common_position(curves))
-            ax.set_title(_plain(g), fontsize=10)
+            ax.set_title(plain_text(g), fontsize=10)
             ax.set_xlabel("position along the tube s (mm)")
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7)
@@ -333,7 +333,7 @@ def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Pa
             curves.append((s["name"], data[s["name"]]["t_ms"] / s["period_ms"], v / v.mean()))
         if len(curves) <= NAMED_CURVES_MAX:   # few: every embryo, coloured by its group
             for k, (_, xk, yk) in enumerate(curves):
-                ax.plot(xk, yk, color=colours[g], lw=1.2, label=_plain(g) if k == 0 else None)
+                ax.plot(xk, yk, color=colours[g], lw=1.2, label=plain_text(g) if k == 0 else None)
         else:
             _group_curves(ax, curves, colours[g], cycle, period=1.0, label=g)
     ax.legend(fontsize=8)
@@ -364,7 +364,7 @@ def _mode_arrows(ax, mean, disp, title):
     ax.set_aspect("equal")
     ax.set_xticks([])
     ax.set_yticks([])
-    ax.set_title(_plain(title), fontsize=7)
+    ax.set_title(plain_text(title), fontsize=7)
 
 
 def pca_groups_figure(results: Path, summaries: list[dict], path: Path, *,
@@ -421,5 +421,5 @@ def pca_figure(pca: dict, pca_summary: dict, path: Path, *, title: str = "",
             ax.set_ylabel("|displacement| (um)", fontsize=7)
             ax.tick_params(labelsize=6)
             ax.legend(fontsize=6)
-    fig.suptitle(_plain(title), fontsize=10)
+    fig.suptitle(plain_text(title), fontsize=10)
     return _save(fig, path)

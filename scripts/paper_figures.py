@@ -37,7 +37,7 @@ def field_pair(field, area, path, title, cmap="coolwarm"):
         ax.set_ylabel("v (along, inlet at 0)")
         ax.set_title(f"{label} (frame {t})", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.8)
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(figures.plain_text(title), fontsize=10)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

@@ -78,6 +78,8 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
                 parallel, overwrite, quiet, fps, started) -> Path:
     """:func:`run` once it holds ``finished``: what to reuse, validation, the work,
     the cohort outputs; on failure, the note on what is kept."""
+    from .pipeline import check_enough_frames
+
     names = [d.meta.name for d in datasets]
     fingerprints = {d.meta.name: finished.fingerprint(d, opts, fps) for d in datasets}
     reused = {}
@@ -90,6 +92,8 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
                  len(datasets))
     todo = [d for d in datasets if d.meta.name not in reused]
     try:
+        for ds in todo:
+            check_enough_frames(ds)
         executor = make_executor(jobs, scheduler) if todo else None
         with closing_executor(executor):
             reports = {ds.meta.name: _validated(ds, executor, quiet) for ds in todo}

@@ -9,6 +9,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from . import __version__
+from .errors import InputError
 from .io import Dataset, OftimgWarning
 from .cycle import cycle_timing, resample_time, two_segment_warp
 from .image.analysis import analyse_area_maps
@@ -39,6 +40,20 @@ class PipelineOptions:
 
     def as_dict(self) -> dict:
         return {"grid": asdict(self.grid), "warp": self.warp}
+
+
+# frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion
+# and contraction (the phases share the frame of maximum volume)
+MIN_FRAMES = 5
+
+
+def check_enough_frames(ds: Dataset) -> None:
+    """Raise :class:`~oftimg.errors.InputError` naming ``ds`` if it has fewer than
+    :data:`MIN_FRAMES` frames (before any work, not at the shape modes)."""
+    if ds.n_frames < MIN_FRAMES:
+        raise InputError(f"{ds.path / 'outer'}: {ds.n_frames} frames; an analysis needs at "
+                         f"least {MIN_FRAMES} over the cycle (the shape modes take 3 in each "
+                         "of expansion and contraction)")
 
 
 def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> list:
@@ -136,6 +151,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     not change them. ``progress()``, if given, is called after each frame of
     each of the two per-frame passes (``2 n_t`` calls) instead of drawing a bar.
     """
+    check_enough_frames(ds)
     opts = options.grid
     timings = {}
     n_t = ds.n_frames

@@ -203,3 +203,19 @@ def test_a_library_failing_is_an_internal_error_not_bad_input(tmp_path, monkeypa
     assert "oftimg: internal error: TypeError: TiffWriter.write()" in err and not out.exists()
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--n-u", "2"]) == 2
     assert "oftimg: error: grid must be at least 3 x 2, found 2 x 50" in capsys.readouterr().err
+
+
+def test_too_few_frames_for_a_cycle_stop_the_run_before_any_work(tmp_path, capsys, monkeypatch):
+    """4 frames ran the whole analysis, then failed at the shape modes with "need at
+    least 3 planar curves"; now the run stops first, naming the folder."""
+    from oftimg import api
+    from oftimg.phantom import sample_params, write_phantom
+
+    ds = write_phantom(tmp_path / "short", sample_params("normal", 2, n_frames=4,
+                                                         vertices_min=1500, vertices_max=1800))
+    monkeypatch.setattr(api, "_validated", lambda *a: pytest.fail("validated"))
+    out = tmp_path / "out"
+    assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"oftimg: error: {ds / 'outer'}: 4 frames; an analysis needs at least 5" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["short"]   # no out, nothing kept

@@ -76,6 +76,12 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         except Exception as exc:  # meshio raises many types for bad files
             raise DatasetError(f"{path}: cannot be read as {suffix} ({exc})") from None
         tris = [c.data for c in m.cells if c.type == "triangle"]
+        # other faces, left out, would leave holes: a misleading topology error later
+        others = sum(len(c.data) for c in m.cells
+                     if c.type == "quad" or c.type.startswith("polygon"))
+        if others:
+            raise DatasetError(f"{path}: {others} faces are not triangles (quads or polygons); "
+                               "oftimg reads triangle meshes: triangulate it first")
         V = np.asarray(m.points, dtype=np.float64)
         F = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
     elif suffix in MESH_SUFFIXES:

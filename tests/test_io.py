@@ -9,7 +9,7 @@ import pytest
 from helpers import tube_mesh, write_series
 from oftimg.cli import main
 from oftimg.io import (DatasetError, OftimgWarning, find_datasets, list_frames, load_dataset,
-                       load_tube, natural_key, validate_dataset, write_ply)
+                       load_tube, natural_key, read_mesh_file, validate_dataset, write_ply)
 
 
 def cone_frames(n=3, flip=False, **kw):
@@ -160,6 +160,19 @@ def test_other_formats_load_the_same_tube(tmp_path, suffix):
     tube = load_tube(path)
     assert len(tube.F) == len(F)
     assert np.allclose(np.sort(tube.V[:, 2]), np.sort(V[:, 2]), atol=1e-5)
+
+
+def test_a_vtk_file_with_quads_is_refused_by_name(tmp_path):
+    """Quads among the triangles were left out: holes, then a topology error that
+    did not say why."""
+    import meshio
+
+    V, F = tube_mesh(n_theta=24, n_s=10)
+    quads = np.array([[0, 1, 25, 24], [1, 2, 26, 25]])
+    path = tmp_path / "mixed.vtk"
+    meshio.write(path, meshio.Mesh(V, [("triangle", F[4:]), ("quad", quads)]))
+    with pytest.raises(DatasetError, match=r"mixed.vtk: 2 faces are not triangles"):
+        read_mesh_file(path)
 
 
 def test_repairs_are_counted(tmp_path):

@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import math
 import platform
 import shutil
 import sys
@@ -59,6 +60,8 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
 
     if parallel not in ("auto", "frames", "embryos"):
         raise InputError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
+    if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
+        raise InputError(f"--fps must be a positive number of frames per second, found {fps!r}")
     out = Path(out)
     paths = _as_dataset_paths(source)
     check_output_location(out, paths, overwrite=overwrite)

@@ -219,3 +219,12 @@ def test_too_few_frames_for_a_cycle_stop_the_run_before_any_work(tmp_path, capsy
     err = capsys.readouterr().err
     assert f"oftimg: error: {ds / 'outer'}: 4 frames; an analysis needs at least 5" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["short"]   # no out, nothing kept
+
+
+@pytest.mark.parametrize("fps", ["0", "-5", "nan", "inf"])
+def test_frames_per_second_must_be_positive(tmp_path, capsys, fps):
+    """--fps 0 wrote videos that do not play; -5 and nan ended in internal errors."""
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "any"), "--out", str(out), "--quiet", "--fps", fps]) == 2
+    assert "oftimg: error: --fps must be a positive number" in capsys.readouterr().err
+    assert not out.exists()

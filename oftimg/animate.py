@@ -115,6 +115,8 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
     """Write an animated dataset (meta.json, outer/, truth.json) from one static tube."""
     from .io import load_tube, write_ply
 
+    if not (np.isfinite(scale_to_mm) and scale_to_mm > 0):
+        raise InputError(f"the scale to mm must be positive, found {scale_to_mm}")
     out = Path(out)
     if out.exists() and any(out.iterdir()):
         raise FileExistsError(f"{out}: exists and is not empty")

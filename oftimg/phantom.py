@@ -96,6 +96,8 @@ class PhantomParams:
             raise InputError("bend_radius_mm too small: the tube would intersect itself")
         if not 100 <= self.vertices_min <= self.vertices_max:
             raise InputError("need 100 <= vertices_min <= vertices_max")
+        if not (np.isfinite(self.noise_mm) and self.noise_mm >= 0):
+            raise InputError(f"noise_mm must be >= 0, found {self.noise_mm}")
 
 
 def sample_params(group: str = "normal", seed: int = 0, **overrides) -> PhantomParams:

@@ -35,6 +35,17 @@ def test_bad_animation_parameters():
         Animation(5.0, 3.0, 100, 10)
 
 
+@pytest.mark.parametrize("scale", [0.0, -1.0, float("nan")])
+def test_the_scale_to_mm_must_be_positive(tmp_path, scale):
+    """0 gave "has no triangles" (every face degenerate), -1 a mirrored tube, silently."""
+    V, F = tube_mesh(0.2, length=1.0, n_theta=16, n_s=8)
+    write_ply(tmp_path / "tube.ply", V, F)
+    with pytest.raises(ValueError, match="scale to mm must be positive"):
+        write_animation(tmp_path / "tube.ply", tmp_path / "anim", Animation(5.0, 0.3, 100, 5),
+                        scale_to_mm=scale)
+    assert not (tmp_path / "anim").exists()
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("r_out", [0.2, 0.12])  # a cylinder and a cone
 def test_animated_tube_recovers_the_applied_speed(tmp_path, r_out):

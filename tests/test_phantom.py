@@ -113,6 +113,9 @@ def test_bad_parameters_are_refused():
         PhantomParams(expand_fraction=1.2)
     with pytest.raises(ValueError, match="bend_radius"):
         PhantomParams(bend_radius_mm=0.2)
+    for noise in (-0.01, float("nan")):  # were taken for no noise
+        with pytest.raises(ValueError, match="noise_mm must be >= 0"):
+            PhantomParams(noise_mm=noise)
 
 
 def test_sampled_parameters_vary_by_seed_and_group():

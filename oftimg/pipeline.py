@@ -257,6 +257,10 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     }
     if "inner" in walls:
         myo = volume["outer"] - volume["inner"]
+        if (myo <= 0).any():
+            warnings.warn(f"{ds.path}: the inner wall encloses as much as the outer one or more "
+                          f"in {int((myo <= 0).sum())} of {n_t} frames (myocardial volume <= 0): "
+                          "are inner/ and outer/ swapped?", OftimgWarning, stacklevel=2)
         arrays["volume_myocardium_mm3"] = myo
         summary["myocardial_volume_change"] = float((myo.max() - myo.min()) / myo.min())
         clip_v, target = clip_positions(area["outer"] - area["inner"], thickness["outer"])

@@ -228,3 +228,22 @@ def test_frames_per_second_must_be_positive(tmp_path, capsys, fps):
     assert main(["run", str(tmp_path / "any"), "--out", str(out), "--quiet", "--fps", fps]) == 2
     assert "oftimg: error: --fps must be a positive number" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_swapped_walls_are_pointed_out(tmp_path):
+    """inner/ and outer/ swapped gave negative myocardial volumes and a 100 % trim
+    without a word."""
+    from oftimg.phantom import sample_params, write_phantom
+
+    ds = write_phantom(tmp_path / "swapped", sample_params("normal", 2, n_frames=5,
+                                                           vertices_min=1500, vertices_max=1800))
+    (ds / "outer").rename(ds / "was_outer")
+    (ds / "inner").rename(ds / "outer")
+    (ds / "was_outer").rename(ds / "inner")
+    from oftimg.io import OftimgWarning
+
+    with pytest.warns(OftimgWarning, match=r"the inner wall encloses as much as the outer one "
+                      r"or more in 5 of 5 frames \(myocardial volume <= 0\): are inner/ and "
+                      r"outer/ swapped\?"):
+        assert main(["run", str(ds), "--out", str(tmp_path / "out"), "--quiet",
+                     "--jobs", "1"]) == 0

@@ -196,6 +196,13 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         warnings.warn(f"{ds.path}: {int(crossing.sum())} section planes still cross another "
                       "inside the tube after blending (see plane_crossing)", OftimgWarning,
                       stacklevel=2)
+    nested = [w for w in ("outer", "inner", "lumen") if w in walls]
+    for out_w, in_w in zip(nested, nested[1:]):       # each wall inside the one before
+        n_bad = int((volume[in_w] >= volume[out_w]).sum())
+        if n_bad:
+            warnings.warn(f"{ds.path}: the {in_w} wall encloses as much as the {out_w} one or "
+                          f"more in {n_bad} of {n_t} frames: are {in_w}/ and {out_w}/ swapped?",
+                          OftimgWarning, stacklevel=2)
     n_from_ring = {w: int(r.sum()) for w, r in from_ring.items()}
     for w, k in n_from_ring.items():
         if k:
@@ -257,10 +264,6 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     }
     if "inner" in walls:
         myo = volume["outer"] - volume["inner"]
-        if (myo <= 0).any():
-            warnings.warn(f"{ds.path}: the inner wall encloses as much as the outer one or more "
-                          f"in {int((myo <= 0).sum())} of {n_t} frames (myocardial volume <= 0): "
-                          "are inner/ and outer/ swapped?", OftimgWarning, stacklevel=2)
         arrays["volume_myocardium_mm3"] = myo
         summary["myocardial_volume_change"] = float((myo.max() - myo.min()) / myo.min())
         clip_v, target = clip_positions(area["outer"] - area["inner"], thickness["outer"])

@@ -91,6 +91,7 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
                                          print_progress=False)
         V = np.asarray(mesh.vertices, dtype=np.float64)
         F = np.asarray(mesh.triangles, dtype=np.int64)
+        _check_declared_counts(path, len(V), len(F))
     else:
         raise DatasetError(f"{path}: unsupported mesh format {suffix!r}; "
                            f"use one of {', '.join(MESH_SUFFIXES)}")
@@ -102,6 +103,67 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if F.min() < 0 or F.max() >= len(V):
         raise DatasetError(f"{path}: face indices out of range 0..{len(V) - 1}")
     return V, F
+
+
+_OBJ_FACE_LINE = re.compile(rb"\n[ \t]*f[ \t]")   # 4x faster than a (?m)^ pattern
+
+
+def declared_counts(path: Path) -> tuple[int | None, int | None]:
+    """Vertices and faces a .ply, .off, .obj or .stl file says it holds, from its
+    header or its lines (None where the format does not say or cannot be parsed).
+
+    open3d reads as much of a truncated file as it can and only prints a
+    warning; it leaves out .obj faces that are not triangles or whose line begins
+    with a blank, and stops at the first polygon it cannot split. Comparing with these counts catches all three
+    (except an .obj cut exactly between two lines: nothing in it says so).
+    """
+    suffix = path.suffix.lower()
+    if suffix == ".ply":
+        with open(path, "rb") as fh:
+            head = fh.read(65536)
+        end = head.find(b"end_header")
+        counts = dict(re.findall(rb"(?m)^element[ \t]+(vertex|face)[ \t]+(\d+)", head[:end]))
+        n_v, n_f = counts.get(b"vertex"), counts.get(b"face")
+        return (int(n_v) if n_v else None), (int(n_f) if n_f else None)
+    if suffix == ".off":
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+        tokens = re.sub(rb"#[^\n]*", b"", head).split()
+        if len(tokens) >= 4 and tokens[0] in (b"OFF", b"COFF", b"NOFF", b"CNOFF") \
+                and all(t.isdigit() for t in tokens[1:3]):
+            return int(tokens[1]), int(tokens[2])
+        return None, None
+    if suffix == ".obj":   # the vertex count is open3d's own (one per index combination)
+        return None, len(_OBJ_FACE_LINE.findall(b"\n" + path.read_bytes()))
+    if suffix == ".stl":
+        data = path.read_bytes()
+        n_binary = int.from_bytes(data[80:84], "little") if len(data) >= 84 else None
+        if n_binary is not None and len(data) == 84 + 50 * n_binary:
+            return None, n_binary
+        text = data.lower()
+        # ascii, unless bytes 80-84 hold a binary count (below 2^24: a zero byte)
+        if text.lstrip()[:5] == b"solid" and b"\0" not in data[80:84]:
+            # the facets begun, between the first line (the solid's name) and endsolid
+            start = text.find(b"\n")
+            stop = text.rfind(b"endsolid")
+            body = text[start:stop if stop > start else len(text)]
+            return None, body.count(b"facet") - body.count(b"endfacet")
+        return None, n_binary
+    return None, None
+
+
+def _check_declared_counts(path: Path, n_vertices: int, n_faces: int) -> None:
+    """Refuse a file of which open3d read another number of vertices or faces
+    than the file declares, naming the file (see :func:`declared_counts`)."""
+    want_v, want_f = declared_counts(path)
+    if want_v is not None and n_vertices != want_v:
+        raise DatasetError(f"{path}: lists {want_v} vertices but {n_vertices} could be read "
+                           "(the file is truncated or damaged)")
+    if want_f is not None and n_faces != want_f:
+        blanks = ", or face lines that begin with blanks" if path.suffix.lower() == ".obj" else ""
+        raise DatasetError(f"{path}: lists {want_f} faces but {n_faces} triangles could be "
+                           f"read: the file is truncated or damaged, or has faces that are not "
+                           f"triangles{blanks} (oftimg reads triangle meshes: triangulate it first)")
 
 
 def _read_vtp(path: Path) -> tuple[np.ndarray, np.ndarray]:

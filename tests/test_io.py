@@ -1,4 +1,5 @@
 import json
+import re
 import subprocess
 import sys
 import textwrap
@@ -9,7 +10,8 @@ import pytest
 from helpers import tube_mesh, write_series
 from oftimg.cli import main
 from oftimg.io import (DatasetError, OftimgWarning, find_datasets, list_frames, load_dataset,
-                       load_tube, natural_key, read_mesh_file, validate_dataset, write_ply)
+                       declared_counts, load_tube, natural_key, read_mesh_file, validate_dataset,
+                       write_ply)
 
 
 def cone_frames(n=3, flip=False, **kw):
@@ -175,6 +177,94 @@ def test_a_vtk_file_with_quads_is_refused_by_name(tmp_path):
         read_mesh_file(path)
 
 
+def _write_faces(path, V, faces, kind, indent=""):
+    """Write ``faces`` (lists of vertex indices, any length) as ascii .ply, .obj or .off;
+    .obj face lines begin with ``indent`` and some have a tab after the f."""
+    rows = [" ".join(str(int(k) + (kind == "obj")) for k in f) for f in faces]
+    verts = ["%.17g %.17g %.17g" % tuple(v) for v in V]
+    if kind == "ply":
+        head = ["ply", "format ascii 1.0", f"element vertex {len(V)}", "property double x",
+                "property double y", "property double z", f"element face {len(faces)}",
+                "property list uchar int vertex_indices", "end_header"]
+        lines = head + verts + [f"{len(f)} {r}" for f, r in zip(faces, rows)]
+    elif kind == "obj":
+        lines = ["v " + v for v in verts] + [f"{indent}f{chr(9) if k % 7 else ' '}{r}"
+                                               for k, r in enumerate(rows)]
+    else:
+        lines = ["OFF", f"{len(V)} {len(faces)} 0"] + verts + [f"{len(f)} {r}"
+                                                               for f, r in zip(faces, rows)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _damaged(tmp_path, kind):
+    """A tube file that open3d reads only in part, without an error."""
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)   # faces in rows: the last at the outlet
+    quads = [[k, k + 1, k + 25, k + 24] for k in range(0, 23)]      # the first row as quads
+    rest = F[~np.isin(F, np.arange(24)).any(axis=1)]
+    path = tmp_path / f"{kind}.{kind.split('_')[0]}"
+    if kind in ("ply_cut_faces", "ply_cut_vertices", "stl_cut"):
+        write = write_ply if kind.startswith("ply") else _write_binary_stl
+        write(path, V, F)
+        data = path.read_bytes()
+        path.write_bytes(data[:-13 * 5] if kind != "ply_cut_vertices" else data[:400])
+    elif kind in ("ply_quads", "obj_quads", "off_quads"):
+        wrap = [[23, 0, 24, 47]]
+        _write_faces(path, V, quads + wrap + rest.tolist(), kind.split("_")[0])
+    elif kind == "obj_indented":
+        _write_faces(path, V, F.tolist(), "obj", indent=" ")
+    elif kind == "obj_cut":
+        _write_faces(path, V, F.tolist(), "obj")
+        text = path.read_text().rstrip()
+        path.write_text(text[:text.rfind(" ")])      # the last face keeps two corners
+    elif kind == "stl_ascii_cut":
+        import meshio
+
+        meshio.write(path, meshio.Mesh(V, [("triangle", F)]), binary=False)
+        path.write_bytes(path.read_bytes()[:-200])
+    return path
+
+
+def _write_binary_stl(path, V, F):
+    rec = np.zeros(len(F), dtype=[("n", "<f4", 3), ("p", "<f4", (3, 3)), ("a", "<u2")])
+    rec["p"] = V[F]
+    path.write_bytes(b"solid binary, a header that starts like ascii".ljust(80)
+                     + np.uint32(len(F)).tobytes() + rec.tobytes())
+
+
+DAMAGED = {"ply_cut_faces": "lists 432 faces but 427 triangles could be read",
+           "ply_cut_vertices": "lists 432 faces but 0 triangles",
+           "ply_quads": "lists 408 faces but 432 triangles",  # open3d split the quads
+           "obj_quads": "lists 408 faces but 384 triangles",    # open3d left them out
+           "off_quads": "lists 408 faces but", "obj_cut": "lists 432 faces but 431 triangles",
+           "obj_indented": "lists 432 faces but 0 triangles",
+           "stl_cut": "lists 432 faces but 0 triangles",
+           "stl_ascii_cut": "lists 432 faces but"}
+
+
+@pytest.mark.parametrize("kind", sorted(DAMAGED))
+def test_a_file_read_only_in_part_is_refused_by_name(tmp_path, kind):
+    """open3d only prints a warning for a truncated file, skips .obj faces that are not
+    triangles and stops at the first polygon it cannot split: a truncated file whose
+    last faces lay at the outlet passed every check, a shorter tube."""
+    path = _damaged(tmp_path, kind)
+    with pytest.raises(DatasetError, match=re.escape(f"{path}: {DAMAGED[kind]}")):
+        read_mesh_file(path)
+
+
+@pytest.mark.parametrize("kind", ["ply", "obj", "off", "stl"])
+def test_whole_files_with_their_counts_are_read(tmp_path, kind):
+    """The counting itself: whole files (ascii, .obj face lines with a tab after the f,
+    a binary .stl whose header begins with 'solid') are read in full."""
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    path = tmp_path / f"f.{kind}"
+    if kind == "stl":
+        _write_binary_stl(path, V, F)
+    else:
+        _write_faces(path, V, F.tolist(), kind)
+    assert declared_counts(path)[1] == len(F)
+    assert len(load_tube(path).F) == len(F)
+
+
 def test_repairs_are_counted(tmp_path):
     V, F = tube_mesh(n_theta=20, n_s=6)
     V2 = np.concatenate([V, V[:3]])  # 3 duplicate vertices used by one face each
@@ -208,6 +298,9 @@ def _bad(tmp_path, kind):
     elif kind == "non_manifold":  # a fin on an edge
         V2 = np.concatenate([V, [[1.0, 1.0, 0.5]]])
         write_ply(target, V2, np.concatenate([F, [[F[50, 0], F[50, 1], len(V)]]]))
+    elif kind == "truncated":  # the last 5 faces, at the outlet, cut off
+        write_ply(target, V, F)
+        target.write_bytes(target.read_bytes()[:-13 * 5])
     elif kind == "nan":
         V2 = V.copy()
         V2[7] = np.nan
@@ -231,7 +324,7 @@ def _bad(tmp_path, kind):
 
 BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
        "three_loops": "3 boundary loops", "non_manifold": "non-manifold edge",
-       "nan": "NaN", "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
+       "nan": "NaN", "truncated": "lists 432 faces but 427 triangles", "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
        "meta_unit": "length_unit", "meta_name": "cannot be a folder name",
        "missing": "not found"}
 

@@ -73,8 +73,10 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
         try:
             m = meshio.read(path)
-        except Exception as exc:  # meshio raises many types for bad files
-            raise DatasetError(f"{path}: cannot be read as {suffix} ({exc})") from None
+        except (Exception, SystemExit) as exc:  # meshio raises many types for bad files,
+            # and calls sys.exit(1) on a truncated one (having printed why)
+            why = f" ({exc})" if not isinstance(exc, SystemExit) else " (truncated or damaged)"
+            raise DatasetError(f"{path}: cannot be read as {suffix}{why}") from None
         tris = [c.data for c in m.cells if c.type == "triangle"]
         # other faces, left out, would leave holes: a misleading topology error later
         others = sum(len(c.data) for c in m.cells

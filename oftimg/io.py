@@ -82,8 +82,7 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         others = sum(len(c.data) for c in m.cells
                      if c.type == "quad" or c.type.startswith("polygon"))
         if others:
-            raise DatasetError(f"{path}: {others} faces are not triangles (quads or polygons); "
-                               "oftimg reads triangle meshes: triangulate it first")
+            raise _not_triangles(path, others)
         V = np.asarray(m.points, dtype=np.float64)
         F = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
     elif suffix in MESH_SUFFIXES:
@@ -168,6 +167,11 @@ def _check_declared_counts(path: Path, n_vertices: int, n_faces: int) -> None:
                            f"triangles{blanks} (oftimg reads triangle meshes: triangulate it first)")
 
 
+def _not_triangles(path: Path, count: int) -> DatasetError:
+    return DatasetError(f"{path}: {count} faces are not triangles (quads or polygons); "
+                        "oftimg reads triangle meshes: triangulate it first")
+
+
 def _read_vtp(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """VTK XML PolyData through the vtk package (meshio does not read .vtp)."""
     try:
@@ -181,7 +185,13 @@ def _read_vtp(path: Path) -> tuple[np.ndarray, np.ndarray]:
     if not reader.CanReadFile(str(path)):
         raise DatasetError(f"{path}: cannot be read as VTK XML PolyData")
     reader.SetFileName(str(path))
-    tri = vtkTriangleFilter()
+    reader.Update()
+    polys = reader.GetOutput().GetPolys()
+    others = int(np.count_nonzero(np.diff(vtk_to_numpy(polys.GetOffsetsArray())) != 3)
+                 if polys is not None and polys.GetNumberOfCells() else 0)
+    if others:
+        raise _not_triangles(path, others)
+    tri = vtkTriangleFilter()                   # triangle strips, if any, to triangles
     tri.SetInputConnection(reader.GetOutputPort())
     tri.Update()
     poly = tri.GetOutput()

@@ -140,23 +140,7 @@ def test_other_formats_load_the_same_tube(tmp_path, suffix):
     V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
     path = tmp_path / f"f0{suffix}"
     if suffix == ".vtp":
-        from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
-        from vtkmodules.vtkCommonCore import vtkPoints
-        from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
-        from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
-
-        pts = vtkPoints()
-        pts.SetData(numpy_to_vtk(V, deep=True))
-        cells = vtkCellArray()
-        cells.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 3 * len(F) + 1, 3), deep=True),
-                      numpy_to_vtkIdTypeArray(F.ravel(), deep=True))
-        poly = vtkPolyData()
-        poly.SetPoints(pts)
-        poly.SetPolys(cells)
-        writer = vtkXMLPolyDataWriter()
-        writer.SetFileName(str(path))
-        writer.SetInputData(poly)
-        writer.Write()
+        _write_vtp(path, V, F.tolist())
     else:
         meshio.write(path, meshio.Mesh(V, [("triangle", F)]))
     tube = load_tube(path)
@@ -164,16 +148,42 @@ def test_other_formats_load_the_same_tube(tmp_path, suffix):
     assert np.allclose(np.sort(tube.V[:, 2]), np.sort(V[:, 2]), atol=1e-5)
 
 
-def test_a_vtk_file_with_quads_is_refused_by_name(tmp_path):
-    """Quads among the triangles were left out: holes, then a topology error that
-    did not say why."""
+def _write_vtp(path, V, faces):
+    """VTK XML PolyData with ``faces`` (lists of vertex indices, any length)."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+    from vtkmodules.vtkCommonCore import vtkPoints
+    from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+    pts = vtkPoints()
+    pts.SetData(numpy_to_vtk(V, deep=True))
+    cells = vtkCellArray()
+    offsets = np.cumsum([0] + [len(f) for f in faces])
+    cells.SetData(numpy_to_vtkIdTypeArray(offsets, deep=True),
+                  numpy_to_vtkIdTypeArray(np.concatenate(faces).astype(np.int64), deep=True))
+    poly = vtkPolyData()
+    poly.SetPoints(pts)
+    poly.SetPolys(cells)
+    writer = vtkXMLPolyDataWriter()
+    writer.SetFileName(str(path))
+    writer.SetInputData(poly)
+    writer.Write()
+
+
+@pytest.mark.parametrize("suffix", [".vtk", ".vtp"])
+def test_a_vtk_file_with_quads_is_refused_by_name(tmp_path, suffix):
+    """Quads among the triangles were left out (.vtk): holes, then a topology error
+    that did not say why; or split by VTK (.vtp), unlike every other format."""
     import meshio
 
     V, F = tube_mesh(n_theta=24, n_s=10)
     quads = np.array([[0, 1, 25, 24], [1, 2, 26, 25]])
-    path = tmp_path / "mixed.vtk"
-    meshio.write(path, meshio.Mesh(V, [("triangle", F[4:]), ("quad", quads)]))
-    with pytest.raises(DatasetError, match=r"mixed.vtk: 2 faces are not triangles"):
+    path = tmp_path / f"mixed{suffix}"
+    if suffix == ".vtk":
+        meshio.write(path, meshio.Mesh(V, [("triangle", F[4:]), ("quad", quads)]))
+    else:
+        _write_vtp(path, V, F[4:].tolist() + quads.tolist())
+    with pytest.raises(DatasetError, match=rf"mixed\{suffix}: 2 faces are not triangles"):
         read_mesh_file(path)
 
 

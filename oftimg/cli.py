@@ -9,11 +9,39 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
+import threading
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 from . import __version__
+
+
+class Terminated(BaseException):
+    """SIGTERM arrived: a job scheduler's time limit, ``kill``."""
+
+
+@contextmanager
+def _sigterm_unwinds():
+    """While a command runs, SIGTERM raises :class:`Terminated`, so that the run
+    ends as after Ctrl-C (workers stopped, nothing half-written, datasets finished
+    so far kept for --resume) instead of dying on the spot. A second SIGTERM
+    kills at once."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        raise Terminated()
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -114,9 +142,8 @@ def _print_report(report: dict) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    from . import api
     from .errors import InputError
-    from .io import OftimgWarning, load_dataset, validate_dataset
+    from .io import OftimgWarning
     from .workers import WorkerLost
 
     warnings.simplefilter("always", OftimgWarning)
@@ -132,53 +159,8 @@ def main(argv: list[str] | None = None) -> int:
         logging.captureWarnings(True)  # warnings then go to the log (and stderr below)
         logging.getLogger("py.warnings").addHandler(logging.StreamHandler())
     try:
-        if args.command == "run":
-            options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
-                       "seam_method": args.seam_method, "warp": args.warp}
-            out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
-                          jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
-                          parallel=args.parallel, resume=args.resume)
-            print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
-        elif args.command == "cohort":
-            out = api.cohort(args.results, args.out, overwrite=args.overwrite)
-            n = len(json.loads((out / "run.json").read_text())["inputs"])
-            print(f"cohort: {out} ({n} dataset{'s' * (n != 1)})\n"
-                  f"cohort table: {out / 'cohort.csv'}")
-        elif args.command == "demo":
-            out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
-                           jobs=args.jobs)
-            print(f"demo data: {out / 'data'}\nresults: {out / 'results'}\n"
-                  f"cohort table: {out / 'results' / 'cohort.csv'}")
-        elif args.command == "phantom":
-            extra = {"noise_mm": args.noise_mm}
-            if args.vertices:
-                extra.update(vertices_min=args.vertices[0], vertices_max=args.vertices[1])
-            out = api.make_phantom(args.out, group=args.group, seed=args.seed,
-                                   frames=args.frames, quiet=args.quiet, **extra)
-            print(f"phantom dataset: {out}")
-        elif args.command == "animate":
-            from .animate import Animation, write_animation
-            from .progress import Progress
-
-            anim = Animation(args.speed_mm_s, args.amplitude, args.period_ms, args.frames)
-            to_mm = args.scale * (1e-3 if args.unit == "um" else 1.0)
-            bar = Progress(args.frames, f"animate {args.out.name}", quiet=args.quiet)
-            out = write_animation(args.mesh, args.out, anim, scale_to_mm=to_mm,
-                                  do_remesh=args.remesh, seed=args.seed, progress=bar.update)
-            bar.close()
-            print(f"animated dataset: {out} (coordinates x {to_mm:g} -> mm)")
-        elif args.command == "validate":
-            from .progress import Progress
-
-            ds = load_dataset(args.dataset)
-            bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
-                           unit="mesh")
-            report = validate_dataset(ds, progress=bar.advance)
-            bar.close()
-            if args.json:
-                print(json.dumps(report, indent=2))
-            else:
-                _print_report(report)
+        with _sigterm_unwinds():
+            return _command(args)
     except (InputError, FileNotFoundError, FileExistsError) as exc:
         _print_error(f"error: {exc}", exc)
         return 2
@@ -188,9 +170,66 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as exc:
         _print_error("interrupted; no results were written to --out", exc)
         return 130
+    except Terminated as exc:
+        _print_error("terminated (SIGTERM); no results were written to --out", exc)
+        return 143
     except Exception as exc:  # the CLI's one catch-all: a clear line, not a traceback
         _print_error(f"internal error: {type(exc).__name__}: {exc}", exc)
         return 1
+
+
+def _command(args) -> int:
+    """Carry out the parsed command; errors go up to :func:`main`."""
+    from . import api
+    from .io import load_dataset, validate_dataset
+
+    if args.command == "run":
+        options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
+                   "seam_method": args.seam_method, "warp": args.warp}
+        out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
+                      jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
+                      parallel=args.parallel, resume=args.resume)
+        print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
+    elif args.command == "cohort":
+        out = api.cohort(args.results, args.out, overwrite=args.overwrite)
+        n = len(json.loads((out / "run.json").read_text())["inputs"])
+        print(f"cohort: {out} ({n} dataset{'s' * (n != 1)})\n"
+              f"cohort table: {out / 'cohort.csv'}")
+    elif args.command == "demo":
+        out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
+                       jobs=args.jobs)
+        print(f"demo data: {out / 'data'}\nresults: {out / 'results'}\n"
+              f"cohort table: {out / 'results' / 'cohort.csv'}")
+    elif args.command == "phantom":
+        extra = {"noise_mm": args.noise_mm}
+        if args.vertices:
+            extra.update(vertices_min=args.vertices[0], vertices_max=args.vertices[1])
+        out = api.make_phantom(args.out, group=args.group, seed=args.seed,
+                               frames=args.frames, quiet=args.quiet, **extra)
+        print(f"phantom dataset: {out}")
+    elif args.command == "animate":
+        from .animate import Animation, write_animation
+        from .progress import Progress
+
+        anim = Animation(args.speed_mm_s, args.amplitude, args.period_ms, args.frames)
+        to_mm = args.scale * (1e-3 if args.unit == "um" else 1.0)
+        bar = Progress(args.frames, f"animate {args.out.name}", quiet=args.quiet)
+        out = write_animation(args.mesh, args.out, anim, scale_to_mm=to_mm,
+                              do_remesh=args.remesh, seed=args.seed, progress=bar.update)
+        bar.close()
+        print(f"animated dataset: {out} (coordinates x {to_mm:g} -> mm)")
+    elif args.command == "validate":
+        from .progress import Progress
+
+        ds = load_dataset(args.dataset)
+        bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
+                       unit="mesh")
+        report = validate_dataset(ds, progress=bar.advance)
+        bar.close()
+        if args.json:
+            print(json.dumps(report, indent=2))
+        else:
+            _print_report(report)
     return 0
 
 

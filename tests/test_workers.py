@@ -121,9 +121,7 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
     deadline = time.time() + 60
     while len(workers) < 2 and time.time() < deadline and main.poll() is None:
         time.sleep(0.05)
-        children = open(f"/proc/{main.pid}/task/{main.pid}/children").read().split()
-        workers = [int(c) for c in children
-                   if b"spawn_main" in open(f"/proc/{c}/cmdline", "rb").read()]
+        workers = _worker_pids(main.pid)
     assert len(workers) == 2, "the run did not start its workers"
     main.send_signal(signal.SIGKILL)
     main.wait()
@@ -140,6 +138,46 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
     for w in left:
         os.kill(w, signal.SIGKILL)
     assert not left, "workers outlived the main process"
+
+
+def _worker_pids(main_pid: int) -> list[int]:
+    children = open(f"/proc/{main_pid}/task/{main_pid}/children").read().split()
+    return [int(c) for c in children if b"spawn_main" in open(f"/proc/{c}/cmdline", "rb").read()]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sigterm_ends_the_run_as_ctrl_c_does(tmp_path):
+    """A job scheduler's time limit sends SIGTERM: the run used to die on the spot,
+    without a word and with its semaphores leaked. Now it says so (exit status 143),
+    stops its workers and writes nothing."""
+    import os
+    import signal
+    import time
+
+    data = write_phantom(tmp_path / "p", sample_params("normal", 4, n_frames=40,
+                                                       vertices_min=2000, vertices_max=2500))
+    out = tmp_path / "out"
+    main = subprocess.Popen([sys.executable, "-c", "import sys; from oftimg import cli; "
+                             f"sys.exit(cli.main(['run', {str(data)!r}, '--out', {str(out)!r}, "
+                             "'--jobs', '2', '--quiet']))"], stderr=subprocess.PIPE, text=True)
+    workers, deadline = [], time.time() + 60
+    while len(workers) < 2 and time.time() < deadline and main.poll() is None:
+        time.sleep(0.05)
+        workers = _worker_pids(main.pid)
+    assert len(workers) == 2, "the run did not start its workers"
+    time.sleep(0.5)
+    main.send_signal(signal.SIGTERM)
+    try:
+        err = main.communicate(timeout=60)[1]
+    finally:
+        main.kill()
+    assert main.returncode == 143, err
+    assert "oftimg: terminated (SIGTERM); no results were written to --out" in err
+    assert "leaked" not in err and "Traceback" not in err
+    assert not any(os.path.exists(f"/proc/{w}/cmdline") and
+                   open(f"/proc/{w}/stat").read().split(")")[-1].split()[0] != "Z"
+                   for w in workers)
+    assert not out.exists() and not (tmp_path / ".out.finished").exists()
 
 
 def test_jobs_default_to_the_cores_this_job_may_use(monkeypatch):

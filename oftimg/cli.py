@@ -137,6 +137,9 @@ def _print_report(report: dict) -> None:
         print(f"  {name:8} {s['frames']:>6} {s['vertices_min']:>6}-{s['vertices_max']:<6} "
               f"{s['faces_min']:>6}-{s['faces_max']:<6} {s['boundary_loops']:>5} "
               f"{s['inlet_area_mm2_median']:>10.4f} {s['outlet_area_mm2_median']:>10.4f}")
+    for name, s in report["surfaces"].items():
+        for file, what in s["repairs"].items():
+            print(f"  repaired {name}/{file}: {what}")
     print("  problems: none")
 
 

@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .mesh.topology import MeshError, check_tube, loop_centroid, loop_vector_area, repair
+from .mesh.topology import (MeshError, RepairCounts, check_tube, loop_centroid,
+                            loop_vector_area, repair)
 
 SURFACES = ("outer", "inner", "lumen")
 MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off", ".vtk", ".vtp")
@@ -248,13 +249,16 @@ class Checked:
 
 
 def load_tube(path: str | Path, *, unit_scale: float = 1.0,
-              inlet_point: np.ndarray | None = None, checked: Checked | None = None) -> Tube:
+              inlet_point: np.ndarray | None = None, checked: Checked | None = None,
+              warn: bool = True) -> Tube:
     """Read, repair and check one frame; pick the inlet loop.
 
     The inlet is the loop whose centroid is nearest ``inlet_point`` (mm), or
     the loop with the larger enclosed area when no point is given. With
     ``checked`` (from :func:`check_tube_file`) and the file unchanged since
-    (size and modification time), the repair and checks are skipped.
+    (size and modification time), the repair and checks are skipped. A repair
+    is reported as an :class:`OftimgWarning` naming the file, unless ``warn``
+    is False (the validation has reported it).
     """
     if checked is not None:
         try:
@@ -266,13 +270,18 @@ def load_tube(path: str | Path, *, unit_scale: float = 1.0,
             return Tube(V=V * unit_scale, F=F[:, ::-1].copy() if checked.reverse else F,
                         inlet=checked.inlet.astype(np.int64),
                         outlet=checked.outlet.astype(np.int64), source=str(path))
-    return check_tube_file(path, unit_scale=unit_scale, inlet_point=inlet_point)[0]
+    tube, _, repairs = check_tube_file(path, unit_scale=unit_scale, inlet_point=inlet_point)
+    if warn and repairs:
+        warnings.warn(f"{path}: {repairs.describe()}", OftimgWarning, stacklevel=2)
+    return tube
 
 
 def check_tube_file(path: str | Path, *, unit_scale: float = 1.0,
-                    inlet_point: np.ndarray | None = None) -> tuple[Tube, Checked | None]:
-    """:func:`load_tube` with all checks, and a :class:`Checked` record when the
-    file needed no repair and no per-face reorientation (else None)."""
+                    inlet_point: np.ndarray | None = None
+                    ) -> tuple[Tube, Checked | None, RepairCounts]:
+    """:func:`load_tube` with all checks and no warning: the tube, a :class:`Checked`
+    record when the file needed no repair and no per-face reorientation (else
+    None), and what was repaired."""
     st = Path(path).stat() if Path(path).is_file() else None
     V, F = read_mesh_file(path)
     V = V * unit_scale
@@ -286,8 +295,9 @@ def check_tube_file(path: str | Path, *, unit_scale: float = 1.0,
         raise DatasetError(f"{path}: {exc}") from None
     if Path(path).suffix.lower() == ".stl":  # STL stores every triangle's corners apart
         counts = replace(counts, merged_vertices=0)
-    if counts:
-        warnings.warn(f"{path}: {counts.describe()}", OftimgWarning, stacklevel=2)
+    # faces against the rest (all of them reversed is no repair: the reading order)
+    against = min(topo.flipped_faces, len(topo.F) - topo.flipped_faces)
+    counts = replace(counts, flipped_faces=against)
     a, b = topo.loops
     if inlet_point is None:
         inlet_first = np.linalg.norm(loop_vector_area(V[a])) >= np.linalg.norm(loop_vector_area(V[b]))
@@ -297,10 +307,10 @@ def check_tube_file(path: str | Path, *, unit_scale: float = 1.0,
     inlet, outlet = (a, b) if inlet_first else (b, a)
     tube = Tube(V=V, F=topo.F, inlet=inlet, outlet=outlet, source=str(path))
     record = None
-    if not counts and topo.flipped_faces in (0, len(F)) and st is not None:
+    if not counts and st is not None:
         record = Checked(st.st_size, st.st_mtime_ns, topo.flipped_faces == len(F),
                          inlet.astype(np.int32), outlet.astype(np.int32))
-    return tube, record
+    return tube, record, counts
 
 
 # --------------------------------------------------------------------------- datasets
@@ -363,6 +373,7 @@ class Frame:
     unit_scale: float
     inlet_mm: tuple[float, float, float]
     checked: dict = field(default_factory=dict)  # surface -> Checked, from validation
+    validated: bool = False                      # repairs reported by the validation
 
     @property
     def surfaces(self) -> tuple[str, ...]:
@@ -372,7 +383,7 @@ class Frame:
         """This frame's ``surface`` as a validated :class:`Tube` in mm."""
         return load_tube(self.files[surface], unit_scale=self.unit_scale,
                          inlet_point=np.asarray(self.inlet_mm),
-                         checked=self.checked.get(surface))
+                         checked=self.checked.get(surface), warn=not self.validated)
 
 
 @dataclass
@@ -387,6 +398,7 @@ class Dataset:
     frames: dict[str, list[Path]]
     inlet_mm: np.ndarray = field(repr=False)
     checked: dict = field(default_factory=dict, repr=False)  # (surface, t) -> Checked
+    validated: bool = False                 # set by validate_dataset
 
     @property
     def n_frames(self) -> int:
@@ -404,7 +416,8 @@ class Dataset:
         """The files of frame ``t``, as sent to worker processes."""
         return Frame({s: str(files[t]) for s, files in self.frames.items()}, self.unit_scale,
                      tuple(float(x) for x in self.inlet_mm),
-                     {s: self.checked[s, t] for s in self.frames if (s, t) in self.checked})
+                     {s: self.checked[s, t] for s in self.frames if (s, t) in self.checked},
+                     self.validated)
 
     def tube(self, surface: str, t: int) -> Tube:
         """Frame ``t`` of ``surface`` as a validated :class:`Tube` in mm."""
@@ -428,7 +441,7 @@ def _reference_inlet(frames: list[Path], unit_scale: float, n_probe: int = 5) ->
     ref = None
     area = np.zeros(2)
     for i in idx:
-        tube = load_tube(frames[i], unit_scale=unit_scale)
+        tube = load_tube(frames[i], unit_scale=unit_scale, warn=False)  # validation will
         loops = (tube.inlet, tube.outlet)
         cents = [loop_centroid(tube.V[lp]) for lp in loops]
         areas = [np.linalg.norm(loop_vector_area(tube.V[lp])) for lp in loops]
@@ -499,14 +512,15 @@ def find_datasets(path: str | Path) -> list[Path]:
     return subs
 
 
-def frame_facts(frame: Frame, surface: str) -> tuple[tuple[int, int, float, float], Checked | None]:
+def frame_facts(frame: Frame, surface: str
+                ) -> tuple[tuple[int, int, float, float], Checked | None, str]:
     """Vertices, faces, inlet and outlet loop areas (mm^2) of one frame, checked in
-    full, and its :class:`Checked` record."""
-    tube, record = check_tube_file(frame.files[surface], unit_scale=frame.unit_scale,
-                                   inlet_point=np.asarray(frame.inlet_mm))
+    full; its :class:`Checked` record; what was repaired ("" for nothing)."""
+    tube, record, repairs = check_tube_file(frame.files[surface], unit_scale=frame.unit_scale,
+                                            inlet_point=np.asarray(frame.inlet_mm))
     facts = (len(tube.V), len(tube.F), float(np.linalg.norm(loop_vector_area(tube.V[tube.inlet]))),
              float(np.linalg.norm(loop_vector_area(tube.V[tube.outlet]))))
-    return facts, record
+    return facts, record, repairs.describe()
 
 
 def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
@@ -516,6 +530,8 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
     an ``executor`` (``concurrent.futures``), frames are checked in its workers.
     Remembers in ``ds.checked`` which files needed no repair, so that the
     analysis reads them again without the checks while they are unchanged.
+    Repairs are listed per surface in the report (file name: what) and in one
+    warning per surface; reading the frames again does not repeat them.
     ``progress()`` is called after each mesh.
     """
     report = {"name": ds.meta.name, "path": str(ds.path), "n_frames": ds.n_frames,
@@ -531,14 +547,24 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
             results.append(result)
             if progress:
                 progress()
-        for t, (_, record) in enumerate(results):
+        for t, (_, record, _) in enumerate(results):
             if record is not None:
                 ds.checked[surface, t] = record
-        nv, nf, inlet_area, outlet_area = (list(x) for x in zip(*(f for f, _ in results)))
+        repairs = {ds.frames[surface][t].name: what
+                   for t, (_, _, what) in enumerate(results) if what}
+        if repairs:
+            listed = "; ".join(f"{name}: {what}" for name, what in list(repairs.items())[:3])
+            more = (f"; {len(repairs) - 3} more, listed in the validation report"
+                    if len(repairs) > 3 else "")
+            warnings.warn(f"{ds.path / surface}: repaired {len(repairs)} of {ds.n_frames} "
+                          f"frames ({listed}{more})", OftimgWarning, stacklevel=2)
+        nv, nf, inlet_area, outlet_area = (list(x) for x in zip(*(f for f, _, _ in results)))
         report["surfaces"][surface] = {
             "frames": len(nv), "vertices_min": int(min(nv)), "vertices_max": int(max(nv)),
             "faces_min": int(min(nf)), "faces_max": int(max(nf)), "boundary_loops": 2,
             "inlet_area_mm2_median": float(np.median(inlet_area)),
             "outlet_area_mm2_median": float(np.median(outlet_area)),
+            "repairs": repairs,
         }
+    ds.validated = True
     return report

@@ -3,6 +3,7 @@ import re
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import numpy as np
 import pytest
@@ -288,6 +289,56 @@ def test_repairs_are_counted(tmp_path):
     with pytest.warns(OftimgWarning, match=r"f\.ply: merged \d duplicate vertices, dropped 1"):
         tube = load_tube(path)
     assert len(tube.V) == len(V)
+
+
+@pytest.mark.parametrize("reversed_faces", [5, "all"])
+def test_faces_against_the_rest_are_counted_as_a_repair(tmp_path, reversed_faces):
+    """Faces were turned to one orientation without a word, or, next to a boundary,
+    refused as a 'pinched boundary vertex'; a file wound the other way round as a
+    whole is read as it is (no repair)."""
+    V, F = tube_mesh(n_theta=20, n_s=6)
+    F2 = F.copy()
+    turn = slice(None) if reversed_faces == "all" else slice(10, 10 + reversed_faces)
+    F2[turn] = F2[turn, ::-1]
+    path = tmp_path / "f.ply"
+    write_ply(path, V, F2)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        tube = load_tube(path)
+    said = [str(w.message) for w in caught if issubclass(w.category, OftimgWarning)]
+    if reversed_faces == "all":
+        assert said == []
+    else:
+        assert said == [f"{path}: flipped 5 faces to a consistent orientation"]
+    assert np.array_equal(np.sort(tube.F, axis=1), np.sort(F, axis=1))
+    assert np.array_equal(tube.F[20:], F[20:])          # outward, as the helper makes them
+
+
+def test_repairs_are_reported_once_per_surface_not_per_frame_and_pass(tmp_path):
+    """Every frame with a duplicate vertex gave one warning per frame in each of up to
+    four reads (inlet choice, validation, seam pass, grid pass), from the workers in
+    Python's own format: 102 lines for 20 frames. Now one line per surface, and every
+    file in the validation report."""
+    frames = []
+    for V, F in cone_frames(n=6):
+        V2 = np.concatenate([V, V[F[0]]])
+        F2 = F.copy()
+        F2[0] = [len(V), len(V) + 1, len(V) + 2]
+        frames.append((V2, F2))
+    ds = write_series(tmp_path / "d", frames)
+    (ds / "meta.json").write_text(json.dumps({"period_ms": 12.0}))
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, "-m", "oftimg.cli", "run", str(ds), "--out", str(out),
+                           "--jobs", "2", "--quiet"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    about_repairs = [line for line in done.stderr.splitlines() if "duplicate" in line]
+    assert about_repairs == [f"oftimg: warning: {ds / 'outer'}: repaired 6 of 6 frames "
+                             "(f0.ply: merged 3 duplicate vertices; f1.ply: merged 3 duplicate "
+                             "vertices; f2.ply: merged 3 duplicate vertices; 3 more, listed in "
+                             "the validation report)"], done.stderr
+    report = json.loads((out / "d" / "summary.json").read_text())["validation"]
+    assert report["surfaces"]["outer"]["repairs"] == {
+        f"f{t}.ply": "merged 3 duplicate vertices" for t in range(6)}
 
 
 # ------------------------------------------------------------------ bad input

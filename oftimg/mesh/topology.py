@@ -301,16 +301,15 @@ def check_tube(V: np.ndarray, F: np.ndarray) -> TubeTopology:
     n_comp, _ = connected_components(A, directed=False)
     if n_comp != 1:
         raise MeshError(f"has {n_comp} connected components; a tube has 1")
-    loops = boundary_loops(F, incidence)
+    # oriented first: a boundary walk along faces that disagree looks pinched
+    F, flipped = orient_consistently(F, incidence)
+    loops = boundary_loops(F, None if flipped else incidence)   # a flip reorders face_edge
     if len(loops) != 2:
         raise MeshError(f"has {len(loops)} boundary loops; a tube has 2")
     euler = n - len(edges) + len(F)
     if euler != 0:
         raise MeshError(f"has Euler characteristic {euler}; an open tube has 0 "
                         "(holes or handles in the wall?)")
-    F, flipped = orient_consistently(F, incidence)
-    if flipped:
-        loops = boundary_loops(F)
     if capped_signed_volume(V, F, loops) < 0:
         F = F[:, ::-1].copy()
         loops = [loop[::-1] for loop in loops]

@@ -48,9 +48,11 @@ def natural_key(name: str):
 
 
 def list_frames(folder: Path) -> list[Path]:
-    """Mesh files of one surface folder in natural order."""
+    """Mesh files of one surface folder in natural order (a broken link too: reading
+    it says so, where leaving it out would drop a frame from the time series)."""
     files = [p for p in folder.iterdir()
-             if p.is_file() and p.suffix.lower() in MESH_SUFFIXES and not p.name.startswith(".")]
+             if (p.is_file() or p.is_symlink()) and p.suffix.lower() in MESH_SUFFIXES
+             and not p.name.startswith(".")]
     return sorted(files, key=lambda p: natural_key(p.name))
 
 
@@ -63,7 +65,8 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """
     path = Path(path)
     if not path.is_file():
-        raise DatasetError(f"{path}: file not found")
+        broken = path.is_symlink()
+        raise DatasetError(f"{path}: {'a broken link' if broken else 'file not found'}")
     if path.stat().st_size == 0:
         raise DatasetError(f"{path}: file is empty")
     suffix = path.suffix.lower()

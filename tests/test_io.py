@@ -34,7 +34,7 @@ def dataset(tmp_path):
 
 
 def listing(folder):
-    return sorted((str(p.relative_to(folder)), p.stat().st_mtime_ns) for p in folder.rglob("*"))
+    return sorted((str(p.relative_to(folder)), p.lstat().st_mtime_ns) for p in folder.rglob("*"))
 
 
 def test_validated_frames_are_read_again_without_the_checks_only_while_unchanged(tmp_path):
@@ -361,6 +361,9 @@ def _bad(tmp_path, kind):
     elif kind == "non_manifold":  # a fin on an edge
         V2 = np.concatenate([V, [[1.0, 1.0, 0.5]]])
         write_ply(target, V2, np.concatenate([F, [[F[50, 0], F[50, 1], len(V)]]]))
+    elif kind == "broken_link":  # was left out: one frame fewer, without a word
+        target.unlink()
+        target.symlink_to(tmp_path / "moved_away.ply")
     elif kind == "truncated":  # the last 5 faces, at the outlet, cut off
         write_ply(target, V, F)
         target.write_bytes(target.read_bytes()[:-13 * 5])
@@ -387,7 +390,7 @@ def _bad(tmp_path, kind):
 
 BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
        "three_loops": "3 boundary loops", "non_manifold": "non-manifold edge",
-       "nan": "NaN", "truncated": "lists 432 faces but 427 triangles", "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
+       "nan": "NaN", "broken_link": "a broken link", "truncated": "lists 432 faces but 427 triangles", "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
        "meta_unit": "length_unit", "meta_name": "cannot be a folder name",
        "missing": "not found"}
 

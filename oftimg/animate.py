@@ -112,38 +112,40 @@ def remesh(V, F, rng, *, keep=(0.5, 0.9), tries: int = 5):
 
 def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0,
                     do_remesh: bool = False, seed: int = 0, progress=None) -> Path:
-    """Write an animated dataset (meta.json, outer/, truth.json) from one static tube."""
+    """Write an animated dataset (meta.json, outer/, truth.json) from one static tube;
+    ``out`` appears only when complete."""
+    from .export import require_new_folder, staged_output
     from .io import load_tube, write_ply
 
     if not (np.isfinite(scale_to_mm) and scale_to_mm > 0):
         raise InputError(f"the scale to mm must be positive, found {scale_to_mm}")
     out = Path(out)
-    if out.exists() and any(out.iterdir()):
-        raise FileExistsError(f"{out}: exists and is not empty")
+    require_new_folder(out)
     tube = load_tube(mesh_path, unit_scale=scale_to_mm)
     V, F = tube.V, tube.F
-    (out / "outer").mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     _, _, s, _, _ = axial_coordinates(V, F, tube.inlet, tube.outlet)
     volumes = []
     width = len(str(anim.n_frames - 1))
-    for k, (t, Vt) in enumerate(animate_frames(V, F, tube.inlet, tube.outlet, anim)):
-        volumes.append(capped_signed_volume(Vt, F, [tube.inlet, tube.outlet]))
-        Vw, Fw = remesh(Vt, F, rng) if do_remesh else (Vt, F)
-        write_ply(out / "outer" / f"f{k:0{width}d}.ply", Vw, Fw)
-        if progress:
-            progress(k + 1)
-    meta = {"name": out.name, "group": "animated", "period_ms": anim.period_ms,
-            "length_unit": "mm", "inlet": loop_centroid(V[tube.inlet]).tolist()}
-    (out / "meta.json").write_text(json.dumps(meta, indent=2))
-    s_grid = np.linspace(0, s[-1], 101)
-    truth = {"animation": asdict(anim), "source": str(mesh_path),
-             "scale_to_mm": scale_to_mm, "remeshed": do_remesh, "seed": seed,
-             "centre_line_length_mm": float(s[-1]), "s_mm": s_grid.tolist(),
-             "arrival_ms": (1e3 * s_grid / anim.speed_mm_s % anim.period_ms).tolist(),
-             "ridge_t_ms": ((1e3 * s_grid / anim.speed_mm_s + anim.period_ms / 2)
-                            % anim.period_ms).tolist(),
-             "wave_speed_mm_s": {"cycle": anim.speed_mm_s},
-             "volume_mm3": volumes}
-    (out / "truth.json").write_text(json.dumps(truth, indent=1))
+    with staged_output(out) as tmp:
+        (tmp / "outer").mkdir()
+        for k, (t, Vt) in enumerate(animate_frames(V, F, tube.inlet, tube.outlet, anim)):
+            volumes.append(capped_signed_volume(Vt, F, [tube.inlet, tube.outlet]))
+            Vw, Fw = remesh(Vt, F, rng) if do_remesh else (Vt, F)
+            write_ply(tmp / "outer" / f"f{k:0{width}d}.ply", Vw, Fw)
+            if progress:
+                progress(k + 1)
+        meta = {"name": out.name, "group": "animated", "period_ms": anim.period_ms,
+                "length_unit": "mm", "inlet": loop_centroid(V[tube.inlet]).tolist()}
+        (tmp / "meta.json").write_text(json.dumps(meta, indent=2))
+        s_grid = np.linspace(0, s[-1], 101)
+        truth = {"animation": asdict(anim), "source": str(mesh_path),
+                 "scale_to_mm": scale_to_mm, "remeshed": do_remesh, "seed": seed,
+                 "centre_line_length_mm": float(s[-1]), "s_mm": s_grid.tolist(),
+                 "arrival_ms": (1e3 * s_grid / anim.speed_mm_s % anim.period_ms).tolist(),
+                 "ridge_t_ms": ((1e3 * s_grid / anim.speed_mm_s + anim.period_ms / 2)
+                                % anim.period_ms).tolist(),
+                 "wave_speed_mm_s": {"cycle": anim.speed_mm_s},
+                 "volume_mm3": volumes}
+        (tmp / "truth.json").write_text(json.dumps(truth, indent=1))
     return out

@@ -19,8 +19,9 @@ from pathlib import Path
 
 from . import __version__
 from .errors import InputError
-from .export import (Finished, check_output_location, finished_folder, link_or_copy,
-                     staged_output, write_dataset_results, write_json)
+from .export import (COHORT_OUTPUTS, Finished, check_output_location, check_replaceable,
+                     finished_folder, link_or_copy, require_new_folder, staged_output,
+                     write_dataset_results, write_json)
 from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_dataset,
                  natural_key, validate_dataset)
 from .phantom import sample_params, write_phantom
@@ -136,8 +137,6 @@ def _validated(ds: Dataset, executor, quiet: bool) -> dict:
     return report
 
 
-# what a run writes beside the datasets' folders (report, html, _write_run)
-COHORT_OUTPUTS = ("cohort.csv", "cohort.md", "groups.csv", "figures", "index.html", "run.json")
 
 
 def _check_names(named: list[tuple[str, Path]], fix: str) -> None:
@@ -559,6 +558,7 @@ def _read_results(folder: Path) -> dict:
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,
                  quiet: bool = False, **overrides) -> Path:
     """Write one phantom dataset (see :mod:`oftimg.phantom`) to ``out``."""
+    require_new_folder(Path(out))
     params = sample_params(group, seed, n_frames=frames, **overrides)
     bar = Progress(frames, f"phantom {Path(out).name}", quiet=quiet)
     with staged_output(out) as tmp:
@@ -576,7 +576,10 @@ def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = Fals
     Returns ``out``; the generated data are in ``out/data``.
     """
     out = Path(out)
-    check_output_location(out, [], overwrite=overwrite)
+    check_output_location(out, [], overwrite=overwrite, kind=None)  # replaces only these two:
+    for sub, kind in (("data", "demo data"), ("results", "results")):
+        if overwrite and (out / sub).is_dir():
+            check_replaceable(out / sub, kind)
     if full:
         specs = [("normal", s) for s in range(4)] + [("banded", s) for s in range(4)]
         kwargs = {"frames": 195}
@@ -585,7 +588,7 @@ def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = Fals
         kwargs = {"frames": 40, "vertices_min": 2500, "vertices_max": 4000}
     # data first, then results, each staged: the results (their provenance and
     # warnings) name the data where they stay, not a temporary folder
-    with staged_output(out / "data", overwrite=overwrite) as data:
+    with staged_output(out / "data", overwrite=overwrite, kind="demo data") as data:
         for group, seed in specs:
             make_phantom(data / f"{group}_{seed}", group=group, seed=seed, quiet=quiet, **kwargs)
     run(out / "data", out / "results", quiet=quiet, jobs=jobs, overwrite=overwrite)

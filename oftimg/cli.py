@@ -55,7 +55,7 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="process a dataset or a cohort folder")
     r.add_argument("source", type=Path, help="dataset folder (with outer/) or cohort folder")
     r.add_argument("--out", type=Path, required=True, help="results folder (created)")
-    r.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
+    r.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
     r.add_argument("--resume", action="store_true",
                    help="reuse the datasets a failed or interrupted run into the same --out "
                         "finished (when their inputs, options and oftimg are unchanged)")
@@ -87,12 +87,12 @@ def _parser() -> argparse.ArgumentParser:
                    help="one dataset's results (a folder with summary.json) or a folder of "
                         "them (a run's --out)")
     c.add_argument("--out", type=Path, required=True, help="cohort folder (created)")
-    c.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
+    c.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
 
     d = sub.add_parser("demo", help="make the built-in phantom cohort and process it")
     d.add_argument("--out", type=Path, default=Path("oftimg-demo"), help="results folder")
     d.add_argument("--full", action="store_true", help="4 normal + 4 banded, 195 frames")
-    d.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
+    d.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
     d.add_argument("--quiet", action="store_true", help="no progress bars")
     d.add_argument("--jobs", type=int, default=None,
                    help="worker processes (default: all cores this job may use)")

@@ -17,8 +17,40 @@ from . import __version__
 from .errors import InputError
 
 
-def check_output_location(out: Path, inputs: list[Path], *, overwrite: bool) -> None:
-    """Refuse an ``out`` inside an input folder, or an existing non-empty one."""
+# what a run writes beside the datasets' folders (report, html, api._write_run)
+COHORT_OUTPUTS = ("cohort.csv", "cohort.md", "groups.csv", "figures", "index.html", "run.json")
+# what a file browser leaves in any folder it shows
+BROWSER_FILES = (".DS_Store", "Thumbs.db", "desktop.ini")
+
+
+def not_written_by_oftimg(folder: Path, kind: str = "results") -> list[str]:
+    """Names in ``folder`` that oftimg did not write, which --overwrite must not
+    delete. ``kind`` "results": a run's or cohort's output (the cohort files and
+    one folder per dataset with its summary.json); "demo data": the demo's
+    phantom datasets (folders with a truth.json)."""
+    marker = {"results": "summary.json", "demo data": "truth.json"}[kind]
+    own = COHORT_OUTPUTS if kind == "results" else ()
+    return sorted(p.name for p in folder.iterdir()
+                  if p.name not in own + BROWSER_FILES
+                  and not (p.is_dir() and not p.is_symlink() and (p / marker).is_file()))
+
+
+def check_replaceable(out: Path, kind: str = "results") -> None:
+    """Refuse to replace an ``out`` holding anything oftimg did not write."""
+    foreign = not_written_by_oftimg(out, kind)
+    if foreign:
+        shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5
+                                          else "")
+        raise InputError(f"--out {out}: --overwrite replaces only oftimg's own {kind}, and "
+                         f"this folder also holds {shown}, which oftimg did not write; move "
+                         "them away or choose another folder")
+
+
+def check_output_location(out: Path, inputs: list[Path], *, overwrite: bool,
+                          kind: str | None = "results") -> None:
+    """Refuse an ``out`` inside an input folder, or an existing non-empty one; with
+    ``overwrite``, one that holds anything oftimg did not write as ``kind`` (None:
+    ``out`` itself is not replaced, only what is written inside it)."""
     out_r = out.resolve()
     for src in inputs:
         src_r = src.resolve()
@@ -29,16 +61,29 @@ def check_output_location(out: Path, inputs: list[Path], *, overwrite: bool) -> 
             raise InputError(f"--out {out} contains the input {src}; choose another folder")
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out} exists and is not a folder")
-    if out.exists() and any(out.iterdir()) and not overwrite:
-        raise InputError(f"--out {out} exists and is not empty; pass --overwrite to replace it")
+    if out.exists() and any(out.iterdir()):
+        if not overwrite:
+            raise InputError(f"--out {out} exists and is not empty; pass --overwrite to "
+                             "replace it")
+        if kind is not None:
+            check_replaceable(out, kind)
+
+
+def require_new_folder(out: Path) -> None:
+    """Refuse an ``out`` that exists and is not an empty folder (the commands
+    that make datasets never replace anything)."""
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise InputError(f"{out}: exists and is not an empty folder; choose another one")
 
 
 @contextlib.contextmanager
-def staged_output(out: str | Path, *, overwrite: bool = False):
+def staged_output(out: str | Path, *, overwrite: bool = False, kind: str = "results"):
     """Yield a temporary folder beside ``out``; move it to ``out`` on success.
 
     On an exception the temporary folder is removed and ``out`` is untouched,
-    so a failed run never leaves results that look complete.
+    so a failed run never leaves results that look complete. With ``overwrite``
+    an existing ``out`` is replaced only if oftimg wrote all of it, as ``kind``
+    (:func:`check_replaceable`), checked again at the swap.
     """
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -49,9 +94,13 @@ def staged_output(out: str | Path, *, overwrite: bool = False):
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     if out.exists():
-        if any(out.iterdir()) and not overwrite:
+        try:
+            if any(out.iterdir()) and not overwrite:
+                raise FileExistsError(f"{out}: appeared while running and is not empty")
+            check_replaceable(out, kind)
+        except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
-            raise FileExistsError(f"{out}: appeared while running and is not empty")
+            raise
         old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
         out.rename(old / "previous")
         tmp.rename(out)

@@ -46,6 +46,32 @@ def test_the_scale_to_mm_must_be_positive(tmp_path, scale):
     assert not (tmp_path / "anim").exists()
 
 
+def test_phantom_and_animate_never_write_into_a_folder_in_use(tmp_path, capsys):
+    """animate wrote its frames straight into OUT, so a failure left half a dataset;
+    a phantom into a non-empty OUT was made, then refused as 'appeared while running'."""
+    from oftimg.cli import main
+
+    V, F = tube_mesh(0.2, length=1.0, n_theta=16, n_s=8)
+    write_ply(tmp_path / "tube.ply", V, F)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    for argv in (["phantom", str(mine), "--frames", "5", "--quiet"],
+                 ["animate", str(tmp_path / "tube.ply"), str(mine), "--speed-mm-s", "5",
+                  "--frames", "5", "--quiet"]):
+        assert main(argv) == 2
+        assert f"{mine}: exists and is not an empty folder" in capsys.readouterr().err
+        assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    def ctrl_c_at_frame_3(k):
+        if k == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):      # stopped half way: nothing at OUT or beside
+        write_animation(tmp_path / "tube.ply", tmp_path / "anim", Animation(5.0, 0.3, 100, 5),
+                        progress=ctrl_c_at_frame_3)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine", "tube.ply"]
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("r_out", [0.2, 0.12])  # a cylinder and a cone
 def test_animated_tube_recovers_the_applied_speed(tmp_path, r_out):

@@ -423,6 +423,50 @@ def test_out_inside_dataset_and_nonempty_out_are_refused(dataset, tmp_path, caps
     assert (out / "keep.txt").read_text() == "mine"
 
 
+def test_overwrite_replaces_only_what_oftimg_wrote(tmp_path, capsys):
+    """`--out ~ --overwrite` replaced the whole home folder with the results. Now
+    --overwrite replaces a folder only when oftimg wrote all of it."""
+    ds = write_series(tmp_path / "emb", cone_frames(n=6))
+    (ds / "meta.json").write_text(json.dumps({"period_ms": 12.0}))
+    home = tmp_path / "home"
+    (home / "photos").mkdir(parents=True)
+    (home / "notes.txt").write_text("mine")
+    (home / "cohort.csv").write_text("an old result")
+    before = listing(home)
+    assert main(["run", str(ds), "--out", str(home), "--overwrite", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"--out {home}: --overwrite replaces only oftimg's own results" in err
+    assert "holds notes.txt, photos, which oftimg did not write" in err
+    assert listing(home) == before and (home / "notes.txt").read_text() == "mine"
+    # the demo replaces only its data/ and results/, and only its own
+    (home / "data").mkdir()
+    (home / "data" / "embryo_7").mkdir()
+    assert main(["demo", "--out", str(home), "--overwrite", "--quiet"]) == 2
+    assert "holds embryo_7, which oftimg did not write" in capsys.readouterr().err
+    assert (home / "data" / "embryo_7").is_dir()
+    # its own results (and what a file browser leaves) are replaced
+    out = tmp_path / "out"
+    assert main(["run", str(ds), "--out", str(out), "--quiet"]) == 0
+    (out / ".DS_Store").write_bytes(b"")
+    assert main(["run", str(ds), "--out", str(out), "--overwrite", "--quiet"]) == 0
+    assert (out / "emb" / "summary.json").is_file() and not (out / ".DS_Store").exists()
+
+
+def test_a_file_put_into_out_during_the_run_is_not_replaced(tmp_path):
+    """The check is made again when the finished results take the folder's place."""
+    from oftimg.errors import InputError
+    from oftimg.export import staged_output
+
+    out = tmp_path / "out"
+    out.mkdir()
+    with pytest.raises(InputError, match="holds notes.txt"):
+        with staged_output(out, overwrite=True) as tmp:
+            (tmp / "run.json").write_text("{}")
+            (out / "notes.txt").write_text("written meanwhile")
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]           # no staging left
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+
+
 def test_validate_cli_prints_report(dataset, capsys):
     assert main(["validate", str(dataset)]) == 0
     text = capsys.readouterr().out

@@ -143,6 +143,46 @@ def _print_report(report: dict) -> None:
     print("  problems: none")
 
 
+@contextmanager
+def _logging_to(path: Path | None, args):
+    """Keep the run's log (progress, warnings, timings) in ``path`` while a command
+    runs. Refused inside --out (replaced when the run succeeds) or the input (never
+    written to), or in a folder that does not exist."""
+    if path is None:
+        yield
+        return
+    import logging
+
+    from .errors import InputError
+
+    where = path.resolve()
+    for folder, why in ((args.out, "--out, which the results replace"),
+                        (args.source, "the input, which oftimg never writes to")):
+        if folder.resolve() in where.parents:
+            raise InputError(f"--log {path} is inside {why}; keep the log beside it")
+    if not where.parent.is_dir():
+        raise InputError(f"--log {path}: the folder {path.parent} does not exist")
+    handler = logging.FileHandler(path)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+    echo = logging.StreamHandler()                  # warnings still reach stderr too
+    loggers = {name: logging.getLogger(name) for name in ("oftimg", "py.warnings")}
+    levels = {name: lg.level for name, lg in loggers.items()}
+    for lg in loggers.values():
+        lg.addHandler(handler)
+        lg.setLevel(logging.INFO)
+    loggers["py.warnings"].addHandler(echo)
+    logging.captureWarnings(True)
+    try:
+        yield
+    finally:
+        logging.captureWarnings(False)
+        loggers["py.warnings"].removeHandler(echo)
+        for name, lg in loggers.items():
+            lg.removeHandler(handler)
+            lg.setLevel(levels[name])
+        handler.close()
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     from .errors import InputError
@@ -151,18 +191,8 @@ def main(argv: list[str] | None = None) -> int:
 
     warnings.simplefilter("always", OftimgWarning)
     warnings.formatwarning = lambda msg, cat, *a, **k: f"oftimg: warning: {msg}\n"
-    if getattr(args, "log", None):
-        import logging
-
-        handler = logging.FileHandler(args.log)
-        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
-        for name in ("oftimg", "py.warnings"):
-            logging.getLogger(name).addHandler(handler)
-            logging.getLogger(name).setLevel(logging.INFO)
-        logging.captureWarnings(True)  # warnings then go to the log (and stderr below)
-        logging.getLogger("py.warnings").addHandler(logging.StreamHandler())
     try:
-        with _sigterm_unwinds():
+        with _sigterm_unwinds(), _logging_to(getattr(args, "log", None), args):
             return _command(args)
     except (InputError, FileNotFoundError, FileExistsError) as exc:
         _print_error(f"error: {exc}", exc)

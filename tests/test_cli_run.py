@@ -133,10 +133,31 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     assert np.load(out / "tiny" / "grids.npz")["outer"].shape[:2] == (40, 20)
     text = log.read_text()
     assert "tiny: analysing 5 frames" in text and "tiny: done" in text
+    import logging                          # the log is let go when the command ends
+
+    assert not [h for name in ("oftimg", "py.warnings") for h in logging.getLogger(name).handlers
+                if isinstance(h, logging.FileHandler)]
     import imageio.v2 as imageio
 
     assert imageio.get_reader(out / "tiny" / "videos" / "area_map_cursor.mp4").get_meta_data()[
         "fps"] == 10
+
+
+def test_a_log_where_it_would_be_lost_or_cannot_be_is_refused(tmp_path, capsys):
+    """A --log inside --out ended in a traceback (its folder did not exist yet); once it
+    did, the results would have replaced it. Inside the dataset it wrote into the input."""
+    from helpers import tube_mesh, write_series
+
+    ds = write_series(tmp_path / "emb", [tube_mesh(n_theta=20, n_s=6)] * 5)
+    out = tmp_path / "out"
+    for log, said in ((out / "run.log", "is inside --out, which the results replace"),
+                      (ds / "run.log", "is inside the input, which oftimg never writes to"),
+                      (tmp_path / "none" / "run.log", f"the folder {tmp_path / 'none'} does "
+                                                      "not exist")):
+        assert main(["run", str(ds), "--out", str(out), "--log", str(log), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert f"oftimg: error: --log {log}" in err and said in err
+        assert not log.exists() and not out.exists()
 
 
 def test_demo_names_its_data_where_they_stay(tmp_path, capsys):

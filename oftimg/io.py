@@ -504,7 +504,7 @@ def find_datasets(path: str | Path) -> list[Path]:
     """The dataset folders at ``path``: itself, or its sub-folders (a cohort)."""
     path = Path(path)
     if not path.is_dir():
-        raise DatasetError(f"{path}: folder not found")
+        raise DatasetError(f"{path}: {'not a folder' if path.exists() else 'folder not found'}")
     if is_dataset(path):
         return [path]
     subs = sorted((p for p in path.iterdir() if p.is_dir() and is_dataset(p)),

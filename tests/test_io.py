@@ -479,6 +479,10 @@ def test_cohort_folder_lists_datasets(tmp_path):
     assert [p.name for p in find_datasets(tmp_path / "cohort")] == ["b2", "b10"]
     with pytest.raises(DatasetError, match="neither a dataset"):
         find_datasets(tmp_path / "cohort" / "b2" / "outer")
+    with pytest.raises(DatasetError, match=r"f0\.ply: not a folder"):     # was "not found"
+        find_datasets(tmp_path / "cohort" / "b2" / "outer" / "f0.ply")
+    with pytest.raises(DatasetError, match="b3: folder not found"):
+        find_datasets(tmp_path / "cohort" / "b3")
 
 
 def test_lazy_loading_of_1000_frames_stays_small(tmp_path):

@@ -137,8 +137,6 @@ def _validated(ds: Dataset, executor, quiet: bool) -> dict:
     return report
 
 
-
-
 def _check_names(named: list[tuple[str, Path]], fix: str) -> None:
     """Each dataset's results go to ``out/<name>``: the names of ``(name, folder)``
     must differ and must not be those of the cohort's own outputs; ``fix`` says

@@ -118,9 +118,10 @@ def declared_counts(path: Path) -> tuple[int | None, int | None]:
     header or its lines (None where the format does not say or cannot be parsed).
 
     open3d reads as much of a truncated file as it can and only prints a
-    warning; it leaves out .obj faces that are not triangles or whose line begins
-    with a blank, and stops at the first polygon it cannot split. Comparing with these counts catches all three
-    (except an .obj cut exactly between two lines: nothing in it says so).
+    warning; it leaves out .obj faces that are not triangles or whose line
+    begins with a blank, and stops at the first polygon it cannot split.
+    Comparing with these counts catches all three (except an .obj cut exactly
+    between two lines: nothing in it says so).
     """
     suffix = path.suffix.lower()
     if suffix == ".ply":
@@ -168,7 +169,8 @@ def _check_declared_counts(path: Path, n_vertices: int, n_faces: int) -> None:
         blanks = ", or face lines that begin with blanks" if path.suffix.lower() == ".obj" else ""
         raise DatasetError(f"{path}: lists {want_f} faces but {n_faces} triangles could be "
                            f"read: the file is truncated or damaged, or has faces that are not "
-                           f"triangles{blanks} (oftimg reads triangle meshes: triangulate it first)")
+                           f"triangles{blanks} (oftimg reads triangle meshes: triangulate it "
+                           "first)")
 
 
 def _not_triangles(path: Path, count: int) -> DatasetError:

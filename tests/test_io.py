@@ -390,7 +390,9 @@ def _bad(tmp_path, kind):
 
 BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
        "three_loops": "3 boundary loops", "non_manifold": "non-manifold edge",
-       "nan": "NaN", "broken_link": "a broken link", "truncated": "lists 432 faces but 427 triangles", "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
+       "nan": "NaN", "broken_link": "a broken link",
+       "truncated": "lists 432 faces but 427 triangles",
+       "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
        "meta_unit": "length_unit", "meta_name": "cannot be a folder name",
        "missing": "not found"}
 

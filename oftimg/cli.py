@@ -122,8 +122,9 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--seed", type=int, default=0)
     an.add_argument("--quiet", action="store_true")
 
-    v = sub.add_parser("validate", help="check a dataset and print a per-surface report")
-    v.add_argument("dataset", type=Path)
+    v = sub.add_parser("validate", help="check a dataset, or every dataset of a cohort, and "
+                                        "print a per-surface report")
+    v.add_argument("dataset", type=Path, help="dataset folder (with outer/) or cohort folder")
     v.add_argument("--json", action="store_true", help="print the report as JSON")
     return p
 
@@ -214,7 +215,6 @@ def main(argv: list[str] | None = None) -> int:
 def _command(args) -> int:
     """Carry out the parsed command; errors go up to :func:`main`."""
     from . import api
-    from .io import load_dataset, validate_dataset
 
     if args.command == "run":
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
@@ -252,17 +252,42 @@ def _command(args) -> int:
         bar.close()
         print(f"animated dataset: {out} (coordinates x {to_mm:g} -> mm)")
     elif args.command == "validate":
-        from .progress import Progress
+        return _validate(args.dataset, as_json=args.json)
+    return 0
 
-        ds = load_dataset(args.dataset)
-        bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
-                       unit="mesh")
-        report = validate_dataset(ds, progress=bar.advance)
-        bar.close()
-        if args.json:
-            print(json.dumps(report, indent=2))
-        else:
-            _print_report(report)
+
+def _validate(path: Path, *, as_json: bool) -> int:
+    """Check a dataset, or every dataset of a cohort (each one's first problem is
+    printed, and the rest are checked); 2 if any has a problem."""
+    from .errors import InputError
+    from .io import find_datasets, load_dataset, validate_dataset
+    from .progress import Progress
+
+    folders = find_datasets(path)
+    reports, problems = [], 0
+    for folder in folders:
+        try:
+            ds = load_dataset(folder)
+            bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
+                           unit="mesh")
+            try:
+                reports.append(validate_dataset(ds, progress=bar.advance))
+            finally:
+                bar.close()
+        except InputError as exc:
+            if len(folders) == 1:
+                raise
+            problems += 1
+            _print_error(f"error: {exc}", exc)
+            continue
+        if not as_json:
+            _print_report(reports[-1])
+    if as_json:
+        print(json.dumps(reports[0] if folders == [path] else reports, indent=2))
+    if problems:
+        _print_error(f"error: {problems} of {len(folders)} datasets have a problem (above)",
+                     InputError())
+        return 2
     return 0
 
 

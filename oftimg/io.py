@@ -14,6 +14,7 @@ dataset folder is ever written to.
 """
 from __future__ import annotations
 
+import functools
 import json
 import re
 import warnings
@@ -90,8 +91,7 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         V = np.asarray(m.points, dtype=np.float64)
         F = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
     elif suffix in MESH_SUFFIXES:
-        import open3d as o3d
-
+        o3d = _open3d()
         mesh = o3d.io.read_triangle_mesh(str(path), enable_post_processing=False,
                                          print_progress=False)
         V = np.asarray(mesh.vertices, dtype=np.float64)
@@ -108,6 +108,17 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if F.min() < 0 or F.max() >= len(V):
         raise DatasetError(f"{path}: face indices out of range 0..{len(V) - 1}")
     return V, F
+
+
+@functools.cache
+def _open3d():
+    """open3d, with its own warnings off: it prints them to stdout (into `oftimg
+    validate --json`), and every problem they name stops the read with a message
+    of oftimg's that names the file."""
+    import open3d as o3d
+
+    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
+    return o3d
 
 
 _OBJ_FACE_LINE = re.compile(rb"\n[ \t]*f[ \t]")   # 4x faster than a (?m)^ pattern

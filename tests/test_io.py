@@ -475,6 +475,26 @@ def test_validate_cli_prints_report(dataset, capsys):
     assert "outer" in text and "3" in text and "problems: none" in text
 
 
+def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
+    """validate took one dataset; a cohort of 300 needed 300 commands. Each dataset's
+    first problem is printed and the rest are still checked; --json stays JSON
+    (open3d printed its own warnings about a broken file into stdout)."""
+    for name in ("a", "b", "c"):
+        write_series(tmp_path / "cohort" / name, cone_frames(2))
+    bad = tmp_path / "cohort" / "b" / "outer" / "f1.ply"
+    bad.write_bytes(bad.read_bytes()[:400])
+    assert main(["validate", str(tmp_path / "cohort")]) == 2
+    out, err = capfd.readouterr()
+    assert out.count("problems: none") == 2 and "(" + str(tmp_path / "cohort" / "c") in out
+    assert f"oftimg: error: {bad}: lists" in err
+    assert "oftimg: error: 1 of 3 datasets have a problem" in err
+    assert main(["validate", str(tmp_path / "cohort"), "--json"]) == 2
+    reports = json.loads(capfd.readouterr().out)
+    assert [r["path"] for r in reports] == [str(tmp_path / "cohort" / n) for n in "ac"]
+    assert main(["validate", str(tmp_path / "cohort" / "a"), "--json"]) == 0
+    assert json.loads(capfd.readouterr().out)["surfaces"]["outer"]["frames"] == 2
+
+
 def test_cohort_folder_lists_datasets(tmp_path):
     for name in ("b10", "b2"):
         write_series(tmp_path / "cohort" / name, cone_frames(2))

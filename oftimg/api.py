@@ -530,8 +530,11 @@ def _result_folders(sources) -> list[Path]:
         subs = sorted((p for p in src.iterdir() if (p / "summary.json").is_file()),
                       key=lambda p: natural_key(p.name)) if src.is_dir() else []
         if not subs:
+            hint = (f"; it is one of the cohort files of the run {src.parent}: give that "
+                    "folder itself" if src.name in COHORT_OUTPUTS
+                    and (src.parent / "run.json").is_file() else "")
             raise DatasetError(f"{src}: neither one dataset's results (no summary.json) nor "
-                               "a folder of them (an oftimg run's --out)")
+                               f"a folder of them (an oftimg run's --out){hint}")
         folders += subs
     return folders
 

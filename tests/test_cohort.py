@@ -83,6 +83,9 @@ def test_cohort_refuses_what_cannot_be_compared(runs, tmp_path):
         api.cohort([other], tmp_path / "out")
     with pytest.raises(DatasetError, match="neither one dataset's results"):
         api.cohort([tmp_path], tmp_path / "out")
+    with pytest.raises(DatasetError, match=r"cohort\.csv: .*one of the cohort files of the "
+                                           rf"run {runs / 'together'}: give that folder itself"):
+        api.cohort(sorted((runs / "together").iterdir()), tmp_path / "out")    # together/*
     with pytest.raises(ValueError, match="inside the input"):
         api.cohort([runs / "together"], runs / "together" / "b0" / "merged")
     assert main(["cohort", str(tmp_path / "nothing"), "--out", str(tmp_path / "out")]) == 2

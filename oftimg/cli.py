@@ -285,8 +285,8 @@ def _validate(path: Path, *, as_json: bool) -> int:
     if as_json:
         print(json.dumps(reports[0] if folders == [path] else reports, indent=2))
     if problems:
-        _print_error(f"error: {problems} of {len(folders)} datasets have a problem (above)",
-                     InputError())
+        print(f"oftimg: error: {problems} of {len(folders)} datasets have a problem (above)",
+              file=sys.stderr)
         return 2
     return 0
 

@@ -6,6 +6,7 @@ modules: the image analysis pulls in scipy.signal, about 1 s of start-up.
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 
@@ -32,6 +33,16 @@ class _Clock:
 
     def __exit__(self, *exc):
         self.totals[self.stage] = self.totals.get(self.stage, 0.0) + time.perf_counter() - self.start
+
+
+def with_warnings(fn, *args):
+    """``(fn(*args), the warnings it raised)``, each distinct warning once: run in a
+    worker process, for the main process to raise them again (through its own
+    filters, format and log)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = fn(*args)
+    return result, list({(type(w.message), str(w.message)): w.message for w in caught}.values())
 
 
 def _named(tube, fn, *args, **kwargs):

@@ -20,7 +20,7 @@ from .mesh.grid import GridOptions, smooth_endpoints
 from .mesh.sections import slab_thickness, volume_from_sections
 from .mesh.curvature import contour_curvature, count_corners
 from .mesh.strain import grid_strain
-from .per_frame import frame_seam_end_points, process_frame
+from .per_frame import frame_seam_end_points, process_frame, with_warnings
 from .progress import Progress
 
 
@@ -58,7 +58,8 @@ def check_enough_frames(ds: Dataset) -> None:
 
 def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> list:
     """``[fn(*args) for args in arg_tuples]``, in worker processes when an
-    ``executor`` (any ``concurrent.futures.Executor``) is given; results in order."""
+    ``executor`` (any ``concurrent.futures.Executor``) is given; results in order.
+    The workers' warnings are raised here, each distinct one once."""
     if executor is None:
         out = []
         for args in arg_tuples:
@@ -68,10 +69,15 @@ def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> l
         return out
     from concurrent.futures import as_completed
 
-    futures = {executor.submit(fn, *args): k for k, args in enumerate(arg_tuples)}
+    futures = {executor.submit(with_warnings, fn, *args): k for k, args in enumerate(arg_tuples)}
     out = [None] * len(futures)
+    seen = set()
     for fut in as_completed(futures):
-        out[futures[fut]] = fut.result()
+        out[futures[fut]], raised = fut.result()
+        for message in raised:
+            if (type(message), str(message)) not in seen:
+                seen.add((type(message), str(message)))
+                warnings.warn(message, stacklevel=2)
         if progress:
             progress()
     return out

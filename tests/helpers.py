@@ -52,3 +52,14 @@ class InPlace(concurrent.futures.Executor):
         except Exception as exc:
             fut.set_exception(exc)
         return fut
+
+
+def square_warning_on_odd(k: int) -> int:
+    """k^2, with a warning for odd k (the same text for k = 1 and 3): for worker tests."""
+    import warnings
+
+    from oftimg.io import OftimgWarning
+
+    if k % 2:
+        warnings.warn(f"odd {min(k, 3)}", OftimgWarning)
+    return k * k

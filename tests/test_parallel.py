@@ -50,6 +50,25 @@ def test_dask_local_cluster_equals_serial(tmp_path):
     assert remote["summary"]["expand_fraction"] == serial["summary"]["expand_fraction"]
 
 
+def test_warnings_raised_in_workers_reach_this_process_once():
+    """A worker's warnings went to its own stderr in Python's format, past --log and
+    the CLI's format."""
+    import warnings
+
+    from helpers import square_warning_on_odd
+    from oftimg.io import OftimgWarning
+    from oftimg.pipeline import run_tasks
+    from oftimg.workers import closing_executor
+
+    pool = make_executor(2)
+    with closing_executor(pool), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        squares = run_tasks(square_warning_on_odd, [(k,) for k in range(6)], executor=pool)
+    assert squares == [0, 1, 4, 9, 16, 25]
+    said = sorted(str(w.message) for w in caught if issubclass(w.category, OftimgWarning))
+    assert said == ["odd 1", "odd 3"]
+
+
 def test_jobs_must_be_positive():
     with pytest.raises(ValueError, match="--jobs"):
         make_executor(0)

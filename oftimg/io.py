@@ -486,6 +486,11 @@ def load_dataset(path: str | Path) -> Dataset:
         raise DatasetError(f"{path}: folder not found")
     if not path.is_dir():
         raise DatasetError(f"{path}: not a folder")
+    misnamed = sorted(p for p in path.iterdir()         # an Inner/ was left out, unread
+                      if p.is_dir() and p.name.lower() in SURFACES and p.name not in SURFACES)
+    if misnamed:
+        raise DatasetError(f"{misnamed[0]}: surface folders are named in lower case "
+                           f"({', '.join(SURFACES)}); rename it {misnamed[0].name.lower()}/")
     if not is_dataset(path):
         raise DatasetError(f"{path}: no outer/ folder; a dataset has outer/ "
                            "(and optionally inner/, lumen/) with one mesh file per frame")

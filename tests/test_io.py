@@ -364,6 +364,9 @@ def _bad(tmp_path, kind):
     elif kind == "non_manifold":  # a fin on an edge
         V2 = np.concatenate([V, [[1.0, 1.0, 0.5]]])
         write_ply(target, V2, np.concatenate([F, [[F[50, 0], F[50, 1], len(V)]]]))
+    elif kind == "capitals":  # Inner/ was left out without a word: a dataset without it
+        write_series(ds, cone_frames(), surface="Inner")
+        return ds, ds / "Inner"
     elif kind == "broken_link":  # was left out: one frame fewer, without a word
         target.unlink()
         target.symlink_to(tmp_path / "moved_away.ply")
@@ -393,7 +396,7 @@ def _bad(tmp_path, kind):
 
 BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
        "three_loops": "3 boundary loops", "non_manifold": "non-manifold edge",
-       "nan": "NaN", "broken_link": "a broken link",
+       "nan": "NaN", "broken_link": "a broken link", "capitals": "rename it inner/",
        "truncated": "lists 432 faces but 427 triangles",
        "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
        "meta_unit": "length_unit", "meta_name": "cannot be a folder name",

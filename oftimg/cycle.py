@@ -46,6 +46,18 @@ def cycle_timing(volume: np.ndarray, period_ms: float) -> dict:
     }
 
 
+def wrap_step_ratio(volume: np.ndarray) -> float:
+    """The step from the last frame back to the first over the largest step between
+    consecutive frames, ``volume (n_t,)``. At most 1 when the frames sample one
+    cycle (the wrap is one of its steps); most often well above 1 when they do
+    not (part of a cycle, or more than one, unless its ends happen to meet) or
+    an end frame is out of place."""
+    v = np.asarray(volume, dtype=float)
+    largest = np.abs(np.diff(v)).max()
+    wrap = abs(v[0] - v[-1])
+    return float(wrap / largest) if largest > 0 else (0.0 if wrap == 0 else np.inf)
+
+
 def two_segment_warp(n_t: int, t_max: float) -> np.ndarray:
     """Input frame positions (after alignment) sampled so maximum expansion is at 0.5.
 

@@ -11,7 +11,7 @@ import numpy as np
 from . import __version__
 from .errors import InputError
 from .io import Dataset, OftimgWarning
-from .cycle import cycle_timing, resample_time, two_segment_warp
+from .cycle import cycle_timing, resample_time, two_segment_warp, wrap_step_ratio
 from .image.analysis import analyse_area_maps
 from .image.normalize import phase_maps
 from .image.pca import contour_pca
@@ -45,6 +45,9 @@ class PipelineOptions:
 # frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion
 # and contraction (the phases share the frame of maximum volume)
 MIN_FRAMES = 5
+# the last-to-first step of the outer volume, over the largest step between frames,
+# above which the frames may not be one whole cycle (one cycle: at most 1)
+WRAP_STEP_WARN = 2.0
 
 
 def check_enough_frames(ds: Dataset) -> None:
@@ -179,7 +182,14 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     timings["frames_cpu_s"] = cpu
     walls = list(frames[0]["grid"])
     # time alignment: t = 0 at minimum outer volume; every series is stacked in that order
-    timing = cycle_timing(np.array([f["volume"]["outer"] for f in frames]), ds.meta.period_ms)
+    volume_in_order = np.array([f["volume"]["outer"] for f in frames])
+    ratio = wrap_step_ratio(volume_in_order)
+    if ratio > WRAP_STEP_WARN:
+        warnings.warn(f"{ds.path}: the outer volume steps {ratio:.1f} times more from the last "
+                      "frame back to the first than between any two consecutive frames; "
+                      "oftimg takes the frames as one whole cycle: do they cover exactly one "
+                      "(none missing or repeated at the ends)?", OftimgWarning, stacklevel=2)
+    timing = cycle_timing(volume_in_order, ds.meta.period_ms)
     t0 = timing["t0_frame"]
     frames = frames[t0:] + frames[:t0]
     grid = {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls}

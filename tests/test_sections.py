@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from helpers import tube_mesh
-from oftimg.cycle import cycle_timing, periodic_peak, resample_time, two_segment_warp
+from oftimg.cycle import (cycle_timing, periodic_peak, resample_time, two_segment_warp,
+                          wrap_step_ratio)
 from oftimg.mesh.clip import clip_grid, clip_positions, cumulative_from_outlet
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
 from oftimg.mesh.sections import (contour_around, crossing_planes, fix_crossing_planes,
@@ -165,6 +166,42 @@ def test_periodic_peak_and_timing():
     tim = cycle_timing(y, 400.0)
     assert tim["t0_frame"] == 30 and tim["expand_fraction"] == pytest.approx(0.5, abs=0.01)
     assert tim["expand_ms"] + tim["contract_ms"] == pytest.approx(400.0)
+
+
+@pytest.mark.parametrize("cycles, one_cycle", [(1.0, True), (0.6, False), (1.3, False),
+                                               (0.97, True)])
+def test_wrap_step_tells_whether_the_frames_are_one_cycle(cycles, one_cycle):
+    """One cycle: the last-to-first step is one of its own steps (ratio <= 1); part
+    of one or more than one: most often a jump (0.97: one frame missing, not told apart)."""
+    n = 40
+    t = np.arange(n) / n * cycles
+    y = 0.05 + 0.01 * np.sin(2 * np.pi * t) ** 3 + 1e-4 * np.cos(6 * np.pi * t)
+    assert (wrap_step_ratio(y) <= 1.0 + 1e-9) is one_cycle
+    assert wrap_step_ratio(np.full(5, 0.05)) == 0.0
+
+
+def test_a_series_that_is_not_one_cycle_is_told(tmp_path):
+    """oftimg takes the frames as one whole cycle (phases, alignment, expansion
+    fractions); 6 frames of a 10-frame cycle were analysed without a word."""
+    import shutil
+    import warnings
+
+    from oftimg.io import OftimgWarning, load_dataset
+    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.pipeline import PipelineOptions, analyse_dataset
+
+    path = write_phantom(tmp_path / "p", sample_params("normal", 1, n_frames=10,
+                                                       vertices_min=1500, vertices_max=1800))
+    for surface in ("inner", "lumen"):
+        shutil.rmtree(path / surface)
+    for f in sorted((path / "outer").iterdir())[6:]:
+        f.unlink()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        analyse_dataset(load_dataset(path), PipelineOptions(n_u=24, n_v=12), quiet=True)
+    said = [str(w.message) for w in caught if issubclass(w.category, OftimgWarning)]
+    assert any("from the last frame back to the first" in m and "exactly one" in m
+               for m in said), said
 
 
 def test_two_segment_warp_puts_maximum_at_half():

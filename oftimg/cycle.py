@@ -58,6 +58,28 @@ def wrap_step_ratio(volume: np.ndarray) -> float:
     return float(wrap / largest) if largest > 0 else (0.0 if wrap == 0 else np.inf)
 
 
+def standout_frames(values: np.ndarray, *, periodic: bool = True,
+                    factor: float = 6.0) -> np.ndarray:
+    """Frames whose value stands out of the series ``values (n_t,)``, as one frame
+    segmented wrongly does: it differs from the mean of its two neighbours by more
+    than ``factor`` times the robust spread (1.4826 MAD) of that difference over
+    all frames, and by more than its neighbours do. On a smooth cycle the largest
+    difference is 1.4-1.5 spreads (the phantoms). Without ``periodic`` the end
+    frames are not judged. Returns their indices."""
+    v = np.asarray(values, dtype=float)
+    r = v - 0.5 * (np.roll(v, 1) + np.roll(v, -1))
+    judged = np.ones(len(v), dtype=bool)
+    if not periodic:
+        judged[[0, -1]] = False
+    d = r[judged]
+    spread = 1.4826 * np.median(np.abs(d - np.median(d)))
+    if len(d) < 3 or spread == 0:
+        return np.zeros(0, dtype=int)
+    a = np.abs(r)
+    peak = (a > np.roll(a, 1)) & (a > np.roll(a, -1))
+    return np.nonzero(judged & peak & (a > factor * spread))[0]
+
+
 def two_segment_warp(n_t: int, t_max: float) -> np.ndarray:
     """Input frame positions (after alignment) sampled so maximum expansion is at 0.5.
 

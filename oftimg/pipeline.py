@@ -11,7 +11,8 @@ import numpy as np
 from . import __version__
 from .errors import InputError
 from .io import Dataset, OftimgWarning
-from .cycle import cycle_timing, resample_time, two_segment_warp, wrap_step_ratio
+from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
+                    wrap_step_ratio)
 from .image.analysis import analyse_area_maps
 from .image.normalize import phase_maps
 from .image.pca import contour_pca
@@ -189,6 +190,17 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                       "frame back to the first than between any two consecutive frames; "
                       "oftimg takes the frames as one whole cycle: do they cover exactly one "
                       "(none missing or repeated at the ends)?", OftimgWarning, stacklevel=2)
+    for wall in walls:
+        volumes = np.array([f["volume"][wall] for f in frames])
+        odd = standout_frames(volumes, periodic=ratio <= WRAP_STEP_WARN)
+        if len(odd):
+            around = 0.5 * (np.roll(volumes, 1) + np.roll(volumes, -1))
+            named = ", ".join(f"{ds.frames[wall][t].name} ({volumes[t] / around[t] - 1:+.1%} "
+                              "against its neighbours' mean)" for t in odd[:3])
+            warnings.warn(f"{ds.path / wall}: {len(odd)} frame(s) whose volume stands out of "
+                          f"its neighbours' as a frame segmented wrongly does: {named}"
+                          f"{' and more' if len(odd) > 3 else ''}; check them",
+                          OftimgWarning, stacklevel=2)
     timing = cycle_timing(volume_in_order, ds.meta.period_ms)
     t0 = timing["t0_frame"]
     frames = frames[t0:] + frames[:t0]

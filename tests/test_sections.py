@@ -1,10 +1,12 @@
 """Cross-sections, areas, volumes, time alignment and clipping (issue 5)."""
+import re
+
 import numpy as np
 import pytest
 
 from helpers import tube_mesh
-from oftimg.cycle import (cycle_timing, periodic_peak, resample_time, two_segment_warp,
-                          wrap_step_ratio)
+from oftimg.cycle import (cycle_timing, periodic_peak, resample_time, standout_frames,
+                          two_segment_warp, wrap_step_ratio)
 from oftimg.mesh.clip import clip_grid, clip_positions, cumulative_from_outlet
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
 from oftimg.mesh.sections import (contour_around, crossing_planes, fix_crossing_planes,
@@ -202,6 +204,42 @@ def test_a_series_that_is_not_one_cycle_is_told(tmp_path):
     said = [str(w.message) for w in caught if issubclass(w.category, OftimgWarning)]
     assert any("from the last frame back to the first" in m and "exactly one" in m
                for m in said), said
+
+
+def test_a_frame_that_stands_out_is_found():
+    n = 60
+    t = np.arange(n) / n
+    v = 0.05 + 0.01 * np.sin(2 * np.pi * t) ** 3 + 0.002 * np.sin(6 * np.pi * t)
+    assert len(standout_frames(v)) == 0 and len(standout_frames(np.full(n, 0.05))) == 0
+    glitch = v.copy()
+    glitch[17] *= 1.05                      # 5 %: one frame segmented too large
+    assert standout_frames(glitch).tolist() == [17]
+    glitch[0] *= 0.9
+    assert standout_frames(glitch).tolist() == [0, 17]
+    assert standout_frames(glitch, periodic=False).tolist() == [17]   # ends not judged
+
+
+def test_a_series_with_a_frame_that_stands_out_is_told(tmp_path):
+    """One frame's outer wall 4 % too wide (12 % in volume), as a segmentation slip
+    makes it: it went into every map and number without a word."""
+    import warnings
+
+    from oftimg.io import OftimgWarning, load_dataset, read_mesh_file, write_ply
+    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.pipeline import PipelineOptions, analyse_dataset
+
+    path = write_phantom(tmp_path / "p", sample_params("normal", 1, n_frames=30,
+                                                       vertices_min=1500, vertices_max=1800))
+    slip = sorted((path / "outer").iterdir())[12]
+    V, F = read_mesh_file(slip)
+    write_ply(slip, V.mean(axis=0) + 1.04 * (V - V.mean(axis=0)), F)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        analyse_dataset(load_dataset(path), PipelineOptions(n_u=24, n_v=12), quiet=True)
+    said = [str(w.message) for w in caught if issubclass(w.category, OftimgWarning)]
+    stands_out = [m for m in said if "stands out" in m]
+    assert len(stands_out) == 1 and stands_out[0].startswith(f"{path / 'outer'}: 1 frame(s)")
+    assert re.search(rf"{slip.name} \(\+1[23]\.\d% against", stands_out[0]), stands_out  # 1.04^3
 
 
 def test_two_segment_warp_puts_maximum_at_half():

@@ -107,7 +107,11 @@ def dataset_page(folder: Path, summary: dict) -> Path:
               {"check": "sections measured on the projected grid ring (0)",
                "value": summary.get("sections_from_ring")},
               {"check": "median |section volume / capped volume - 1| (about 0)",
-               "value": summary.get("section_volume_error")}]
+               "value": summary.get("section_volume_error")},
+              {"check": "frames whose volume stands out, per wall (none)",
+               "value": (summary.get("frame_series_checks") or {}).get("standout_frames")},
+              {"check": "last-to-first volume step / largest step (at most 1: one cycle)",
+               "value": (summary.get("frame_series_checks") or {}).get("wrap_step_ratio")}]
     body = [f"<p><a href=\"../index.html\">cohort</a></p><h1>{html.escape(summary['name'])}</h1>",
             _table(rows, ["quantity", "value"]), "<h2>Quality checks</h2>",
             _table(checks, ["check", "value"]), "<h2>Figures</h2><div class=\"grid\">"]

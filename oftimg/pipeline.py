@@ -51,6 +51,33 @@ MIN_FRAMES = 5
 WRAP_STEP_WARN = 2.0
 
 
+def check_series(ds: Dataset, volume: dict) -> dict:
+    """Warn when the frames may not be one whole cycle, or a frame's volume stands out
+    as a frame segmented wrongly does; ``volume``: wall -> ``(n_t,)`` mm^3 in input
+    order. Returns what was found (for summary.json)."""
+    ratio = wrap_step_ratio(volume["outer"])
+    if ratio > WRAP_STEP_WARN:
+        warnings.warn(f"{ds.path}: the outer volume steps {ratio:.1f} times more from the last "
+                      "frame back to the first than between any two consecutive frames; "
+                      "oftimg takes the frames as one whole cycle: do they cover exactly one "
+                      "(none missing or repeated at the ends)?", OftimgWarning, stacklevel=3)
+    standout = {}
+    for wall, v in volume.items():
+        odd = standout_frames(v, periodic=ratio <= WRAP_STEP_WARN)
+        standout[wall] = [ds.frames[wall][t].name for t in odd]
+        if len(odd):
+            around = 0.5 * (np.roll(v, 1) + np.roll(v, -1))
+            named = ", ".join(f"{ds.frames[wall][t].name} ({v[t] / around[t] - 1:+.1%} "
+                              "against its neighbours' mean)" for t in odd[:3])
+            warnings.warn(f"{ds.path / wall}: {len(odd)} frame(s) whose volume stands out of "
+                          f"its neighbours' as a frame segmented wrongly does: {named}"
+                          f"{' and more' if len(odd) > 3 else ''}; check them",
+                          OftimgWarning, stacklevel=3)
+    return {"wrap_step_ratio": round(ratio, 3), "one_cycle_warning": ratio > WRAP_STEP_WARN,
+            "standout_frames": standout,
+            "standout_frame_count": sum(len(names) for names in standout.values())}
+
+
 def check_enough_frames(ds: Dataset) -> None:
     """Raise :class:`~oftimg.errors.InputError` naming ``ds`` if it has fewer than
     :data:`MIN_FRAMES` frames (before any work, not at the shape modes)."""
@@ -183,25 +210,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     timings["frames_cpu_s"] = cpu
     walls = list(frames[0]["grid"])
     # time alignment: t = 0 at minimum outer volume; every series is stacked in that order
-    volume_in_order = np.array([f["volume"]["outer"] for f in frames])
-    ratio = wrap_step_ratio(volume_in_order)
-    if ratio > WRAP_STEP_WARN:
-        warnings.warn(f"{ds.path}: the outer volume steps {ratio:.1f} times more from the last "
-                      "frame back to the first than between any two consecutive frames; "
-                      "oftimg takes the frames as one whole cycle: do they cover exactly one "
-                      "(none missing or repeated at the ends)?", OftimgWarning, stacklevel=2)
-    for wall in walls:
-        volumes = np.array([f["volume"][wall] for f in frames])
-        odd = standout_frames(volumes, periodic=ratio <= WRAP_STEP_WARN)
-        if len(odd):
-            around = 0.5 * (np.roll(volumes, 1) + np.roll(volumes, -1))
-            named = ", ".join(f"{ds.frames[wall][t].name} ({volumes[t] / around[t] - 1:+.1%} "
-                              "against its neighbours' mean)" for t in odd[:3])
-            warnings.warn(f"{ds.path / wall}: {len(odd)} frame(s) whose volume stands out of "
-                          f"its neighbours' as a frame segmented wrongly does: {named}"
-                          f"{' and more' if len(odd) > 3 else ''}; check them",
-                          OftimgWarning, stacklevel=2)
-    timing = cycle_timing(volume_in_order, ds.meta.period_ms)
+    volume_in_order = {w: np.array([f["volume"][w] for f in frames]) for w in walls}
+    series_checks = check_series(ds, volume_in_order)
+    timing = cycle_timing(volume_in_order["outer"], ds.meta.period_ms)
     t0 = timing["t0_frame"]
     frames = frames[t0:] + frames[:t0]
     grid = {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls}
@@ -330,6 +341,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "maps_with_clamped_weights": repaired,
         "section_plane_fixes": plane_fixes,
         "section_planes_still_crossing": int(crossing.sum()),
+        "frame_series_checks": series_checks,
         "sections_from_ring": n_from_ring,
         "section_volume_error": {
             w: float(np.median(np.abs(volume_sections[w] / volume[w] - 1))) for w in walls},

@@ -37,6 +37,8 @@ COHORT_COLUMNS = [
     ("flipped_triangles_outer", ("flipped_triangles", "outer")),
     ("sections_from_ring_outer", ("sections_from_ring", "outer")),
     ("section_volume_error_outer", ("section_volume_error", "outer")),
+    ("standout_frames", ("frame_series_checks", "standout_frame_count")),
+    ("wrap_step_ratio", ("frame_series_checks", "wrap_step_ratio")),     # <= 1: one cycle
 ]
 
 

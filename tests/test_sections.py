@@ -200,10 +200,11 @@ def test_a_series_that_is_not_one_cycle_is_told(tmp_path):
         f.unlink()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        analyse_dataset(load_dataset(path), PipelineOptions(n_u=24, n_v=12), quiet=True)
+        res = analyse_dataset(load_dataset(path), PipelineOptions(n_u=24, n_v=12), quiet=True)
     said = [str(w.message) for w in caught if issubclass(w.category, OftimgWarning)]
     assert any("from the last frame back to the first" in m and "exactly one" in m
                for m in said), said
+    assert res["summary"]["frame_series_checks"]["one_cycle_warning"]
 
 
 def test_a_frame_that_stands_out_is_found():
@@ -235,7 +236,10 @@ def test_a_series_with_a_frame_that_stands_out_is_told(tmp_path):
     write_ply(slip, V.mean(axis=0) + 1.04 * (V - V.mean(axis=0)), F)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        analyse_dataset(load_dataset(path), PipelineOptions(n_u=24, n_v=12), quiet=True)
+        res = analyse_dataset(load_dataset(path), PipelineOptions(n_u=24, n_v=12), quiet=True)
+    checks = res["summary"]["frame_series_checks"]
+    assert checks["standout_frames"] == {"outer": [slip.name], "inner": [], "lumen": []}
+    assert not checks["one_cycle_warning"]
     said = [str(w.message) for w in caught if issubclass(w.category, OftimgWarning)]
     stands_out = [m for m in said if "stands out" in m]
     assert len(stands_out) == 1 and stands_out[0].startswith(f"{path / 'outer'}: 1 frame(s)")

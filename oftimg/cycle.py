@@ -72,8 +72,8 @@ def standout_frames(values: np.ndarray, *, periodic: bool = True,
     if not periodic:
         judged[[0, -1]] = False
     d = r[judged]
-    spread = 1.4826 * np.median(np.abs(d - np.median(d)))
-    if len(d) < 3 or spread == 0:
+    spread = 1.4826 * np.median(np.abs(d - np.median(d))) if len(d) >= 3 else 0.0
+    if spread == 0:
         return np.zeros(0, dtype=int)
     a = np.abs(r)
     peak = (a > np.roll(a, 1)) & (a > np.roll(a, -1))

@@ -1,0 +1,194 @@
+"""Accuracy against the phantoms' truth: the paper's Table 1 numbers and the maps.
+
+    python scripts/accuracy.py [--seeds 3] [--frames 195] [--noise-mm 0 0.002] [--jobs 2]
+                               [--cache DIR] [--json]
+
+Makes (or reuses, in --cache) normal and banded phantoms with seeds 0 .. n-1 at
+each noise level (`noise_mm`: the standard deviation of a radial displacement of
+every vertex, a segmentation's roughness), runs oftimg on them as one cohort and
+compares each embryo's results with its `truth.json` and the analytic model.
+Prints, per group and metric, the bias (median signed error), the median and the
+largest absolute error over the embryos; `--json` gives every embryo's errors as well.
+
+Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
+- Table 1: expansion share of the cycle (pp) and time (ms); wave speed min, max,
+  mean and cycle (%), and the two-segment fit's speeds (%) and knee (mm);
+- timing: the ridge (time of maximum area) along the tube, mean and RMS over the
+  rows, ms;
+- size: tube length (%), volumes of each wall (largest over the frames, %), the
+  myocardial volume change (pp), section areas of each wall (median and 95th
+  percentile over the (v, t) map, %), the share of the cycle above 75 % of the
+  maximum area (largest over the rows, pp);
+- shape: band position (mm, banded embryos), corner count (wrong ones counted).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+import oftimg
+from oftimg.phantom import read_truth, sample_params, write_phantom
+
+WALLS = ("outer", "inner", "lumen")
+
+# (key, unit, what): the rows of the printed table, in this order
+METRICS = [
+    ("expand_pp", "pp", "expansion share of the cycle"),
+    ("expand_ms", "ms", "expansion time"),
+    ("speed_min_pct", "%", "wave speed, minimum"),
+    ("speed_max_pct", "%", "wave speed, maximum"),
+    ("speed_mean_pct", "%", "wave speed, mean"),
+    ("speed_cycle_pct", "%", "wave speed, cycle (ends only)"),
+    ("speed_proximal_pct", "%", "two-segment fit, proximal speed"),
+    ("speed_distal_pct", "%", "two-segment fit, distal speed"),
+    ("knee_mm", "mm", "two-segment fit, knee position"),
+    ("ridge_bias_ms", "ms", "ridge time along the tube (mean)"),
+    ("ridge_rms_ms", "ms", "ridge time along the tube (RMS)"),
+    ("length_pct", "%", "tube length"),
+    *[(f"volume_{w}_pct", "%", f"volume of the {w} wall (worst frame)") for w in WALLS],
+    ("myocardial_change_pp", "pp", "myocardial volume change"),
+    *[(f"area_{w}_median_pct", "%", f"section area, {w} (median over v, t)") for w in WALLS],
+    *[(f"area_{w}_p95_pct", "%", f"section area, {w} (95th percentile)") for w in WALLS],
+    ("expanded_75_pp", "pp", "share of the cycle above 75 % of max area (worst row)"),
+    ("band_mm", "mm", "band position (banded)"),
+    ("corners_wrong", "", "corner count wrong (1) or right (0)"),
+]
+
+
+def make_cohort(folder: Path, seeds: int, frames: int, noise_mm: float) -> Path:
+    """Normal and banded phantoms ``<group>_<seed>`` in ``folder`` (kept if there)."""
+    for group in ("normal", "banded"):
+        for seed in range(seeds):
+            path = folder / f"{group}_{seed}"
+            if not (path / "truth.json").exists():
+                write_phantom(path, sample_params(group, seed, n_frames=frames,
+                                                  noise_mm=noise_mm))
+    return folder
+
+
+def _relative_pct(measured, true) -> float:
+    return float(100.0 * (measured / true - 1.0))
+
+
+def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
+    """Every metric's error (measured minus true) for one analysed phantom."""
+    ph, truth = read_truth(dataset)
+    p = truth["params"]
+    summ = json.loads((results / "summary.json").read_text())
+    arr = np.load(results / "arrays.npz")
+    period = p["period_ms"]
+    t0 = summ["t0_frame"]
+    t_ms = np.roll(np.array(truth["t_ms"]), -t0)     # phantom time of each aligned frame
+    s_mm = arr["s_mm"]
+    e = {"expand_pp": 100.0 * (summ["expand_fraction"] - truth["expand_fraction"]),
+         "expand_ms": summ["expand_ms"] - truth["expand_ms"]}
+    for k in ("min", "max", "mean", "cycle"):
+        e[f"speed_{k}_pct"] = _relative_pct(summ["wave_speed_mm_s"][k],
+                                            truth["wave_speed_mm_s"][k])
+    two = summ["wave_two_segment"]
+    e["speed_proximal_pct"] = _relative_pct(two["speed_proximal_mm_s"],
+                                            p["speed_proximal_mm_s"])
+    e["speed_distal_pct"] = _relative_pct(two["speed_distal_mm_s"], p["speed_distal_mm_s"])
+    e["knee_mm"] = two["knee_mm"] - p["speed_knee_mm"]
+    # ridge: aligned time back to phantom time, compared around the cycle
+    ridge = arr["ridge_t_ms"] + t_ms[0]
+    true_ridge = np.interp(s_mm, truth["s_mm"], truth["ridge_t_ms"])
+    d = (ridge - true_ridge + period / 2) % period - period / 2
+    e["ridge_bias_ms"] = float(np.nanmean(d))
+    e["ridge_rms_ms"] = float(np.sqrt(np.nanmean(d ** 2)))
+    e["length_pct"] = _relative_pct(summ["tube_length_mm"], truth["tube_length_mm"])
+    for w in WALLS:
+        rel = arr[f"volume_{w}_mm3"] / np.roll(truth["volume_mm3"][w], -t0) - 1.0
+        e[f"volume_{w}_pct"] = float(100.0 * rel[np.argmax(np.abs(rel))])
+        area_rel = np.abs(arr[f"area_{w}_mm2"] / ph.area_mm2(w, s_mm[:, None], t_ms[None, :])
+                          - 1.0)
+        e[f"area_{w}_median_pct"] = float(100.0 * np.nanmedian(area_rel))
+        e[f"area_{w}_p95_pct"] = float(100.0 * np.nanpercentile(area_rel, 95))
+    e["myocardial_change_pp"] = 100.0 * (summ["myocardial_volume_change"]
+                                         - truth["myocardial_volume_change"])
+    frac = arr["expanded_fraction_75_outer"] - np.interp(s_mm, truth["s_mm"],
+                                                         truth["expanded_fraction_75"])
+    e["expanded_75_pp"] = float(100.0 * frac[np.nanargmax(np.abs(frac))])
+    if truth["band_position_mm"] is not None:
+        found = summ["band_position_mm"]
+        e["band_mm"] = np.nan if found is None else found - truth["band_position_mm"]
+    e["corners_wrong"] = float(summ["corner_count"] != truth["corner_count"])
+    return {k: float(v) for k, v in e.items()}
+
+
+def summarise(errors: dict[str, dict[str, float]]) -> dict[str, dict]:
+    """Per metric over the embryos: n, bias (median signed), median and worst |error|
+    (NaN, as when no band is found, counts as worst)."""
+    out = {}
+    for key, unit, what in METRICS:
+        x = np.array([e[key] for e in errors.values() if key in e])
+        if len(x) == 0:
+            continue
+        found = x[np.isfinite(x)]
+        worst = np.inf if len(found) < len(x) else float(np.abs(x).max())
+        out[key] = {"unit": unit, "what": what, "n": len(x), "not_found": len(x) - len(found),
+                    "bias": float(np.median(found)) if len(found) else np.nan,
+                    "median_abs": float(np.median(np.abs(found))) if len(found) else np.nan,
+                    "worst_abs": worst}
+    return out
+
+
+def print_table(title: str, table: dict[str, dict], n_embryos: int, frames: int) -> None:
+    print(f"\n{n_embryos} phantoms of {frames} frames, {title}: error = measured - true")
+    print(f"  {'metric':<56}{'unit':>5}{'bias':>9}{'median':>9}{'worst':>9}")
+    for key, row in table.items():
+        worst = "not found" if not np.isfinite(row["worst_abs"]) else f"{row['worst_abs']:9.2f}"
+        print(f"  {row['what']:<56}{row['unit']:>5}{row['bias']:9.2f}"
+              f"{row['median_abs']:9.2f}{worst:>9}")
+
+
+def _finite_or_none(x):
+    """JSON has no NaN or infinity: null instead."""
+    if isinstance(x, dict):
+        return {k: _finite_or_none(v) for k, v in x.items()}
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    return x
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", type=int, default=3, help="phantoms per group")
+    ap.add_argument("--frames", type=int, default=195)
+    ap.add_argument("--noise-mm", type=float, nargs="+", default=[0.0])
+    ap.add_argument("--jobs", type=int, default=None)
+    ap.add_argument("--cache", type=Path, default=None,
+                    help="keep the phantoms here (default: a temporary folder)")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    if args.seeds < 1 or args.frames < 5:
+        ap.error("need --seeds >= 1 and --frames >= 5")
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = args.cache or Path(tmp)
+        report = {}
+        for noise in args.noise_mm:
+            cohort = make_cohort(cache / f"accuracy_{args.frames}f_noise{noise:g}mm",
+                                 args.seeds, args.frames, noise)
+            results = Path(tmp) / f"results_{noise:g}"
+            oftimg.run(cohort, results, quiet=args.json, jobs=args.jobs)
+            errors = {d.name: embryo_errors(d, results / d.name)
+                      for d in sorted(cohort.iterdir()) if (d / "truth.json").exists()}
+            tables = {}
+            for group in ("normal", "banded"):
+                tables[group] = summarise({k: e for k, e in errors.items()
+                                           if k.startswith(group)})
+                if not args.json:
+                    print_table(f"{group}, noise {noise * 1000:g} um", tables[group],
+                                args.seeds, args.frames)
+            report[f"{noise:g}"] = {"noise_mm": noise, "summary": tables, "embryos": errors}
+    if args.json:
+        print(json.dumps(_finite_or_none({"frames": args.frames, "seeds": args.seeds,
+                                           "by_noise": report}), indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -240,14 +240,16 @@ def _worker_lost(exc: BaseException, executor, killed=frozenset()) -> WorkerLost
         codes = {p.exitcode for p in processes if p.exitcode and p.pid not in killed}
         signals = sorted(signal.Signals(-c).name for c in codes
                          if c < 0 and -c in signal.valid_signals())
-        if len(signals) > 1 and "SIGTERM" in signals:
+        statuses = sorted(c for c in codes if c > 0)
+        if len(codes) > 1 and "SIGTERM" in signals:   # the broken pool's, to the others
             signals.remove("SIGTERM")
         if signals:
             how = f"was killed by {', '.join(signals)}"
             if "SIGKILL" in signals:
                 how += " (on Linux most often the out-of-memory killer)"
-        elif codes:
-            how = f"ended with exit status {', '.join(map(str, sorted(codes)))}"
+        elif statuses:
+            how = (f"ended with exit status {', '.join(map(str, statuses))} (its error, if "
+                   "it printed one, is above)")
         else:
             how = "ended abruptly"
         what = "a worker process"

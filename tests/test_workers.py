@@ -104,6 +104,26 @@ def test_a_lost_dask_worker_is_named():
     assert _worker_lost(ValueError("bad mesh"), executor=None) is None
 
 
+def test_a_worker_that_exited_with_an_error_is_not_said_killed_by_sigterm():
+    """A worker that fails to start a task (say, oftimg's code changed under a run)
+    exits with status 1 and the broken pool sends SIGTERM to the others: the
+    message used to say "killed by SIGTERM"."""
+    from concurrent.futures.process import BrokenProcessPool
+    from types import SimpleNamespace
+
+    from oftimg.workers import _worker_lost
+
+    def pool(*codes):
+        procs = {k: SimpleNamespace(exitcode=c, pid=100 + k, join=lambda timeout: None)
+                 for k, c in enumerate(codes)}
+        return SimpleNamespace(_processes=procs)
+
+    exited = str(_worker_lost(BrokenProcessPool("x"), pool(1, -15)))
+    assert "ended with exit status 1" in exited and "SIGTERM" not in exited
+    assert "killed by SIGKILL" in str(_worker_lost(BrokenProcessPool("x"), pool(-9, -15)))
+    assert "killed by SIGTERM" in str(_worker_lost(BrokenProcessPool("x"), pool(-15, -15)))
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_workers_end_when_the_main_process_is_killed(tmp_path):
     """Killed by the out-of-memory killer, the main process leaves its workers:

@@ -80,6 +80,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="keep a full log (progress, warnings, timings) in FILE")
     r.add_argument("--warp", action="store_true",
                    help="resample time in two segments so maximum expansion is at mid-cycle")
+    r.add_argument("--map-positions", choices=("rows", "fixed"), default="rows",
+                   help="rows of the (v, t) area maps: the grid rows, as in the paper "
+                        "(default; they drift along the tube as its shape changes), or fixed "
+                        "fractions of the centroid line in every frame (more accurate next to "
+                        "a band: see README, Accuracy)")
 
     c = sub.add_parser("cohort", help="gather datasets analysed separately (e.g. one cluster "
                                       "job each) into one cohort with its tables and report")
@@ -218,7 +223,8 @@ def _command(args) -> int:
 
     if args.command == "run":
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
-                   "seam_method": args.seam_method, "warp": args.warp}
+                   "seam_method": args.seam_method, "warp": args.warp,
+                   "map_positions": args.map_positions}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume)

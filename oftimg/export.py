@@ -254,11 +254,14 @@ def write_arrays(folder: Path, arrays: dict[str, np.ndarray], described: dict[st
 WALLS = ("outer", "inner", "lumen")
 
 
-def describe_array(name: str) -> dict:
-    """Dims (u, v, t order) and unit of an array in ``arrays.npz`` / ``grids.npz``."""
+def describe_array(name: str, *, map_positions: str = "rows") -> dict:
+    """Dims (u, v, t order) and unit of an array in ``arrays.npz`` / ``grids.npz``;
+    ``map_positions`` as in the run's options."""
     fixed = {
         "s_mm": (["v"], "mm", "arc length from the inlet along the outer contours' centroid line, "
                               "time average"),
+        "s_rows_mm": (["v", "t"], "mm", "arc length from the inlet along the outer contours' "
+                                        "centroid line of each grid row in each frame"),
         "t_ms": (["t"], "ms", "time since the minimum outer volume of each sample (with --warp: "
                               "two segments, maximum expansion at the middle sample)"),
         "clip_v": (["t"], "1", "v of the Lagrangian clipping plane (constant myocardial volume)"),
@@ -326,8 +329,14 @@ def describe_array(name: str) -> dict:
                 return {"dims": dims, "unit": unit, "description": text.format(w=w)}
     for w in WALLS:
         if name == f"area_{w}_mm2":
+            where = ("at grid row v" if map_positions == "rows" else
+                     f"at the fraction s_mm / s_mm[-1] of each frame's centroid line, "
+                     f"interpolated (cubic spline) from area_rows_{w}_mm2")
             return {"dims": ["v", "t"], "unit": "mm^2",
-                    "description": f"area inside the {w} section contour"}
+                    "description": f"area inside the {w} section contour, {where}"}
+        if name == f"area_rows_{w}_mm2":
+            return {"dims": ["v", "t"], "unit": "mm^2",
+                    "description": f"area inside the {w} section contour at grid row v"}
         if name == f"volume_{w}_mm3":
             return {"dims": ["t"], "unit": "mm^3",
                     "description": f"volume inside the {w} wall closed by its end caps"}
@@ -377,7 +386,9 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
     grids = {w: g.astype(np.float32) for w, g in result["grids"].items()}
     np.savez(folder / "grids.npz", **grids)
     arrays = result["arrays"]
-    described = {k: describe_array(k) for k in list(arrays) + list(grids)}
+    positions = result["summary"]["provenance"]["options"]["map_positions"]
+    described = {k: describe_array(k, map_positions=positions)
+                 for k in list(arrays) + list(grids)}
     write_arrays(folder, arrays, described)
     if result.get("pca"):
         np.savez(folder / "pca.npz", **result["pca"])

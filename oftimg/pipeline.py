@@ -14,6 +14,7 @@ from .io import Dataset, OftimgWarning
 from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                     wrap_step_ratio)
 from .image.analysis import analyse_area_maps
+from .image.kymograph import at_fixed_positions
 from .image.normalize import phase_maps
 from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
@@ -25,22 +26,33 @@ from .per_frame import frame_seam_end_points, process_frame, with_warnings
 from .progress import Progress
 
 
+# where the rows of the (v, t) area maps lie: at the grid rows, as in the paper (they
+# drift along the tube as the surface's shape changes), or at fixed fractions of the
+# centroid line's length in every frame
+MAP_POSITIONS = ("rows", "fixed")
+
+
 @dataclass(frozen=True)
 class PipelineOptions:
     """All options of a run (recorded in summary.json)."""
 
     grid: GridOptions = field(default_factory=GridOptions)
     warp: bool = False
+    map_positions: str = "rows"
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
-                 **grid_kwargs):
+                 map_positions: str = "rows", **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
+        if map_positions not in MAP_POSITIONS:
+            raise InputError(f"map_positions must be one of {MAP_POSITIONS}, "
+                             f"found {map_positions!r}")
         object.__setattr__(self, "grid", grid or GridOptions(**grid_kwargs))
         object.__setattr__(self, "warp", bool(warp))
+        object.__setattr__(self, "map_positions", map_positions)
 
     def as_dict(self) -> dict:
-        return {"grid": asdict(self.grid), "warp": self.warp}
+        return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions}
 
 
 # frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion
@@ -272,9 +284,14 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     s_mm = s_rows.mean(axis=1)
     t_ms = t_frames * ds.meta.period_ms / n_t
 
-    arrays = {"s_mm": s_mm, "t_ms": t_ms}
+    arrays = {"s_mm": s_mm, "t_ms": t_ms, "s_rows_mm": s_rows}
+    maps = area
+    if options.map_positions == "fixed":
+        maps = {w: at_fixed_positions(area[w], s_rows, s_mm) for w in walls}
     for w in walls:
-        arrays[f"area_{w}_mm2"] = area[w]
+        arrays[f"area_{w}_mm2"] = maps[w]
+        if options.map_positions == "fixed":
+            arrays[f"area_rows_{w}_mm2"] = area[w]
         arrays[f"volume_{w}_mm3"] = volume[w]
         arrays[f"contour_{w}_mm"] = contour[w].astype(np.float32)
         arrays[f"volume_from_sections_{w}_mm3"] = volume_sections[w]
@@ -323,7 +340,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     summary.update(fields)
     timings["fields_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    map_arrays, map_summary = analyse_area_maps(area, s_mm, ds.meta.period_ms)
+    map_arrays, map_summary = analyse_area_maps(maps, s_mm, ds.meta.period_ms)
     timings["image_analysis_s"] = time.perf_counter() - tick
     for note in map_summary["image_analysis_notes"]:
         warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)

@@ -284,7 +284,8 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         return {"dims": dims, "unit": unit, "description": text}
     if name == "corner_count_per_row":
         return {"dims": ["v"], "unit": "1", "description": "curvature maxima around the outer "
-                "contour at each row's minimum-area frame"}
+                "contour at each row's minimum-area frame (curvature averaged over 5 frames "
+                "around it, smoothed over 1/40 of the contour)"}
     fields = {
         "radial_curvature_{w}_per_mm": ("1/mm", "signed in-plane curvature of the {w} section "
                                                 "contours (Savitzky-Golay, 7 points)"),

@@ -137,6 +137,11 @@ def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=N
             smooth_endpoints(p_out, options.seam_smoothing_frames))
 
 
+# corners are counted on the radial curvature averaged over this many frames either side
+# of each row's minimum area (segmentation roughness averages out; the corners stay put)
+CORNER_FRAMES = 2
+
+
 def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
@@ -144,7 +149,8 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms) 
     and principal stretches of the outer and inner grids against t = 0, the
     phase maps of these and of the lumen's mean curvature (``(n_u, n_v, n_t)``
     on the lumen grid, or None), and the corner count of the outer contours at
-    each row's own maximum contraction.
+    each row's own maximum contraction (curvature averaged over the
+    ``2 CORNER_FRAMES + 1`` frames around it).
     """
     arrays = {}
     for w in ("outer", "inner"):
@@ -163,7 +169,12 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms) 
     k = arrays["radial_curvature_outer_per_mm"]
     a = np.where(np.isfinite(area["outer"]), area["outer"], np.inf)
     rows_min = np.argmin(a, axis=1)          # a row without any contour gives 0 corners
-    counts = np.array([count_corners(k[:, j, rows_min[j]]) for j in range(k.shape[1])])
+    n_t = k.shape[2]
+    near = (rows_min[:, None] + np.arange(-CORNER_FRAMES, CORNER_FRAMES + 1)) % n_t  # (n_v, 5)
+    with warnings.catch_warnings():  # a row without contours: NaN, and 0 corners
+        warnings.simplefilter("ignore", RuntimeWarning)
+        counts = np.array([count_corners(np.nanmean(k[:, j, near[j]], axis=1))
+                           for j in range(k.shape[1])])
     arrays["corner_count_per_row"] = counts
     inner_rows = counts[1:-1][counts[1:-1] > 0]
     if len(inner_rows) == 0:

@@ -28,18 +28,25 @@ def contour_curvature(C: np.ndarray, normal: np.ndarray, *, window: int = 7) -> 
         return cross / np.linalg.norm(d1, axis=-1) ** 3
 
 
-def count_corners(curvature: np.ndarray, *, min_prominence: float = 0.2) -> int:
+def count_corners(curvature: np.ndarray, *, min_prominence: float = 0.2,
+                  smooth: float = 1 / 40) -> int:
     """Number of curvature maxima around a closed contour ``(n,)``.
 
-    A maximum counts when its prominence is at least ``min_prominence`` times
-    the curvature's range around the contour (periodic).
+    The curvature is first smoothed around the contour (periodic Gaussian,
+    sigma ``smooth`` of its length: 2 of 80 points); a maximum counts when its
+    prominence is at least ``min_prominence`` times the smoothed curvature's
+    range. Without the smoothing, a radial roughness of 1 % of the radius (2 um
+    on the phantoms) made 4 corners count as 6, and 2.5 % as 10.
     """
+    from scipy.ndimage import gaussian_filter1d
     from scipy.signal import find_peaks  # here: 0.8 s to import, not needed by the workers
 
     k = np.asarray(curvature, float)
     if not np.all(np.isfinite(k)) or np.ptp(k) == 0:
         return 0
     n = len(k)
+    if smooth > 0:
+        k = gaussian_filter1d(k, smooth * n, mode="wrap")
     tiled = np.concatenate([k, k, k])
     peaks, _ = find_peaks(tiled, prominence=min_prominence * np.ptp(k))
     return int(np.count_nonzero((peaks >= n) & (peaks < 2 * n)))

@@ -190,7 +190,7 @@ def at_fixed_positions(area: np.ndarray, s_rows_mm: np.ndarray, s_mm: np.ndarray
     for k in range(area.shape[1]):
         s, a = s_rows_mm[:, k], area[:, k]
         ok = np.isfinite(a) & np.isfinite(s)
-        ok[ok] = np.diff(np.concatenate([[-np.inf], s[ok]])) > 0   # strictly increasing
+        ok[ok] = np.diff(np.concatenate([[-np.inf], s[ok]])) > 0   # drop repeats: s never falls
         if ok.sum() >= 2:
             target = np.clip(fraction * s_rows_mm[-1, k], s[ok][0], s[ok][-1])
             out[:, k] = CubicSpline(s[ok], a[ok])(target)

@@ -17,6 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import __version__
+from .image.kymograph import RIDGE_SMOOTHING_MS
 
 
 class Terminated(BaseException):
@@ -85,6 +86,11 @@ def _parser() -> argparse.ArgumentParser:
                         "(default; they drift along the tube as its shape changes), or fixed "
                         "fractions of the centroid line in every frame (more accurate next to "
                         "a band: see README, Accuracy)")
+    r.add_argument("--ridge-smoothing-ms", type=float, default=RIDGE_SMOOTHING_MS, metavar="MS",
+                   help="Gaussian sigma (ms) with which each row of the outer area map is "
+                        "smoothed in time before its maximum (the ridge, hence the wave "
+                        f"speeds) is found (default {RIDGE_SMOOTHING_MS:g}; 0: none; see README, "
+                        "Accuracy)")
 
     c = sub.add_parser("cohort", help="gather datasets analysed separately (e.g. one cluster "
                                       "job each) into one cohort with its tables and report")
@@ -224,7 +230,8 @@ def _command(args) -> int:
     if args.command == "run":
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
                    "seam_method": args.seam_method, "warp": args.warp,
-                   "map_positions": args.map_positions}
+                   "map_positions": args.map_positions,
+                   "ridge_smoothing_ms": args.ridge_smoothing_ms}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume)

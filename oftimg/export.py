@@ -275,7 +275,8 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                                                "tube after blending (should be all False)"),
     }
     fixed.update({
-        "ridge_t_ms": (["v"], "ms", "time of each row's maximum outer area (sub-frame, unwrapped)"),
+        "ridge_t_ms": (["v"], "ms", "time of each row's maximum outer area, the row smoothed "
+                       "in time by options.ridge_smoothing_ms (sub-frame, unwrapped)"),
         "local_speed_mm_s": (["v"], "mm/s", "local peristaltic wave speed ds/dt along the ridge "
                                             "(7-row least-squares slope; negative: backwards)"),
     })

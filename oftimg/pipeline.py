@@ -14,7 +14,7 @@ from .io import Dataset, OftimgWarning
 from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                     wrap_step_ratio)
 from .image.analysis import analyse_area_maps
-from .image.kymograph import at_fixed_positions
+from .image.kymograph import RIDGE_SMOOTHING_MS, at_fixed_positions
 from .image.normalize import phase_maps
 from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
@@ -39,20 +39,32 @@ class PipelineOptions:
     grid: GridOptions = field(default_factory=GridOptions)
     warp: bool = False
     map_positions: str = "rows"
+    ridge_smoothing_ms: float = RIDGE_SMOOTHING_MS
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
-                 map_positions: str = "rows", **grid_kwargs):
+                 map_positions: str = "rows", ridge_smoothing_ms: float = RIDGE_SMOOTHING_MS,
+                 **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
         if map_positions not in MAP_POSITIONS:
             raise InputError(f"map_positions must be one of {MAP_POSITIONS}, "
                              f"found {map_positions!r}")
+        given = ridge_smoothing_ms
+        try:
+            ridge_smoothing_ms = float(given)
+        except (TypeError, ValueError):
+            ridge_smoothing_ms = float("nan")
+        if not 0 <= ridge_smoothing_ms < float("inf"):
+            raise InputError("ridge_smoothing_ms must be a number of ms >= 0 (0: none), "
+                             f"found {given!r}")
         object.__setattr__(self, "grid", grid or GridOptions(**grid_kwargs))
         object.__setattr__(self, "warp", bool(warp))
         object.__setattr__(self, "map_positions", map_positions)
+        object.__setattr__(self, "ridge_smoothing_ms", ridge_smoothing_ms)
 
     def as_dict(self) -> dict:
-        return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions}
+        return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions,
+                "ridge_smoothing_ms": self.ridge_smoothing_ms}
 
 
 # frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion
@@ -351,7 +363,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     summary.update(fields)
     timings["fields_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    map_arrays, map_summary = analyse_area_maps(maps, s_mm, ds.meta.period_ms)
+    map_arrays, map_summary = analyse_area_maps(
+        maps, s_mm, ds.meta.period_ms, ridge_smoothing_ms=options.ridge_smoothing_ms)
     timings["image_analysis_s"] = time.perf_counter() - tick
     for note in map_summary["image_analysis_notes"]:
         warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)

@@ -7,7 +7,8 @@ import numpy as np
 
 from .band import detect_band, neck_depth
 from .gradient import area_rates
-from .kymograph import cycle_speed, local_speed, ridge_times, two_segment_fit, wave_speed_summary
+from .kymograph import (RIDGE_SMOOTHING_MS, cycle_speed, local_speed, ridge_times, two_segment_fit,
+                        wave_speed_summary)
 from .masks import expanded_75, expanded_sigma
 
 
@@ -32,14 +33,16 @@ def fill_gaps(area: np.ndarray) -> tuple[np.ndarray, int]:
     return a, int(bad.sum())
 
 
-def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float
-                      ) -> tuple[dict, dict]:
+def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float, *,
+                      ridge_smoothing_ms: float = RIDGE_SMOOTHING_MS) -> tuple[dict, dict]:
     """Ridge, wave speeds, knee, expansion fractions and masks, rates, band.
 
     ``area[wall] (n_v, n_t)`` mm^2 over one aligned cycle, ``s_mm (n_v,)``;
     cells without a contour (NaN) are interpolated first (and counted).
     Speeds and the band come from the outer wall; expansion fractions from
-    every wall. Returns ``(arrays, summary)``.
+    every wall; the ridge from the outer map smoothed in time by a Gaussian of
+    ``ridge_smoothing_ms`` (:func:`~oftimg.image.kymograph.ridge_times`).
+    Returns ``(arrays, summary)``.
     """
     n_t = area["outer"].shape[1]
     arrays, summary = {}, {}
@@ -50,7 +53,7 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     summary["area_cells_interpolated"] = filled
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        ridge = ridge_times(area["outer"], period_ms)
+        ridge = ridge_times(area["outer"], period_ms, smoothing_ms=ridge_smoothing_ms)
         speed = local_speed(s_mm, ridge)
         cycle = cycle_speed(s_mm, ridge)
         knee = two_segment_fit(s_mm, ridge)

@@ -22,6 +22,7 @@ COHORT_COLUMNS = [
     ("speed_max_mm_s", ("wave_speed_mm_s", "max")),
     ("speed_avg_mm_s", ("wave_speed_mm_s", "mean")),
     ("speed_std_mm_s", ("wave_speed_mm_s", "std")),
+    ("speed_median_mm_s", ("wave_speed_mm_s", "median")),   # not in the paper: robust
     ("speed_cycle_mm_s", ("wave_speed_mm_s", "cycle")),
     ("speed_proximal_mm_s", ("wave_two_segment", "speed_proximal_mm_s")),
     ("speed_distal_mm_s", ("wave_two_segment", "speed_distal_mm_s")),

@@ -185,14 +185,16 @@ def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int =
 
 
 def wave_speed_summary(speed_mm_s: np.ndarray, cycle_mm_s: float) -> dict:
-    """``min, max, mean, std, cycle`` of the local speeds (mm/s), NaN-aware."""
+    """``min, max, mean, std`` (the paper's Table 1), ``median`` (robust to the few
+    rows where the ridge is nearly flat along the tube and the speed shoots up) of the
+    local speeds, and ``cycle`` (mm/s), NaN-aware."""
     v = np.asarray(speed_mm_s, float)
     v = v[np.isfinite(v)]
     if len(v) == 0:
         return {"min": np.nan, "max": np.nan, "mean": np.nan, "std": np.nan,
-                "cycle": cycle_mm_s}
+                "median": np.nan, "cycle": cycle_mm_s}
     return {"min": float(v.min()), "max": float(v.max()), "mean": float(v.mean()),
-            "std": float(v.std()), "cycle": float(cycle_mm_s)}
+            "std": float(v.std()), "median": float(np.median(v)), "cycle": float(cycle_mm_s)}
 
 
 def at_fixed_positions(area: np.ndarray, s_rows_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:

@@ -91,6 +91,8 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         V = np.asarray(m.points, dtype=np.float64)
         F = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
     elif suffix in MESH_SUFFIXES:
+        if suffix == ".ply":
+            _check_binary_ply_size(path)
         o3d = _open3d()
         mesh = o3d.io.read_triangle_mesh(str(path), enable_post_processing=False,
                                          print_progress=False)
@@ -167,6 +169,47 @@ def declared_counts(path: Path) -> tuple[int | None, int | None]:
             return None, body.count(b"facet") - body.count(b"endfacet")
         return None, n_binary
     return None, None
+
+
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2,
+              "int16": 2, "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4,
+              "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _check_binary_ply_size(path: Path) -> None:
+    """Refuse a binary .ply shorter than its header's vertices and (at least
+    triangular) faces need, saying in which block it was cut: open3d reads a
+    file cut among its vertices as all the vertices (the rest zeros) and no faces."""
+    with open(path, "rb") as fh:
+        head = fh.read(65536)
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0 or b"format binary" not in head[:end]:
+        return
+    data_start = head.index(b"\n", end) + 1 if b"\n" in head[end:] else len(head)
+    blocks, element = [], None       # (element name, count, bytes per item at the least)
+    for line in head[:end].decode("ascii", "replace").splitlines():
+        words = line.split()
+        if words[:1] == ["element"] and len(words) == 3 and words[2].isdigit():
+            element = [words[1], int(words[2]), 0]
+            blocks.append(element)
+        elif words[:1] == ["property"] and element is not None:
+            if len(words) == 5 and words[1] == "list" and words[2] in _PLY_SIZES \
+                    and words[3] in _PLY_SIZES:
+                items = 3 if element[0] == "face" else 0
+                element[2] += _PLY_SIZES[words[2]] + items * _PLY_SIZES[words[3]]
+            elif len(words) == 3 and words[1] in _PLY_SIZES:
+                element[2] += _PLY_SIZES[words[1]]
+            else:
+                return                   # a type this check does not know: open3d's word
+    have = path.stat().st_size - data_start
+    offset = 0
+    for name, count, size in blocks:
+        if name in ("vertex", "face") and have < offset + count * size:
+            done = max(0, have - offset) // size if size else 0
+            what = "faces" if name == "face" else "vertices"
+            raise DatasetError(f"{path}: the file is truncated: it ends among its {what}, "
+                               f"with {done} of the {count} {what} its header lists whole")
+        offset += count * size
 
 
 def _check_declared_counts(path: Path, n_vertices: int, n_faces: int) -> None:

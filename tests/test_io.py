@@ -242,8 +242,11 @@ def _write_binary_stl(path, V, F):
                      + np.uint32(len(F)).tobytes() + rec.tobytes())
 
 
-DAMAGED = {"ply_cut_faces": "lists 432 faces but 427 triangles could be read",   # (regexes)
-           "ply_cut_vertices": "lists 432 faces but 0 triangles",
+CUT = "the file is truncated: it ends among its "
+DAMAGED = {"ply_cut_faces": CUT + "faces, with 427 of the 432",                     # (regexes)
+           # open3d read all vertices (the rest zeros) and no faces: "0 triangles" was all
+           # that could be said
+           "ply_cut_vertices": CUT + "vertices, with 18 of the 240 ",
            "ply_quads": "lists 408 faces but 432 triangles",  # open3d split the quads
            # open3d 0.20 leaves the quads out, 0.18 the whole mesh
            "obj_quads": "lists 408 faces but (384|0) triangles",
@@ -397,7 +400,7 @@ def _bad(tmp_path, kind):
 BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
        "three_loops": "3 boundary loops", "non_manifold": "non-manifold edge",
        "nan": "NaN", "broken_link": "a broken link", "capitals": "rename it inner/",
-       "truncated": "lists 432 faces but 427 triangles",
+       "truncated": "it ends among its faces, with 427 of the 432",
        "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
        "meta_unit": "length_unit", "meta_name": "cannot be a folder name",
        "missing": "not found"}
@@ -492,7 +495,7 @@ def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
     assert main(["validate", str(tmp_path / "cohort")]) == 2
     out, err = capfd.readouterr()
     assert out.count("problems: none") == 2 and "(" + str(tmp_path / "cohort" / "c") in out
-    assert f"oftimg: error: {bad}: lists" in err
+    assert f"oftimg: error: {bad}: the file is truncated" in err
     assert "oftimg: error: 1 of 3 datasets have a problem" in err
     assert main(["validate", str(tmp_path / "cohort"), "--json"]) == 2
     reports = json.loads(capfd.readouterr().out)

@@ -138,12 +138,8 @@ def declared_counts(path: Path) -> tuple[int | None, int | None]:
     """
     suffix = path.suffix.lower()
     if suffix == ".ply":
-        with open(path, "rb") as fh:
-            head = fh.read(65536)
-        end = head.find(b"end_header")
-        counts = dict(re.findall(rb"(?m)^element[ \t]+(vertex|face)[ \t]+(\d+)", head[:end]))
-        n_v, n_f = counts.get(b"vertex"), counts.get(b"face")
-        return (int(n_v) if n_v else None), (int(n_f) if n_f else None)
+        counts = {name: count for name, count, _ in _ply_header(path)[2]}
+        return counts.get("vertex"), counts.get("face")
     if suffix == ".off":
         with open(path, "rb") as fh:
             head = fh.read(4096)
@@ -176,34 +172,47 @@ _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort"
               "float": 4, "float32": 4, "double": 8, "float64": 8}
 
 
-def _check_binary_ply_size(path: Path) -> None:
-    """Refuse a binary .ply shorter than its header's vertices and (at least
-    triangular) faces need, saying in which block it was cut: open3d reads a
-    file cut among its vertices as all the vertices (the rest zeros) and no faces."""
+def _ply_header(path: Path) -> tuple[bool, int, list[tuple[str, int, int | None]]]:
+    """``(binary, data_start, elements)`` of a .ply: whether its data are binary, the
+    byte where they begin, and per element its name, count and least bytes per record
+    (a face's list taken as a triangle; None for a property type not known here)."""
     with open(path, "rb") as fh:
         head = fh.read(65536)
     end = head.find(b"end_header")
-    if not head.startswith(b"ply") or end < 0 or b"format binary" not in head[:end]:
-        return
-    data_start = head.index(b"\n", end) + 1 if b"\n" in head[end:] else len(head)
-    blocks, element = [], None       # (element name, count, bytes per item at the least)
+    if end < 0:
+        end = len(head)
+    data_start = head.find(b"\n", end) + 1 or len(head)
+    elements = []
     for line in head[:end].decode("ascii", "replace").splitlines():
         words = line.split()
         if words[:1] == ["element"] and len(words) == 3 and words[2].isdigit():
-            element = [words[1], int(words[2]), 0]
-            blocks.append(element)
-        elif words[:1] == ["property"] and element is not None:
+            elements.append([words[1], int(words[2]), 0])
+        elif words[:1] == ["property"] and elements and elements[-1][2] is not None:
+            item = elements[-1]
             if len(words) == 5 and words[1] == "list" and words[2] in _PLY_SIZES \
                     and words[3] in _PLY_SIZES:
-                items = 3 if element[0] == "face" else 0
-                element[2] += _PLY_SIZES[words[2]] + items * _PLY_SIZES[words[3]]
+                items = 3 if item[0] == "face" else 0
+                item[2] += _PLY_SIZES[words[2]] + items * _PLY_SIZES[words[3]]
             elif len(words) == 3 and words[1] in _PLY_SIZES:
-                element[2] += _PLY_SIZES[words[1]]
+                item[2] += _PLY_SIZES[words[1]]
             else:
-                return                   # a type this check does not know: open3d's word
+                item[2] = None
+    binary = head.startswith(b"ply") and b"format binary" in head[:end]
+    return binary, data_start, [tuple(e) for e in elements]
+
+
+def _check_binary_ply_size(path: Path) -> None:
+    """Refuse a binary .ply shorter than its header's vertices and (at least
+    triangular) faces need, saying among which it ends: open3d reads a file cut
+    among its vertices as all the vertices (the rest zeros) and no faces."""
+    binary, data_start, elements = _ply_header(path)
+    if not binary:
+        return
     have = path.stat().st_size - data_start
     offset = 0
-    for name, count, size in blocks:
+    for name, count, size in elements:
+        if size is None:
+            return                      # a property type not known here: open3d's word
         if name in ("vertex", "face") and have < offset + count * size:
             done = max(0, have - offset) // size if size else 0
             what = "faces" if name == "face" else "vertices"

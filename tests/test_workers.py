@@ -75,11 +75,14 @@ def test_run_with_a_killed_worker_says_so_and_writes_nothing(tmp_path):
         import multiprocessing as mp, os, signal, sys, threading, time
         from oftimg import cli
 
+        def workers():    # the pool's, not the progress bar's SyncManager process
+            return [p for p in mp.active_children() if p.name.startswith("SpawnProcess")]
+
         def kill_a_worker():
-            while len(mp.active_children()) < 2:
+            while len(workers()) < 2:
                 time.sleep(0.01)
             time.sleep(1.0)
-            os.kill(mp.active_children()[0].pid, signal.SIGKILL)
+            os.kill(workers()[0].pid, signal.SIGKILL)
 
         threading.Thread(target=kill_a_worker, daemon=True).start()
         sys.exit(cli.main(["run", {str(data)!r}, "--out", {str(out)!r}, "--jobs", "2",

@@ -167,14 +167,14 @@ def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int =
     if len(s) < 2 * min_rows + 1:
         return KneeFit(np.nan, np.nan, np.nan, np.nan, np.nan)
     knees = np.linspace(s[min_rows - 1], s[-min_rows], refine * (len(s) - 2 * min_rows) + 1)
-    best = None
-    for k in knees:
-        A = np.column_stack([np.ones_like(s), s, np.maximum(0.0, s - k)])
-        coef, *_ = np.linalg.lstsq(A, t, rcond=None)
-        sse = float(((A @ coef - t) ** 2).sum())
-        if best is None or sse < best[0]:
-            best = (sse, k, coef)
-    sse, k, (a, b, c) = best
+    # every knee's design matrix (n_knee, n_row, 3), solved at once by the normal equations
+    A = np.stack(np.broadcast_arrays(1.0, s[None, :], np.maximum(0.0, s[None, :] - knees[:, None])),
+                 axis=-1)
+    At = np.swapaxes(A, 1, 2)
+    coefs = np.linalg.solve(At @ A, (At @ t)[..., None])[..., 0]
+    sses = (((A @ coefs[..., None])[..., 0] - t) ** 2).sum(axis=1)
+    best = int(np.argmin(sses))
+    sse, k, (a, b, c) = float(sses[best]), float(knees[best]), coefs[best]
     rows = np.interp(k, np.asarray(s_mm, float)[ok], np.nonzero(ok)[0].astype(float))
 
     def to_speed(slope):

@@ -279,6 +279,14 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                        "in time by options.ridge_smoothing_ms (sub-frame, unwrapped)"),
         "local_speed_mm_s": (["v"], "mm/s", "local peristaltic wave speed ds/dt along the ridge "
                                             "(7-row least-squares slope; negative: backwards)"),
+        "ridge_t_noise_sd_ms": (["v"], "ms", "spread (SD) of ridge_t_ms over copies of the "
+                                "outer area map with its frame-to-frame noise drawn again "
+                                "(area_noise_sd_outer_mm2); errors that do not change from "
+                                "frame to frame are not in it"),
+        "local_speed_noise_sd_mm_s": (["v"], "mm/s", "spread (SD) of local_speed_mm_s over the "
+                                      "same draws; NaN: not finite in 10 % of them"),
+        "area_noise_sd_outer_mm2": (["v"], "mm^2", "SD of each row's frame-to-frame noise in the "
+                                    "outer area map (mean power of its high harmonics in time)"),
     })
     if name in fixed:
         dims, unit, text = fixed[name]

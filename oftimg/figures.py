@@ -205,10 +205,16 @@ def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
     return path
 
 
-def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, title: str = "") -> Path:
-    """Time of maximum expansion vs position, with the two-segment fit and local speed."""
+def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_ms=None,
+               speed_sd=None, title: str = "") -> Path:
+    """Time of maximum expansion vs position, with the two-segment fit and local speed;
+    ``ridge_sd_ms`` / ``speed_sd`` (``(n_v,)``, optional) as +- 1 SD bars / band."""
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
-    axes[0].plot(s_mm, ridge_t_ms, "k.", label="ridge")
+    if ridge_sd_ms is not None:
+        axes[0].errorbar(s_mm, ridge_t_ms, yerr=ridge_sd_ms, fmt="k.", ms=4, elinewidth=0.6,
+                         label="ridge +- 1 SD (frame noise)")
+    else:
+        axes[0].plot(s_mm, ridge_t_ms, "k.", label="ridge")
     if knee is not None and np.isfinite(knee["knee_mm"]):
         k = knee["knee_mm"]
         t_k = np.interp(k, s_mm, ridge_t_ms)
@@ -221,6 +227,19 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, title: st
     axes[0].legend(fontsize=7)
     if speed is not None:
         axes[1].plot(s_mm, speed, "b.-", lw=0.8)
+        if speed_sd is not None:
+            axes[1].fill_between(s_mm, speed - speed_sd, speed + speed_sd, color="b", alpha=0.2,
+                                 lw=0, label="+- 1 SD (frame noise)")
+            axes[1].legend(fontsize=7)
+            finite = np.isfinite(speed) & np.isfinite(speed_sd) & (speed_sd < np.abs(speed))
+            if finite.any():   # unresolved rows (spread as large as the speed) off the scale
+                lo, hi = np.min(speed[finite]), np.max(speed[finite])
+                pad = 0.1 * (hi - lo) + 1e-9
+                axes[1].set_ylim(min(lo, 0) - pad, hi + pad)
+                off = int((np.isfinite(speed) & ((speed < lo) | (speed > hi))).sum())
+                if off:
+                    axes[1].set_title(f"{off} unresolved rows (SD > speed) off the scale",
+                                      fontsize=7)
         axes[1].axhline(0, color="k", lw=0.5)
     axes[1].set_xlabel("position along the tube s (mm)")
     axes[1].set_ylabel("local wave speed (mm/s)")
@@ -257,7 +276,8 @@ def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms:
                                     title=f"{name}: derivative of the outer area map"))
     written.append(ridge_plot(s_mm, arrays["ridge_t_ms"], folder / "ridge_speed.png",
                               knee=summary["wave_two_segment"], speed=arrays["local_speed_mm_s"],
-                              title=name))
+                              ridge_sd_ms=arrays.get("ridge_t_noise_sd_ms"),
+                              speed_sd=arrays.get("local_speed_noise_sd_mm_s"), title=name))
     return written
 
 

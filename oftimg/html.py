@@ -96,8 +96,10 @@ def dataset_page(folder: Path, summary: dict) -> Path:
             "expand_ms", "contract_ms", "tube_length_mm", "myocardial_volume_change",
             "band_position_mm", "corner_count"]
     rows = [{"quantity": k, "value": summary.get(k)} for k in keys if k in summary]
+    spread = summary.get("wave_speed_noise_sd_mm_s") or {}
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():
-        rows.append({"quantity": f"wave speed {k} (mm/s)", "value": v})
+        rows.append({"quantity": f"wave speed {k} (mm/s)", "value": v,
+                     "spread from frame noise": spread.get(k)})
     checks = [{"check": "flipped triangles in the maps (0)",
                "value": summary.get("flipped_triangles")},
               {"check": "maps re-solved with clamped weights",
@@ -113,7 +115,8 @@ def dataset_page(folder: Path, summary: dict) -> Path:
               {"check": "last-to-first volume step / largest step (at most 1: one cycle)",
                "value": (summary.get("frame_series_checks") or {}).get("wrap_step_ratio")}]
     body = [f"<p><a href=\"../index.html\">cohort</a></p><h1>{html.escape(summary['name'])}</h1>",
-            _table(rows, ["quantity", "value"]), "<h2>Quality checks</h2>",
+            _table(rows, ["quantity", "value", "spread from frame noise"]),
+            "<h2>Quality checks</h2>",
             _table(checks, ["check", "value"]), "<h2>Figures</h2><div class=\"grid\">"]
     body += [f'<figure><img src="figures/{f.name}" alt="{f.stem}"><figcaption class="small">'
              f'{f.stem}</figcaption></figure>' for f in figs]

@@ -27,6 +27,14 @@ COHORT_COLUMNS = [
     ("speed_proximal_mm_s", ("wave_two_segment", "speed_proximal_mm_s")),
     ("speed_distal_mm_s", ("wave_two_segment", "speed_distal_mm_s")),
     ("knee_mm", ("wave_two_segment", "knee_mm")),
+    # not in the paper: the speeds' spread from the area map's own frame-to-frame noise
+    ("speed_min_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "min")),
+    ("speed_max_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "max")),
+    ("speed_avg_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "mean")),
+    ("speed_median_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "median")),
+    ("speed_cycle_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "cycle")),
+    ("speed_proximal_noise_sd_mm_s", ("wave_two_segment", "speed_proximal_noise_sd_mm_s")),
+    ("speed_distal_noise_sd_mm_s", ("wave_two_segment", "speed_distal_noise_sd_mm_s")),
     ("max_expansion_rate_mm2_ms", ("max_expansion_rate_mm2_ms",)),
     ("max_contraction_rate_mm2_ms", ("max_contraction_rate_mm2_ms",)),
     ("band_position_mm", ("band_position_mm",)),
@@ -44,10 +52,14 @@ COHORT_COLUMNS = [
 
 
 def _get(d: dict, path: tuple):
+    """The value at ``path``; "" when there is none, or it is NaN or infinite (as
+    summary.json, which stores those as null, gives it back to ``oftimg cohort``)."""
     for key in path:
         if not isinstance(d, dict) or key not in d:
             return ""
         d = d[key]
+    if isinstance(d, float) and not np.isfinite(d):
+        return ""
     return d
 
 
@@ -72,7 +84,7 @@ def write_cohort_markdown(folder: Path, summaries: list[dict]) -> Path:
 
     def fmt(x):
         if isinstance(x, float):
-            return "nan" if x != x else f"{x:.3g}"
+            return f"{x:.3g}"
         return "" if x is None else str(x).replace("|", r"\|")   # a name's "|": no new cell
 
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]

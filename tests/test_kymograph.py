@@ -5,8 +5,10 @@ import pytest
 from oftimg.image.band import detect_band
 from oftimg.image.gradient import area_rates, colour_wheel, gradient_hsv
 from oftimg.errors import InputError
-from oftimg.image.kymograph import (at_fixed_positions, cycle_speed, local_speed, ridge_times,
-                                    smooth_in_time, two_segment_fit, wave_speed_summary)
+from oftimg.image.analysis import analyse_area_maps
+from oftimg.image.kymograph import (at_fixed_positions, cycle_speed, local_speed, map_noise_sd,
+                                    ridge_times, smooth_in_time, speed_spread, two_segment_fit,
+                                    wave_speed_summary, wave_speeds)
 from oftimg.image.masks import expanded_75, expanded_sigma
 
 PERIOD = 100.0  # ms
@@ -156,6 +158,87 @@ def test_smooth_in_time_keeps_symmetric_peaks_and_nan_cells():
     for bad in (-1.0, np.nan, np.inf):
         with pytest.raises(InputError, match="smoothing sigma"):
             smooth_in_time(area, PERIOD, bad)
+
+
+def test_map_noise_sd_measures_white_noise_and_not_the_beat():
+    period, n_t = 360.0, 195
+    s = np.linspace(0, 1.2, 60)
+    clean = hump_map(1e3 * s / 12.0, period, n_t)
+    sd = np.linspace(1e-4, 1e-3, 60)                      # mm^2, one per row
+    noisy = clean + np.random.default_rng(5).standard_normal(clean.shape) * sd[:, None]
+    ratio = map_noise_sd(noisy) / sd
+    assert abs(ratio.mean() - 1) < 0.05 and np.all(np.abs(ratio - 1) < 0.3)
+    amplitude = clean.max(axis=1) - clean.min(axis=1)
+    assert np.all(map_noise_sd(clean) < 1e-5 * amplitude)   # the beat is not noise
+    assert np.isnan(map_noise_sd(noisy[:, :9])).all()       # too few frames to tell
+    assert np.isfinite(map_noise_sd(noisy[:, :10])).all()
+
+
+def test_speed_spread_matches_the_scatter_of_repeated_measurements():
+    """One noisy map's spread against the scatter of the speeds measured on 40 maps of
+    the same beat, each with noise of its own (1 % of the area's range per cell)."""
+    period, n_t, c = 360.0, 195, 12.0
+    s = np.linspace(0, 1.2, 50)
+    clean = hump_map(1e3 * s / c, period, n_t)
+    rng = np.random.default_rng(11)
+    noise = 0.01 * (clean.max() - clean.min())
+
+    def measure():
+        area = clean + noise * rng.standard_normal(clean.shape)
+        ridge = ridge_times(area, period)
+        speeds = wave_speeds(s, ridge)
+        return area, ridge, speeds["local"], speeds["summary"]["cycle"]
+
+    def sd(x):                                   # robust, as the spread is measured
+        lo, hi = np.percentile(x, [16, 84], axis=0)
+        return (hi - lo) / 2
+
+    repeats = [measure() for _ in range(40)]
+    ridge_sd = sd([r[1] for r in repeats])
+    local_sd = sd([r[2] for r in repeats])
+    cycle_sd = sd([r[3] for r in repeats])
+    spread = speed_spread(repeats[0][0], s, period)
+    assert np.allclose(spread["noise_sd"], noise, rtol=0.25)
+    assert 0.7 < np.median(spread["ridge_t_ms"] / ridge_sd) < 1.4
+    resolved = np.isfinite(spread["local_speed_mm_s"])   # not the 1-2 end rows: 4 points
+    assert resolved.mean() > 0.9
+    assert 0.7 < np.median(spread["local_speed_mm_s"][resolved] / local_sd[resolved]) < 1.4
+    assert 0.6 < spread["speeds"]["cycle"] / cycle_sd < 1.6
+    assert set(spread["speeds"]) == {"min", "max", "mean", "median", "cycle", "proximal",
+                                     "distal"}
+    assert speed_spread(repeats[0][0], s, period, draws=20, seed=4)["speeds"] != spread["speeds"]
+    assert speed_spread(repeats[0][0], s, period)["speeds"] == spread["speeds"]  # seeded
+
+
+def test_an_unresolved_wave_speed_is_said():
+    """A stretch where the wave arrives everywhere at once (infinite local speed): noise
+    alone turns its speeds from large positive to negative, so the maximum speed has no
+    spread (NaN) and the analysis says so; the cycle speed stays resolved."""
+    period, n_t = 360.0, 195
+    s = np.linspace(0, 1.2, 50)
+    arrival = 1e3 * np.minimum(s, 0.5) / 8.0 + 1e3 * np.maximum(s - 0.8, 0) / 8.0
+    clean = hump_map(arrival, period, n_t)
+    area = clean + 0.005 * (clean.max() - clean.min()) * np.random.default_rng(2).standard_normal(
+        clean.shape)
+    arrays, summary = analyse_area_maps({"outer": area}, s, period)
+    sd = summary["wave_speed_noise_sd_mm_s"]
+    assert np.isnan(sd["max"])
+    assert sd["cycle"] < 0.05 * summary["wave_speed_mm_s"]["cycle"]
+    note = [n for n in summary["image_analysis_notes"] if "frame-to-frame noise" in n]
+    assert len(note) == 1 and "max" in note[0] and "cycle" not in note[0]
+    flat = (s > 0.55) & (s < 0.75)
+    assert np.all(~np.isfinite(arrays["local_speed_noise_sd_mm_s"][flat])
+                  | (arrays["local_speed_noise_sd_mm_s"][flat] > 100))
+    assert np.all(arrays["local_speed_noise_sd_mm_s"][s < 0.4] < 2.0)
+    assert arrays["ridge_t_noise_sd_ms"].shape == s.shape
+
+
+def test_speed_spread_refuses_bad_arguments():
+    area = pulse_map(np.linspace(10, 40, 20))
+    with pytest.raises(InputError, match="draws"):
+        speed_spread(area, np.linspace(0, 1, 20), PERIOD, draws=5)
+    with pytest.raises(InputError, match="one value per row"):
+        speed_spread(area, np.linspace(0, 1, 19), PERIOD)
 
 
 def test_bad_map_shapes_are_refused():

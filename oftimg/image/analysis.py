@@ -7,8 +7,7 @@ import numpy as np
 
 from .band import detect_band, neck_depth
 from .gradient import area_rates
-from .kymograph import (RIDGE_SMOOTHING_MS, cycle_speed, local_speed, ridge_times, two_segment_fit,
-                        wave_speed_summary)
+from .kymograph import RIDGE_SMOOTHING_MS, ridge_times, speed_spread, wave_speeds
 from .masks import expanded_75, expanded_sigma
 
 
@@ -33,6 +32,10 @@ def fill_gaps(area: np.ndarray) -> tuple[np.ndarray, int]:
     return a, int(bad.sum())
 
 
+# a wave speed whose spread is more than this share of it is said to be poorly resolved
+SPREAD_NOTE_SHARE = 0.2
+
+
 def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float, *,
                       ridge_smoothing_ms: float = RIDGE_SMOOTHING_MS) -> tuple[dict, dict]:
     """Ridge, wave speeds, knee, expansion fractions and masks, rates, band.
@@ -41,8 +44,9 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     cells without a contour (NaN) are interpolated first (and counted).
     Speeds and the band come from the outer wall; expansion fractions from
     every wall; the ridge from the outer map smoothed in time by a Gaussian of
-    ``ridge_smoothing_ms`` (:func:`~oftimg.image.kymograph.ridge_times`).
-    Returns ``(arrays, summary)``.
+    ``ridge_smoothing_ms`` (:func:`~oftimg.image.kymograph.ridge_times`); the
+    speeds' spread from the outer map's own frame-to-frame noise
+    (:func:`~oftimg.image.kymograph.speed_spread`). Returns ``(arrays, summary)``.
     """
     n_t = area["outer"].shape[1]
     arrays, summary = {}, {}
@@ -54,9 +58,8 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         ridge = ridge_times(area["outer"], period_ms, smoothing_ms=ridge_smoothing_ms)
-        speed = local_speed(s_mm, ridge)
-        cycle = cycle_speed(s_mm, ridge)
-        knee = two_segment_fit(s_mm, ridge)
+        speeds = wave_speeds(s_mm, ridge)
+        spread = speed_spread(area["outer"], s_mm, period_ms, smoothing_ms=ridge_smoothing_ms)
         for wall, a in area.items():
             share75, up, down, mask75 = expanded_75(a)
             share_sig, sigma, r2, mask_sig = expanded_sigma(a)
@@ -72,11 +75,21 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     notes += [f"{k} {w} area cells without a contour were interpolated for the map analyses"
               for w, k in filled.items() if k]
     expand_rate, contract_rate = area_rates(area["outer"], period_ms / n_t)
+    knee, sd = speeds["knee"], spread["speeds"]
+    notes += _unresolved_speeds(speeds["summary"] | {"proximal": knee.speed_proximal_mm_s,
+                                                     "distal": knee.speed_distal_mm_s}, sd)
     arrays["ridge_t_ms"] = ridge
-    arrays["local_speed_mm_s"] = speed
-    summary["wave_speed_mm_s"] = wave_speed_summary(speed, cycle)
+    arrays["ridge_t_noise_sd_ms"] = spread["ridge_t_ms"]
+    arrays["local_speed_mm_s"] = speeds["local"]
+    arrays["local_speed_noise_sd_mm_s"] = spread["local_speed_mm_s"]
+    arrays["area_noise_sd_outer_mm2"] = spread["noise_sd"]
+    summary["wave_speed_mm_s"] = speeds["summary"]
+    summary["wave_speed_noise_sd_mm_s"] = {k: sd[k]
+                                           for k in ("min", "max", "mean", "median", "cycle")}
     summary["wave_two_segment"] = {"speed_proximal_mm_s": knee.speed_proximal_mm_s,
                                    "speed_distal_mm_s": knee.speed_distal_mm_s,
+                                   "speed_proximal_noise_sd_mm_s": sd["proximal"],
+                                   "speed_distal_noise_sd_mm_s": sd["distal"],
                                    "knee_mm": knee.knee_mm, "rms_ms": knee.rms_ms}
     summary["max_expansion_rate_mm2_ms"] = expand_rate
     summary["max_contraction_rate_mm2_ms"] = contract_rate
@@ -85,3 +98,18 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     summary["expanded_fraction_75_mean"] = float(np.nanmean(arrays["expanded_fraction_75_outer"]))
     summary["image_analysis_notes"] = notes
     return arrays, summary
+
+
+def _unresolved_speeds(value: dict, spread: dict) -> list[str]:
+    """One note naming the wave speeds whose spread is over :data:`SPREAD_NOTE_SHARE` of
+    their value or undefined (none when every speed is resolved)."""
+    poor = []
+    for k, sd in spread.items():
+        if not np.isfinite(sd):
+            poor.append(f"{k} {value[k]:.3g} mm/s (not resolved)")
+        elif sd > SPREAD_NOTE_SHARE * abs(value[k]):
+            poor.append(f"{k} {value[k]:.3g} +- {sd:.2g} mm/s")
+    if not poor:
+        return []
+    return [f"wave speeds whose spread from the area map's frame-to-frame noise alone is over "
+            f"{SPREAD_NOTE_SHARE:.0%} of them (see wave_speed_noise_sd_mm_s): " + ", ".join(poor)]

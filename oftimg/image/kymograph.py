@@ -21,6 +21,15 @@ FLAT_REL = 1e-3  # rows whose relative temporal range is below this have no ridg
 # shift of the ridge by ~1.7 ms where the area's peak is asymmetric (the same shift in every
 # row whose peak has the same shape, so speeds keep it out). See README, Accuracy.
 RIDGE_SMOOTHING_MS = 5.0
+# copies of a map, each with its own frame-to-frame noise drawn again, from which the
+# spread of the wave speeds is measured (:func:`speed_spread`); their seed
+SPREAD_DRAWS = 100
+SPREAD_SEED = 0
+# a spread is given only when this share of the draws gives a finite value
+SPREAD_FINITE_SHARE = 0.9
+# a speed is resolved when the spread of its inverse (the ridge's slope) over the draws is
+# under this share of it: within one SD the wave neither stands still nor turns back
+RESOLVED_SLOPE_SHARE = 0.5
 
 
 def _check_map(area: np.ndarray, s_mm: np.ndarray | None = None) -> np.ndarray:
@@ -56,6 +65,30 @@ def smooth_in_time(area: np.ndarray, period_ms: float, sigma_ms: float) -> np.nd
     weight = gaussian_filter1d(ok.astype(float), sigma, axis=1, mode="wrap")
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(ok, total / weight, np.nan)
+
+
+def map_noise_sd(area: np.ndarray) -> np.ndarray:
+    """Standard deviation of each row's frame-to-frame noise, in the map's units: ``(n_v,)``.
+
+    ``area (n_v, n_t)`` over one periodic cycle. White noise spreads its power
+    evenly over the harmonics of the cycle; a beat's power is in its first few.
+    So the noise variance is the mean power of the harmonics above n_t / 4
+    (and at least the 5th), what is left of frames segmented and meshed one by
+    one (the phantoms' true areas have no power there: all of it is error).
+    Noise correlated from frame to frame (a segmentation smoothed in time) is
+    underestimated; error that does not change from frame to frame is not in it.
+    NaN for a row with NaN, and for maps of under 10 frames (no such harmonics).
+    """
+    area = _check_map(area)
+    n_t = area.shape[1]
+    spectrum = np.fft.rfft(area, axis=1)
+    k = np.arange(spectrum.shape[1])
+    high = (k > n_t / 4) & (k >= 5)
+    if not high.any():
+        return np.full(area.shape[0], np.nan)
+    both_sides = np.where(2 * k == n_t, 1.0, 2.0)[high]      # Nyquist counted once
+    power = (both_sides * np.abs(spectrum[:, high]) ** 2).sum(axis=1) / both_sides.sum()
+    return np.sqrt(power / n_t)
 
 
 def ridge_times(area: np.ndarray, period_ms: float, *,
@@ -168,8 +201,8 @@ def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int =
         return KneeFit(np.nan, np.nan, np.nan, np.nan, np.nan)
     knees = np.linspace(s[min_rows - 1], s[-min_rows], refine * (len(s) - 2 * min_rows) + 1)
     # every knee's design matrix (n_knee, n_row, 3), solved at once by the normal equations
-    A = np.stack(np.broadcast_arrays(1.0, s[None, :], np.maximum(0.0, s[None, :] - knees[:, None])),
-                 axis=-1)
+    ramp = np.maximum(0.0, s[None, :] - knees[:, None])
+    A = np.stack(np.broadcast_arrays(1.0, s[None, :], ramp), axis=-1)
     At = np.swapaxes(A, 1, 2)
     coefs = np.linalg.solve(At @ A, (At @ t)[..., None])[..., 0]
     sses = (((A @ coefs[..., None])[..., 0] - t) ** 2).sum(axis=1)
@@ -178,7 +211,7 @@ def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int =
     rows = np.interp(k, np.asarray(s_mm, float)[ok], np.nonzero(ok)[0].astype(float))
 
     def to_speed(slope):
-        return 1e3 / slope if slope != 0 else np.inf
+        return float(1e3 / slope) if slope != 0 else np.inf
 
     return KneeFit(knee_mm=float(k), knee_row=float(rows), speed_proximal_mm_s=to_speed(b),
                    speed_distal_mm_s=to_speed(b + c), rms_ms=float(np.sqrt(sse / len(s))))
@@ -195,6 +228,87 @@ def wave_speed_summary(speed_mm_s: np.ndarray, cycle_mm_s: float) -> dict:
                 "median": np.nan, "cycle": cycle_mm_s}
     return {"min": float(v.min()), "max": float(v.max()), "mean": float(v.mean()),
             "std": float(v.std()), "median": float(np.median(v)), "cycle": float(cycle_mm_s)}
+
+
+def wave_speeds(s_mm: np.ndarray, ridge_t_ms: np.ndarray) -> dict:
+    """Every wave speed (mm/s) from one ridge: ``local (n_v,)``, the
+    :func:`wave_speed_summary` of the rows and the cycle, and the
+    :func:`two_segment_fit`."""
+    local = local_speed(s_mm, ridge_t_ms)
+    return {"local": local,
+            "summary": wave_speed_summary(local, cycle_speed(s_mm, ridge_t_ms)),
+            "knee": two_segment_fit(s_mm, ridge_t_ms)}
+
+
+def _speed_values(speeds: dict) -> dict:
+    """The scalar speeds of :func:`wave_speeds`, by summary key."""
+    out = {k: v for k, v in speeds["summary"].items() if k != "std"}
+    out["proximal"] = speeds["knee"].speed_proximal_mm_s
+    out["distal"] = speeds["knee"].speed_distal_mm_s
+    return out
+
+
+def _spread(draws: np.ndarray) -> np.ndarray:
+    """Half the 16th-84th percentile range over axis 0 (the SD of a normal
+    distribution, robust to a few wild draws); NaN where under
+    :data:`SPREAD_FINITE_SHARE` of the draws are finite."""
+    finite = np.isfinite(draws)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN columns: NaN
+        lo, hi = np.nanpercentile(np.where(finite, draws, np.nan), [16, 84], axis=0)
+    return np.where(finite.mean(axis=0) >= SPREAD_FINITE_SHARE, (hi - lo) / 2, np.nan)
+
+
+def _speed_spread(draws: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """:func:`_spread` of speed ``draws (n_draws, ...)`` around the measured ``speed
+    (...)``, NaN where the speed is not resolved: the spread of the inverse speeds
+    (slopes; an infinite speed is a slope of 0) is over :data:`RESOLVED_SLOPE_SHARE`
+    of the measured one's. A spike where the ridge is nearly flat along the tube
+    (1000 mm/s, say) has a small spread in mm/s but not in slope."""
+    with np.errstate(divide="ignore"):
+        slope, slope_draws = 1.0 / np.asarray(speed, float), 1.0 / draws
+    resolved = _spread(slope_draws) < RESOLVED_SLOPE_SHARE * np.abs(slope)
+    return np.where(resolved, _spread(draws), np.nan)
+
+
+def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
+                 smoothing_ms: float = RIDGE_SMOOTHING_MS, draws: int = SPREAD_DRAWS,
+                 seed: int = SPREAD_SEED) -> dict:
+    """How far the ridge and the wave speeds move with the map's own noise.
+
+    ``draws`` copies of ``area (n_v, n_t)`` each get white Gaussian noise of
+    each row's :func:`map_noise_sd` added; each copy's ridge
+    (:func:`ridge_times`) and :func:`wave_speeds` are found as the map's own.
+    Returns the spread (:func:`_spread`: the SD of a normal distribution) over
+    the draws of ``ridge_t_ms (n_v,)`` ms, ``local_speed_mm_s (n_v,)`` mm/s and
+    ``speeds``, a dict of each scalar speed (min, max, mean, median, cycle,
+    proximal, distal) mm/s, with the map's ``noise_sd (n_v,)``. A speed that is
+    not resolved (:func:`_speed_spread`: the noise could stop or reverse the
+    wave there) has a spread of NaN. Errors that do not change from frame to
+    frame (a shape the grid follows badly) are not in the spread.
+    """
+    area = _check_map(area, s_mm)
+    if int(draws) != draws or draws < 10:
+        raise InputError(f"draws must be an integer >= 10, found {draws}")
+    noise = map_noise_sd(area)
+    ridge = ridge_times(area, period_ms, smoothing_ms=smoothing_ms)
+    rng = np.random.default_rng(seed)
+    ridges, locals_, values = [], [], []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)   # the map's flat rows: said once
+        for _ in range(int(draws)):
+            noisy = area + rng.standard_normal(area.shape) * noise[:, None]
+            r = ridge_times(noisy, period_ms, smoothing_ms=smoothing_ms)
+            speeds = wave_speeds(s_mm, r)
+            ridges.append(ridge + (r - ridge + period_ms / 2) % period_ms - period_ms / 2)
+            locals_.append(speeds["local"])
+            values.append(list(_speed_values(speeds).values()))
+    measured = wave_speeds(s_mm, ridge)
+    scalars = _speed_values(measured)
+    return {"noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
+            "local_speed_mm_s": _speed_spread(np.array(locals_), measured["local"]),
+            "speeds": dict(zip(scalars, _speed_spread(np.array(values),
+                                                      np.array(list(scalars.values()))).tolist()))}
 
 
 def at_fixed_positions(area: np.ndarray, s_rows_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:

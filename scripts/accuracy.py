@@ -15,6 +15,10 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
 - Table 1: expansion share of the cycle (pp) and time (ms); wave speed min, max,
   mean, median and cycle (%), the local speed row by row (median of |error| along
   the tube, %), and the two-segment fit's speeds (%) and knee (mm);
+- the noise spreads oftimg gives the speeds: the cycle and two-segment speeds'
+  errors in spreads (SD), the share of the resolved local speeds (and of the ridge
+  times, less their median error) within 2 spreads of the truth, and of the local
+  speeds not resolved (%);
 - timing: the ridge (time of maximum area) along the tube, mean and RMS over the
   rows, ms;
 - size: tube length (%), volumes of each wall (largest over the frames, %), the
@@ -50,6 +54,12 @@ METRICS = [
     ("speed_proximal_pct", "%", "two-segment fit, proximal speed"),
     ("speed_distal_pct", "%", "two-segment fit, distal speed"),
     ("knee_mm", "mm", "two-segment fit, knee position"),
+    ("speed_cycle_spreads", "SD", "wave speed, cycle, in its noise spreads"),
+    ("speed_proximal_spreads", "SD", "two-segment proximal speed, in its noise spreads"),
+    ("speed_distal_spreads", "SD", "two-segment distal speed, in its noise spreads"),
+    ("local_within_2_spreads_pct", "%", "resolved local speeds within 2 noise spreads"),
+    ("local_unresolved_pct", "%", "local speeds not resolved (no noise spread)"),
+    ("ridge_within_2_spreads_pct", "%", "ridge times (less their median) within 2 spreads"),
     ("ridge_bias_ms", "ms", "ridge time along the tube (mean)"),
     ("ridge_rms_ms", "ms", "ridge time along the tube (RMS)"),
     ("length_pct", "%", "tube length"),
@@ -78,6 +88,11 @@ def _relative_pct(measured, true) -> float:
     return float(100.0 * (measured / true - 1.0))
 
 
+def _in_spreads(measured, true, spread) -> float:
+    """Error over the noise spread (NaN: not resolved, or no spread given)."""
+    return float((measured - true) / spread) if spread else float("nan")
+
+
 def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
     """Every metric's error (measured minus true) for one analysed phantom."""
     ph, truth = read_truth(dataset)
@@ -103,11 +118,26 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
                                             p["speed_proximal_mm_s"])
     e["speed_distal_pct"] = _relative_pct(two["speed_distal_mm_s"], p["speed_distal_mm_s"])
     e["knee_mm"] = two["knee_mm"] - p["speed_knee_mm"]
+    # the errors in units of the spread that the map's own noise gives (README, Accuracy)
+    spread = summ["wave_speed_noise_sd_mm_s"]
+    e["speed_cycle_spreads"] = _in_spreads(summ["wave_speed_mm_s"]["cycle"],
+                                           truth["wave_speed_mm_s"]["cycle"], spread["cycle"])
+    for side in ("proximal", "distal"):
+        e[f"speed_{side}_spreads"] = _in_spreads(two[f"speed_{side}_mm_s"],
+                                                 p[f"speed_{side}_mm_s"],
+                                                 two[f"speed_{side}_noise_sd_mm_s"])
+    local_sd = arr["local_speed_noise_sd_mm_s"]
+    resolved = np.isfinite(local_sd)
+    e["local_unresolved_pct"] = float(100.0 * (1 - resolved.mean()))
+    e["local_within_2_spreads_pct"] = float(100.0 * np.mean(
+        np.abs(arr["local_speed_mm_s"] - true_speed)[resolved] < 2 * local_sd[resolved]))
     # ridge: aligned time back to phantom time, compared around the cycle
     ridge = arr["ridge_t_ms"] + t_ms[0]
     true_ridge = np.interp(s_mm, truth["s_mm"], truth["ridge_t_ms"])
     d = (ridge - true_ridge + period / 2) % period - period / 2
     e["ridge_bias_ms"] = float(np.nanmean(d))
+    e["ridge_within_2_spreads_pct"] = float(100.0 * np.nanmean(
+        np.abs(d - np.nanmedian(d)) < 2 * arr["ridge_t_noise_sd_ms"]))
     e["ridge_rms_ms"] = float(np.sqrt(np.nanmean(d ** 2)))
     e["length_pct"] = _relative_pct(summ["tube_length_mm"], truth["tube_length_mm"])
     for w in WALLS:

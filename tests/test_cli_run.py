@@ -267,6 +267,6 @@ def test_swapped_walls_are_pointed_out(tmp_path):
         warnings.simplefilter("always")
         assert main(["run", str(ds), "--out", str(tmp_path / "out"), "--quiet",
                      "--jobs", "1"]) == 0
-    swapped = [str(w.message) for w in caught if "swapped" in str(w.message)]
+    swapped = [str(w.message) for w in caught if "swapped?" in str(w.message)]
     assert swapped == [f"{ds}: the inner wall encloses as much as the outer one or more in "
                        "5 of 5 frames: are inner/ and outer/ swapped?"]   # lumen/ is fine

@@ -233,6 +233,17 @@ def test_an_unresolved_wave_speed_is_said():
     assert arrays["ridge_t_noise_sd_ms"].shape == s.shape
 
 
+def test_a_map_too_short_to_measure_its_noise_says_so():
+    s = np.linspace(0, 1.2, 30)
+    area = hump_map(1e3 * s / 10.0, 360.0, 9)
+    arrays, summary = analyse_area_maps({"outer": area}, s, 360.0)
+    assert np.isnan(arrays["area_noise_sd_outer_mm2"]).all()
+    assert all(np.isnan(v) for v in summary["wave_speed_noise_sd_mm_s"].values())
+    notes = summary["image_analysis_notes"]
+    assert any("cannot be measured on 9 frames" in n for n in notes)
+    assert not any("not resolved" in n for n in notes)
+
+
 def test_speed_spread_refuses_bad_arguments():
     area = pulse_map(np.linspace(10, 40, 20))
     with pytest.raises(InputError, match="draws"):

@@ -76,8 +76,12 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
               for w, k in filled.items() if k]
     expand_rate, contract_rate = area_rates(area["outer"], period_ms / n_t)
     knee, sd = speeds["knee"], spread["speeds"]
-    notes += _unresolved_speeds(speeds["summary"] | {"proximal": knee.speed_proximal_mm_s,
-                                                     "distal": knee.speed_distal_mm_s}, sd)
+    if np.isfinite(spread["noise_sd"]).any():
+        notes += _unresolved_speeds(speeds["summary"] | {"proximal": knee.speed_proximal_mm_s,
+                                                         "distal": knee.speed_distal_mm_s}, sd)
+    else:
+        notes.append(f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
+                     "the wave speeds have no noise spread (NaN)")
     arrays["ridge_t_ms"] = ridge
     arrays["ridge_t_noise_sd_ms"] = spread["ridge_t_ms"]
     arrays["local_speed_mm_s"] = speeds["local"]

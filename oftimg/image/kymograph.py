@@ -259,7 +259,7 @@ def _spread(draws: np.ndarray) -> np.ndarray:
     return np.where(finite.mean(axis=0) >= SPREAD_FINITE_SHARE, (hi - lo) / 2, np.nan)
 
 
-def _speed_spread(draws: np.ndarray, speed: np.ndarray) -> np.ndarray:
+def _resolved_spread(draws: np.ndarray, speed: np.ndarray) -> np.ndarray:
     """:func:`_spread` of speed ``draws (n_draws, ...)`` around the measured ``speed
     (...)``, NaN where the speed is not resolved: the spread of the inverse speeds
     (slopes; an infinite speed is a slope of 0) is over :data:`RESOLVED_SLOPE_SHARE`
@@ -283,7 +283,7 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     the draws of ``ridge_t_ms (n_v,)`` ms, ``local_speed_mm_s (n_v,)`` mm/s and
     ``speeds``, a dict of each scalar speed (min, max, mean, median, cycle,
     proximal, distal) mm/s, with the map's ``noise_sd (n_v,)``. A speed that is
-    not resolved (:func:`_speed_spread`: the noise could stop or reverse the
+    not resolved (:func:`_resolved_spread`: the noise could stop or reverse the
     wave there) has a spread of NaN. Errors that do not change from frame to
     frame (a shape the grid follows badly) are not in the spread.
     """
@@ -306,8 +306,8 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     measured = wave_speeds(s_mm, ridge)
     scalars = _speed_values(measured)
     return {"noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
-            "local_speed_mm_s": _speed_spread(np.array(locals_), measured["local"]),
-            "speeds": dict(zip(scalars, _speed_spread(np.array(values),
+            "local_speed_mm_s": _resolved_spread(np.array(locals_), measured["local"]),
+            "speeds": dict(zip(scalars, _resolved_spread(np.array(values),
                                                       np.array(list(scalars.values()))).tolist()))}
 
 

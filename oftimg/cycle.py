@@ -9,8 +9,9 @@ import numpy as np
 from .errors import InputError
 
 
-def periodic_peak(y: np.ndarray, *, find: str = "max") -> float:
-    """Sub-frame index (in [0, n)) of the maximum or minimum of a periodic signal.
+def periodic_peak(y: np.ndarray, *, find: str = "max"):
+    """Sub-frame index (in [0, n)) of the maximum or minimum of a periodic signal
+    along the last axis of ``y (..., n)``: a float for one signal, ``(...)`` for many.
 
     Parabolic interpolation through the extreme sample and its two neighbours.
     """
@@ -19,12 +20,18 @@ def periodic_peak(y: np.ndarray, *, find: str = "max") -> float:
         raise InputError(f"find must be 'max' or 'min', found {find!r}")
     if find == "min":
         y = -y
-    n = len(y)
-    k = int(np.nanargmax(y))
-    ym, y0, yp = y[(k - 1) % n], y[k], y[(k + 1) % n]
+    n = y.shape[-1]
+    k = np.nanargmax(y, axis=-1)
+
+    def at(i):
+        return np.take_along_axis(y, (i % n)[..., None], axis=-1)[..., 0]
+
+    ym, y0, yp = at(k - 1), at(k), at(k + 1)
     denom = ym - 2 * y0 + yp
-    offset = 0.5 * (ym - yp) / denom if denom < 0 else 0.0
-    return float((k + np.clip(offset, -0.5, 0.5)) % n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        offset = np.where(denom < 0, 0.5 * (ym - yp) / denom, 0.0)
+    peak = (k + np.clip(offset, -0.5, 0.5)) % n
+    return float(peak) if peak.ndim == 0 else peak
 
 
 def cycle_timing(volume: np.ndarray, period_ms: float) -> dict:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from statistics import median
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -109,8 +110,8 @@ def ridge_times(area: np.ndarray, period_ms: float, *,
     flat = flat_rows(area)
     smooth = smooth_in_time(area, period_ms, smoothing_ms)
     t = np.full(area.shape[0], np.nan)
-    for j in np.nonzero(~flat)[0]:
-        t[j] = periodic_peak(smooth[j], find="max") * period_ms / n_t
+    if not flat.all():
+        t[~flat] = periodic_peak(smooth[~flat], find="max") * period_ms / n_t
     if flat.any():
         warnings.warn(f"{int(flat.sum())} of {len(flat)} rows of the map do not change over "
                       "time: no ridge there (NaN)", RuntimeWarning, stacklevel=2)
@@ -125,11 +126,11 @@ def ridge_times(area: np.ndarray, period_ms: float, *,
 def unwrap_robust(t: np.ndarray, period: float, *, memory: int = 5) -> np.ndarray:
     """Unwrap periodic times ``t (n,)``: each within half a period of the median
     of the ``memory`` values before it (``np.unwrap`` uses only the one before)."""
-    out = np.array(t, dtype=float)
+    out = np.array(t, dtype=float).tolist()       # Python floats: a median of 5 is 1 us
     for k in range(1, len(out)):
-        ref = np.median(out[max(0, k - memory):k])
-        out[k] += period * np.round((ref - out[k]) / period)
-    return out
+        ref = median(out[max(0, k - memory):k])
+        out[k] += period * round((ref - out[k]) / period)
+    return np.array(out)
 
 
 def local_speed(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, half_window: int = 3) -> np.ndarray:
@@ -141,22 +142,27 @@ def local_speed(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, half_window: int = 
     """
     s = np.asarray(s_mm, float)
     t = np.asarray(ridge_t_ms, float)
-    n = len(s)
-    speed = np.full(n, np.nan)
-    for j in range(n):
-        lo, hi = max(0, j - half_window), min(n, j + half_window + 1)
-        ss, tt = s[lo:hi], t[lo:hi]
-        ok = np.isfinite(tt)
-        if ok.sum() < 3:
-            continue
-        ss, tt = ss[ok], tt[ok]
-        ds = ss - ss.mean()
-        denom = (ds ** 2).sum()
-        if denom <= 0:
-            continue
-        slope = (ds * (tt - tt.mean())).sum() / denom  # ms per mm
-        speed[j] = 1e3 / slope if slope != 0 else np.inf
-    return speed
+    ok = np.isfinite(t)
+    if not ok.any():
+        return np.full(len(s), np.nan)
+    # window sums of 1, s, t, s^2, s t over the rows with a ridge, from cumulative sums
+    # (centred first: the slope's sums then lose no digits)
+    ds = np.where(ok, s - s[ok].mean(), 0.0)
+    dt = np.where(ok, t - t[ok].mean(), 0.0)
+    j = np.arange(len(s))
+    lo, hi = np.maximum(0, j - half_window), np.minimum(len(s), j + half_window + 1)
+
+    def window_sum(x):
+        c = np.concatenate([[0.0], np.cumsum(x)])
+        return c[hi] - c[lo]
+
+    n, s1, t1 = window_sum(ok.astype(float)), window_sum(ds), window_sum(dt)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sxx = window_sum(ds * ds) - s1 * s1 / n
+        slope = (window_sum(ds * dt) - s1 * t1 / n) / sxx        # ms per mm
+        speed = np.where(slope != 0, 1e3 / slope, np.inf)
+    fitted = (n >= 3) & (sxx > 1e-12 * window_sum(ds * ds))
+    return np.where(fitted, speed, np.nan)
 
 
 def cycle_speed(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, end_rows: int = 2) -> float:

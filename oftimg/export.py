@@ -15,6 +15,7 @@ import numpy as np
 
 from . import __version__
 from .errors import InputError
+from .image.kymograph import RIDGE_SMOOTHING_MS
 
 
 # what a run writes beside the datasets' folders (report, html, api._write_run)
@@ -310,7 +311,9 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
             for which in ("max", "min"):
                 if name == f"phase_{which}_{f}_ms":
                     return {"dims": ["u", "v"], "unit": "ms",
-                            "description": f"time of each pixel's {which}imum of {f}"}
+                            "description": f"time of each pixel's {which}imum of {f} "
+                                           f"(smoothed in time by {RIDGE_SMOOTHING_MS:g} ms, "
+                                           "sub-frame)"}
         if name == f"principal_stretch_{w}":
             return {"dims": ["u", "v", "t", "l1,l2"], "unit": "1",
                     "description": f"principal stretches of the {w} grid against t = 0"}

@@ -143,6 +143,31 @@ def test_per_pixel_normalization_and_phase():
     assert tmax[0, 0] == pytest.approx(80.0) and tmin[0, 0] == pytest.approx(180.0)
 
 
+def test_phase_maps_are_smoothed_in_time_and_sub_frame():
+    """A wave of asymmetric beats (expansion in 40 % of the cycle) under noise of 2 %
+    of its range per pixel and frame: the raw frame of each pixel's maximum scatters
+    by ~8 ms, the smoothed sub-frame one by ~5 ms, and a NaN pixel does not matter."""
+    rng = np.random.default_rng(0)
+    n_t, period = 195, 360.0
+    t = np.arange(n_t) * period / n_t
+    arrival = np.linspace(20.0, 200.0, 50)
+    phi = ((t[None, :] - arrival[:, None]) / period) % 1.0
+    beat = np.where(phi < 0.4, 0.5 - 0.5 * np.cos(np.pi * phi / 0.4),
+                    0.5 + 0.5 * np.cos(np.pi * (phi - 0.4) / 0.6))
+    field = np.broadcast_to(beat, (40, 50, n_t)) + 0.02 * rng.standard_normal((40, 50, n_t))
+    field[3, 4, 7] = np.nan
+
+    def scatter(t_max):
+        d = (t_max - (arrival + 0.4 * period) + period / 2) % period - period / 2
+        return np.sqrt(np.mean((d - np.median(d)) ** 2))
+
+    raw = np.argmax(np.where(np.isfinite(field), field, 0), axis=-1) * period / n_t
+    t_max, t_min = phase_maps(field, period)
+    assert t_max.shape == t_min.shape == (40, 50)
+    assert scatter(raw) > 7.0 and scatter(t_max) < 5.5
+    assert scatter(t_min - 0.4 * period) < 7.0     # the minimum: at the arrival
+
+
 def test_surface_render_covers_the_view_and_follows_the_motion():
     from oftimg.video import SurfaceCamera
 

@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import __version__
-from .image.kymograph import RIDGE_SMOOTHING_MS
+from .image.kymograph import AUTO_SPREAD_TARGET, RIDGE_SMOOTHING_LADDER_MS
 
 
 class Terminated(BaseException):
@@ -86,11 +86,13 @@ def _parser() -> argparse.ArgumentParser:
                         "(default; they drift along the tube as its shape changes), or fixed "
                         "fractions of the centroid line in every frame (more accurate next to "
                         "a band: see README, Accuracy)")
-    r.add_argument("--ridge-smoothing-ms", type=float, default=RIDGE_SMOOTHING_MS, metavar="MS",
+    r.add_argument("--ridge-smoothing-ms", default="auto", metavar="MS",
                    help="Gaussian sigma (ms) with which each row of the outer area map is "
                         "smoothed in time before its maximum (the ridge, hence the wave "
-                        f"speeds) is found (default {RIDGE_SMOOTHING_MS:g}; 0: none; see README, "
-                        "Accuracy)")
+                        "speeds) is found; auto (default): the least of "
+                        f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms that "
+                        "leaves the local speeds' noise spread under "
+                        f"{100 * AUTO_SPREAD_TARGET:g} %%; 0: none (see README, Accuracy)")
 
     c = sub.add_parser("cohort", help="gather datasets analysed separately (e.g. one cluster "
                                       "job each) into one cohort with its tables and report")

@@ -277,7 +277,7 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
     }
     fixed.update({
         "ridge_t_ms": (["v"], "ms", "time of each row's maximum outer area, the row smoothed "
-                       "in time by options.ridge_smoothing_ms (sub-frame, unwrapped)"),
+                       "in time by summary.ridge_smoothing_ms (sub-frame, unwrapped)"),
         "local_speed_mm_s": (["v"], "mm/s", "local peristaltic wave speed ds/dt along the ridge "
                                             "(7-row least-squares slope; negative: backwards)"),
         "ridge_t_noise_sd_ms": (["v"], "ms", "spread (SD) of ridge_t_ms over copies of the "

@@ -14,7 +14,7 @@ from .io import Dataset, OftimgWarning
 from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                     wrap_step_ratio)
 from .image.analysis import analyse_area_maps
-from .image.kymograph import RIDGE_SMOOTHING_MS, at_fixed_positions
+from .image.kymograph import at_fixed_positions
 from .image.normalize import phase_maps
 from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
@@ -39,10 +39,10 @@ class PipelineOptions:
     grid: GridOptions = field(default_factory=GridOptions)
     warp: bool = False
     map_positions: str = "rows"
-    ridge_smoothing_ms: float = RIDGE_SMOOTHING_MS
+    ridge_smoothing_ms: float | str = "auto"
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
-                 map_positions: str = "rows", ridge_smoothing_ms: float = RIDGE_SMOOTHING_MS,
+                 map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
                  **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
@@ -50,13 +50,14 @@ class PipelineOptions:
             raise InputError(f"map_positions must be one of {MAP_POSITIONS}, "
                              f"found {map_positions!r}")
         given = ridge_smoothing_ms
-        try:
-            ridge_smoothing_ms = float(given)
-        except (TypeError, ValueError):
-            ridge_smoothing_ms = float("nan")
-        if not 0 <= ridge_smoothing_ms < float("inf"):
-            raise InputError("ridge_smoothing_ms must be a number of ms >= 0 (0: none), "
-                             f"found {given!r}")
+        if given != "auto":
+            try:
+                ridge_smoothing_ms = float(given)
+            except (TypeError, ValueError):
+                ridge_smoothing_ms = float("nan")
+            if not 0 <= ridge_smoothing_ms < float("inf"):
+                raise InputError("ridge_smoothing_ms must be 'auto' or a number of ms >= 0 "
+                                 f"(0: none), found {given!r}")
         object.__setattr__(self, "grid", grid or GridOptions(**grid_kwargs))
         object.__setattr__(self, "warp", bool(warp))
         object.__setattr__(self, "map_positions", map_positions)

@@ -27,6 +27,7 @@ COHORT_COLUMNS = [
     ("speed_proximal_mm_s", ("wave_two_segment", "speed_proximal_mm_s")),
     ("speed_distal_mm_s", ("wave_two_segment", "speed_distal_mm_s")),
     ("knee_mm", ("wave_two_segment", "knee_mm")),
+    ("ridge_smoothing_ms", ("ridge_smoothing_ms",)),       # the sigma used (auto: per dataset)
     # not in the paper: the speeds' spread from the area map's own frame-to-frame noise
     ("speed_min_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "min")),
     ("speed_max_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "max")),

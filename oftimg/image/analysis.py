@@ -7,7 +7,7 @@ import numpy as np
 
 from .band import detect_band, neck_depth
 from .gradient import area_rates
-from .kymograph import RIDGE_SMOOTHING_MS, ridge_times, speed_spread, wave_speeds
+from .kymograph import auto_ridge_smoothing, speed_spread
 from .masks import expanded_75, expanded_sigma
 
 
@@ -37,15 +37,17 @@ SPREAD_NOTE_SHARE = 0.2
 
 
 def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float, *,
-                      ridge_smoothing_ms: float = RIDGE_SMOOTHING_MS) -> tuple[dict, dict]:
+                      ridge_smoothing_ms: float | str = "auto") -> tuple[dict, dict]:
     """Ridge, wave speeds, knee, expansion fractions and masks, rates, band.
 
     ``area[wall] (n_v, n_t)`` mm^2 over one aligned cycle, ``s_mm (n_v,)``;
     cells without a contour (NaN) are interpolated first (and counted).
     Speeds and the band come from the outer wall; expansion fractions from
     every wall; the ridge from the outer map smoothed in time by a Gaussian of
-    ``ridge_smoothing_ms`` (:func:`~oftimg.image.kymograph.ridge_times`); the
-    speeds' spread from the outer map's own frame-to-frame noise
+    ``ridge_smoothing_ms`` (:func:`~oftimg.image.kymograph.ridge_times`; "auto":
+    as much as the map's noise needs, :func:`~oftimg.image.kymograph.auto_ridge_smoothing`,
+    the sigma used in ``summary["ridge_smoothing_ms"]``); the speeds' spread
+    from the outer map's own frame-to-frame noise
     (:func:`~oftimg.image.kymograph.speed_spread`). Returns ``(arrays, summary)``.
     """
     n_t = area["outer"].shape[1]
@@ -57,9 +59,12 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     summary["area_cells_interpolated"] = filled
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        ridge = ridge_times(area["outer"], period_ms, smoothing_ms=ridge_smoothing_ms)
-        speeds = wave_speeds(s_mm, ridge)
-        spread = speed_spread(area["outer"], s_mm, period_ms, smoothing_ms=ridge_smoothing_ms)
+        if ridge_smoothing_ms == "auto":
+            smoothing, spread = auto_ridge_smoothing(area["outer"], s_mm, period_ms)
+        else:
+            smoothing = float(ridge_smoothing_ms)
+            spread = speed_spread(area["outer"], s_mm, period_ms, smoothing_ms=smoothing)
+        ridge, speeds = spread["ridge"], spread["measured"]
         for wall, a in area.items():
             share75, up, down, mask75 = expanded_75(a)
             share_sig, sigma, r2, mask_sig = expanded_sigma(a)
@@ -82,6 +87,7 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     else:
         notes.append(f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
                      "the wave speeds have no noise spread (NaN)")
+    summary["ridge_smoothing_ms"] = smoothing
     arrays["ridge_t_ms"] = ridge
     arrays["ridge_t_noise_sd_ms"] = spread["ridge_t_ms"]
     arrays["local_speed_mm_s"] = speeds["local"]

@@ -22,6 +22,12 @@ FLAT_REL = 1e-3  # rows whose relative temporal range is below this have no ridg
 # shift of the ridge by ~1.7 ms where the area's peak is asymmetric (the same shift in every
 # row whose peak has the same shape, so speeds keep it out). See README, Accuracy.
 RIDGE_SMOOTHING_MS = 5.0
+# ridge smoothing "auto": the smallest sigma (ms) of this ladder at which the local speeds'
+# noise spread is at most AUTO_SPREAD_TARGET of them (median over the rows). On the 6 + 6
+# phantoms it picked 5 ms without noise and 14-20 ms with 5 um of roughness, where the
+# local speeds came out 4-10 % off instead of 15-31 % (README, Accuracy)
+RIDGE_SMOOTHING_LADDER_MS = (5.0, 7.0, 10.0, 14.0, 20.0)
+AUTO_SPREAD_TARGET = 0.10
 # copies of a map, each with its own frame-to-frame noise drawn again, from which the
 # spread of the wave speeds is measured (:func:`speed_spread`); their seed
 SPREAD_DRAWS = 100
@@ -285,10 +291,11 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     ``draws`` copies of ``area (n_v, n_t)`` each get white Gaussian noise of
     each row's :func:`map_noise_sd` added; each copy's ridge
     (:func:`ridge_times`) and :func:`wave_speeds` are found as the map's own.
-    Returns the spread (:func:`_spread`: the SD of a normal distribution) over
-    the draws of ``ridge_t_ms (n_v,)`` ms, ``local_speed_mm_s (n_v,)`` mm/s and
-    ``speeds``, a dict of each scalar speed (min, max, mean, median, cycle,
-    proximal, distal) mm/s, with the map's ``noise_sd (n_v,)``. A speed that is
+    Returns the map's own ``ridge`` and ``measured`` :func:`wave_speeds`, its
+    ``noise_sd (n_v,)``, and the spread (:func:`_spread`: the SD of a normal
+    distribution) over the draws of ``ridge_t_ms (n_v,)`` ms,
+    ``local_speed_mm_s (n_v,)`` mm/s and ``speeds``, a dict of each scalar speed
+    (min, max, mean, median, cycle, proximal, distal) mm/s. A speed that is
     not resolved (:func:`_resolved_spread`: the noise could stop or reverse the
     wave there) has a spread of NaN. Errors that do not change from frame to
     frame (a shape the grid follows badly) are not in the spread.
@@ -311,10 +318,35 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
             values.append(list(_speed_values(speeds).values()))
     measured = wave_speeds(s_mm, ridge)
     scalars = _speed_values(measured)
-    return {"noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
+    return {"ridge": ridge, "measured": measured,
+            "noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
             "local_speed_mm_s": _resolved_spread(np.array(locals_), measured["local"]),
             "speeds": dict(zip(scalars, _resolved_spread(np.array(values),
                                                       np.array(list(scalars.values()))).tolist()))}
+
+
+def auto_ridge_smoothing(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
+                         ladder=RIDGE_SMOOTHING_LADDER_MS,
+                         target: float = AUTO_SPREAD_TARGET) -> tuple[float, dict]:
+    """The ridge smoothing sigma (ms) a map needs, and :func:`speed_spread` with it.
+
+    The smallest sigma of ``ladder`` at which the median over the rows of each
+    local speed's noise spread over its size is at most ``target`` (a row not
+    resolved counts as spread without bound); the largest when none is. The first
+    when the map's noise cannot be measured. More smoothing moves the ridge later
+    where the beat's peak is asymmetric (about 0.65 ms per ms of sigma when
+    expansion takes 30 % of the cycle, 0.3 when 40 %), which speeds only see
+    where that asymmetry changes along the tube.
+    """
+    for sigma in ladder:
+        spread = speed_spread(area, s_mm, period_ms, smoothing_ms=sigma)
+        if not np.isfinite(spread["noise_sd"]).any():
+            return float(ladder[0]), spread
+        with np.errstate(divide="ignore", invalid="ignore"):
+            relative = spread["local_speed_mm_s"] / np.abs(spread["measured"]["local"])
+        if np.median(np.where(np.isfinite(relative), relative, np.inf)) <= target:
+            break
+    return float(sigma), spread
 
 
 def at_fixed_positions(area: np.ndarray, s_rows_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:

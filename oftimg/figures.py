@@ -217,7 +217,7 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
         axes[0].plot(s_mm, ridge_t_ms, "k.", label="ridge")
     if knee is not None and np.isfinite(knee["knee_mm"]):
         k = knee["knee_mm"]
-        t_k = np.interp(k, s_mm, ridge_t_ms)
+        t_k = knee.get("knee_t_ms", np.interp(k, s_mm, ridge_t_ms))   # older results: none
         for s_end, c in ((s_mm[0], knee["speed_proximal_mm_s"]),
                          (s_mm[-1], knee["speed_distal_mm_s"])):
             axes[0].plot([s_end, k], [t_k + 1e3 * (s_end - k) / c, t_k], "r-", lw=1.2)
@@ -233,12 +233,13 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
             axes[1].legend(fontsize=7)
             finite = np.isfinite(speed) & np.isfinite(speed_sd) & (speed_sd < np.abs(speed))
             if finite.any():   # unresolved rows (spread as large as the speed) off the scale
-                lo, hi = np.min(speed[finite]), np.max(speed[finite])
+                lo = np.min((speed - speed_sd)[finite])
+                hi = np.max((speed + speed_sd)[finite])
                 pad = 0.1 * (hi - lo) + 1e-9
                 axes[1].set_ylim(min(lo, 0) - pad, hi + pad)
                 off = int((np.isfinite(speed) & ((speed < lo) | (speed > hi))).sum())
                 if off:
-                    axes[1].set_title(f"{off} unresolved rows (SD > speed) off the scale",
+                    axes[1].set_title(f"{off} rows not resolved (spread >= speed) off the scale",
                                       fontsize=7)
         axes[1].axhline(0, color="k", lw=0.5)
     axes[1].set_xlabel("position along the tube s (mm)")

@@ -164,3 +164,23 @@ def test_names_with_dollar_signs_are_drawn_as_they_are(tmp_path):
         matplotlib.text.Text.draw = real_draw
     assert len(paths) == 4
     assert r"KO \$x^{\$" in drawn and r"KO \$x^{\$0" in drawn and r"embryo \$5 and \$6" in drawn
+
+
+def test_ridge_plot_draws_the_noise_spread_and_keeps_unresolved_rows_off_its_scale(
+        tmp_path, monkeypatch):
+    """A row whose speed the noise does not resolve (NaN spread, 900 mm/s) must not
+    squash the resolved ones (about 10 mm/s) to the bottom of the axis."""
+    drawn = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig) and path)
+    s = np.linspace(0, 1.2, 20)
+    speed = np.full(20, 10.0)
+    speed[7] = 900.0
+    spread = np.full(20, 1.0)
+    spread[7] = np.nan
+    figures.ridge_plot(s, 1e3 * s / 10.0, tmp_path / "r.png", speed=speed,
+                       ridge_sd_ms=np.full(20, 0.5), speed_sd=spread)
+    speed_axes = drawn["fig"].axes[1]
+    low, high = speed_axes.get_ylim()
+    assert low <= 0 and 11.0 <= high < 20.0
+    assert "1 rows not resolved" in speed_axes.get_title()
+    assert len(speed_axes.collections) >= 1                  # the +- 1 SD band

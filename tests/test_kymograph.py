@@ -6,9 +6,10 @@ from oftimg.image.band import detect_band
 from oftimg.image.gradient import area_rates, colour_wheel, gradient_hsv
 from oftimg.errors import InputError
 from oftimg.image.analysis import analyse_area_maps
-from oftimg.image.kymograph import (at_fixed_positions, auto_ridge_smoothing, cycle_speed, local_speed, map_noise_sd,
-                                    ridge_times, smooth_in_time, speed_spread, two_segment_fit,
-                                    wave_speed_summary, wave_speeds)
+from oftimg.image.kymograph import (at_fixed_positions, auto_ridge_smoothing, cycle_speed,
+                                    local_speed, map_noise_sd, ridge_times, smooth_in_time,
+                                    speed_spread, two_segment_fit, wave_speed_summary,
+                                    wave_speeds)
 from oftimg.image.masks import expanded_75, expanded_sigma
 
 PERIOD = 100.0  # ms
@@ -66,7 +67,8 @@ def test_knee_recovers_both_speeds_and_position():
     fit = two_segment_fit(s, ridge_times(area, PERIOD))
     assert fit.speed_proximal_mm_s == pytest.approx(c1, rel=0.03)
     assert fit.speed_distal_mm_s == pytest.approx(c2, rel=0.03)
-    assert abs(fit.knee_row - 20) <= 2
+    assert abs(fit.knee_mm - knee) <= 2 * (s[1] - s[0])
+    assert fit.knee_t_ms == pytest.approx(1e3 * knee / c1, abs=1.0)   # the line at the knee
 
 
 def test_backward_wave_gives_negative_speeds():

@@ -100,7 +100,8 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
                                    "speed_distal_mm_s": knee.speed_distal_mm_s,
                                    "speed_proximal_noise_sd_mm_s": sd["proximal"],
                                    "speed_distal_noise_sd_mm_s": sd["distal"],
-                                   "knee_mm": knee.knee_mm, "rms_ms": knee.rms_ms}
+                                   "knee_mm": knee.knee_mm, "knee_t_ms": knee.knee_t_ms,
+                                   "rms_ms": knee.rms_ms}
     summary["max_expansion_rate_mm2_ms"] = expand_rate
     summary["max_contraction_rate_mm2_ms"] = contract_rate
     summary["band_position_mm"] = detect_band(area["outer"], s_mm)

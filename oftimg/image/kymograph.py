@@ -189,10 +189,11 @@ def cycle_speed(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, end_rows: int = 2) 
 
 @dataclass(frozen=True)
 class KneeFit:
-    """Continuous two-segment line t(s): slopes as speeds and the knee."""
+    """Continuous two-segment line t(s): slopes as speeds and the knee (mm, and the
+    line's time there, ms)."""
 
     knee_mm: float
-    knee_row: float
+    knee_t_ms: float
     speed_proximal_mm_s: float
     speed_distal_mm_s: float
     rms_ms: float
@@ -220,12 +221,11 @@ def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int =
     sses = (((A @ coefs[..., None])[..., 0] - t) ** 2).sum(axis=1)
     best = int(np.argmin(sses))
     sse, k, (a, b, c) = float(sses[best]), float(knees[best]), coefs[best]
-    rows = np.interp(k, np.asarray(s_mm, float)[ok], np.nonzero(ok)[0].astype(float))
 
     def to_speed(slope):
         return float(1e3 / slope) if slope != 0 else np.inf
 
-    return KneeFit(knee_mm=float(k), knee_row=float(rows), speed_proximal_mm_s=to_speed(b),
+    return KneeFit(knee_mm=float(k), knee_t_ms=float(a + b * k), speed_proximal_mm_s=to_speed(b),
                    speed_distal_mm_s=to_speed(b + c), rms_ms=float(np.sqrt(sse / len(s))))
 
 

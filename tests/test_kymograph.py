@@ -7,9 +7,9 @@ from oftimg.image.gradient import area_rates, colour_wheel, gradient_hsv
 from oftimg.errors import InputError
 from oftimg.image.analysis import analyse_area_maps
 from oftimg.image.kymograph import (at_fixed_positions, auto_ridge_smoothing, cycle_speed,
-                                    local_speed, map_noise_sd, ridge_times, smooth_in_time,
-                                    speed_spread, two_segment_fit, wave_speed_summary,
-                                    wave_speeds)
+                                    local_speed, map_noise_sd, noise_colour, ridge_times,
+                                    smooth_in_time, speed_spread, two_segment_fit,
+                                    wave_speed_summary, wave_speeds)
 from oftimg.image.masks import expanded_75, expanded_sigma
 
 PERIOD = 100.0  # ms
@@ -260,6 +260,28 @@ def test_auto_smoothing_is_as_much_as_the_noise_needs():
     assert analyse_area_maps({"outer": noisy}, s, period,
                              ridge_smoothing_ms=7)[1]["ridge_smoothing_ms"] == 7.0
     assert auto_ridge_smoothing(noisy[:, :9], s, period)[0] == 5.0   # no noise measure
+
+
+def test_noise_correlated_from_frame_to_frame_is_pointed_out():
+    """White noise (as from frames segmented one by one) has as much power near half the
+    frame rate as at a quarter of it; noise smoothed in time (a segmentation that
+    smooths over frames) has far less, and its spread would be underestimated."""
+    from scipy.ndimage import gaussian_filter1d
+
+    period, n_t = 360.0, 195
+    s = np.linspace(0, 1.2, 50)
+    clean = hump_map(1e3 * s / 12.0, period, n_t)
+    white = np.random.default_rng(3).standard_normal(clean.shape)
+    smoothed = gaussian_filter1d(white, 1.0, axis=1, mode="wrap")
+    noise = 0.005 * np.ptp(clean)
+    colours, notes = [], []
+    for e in (white, smoothed):
+        arrays, summary = analyse_area_maps({"outer": clean + noise * e / e.std()}, s, period)
+        colours.append(summary["area_noise_colour"])
+        notes.append([n for n in summary["image_analysis_notes"] if "correlated" in n])
+    assert 0.8 < colours[0] < 1.25 and colours[1] > 10
+    assert notes[0] == [] and len(notes[1]) == 1
+    assert np.isnan(noise_colour(clean[:, :15]))
 
 
 def test_a_map_too_short_to_measure_its_noise_says_so():

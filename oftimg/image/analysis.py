@@ -7,7 +7,7 @@ import numpy as np
 
 from .band import detect_band, neck_depth
 from .gradient import area_rates
-from .kymograph import auto_ridge_smoothing, speed_spread
+from .kymograph import auto_ridge_smoothing, noise_colour, speed_spread
 from .masks import expanded_75, expanded_sigma
 
 
@@ -34,6 +34,9 @@ def fill_gaps(area: np.ndarray) -> tuple[np.ndarray, int]:
 
 # a wave speed whose spread is more than this share of it is said to be poorly resolved
 SPREAD_NOTE_SHARE = 0.2
+# noise_colour above this: the map's noise looks correlated in time (white: 1; noise
+# smoothed over 0.5 / 1 frame: 1.5 / 30; the phantoms, white: 0.9-1.4)
+COLOURED_NOISE = 2.0
 
 
 def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float, *,
@@ -87,6 +90,13 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     else:
         notes.append(f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
                      "the wave speeds have no noise spread (NaN)")
+    colour = noise_colour(area["outer"])
+    summary["area_noise_colour"] = colour
+    if colour > COLOURED_NOISE:
+        notes.append(f"the outer area map has {colour:.3g} times more power at a quarter of "
+                     "the frame rate than near half of it: if that is segmentation noise "
+                     "correlated from frame to frame, the speeds' noise spreads and the auto "
+                     "ridge smoothing are too small (see README, Accuracy)")
     summary["ridge_smoothing_ms"] = smoothing
     arrays["ridge_t_ms"] = ridge
     arrays["ridge_t_noise_sd_ms"] = spread["ridge_t_ms"]

@@ -98,6 +98,26 @@ def map_noise_sd(area: np.ndarray) -> np.ndarray:
     return np.sqrt(power / n_t)
 
 
+def noise_colour(area: np.ndarray) -> float:
+    """How much more power a map has in the lower half of its high harmonics (n_t / 4
+    to 3 n_t / 8) than in the upper half (to n_t / 2), all rows together.
+
+    About 1 for white noise, as :func:`map_noise_sd` assumes; well above 1 when the
+    noise is correlated from frame to frame (a segmentation smoothed in time), so
+    that the noise near the beat's own frequencies, which moves the ridge, is more
+    than :func:`map_noise_sd` measures. NaN for under 16 frames or NaN cells.
+    """
+    area = _check_map(area)
+    n_t = area.shape[1]
+    power = np.abs(np.fft.rfft(area, axis=1)) ** 2
+    k = np.arange(power.shape[1])
+    lower = (k > n_t / 4) & (k <= 3 * n_t / 8)
+    upper = (k > 3 * n_t / 8) & (2 * k < n_t)                 # Nyquist left out
+    if n_t < 16 or not lower.any() or not upper.any():
+        return float("nan")
+    return float(power[:, lower].mean() / power[:, upper].mean())
+
+
 def ridge_times(area: np.ndarray, period_ms: float, *,
                 smoothing_ms: float = RIDGE_SMOOTHING_MS) -> np.ndarray:
     """Time (ms) of each row's maximum, sub-frame, unwrapped along v: ``(n_v,)``.

@@ -150,8 +150,8 @@ def ridge_times(area: np.ndarray, period_ms: float, *,
 
 
 def unwrap_robust(t: np.ndarray, period: float, *, memory: int = 5) -> np.ndarray:
-    """Unwrap periodic times ``t (n,)``: each within half a period of the median
-    of the ``memory`` values before it (``np.unwrap`` uses only the one before)."""
+    """Unwrap periodic times ``t (n,)`` (finite): each within half a period of the
+    median of the ``memory`` values before it (``np.unwrap`` uses only the one before)."""
     out = np.array(t, dtype=float).tolist()       # Python floats: a median of 5 is 1 us
     for k in range(1, len(out)):
         ref = median(out[max(0, k - memory):k])

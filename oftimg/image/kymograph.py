@@ -74,6 +74,13 @@ def smooth_in_time(area: np.ndarray, period_ms: float, sigma_ms: float) -> np.nd
         return np.where(ok, total / weight, np.nan)
 
 
+def _harmonic_power(area: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Power of each row's harmonics over the cycle, ``(n_v, n_t // 2 + 1)``, and the
+    harmonic numbers ``(n_t // 2 + 1,)``."""
+    power = np.abs(np.fft.rfft(area, axis=1)) ** 2
+    return power, np.arange(power.shape[1])
+
+
 def map_noise_sd(area: np.ndarray) -> np.ndarray:
     """Standard deviation of each row's frame-to-frame noise, in the map's units: ``(n_v,)``.
 
@@ -88,14 +95,13 @@ def map_noise_sd(area: np.ndarray) -> np.ndarray:
     """
     area = _check_map(area)
     n_t = area.shape[1]
-    spectrum = np.fft.rfft(area, axis=1)
-    k = np.arange(spectrum.shape[1])
+    power, k = _harmonic_power(area)
     high = (k > n_t / 4) & (k >= 5)
     if not high.any():
         return np.full(area.shape[0], np.nan)
     both_sides = np.where(2 * k == n_t, 1.0, 2.0)[high]      # Nyquist counted once
-    power = (both_sides * np.abs(spectrum[:, high]) ** 2).sum(axis=1) / both_sides.sum()
-    return np.sqrt(power / n_t)
+    mean_power = (both_sides * power[:, high]).sum(axis=1) / both_sides.sum()
+    return np.sqrt(mean_power / n_t)
 
 
 def noise_colour(area: np.ndarray) -> float:
@@ -109,8 +115,7 @@ def noise_colour(area: np.ndarray) -> float:
     """
     area = _check_map(area)
     n_t = area.shape[1]
-    power = np.abs(np.fft.rfft(area, axis=1)) ** 2
-    k = np.arange(power.shape[1])
+    power, k = _harmonic_power(area)
     lower = (k > n_t / 4) & (k <= 3 * n_t / 8)
     upper = (k > 3 * n_t / 8) & (2 * k < n_t)                 # Nyquist left out
     if n_t < 16 or not lower.any() or not upper.any():

@@ -119,6 +119,9 @@ def _parser() -> argparse.ArgumentParser:
                     help="vertex count range of each frame's mesh (default 4000 8000)")
     ph.add_argument("--noise-mm", type=float, default=0.0,
                     help="radial surface noise, standard deviation in mm (e.g. 0.001)")
+    ph.add_argument("--expand-change", type=float, default=0.0,
+                    help="growth of the expansion share of the cycle from inlet to outlet "
+                         "(0.2: 20 percentage points); the ridge then runs at a speed of its own")
     ph.add_argument("--quiet", action="store_true")
 
     an = sub.add_parser("animate", help="turn a static open tube into a dataset with a known wave")
@@ -249,7 +252,7 @@ def _command(args) -> int:
         print(f"demo data: {out / 'data'}\nresults: {out / 'results'}\n"
               f"cohort table: {out / 'results' / 'cohort.csv'}")
     elif args.command == "phantom":
-        extra = {"noise_mm": args.noise_mm}
+        extra = {"noise_mm": args.noise_mm, "expand_change": args.expand_change}
         if args.vertices:
             extra.update(vertices_min=args.vertices[0], vertices_max=args.vertices[1])
         out = api.make_phantom(args.out, group=args.group, seed=args.seed,

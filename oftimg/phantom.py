@@ -12,7 +12,10 @@ The model (lengths in mm, times in ms):
   with a local speed c(s) that rises from ``speed_proximal_mm_s`` to
   ``speed_distal_mm_s`` around ``speed_knee_mm``. The local phase is
   ``phi = ((t - t*(s)) / period) mod 1``; a section expands (raised cosine)
-  during the first ``expand_fraction`` of its cycle and contracts during the rest.
+  during the first ``expand_fraction`` of its cycle and contracts during the rest
+  (a share that can change linearly along the tube, to ``expand_fraction_outlet``
+  at the outlet: the beat's peak, the ridge, then travels at its own speed,
+  ``1 / (1 / c(s) + period * df/ds)``, given in the truth as ``ridge_speed_mm_s``).
 * **Outer wall**: ``rho = R0(s) * m * (1 + a_k cos(k theta) + a_e cos(2 theta))``
   with the tapered radius R0 (``radius_inlet_mm`` to ``radius_outlet_mm``), the
   contraction factor ``m = 1 - contraction (1 - h(phi))`` and ``k`` =
@@ -61,6 +64,7 @@ class PhantomParams:
     radius_outlet_mm: float = 0.12
     contraction: float = 0.3
     expand_fraction: float = 0.4
+    expand_fraction_outlet: float | None = None   # None: expand_fraction all along
     speed_proximal_mm_s: float = 8.0
     speed_distal_mm_s: float = 20.0
     speed_knee_mm: float = 0.5
@@ -92,6 +96,9 @@ class PhantomParams:
             raise InputError(f"n_frames must be at least 3, found {self.n_frames}")
         if not 0 < self.expand_fraction < 1:
             raise InputError(f"expand_fraction must be in (0, 1), found {self.expand_fraction}")
+        if self.expand_fraction_outlet is not None and not 0 < self.expand_fraction_outlet < 1:
+            raise InputError("expand_fraction_outlet must be in (0, 1) or None, found "
+                             f"{self.expand_fraction_outlet}")
         if self.radius_inlet_mm * 1.3 >= self.bend_radius_mm:
             raise InputError("bend_radius_mm too small: the tube would intersect itself")
         if not 100 <= self.vertices_min <= self.vertices_max:
@@ -100,12 +107,15 @@ class PhantomParams:
             raise InputError(f"noise_mm must be >= 0, found {self.noise_mm}")
 
 
-def sample_params(group: str = "normal", seed: int = 0, **overrides) -> PhantomParams:
+def sample_params(group: str = "normal", seed: int = 0, *, expand_change: float = 0.0,
+                  **overrides) -> PhantomParams:
     """Realistic per-embryo parameters drawn with ``seed`` (paper's ranges).
 
-    Period 330-380 ms, expansion 34-49 % of the cycle, proximal speed 5-10 and
+    Period 330-380 ms, expansion 36-47 % of the cycle, proximal speed 5-10 and
     distal 14-24 mm/s, 3-5 corners; banded embryos get a band at 40-65 % of
-    the length. Keyword ``overrides`` replace any drawn value.
+    the length. ``expand_change``: how much the expansion share grows from inlet
+    to outlet (0.2: by 20 percentage points). Keyword ``overrides`` replace any
+    drawn value.
     """
     rng = np.random.default_rng([seed, 0 if group == "normal" else 1])
     length = rng.uniform(1.1, 1.35)
@@ -122,6 +132,8 @@ def sample_params(group: str = "normal", seed: int = 0, **overrides) -> PhantomP
     )
     if group == "banded":
         p["band_position_mm"] = float(rng.uniform(0.4, 0.65) * length)
+    if expand_change:
+        p["expand_fraction_outlet"] = p["expand_fraction"] + expand_change
     p.update(overrides)
     return PhantomParams(**p)
 
@@ -173,10 +185,25 @@ class Phantom:
         taper = p.radius_inlet_mm + (p.radius_outlet_mm - p.radius_inlet_mm) * s / p.length_mm
         return taper * (1 - p.band_depth * self.band(s))
 
+    def expand_fraction(self, s):
+        """Share of the cycle a section spends expanding at position s (mm)."""
+        p = self.p
+        f_out = p.expand_fraction if p.expand_fraction_outlet is None else p.expand_fraction_outlet
+        return p.expand_fraction + (f_out - p.expand_fraction) * np.asarray(s, float) / p.length_mm
+
+    def ridge_speed_mm_s(self, s):
+        """Speed (mm/s) of the area's maximum along the tube: c(s) where the
+        expansion share is the same all along."""
+        p = self.p
+        if p.expand_fraction_outlet is None or p.expand_fraction_outlet == p.expand_fraction:
+            return self.speed_mm_s(s)
+        df_ds = (p.expand_fraction_outlet - p.expand_fraction) / p.length_mm
+        return 1.0 / (1.0 / self.speed_mm_s(s) + 1e-3 * p.period_ms * df_ds)
+
     def expansion(self, s, t_ms):
         """Expansion state h(s, t) in [0, 1] (broadcasts s against t)."""
         phi = (np.asarray(t_ms) - self.arrival_ms(s)) / self.p.period_ms
-        return _hump(phi, self.p.expand_fraction)
+        return _hump(phi, self.expand_fraction(s))
 
     def stretch(self, t_ms):
         """Longitudinal stretch lambda(t) >= 1 (tissue slides through the inlet)."""
@@ -361,18 +388,20 @@ class Phantom:
         max_area = {w: (area_fine if w == "outer" else
                         self.area_mm2(w, s[:, None], t_fine[None, :])).max(axis=1)
                     for w in WALLS}
-        c = self.speed_mm_s(s)
         arrival = self.arrival_ms(s)
+        ridge = arrival + self.expand_fraction(s) * p.period_ms
+        c = self.ridge_speed_mm_s(s)
         return {
             "params": asdict(p),
             "s_mm": s.tolist(),
             "t_ms": t.tolist(),
-            "speed_mm_s": c.tolist(),
+            "speed_mm_s": self.speed_mm_s(s).tolist(),
+            "ridge_speed_mm_s": c.tolist(),
             "arrival_ms": arrival.tolist(),
-            "ridge_t_ms": (arrival + p.expand_fraction * p.period_ms).tolist(),
-            "wave_speed_mm_s": {
+            "ridge_t_ms": ridge.tolist(),
+            "wave_speed_mm_s": {   # of the ridge, as oftimg measures them
                 "min": float(c.min()), "max": float(c.max()), "mean": float(c.mean()),
-                "cycle": float(p.length_mm / (arrival[-1] - arrival[0]) * 1e3),
+                "cycle": float(p.length_mm / (ridge[-1] - ridge[0]) * 1e3),
             },
             "area_mm2": {w: areas[w].tolist() for w in WALLS},
             "max_area_mm2": {w: max_area[w].tolist() for w in WALLS},

@@ -106,11 +106,38 @@ def test_wave_timing_and_shapes():
     assert np.allclose(theta, 0.0, atol=1e-9)
 
 
+def test_expansion_share_changing_along_the_tube_moves_the_ridge():
+    """The truth's ridge is where the area peaks, and its speed is the ridge's slope."""
+    base = sample_params("normal", 2, n_frames=20)
+    ph = Phantom(sample_params("normal", 2, n_frames=20, expand_change=0.2))
+    assert ph.p.expand_fraction_outlet == pytest.approx(base.expand_fraction + 0.2)
+    truth = ph.truth(n_s=41)
+    s = np.array(truth["s_mm"])
+    t_fine = np.linspace(0, ph.p.period_ms, 72000, endpoint=False)
+    peak = t_fine[np.argmax(ph.area_mm2("outer", s[:, None], t_fine[None, :]), axis=1)]
+    ridge = np.array(truth["ridge_t_ms"])
+    assert np.abs((peak - ridge + 180) % 360 - 180).max() < 0.02
+    # the peak lags more and more behind the onset: slower than the onset wave
+    assert ridge[-1] - ridge[0] == pytest.approx(
+        np.ptp(truth["arrival_ms"]) + 0.2 * ph.p.period_ms)
+    slope = np.gradient(ridge, s)                               # ms per mm
+    speed = np.array(truth["ridge_speed_mm_s"])
+    assert np.allclose(speed[1:-1], 1e3 / slope[1:-1], rtol=0.02)
+    assert np.all(speed < np.array(truth["speed_mm_s"]))
+    assert truth["wave_speed_mm_s"]["cycle"] == pytest.approx(
+        1e3 * ph.p.length_mm / (ridge[-1] - ridge[0]))
+    # the same share all along: the ridge runs with the onset
+    same = Phantom(base).truth(n_s=41)
+    assert same["ridge_speed_mm_s"] == same["speed_mm_s"]
+
+
 def test_bad_parameters_are_refused():
     with pytest.raises(ValueError, match="group"):
         PhantomParams(group="mutant")
     with pytest.raises(ValueError, match="expand_fraction"):
         PhantomParams(expand_fraction=1.2)
+    with pytest.raises(ValueError, match="expand_fraction_outlet"):
+        PhantomParams(expand_fraction_outlet=1.0)
     with pytest.raises(ValueError, match="bend_radius"):
         PhantomParams(bend_radius_mm=0.2)
     for noise in (-0.01, float("nan")):  # were taken for no noise
@@ -130,8 +157,10 @@ def test_phantom_cli_passes_every_option(tmp_path):
 
     out = tmp_path / "ph"
     assert main(["phantom", str(out), "--group", "banded", "--seed", "3", "--frames", "3",
-                 "--vertices", "900", "1000", "--noise-mm", "0.002", "--quiet"]) == 0
+                 "--vertices", "900", "1000", "--noise-mm", "0.002", "--expand-change", "0.1",
+                 "--quiet"]) == 0
     params = json.loads((out / "truth.json").read_text())["params"]
     assert params["noise_mm"] == 0.002 and params["n_frames"] == 3
+    assert params["expand_fraction_outlet"] == pytest.approx(params["expand_fraction"] + 0.1)
     assert (params["vertices_min"], params["vertices_max"]) == (900, 1000)
     assert params["band_position_mm"] is not None  # banded

@@ -7,7 +7,7 @@ import numpy as np
 
 from .band import detect_band, neck_depth
 from .gradient import area_rates
-from .kymograph import auto_ridge_smoothing, speed_spread
+from .kymograph import auto_ridge_smoothing, noise_colour, speed_spread
 from .masks import expanded_75, expanded_sigma
 
 
@@ -34,11 +34,9 @@ def fill_gaps(area: np.ndarray) -> tuple[np.ndarray, int]:
 
 # a wave speed whose spread is more than this share of it is said to be poorly resolved
 SPREAD_NOTE_SHARE = 0.2
-# the outer map's noise near the beat's harmonics (1 to BEAT_HARMONICS) over what white
-# noise of its measured level puts there (kymograph.noise_excess): said above
-# CORRELATED_NOISE (AR(1) noise with 0.5 from frame to frame: about 6; the phantoms: 1)
-BEAT_HARMONICS = 8
-CORRELATED_NOISE = 2.0
+# noise_colour above this: the map's noise looks correlated in time (white: 1; noise
+# smoothed over 0.5 / 1 frame: 1.5 / 30; the phantoms, white: 0.9-1.4)
+COLOURED_NOISE = 2.0
 
 
 def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float, *,
@@ -92,14 +90,13 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     else:
         notes.append(f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
                      "the wave speeds have no noise spread (NaN)")
-    excess = float(spread["noise_excess"][1:BEAT_HARMONICS + 1].mean())
-    summary["area_noise_beat_excess"] = excess
-    if excess > CORRELATED_NOISE:
-        notes.append(f"the outer area map's noise is correlated from frame to frame: near "
-                     f"the beat's first {BEAT_HARMONICS} harmonics it has {excess:.3g} times "
-                     "the power of noise independent from frame to frame (a segmentation "
-                     "smoothed in time?); the speeds' noise spreads and the auto ridge "
-                     "smoothing include it")
+    colour = noise_colour(area["outer"])
+    summary["area_noise_colour"] = colour
+    if colour > COLOURED_NOISE:
+        notes.append(f"the outer area map has {colour:.3g} times more power at a quarter of "
+                     "the frame rate than near half of it: if that is segmentation noise "
+                     "correlated from frame to frame, the speeds' noise spreads and the auto "
+                     "ridge smoothing are too small (see README, Accuracy)")
     summary["ridge_smoothing_ms"] = smoothing
     arrays["ridge_t_ms"] = ridge
     arrays["ridge_t_noise_sd_ms"] = spread["ridge_t_ms"]

@@ -11,7 +11,6 @@ from statistics import median
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
-from scipy.special import gammaincinv
 
 from ..cycle import periodic_peak
 from ..errors import InputError
@@ -35,12 +34,6 @@ SPREAD_DRAWS = 100
 SPREAD_SEED = 0
 # a spread is given only when this share of the draws gives a finite value
 SPREAD_FINITE_SHARE = 0.9
-# noise_excess: rows of the quadratic taken away along the tube at every frame, and the
-# least share of independent noise's variance (after the fit) the residual's high harmonics
-# must keep for it to tell the noise (the phantoms: 0.7-0.9 with 5 um of roughness, 0.05
-# without, where each frame's error is common to all rows)
-EXCESS_ROWS = 5
-EXCESS_MIN_SURVIVAL = 0.25
 # a speed is resolved when the spread of its inverse (the ridge's slope) over the draws is
 # under this share of it: within one SD the wave neither stands still nor turns back
 RESOLVED_SLOPE_SHARE = 0.5
@@ -111,68 +104,23 @@ def map_noise_sd(area: np.ndarray) -> np.ndarray:
     return np.sqrt(mean_power / n_t)
 
 
-def _along_tube_residual(area: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``area (n_v, n_t)`` less, at every frame, the least-squares quadratic in the row
-    index over the :data:`EXCESS_ROWS` rows around each row (the first or last ones at
-    the ends); and the share of independent noise's variance that each row keeps ``(n_v,)``."""
-    n_v, w = area.shape[0], EXCESS_ROWS
-    first = np.clip(np.arange(n_v) - w // 2, 0, n_v - w)            # each row's window
-    X = np.vander(np.arange(w, dtype=float), 3)
-    hat = X @ np.linalg.pinv(X)                                       # (w, w), symmetric
-    place = np.arange(n_v) - first
-    fit = np.zeros((n_v, n_v))
-    fit[np.arange(n_v)[:, None], first[:, None] + np.arange(w)] = hat[place]
-    return area - fit @ area, 1.0 - hat[place, place]
+def noise_colour(area: np.ndarray) -> float:
+    """How much more power a map has in the lower half of its high harmonics (n_t / 4
+    to 3 n_t / 8) than in the upper half (to n_t / 2), all rows together.
 
-
-def noise_excess(area: np.ndarray) -> np.ndarray:
-    """How many times more noise power each harmonic of the cycle holds than white
-    noise of the map's measured level (:func:`map_noise_sd`) would: ``(n_t // 2 + 1,)``, >= 1.
-
-    Noise correlated from frame to frame (a segmentation smoothed in time, or
-    following its previous frame) has more power near the beat's own harmonics,
-    where it moves the ridge, than the high harmonics show; the beat hides it
-    there. Taking away from every frame a quadratic along the tube over
-    :data:`EXCESS_ROWS` rows removes the beat (it changes slowly along the
-    tube) and leaves the noise of sections measured apart; that residual's
-    power per octave of harmonics, over its power in the high harmonics, is the
-    excess (median over the rows; 1 unless over 1 by more than 2 standard
-    errors of that median). All ones (white) where that cannot be measured: under
-    :data:`EXCESS_ROWS` rows without NaN, or noise mostly common to neighbouring
-    rows (each frame's mesh a little larger or smaller as a whole, say), which
-    the fit takes away with the beat (:data:`EXCESS_MIN_SURVIVAL`).
+    About 1 for white noise, as :func:`map_noise_sd` assumes; well above 1 when the
+    noise is correlated from frame to frame (a segmentation smoothed in time), so
+    that the noise near the beat's own frequencies, which moves the ridge, is more
+    than :func:`map_noise_sd` measures. NaN for under 16 frames or NaN cells.
     """
     area = _check_map(area)
     n_t = area.shape[1]
     power, k = _harmonic_power(area)
-    out = np.ones(len(k))
-    high = (k > n_t / 4) & (k >= 5)
-    if area.shape[0] < EXCESS_ROWS or not high.any():
-        return out
-    residual, keeps = _along_tube_residual(area)
-    r_power = _harmonic_power(residual)[0]
-    level = r_power[:, high].mean(axis=1)
-    rows = np.isfinite(r_power).all(axis=1) & (power[:, high].mean(axis=1) > 0)
-    if rows.sum() < EXCESS_ROWS:
-        return out
-    survival = level[rows] / power[rows][:, high].mean(axis=1) / keeps[rows]
-    if np.median(survival) < EXCESS_MIN_SURVIVAL:
-        return out
-    ratio = r_power[rows] / level[rows, None]
-    first_high = int(k[high][0])
-    edges = [1]
-    while edges[-1] < first_high:                    # octaves: 1-2, 3-4, 5-8, 9-16, ...
-        edges.append(min(max(3, 2 * edges[-1] - 1), first_high))
-    for lo, hi in zip(edges[:-1], edges[1:]):
-        m = hi - lo
-        # median over the rows of each row's mean over the band: for white noise a
-        # Gamma(m, 1/m) variable, whose median is below 1
-        value = np.median(ratio[:, lo:hi].mean(axis=1)) / (gammaincinv(m, 0.5) / m)
-        # (the fit makes neighbouring rows' residuals alike: one independent row per window)
-        standard_error = 1.2533 * value / np.sqrt(m * rows.sum() / EXCESS_ROWS)
-        if value - 2 * standard_error > 1.0:
-            out[lo:hi] = value
-    return out
+    lower = (k > n_t / 4) & (k <= 3 * n_t / 8)
+    upper = (k > 3 * n_t / 8) & (2 * k < n_t)                 # Nyquist left out
+    if n_t < 16 or not lower.any() or not upper.any():
+        return float("nan")
+    return float(power[:, lower].mean() / power[:, upper].mean())
 
 
 def ridge_times(area: np.ndarray, period_ms: float, *,
@@ -365,10 +313,8 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
                  seed: int = SPREAD_SEED) -> dict:
     """How far the ridge and the wave speeds move with the map's own noise.
 
-    ``draws`` copies of ``area (n_v, n_t)`` each get Gaussian noise of each
-    row's :func:`map_noise_sd` added, white, or with the power of each harmonic
-    raised by :func:`noise_excess` where the map's noise is correlated from
-    frame to frame (returned as ``noise_excess``); each copy's ridge
+    ``draws`` copies of ``area (n_v, n_t)`` each get white Gaussian noise of
+    each row's :func:`map_noise_sd` added; each copy's ridge
     (:func:`ridge_times`) and :func:`wave_speeds` are found as the map's own.
     Returns the map's own ``ridge`` and ``measured`` :func:`wave_speeds`, its
     ``noise_sd (n_v,)``, and the spread (:func:`_spread`: the SD of a normal
@@ -383,18 +329,13 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     if int(draws) != draws or draws < 10:
         raise InputError(f"draws must be an integer >= 10, found {draws}")
     noise = map_noise_sd(area)
-    excess = noise_excess(area)
     ridge = ridge_times(area, period_ms, smoothing_ms=smoothing_ms)
     rng = np.random.default_rng(seed)
     ridges, locals_, values = [], [], []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)   # the map's flat rows: said once
         for _ in range(int(draws)):
-            drawn = rng.standard_normal(area.shape) * noise[:, None]
-            if (excess > 1).any():
-                drawn = np.fft.irfft(np.fft.rfft(drawn, axis=1) * np.sqrt(excess),
-                                     n=area.shape[1], axis=1)
-            noisy = area + drawn
+            noisy = area + rng.standard_normal(area.shape) * noise[:, None]
             r = ridge_times(noisy, period_ms, smoothing_ms=smoothing_ms)
             speeds = wave_speeds(s_mm, r)
             ridges.append(ridge + (r - ridge + period_ms / 2) % period_ms - period_ms / 2)
@@ -403,7 +344,7 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     measured = wave_speeds(s_mm, ridge)
     scalars = _speed_values(measured)
     return {"ridge": ridge, "measured": measured,
-            "noise_sd": noise, "noise_excess": excess, "ridge_t_ms": _spread(np.array(ridges)),
+            "noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
             "local_speed_mm_s": _resolved_spread(np.array(locals_), measured["local"]),
             "speeds": dict(zip(scalars, _resolved_spread(np.array(values),
                                                       np.array(list(scalars.values()))).tolist()))}

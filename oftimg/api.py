@@ -424,9 +424,13 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
     ``folder``, which holds each dataset's results in ``folder/<name>``."""
     from .figures import group_figures
     from .html import cohort_page, dataset_page
-    from .report import (group_comparison, write_cohort_markdown, write_cohort_table,
-                         write_groups_table)
+    from .report import (group_comparison, smoothing_caveat, write_cohort_markdown,
+                         write_cohort_table, write_groups_table)
 
+    caveat = smoothing_caveat(summaries)
+    if caveat:
+        warnings.warn(caveat, OftimgWarning, stacklevel=2)
+        run_info = {**run_info, "notes": [caveat]}
     write_cohort_table(folder, summaries)
     write_cohort_markdown(folder, summaries)
     comparison = group_comparison(summaries)

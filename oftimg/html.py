@@ -155,6 +155,8 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                  "groups); p_holm &lt; 0.05 shaded</p>",
                  _table(comp, ccols, highlight=lambda r: r["p_holm"] == r["p_holm"]
                         and r["p_holm"] < 0.05)]
+        body += [f"<p class=\"small\">Note: {html.escape(n)}</p>"
+                 for n in run_info.get("notes", [])]
     if group_figs:
         body.append("<div class=\"grid\">")
         body += [f'<img src="{p.relative_to(out).as_posix()}" alt="{p.stem}">'

@@ -170,6 +170,27 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
     return out
 
 
+def smoothing_caveat(summaries: list[dict]) -> str | None:
+    """What to know before comparing groups whose embryos' ridges were smoothed in time
+    by different sigmas (``ridge_smoothing_ms``: "auto" takes as much as each map's
+    noise needs); None when there is one group or one sigma."""
+    by_group: dict[str, list[float]] = {}
+    for s in summaries:
+        sigma = s.get("ridge_smoothing_ms")
+        if isinstance(sigma, (int, float)) and np.isfinite(sigma):
+            by_group.setdefault(s["group"], []).append(float(sigma))
+    if len(by_group) < 2 or len({x for v in by_group.values() for x in v}) < 2:
+        return None
+    ranges = "; ".join(f"{g}: {min(v):g}" + (f"-{max(v):g}" if max(v) > min(v) else "") + " ms"
+                       for g, v in sorted(by_group.items()))
+    largest = max(x for v in by_group.values() for x in v)
+    return (f"the embryos' ridges were smoothed in time by different sigmas ({ranges}), as "
+            "their maps' noise asked: more smoothing puts the ridge later where the beat's "
+            "peak is asymmetric, so group differences in ridge times, and in wave speeds where "
+            "the expansion share changes along the tube, may come from it (README, Accuracy); "
+            f"to compare the groups, analyse them all with --ridge-smoothing-ms {largest:g}")
+
+
 def holm(p: list[float]) -> list[float]:
     """Holm-Bonferroni adjusted p-values, in the order given; NaN stays NaN and
     does not count as a test."""

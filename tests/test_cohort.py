@@ -117,3 +117,24 @@ def test_cohort_of_several_oftimg_versions_warns(runs, tmp_path):
     with pytest.warns(OftimgWarning, match=r"different oftimg versions \(0.0.9, "):
         api.cohort([old, runs / "alone"], tmp_path / "out")
     assert (tmp_path / "out" / "groups.csv").is_file()
+
+
+def test_groups_smoothed_differently_are_said_to_be(runs, tmp_path):
+    """auto smoothing took another sigma for one embryo: the gathered cohort says so
+    (warning, run.json, the cohort page) and names the sigma that compares like with
+    like; the same sigmas say nothing."""
+    from oftimg.io import OftimgWarning
+
+    mixed = tmp_path / "mixed"
+    shutil.copytree(runs / "together", mixed)
+    summary = json.loads((mixed / "b0" / "summary.json").read_text())
+    summary["ridge_smoothing_ms"] = 14.0
+    (mixed / "b0" / "summary.json").write_text(json.dumps(summary))
+    with pytest.warns(OftimgWarning, match=r"banded: 14 ms; normal: 5 ms.*"
+                                           r"--ridge-smoothing-ms 14"):
+        api.cohort([mixed, runs / "alone"], tmp_path / "out")
+    notes = json.loads((tmp_path / "out" / "run.json").read_text())["notes"]
+    assert len(notes) == 1 and "different sigmas" in notes[0]
+    assert "different sigmas" in (tmp_path / "out" / "index.html").read_text()
+    api.cohort([runs / "together", runs / "alone"], tmp_path / "same")
+    assert "notes" not in json.loads((tmp_path / "same" / "run.json").read_text())

@@ -94,3 +94,17 @@ def test_markdown_table_keeps_a_name_with_a_bar_in_its_cell(tmp_path):
     cells = lambda line: len(line.replace(r"\|", "").split("|"))  # noqa: E731
     assert cells(lines[2]) == cells(lines[0]) == cells(lines[3])
     assert lines[2].startswith(r"| WT\|3 | a\|b | ")
+
+
+def test_smoothing_caveat_only_where_groups_were_smoothed_differently():
+    from oftimg.report import smoothing_caveat
+
+    def cohort(sigmas):
+        return [{"name": f"e{k}", "group": g, "ridge_smoothing_ms": s}
+                for k, (g, s) in enumerate(sigmas)]
+
+    assert smoothing_caveat(cohort([("a", 5.0), ("a", 5.0), ("b", 5.0)])) is None
+    assert smoothing_caveat(cohort([("a", 5.0), ("a", 14.0)])) is None        # one group
+    assert smoothing_caveat(cohort([("a", 5.0), ("b", float("nan"))])) is None
+    text = smoothing_caveat(cohort([("a", 5.0), ("a", 7.0), ("b", 20.0)]))
+    assert "a: 5-7 ms; b: 20 ms" in text and text.endswith("--ridge-smoothing-ms 20")

@@ -194,11 +194,17 @@ class Phantom:
     def ridge_speed_mm_s(self, s):
         """Speed (mm/s) of the area's maximum along the tube: c(s) where the
         expansion share is the same all along."""
+        return self.ridge_speed_from(self.speed_mm_s(s))
+
+    def ridge_speed_from(self, onset_mm_s):
+        """The ridge's speed (mm/s) where the wave's onset runs at ``onset_mm_s``:
+        ``1 / (1 / c + period * df/ds)``, the onset speed itself (unchanged) where
+        the expansion share is the same all along."""
         p = self.p
         if p.expand_fraction_outlet is None or p.expand_fraction_outlet == p.expand_fraction:
-            return self.speed_mm_s(s)
+            return onset_mm_s
         df_ds = (p.expand_fraction_outlet - p.expand_fraction) / p.length_mm
-        return 1.0 / (1.0 / self.speed_mm_s(s) + 1e-3 * p.period_ms * df_ds)
+        return 1.0 / (1.0 / np.asarray(onset_mm_s) + 1e-3 * p.period_ms * df_ds)
 
     def expansion(self, s, t_ms):
         """Expansion state h(s, t) in [0, 1] (broadcasts s against t)."""

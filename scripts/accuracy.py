@@ -119,10 +119,7 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
                                           np.median(ridge_speed))
     two = summ["wave_two_segment"]
     true_speed = np.interp(s_mm, truth["s_mm"], ridge_speed)
-    # the two segments' speeds of the ridge: the model's, less the expansion share's change
-    f_out = p.get("expand_fraction_outlet") or p["expand_fraction"]
-    ridge_delay = 1e-3 * period * (f_out - p["expand_fraction"]) / p["length_mm"]   # s/mm
-    true_two = {side: 1.0 / (1.0 / p[f"speed_{side}_mm_s"] + ridge_delay)
+    true_two = {side: float(ph.ridge_speed_from(p[f"speed_{side}_mm_s"]))
                 for side in ("proximal", "distal")}
     e["local_speed_median_pct"] = float(100.0 * np.nanmedian(
         np.abs(arr["local_speed_mm_s"] / true_speed - 1.0)))

@@ -235,10 +235,10 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
         warnings.simplefilter("always")
         folder = Path(tmp) / ds.meta.name
         folder.mkdir()
-        progress = None if frames_done is None else lambda: frames_done.put(1)
+        report_frames = _Reports(frames_done)
+        progress = None if frames_done is None else lambda: report_frames.put(1)
         summary = analyse_and_write(ds, report, folder, opts, fps=fps, progress=progress)
-        if frames_done is not None:
-            frames_done.put(_tail_frames(ds.n_frames))
+        report_frames.put(_tail_frames(ds.n_frames))
         files = {p.relative_to(folder).as_posix(): p.read_bytes()
                  for p in sorted(folder.rglob("*")) if p.is_file()}
     raised = list({(type(w.message), str(w.message)): w.message for w in caught}.values())
@@ -333,6 +333,32 @@ def embryos_at_once(datasets, executor) -> int:
     return workers
 
 
+class _Reports:
+    """``put(n)`` to a progress queue that may be gone (its manager process killed):
+    the first failure ends the reports, not the task; progress is only shown."""
+
+    def __init__(self, queue):
+        self.queue = queue
+
+    def put(self, n: int) -> None:
+        if self.queue is None:
+            return
+        try:
+            self.queue.put(n)
+        except (OSError, EOFError):                 # BrokenPipe, ConnectionRefused, ...
+            self.queue = None
+
+
+def _drain(queue, bar: Progress) -> None:
+    """Advance ``bar`` by each report on ``queue`` until None, or until the queue is
+    gone (its manager killed): the bar then stops, the run goes on."""
+    try:
+        for n in iter(queue.get, None):
+            bar.advance(n)
+    except (OSError, EOFError):
+        pass
+
+
 @contextlib.contextmanager
 def _frame_counter(executor, bar: Progress):
     """Yield what :func:`embryo_task` reports its frames to (``put(n)``), each
@@ -358,12 +384,12 @@ def _frame_counter(executor, bar: Progress):
 
     manager = mp.get_context("spawn").Manager()
     queue = manager.Queue()
-    drain = threading.Thread(target=lambda: [bar.advance(n) for n in iter(queue.get, None)])
+    drain = threading.Thread(target=_drain, args=(queue, bar))
     drain.start()
     try:
         yield queue
     finally:
-        queue.put(None)
+        _Reports(queue).put(None)
         drain.join()
         manager.shutdown()
 

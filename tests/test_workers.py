@@ -269,3 +269,36 @@ def test_usable_cpus_keeps_to_a_containers_cpu_quota(tmp_path, monkeypatch):
     (cg / "cpu,cpuacct" / "kubepods" / "pod1" / "cpu.cfs_quota_us").write_text("300000\n")
     (cg / "cpu,cpuacct" / "kubepods" / "pod1" / "cpu.cfs_period_us").write_text("100000\n")
     assert usable_cpus(str(proc), str(cg)) == 3
+
+
+def test_a_killed_progress_manager_ends_the_bar_not_the_run():
+    """By embryo, workers report frames to a manager process's queue for the bar. If
+    that process dies (the out-of-memory killer, say), the reports and the bar stop;
+    the embryos' tasks and the run go on (putting to the dead queue raised in every
+    task, and closing the bar raised at the end of a run whose results were all made)."""
+    import os
+    import signal
+    import time
+
+    from oftimg import api
+
+    class Bar:                                            # a bar on a terminal
+        shown, n = True, 0
+
+        def advance(self, k):
+            self.n += k
+
+    bar = Bar()
+    with api._frame_counter(None, bar) as queue:
+        reports = api._Reports(queue)
+        reports.put(2)
+        deadline = time.time() + 10
+        while bar.n < 2 and time.time() < deadline:
+            time.sleep(0.01)
+        assert bar.n == 2
+        manager = queue._manager._process
+        os.kill(manager.pid, signal.SIGKILL)
+        manager.join(10)
+        reports.put(1)                                    # no error: the reports end
+        assert reports.queue is None
+    assert bar.n == 2

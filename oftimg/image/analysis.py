@@ -35,7 +35,8 @@ def fill_gaps(area: np.ndarray) -> tuple[np.ndarray, int]:
 # a wave speed whose spread is more than this share of it is said to be poorly resolved
 SPREAD_NOTE_SHARE = 0.2
 # noise_colour above this: the map's noise looks correlated in time (white: 1; noise
-# smoothed over 0.5 / 1 frame: 1.5 / 30; the phantoms, white: 0.9-1.4)
+# smoothed over 0.5 / 1 frame: 1.5 / 30; AR(1) with 0.5, not caught: 1.4; the phantoms,
+# white: 0.6-1.4; the animated midgut: 0.7)
 COLOURED_NOISE = 2.0
 
 

@@ -108,10 +108,12 @@ def noise_colour(area: np.ndarray) -> float:
     """How much more power a map has in the lower half of its high harmonics (n_t / 4
     to 3 n_t / 8) than in the upper half (to n_t / 2), all rows together.
 
-    About 1 for white noise, as :func:`map_noise_sd` assumes; well above 1 when the
+    About 1 for white noise, as :func:`map_noise_sd` assumes; above 1 when the
     noise is correlated from frame to frame (a segmentation smoothed in time), so
     that the noise near the beat's own frequencies, which moves the ridge, is more
-    than :func:`map_noise_sd` measures. NaN for under 16 frames or NaN cells.
+    than :func:`map_noise_sd` measures: 30 for noise smoothed over one frame, but
+    only 1.4 for AR(1) noise with 0.5 from frame to frame, whose spreads come out
+    2.5-4 times too small (README, Accuracy). NaN for under 16 frames or NaN cells.
     """
     area = _check_map(area)
     n_t = area.shape[1]

@@ -68,23 +68,35 @@ def test_ctrl_c_while_a_worker_sends_its_result_does_not_hang_the_shutdown():
 
 
 def test_run_with_a_killed_worker_says_so_and_writes_nothing(tmp_path):
+    """A worker killed as the first frame of the per-frame pass comes back (the
+    others still queued or running): the kill is tied to the run's progress, not
+    to a clock, so it cannot fall after the workers' last task."""
     data = write_phantom(tmp_path / "p", sample_params("normal", 3, n_frames=6,
                                                        vertices_min=2000, vertices_max=2500))
     out = tmp_path / "out"
     done = run_python(f"""
-        import multiprocessing as mp, os, signal, sys, threading, time
-        from oftimg import cli
+        import multiprocessing as mp, os, signal, sys
+        from oftimg import cli, pipeline
 
-        def workers():    # the pool's, not the progress bar's SyncManager process
-            return [p for p in mp.active_children() if p.name.startswith("SpawnProcess")]
+        def kill_a_worker():  # the pool's, not the progress bar's SyncManager process
+            pool = [p for p in mp.active_children() if p.name.startswith("SpawnProcess")]
+            os.kill(pool[0].pid, signal.SIGKILL)
 
-        def kill_a_worker():
-            while len(workers()) < 2:
-                time.sleep(0.01)
-            time.sleep(1.0)
-            os.kill(workers()[0].pid, signal.SIGKILL)
+        run_tasks = pipeline.run_tasks
 
-        threading.Thread(target=kill_a_worker, daemon=True).start()
+        def run_tasks_killing_a_worker(fn, arg_tuples, *, executor=None, progress=None):
+            if fn.__name__ != "process_frame":
+                return run_tasks(fn, arg_tuples, executor=executor, progress=progress)
+            done = []
+
+            def first_frame_back():
+                if not done:
+                    done.append(1)
+                    kill_a_worker()
+                progress()
+            return run_tasks(fn, arg_tuples, executor=executor, progress=first_frame_back)
+
+        pipeline.run_tasks = run_tasks_killing_a_worker
         sys.exit(cli.main(["run", {str(data)!r}, "--out", {str(out)!r}, "--jobs", "2",
                            "--quiet"]))
         """)

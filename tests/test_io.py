@@ -556,3 +556,21 @@ def test_dataset_names_must_make_distinct_result_folders(tmp_path, capsys):
     msg = capsys.readouterr().err
     assert str(cohort / "b") in msg and "cohort's own figures" in msg
     assert not out.exists()
+
+
+def test_a_frame_that_cannot_be_gridded_is_named(dataset, monkeypatch):
+    """A mesh problem found only by the gridding (it passed the checks) is reported
+    with the file it came from, as the checks' own are."""
+    from oftimg import per_frame
+    from oftimg.mesh.grid import GridOptions
+    from oftimg.mesh.topology import MeshError
+
+    def no_seam(*args, **kwargs):
+        raise MeshError("the seam does not reach the outlet loop")
+
+    monkeypatch.setattr(per_frame, "grid_frame", no_seam)
+    ds = load_dataset(dataset)
+    p = np.zeros(3)
+    with pytest.raises(DatasetError, match=re.escape(f"{ds.frames['outer'][2]}: the seam does "
+                                                     "not reach the outlet loop")):
+        per_frame.process_frame(ds.frame(2), p, p, GridOptions(n_u=12, n_v=6))

@@ -481,3 +481,32 @@ def test_map_positions_are_checked():
         with pytest.raises(InputError, match="ridge_smoothing_ms must be 'auto' or a number"):
             PipelineOptions(ridge_smoothing_ms=bad)
     assert PipelineOptions(ridge_smoothing_ms=0).as_dict()["ridge_smoothing_ms"] == 0.0
+
+
+def test_cells_without_a_contour_are_filled_periodically_in_time_and_rows_along_v():
+    """A NaN cell gets its row's value interpolated over the cycle's end (periodic); a
+    row with no value at all gets its neighbours' mean, frame by frame."""
+    from oftimg.image.analysis import fill_gaps
+
+    n_v, n_t = 6, 20
+    t = np.arange(n_t)
+    area = 1.0 + np.arange(n_v)[:, None] + 0.1 * np.cos(2 * np.pi * t / n_t)[None, :]
+    holes = area.copy()
+    holes[1, [0, n_t - 1]] = np.nan          # across the cycle's end: needs the period
+    holes[3] = np.nan
+    filled, count = fill_gaps(holes)
+    assert count == 2 + n_t
+    # rows 2 and 4 are linear in v: row 3 is their mean exactly
+    assert np.allclose(filled[3], area[3])
+    # periodic linear interpolation between frames n_t - 2 and 1 (3 steps apart)
+    a, b = area[1, n_t - 2], area[1, 1]
+    assert np.allclose(filled[1, [n_t - 1, 0]], [a + (b - a) / 3, a + 2 * (b - a) / 3])
+    assert np.array_equal(filled[~np.isnan(holes)], area[~np.isnan(holes)])
+    same, none = fill_gaps(area)
+    assert none == 0 and np.array_equal(same, area)
+    s = np.linspace(0, 0.3, 50)
+    pulse = pulse_map(17.3 + 1e3 * s / 10.0)
+    pulse[[5, 20, 33], [40, 0, 71]] = np.nan             # sections without a contour
+    _, summary = analyse_area_maps({"outer": pulse}, s, PERIOD, ridge_smoothing_ms=5)
+    assert summary["area_cells_interpolated"] == {"outer": 3}
+    assert summary["wave_speed_mm_s"]["cycle"] == pytest.approx(10.0, rel=0.01)

@@ -42,6 +42,25 @@ def test_weights_refuse_bad_blend():
         intrinsic_weights(V, F, authalic_weight=1.5)
 
 
+def test_solve_falls_back_to_pivoting_where_the_diagonal_fails():
+    """The map's LU takes the diagonal as pivots (its Laplacians have a dominant one);
+    where a pivot is tiny that goes wrong, and the residual check must send the
+    system to SuperLU with partial pivoting."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    from oftimg.mesh.parameterize import _solve
+
+    n = 6
+    A = sp.csc_matrix(sp.diags([np.ones(n - 1), np.full(n, 1e-18), np.ones(n - 1)],
+                               [-1, 0, 1]))
+    rhs = np.random.default_rng(0).standard_normal((n, 2))
+    unpivoted = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                          options={"SymmetricMode": True}).solve(rhs)
+    assert np.abs(A @ unpivoted - rhs).max() > 1.0           # the fast path alone fails here
+    assert np.abs(A @ _solve(A, rhs) - rhs).max() < 1e-12
+
+
 def test_count_flipped():
     UV = np.array([[0, 0], [1, 0], [0, 1.0]])
     assert count_flipped(UV, np.array([[0, 1, 2]])) == 0

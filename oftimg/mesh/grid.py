@@ -125,23 +125,12 @@ def trim_to_loops(chain: np.ndarray, inlet: np.ndarray, outlet: np.ndarray) -> n
     return chain[start:start + int(after[0]) + 1]
 
 
-def closest_points(V: np.ndarray, F: np.ndarray, X: np.ndarray, values: np.ndarray | None = None):
-    """Closest points ``(..., 3)`` on the mesh ``(V, F)`` to query points ``X (..., 3)``.
-
-    With per-vertex ``values (n_vert,)``, also returns them interpolated
-    (barycentrically) at the closest points, ``(...)``.
-    """
+def closest_points(V: np.ndarray, F: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """Closest points ``(..., 3)`` on the mesh ``(V, F)`` to query points ``X (..., 3)``."""
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
                         o3d.core.Tensor(F.astype(np.uint32)))
     q = o3d.core.Tensor(X.reshape(-1, 3).astype(np.float32))
-    res = scene.compute_closest_points(q)
-    points = res["points"].numpy().astype(np.float64).reshape(X.shape)
-    if values is None:
-        return points
-    tri = F[res["primitive_ids"].numpy().astype(np.int64)]
-    b = res["primitive_uvs"].numpy().astype(np.float64)
-    w = np.column_stack([1 - b.sum(axis=1), b])
-    return points, np.einsum("ij,ij->i", w, values[tri]).reshape(X.shape[:-1])
+    return scene.compute_closest_points(q)["points"].numpy().astype(np.float64).reshape(X.shape)

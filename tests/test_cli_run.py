@@ -125,9 +125,17 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     out = tmp_path / "out"
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1", "--fps", "10",
                  "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
-                 "--authalic-weight", "0.25", "--seam-method", "heat"]) == 0
+                 "--authalic-weight", "0.25", "--seam-method", "heat",
+                 "--map-positions", "fixed"]) == 0
     summary = json.loads((out / "tiny" / "summary.json").read_text())
     assert summary["time_warp"] is True
+    assert summary["provenance"]["options"]["map_positions"] == "fixed"
+    arrays = np.load(out / "tiny" / "arrays.npz")           # the maps at fixed positions, and
+    described = json.loads((out / "tiny" / "arrays.json").read_text())     # the rows' own
+    for wall in ("outer", "inner", "lumen"):
+        assert arrays[f"area_rows_{wall}_mm2"].shape == arrays[f"area_{wall}_mm2"].shape == (20, 5)
+        assert "cubic spline" in described[f"area_{wall}_mm2"]["description"]
+        assert described[f"area_rows_{wall}_mm2"]["unit"] == "mm^2"
     assert summary["provenance"]["options"]["grid"]["authalic_weight"] == 0.25
     assert summary["provenance"]["options"]["grid"]["seam_method"] == "heat"
     assert np.load(out / "tiny" / "grids.npz")["outer"].shape[:2] == (40, 20)

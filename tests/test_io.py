@@ -432,6 +432,11 @@ def test_out_inside_dataset_and_nonempty_out_are_refused(dataset, tmp_path, caps
     assert main(["run", str(dataset), "--out", str(out), "--quiet"]) == 2
     assert "--overwrite" in capsys.readouterr().err
     assert (out / "keep.txt").read_text() == "mine"
+    # an --out that holds the input (its results would replace the data), or is a file
+    for bad, said in ((dataset.parent, "contains the input"), (out / "keep.txt", "not a folder")):
+        assert main(["run", str(dataset), "--out", str(bad), "--overwrite", "--quiet"]) == 2
+        assert f"--out {bad}" in (err := capsys.readouterr().err) and said in err
+    assert (out / "keep.txt").read_text() == "mine" and (dataset / "meta.json").is_file()
 
 
 def test_overwrite_replaces_only_what_oftimg_wrote(tmp_path, capsys):

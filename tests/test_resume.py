@@ -144,3 +144,20 @@ def test_a_second_run_into_the_same_out_stops_at_once(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "another oftimg run is writing" in err and str(out) in err
     assert (kept / "emb.writing").is_dir() and not out.exists()
+
+
+def test_a_kept_dataset_is_reused_only_with_a_whole_record_of_the_same_fingerprint(tmp_path):
+    """A run killed while writing a dataset's record leaves it cut short: --resume
+    must analyse that dataset again, not fail on the record or trust it."""
+    finished = Finished(tmp_path / "kept")
+    (finished.writing("e1") / "summary.json").write_text("{}")
+    fingerprint = {"inputs": [["f0.ply", 10, 1]], "options": {"warp": False}}
+    finished.keep("e1", fingerprint, {"n_frames": 5, "speed": float("nan")})
+    summary = finished.summary_if_current("e1", fingerprint)
+    assert summary["n_frames"] == 5 and np.isnan(summary["speed"])
+    assert finished.summary_if_current("e1", {**fingerprint, "options": {"warp": True}}) is None
+    record = finished.root / "e1.json"
+    record.write_text(record.read_text()[:40])                 # cut short
+    assert finished.summary_if_current("e1", fingerprint) is None
+    record.unlink()
+    assert finished.summary_if_current("e1", fingerprint) is None

@@ -358,14 +358,18 @@ def check_tube_file(path: str | Path, *, unit_scale: float = 1.0,
         raise DatasetError(f"{path}: {bad} vertices have NaN or infinite coordinates")
     V, F, counts = repair(V, F)
     try:
-        topo = check_tube(V, F)
+        topo = check_tube(V, F, mend=True)
     except MeshError as exc:
         raise DatasetError(f"{path}: {exc}") from None
     if Path(path).suffix.lower() == ".stl":  # STL stores every triangle's corners apart
         counts = replace(counts, merged_vertices=0)
     # faces against the rest (all of them reversed is no repair: the reading order)
-    against = min(topo.flipped_faces, len(topo.F) - topo.flipped_faces)
-    counts = replace(counts, flipped_faces=against)
+    kept = len(F) - topo.island_faces
+    against = min(topo.flipped_faces, kept - topo.flipped_faces)
+    counts = replace(counts, flipped_faces=against, islands=topo.islands,
+                     island_faces=topo.island_faces, holes=topo.holes, hole_edges=topo.hole_edges)
+    if topo.V is not None:
+        V = topo.V
     a, b = topo.loops
     if inlet_point is None:
         inlet_first = np.linalg.norm(loop_vector_area(V[a])) >= np.linalg.norm(loop_vector_area(V[b]))

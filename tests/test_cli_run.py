@@ -278,3 +278,35 @@ def test_swapped_walls_are_pointed_out(tmp_path):
     swapped = [str(w.message) for w in caught if "swapped?" in str(w.message)]
     assert swapped == [f"{ds}: the inner wall encloses as much as the outer one or more in "
                        "5 of 5 frames: are inner/ and outer/ swapped?"]   # lumen/ is fine
+
+
+def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path):
+    """Debris beside the tube and one-face holes, in one frame of each wall, are mended
+    in the workers as in the validation: the results are those of the clean files."""
+    import shutil
+
+    from oftimg.io import read_mesh_file, write_ply
+    from oftimg.phantom import sample_params, write_phantom
+
+    clean = write_phantom(tmp_path / "clean", sample_params("normal", 3, n_frames=6,
+                                                            vertices_min=2000, vertices_max=2500))
+    mended = tmp_path / "mended"
+    shutil.copytree(clean, mended)
+    for wall, t in (("outer", 2), ("inner", 0), ("lumen", 5)):
+        frame = sorted((mended / wall).iterdir())[t]
+        V, F = read_mesh_file(frame)
+        blob = V.max(axis=0) + [[0.1, 0, 0], [0.11, 0, 0], [0.1, 0.01, 0], [0.1, 0, 0.01]]
+        write_ply(frame, np.concatenate([V, blob]),
+                  np.concatenate([np.delete(F, [len(F) // 3, len(F) // 2], axis=0),
+                                  len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])]))
+    for ds in (clean, mended):
+        assert main(["run", str(ds), "--out", str(tmp_path / f"out_{ds.name}"), "--quiet",
+                     "--jobs", "2"]) == 0
+    a, b = (np.load(next((tmp_path / f"out_{n}").glob("*/arrays.npz"))) for n in ("clean", "mended"))
+    for wall in ("outer", "inner", "lumen"):
+        assert np.allclose(b[f"area_{wall}_mm2"], a[f"area_{wall}_mm2"], rtol=1e-5)
+        assert np.allclose(b[f"volume_{wall}_mm3"], a[f"volume_{wall}_mm3"], rtol=1e-9)
+    summary = json.loads(next((tmp_path / "out_mended").glob("*/summary.json")).read_text())
+    assert summary["validation"]["surfaces"]["lumen"]["repairs"] == {
+        "f5.ply": "dropped 1 part apart from the tube (4 faces), filled 2 holes in the wall "
+                  "(6 boundary edges)"}

@@ -10,9 +10,9 @@ import pytest
 
 from helpers import tube_mesh, write_series
 from oftimg.cli import main
-from oftimg.io import (DatasetError, OftimgWarning, find_datasets, list_frames, load_dataset,
-                       declared_counts, load_tube, natural_key, read_mesh_file, validate_dataset,
-                       write_ply)
+from oftimg.io import (DatasetError, OftimgWarning, check_tube_file, declared_counts,
+                       find_datasets, list_frames, load_dataset, load_tube, natural_key,
+                       read_mesh_file, validate_dataset, write_ply)
 
 
 def cone_frames(n=3, flip=False, **kw):
@@ -297,6 +297,39 @@ def test_repairs_are_counted(tmp_path):
     assert len(tube.V) == len(V)
 
 
+@pytest.mark.parametrize("reversed_faces", [False, True])
+def test_debris_and_pinholes_of_a_segmentation_are_mended_and_said(tmp_path, reversed_faces):
+    """A blob apart from the tube and a hole where the wall missed a voxel stopped the
+    run ("2 connected components", "3 boundary loops"); now the blob is dropped and the
+    hole filled by a fan, which leaves the wall's area and volume as they were (a flat
+    hole), whichever way the file's faces are wound."""
+    from oftimg.mesh.topology import capped_signed_volume, face_areas
+
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    blob = np.array([[1.0, 1, 1], [1.01, 1, 1], [1, 1.01, 1], [1, 1, 1.01]])
+    F2 = np.concatenate([np.delete(F, [100, 150], axis=0),          # two one-face holes
+                         len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])])
+    path = tmp_path / "f.ply"
+    write_ply(path, np.concatenate([V, blob]), F2[:, ::-1] if reversed_faces else F2)
+    with pytest.warns(OftimgWarning, match=re.escape(
+            f"{path}: dropped 1 part apart from the tube (4 faces), filled 2 holes in the "
+            "wall (6 boundary edges)")):
+        tube = load_tube(path)
+    clean = load_tube(_written(tmp_path / "clean.ply", V, F))
+    assert len(tube.V) == len(V) + 2 and len(tube.F) == len(F) - 2 + 6
+    area = [face_areas(t.V, t.F).sum() for t in (tube, clean)]
+    assert area[0] == pytest.approx(area[1], rel=1e-12)
+    volume = [capped_signed_volume(t.V, t.F, [t.inlet, t.outlet]) for t in (tube, clean)]
+    assert volume[0] == pytest.approx(volume[1], rel=1e-12) and volume[0] > 0
+    assert set(tube.inlet) == set(clean.inlet) and set(tube.outlet) == set(clean.outlet)
+    assert check_tube_file(path)[1] is None          # read again with all checks, and mended
+
+
+def _written(path, V, F):
+    write_ply(path, V, F)
+    return path
+
+
 @pytest.mark.parametrize("reversed_faces", [5, "all"])
 def test_faces_against_the_rest_are_counted_as_a_repair(tmp_path, reversed_faces):
     """Faces were turned to one orientation without a word, or, next to a boundary,
@@ -362,8 +395,11 @@ def _bad(tmp_path, kind):
         V2 = np.concatenate([V, [[0, 0, 1.0]]])
         cap = np.stack([ring, np.full(24, len(V)), np.roll(ring, -1)], 1)
         write_ply(target, V2, np.concatenate([F, cap]))
-    elif kind == "three_loops":  # punch a hole in the wall
-        write_ply(target, V, np.delete(F, [100, 100 + 9 * 24], axis=0))
+    elif kind == "three_loops":  # a hole in the wall too large to be filled as a defect
+        centre = V[F].mean(axis=1)
+        write_ply(target, V, F[np.linalg.norm(centre - [0.16, 0, 0.5], axis=1) > 0.08])
+    elif kind == "two_tubes":  # two parts too large to drop the smaller as debris
+        write_ply(target, np.concatenate([V, V + [1.0, 0, 0]]), np.concatenate([F, F + len(V)]))
     elif kind == "non_manifold":  # a fin on an edge
         V2 = np.concatenate([V, [[1.0, 1.0, 0.5]]])
         write_ply(target, V2, np.concatenate([F, [[F[50, 0], F[50, 1], len(V)]]]))
@@ -398,7 +434,9 @@ def _bad(tmp_path, kind):
 
 
 BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
-       "three_loops": "3 boundary loops", "non_manifold": "non-manifold edge",
+       "three_loops": "3 boundary loops; a tube has 2, and 1 of the 1 beyond its ends is too large",
+       "non_manifold": "non-manifold edge",
+       "two_tubes": "2 connected components (432, 432 faces); a tube has 1",
        "nan": "NaN", "broken_link": "a broken link", "capitals": "rename it inner/",
        "truncated": "it ends among its faces, with 427 of the 432",
        "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",

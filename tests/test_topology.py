@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from helpers import tube_mesh
 from oftimg.mesh.topology import edge_incidence
@@ -32,3 +33,26 @@ def test_edge_incidence_with_huge_vertex_numbers_takes_the_stable_sort():
     assert np.array_equal(large[0], small[0] * 15_000_000 + 12345)
     for a, b in zip(small[1:], large[1:]):
         assert np.array_equal(a, b)
+
+
+def test_only_mend_drops_debris_and_fills_pinholes():
+    from oftimg.mesh.topology import MeshError, check_tube, loop_centroid
+
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    blob = np.array([[1.0, 1, 1], [1.01, 1, 1], [1, 1.01, 1], [1, 1, 1.01]])
+    V2 = np.concatenate([V, blob])
+    debris = np.concatenate([F, len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])])
+    holed = np.delete(F, [100], axis=0)
+    with pytest.raises(MeshError, match=r"has 2 connected components \(432, 4 faces\); a tube "
+                                        r"has 1$"):
+        check_tube(V2, debris)
+    with pytest.raises(MeshError, match="has 3 boundary loops; a tube has 2$"):
+        check_tube(V, holed)
+    assert check_tube(V, F).V is None                       # nothing to mend: nothing new
+    mended = check_tube(V2, debris, mend=True)
+    assert (mended.islands, mended.island_faces, len(mended.V)) == (1, 4, len(V))
+    assert np.array_equal(mended.F, F)
+    filled = check_tube(V, holed, mend=True)
+    assert (filled.holes, filled.hole_edges) == (1, 3)
+    assert np.allclose(filled.V[-1], loop_centroid(V[F[100]]))    # the fan's centre
+    assert check_tube(filled.V, filled.F).flipped_faces == 0      # one consistent orientation

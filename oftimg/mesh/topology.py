@@ -27,9 +27,14 @@ class RepairCounts:
     dropped_faces: int
     unreferenced_vertices: int
     flipped_faces: int = 0
+    islands: int = 0              # parts apart from the tube, dropped (:func:`check_tube`)
+    island_faces: int = 0
+    holes: int = 0                # small holes in the wall, filled
+    hole_edges: int = 0
 
     def __bool__(self) -> bool:
-        return bool(self.merged_vertices or self.dropped_faces or self.flipped_faces)
+        return bool(self.merged_vertices or self.dropped_faces or self.flipped_faces
+                    or self.islands or self.holes)
 
     def describe(self) -> str:
         parts = []
@@ -39,6 +44,12 @@ class RepairCounts:
             parts.append(f"dropped {self.dropped_faces} degenerate faces")
         if self.flipped_faces:
             parts.append(f"flipped {self.flipped_faces} faces to a consistent orientation")
+        if self.islands:
+            parts.append(f"dropped {self.islands} part{'s' * (self.islands > 1)} apart from the "
+                         f"tube ({self.island_faces} faces)")
+        if self.holes:
+            parts.append(f"filled {self.holes} hole{'s' * (self.holes > 1)} in the wall "
+                         f"({self.hole_edges} boundary edges)")
         return ", ".join(parts)
 
 
@@ -268,22 +279,40 @@ def orient_consistently(F: np.ndarray, incidence=None) -> tuple[np.ndarray, int]
     return F, int(flip.sum())
 
 
+# what check_tube(mend=True) mends: the parts apart from the largest while together
+# under this share of the faces (debris of a segmentation), and the holes whose
+# perimeter is under this share of the shorter end loop's (a voxel the wall missed)
+ISLAND_SHARE = 0.05
+HOLE_SHARE = 0.5
+
+
 @dataclass(frozen=True)
 class TubeTopology:
-    """Boundary structure of an open tube: the two loops, outward-oriented faces."""
+    """Boundary structure of an open tube: the two loops, outward-oriented faces,
+    and (with ``check_tube(mend=True)``) the vertices after mending and what was mended."""
 
     F: np.ndarray
     loops: tuple[np.ndarray, np.ndarray]
-    flipped_faces: int
+    flipped_faces: int                 # of the input's faces
+    V: np.ndarray | None = None        # the vertices F indexes when mended, else None
+    islands: int = 0
+    island_faces: int = 0
+    holes: int = 0
+    hole_edges: int = 0
 
 
-def check_tube(V: np.ndarray, F: np.ndarray) -> TubeTopology:
+def check_tube(V: np.ndarray, F: np.ndarray, *, mend: bool = False) -> TubeTopology:
     """Check that ``(V, F)`` is an open tube and orient its faces outwards.
 
     A tube is one connected, edge-manifold, orientable triangle mesh with
     finite coordinates, exactly two boundary loops and Euler characteristic 0.
     Returns the faces oriented so that normals point away from the tube's
     inside, and the two loops (each ordered along its faces' half-edges).
+    With ``mend``, parts apart from the largest are dropped while together
+    under :data:`ISLAND_SHARE` of the faces, and boundary loops beyond the two
+    longest (the ends) are filled, each with a fan around its centroid, while
+    each one's perimeter is under :data:`HOLE_SHARE` of the shorter end's; the
+    result's ``V`` then holds the vertices (the kept ones, then the fans' centres).
     """
     if len(F) == 0:
         raise MeshError("has no triangles")
@@ -298,20 +327,72 @@ def check_tube(V: np.ndarray, F: np.ndarray) -> TubeTopology:
                         f"(edge {e[0]}-{e[1]} is shared by {counts.max()} faces)")
     n = len(V)
     A = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
-    n_comp, _ = connected_components(A, directed=False)
+    n_comp, label = connected_components(A, directed=False)
+    mended = {}
     if n_comp != 1:
-        raise MeshError(f"has {n_comp} connected components; a tube has 1")
+        V, F, mended["islands"], mended["island_faces"] = _drop_islands(V, F, label, n_comp,
+                                                                         mend)
+        incidence = edge_incidence(F)
+        edges = incidence[0]
     # oriented first: a boundary walk along faces that disagree looks pinched
     F, flipped = orient_consistently(F, incidence)
     loops = boundary_loops(F, None if flipped else incidence)   # a flip reorders face_edge
+    n_input_faces, n_edges = len(F), len(edges)
+    if len(loops) > 2 and mend:
+        V, F, loops, mended["holes"], mended["hole_edges"] = _fill_holes(V, F, loops)
+        n_edges += mended["hole_edges"]                      # a fan's spokes
     if len(loops) != 2:
         raise MeshError(f"has {len(loops)} boundary loops; a tube has 2")
-    euler = n - len(edges) + len(F)
+    euler = len(V) - n_edges + len(F)
     if euler != 0:
         raise MeshError(f"has Euler characteristic {euler}; an open tube has 0 "
                         "(holes or handles in the wall?)")
     if capped_signed_volume(V, F, loops) < 0:
         F = F[:, ::-1].copy()
         loops = [loop[::-1] for loop in loops]
-        flipped = len(F) - flipped
-    return TubeTopology(F=F, loops=(loops[0], loops[1]), flipped_faces=flipped)
+        flipped = n_input_faces - flipped
+    return TubeTopology(F=F, loops=(loops[0], loops[1]), flipped_faces=flipped,
+                        V=V if mended else None, **mended)
+
+
+def _drop_islands(V, F, label, n_comp: int, mend: bool):
+    """The largest connected part of ``(V, F)`` (its vertices renumbered in order),
+    how many parts were dropped and their faces; refused unless ``mend`` and the
+    rest is under :data:`ISLAND_SHARE` of the faces."""
+    sizes = np.bincount(label[F[:, 0]], minlength=n_comp)
+    keep = int(np.argmax(sizes))
+    rest = len(F) - int(sizes[keep])
+    if not mend or rest >= ISLAND_SHARE * len(F):
+        shown = ", ".join(str(k) for k in np.sort(sizes)[::-1][:4]) + (", ..." if n_comp > 4
+                                                                        else "")
+        raise MeshError(f"has {n_comp} connected components ({shown} faces); a tube has 1"
+                        + (f" (parts apart from the largest are dropped while together under "
+                           f"{ISLAND_SHARE:.0%} of the faces)" if mend else ""))
+    F = F[label[F[:, 0]] == keep]
+    used = np.zeros(len(V), dtype=bool)
+    used[F.ravel()] = True
+    return V[used], (np.cumsum(used) - 1)[F], int(np.count_nonzero(sizes)) - 1, rest
+
+
+def _fill_holes(V, F, loops):
+    """Fill every boundary loop but the two longest (the tube's ends) with a fan of
+    faces around a new vertex at its centroid, oriented with the faces around it.
+    Returns ``V, F, (the two end loops), holes filled, their boundary edges``;
+    refuses a loop whose perimeter is :data:`HOLE_SHARE` of the shorter end's or more."""
+    perimeter = np.array([np.linalg.norm(V[lp] - V[np.roll(lp, -1)], axis=1).sum()
+                          for lp in loops])
+    order = np.argsort(perimeter)[::-1]
+    ends, holes = order[:2], order[2:]
+    shortest_end = perimeter[ends].min()
+    too_big = [k for k in holes if perimeter[k] >= HOLE_SHARE * shortest_end]
+    if too_big:
+        raise MeshError(f"has {len(loops)} boundary loops; a tube has 2, and "
+                        f"{len(too_big)} of the {len(holes)} beyond its ends "
+                        f"{'is' if len(too_big) == 1 else 'are'} too large to fill as a hole "
+                        f"(perimeter {perimeter[too_big].max():.3g}, the shorter end's "
+                        f"{shortest_end:.3g}; holes are filled up to {HOLE_SHARE:.0%} of it)")
+    centres = np.array([loop_centroid(V[loops[k]]) for k in holes])
+    fans = [np.column_stack([np.roll(loops[k], -1), loops[k], np.full(len(loops[k]), len(V) + i)])
+            for i, k in enumerate(holes)]                   # (b, a, c) for each half-edge a -> b
+    return (np.concatenate([V, centres]), np.concatenate([F, *fans]),
+            [loops[k] for k in ends], len(holes), int(sum(len(loops[k]) for k in holes)))

@@ -398,6 +398,12 @@ def _bad(tmp_path, kind):
     elif kind == "three_loops":  # a hole in the wall too large to be filled as a defect
         centre = V[F].mean(axis=1)
         write_ply(target, V, F[np.linalg.norm(centre - [0.16, 0, 0.5], axis=1) > 0.08])
+    elif kind == "closed":  # both ends capped, as a segmentation's surface comes
+        rings = [np.arange(k * 24, (k + 1) * 24) for k in (0, 9)]
+        caps = [np.stack([ring, np.full(24, len(V) + i), np.roll(ring, -1)], 1)
+                for i, ring in enumerate(rings)]                 # (orientation is mended)
+        write_ply(target, np.concatenate([V, [[0, 0, 0], [0, 0, 1.0]]]),
+                  np.concatenate([F, *caps]))
     elif kind == "two_tubes":  # two parts too large to drop the smaller as debris
         write_ply(target, np.concatenate([V, V + [1.0, 0, 0]]), np.concatenate([F, F + len(V)]))
     elif kind == "non_manifold":  # a fin on an edge
@@ -433,9 +439,10 @@ def _bad(tmp_path, kind):
     return ds, target
 
 
-BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops",
+BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops; a tube has 2 (one end closed: cut the cap off)",
        "three_loops": "3 boundary loops; a tube has 2, and 1 of the 1 beyond its ends is too large",
        "non_manifold": "non-manifold edge",
+       "closed": "0 boundary loops; a tube has 2 (a closed surface: cut it open at the inlet",
        "two_tubes": "2 connected components (432, 432 faces); a tube has 1",
        "nan": "NaN", "broken_link": "a broken link", "capitals": "rename it inner/",
        "truncated": "it ends among its faces, with 427 of the 432",

@@ -342,7 +342,9 @@ def check_tube(V: np.ndarray, F: np.ndarray, *, mend: bool = False) -> TubeTopol
         V, F, loops, mended["holes"], mended["hole_edges"] = _fill_holes(V, F, loops)
         n_edges += mended["hole_edges"]                      # a fan's spokes
     if len(loops) != 2:
-        raise MeshError(f"has {len(loops)} boundary loops; a tube has 2")
+        hint = {0: " (a closed surface: cut it open at the inlet and the outlet)",
+                1: " (one end closed: cut the cap off)"}.get(len(loops), "")
+        raise MeshError(f"has {len(loops)} boundary loops; a tube has 2{hint}")
     euler = len(V) - n_edges + len(F)
     if euler != 0:
         raise MeshError(f"has Euler characteristic {euler}; an open tube has 0 "

@@ -305,9 +305,9 @@ def test_debris_and_pinholes_of_a_segmentation_are_mended_and_said(tmp_path, rev
     hole), whichever way the file's faces are wound."""
     from oftimg.mesh.topology import capped_signed_volume, face_areas
 
-    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    V, F = tube_mesh(0.2, 0.12, n_theta=48, n_s=40)
     blob = np.array([[1.0, 1, 1], [1.01, 1, 1], [1, 1.01, 1], [1, 1, 1.01]])
-    F2 = np.concatenate([np.delete(F, [100, 150], axis=0),          # two one-face holes
+    F2 = np.concatenate([np.delete(F, [500, 1000], axis=0),         # two one-face holes
                          len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])])
     path = tmp_path / "f.ply"
     write_ply(path, np.concatenate([V, blob]), F2[:, ::-1] if reversed_faces else F2)

@@ -38,13 +38,13 @@ def test_edge_incidence_with_huge_vertex_numbers_takes_the_stable_sort():
 def test_only_mend_drops_debris_and_fills_pinholes():
     from oftimg.mesh.topology import MeshError, check_tube, loop_centroid
 
-    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    V, F = tube_mesh(0.2, 0.12, n_theta=48, n_s=40)        # faces of a hole: 10 % of an end
     blob = np.array([[1.0, 1, 1], [1.01, 1, 1], [1, 1.01, 1], [1, 1, 1.01]])
     V2 = np.concatenate([V, blob])
     debris = np.concatenate([F, len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])])
     holed = np.delete(F, [100], axis=0)
-    with pytest.raises(MeshError, match=r"has 2 connected components \(432, 4 faces\); a tube "
-                                        r"has 1$"):
+    with pytest.raises(MeshError, match=rf"has 2 connected components \({len(F)}, 4 faces\); "
+                                        "a tube has 1$"):
         check_tube(V2, debris)
     with pytest.raises(MeshError, match="has 3 boundary loops; a tube has 2$"):
         check_tube(V, holed)
@@ -56,3 +56,13 @@ def test_only_mend_drops_debris_and_fills_pinholes():
     assert (filled.holes, filled.hole_edges) == (1, 3)
     assert np.allclose(filled.V[-1], loop_centroid(V[F[100]]))    # the fan's centre
     assert check_tube(filled.V, filled.F).flipped_faces == 0      # one consistent orientation
+    centre = V[F].mean(axis=1)
+    wider = F[np.linalg.norm(centre - [0.16, 0, 0.5], axis=1) > 0.03]  # 46 % of an end
+    used = np.unique(wider)
+    with pytest.raises(MeshError, match=r"1 of the 1 beyond its ends is too large to fill as a "
+                                        r"hole \(perimeter 0\.344, the shorter end's 0\.753"):
+        check_tube(V[used], np.searchsorted(used, wider), mend=True)
+    debris = np.concatenate([F, len(V) + F[:40]])           # a strip of wall apart: 1.1 %
+    with pytest.raises(MeshError, match="parts apart from the largest are dropped while "
+                                        "together under 1% of the faces"):
+        check_tube(np.concatenate([V, V + 1.0]), debris, mend=True)

@@ -305,7 +305,8 @@ def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path)
     for ds in (clean, mended):
         assert main(["run", str(ds), "--out", str(tmp_path / f"out_{ds.name}"), "--quiet",
                      "--jobs", "2"]) == 0
-    a, b = (np.load(next((tmp_path / f"out_{n}").glob("*/arrays.npz"))) for n in ("clean", "mended"))
+    a, b = (np.load(next((tmp_path / f"out_{name}").glob("*/arrays.npz")))
+            for name in ("clean", "mended"))
     for wall in ("outer", "inner", "lumen"):
         assert np.allclose(b[f"area_{wall}_mm2"], a[f"area_{wall}_mm2"], rtol=1e-5)
         assert np.allclose(b[f"volume_{wall}_mm3"], a[f"volume_{wall}_mm3"], rtol=1e-9)

@@ -439,7 +439,8 @@ def _bad(tmp_path, kind):
     return ds, target
 
 
-BAD = {"empty": "empty", "garbage": "no triangles", "one_loop": "1 boundary loops; a tube has 2 (one end closed: cut the cap off)",
+BAD = {"empty": "empty", "garbage": "no triangles",
+       "one_loop": "1 boundary loops; a tube has 2 (one end closed: cut the cap off)",
        "three_loops": "3 boundary loops; a tube has 2, and 1 of the 1 beyond its ends is too large",
        "non_manifold": "non-manifold edge",
        "closed": "0 boundary loops; a tube has 2 (a closed surface: cut it open at the inlet",

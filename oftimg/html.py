@@ -57,6 +57,16 @@ def _fmt(x) -> str:
     return html.escape("" if x is None else str(x))
 
 
+def _repaired(repairs: dict, shown: int = 3) -> str:
+    """``"0"``, or how many files were repaired and what was done to the first few."""
+    if not repairs:
+        return "0"
+    listed = "; ".join(f"{name}: {what}" for name, what in list(repairs.items())[:shown])
+    more = (f"; {len(repairs) - shown} more in summary.json: validation"
+            if len(repairs) > shown else "")
+    return f"{len(repairs)} ({listed}{more})"
+
+
 def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None) -> str:
     head = "".join(f"<th>{html.escape(c)}</th>" for c in cols)
     body = []
@@ -113,7 +123,10 @@ def dataset_page(folder: Path, summary: dict) -> Path:
               {"check": "frames whose volume stands out, per wall (none)",
                "value": (summary.get("frame_series_checks") or {}).get("standout_frames")},
               {"check": "last-to-first volume step / largest step (at most 1: one cycle)",
-               "value": (summary.get("frame_series_checks") or {}).get("wrap_step_ratio")}]
+               "value": (summary.get("frame_series_checks") or {}).get("wrap_step_ratio")},
+              {"check": "frames repaired on reading, per wall (0)",
+               "value": {wall: _repaired(s.get("repairs", {})) for wall, s in
+                         ((summary.get("validation") or {}).get("surfaces") or {}).items()}}]
     body = [f"<p><a href=\"../index.html\">cohort</a></p><h1>{html.escape(summary['name'])}</h1>",
             _table(rows, ["quantity", "value", "spread from frame noise"]),
             "<h2>Quality checks</h2>",

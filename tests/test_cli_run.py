@@ -311,6 +311,8 @@ def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path)
         assert np.allclose(b[f"area_{wall}_mm2"], a[f"area_{wall}_mm2"], rtol=1e-5)
         assert np.allclose(b[f"volume_{wall}_mm3"], a[f"volume_{wall}_mm3"], rtol=1e-9)
     summary = json.loads(next((tmp_path / "out_mended").glob("*/summary.json")).read_text())
+    page = next((tmp_path / "out_mended").glob("*/index.html")).read_text()
+    assert "frames repaired on reading" in page and "lumen 1 (f5.ply: dropped 1 part" in page
     repairs = {w: summary["validation"]["surfaces"][w]["repairs"] for w in ("outer", "lumen")}
     assert repairs == {"outer": {"f2.ply": "dropped 1 part apart from the tube (4 faces), filled "
                                            "2 holes in the wall (6 boundary edges)"},

@@ -49,6 +49,7 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
         text = page.read_text()
         assert "Quality checks" in text and "section_volume" not in text  # formatted
         assert "outer 0," in text  # flipped triangles per wall: none
+        assert "frames repaired on reading, per wall (0)</td><td>outer 0, inner 0, lumen 0" in text
     for page in pages:
         for link in local_links(page):
             assert (page.parent / link).exists(), f"{page}: {link}"

@@ -60,7 +60,8 @@ def test_only_mend_drops_debris_and_fills_pinholes():
     wider = F[np.linalg.norm(centre - [0.16, 0, 0.5], axis=1) > 0.03]  # 46 % of an end
     used = np.unique(wider)
     with pytest.raises(MeshError, match=r"1 of the 1 beyond its ends is too large to fill as a "
-                                        r"hole \(perimeter 0\.344, the shorter end's 0\.753"):
+                                        r"hole \(perimeter 0\.344 mm, 46% of the shorter end's "
+                                        r"0\.753 mm"):
         check_tube(V[used], np.searchsorted(used, wider), mend=True)
     debris = np.concatenate([F, len(V) + F[:40]])           # a strip of wall apart: 1.1 %
     with pytest.raises(MeshError, match="parts apart from the largest are dropped while "

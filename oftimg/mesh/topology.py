@@ -393,8 +393,9 @@ def _fill_holes(V, F, loops):
         raise MeshError(f"has {len(loops)} boundary loops; a tube has 2, and "
                         f"{len(too_big)} of the {len(holes)} beyond its ends "
                         f"{'is' if len(too_big) == 1 else 'are'} too large to fill as a hole "
-                        f"(perimeter {perimeter[too_big].max():.3g}, the shorter end's "
-                        f"{shortest_end:.3g}; holes are filled up to {HOLE_SHARE:.0%} of it)")
+                        f"(perimeter {perimeter[too_big].max():.3g} mm, "
+                        f"{perimeter[too_big].max() / shortest_end:.0%} of the shorter end's "
+                        f"{shortest_end:.3g} mm; holes are filled up to {HOLE_SHARE:.0%} of it)")
     centres = np.array([loop_centroid(V[loops[k]]) for k in holes])
     fans = [np.column_stack([np.roll(loops[k], -1), loops[k], np.full(len(loops[k]), len(V) + i)])
             for i, k in enumerate(holes)]                   # (b, a, c) for each half-edge a -> b

@@ -114,6 +114,8 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                "value": summary.get("flipped_triangles")},
               {"check": "maps re-solved with clamped weights",
                "value": summary.get("maps_with_clamped_weights")},
+              {"check": "inner grid nodes at the closest point, not towards the centre (0)",
+               "value": summary.get("inner_nodes_at_closest_point")},
               {"check": "section planes still crossing (0)",
                "value": summary.get("section_planes_still_crossing")},
               {"check": "sections measured on the projected grid ring (0)",

@@ -12,7 +12,7 @@ import numpy as np
 
 from .io import DatasetError, Frame
 from .mesh.curvature import fill_boundary, vertex_mean_curvature
-from .mesh.grid import GridOptions, closest_points, grid_frame, seam_endpoints
+from .mesh.grid import GridOptions, grid_frame, project_towards_axis, seam_endpoints
 from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
 from .mesh.topology import MeshError, capped_signed_volume
 
@@ -81,7 +81,9 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
         with clock("load"):
             ti = frame.tube("inner")
         with clock("grid"):
-            walls["inner"] = (ti, closest_points(ti.V, ti.F, X), None)
+            Xi, out["inner_at_closest"] = project_towards_axis(ti.V, ti.F, ti.inlet,
+                                                                  ti.outlet, X)
+            walls["inner"] = (ti, Xi, None)
     if "lumen" in frame.surfaces:
         with clock("load"):
             tl = frame.tube("lumen")

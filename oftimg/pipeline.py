@@ -257,6 +257,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     volume = {w: np.array([f["volume"][w] for f in frames]) for w in walls}
     flipped = {w: int(sum(f["flipped"][w] for f in frames)) for w in walls}
     repaired = {w: int(sum(f["repaired"][w] for f in frames)) for w in walls}
+    inner_closest = int(sum(f.get("inner_at_closest", 0) for f in frames))
     from_ring = {w: np.stack([f["from_ring"][w] for f in frames], axis=1) for w in walls}
     centroids = {w: np.stack([f["centroid_" + w] for f in frames], axis=1) for w in walls}
     centroid = centroids["outer"]                                       # (n_v, n_t, 3)
@@ -285,6 +286,10 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                           "closed contour (none, or one merged with another part of the tube) "
                           "and were measured on the grid ring projected onto the plane "
                           f"(see section_from_ring_{w})", OftimgWarning, stacklevel=2)
+    if inner_closest:
+        warnings.warn(f"{ds.path}: {inner_closest} inner grid nodes met no inner wall on the "
+                      "way to their row's centre and took the closest point (see "
+                      "inner_nodes_at_closest_point)", OftimgWarning, stacklevel=2)
     if sum(flipped.values()):
         warnings.warn(f"{ds.path}: {sum(flipped.values())} flipped triangles in the (u, v) "
                       "maps (the map is not one-to-one there)", OftimgWarning, stacklevel=2)
@@ -381,6 +386,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     summary.update({
         "flipped_triangles": flipped,
         "maps_with_clamped_weights": repaired,
+        "inner_nodes_at_closest_point": inner_closest,
         "section_plane_fixes": plane_fixes,
         "section_planes_still_crossing": int(crossing.sum()),
         "frame_series_checks": series_checks,

@@ -5,9 +5,11 @@ from hypothesis import strategies as st
 
 from helpers import tube_mesh
 from oftimg.mesh.geodesic import GeodesicSolver, insert_path, locate_on_edges
-from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints, smooth_endpoints
+from oftimg.mesh.grid import (GridOptions, grid_frame, project_towards_axis, seam_endpoints,
+                              smooth_endpoints)
 from oftimg.mesh.parameterize import (FlatSampler, FlatTube, count_flipped, intrinsic_weights,
                                       seam_sides)
+from oftimg.mesh.strain import grid_strain
 from oftimg.mesh.topology import MeshError, check_tube
 from oftimg.phantom import Phantom, PhantomParams
 
@@ -138,6 +140,54 @@ def test_cylinder_grid_is_exact():
     assert np.allclose(X[..., 2], np.linspace(0, 1, 20)[None, :], atol=2e-3)
     assert np.allclose(np.linalg.norm(X[..., :2], axis=-1), 0.2, atol=1e-3)
     assert g.seam_length_mm == pytest.approx(1.0, rel=1e-3)
+
+
+def inner_cylinder(radius, length=1.0, n_theta=37, theta0=1.0):
+    """An inner wall meshed on its own: other resolution and start angle than the outer."""
+    V, F = tube_mesh(radius, length=length, n_theta=n_theta, n_s=23, theta0=theta0)
+    topo = check_tube(V, F)
+    inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < length / 2 else topo.loops[::-1]
+    return V, topo.F, inlet, outlet
+
+
+def test_inner_wall_takes_the_outer_grid_towards_the_axis():
+    """Concentric cylinders widening uniformly, the inner one meshed anew in each
+    frame: each inner node at its outer node's angle and height (the end rows on
+    the inner loops), and the inner grid's strain the analytic (r(t) / r(0) - 1)^2.
+    Closest points on the facets put nodes up to 0.034 rad off, piled onto the
+    edges nearest the outer wall, differently in each frame."""
+    grids, scales, meshings = [], (1.0, 1.1, 1.25), ((37, 1.0), (41, 0.2), (33, 2.0))
+    for scale, (n_theta, theta0) in zip(scales, meshings):
+        X = cylinder_grid(radius=0.2 * scale)[0].X
+        Xi, at_closest = project_towards_axis(*inner_cylinder(0.12 * scale, n_theta=n_theta,
+                                                              theta0=theta0), X)
+        assert at_closest == 0
+        angle = np.angle(np.exp(1j * (np.arctan2(Xi[..., 1], Xi[..., 0])
+                                      - np.arctan2(X[..., 1], X[..., 0]))))
+        assert np.abs(angle).max() < 1e-4
+        assert np.allclose(Xi[..., 2], X[..., 2], atol=1e-6)
+        r = np.linalg.norm(Xi[..., :2], axis=-1) / (0.12 * scale)
+        assert r.max() < 1 + 1e-6 and r.min() > np.cos(np.pi / n_theta) - 1e-6   # on facets
+        grids.append(Xi)
+    energy, stretch = grid_strain(np.stack(grids, axis=2))
+    expected = (np.array(scales) - 1) ** 2
+    # within the facets' sag (1 - cos(pi / 33) = 0.45 %); closest points: 0.31 and 0.36 off
+    assert np.allclose(energy, expected, atol=4e-3)
+    assert np.allclose(stretch[..., 0], np.array(scales), atol=0.01)     # around
+    assert np.allclose(stretch[..., 1], 1, atol=1e-6)                    # along
+
+
+def test_inner_nodes_with_no_wall_on_the_way_take_the_closest_point():
+    """An inner wall half as long as the outer one: the rows beyond its end meet no
+    wall towards the axis and take its closest point, on its outlet rim; the
+    last row goes onto its outlet loop all the same."""
+    X = cylinder_grid()[0].X                                    # 40 x 20 nodes, z = j / 19
+    Xi, at_closest = project_towards_axis(*inner_cylinder(0.12, length=0.5), X)
+    beyond = np.nonzero(X[0, 1:-1, 2] > 0.5)[0] + 1
+    assert at_closest == 40 * len(beyond) > 0
+    assert np.allclose(Xi[:, beyond, 2], 0.5, atol=1e-6)
+    assert np.allclose(Xi[:, :beyond[0], 2], X[:, :beyond[0], 2], atol=1e-6)
+    assert np.allclose(Xi[:, -1, 2], 0.5, atol=1e-6)
 
 
 @pytest.mark.parametrize("shift", [0.0, 0.4])

@@ -1,8 +1,13 @@
-"""Invariants (hypothesis): what must not change when nothing physical changes.
+"""Invariants: what must not change when nothing physical changes, and what must
+change with it.
 
 A mesh's pose, vertex numbering, face order, corner order and per-face
-orientation; where a periodic map's cycle starts.
+orientation; where a periodic map's cycle starts (hypothesis); a whole embryo
+moved, in other units, starting elsewhere in the cycle, or played backwards.
 """
+import json
+import shutil
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -11,10 +16,12 @@ from scipy.spatial.transform import Rotation
 
 from oftimg.image.kymograph import ridge_times, wave_speeds
 from oftimg.image.masks import expanded_75, expanded_sigma
+from oftimg.io import list_frames, load_dataset, read_mesh_file, write_ply
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
 from oftimg.mesh.sections import section_planes, sections_of_mesh
 from oftimg.mesh.topology import capped_signed_volume, check_tube
-from oftimg.phantom import Phantom, PhantomParams
+from oftimg.phantom import Phantom, PhantomParams, sample_params, write_phantom
+from oftimg.pipeline import PipelineOptions, analyse_dataset
 
 N_C = 60
 
@@ -102,20 +109,26 @@ def test_ridge_and_speeds_move_with_the_start_of_the_cycle(speed, start_ms, widt
     assert np.allclose(expanded_sigma(rolled)[0], expanded_sigma(area)[0], rtol=1e-6)
 
 
+def analyse(path):
+    return analyse_dataset(load_dataset(path), PipelineOptions(), quiet=True)
+
+
+@pytest.fixture(scope="module")
+def embryo(tmp_path_factory):
+    """A small phantom embryo (8 frames) and its analysis."""
+    path = write_phantom(tmp_path_factory.mktemp("inv") / "first",
+                         sample_params("normal", 3, n_frames=8, vertices_min=2000,
+                                       vertices_max=2500))
+    return path, analyse(path)
+
+
 @pytest.mark.slow
-def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_numbers(tmp_path):
+def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_numbers(embryo,
+                                                                                  tmp_path):
     """The same beating tube, its frames starting two frames later in the cycle,
     turned and moved in space and written in micrometres, gives every map, volume and
     speed of the original (time is aligned to the minimum volume)."""
-    import json
-
-    from oftimg.io import list_frames, load_dataset, read_mesh_file, write_ply
-    from oftimg.phantom import sample_params, write_phantom
-    from oftimg.pipeline import PipelineOptions, analyse_dataset
-
-    first = write_phantom(tmp_path / "first", sample_params("normal", 3, n_frames=8,
-                                                            vertices_min=2000,
-                                                            vertices_max=2500))
+    first, a = embryo
     moved, later = tmp_path / "moved", 2
     R = Rotation.from_euler("xyz", (0.4, -1.1, 2.5)).as_matrix()
     shift = np.array([3.0, -7.0, 1.5])
@@ -129,8 +142,7 @@ def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_number
     meta.update(length_unit="um", inlet=(1e3 * (np.array(meta["inlet"]) @ R.T + shift)).tolist())
     (moved / "meta.json").write_text(json.dumps(meta))
 
-    a, b = (analyse_dataset(load_dataset(p), PipelineOptions(), quiet=True)
-            for p in (first, moved))
+    b = analyse(moved)
     assert b["summary"]["t0_frame"] == (a["summary"]["t0_frame"] - later) % 8
     for key, x in a["arrays"].items():
         y = b["arrays"][key]
@@ -152,3 +164,40 @@ def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_number
         assert b["summary"][key] == pytest.approx(a["summary"][key], rel=1e-4, abs=1e-6), key
     for wall, X in a["grids"].items():
         assert np.allclose(b["grids"][wall], X @ R.T + shift, atol=1e-4), wall
+
+
+@pytest.mark.slow
+def test_an_embryo_played_backwards_has_its_wave_run_the_other_way(embryo, tmp_path):
+    """The frames in reverse order: the same maps reversed in time, every wave speed
+    of the same size and the other sign, expansion and contraction swapped, the
+    expansion shares unchanged."""
+    first, a = embryo
+    backwards = tmp_path / "backwards"
+    for wall in ("outer", "inner", "lumen"):
+        files = list_frames(first / wall)
+        (backwards / wall).mkdir(parents=True)
+        for t, name in enumerate(files):
+            shutil.copy(files[-1 - t], backwards / wall / name.name)
+    shutil.copy(first / "meta.json", backwards / "meta.json")
+    b = analyse(backwards)
+    back = (-np.arange(8)) % 8
+    for wall in ("outer", "inner", "lumen"):
+        for key in (f"area_{wall}_mm2", f"volume_{wall}_mm3"):
+            assert np.array_equal(b["arrays"][key][..., back], a["arrays"][key]), key
+        for key in (f"expanded_fraction_75_{wall}", f"expanded_fraction_sigma_{wall}"):
+            assert np.allclose(b["arrays"][key], a["arrays"][key], atol=1e-7), key
+    period = a["summary"]["period_ms"]
+    assert np.allclose(b["arrays"]["ridge_t_ms"], period - a["arrays"]["ridge_t_ms"], atol=1e-9)
+    assert np.allclose(b["arrays"]["local_speed_mm_s"], -a["arrays"]["local_speed_mm_s"])
+    speed, speed_back = a["summary"]["wave_speed_mm_s"], b["summary"]["wave_speed_mm_s"]
+    assert speed_back["min"] == pytest.approx(-speed["max"])
+    assert speed_back["max"] == pytest.approx(-speed["min"])
+    for key in ("mean", "median", "cycle"):
+        assert speed_back[key] == pytest.approx(-speed[key]), key
+    assert speed_back["std"] == pytest.approx(speed["std"])
+    knee, knee_back = a["summary"]["wave_two_segment"], b["summary"]["wave_two_segment"]
+    for key in ("speed_proximal_mm_s", "speed_distal_mm_s"):
+        assert knee_back[key] == pytest.approx(-knee[key]), key
+    assert knee_back["knee_mm"] == pytest.approx(knee["knee_mm"])
+    assert b["summary"]["expand_fraction"] == pytest.approx(a["summary"]["contract_fraction"])
+    assert b["summary"]["t0_frame"] == 7 - a["summary"]["t0_frame"]

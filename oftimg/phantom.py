@@ -321,6 +321,36 @@ class Phantom:
         # the trapezoid rule along s (np.trapezoid is NumPy >= 2 only)
         return 0.5 * (np.diff(s)[:, None] * (integrand[1:] + integrand[:-1])).sum(axis=0)
 
+    # -- analytic curvatures (the truth for the shape fields) ---------------
+    def section_curvature(self, wall, s, theta, t_ms, h: float = 1e-3):
+        """Curvature (1/mm, positive where convex) of ``wall``'s cross-section, the
+        polar curve rho(theta), at (s, theta, t) (broadcasting); derivatives by
+        central differences of step ``h`` rad."""
+        r0, r1, r2 = (self.radius(wall, s, np.asarray(theta) + d, t_ms) for d in (0.0, h, -h))
+        d1, d2 = (r1 - r2) / (2 * h), (r1 - 2 * r0 + r2) / h ** 2
+        return (r0 ** 2 + 2 * d1 ** 2 - r0 * d2) / (r0 ** 2 + d1 ** 2) ** 1.5
+
+    def mean_curvature(self, wall, s, theta, t_ms, hs: float = 2e-3, ht: float = 1e-3):
+        """Mean curvature (1/mm, positive for a cylinder) of ``wall`` at (s, theta, t)
+        (broadcasting), from central differences of its fundamental forms; ``hs``
+        (mm) spans several of the steps at which the wave's arrival is tabulated."""
+        s, theta = np.asarray(s, float), np.asarray(theta, float)
+
+        def at(i, j):
+            return self.point(wall, s + i * hs, theta + j * ht, t_ms)
+
+        X = at(0, 0)
+        Xs, Xt = (at(1, 0) - at(-1, 0)) / (2 * hs), (at(0, 1) - at(0, -1)) / (2 * ht)
+        Xss = (at(1, 0) - 2 * X + at(-1, 0)) / hs ** 2
+        Xtt = (at(0, 1) - 2 * X + at(0, -1)) / ht ** 2
+        Xst = (at(1, 1) - at(1, -1) - at(-1, 1) + at(-1, -1)) / (4 * hs * ht)
+        n = np.cross(Xs, Xt)
+        n *= np.sign(np.einsum("...k,...k", n, X - self.frame_axes(s)[0]))[..., None]  # outward
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        E, F, G = (np.einsum("...k,...k", a, b) for a, b in ((Xs, Xs), (Xs, Xt), (Xt, Xt)))
+        L, M, N = (np.einsum("...k,...k", a, n) for a in (Xss, Xst, Xtt))
+        return -(E * N - 2 * F * M + G * L) / (2 * (E * G - F * F))
+
     # -- meshing ------------------------------------------------------------
     def mesh(self, wall: str, t_ms: float, rng: np.random.Generator):
         """An independent triangle mesh of ``wall`` at time ``t_ms``.

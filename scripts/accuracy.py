@@ -30,7 +30,12 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
   myocardial volume change (pp), section areas of each wall (median and 95th
   percentile over the (v, t) map, %), the share of the cycle above 75 % of the
   maximum area (largest over the rows, pp);
-- shape: band position (mm, banded embryos), corner count (wrong ones counted).
+- shape: band position (mm, banded embryos), corner count (wrong ones counted);
+  the shape fields at their own positions (rows 2 to n_v - 3: the end rows' values
+  are their neighbours'): radial curvature of the outer and inner walls and mean
+  curvature of the lumen, and the inner wall's strain energy against that of the
+  model's inner wall at each grid node's position along and angle around the tube
+  (each: median |error| over the median |truth|, %).
 """
 from __future__ import annotations
 
@@ -42,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 import oftimg
+from oftimg.mesh.strain import grid_strain
 from oftimg.phantom import read_truth, sample_params, write_phantom
 
 WALLS = ("outer", "inner", "lumen")
@@ -75,6 +81,10 @@ METRICS = [
     ("expanded_75_pp", "pp", "share of the cycle above 75 % of max area (worst row)"),
     ("band_mm", "mm", "band position (banded)"),
     ("corners_wrong", "", "corner count wrong (1) or right (0)"),
+    *[(f"radial_curvature_{w}_pct", "%", f"radial curvature, {w} (median |error|)")
+      for w in ("outer", "inner")],
+    ("mean_curvature_lumen_pct", "%", "mean curvature, lumen (median |error|)"),
+    ("strain_energy_inner_pct", "%", "strain energy, inner wall (median |error|)"),
 ]
 
 
@@ -163,7 +173,29 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
         found = summ["band_position_mm"]
         e["band_mm"] = np.nan if found is None else found - truth["band_position_mm"]
     e["corners_wrong"] = float(summ["corner_count"] != truth["corner_count"])
+    e.update(field_errors(ph, arr, np.load(results / "grids.npz"), t_ms))
     return {k: float(v) for k, v in e.items()}
+
+
+def field_errors(ph, arr, grids, t_ms: np.ndarray) -> dict[str, float]:
+    """The shape fields' errors against the model, away from the end rows."""
+    rows, t = slice(2, -2), t_ms[None, None, :]
+
+    def median_pct(measured, true):
+        return 100.0 * np.nanmedian(np.abs(measured - true)) / np.nanmedian(np.abs(true))
+
+    e = {}
+    for w in ("outer", "inner"):
+        s, theta = ph.window_coordinates(arr[f"contour_{w}_mm"][:, rows].astype(float))
+        e[f"radial_curvature_{w}_pct"] = median_pct(
+            arr[f"radial_curvature_{w}_per_mm"][:, rows], ph.section_curvature(w, s, theta, t))
+    s, theta = ph.window_coordinates(grids["lumen"][:, rows].astype(float))
+    e["mean_curvature_lumen_pct"] = median_pct(arr["mean_curvature_lumen_per_mm"][:, rows],
+                                               ph.mean_curvature("lumen", s, theta, t))
+    s, theta = ph.window_coordinates(grids["outer"].astype(float))
+    model = grid_strain(ph.point("inner", s, theta, t))[0][:, rows]
+    e["strain_energy_inner_pct"] = median_pct(arr["strain_energy_inner"][:, rows], model)
+    return e
 
 
 def summarise(errors: dict[str, dict[str, float]]) -> dict[str, dict]:

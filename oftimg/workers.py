@@ -161,19 +161,26 @@ class closing_executor:
     def __exit__(self, exc_type, exc, tb):
         if self.executor is None:
             return
+        cause = exc
         try:
             killed = self.watchdog.killed if self.watchdog is not None else set()
-            lost = _worker_lost(exc, self.executor, killed) if exc is not None else None
+            workers = list((getattr(self.executor, "_processes", None) or {}).values())
+            lost = _worker_lost(exc, workers, killed) if exc is not None else None
             try:
                 self.executor.shutdown(cancel_futures=True)
             except TypeError:  # Dask's ClientExecutor has no cancel_futures
                 self.executor.shutdown()
                 self.executor._client.close()  # the connection run() opened
+            except OSError as shutdown_error:  # CPython's race on a dead worker's pipes
+                lost = lost or _worker_lost(shutdown_error, workers, killed)
+                if lost is None:
+                    raise
+                cause = cause or shutdown_error
         finally:  # watched until here: Ctrl-C can end a worker mid-result too
             if self.watchdog is not None:
                 self.watchdog.stop()
         if lost is not None:
-            raise lost from exc
+            raise lost from cause
 
 
 class _Watchdog(threading.Thread):
@@ -226,15 +233,19 @@ class _Watchdog(threading.Thread):
             pass
 
 
-def _worker_lost(exc: BaseException, executor, killed=frozenset()) -> WorkerLost | None:
+def _worker_lost(exc: BaseException, processes=(), killed=frozenset()) -> WorkerLost | None:
     """:class:`WorkerLost` for ``exc`` if it says a worker died (a broken process
-    pool, Dask's KilledWorker), naming the signal that ended it (not counting
-    the workers in ``killed``, nor the SIGTERM a broken pool sends the others);
-    else None."""
+    pool, Dask's KilledWorker; or a bad file descriptor or broken pipe while one
+    of the pool's worker ``processes`` has died: CPython's pool can trip over the
+    dead worker's pipes, bpo-39995, seen here once in CI), naming the signal that
+    ended it (not counting the workers in ``killed``, nor the SIGTERM a broken
+    pool sends the others); else None (a full disk stays a full disk)."""
+    import errno
     from concurrent.futures.process import BrokenProcessPool
 
-    if isinstance(exc, BrokenProcessPool):
-        processes = list((getattr(executor, "_processes", None) or {}).values())
+    pipes = (isinstance(exc, OSError) and exc.errno in (errno.EBADF, errno.EPIPE)
+             and any(p.exitcode not in (None, 0) for p in processes))
+    if isinstance(exc, BrokenProcessPool) or pipes:
         for p in processes:  # a submit can fail before the pool has ended them all
             p.join(1.0)
         codes = {p.exitcode for p in processes if p.exitcode and p.pid not in killed}

@@ -1,6 +1,7 @@
 """A worker process that dies (say the out-of-memory killer) ends the run with a
 clear error, never a hang. Each case runs in a subprocess with a time limit: a
 hang fails the test instead of holding up the suite."""
+import os
 import subprocess
 import sys
 import textwrap
@@ -114,9 +115,9 @@ def test_a_lost_dask_worker_is_named():
 
     exc = distributed.KilledWorker("process_frame-3", SimpleNamespace(address="tcp://node7:4321"),
                                    3)
-    lost = _worker_lost(exc, executor=None)
+    lost = _worker_lost(exc)
     assert "a Dask worker died while running a task" in str(lost) and "node7" in str(lost)
-    assert _worker_lost(ValueError("bad mesh"), executor=None) is None
+    assert _worker_lost(ValueError("bad mesh")) is None
 
 
 def test_a_worker_that_exited_with_an_error_is_not_said_killed_by_sigterm():
@@ -129,14 +130,57 @@ def test_a_worker_that_exited_with_an_error_is_not_said_killed_by_sigterm():
     from oftimg.workers import _worker_lost
 
     def pool(*codes):
-        procs = {k: SimpleNamespace(exitcode=c, pid=100 + k, join=lambda timeout: None)
-                 for k, c in enumerate(codes)}
-        return SimpleNamespace(_processes=procs)
+        return [SimpleNamespace(exitcode=c, pid=100 + k, join=lambda timeout: None)
+                for k, c in enumerate(codes)]
 
     exited = str(_worker_lost(BrokenProcessPool("x"), pool(1, -15)))
     assert "ended with exit status 1" in exited and "SIGTERM" not in exited
     assert "killed by SIGKILL" in str(_worker_lost(BrokenProcessPool("x"), pool(-9, -15)))
     assert "killed by SIGTERM" in str(_worker_lost(BrokenProcessPool("x"), pool(-15, -15)))
+
+
+def test_a_bad_file_descriptor_after_a_worker_died_is_the_lost_worker():
+    """CPython's pool can trip over a killed worker's pipes (bpo-39995): the run then
+    ended with "[Errno 9] Bad file descriptor" (once, in CI) instead of naming the
+    killed worker. Such an error while a worker is dead, raised in the work or by
+    the shutdown, is the lost worker; with every worker alive, or a full disk, it
+    stays what it is."""
+    import errno
+    from types import SimpleNamespace
+
+    from oftimg.workers import WorkerLost, _worker_lost, closing_executor, make_executor
+
+    def procs(*codes):
+        return [SimpleNamespace(exitcode=c, pid=100 + k, join=lambda timeout: None)
+                for k, c in enumerate(codes)]
+
+    bad_fd = OSError(errno.EBADF, "Bad file descriptor")
+    assert "killed by SIGKILL" in str(_worker_lost(bad_fd, procs(-9, None)))
+    assert _worker_lost(bad_fd, procs(None, None)) is None
+    assert _worker_lost(OSError(errno.ENOSPC, "No space left on device"), procs(-9)) is None
+
+    for where in ("work", "shutdown"):
+        pool = make_executor(2)
+        with pytest.raises(WorkerLost, match="killed by SIGKILL") as caught:
+            with closing_executor(pool):
+                assert pool.submit(os.getpid).result() > 0
+                victim = next(iter(pool._processes.values()))
+                victim.kill()
+                victim.join(10)
+                if where == "work":
+                    raise OSError(errno.EBADF, "Bad file descriptor")
+                shutdown = pool.shutdown
+
+                def shutdown_tripping(**kwargs):
+                    shutdown(**kwargs)
+                    raise OSError(errno.EBADF, "Bad file descriptor")
+                pool.shutdown = shutdown_tripping
+        assert isinstance(caught.value.__cause__, OSError), where
+    pool = make_executor(2)
+    with pytest.raises(OSError, match="No space"):
+        with closing_executor(pool):
+            pool.submit(os.getpid).result()
+            raise OSError(errno.ENOSPC, "No space left on device")
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")

@@ -247,7 +247,10 @@ def _worker_lost(exc: BaseException, processes=(), killed=frozenset()) -> Worker
              and any(p.exitcode not in (None, 0) for p in processes))
     if isinstance(exc, BrokenProcessPool) or pipes:
         for p in processes:  # a submit can fail before the pool has ended them all
-            p.join(1.0)
+            try:
+                p.join(1.0)
+            except (OSError, ValueError):  # already reaped and closed by the pool
+                pass
         codes = {p.exitcode for p in processes if p.exitcode and p.pid not in killed}
         signals = sorted(signal.Signals(-c).name for c in codes
                          if c < 0 and -c in signal.valid_signals())

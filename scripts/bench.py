@@ -7,8 +7,9 @@
 Generates (or reuses, in --cache) a phantom of 3 walls, runs the whole pipeline
 (`oftimg.run`), and prints each stage's wall seconds (per-frame stages: CPU
 seconds summed over the workers, scaled to wall time), the time merely to read
-all meshes (the floor no pipeline can beat: the median of 3 passes, so that the
-mesh reader's one-off import, ~1 s, is not counted) and total / read-only, where
+all meshes (the floor no pipeline can beat: the median of 3 passes before the
+run and 3 after, so that the mesh reader's one-off import, ~1 s, is not counted
+and the machine's drift is seen; both medians are printed) and total / read-only, where
 the total leaves out the PCA, as the targets do. It also prints the CPU seconds
 of all processes (this one, the workers, the video encoders): wall time cannot
 fall below them divided by the cores; the CPU milliseconds per frame of the
@@ -48,8 +49,9 @@ def phantom(cache: Path, frames: int, vertices: int) -> Path:
     return path
 
 
-def read_only_seconds(path: Path, repeats: int = 3) -> float:
-    """Median seconds of reading every mesh once (a single pass varies by ~30 %)."""
+def read_only_seconds(path: Path, repeats: int = 3) -> list[float]:
+    """Seconds of reading every mesh once, ``repeats`` times (a single pass varies
+    by ~30 %)."""
     ds = load_dataset(path)
     times = []
     for _ in range(repeats):
@@ -58,7 +60,7 @@ def read_only_seconds(path: Path, repeats: int = 3) -> float:
             for f in files:
                 read_mesh_file(f)
         times.append(time.perf_counter() - tick)
-    return float(np.median(times))
+    return times
 
 
 def peak_mb() -> float:
@@ -124,7 +126,7 @@ def cpu_seconds() -> float:
 
 
 def bench(path: Path, jobs: int) -> dict:
-    read_s = read_only_seconds(path)
+    read_before = read_only_seconds(path)
     with tempfile.TemporaryDirectory() as tmp:
         cpu_before = cpu_seconds()
         tick = time.perf_counter()
@@ -133,6 +135,10 @@ def bench(path: Path, jobs: int) -> dict:
         total = time.perf_counter() - tick
         cpu_s = cpu_seconds() - cpu_before
         summary = json.loads(next(out.glob("*/summary.json")).read_text())
+    # read again after the run: this machine's speed drifts within minutes, and the
+    # ratio is taken to the median of all six passes
+    read_after = read_only_seconds(path)
+    read_s = float(np.median(read_before + read_after))
     tm = summary["timings_s"]
     frames_wall = tm["frames_s"]
     cpu = tm["frames_cpu_s"]
@@ -148,6 +154,8 @@ def bench(path: Path, jobs: int) -> dict:
     target = total - stages["PCA"]                  # the issue's targets exclude the PCA
     return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total,
             "total_without_pca_s": target, "read_only_s": read_s, "ratio": target / read_s,
+            "read_only_before_s": float(np.median(read_before)),
+            "read_only_after_s": float(np.median(read_after)),
             "peak_mb": peak_mb(), "peak_all_processes_mb": tree.peak_mb, "cpu_s": cpu_s,
             "per_frame_work_s": per_frame,
             "frame_cpu_ms": 1e3 * sum(cpu.values()) / summary["n_frames"], "stages_s": stages}
@@ -156,7 +164,8 @@ def bench(path: Path, jobs: int) -> dict:
 def print_table(r: dict) -> None:
     print(f"{r['frames']} frames, jobs {r['jobs']}: total {r['total_s']:.1f} s, "
           f"{r['total_without_pca_s']:.1f} s without PCA (targets: < 60 s and < 25 x read-only), "
-          f"read-only {r['read_only_s']:.2f} s (x{r['ratio']:.0f}), peak memory "
+          f"read-only {r['read_only_s']:.2f} s (x{r['ratio']:.0f}; {r['read_only_before_s']:.2f} "
+          f"before the run, {r['read_only_after_s']:.2f} after), peak memory "
           f"{r['peak_mb']:.0f} MB (largest process)")
     if r["peak_all_processes_mb"] is not None:
         print(f"peak memory of all processes together {r['peak_all_processes_mb']:.0f} MB "

@@ -3,8 +3,8 @@ change with it.
 
 A mesh's pose, vertex numbering, face order, corner order and per-face
 orientation; where a periodic map's cycle starts (hypothesis); a whole embryo
-moved, in other units, starting elsewhere in the cycle, played backwards, or
-entered from its other end.
+moved, in other units, starting elsewhere in the cycle, played backwards,
+entered from its other end, or 25 times larger.
 """
 import json
 import shutil
@@ -233,3 +233,37 @@ def test_an_embryo_entered_from_its_other_end_is_the_same_tube_reversed(embryo, 
     assert reversed_["max"] == pytest.approx(-speed["min"], rel=1e-6)
     for key in ("mean", "median", "cycle"):
         assert reversed_[key] == pytest.approx(-speed[key], rel=1e-6), key
+
+
+@pytest.mark.slow
+def test_a_tube_25_times_larger_gives_every_number_in_proportion(embryo, tmp_path):
+    """The same embryo 25 times larger (a vessel rather than an OFT): lengths x25,
+    areas x625, volumes x25^3, speeds x25, curvatures / 25; strain, shares, times and
+    counts unchanged. No tolerance of oftimg's is an absolute length."""
+    first, a = embryo
+    k, larger = 25.0, tmp_path / "larger"
+    for wall in ("outer", "inner", "lumen"):
+        (larger / wall).mkdir(parents=True)
+        for name in list_frames(first / wall):
+            V, F = read_mesh_file(name)
+            write_ply(larger / wall / name.name, k * V, F)
+    meta = json.loads((first / "meta.json").read_text())
+    meta["inlet"] = [k * x for x in meta["inlet"]]
+    (larger / "meta.json").write_text(json.dumps(meta))
+    b = analyse(larger)
+    units = (("_mm2", 2), ("_mm3", 3), ("_per_mm", -1), ("_mm_s", 1), ("_mm", 1))
+    for key, x in a["arrays"].items():
+        y = b["arrays"][key]
+        if not np.issubdtype(np.asarray(x).dtype, np.floating):
+            assert np.array_equal(y, x), key
+            continue
+        power = 0 if key.startswith("phase_") else next(
+            (p for unit, p in units if key.endswith(unit) or unit + "_" in key), 0)
+        expected = x.astype(float) * k ** power
+        assert np.array_equal(np.isnan(y), np.isnan(expected)), key
+        assert np.nanmax(np.abs(y - expected), initial=0) <= 1e-3 * max(
+            np.nanmax(np.abs(expected), initial=0), 1e-12), key
+    for key in ("mean", "median", "cycle"):
+        assert b["summary"]["wave_speed_mm_s"][key] == pytest.approx(
+            k * a["summary"]["wave_speed_mm_s"][key], rel=1e-5)
+    assert b["summary"]["corner_count"] == a["summary"]["corner_count"]

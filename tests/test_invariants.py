@@ -127,8 +127,8 @@ def embryo(tmp_path_factory):
 def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_numbers(embryo,
                                                                                   tmp_path):
     """The same beating tube, its frames starting two frames later in the cycle,
-    turned and moved in space and written in micrometres, gives every map, volume and
-    speed of the original (time is aligned to the minimum volume)."""
+    turned and moved in space and written in micrometres, gives every map, volume,
+    speed and shape mode of the original (time is aligned to the minimum volume)."""
     first, a = embryo
     moved, later = tmp_path / "moved", 2
     R = Rotation.from_euler("xyz", (0.4, -1.1, 2.5)).as_matrix()
@@ -159,6 +159,8 @@ def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_number
         # lumen's mean curvature, from a cotangent Laplacian, to 1e-3 of its range
         tol = 2.0 if key.startswith("phase_") else 1e-3 if key.startswith("mean_curv") else 1e-4
         assert np.nanmax(np.abs(y - x), initial=0) <= tol * max(1.0, np.nanmax(np.abs(x))), key
+    for key, x in a["pca"].items():         # in each section's own plane: moves with it
+        assert np.allclose(b["pca"][key], x, atol=1e-4 * np.abs(x).max()), key
     numbers = ("wave_speed_mm_s", "tube_length_mm", "myocardial_volume_change",
                "expand_fraction", "section_volume_error")
     for key in numbers:

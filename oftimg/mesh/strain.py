@@ -25,8 +25,11 @@ def _upper(e1, e2):
 
 
 def _stretches(reference, deformed) -> np.ndarray:
-    """Principal stretches ``(..., 2)`` from the :func:`_upper` forms of the same
-    triangles before and after; NaN where either is degenerate."""
+    """Principal stretches ``(..., 2)`` (largest first) from the :func:`_upper` forms
+    of the same triangles before and after: the singular values of the 2-D
+    deformation gradient that maps each triangle's reference edges to its
+    deformed ones (each in its own basis), i.e. the square roots of the
+    eigenvalues of C = F^T F. NaN where either triangle is degenerate."""
     a0, b0, c0 = reference
     a, b, c = deformed
     with np.errstate(invalid="ignore", divide="ignore"):  # degenerate triangles: NaN
@@ -45,22 +48,6 @@ def _stretches(reference, deformed) -> np.ndarray:
     ok = np.isfinite(lam[..., 0]) & np.isfinite(lam[..., 1]) & (a * c > 0)  # not collapsed
     lam[bad | ~ok] = np.nan
     return lam
-
-
-def principal_stretches(X_ref: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Principal stretches ``(..., n_tri, 2)`` (largest first) of each triangle.
-
-    ``X_ref (n_node, 3)`` the reference positions, ``X (..., n_node, 3)`` the
-    deformed ones. The 2-D deformation gradient maps the reference edges to
-    the deformed ones (each in its triangle's own basis); the stretches are
-    its singular values, i.e. the square roots of the eigenvalues of C = F^T F.
-    """
-    def edges(P):
-        corner = [P[..., F[:, k], :] for k in range(3)]
-        return (tuple((corner[1] - corner[0])[..., k] for k in range(3)),
-                tuple((corner[2] - corner[0])[..., k] for k in range(3)))
-
-    return _stretches(_upper(*edges(X_ref)), _upper(*edges(X)))
 
 
 def strain_energy(stretches: np.ndarray) -> np.ndarray:

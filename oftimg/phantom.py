@@ -336,9 +336,9 @@ class Phantom:
         (mm) spans several of the steps at which the wave's arrival is tabulated."""
         s, theta = np.asarray(s, float), np.asarray(theta, float)
 
-        def at(i, j):
-            return self.point(wall, s + i * hs, theta + j * ht, t_ms)
-
+        points = {(i, j): self.point(wall, s + i * hs, theta + j * ht, t_ms)
+                  for i in (-1, 0, 1) for j in (-1, 0, 1)}          # each point once
+        at = lambda i, j: points[i, j]                                      # noqa: E731
         X = at(0, 0)
         Xs, Xt = (at(1, 0) - at(-1, 0)) / (2 * hs), (at(0, 1) - at(0, -1)) / (2 * ht)
         Xss = (at(1, 0) - 2 * X + at(-1, 0)) / hs ** 2

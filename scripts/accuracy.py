@@ -2,7 +2,8 @@
 
     python scripts/accuracy.py [--seeds 3] [--frames 195] [--noise-mm 0 0.002]
                                [--map-positions rows fixed] [--expand-change 0.2]
-                               [--ridge-smoothing-ms auto] [--jobs 2] [--cache DIR] [--json]
+                               [--ridge-smoothing-ms auto] [--vertices 2000]
+                               [--jobs 2] [--cache DIR] [--json]
 
 Makes (or reuses, in --cache) normal and banded phantoms with seeds 0 .. n-1 at
 each noise level (`noise_mm`: the standard deviation of a radial displacement of
@@ -14,7 +15,9 @@ largest absolute error over the embryos; `--json` gives every embryo's errors as
 `--expand-change D` makes phantoms whose expansion share of the cycle changes by D
 (0.2: 20 percentage points) from inlet to outlet, so that the beat's peak, the
 ridge, travels at a speed of its own; the speeds are then compared with the
-ridge's (the truth's `ridge_speed_mm_s`).
+ridge's (the truth's `ridge_speed_mm_s`). `--vertices N` meshes every frame with
+0.75 N to 1.25 N vertices (default: the phantoms' 4000-8000), to see how the
+numbers depend on the meshes' resolution.
 
 Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
 - Table 1: expansion share of the cycle (pp) and time (ms); wave speed min, max,
@@ -89,14 +92,17 @@ METRICS = [
 
 
 def make_cohort(folder: Path, seeds: int, frames: int, noise_mm: float,
-                expand_change: float = 0.0) -> Path:
-    """Normal and banded phantoms ``<group>_<seed>`` in ``folder`` (kept if there)."""
+                expand_change: float = 0.0, vertices: int | None = None) -> Path:
+    """Normal and banded phantoms ``<group>_<seed>`` in ``folder`` (kept if there),
+    meshed with 0.75 to 1.25 ``vertices`` (default: the phantoms' own range)."""
+    sizes = ({} if vertices is None
+             else dict(vertices_min=round(0.75 * vertices), vertices_max=round(1.25 * vertices)))
     for group in ("normal", "banded"):
         for seed in range(seeds):
             path = folder / f"{group}_{seed}"
             if not (path / "truth.json").exists():
                 write_phantom(path, sample_params(group, seed, n_frames=frames, noise_mm=noise_mm,
-                                                  expand_change=expand_change))
+                                                  expand_change=expand_change, **sizes))
     return folder
 
 
@@ -244,6 +250,9 @@ def main() -> None:
                     help="change of the expansion share from inlet to outlet (0.2: 20 pp)")
     ap.add_argument("--ridge-smoothing-ms", default="auto",
                     help="oftimg run --ridge-smoothing-ms: 'auto' or a sigma in ms")
+    ap.add_argument("--vertices", type=int, default=None,
+                    help="mesh every frame with 0.75 to 1.25 times this many vertices "
+                         "(default: 4000-8000)")
     ap.add_argument("--jobs", type=int, default=None)
     ap.add_argument("--cache", type=Path, default=None,
                     help="keep the phantoms here (default: a temporary folder)")
@@ -251,6 +260,8 @@ def main() -> None:
     args = ap.parse_args()
     if args.seeds < 1 or args.frames < 5:
         ap.error("need --seeds >= 1 and --frames >= 5")
+    if args.vertices is not None and args.vertices < 200:
+        ap.error("need --vertices >= 200")
     smoothing = (args.ridge_smoothing_ms if args.ridge_smoothing_ms == "auto"
                  else float(args.ridge_smoothing_ms))
     with tempfile.TemporaryDirectory() as tmp:
@@ -258,8 +269,10 @@ def main() -> None:
         report = {}
         for noise in args.noise_mm:
             changing = f"_expand{args.expand_change:+g}" if args.expand_change else ""
-            cohort = make_cohort(cache / f"accuracy_{args.frames}f_noise{noise:g}mm{changing}",
-                                 args.seeds, args.frames, noise, args.expand_change)
+            sized = f"_{args.vertices}v" if args.vertices else ""
+            cohort = make_cohort(cache / f"accuracy_{args.frames}f_noise{noise:g}mm{changing}{sized}",
+                                 args.seeds, args.frames, noise, args.expand_change,
+                                 args.vertices)
             for positions in args.map_positions:
                 results = Path(tmp) / f"results_{noise:g}_{positions}"
                 oftimg.run(cohort, results, quiet=args.json, jobs=args.jobs,
@@ -279,6 +292,7 @@ def main() -> None:
                                                     "summary": tables, "embryos": errors}
     if args.json:
         print(json.dumps(_finite_or_none({"frames": args.frames, "seeds": args.seeds,
+                                           "vertices": args.vertices,
                                            "expand_change": args.expand_change,
                                            "ridge_smoothing_ms": smoothing,
                                            "runs": report}), indent=1))

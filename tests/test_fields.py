@@ -4,7 +4,9 @@ import pytest
 
 from helpers import tube_mesh
 from oftimg.image.normalize import per_pixel_normalize, phase_maps
-from oftimg.mesh.curvature import contour_curvature, count_corners, vertex_mean_curvature
+from oftimg.mesh.curvature import (contour_curvature, count_corners, mixed_areas,
+                                   vertex_mean_curvature)
+from oftimg.mesh.parameterize import corner_terms
 from oftimg.mesh.strain import grid_strain, grid_triangles
 from oftimg.mesh.topology import check_tube
 
@@ -76,6 +78,49 @@ def test_cylinder_mean_curvature():
     interior = (V[:, 2] > 0.1) & (V[:, 2] < 0.9)
     assert np.allclose(H[interior], 1 / (2 * r), rtol=0.02)
     assert np.isnan(H[np.concatenate(topo.loops)]).all()
+
+
+def _areas(V, F):
+    cots, l2 = corner_terms(V, F)
+    area = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    return mixed_areas(cots, l2, area), area
+
+
+def test_mixed_areas_are_voronoi_cells_and_halve_obtuse_faces():
+    # a flat mesh of equilateral triangles: an interior vertex's cell is a hexagon
+    a, n = 1.0, 7
+    P = np.array([[i * a + (j % 2) * a / 2, j * a * np.sqrt(3) / 2, 0.0]
+                  for j in range(n) for i in range(n)])
+    F = []
+    for j in range(n - 1):
+        for i in range(n - 1):
+            p, q, r, t = j * n + i, j * n + i + 1, (j + 1) * n + i, (j + 1) * n + i + 1
+            F += [[p, q, t], [p, t, r]] if j % 2 else [[p, q, r], [q, t, r]]
+    F = np.array(F)
+    shares, area = _areas(P, F)
+    assert np.allclose(shares.sum(axis=1), area)
+    per_vertex = np.bincount(F.ravel(), shares.ravel(), minlength=len(P))
+    centre = 3 * n + 3
+    assert per_vertex[centre] == pytest.approx(np.sqrt(3) / 2 * a ** 2)
+    # an acute triangle: each corner's share is its quadrilateral corner - edge midpoint -
+    # circumcentre - edge midpoint (not a third of the face)
+    V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.3, 0.8, 0.0]])
+    (x1, y1), (x2, y2) = V[1, :2], V[2, :2]
+    d = 2 * (x1 * y2 - y1 * x2)
+    centre = np.array([y2 * (x1 ** 2 + y1 ** 2) - y1 * (x2 ** 2 + y2 ** 2),
+                       x1 * (x2 ** 2 + y2 ** 2) - x2 * (x1 ** 2 + y1 ** 2)]) / d
+    shares, area = _areas(V, np.array([[0, 1, 2]]))
+    for k in range(3):
+        a, b = V[(k + 1) % 3, :2], V[(k + 2) % 3, :2]
+        quad = np.array([V[k, :2], (V[k, :2] + a) / 2, centre, (V[k, :2] + b) / 2])
+        x, y = quad.T
+        shoelace = 0.5 * abs(x @ np.roll(y, -1) - y @ np.roll(x, -1))
+        assert shares[0, k] == pytest.approx(shoelace)
+    assert not np.allclose(shares[0], area[0] / 3)
+    # an obtuse triangle: half its area at the obtuse corner, a quarter at the others
+    V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.1, 0.0]])
+    shares, area = _areas(V, np.array([[0, 1, 2]]))
+    assert np.allclose(shares[0] / area[0], [0.25, 0.25, 0.5])
 
 
 def grid_of(points_fn, n_u=12, n_v=6, n_t=3):

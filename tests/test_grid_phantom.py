@@ -88,7 +88,7 @@ def test_lumen_mean_curvature_is_the_models(normal_grids, analysed_normal):
     t_ms = np.asarray(truth["t_ms"])
     model = ph.mean_curvature("lumen", s, theta, t_ms[None, None, :])
     off = np.abs(H - model)
-    assert np.median(off) < 0.15 * np.median(np.abs(model))           # measured 0.11
+    assert np.median(off) < 0.13 * np.median(np.abs(model))           # measured 0.103
     assert np.corrcoef(H.ravel(), model.ravel())[0, 1] > 0.94          # measured 0.96
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .parameterize import corner_cotangents
+from .parameterize import corner_terms
 
 
 def contour_curvature(C: np.ndarray, normal: np.ndarray, *, window: int = 7) -> np.ndarray:
@@ -55,18 +55,18 @@ def count_corners(curvature: np.ndarray, *, min_prominence: float = 0.2,
 def vertex_mean_curvature(V: np.ndarray, F: np.ndarray, boundary: np.ndarray | None = None
                           ) -> np.ndarray:
     """Mean curvature (1/mm) at each vertex: half the cotangent-Laplacian
-    mean-curvature normal's length over the mixed (barycentric) area, signed
-    positive where the surface bends away from its (outward) normal, as a
-    cylinder does. Boundary vertices (``boundary``) are NaN: their one-ring is
-    not closed.
+    mean-curvature normal's length over the vertex's mixed Voronoi area (Meyer
+    et al. 2003), signed positive where the surface bends away from its
+    (outward) normal, as a cylinder does. Boundary vertices (``boundary``) are
+    NaN: their one-ring is not closed.
     """
-    cots = corner_cotangents(V, F)
+    cots, l2 = corner_terms(V, F)
     n = len(V)
     i, j = F.ravel(), F[:, [1, 2, 0]].ravel()              # edge k: corner k -> k + 1
     w = cots[:, [2, 0, 1]].ravel()[:, None] * (V[j] - V[i])  # cot of the opposite angle
     LV = _sum_at(np.concatenate([i, j]), np.concatenate([w, -w]), n)
     fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    A = _sum_at(F.ravel(), np.repeat(0.5 * np.linalg.norm(fn, axis=1) / 3.0, 3), n)
+    A = _sum_at(F.ravel(), mixed_areas(cots, l2, 0.5 * np.linalg.norm(fn, axis=1)).ravel(), n)
     normals = _sum_at(F.ravel(), np.repeat(fn, 3, axis=0), n)
     # LV = sum_j (cot a_ij + cot b_ij) (x_j - x_i) = -4 A H n (Meyer et al. 2003)
     H = np.linalg.norm(LV, axis=1) / (4.0 * np.maximum(A, 1e-300))
@@ -75,6 +75,20 @@ def vertex_mean_curvature(V: np.ndarray, F: np.ndarray, boundary: np.ndarray | N
     if boundary is not None:
         H[np.asarray(boundary)] = np.nan
     return H
+
+
+def mixed_areas(cots: np.ndarray, l2: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """Each face corner's share of its face's area ``(n_face, 3)`` mm^2: its
+    Voronoi region where the face has no obtuse angle, else half the face at the
+    obtuse corner and a quarter at the others (Meyer et al. 2003: the shares sum
+    to the face's area, and to the vertices' Voronoi cells on a good mesh).
+    ``cots``, ``l2``: :func:`~oftimg.mesh.parameterize.corner_terms`; ``area (n_face,)``.
+    """
+    # corner k: 1/8 (|edge k, k+1|^2 cot(k+2) + |edge k+2, k|^2 cot(k+1))
+    voronoi = (l2 * cots[:, [2, 0, 1]] + l2[:, [2, 0, 1]] * cots[:, [1, 2, 0]]) / 8.0
+    obtuse = cots < 0
+    share = np.where(obtuse, 0.5, 0.25) * area[:, None]
+    return np.where(obtuse.any(axis=1, keepdims=True), share, voronoi)
 
 
 def fill_boundary(values: np.ndarray, F: np.ndarray, boundary: np.ndarray) -> np.ndarray:

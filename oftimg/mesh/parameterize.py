@@ -24,7 +24,7 @@ from ..errors import InputError
 from .topology import MeshError, cross3, edge_incidence
 
 
-def _corner_terms(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def corner_terms(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Cotangents of the corner angles and squared edge lengths, both ``(n_face, 3)``.
 
     Edge k runs from corner k to corner k + 1. By the law of cosines the
@@ -40,11 +40,6 @@ def _corner_terms(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return cots, l2
 
 
-def corner_cotangents(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Cotangent of each face corner's angle, ``(n_face, 3)``."""
-    return _corner_terms(V, F)[0]
-
-
 def intrinsic_weights(V: np.ndarray, F: np.ndarray, *, authalic_weight: float) -> sp.csr_matrix:
     """Weight matrix W of the intrinsic map: ``sum_j W_ij (x_j - x_i) = 0`` inside.
 
@@ -55,7 +50,7 @@ def intrinsic_weights(V: np.ndarray, F: np.ndarray, *, authalic_weight: float) -
     """
     if not 0.0 <= authalic_weight <= 1.0:
         raise InputError(f"authalic_weight must be in [0, 1], found {authalic_weight}")
-    cots, l2 = _corner_terms(V, F)
+    cots, l2 = corner_terms(V, F)
     scale = float(l2.mean())                        # makes the blend unit-free
     # edge k = (i, j) = (corner k, corner k + 1); its opposite corner is k + 2
     conf = (1 - authalic_weight) * 0.5 * cots[:, [2, 0, 1]]

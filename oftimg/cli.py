@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import __version__
-from .image.kymograph import AUTO_SPREAD_TARGET, RIDGE_SMOOTHING_LADDER_MS
+from .image.kymograph import AUTO_SPREAD_TARGET, RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS
 
 
 class Terminated(BaseException):
@@ -93,6 +93,11 @@ def _parser() -> argparse.ArgumentParser:
                         f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms that "
                         "leaves the local speeds' noise spread under "
                         f"{100 * AUTO_SPREAD_TARGET:g} %%; 0: none (see README, Accuracy)")
+    r.add_argument("--field-smoothing-ms", type=float, default=RIDGE_SMOOTHING_MS, metavar="MS",
+                   help="Gaussian sigma (ms) with which every pixel of the curvature fields "
+                        "is smoothed in time (each frame's surface carries its own noise, "
+                        "which a curvature multiplies); default %(default)g, 0: none. "
+                        "summary.json: field_noise says how much of each field is noise")
 
     c = sub.add_parser("cohort", help="gather datasets analysed separately (e.g. one cluster "
                                       "job each) into one cohort with its tables and report")
@@ -236,7 +241,8 @@ def _command(args) -> int:
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
                    "seam_method": args.seam_method, "warp": args.warp,
                    "map_positions": args.map_positions,
-                   "ridge_smoothing_ms": args.ridge_smoothing_ms}
+                   "ridge_smoothing_ms": args.ridge_smoothing_ms,
+                   "field_smoothing_ms": args.field_smoothing_ms}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume)

@@ -14,8 +14,8 @@ from .io import Dataset, OftimgWarning
 from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                     wrap_step_ratio)
 from .image.analysis import analyse_area_maps
-from .image.kymograph import at_fixed_positions
-from .image.normalize import phase_maps
+from .image.kymograph import RIDGE_SMOOTHING_MS, at_fixed_positions
+from .image.normalize import field_noise, phase_maps, smooth_field_in_time
 from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import GridOptions, smooth_endpoints
@@ -40,10 +40,11 @@ class PipelineOptions:
     warp: bool = False
     map_positions: str = "rows"
     ridge_smoothing_ms: float | str = "auto"
+    field_smoothing_ms: float = RIDGE_SMOOTHING_MS
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
                  map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
-                 **grid_kwargs):
+                 field_smoothing_ms: float = RIDGE_SMOOTHING_MS, **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
         if map_positions not in MAP_POSITIONS:
@@ -58,14 +59,23 @@ class PipelineOptions:
             if not 0 <= ridge_smoothing_ms < float("inf"):
                 raise InputError("ridge_smoothing_ms must be 'auto' or a number of ms >= 0 "
                                  f"(0: none), found {given!r}")
+        try:
+            sigma = float(field_smoothing_ms)
+        except (TypeError, ValueError):
+            sigma = float("nan")
+        if not 0 <= sigma < float("inf"):
+            raise InputError("field_smoothing_ms must be a number of ms >= 0 (0: none), "
+                             f"found {field_smoothing_ms!r}")
         object.__setattr__(self, "grid", grid or GridOptions(**grid_kwargs))
         object.__setattr__(self, "warp", bool(warp))
         object.__setattr__(self, "map_positions", map_positions)
         object.__setattr__(self, "ridge_smoothing_ms", ridge_smoothing_ms)
+        object.__setattr__(self, "field_smoothing_ms", sigma)
 
     def as_dict(self) -> dict:
         return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions,
-                "ridge_smoothing_ms": self.ridge_smoothing_ms}
+                "ridge_smoothing_ms": self.ridge_smoothing_ms,
+                "field_smoothing_ms": self.field_smoothing_ms}
 
 
 # frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion
@@ -150,36 +160,59 @@ def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=N
             smooth_endpoints(p_out, options.seam_smoothing_frames))
 
 
+# a shape field whose per-pixel variance over the cycle is more than this share of
+# frame-to-frame noise (noise SD over half the field's) is named in a warning
+NOISY_FIELD_SHARE = 0.25
+
 # corners are counted on the radial curvature averaged over this many frames either side
 # of each row's minimum area (segmentation roughness averages out; the corners stay put)
 CORNER_FRAMES = 2
 
 
-def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms) -> dict:
+def smoothed_curvature(raw: np.ndarray, period_ms: float, smoothing_ms: float
+                       ) -> tuple[np.ndarray, dict]:
+    """A curvature field ``(n_u, n_v, n_t)`` smoothed in time by ``smoothing_ms``
+    (float32; each frame is segmented and meshed on its own, and a second
+    derivative of its surface carries that noise several times over), and how
+    much of it is noise (:func:`~oftimg.image.normalize.field_noise`)."""
+    return (smooth_field_in_time(raw, period_ms, smoothing_ms).astype(np.float32),
+            field_noise(raw, period_ms, smoothing_ms))
+
+
+def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
+                 smoothing_ms: float = RIDGE_SMOOTHING_MS) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
-    Radial curvature of the outer and inner section contours, strain energy
-    and principal stretches of the outer and inner grids against t = 0, the
-    phase maps of these and of the lumen's mean curvature (``(n_u, n_v, n_t)``
-    on the lumen grid, or None), and the corner count of the outer contours at
-    each row's own maximum contraction (curvature averaged over the
-    ``2 CORNER_FRAMES + 1`` frames around it).
+    Radial curvature of the outer and inner section contours (smoothed in time
+    by ``smoothing_ms``: :func:`smoothed_curvature`; how much of each is noise in
+    ``field_noise``), strain energy and principal stretches of the outer and
+    inner grids against t = 0, the phase maps of these and of the lumen's mean
+    curvature (``(n_u, n_v, n_t)`` on the lumen grid, smoothed alike, or None),
+    and the corner count of the outer contours at each row's own maximum
+    contraction (curvature averaged over the ``2 CORNER_FRAMES + 1`` frames
+    around it). Phase maps are taken on each field smoothed in time by
+    ``RIDGE_SMOOTHING_MS`` in all (or by ``smoothing_ms`` if more).
     """
-    arrays = {}
+    arrays, noise, unsmoothed = {}, {}, {}
     for w in ("outer", "inner"):
         if w in contour:
-            k = contour_curvature(contour[w], normals[None])
-            arrays[f"radial_curvature_{w}_per_mm"] = k.astype(np.float32)
+            name = f"radial_curvature_{w}_per_mm"
+            unsmoothed[w] = contour_curvature(contour[w], normals[None])
+            arrays[name], noise[name] = smoothed_curvature(unsmoothed[w], period_ms, smoothing_ms)
             energy, stretch = grid_strain(grid[w])
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
             arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
     if mean_curvature_lumen is not None:
         arrays["mean_curvature_lumen_per_mm"] = mean_curvature_lumen
+    # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
+    rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothing_ms ** 2))
     for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv"))]:
-        t_max, t_min = phase_maps(arrays[name], period_ms)
+        smoothed = name.startswith(("radial", "mean_curv"))
+        t_max, t_min = phase_maps(arrays[name], period_ms,
+                                  smoothing_ms=rest_ms if smoothed else RIDGE_SMOOTHING_MS)
         arrays[f"phase_max_{name}_ms"] = t_max.astype(np.float32)
         arrays[f"phase_min_{name}_ms"] = t_min.astype(np.float32)
-    k = arrays["radial_curvature_outer_per_mm"]
+    k = unsmoothed["outer"]             # the corners' own average over frames (validated so)
     a = np.where(np.isfinite(area["outer"]), area["outer"], np.inf)
     rows_min = np.argmin(a, axis=1)          # a row without any contour gives 0 corners
     n_t = k.shape[2]
@@ -190,10 +223,11 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms) 
                            for j in range(k.shape[1])])
     arrays["corner_count_per_row"] = counts
     inner_rows = counts[1:-1][counts[1:-1] > 0]
-    if len(inner_rows) == 0:
-        return {"arrays": arrays, "corner_count": None}
-    values, freq = np.unique(inner_rows, return_counts=True)
-    return {"arrays": arrays, "corner_count": int(values[np.argmax(freq)])}
+    corners = None
+    if len(inner_rows):
+        values, freq = np.unique(inner_rows, return_counts=True)
+        corners = int(values[np.argmax(freq)])
+    return {"arrays": arrays, "corner_count": corners, "field_noise": noise}
 
 
 def _retime(f, grid, area, contour, volume, per_row):
@@ -332,7 +366,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     if H is not None:
         if options.warp:
             H = resample_time(H, t_frames, axis=2)
-        H = arrays["mean_curvature_lumen_per_mm"] = H.astype(np.float32)
+        H, lumen_noise = smoothed_curvature(H, ds.meta.period_ms, options.field_smoothing_ms)
+        arrays["mean_curvature_lumen_per_mm"] = H
     if on_aligned is not None:
         on_aligned(arrays, grid)
     summary = {
@@ -364,9 +399,22 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             lines = clip_grid(grid[w].transpose(0, 2, 1, 3), plane_origin, plane_normal)
             grid[f"{w}_clipped"] = lines.transpose(0, 2, 1, 3)
     tick = time.perf_counter()
-    fields = shape_fields(grid, contour, normals, area, H, ds.meta.period_ms)
+    fields = shape_fields(grid, contour, normals, area, H, ds.meta.period_ms,
+                          options.field_smoothing_ms)
     arrays.update(fields.pop("arrays"))
+    if H is not None:
+        fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise
     summary.update(fields)
+    summary["field_smoothing_ms"] = options.field_smoothing_ms
+    for name, noise in fields["field_noise"].items():
+        if noise["noise_share"] > NOISY_FIELD_SHARE:
+            warnings.warn(
+                f"{ds.path}: {name} is mostly noise: after {options.field_smoothing_ms:g} ms of "
+                f"smoothing, {100 * noise['noise_share']:.0f} % of each pixel's variance over "
+                "the cycle is frame-to-frame noise (median pixel; summary.json: field_noise), "
+                "so its per-pixel normalised video and phase maps show noise more than the "
+                "beat; smoother surfaces, finer meshes or a larger --field-smoothing-ms help",
+                OftimgWarning, stacklevel=2)
     timings["fields_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     map_arrays, map_summary = analyse_area_maps(

@@ -49,6 +49,11 @@ COHORT_COLUMNS = [
     ("section_volume_error_outer", ("section_volume_error", "outer")),
     ("standout_frames", ("frame_series_checks", "standout_frame_count")),
     ("wrap_step_ratio", ("frame_series_checks", "wrap_step_ratio")),     # <= 1: one cycle
+    # share of each curvature field's change over the cycle that is noise (well under 0.25)
+    ("radial_curvature_outer_noise_share",
+     ("field_noise", "radial_curvature_outer_per_mm", "noise_share")),
+    ("mean_curvature_lumen_noise_share",
+     ("field_noise", "mean_curvature_lumen_per_mm", "noise_share")),
 ]
 
 

@@ -126,10 +126,11 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1", "--fps", "10",
                  "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
                  "--authalic-weight", "0.25", "--seam-method", "heat",
-                 "--map-positions", "fixed"]) == 0
+                 "--map-positions", "fixed", "--field-smoothing-ms", "7"]) == 0
     summary = json.loads((out / "tiny" / "summary.json").read_text())
     assert summary["time_warp"] is True
     assert summary["provenance"]["options"]["map_positions"] == "fixed"
+    assert summary["field_smoothing_ms"] == summary["provenance"]["options"]["field_smoothing_ms"] == 7
     arrays = np.load(out / "tiny" / "arrays.npz")           # the maps at fixed positions, and
     described = json.loads((out / "tiny" / "arrays.json").read_text())     # the rows' own
     for wall in ("outer", "inner", "lumen"):

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..cycle import periodic_peak
-from .kymograph import RIDGE_SMOOTHING_MS, smooth_in_time
+from .kymograph import RIDGE_SMOOTHING_MS, map_noise_sd, smooth_in_time
 
 
 def per_pixel_normalize(field: np.ndarray) -> np.ndarray:
@@ -39,3 +39,42 @@ def phase_maps(field: np.ndarray, period_ms: float, *,
     to_ms = period_ms / n_t
     return (np.reshape(periodic_peak(filled, find="max") * to_ms, field.shape[:-1]),
             np.reshape(periodic_peak(filled, find="min") * to_ms, field.shape[:-1]))
+
+
+def smooth_field_in_time(field: np.ndarray, period_ms: float, sigma_ms: float) -> np.ndarray:
+    """Each pixel of ``field (..., n_t)`` over one periodic cycle smoothed in time by a
+    Gaussian of ``sigma_ms`` (ms; 0: unchanged), as :func:`~oftimg.image.kymograph.smooth_in_time`
+    does a map's rows; same shape, NaN cells stay NaN."""
+    n_t = field.shape[-1]
+    return smooth_in_time(np.reshape(field, (-1, n_t)), period_ms, sigma_ms).reshape(field.shape)
+
+
+def field_noise(field: np.ndarray, period_ms: float, sigma_ms: float) -> dict:
+    """How much of a field's change over the cycle is frame-to-frame noise.
+
+    ``field (..., n_t)``, unsmoothed, over one periodic cycle. Each pixel's noise
+    is measured as an area map row's is (:func:`~oftimg.image.kymograph.map_noise_sd`:
+    the power of its harmonics above a quarter of the frame rate), then carried
+    through the smoothing in time by ``sigma_ms``. Returns, over the pixels with a
+    value in every frame (median), in the field's units: ``noise_sd`` (one frame),
+    ``noise_sd_smoothed`` (after the smoothing), ``temporal_sd`` (each smoothed
+    pixel's standard deviation over the cycle) and ``noise_share``, the share of
+    that variance that is noise (0 to 1, flat pixels left out; above 0.25 the
+    noise is over half the change the per-pixel views show). NaN for under 10 frames.
+    """
+    n_t = field.shape[-1]
+    pixels = np.reshape(field, (-1, n_t)).astype(float)
+    pixels = pixels[np.isfinite(pixels).all(axis=1)]
+    keys = ("noise_sd", "noise_sd_smoothed", "temporal_sd", "noise_share")
+    if len(pixels) == 0 or n_t < 10:
+        return dict.fromkeys(keys, float("nan"))
+    impulse = np.zeros((1, n_t))
+    impulse[0, 0] = 1.0
+    gain = float(np.sqrt((smooth_in_time(impulse, period_ms, sigma_ms) ** 2).sum()))
+    noise = gain * map_noise_sd(pixels)
+    variance = smooth_in_time(pixels, period_ms, sigma_ms).var(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.clip(noise ** 2 / np.where(variance > 0, variance, np.nan), 0.0, 1.0)
+    return {"noise_sd": float(np.median(noise) / gain), "noise_sd_smoothed": float(np.median(noise)),
+            "temporal_sd": float(np.sqrt(np.median(variance))),
+            "noise_share": float(np.nanmedian(share)) if np.isfinite(share).any() else float("nan")}

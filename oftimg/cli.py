@@ -98,6 +98,10 @@ def _parser() -> argparse.ArgumentParser:
                         "is smoothed in time (each frame's surface carries its own noise, "
                         "which a curvature multiplies); default %(default)g, 0: none. "
                         "summary.json: field_noise says how much of each field is noise")
+    r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
+                   help="Taubin smoothing steps on each lumen mesh before its mean curvature "
+                        "(default 0: none, as the paper); for rough segmentations, whose "
+                        "curvature is otherwise noise (see README, Accuracy)")
 
     c = sub.add_parser("cohort", help="gather datasets analysed separately (e.g. one cluster "
                                       "job each) into one cohort with its tables and report")
@@ -240,6 +244,7 @@ def _command(args) -> int:
     if args.command == "run":
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
                    "seam_method": args.seam_method, "warp": args.warp,
+                   "lumen_smoothing_steps": args.lumen_smoothing_steps,
                    "map_positions": args.map_positions,
                    "ridge_smoothing_ms": args.ridge_smoothing_ms,
                    "field_smoothing_ms": args.field_smoothing_ms}

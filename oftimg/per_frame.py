@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 
 from .io import DatasetError, Frame
-from .mesh.curvature import fill_boundary, vertex_mean_curvature
+from .mesh.curvature import fill_boundary, taubin_smooth, vertex_mean_curvature
 from .mesh.grid import GridOptions, grid_frame, project_towards_axis, seam_endpoints
 from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
 from .mesh.topology import MeshError, capped_signed_volume
@@ -89,7 +89,8 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
             tl = frame.tube("lumen")
         with clock("fields"):
             rim = np.concatenate([tl.inlet, tl.outlet])
-            H = fill_boundary(vertex_mean_curvature(tl.V, tl.F, rim), tl.F, rim)
+            V = taubin_smooth(tl.V, tl.F, options.lumen_smoothing_steps, fixed=rim)
+            H = fill_boundary(vertex_mean_curvature(V, tl.F, rim), tl.F, rim)
         with clock("grid"):
             gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
                         options, values=H)

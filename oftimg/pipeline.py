@@ -50,22 +50,11 @@ class PipelineOptions:
         if map_positions not in MAP_POSITIONS:
             raise InputError(f"map_positions must be one of {MAP_POSITIONS}, "
                              f"found {map_positions!r}")
-        given = ridge_smoothing_ms
-        if given != "auto":
-            try:
-                ridge_smoothing_ms = float(given)
-            except (TypeError, ValueError):
-                ridge_smoothing_ms = float("nan")
-            if not 0 <= ridge_smoothing_ms < float("inf"):
-                raise InputError("ridge_smoothing_ms must be 'auto' or a number of ms >= 0 "
-                                 f"(0: none), found {given!r}")
-        try:
-            sigma = float(field_smoothing_ms)
-        except (TypeError, ValueError):
-            sigma = float("nan")
-        if not 0 <= sigma < float("inf"):
-            raise InputError("field_smoothing_ms must be a number of ms >= 0 (0: none), "
-                             f"found {field_smoothing_ms!r}")
+        if ridge_smoothing_ms != "auto":
+            ridge_smoothing_ms = _sigma_ms(ridge_smoothing_ms, "ridge_smoothing_ms must be "
+                                           "'auto' or a number of ms >= 0 (0: none)")
+        sigma = _sigma_ms(field_smoothing_ms,
+                          "field_smoothing_ms must be a number of ms >= 0 (0: none)")
         object.__setattr__(self, "grid", grid or GridOptions(**grid_kwargs))
         object.__setattr__(self, "warp", bool(warp))
         object.__setattr__(self, "map_positions", map_positions)
@@ -76,6 +65,17 @@ class PipelineOptions:
         return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions,
                 "ridge_smoothing_ms": self.ridge_smoothing_ms,
                 "field_smoothing_ms": self.field_smoothing_ms}
+
+
+def _sigma_ms(given, must: str) -> float:
+    """``given`` as a smoothing sigma (ms, finite, >= 0); else InputError ``must``, found ..."""
+    try:
+        sigma = float(given)
+    except (TypeError, ValueError):
+        sigma = float("nan")
+    if not 0 <= sigma < float("inf"):
+        raise InputError(f"{must}, found {given!r}")
+    return sigma
 
 
 # frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion

@@ -253,6 +253,10 @@ def main() -> None:
     ap.add_argument("--vertices", type=int, default=None,
                     help="mesh every frame with 0.75 to 1.25 times this many vertices "
                          "(default: 4000-8000)")
+    ap.add_argument("--lumen-smoothing-steps", type=int, default=0,
+                    help="oftimg run --lumen-smoothing-steps")
+    ap.add_argument("--field-smoothing-ms", type=float, default=5.0,
+                    help="oftimg run --field-smoothing-ms")
     ap.add_argument("--jobs", type=int, default=None)
     ap.add_argument("--cache", type=Path, default=None,
                     help="keep the phantoms here (default: a temporary folder)")
@@ -277,7 +281,9 @@ def main() -> None:
                 results = Path(tmp) / f"results_{noise:g}_{positions}"
                 oftimg.run(cohort, results, quiet=args.json, jobs=args.jobs,
                            options={"map_positions": positions,
-                                    "ridge_smoothing_ms": smoothing})
+                                    "ridge_smoothing_ms": smoothing,
+                                    "field_smoothing_ms": args.field_smoothing_ms,
+                                    "lumen_smoothing_steps": args.lumen_smoothing_steps})
                 errors = {d.name: embryo_errors(d, results / d.name)
                           for d in sorted(cohort.iterdir()) if (d / "truth.json").exists()}
                 tables = {}

@@ -126,7 +126,8 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1", "--fps", "10",
                  "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
                  "--authalic-weight", "0.25", "--seam-method", "heat",
-                 "--map-positions", "fixed", "--field-smoothing-ms", "7"]) == 0
+                 "--map-positions", "fixed", "--field-smoothing-ms", "7",
+                 "--lumen-smoothing-steps", "3"]) == 0
     summary = json.loads((out / "tiny" / "summary.json").read_text())
     assert summary["time_warp"] is True
     assert summary["provenance"]["options"]["map_positions"] == "fixed"
@@ -139,6 +140,7 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
         assert described[f"area_rows_{wall}_mm2"]["unit"] == "mm^2"
     assert summary["provenance"]["options"]["grid"]["authalic_weight"] == 0.25
     assert summary["provenance"]["options"]["grid"]["seam_method"] == "heat"
+    assert summary["provenance"]["options"]["grid"]["lumen_smoothing_steps"] == 3
     assert np.load(out / "tiny" / "grids.npz")["outer"].shape[:2] == (40, 20)
     text = log.read_text()
     assert "tiny: analysing 5 frames" in text and "tiny: done" in text

@@ -6,7 +6,7 @@ from helpers import tube_mesh
 from oftimg.image.normalize import (field_noise, per_pixel_normalize, phase_maps,
                                     smooth_field_in_time)
 from oftimg.mesh.curvature import (contour_curvature, count_corners, mixed_areas,
-                                   vertex_mean_curvature)
+                                   taubin_smooth, vertex_mean_curvature)
 from oftimg.mesh.parameterize import corner_terms
 from oftimg.mesh.strain import grid_strain, grid_triangles
 from oftimg.mesh.topology import check_tube
@@ -79,6 +79,36 @@ def test_cylinder_mean_curvature():
     interior = (V[:, 2] > 0.1) & (V[:, 2] < 0.9)
     assert np.allclose(H[interior], 1 / (2 * r), rtol=0.02)
     assert np.isnan(H[np.concatenate(topo.loops)]).all()
+
+
+def test_taubin_steps_take_roughness_off_a_cylinder_and_keep_its_shape():
+    r = 0.2
+    V, F = tube_mesh(r, length=1.0, n_theta=64, n_s=60)
+    topo = check_tube(V, F)
+    rim = np.concatenate(topo.loops)
+    interior = (V[:, 2] > 0.2) & (V[:, 2] < 0.8)
+    # a smooth cylinder stays one: radius within 0.2 %, rims exactly where they were
+    smooth = taubin_smooth(V, topo.F, 10, fixed=rim)
+    assert np.allclose(np.hypot(*smooth[interior, :2].T), r, rtol=2e-3)
+    assert np.array_equal(smooth[rim], V[rim])
+    # 1 % radial roughness: the mean curvature's error drops several times
+    radial = V[:, :2] / np.linalg.norm(V[:, :2], axis=1, keepdims=True)
+    noise = np.random.default_rng(1).normal(0.0, 0.01 * r, len(V))
+    rough = V + np.concatenate([radial * noise[:, None], np.zeros((len(V), 1))], axis=1)
+    before = np.median(np.abs(vertex_mean_curvature(rough, topo.F)[interior] - 1 / (2 * r)))
+    after = np.median(np.abs(vertex_mean_curvature(taubin_smooth(rough, topo.F, 10, fixed=rim),
+                                                   topo.F)[interior] - 1 / (2 * r)))
+    assert after < before / 4
+    assert np.array_equal(taubin_smooth(rough, topo.F, 0), rough)
+
+
+@pytest.mark.parametrize("bad", [-1, 2.5, "3", None, 1001])
+def test_lumen_smoothing_steps_are_checked(bad):
+    from oftimg.errors import InputError
+    from oftimg.mesh.grid import GridOptions
+
+    with pytest.raises(InputError, match="lumen_smoothing_steps must be a whole number"):
+        GridOptions(lumen_smoothing_steps=bad)
 
 
 def _areas(V, F):

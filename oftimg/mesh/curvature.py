@@ -77,6 +77,31 @@ def vertex_mean_curvature(V: np.ndarray, F: np.ndarray, boundary: np.ndarray | N
     return H
 
 
+def taubin_smooth(V: np.ndarray, F: np.ndarray, steps: int, *,
+                  fixed: np.ndarray | None = None, lam: float = 0.5, mu: float = -0.53
+                  ) -> np.ndarray:
+    """Vertex positions ``(n, 3)`` after ``steps`` Taubin lambda|mu steps (Taubin 1995):
+    each vertex moved ``lam`` of the way to its neighbours' mean, then back by
+    ``mu``, which takes roughness at the scale of the edges away with little
+    shrinkage of the shape. ``fixed`` vertices (the rims) stay where they are."""
+    import scipy.sparse as sp
+
+    V = np.asarray(V, float)
+    n = len(V)
+    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
+    A = sp.csr_matrix((np.ones(2 * len(i)), (np.concatenate([i, j]), np.concatenate([j, i]))),
+                      shape=(n, n))
+    A.data[:] = 1.0                                      # an edge of two faces counts once
+    mean_of_neighbours = sp.diags(1.0 / np.maximum(np.asarray(A.sum(axis=1)).ravel(), 1)) @ A
+    free = np.ones((n, 1))
+    if fixed is not None:
+        free[np.asarray(fixed)] = 0.0
+    for _ in range(int(steps)):
+        for factor in (lam, mu):
+            V = V + factor * free * (mean_of_neighbours @ V - V)
+    return V
+
+
 def mixed_areas(cots: np.ndarray, l2: np.ndarray, area: np.ndarray) -> np.ndarray:
     """Each face corner's share of its face's area ``(n_face, 3)`` mm^2: its
     Voronoi region where the face has no obtuse angle, else half the face at the

@@ -27,10 +27,15 @@ class GridOptions:
     respace: bool = True
     seam_smoothing_frames: float = 1.0
     seam_method: str = "graph"
+    lumen_smoothing_steps: int = 0      # Taubin steps before the lumen's mean curvature
 
     def __post_init__(self):
         if self.n_u < 3 or self.n_v < 2:
             raise InputError(f"grid must be at least 3 x 2, found {self.n_u} x {self.n_v}")
+        if not (isinstance(self.lumen_smoothing_steps, (int, np.integer))
+                and 0 <= self.lumen_smoothing_steps <= 1000):
+            raise InputError("lumen_smoothing_steps must be a whole number from 0 to 1000, "
+                             f"found {self.lumen_smoothing_steps!r}")
         if self.seam_smoothing_frames < 0:
             raise InputError("seam_smoothing_frames must be >= 0")
         if self.seam_method not in METHODS:

@@ -87,6 +87,8 @@ def taubin_smooth(V: np.ndarray, F: np.ndarray, steps: int, *,
     import scipy.sparse as sp
 
     V = np.asarray(V, float)
+    if steps == 0:
+        return V
     n = len(V)
     i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
     A = sp.csr_matrix((np.ones(2 * len(i)), (np.concatenate([i, j]), np.concatenate([j, i]))),

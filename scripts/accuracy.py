@@ -38,7 +38,10 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
   are their neighbours'): radial curvature of the outer and inner walls and mean
   curvature of the lumen, and the inner wall's strain energy against that of the
   model's inner wall at each grid node's position along and angle around the tube
-  (each: median |error| over the median |truth|, %).
+  (each: median |error| over the median |truth|, %); for each curvature, the noise
+  oftimg reports (`field_noise`, after its smoothing) over the true error's spread
+  (each pixel's SD over the cycle, median; about 1 where the error is noise), and the
+  noise share it reports (a value, not an error).
 """
 from __future__ import annotations
 
@@ -54,6 +57,9 @@ from oftimg.mesh.strain import grid_strain
 from oftimg.phantom import read_truth, sample_params, write_phantom
 
 WALLS = ("outer", "inner", "lumen")
+CURVATURES = [("radial_curvature_outer", "radial curvature, outer"),
+              ("radial_curvature_inner", "radial curvature, inner"),
+              ("mean_curvature_lumen", "mean curvature, lumen")]
 
 # (key, unit, what): the rows of the printed table, in this order
 METRICS = [
@@ -88,6 +94,10 @@ METRICS = [
       for w in ("outer", "inner")],
     ("mean_curvature_lumen_pct", "%", "mean curvature, lumen (median |error|)"),
     ("strain_energy_inner_pct", "%", "strain energy, inner wall (median |error|)"),
+    *[(f"{name}_noise_ratio", "x", f"{what}: noise oftimg reports / true error's SD")
+      for name, what in CURVATURES],
+    *[(f"{name}_noise_share", "", f"{what}: noise share oftimg reports (not an error)")
+      for name, what in CURVATURES],
 ]
 
 
@@ -179,25 +189,35 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
         found = summ["band_position_mm"]
         e["band_mm"] = np.nan if found is None else found - truth["band_position_mm"]
     e["corners_wrong"] = float(summ["corner_count"] != truth["corner_count"])
-    e.update(field_errors(ph, arr, np.load(results / "grids.npz"), t_ms))
+    e.update(field_errors(ph, arr, np.load(results / "grids.npz"), t_ms,
+                          summ.get("field_noise") or {}))
     return {k: float(v) for k, v in e.items()}
 
 
-def field_errors(ph, arr, grids, t_ms: np.ndarray) -> dict[str, float]:
-    """The shape fields' errors against the model, away from the end rows."""
+def field_errors(ph, arr, grids, t_ms: np.ndarray, field_noise: dict) -> dict[str, float]:
+    """The shape fields' errors against the model, away from the end rows; for each
+    curvature, the noise oftimg reports (``summary.json: field_noise``, after its
+    smoothing) over the true error's spread (each pixel's SD over the cycle, median),
+    and the noise share it reports."""
     rows, t = slice(2, -2), t_ms[None, None, :]
 
     def median_pct(measured, true):
         return 100.0 * np.nanmedian(np.abs(measured - true)) / np.nanmedian(np.abs(true))
 
-    e = {}
+    truths = {}
     for w in ("outer", "inner"):
         s, theta = ph.window_coordinates(arr[f"contour_{w}_mm"][:, rows].astype(float))
-        e[f"radial_curvature_{w}_pct"] = median_pct(
-            arr[f"radial_curvature_{w}_per_mm"][:, rows], ph.section_curvature(w, s, theta, t))
+        truths[f"radial_curvature_{w}"] = ph.section_curvature(w, s, theta, t)
     s, theta = ph.window_coordinates(grids["lumen"][:, rows].astype(float))
-    e["mean_curvature_lumen_pct"] = median_pct(arr["mean_curvature_lumen_per_mm"][:, rows],
-                                               ph.mean_curvature("lumen", s, theta, t))
+    truths["mean_curvature_lumen"] = ph.mean_curvature("lumen", s, theta, t)
+    e = {}
+    for name, truth in truths.items():
+        measured = arr[f"{name}_per_mm"][:, rows]
+        e[f"{name}_pct"] = median_pct(measured, truth)
+        noise = field_noise.get(f"{name}_per_mm") or {}
+        spread = np.nanmedian(np.nanstd(measured - truth, axis=-1))
+        e[f"{name}_noise_ratio"] = (noise.get("noise_sd_smoothed") or np.nan) / spread
+        e[f"{name}_noise_share"] = noise.get("noise_share") or np.nan
     s, theta = ph.window_coordinates(grids["outer"].astype(float))
     model = grid_strain(ph.point("inner", s, theta, t))[0][:, rows]
     e["strain_energy_inner_pct"] = median_pct(arr["strain_energy_inner"][:, rows], model)

@@ -175,8 +175,8 @@ def smoothed_curvature(raw: np.ndarray, period_ms: float, smoothing_ms: float
     (float32; each frame is segmented and meshed on its own, and a second
     derivative of its surface carries that noise several times over), and how
     much of it is noise (:func:`~oftimg.image.normalize.field_noise`)."""
-    return (smooth_field_in_time(raw, period_ms, smoothing_ms).astype(np.float32),
-            field_noise(raw, period_ms, smoothing_ms))
+    smoothed = smooth_field_in_time(raw, period_ms, smoothing_ms)
+    return smoothed.astype(np.float32), field_noise(raw, smoothed, period_ms, smoothing_ms)
 
 
 def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
@@ -408,12 +408,14 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     summary["field_smoothing_ms"] = options.field_smoothing_ms
     for name, noise in fields["field_noise"].items():
         if noise["noise_share"] > NOISY_FIELD_SHARE:
+            helps = ("--lumen-smoothing-steps 20" if name.startswith("mean_curvature_lumen")
+                     else "a larger --field-smoothing-ms")
             warnings.warn(
                 f"{ds.path}: {name} is mostly noise: after {options.field_smoothing_ms:g} ms of "
                 f"smoothing, {100 * noise['noise_share']:.0f} % of each pixel's variance over "
                 "the cycle is frame-to-frame noise (median pixel; summary.json: field_noise), "
                 "so its per-pixel normalised video and phase maps show noise more than the "
-                "beat; smoother surfaces, finer meshes or a larger --field-smoothing-ms help",
+                f"beat; smoother surfaces, finer meshes or {helps} help (README, Accuracy)",
                 OftimgWarning, stacklevel=2)
     timings["fields_s"] = time.perf_counter() - tick
     tick = time.perf_counter()

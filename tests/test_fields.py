@@ -307,7 +307,8 @@ def test_field_noise_measures_white_noise_and_its_smoothing():
     clean = 2.0 * np.sin(2 * np.pi * (t + u)) + np.cos(4 * np.pi * (t - v))
     for sd in (0.0, 0.5, 2.0):
         noise = rng.normal(0.0, sd, clean.shape)
-        r = field_noise(clean + noise, period, 5.0)
+        f = clean + noise
+        r = field_noise(f, smooth_field_in_time(f, period, 5.0), period, 5.0)
         assert r["noise_sd"] == pytest.approx(sd, rel=0.05, abs=1e-9)
         smoothed_noise = np.std(smooth_field_in_time(noise, period, 5.0))
         assert r["noise_sd_smoothed"] == pytest.approx(smoothed_noise, rel=0.05, abs=1e-9)
@@ -319,8 +320,9 @@ def test_field_noise_measures_white_noise_and_its_smoothing():
     f[3, 4, 7] = np.nan
     sm = smooth_field_in_time(f, period, 5.0)
     assert np.isnan(sm[3, 4, 7]) and np.isfinite(np.delete(sm.ravel(), 3 * n_v * n_t + 4 * n_t + 7)).all()
-    assert np.isfinite(field_noise(f, period, 5.0)["noise_sd"])
-    assert np.isnan(field_noise(clean[..., :8], period, 5.0)["noise_share"])
+    assert np.isfinite(field_noise(f, sm, period, 5.0)["noise_sd"])
+    short = clean[..., :8]
+    assert np.isnan(field_noise(short, short, period, 5.0)["noise_share"])
 
 
 @pytest.mark.slow

@@ -49,13 +49,15 @@ def smooth_field_in_time(field: np.ndarray, period_ms: float, sigma_ms: float) -
     return smooth_in_time(np.reshape(field, (-1, n_t)), period_ms, sigma_ms).reshape(field.shape)
 
 
-def field_noise(field: np.ndarray, period_ms: float, sigma_ms: float) -> dict:
+def field_noise(field: np.ndarray, smoothed: np.ndarray, period_ms: float, sigma_ms: float
+                ) -> dict:
     """How much of a field's change over the cycle is frame-to-frame noise.
 
-    ``field (..., n_t)``, unsmoothed, over one periodic cycle. Each pixel's noise
+    ``field (..., n_t)``, unsmoothed, over one periodic cycle, and ``smoothed``, the
+    same in time by ``sigma_ms`` (:func:`smooth_field_in_time`). Each pixel's noise
     is measured as an area map row's is (:func:`~oftimg.image.kymograph.map_noise_sd`:
     the power of its harmonics above a quarter of the frame rate), then carried
-    through the smoothing in time by ``sigma_ms``. Returns, over the pixels with a
+    through the smoothing. Returns, over the pixels with a
     value in every frame (median), in the field's units: ``noise_sd`` (one frame),
     ``noise_sd_smoothed`` (after the smoothing), ``temporal_sd`` (each smoothed
     pixel's standard deviation over the cycle) and ``noise_share``, the share of
@@ -64,7 +66,8 @@ def field_noise(field: np.ndarray, period_ms: float, sigma_ms: float) -> dict:
     """
     n_t = field.shape[-1]
     pixels = np.reshape(field, (-1, n_t)).astype(float)
-    pixels = pixels[np.isfinite(pixels).all(axis=1)]
+    whole = np.isfinite(pixels).all(axis=1)
+    pixels = pixels[whole]
     keys = ("noise_sd", "noise_sd_smoothed", "temporal_sd", "noise_share")
     if len(pixels) == 0 or n_t < 10:
         return dict.fromkeys(keys, float("nan"))
@@ -72,7 +75,7 @@ def field_noise(field: np.ndarray, period_ms: float, sigma_ms: float) -> dict:
     impulse[0, 0] = 1.0
     gain = float(np.sqrt((smooth_in_time(impulse, period_ms, sigma_ms) ** 2).sum()))
     noise = gain * map_noise_sd(pixels)
-    variance = smooth_in_time(pixels, period_ms, sigma_ms).var(axis=1)
+    variance = np.reshape(smoothed, (-1, n_t))[whole].astype(float).var(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         share = np.clip(noise ** 2 / np.where(variance > 0, variance, np.nan), 0.0, 1.0)
     return {"noise_sd": float(np.median(noise) / gain), "noise_sd_smoothed": float(np.median(noise)),

@@ -233,6 +233,18 @@ class _Watchdog(threading.Thread):
             pass
 
 
+def _one_died(processes, wait_s: float = 0.5) -> bool:
+    """Has one of ``processes`` ended with an error? Waits up to ``wait_s`` for one to
+    say so: a killed process closes its pipes before its exit status can be read,
+    so a pipe error can come first (seen with the pool's workers)."""
+    deadline = time.monotonic() + wait_s
+    while not any(p.exitcode not in (None, 0) for p in processes):
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.01)
+    return True
+
+
 def _worker_lost(exc: BaseException, processes=(), killed=frozenset()) -> WorkerLost | None:
     """:class:`WorkerLost` for ``exc`` if it says a worker died (a broken process
     pool, Dask's KilledWorker; or a bad file descriptor or broken pipe while one
@@ -244,7 +256,7 @@ def _worker_lost(exc: BaseException, processes=(), killed=frozenset()) -> Worker
     from concurrent.futures.process import BrokenProcessPool
 
     pipes = (isinstance(exc, OSError) and exc.errno in (errno.EBADF, errno.EPIPE)
-             and any(p.exitcode not in (None, 0) for p in processes))
+             and _one_died(processes))
     if isinstance(exc, BrokenProcessPool) or pipes:
         for p in processes:  # a submit can fail before the pool has ended them all
             try:

@@ -251,8 +251,9 @@ DAMAGED = {"ply_cut_faces": CUT + "faces, with 427 of the 432",                 
            # open3d 0.20 leaves the quads out, 0.18 the whole mesh
            "obj_quads": "lists 408 faces but (384|0) triangles",
            "off_quads": "lists 408 faces but",
-           # 0.18 reads the last face, cut to two corners, with a third out of range
-           "obj_cut": "(lists 432 faces but 431 triangles|face indices out of range)",
+           # open3d 0.18 completed the last face, cut to two corners, with an index from
+           # nowhere: out of range, or (in 1 of ~10 runs) in range, and the file passed
+           "obj_cut": "1 face lines with fewer than 3 corners",
            "obj_indented": "lists 432 faces but 0 triangles",
            "stl_cut": "lists 432 faces but 0 triangles",
            "stl_ascii_cut": "lists 432 faces but",

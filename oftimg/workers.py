@@ -237,6 +237,8 @@ def _one_died(processes, wait_s: float = 0.5) -> bool:
     """Has one of ``processes`` ended with an error? Waits up to ``wait_s`` for one to
     say so: a killed process closes its pipes before its exit status can be read,
     so a pipe error can come first (seen with the pool's workers)."""
+    if not processes:                   # a Dask cluster's, or none: nothing to wait for
+        return False
     deadline = time.monotonic() + wait_s
     while not any(p.exitcode not in (None, 0) for p in processes):
         if time.monotonic() >= deadline:

@@ -506,6 +506,8 @@ class Dataset:
         return self.frame(t).tube(surface)
 
     def iter_tubes(self, surface: str):
+        """Every frame of ``surface`` in turn as a validated :class:`Tube` (mm), one
+        frame read at a time: a long series never sits in memory whole."""
         for t in range(self.n_frames):
             yield self.tube(surface, t)
 

@@ -10,7 +10,7 @@ from oftimg.io import write_ply
 
 
 def tube_mesh(radius_in=0.2, radius_out=None, length=1.0, n_theta=48, n_s=30,
-              ellipse=1.0, theta0=0.0, axis_z=True):
+              ellipse=1.0, theta0=0.0):
     """Straight tube along +z from z=0 (inlet) to z=length, outward-oriented.
 
     Radius tapers linearly from ``radius_in`` to ``radius_out`` (a cone); the

@@ -342,6 +342,7 @@ def test_expanded_fractions_of_known_shapes():
     share_s, sigma, r2, mask_s = expanded_sigma(area)
     assert np.allclose(sigma, sigma_true, rtol=0.02) and np.all(r2 > 0.99)
     assert np.allclose(share_s, 2 * sigma_true / N_T, rtol=0.02)
+    assert np.allclose(mask_s.mean(axis=1), share_s, atol=1.5 / N_T)   # the mask is that share
 
 
 def _neck_map(s_at, t_ms):

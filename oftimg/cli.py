@@ -18,6 +18,7 @@ from pathlib import Path
 
 from . import __version__
 from .image.kymograph import AUTO_SPREAD_TARGET, RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS
+from .image.normalize import FIELD_NOISE_TARGET
 
 
 class Terminated(BaseException):
@@ -93,11 +94,14 @@ def _parser() -> argparse.ArgumentParser:
                         f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms that "
                         "leaves the local speeds' noise spread under "
                         f"{100 * AUTO_SPREAD_TARGET:g} %%; 0: none (see README, Accuracy)")
-    r.add_argument("--field-smoothing-ms", type=float, default=RIDGE_SMOOTHING_MS, metavar="MS",
-                   help="Gaussian sigma (ms) with which every pixel of the curvature fields "
+    r.add_argument("--field-smoothing-ms", default="auto", metavar="MS",
+                   help="Gaussian sigma (ms) with which every pixel of each curvature field "
                         "is smoothed in time (each frame's surface carries its own noise, "
-                        "which a curvature multiplies); default %(default)g, 0: none. "
-                        "summary.json: field_noise says how much of each field is noise")
+                        "which a curvature multiplies); auto (default): the least of "
+                        f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms after "
+                        f"which at most {100 * FIELD_NOISE_TARGET:g} %% of each pixel's change "
+                        "over the cycle is noise; 0: none. summary.json: field_noise says how "
+                        "much of each field is noise and the sigma taken")
     r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
                    help="Taubin smoothing steps on each lumen mesh before its mean curvature "
                         "(default 0: none, as the paper); for rough segmentations, whose "

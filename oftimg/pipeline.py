@@ -15,7 +15,7 @@ from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_wa
                     wrap_step_ratio)
 from .image.analysis import analyse_area_maps
 from .image.kymograph import RIDGE_SMOOTHING_MS, at_fixed_positions
-from .image.normalize import field_noise, phase_maps, smooth_field_in_time
+from .image.normalize import phase_maps, smooth_field
 from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import GridOptions, smooth_endpoints
@@ -40,11 +40,11 @@ class PipelineOptions:
     warp: bool = False
     map_positions: str = "rows"
     ridge_smoothing_ms: float | str = "auto"
-    field_smoothing_ms: float = RIDGE_SMOOTHING_MS
+    field_smoothing_ms: float | str = "auto"
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
                  map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
-                 field_smoothing_ms: float = RIDGE_SMOOTHING_MS, **grid_kwargs):
+                 field_smoothing_ms: float | str = "auto", **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
         if map_positions not in MAP_POSITIONS:
@@ -53,13 +53,14 @@ class PipelineOptions:
         if ridge_smoothing_ms != "auto":
             ridge_smoothing_ms = _sigma_ms(ridge_smoothing_ms, "ridge_smoothing_ms must be "
                                            "'auto' or a number of ms >= 0 (0: none)")
-        sigma = _sigma_ms(field_smoothing_ms,
-                          "field_smoothing_ms must be a number of ms >= 0 (0: none)")
+        if field_smoothing_ms != "auto":
+            field_smoothing_ms = _sigma_ms(field_smoothing_ms, "field_smoothing_ms must be "
+                                           "'auto' or a number of ms >= 0 (0: none)")
         object.__setattr__(self, "grid", grid or GridOptions(**grid_kwargs))
         object.__setattr__(self, "warp", bool(warp))
         object.__setattr__(self, "map_positions", map_positions)
         object.__setattr__(self, "ridge_smoothing_ms", ridge_smoothing_ms)
-        object.__setattr__(self, "field_smoothing_ms", sigma)
+        object.__setattr__(self, "field_smoothing_ms", field_smoothing_ms)
 
     def as_dict(self) -> dict:
         return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions,
@@ -169,25 +170,27 @@ NOISY_FIELD_SHARE = 0.25
 CORNER_FRAMES = 2
 
 
-def smoothed_curvature(raw: np.ndarray, period_ms: float, smoothing_ms: float
+def smoothed_curvature(raw: np.ndarray, period_ms: float, smoothing_ms: float | str
                        ) -> tuple[np.ndarray, dict]:
     """A curvature field ``(n_u, n_v, n_t)`` smoothed in time by ``smoothing_ms``
-    (float32; each frame is segmented and meshed on its own, and a second
-    derivative of its surface carries that noise several times over), and how
-    much of it is noise (:func:`~oftimg.image.normalize.field_noise`)."""
-    smoothed = smooth_field_in_time(raw, period_ms, smoothing_ms)
-    return smoothed.astype(np.float32), field_noise(raw, smoothed, period_ms, smoothing_ms)
+    (ms or "auto"; float32; each frame is segmented and meshed on its own, and a
+    second derivative of its surface carries that noise several times over), and
+    how much of it is noise with the sigma used
+    (:func:`~oftimg.image.normalize.smooth_field`)."""
+    smoothed, noise = smooth_field(raw, period_ms, smoothing_ms)
+    return smoothed.astype(np.float32), noise
 
 
 def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
-                 smoothing_ms: float = RIDGE_SMOOTHING_MS) -> dict:
+                 smoothing_ms: float | str = "auto", lumen_smoothed_ms: float = 0.0) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
     Radial curvature of the outer and inner section contours (smoothed in time
-    by ``smoothing_ms``: :func:`smoothed_curvature`; how much of each is noise in
-    ``field_noise``), strain energy and principal stretches of the outer and
-    inner grids against t = 0, the phase maps of these and of the lumen's mean
-    curvature (``(n_u, n_v, n_t)`` on the lumen grid, smoothed alike, or None),
+    by ``smoothing_ms``: :func:`smoothed_curvature`; how much of each is noise, and
+    the sigma taken, in ``field_noise``), strain energy and principal stretches of
+    the outer and inner grids against t = 0, the phase maps of these and of the
+    lumen's mean curvature (``(n_u, n_v, n_t)`` on the lumen grid, already
+    smoothed by ``lumen_smoothed_ms``, or None),
     and the corner count of the outer contours at each row's own maximum
     contraction (curvature averaged over the ``2 CORNER_FRAMES + 1`` frames
     around it). Phase maps are taken on each field smoothed in time by
@@ -204,12 +207,12 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
             arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
     if mean_curvature_lumen is not None:
         arrays["mean_curvature_lumen_per_mm"] = mean_curvature_lumen
-    # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
-    rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothing_ms ** 2))
+    smoothed_ms = {name: noise[name]["smoothing_ms"] for name in noise}
+    smoothed_ms["mean_curvature_lumen_per_mm"] = lumen_smoothed_ms
     for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv"))]:
-        smoothed = name.startswith(("radial", "mean_curv"))
-        t_max, t_min = phase_maps(arrays[name], period_ms,
-                                  smoothing_ms=rest_ms if smoothed else RIDGE_SMOOTHING_MS)
+        # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
+        rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothed_ms.get(name, 0.0) ** 2))
+        t_max, t_min = phase_maps(arrays[name], period_ms, smoothing_ms=rest_ms)
         arrays[f"phase_max_{name}_ms"] = t_max.astype(np.float32)
         arrays[f"phase_min_{name}_ms"] = t_min.astype(np.float32)
     k = unsmoothed["outer"]             # the corners' own average over frames (validated so)
@@ -400,18 +403,21 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             grid[f"{w}_clipped"] = lines.transpose(0, 2, 1, 3)
     tick = time.perf_counter()
     fields = shape_fields(grid, contour, normals, area, H, ds.meta.period_ms,
-                          options.field_smoothing_ms)
+                          options.field_smoothing_ms,
+                          lumen_smoothed_ms=lumen_noise["smoothing_ms"] if H is not None else 0.0)
     arrays.update(fields.pop("arrays"))
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise
     summary.update(fields)
-    summary["field_smoothing_ms"] = options.field_smoothing_ms
+    # the sigma taken for each curvature field ("auto": as much as its noise asks)
+    summary["field_smoothing_ms"] = {name: noise["smoothing_ms"]
+                                     for name, noise in fields["field_noise"].items()}
     for name, noise in fields["field_noise"].items():
         if noise["noise_share"] > NOISY_FIELD_SHARE:
             helps = ("--lumen-smoothing-steps 20" if name.startswith("mean_curvature_lumen")
                      else "a larger --field-smoothing-ms")
             warnings.warn(
-                f"{ds.path}: {name} is mostly noise: after {options.field_smoothing_ms:g} ms of "
+                f"{ds.path}: {name} is mostly noise: after {noise['smoothing_ms']:g} ms of "
                 f"smoothing, {100 * noise['noise_share']:.0f} % of each pixel's variance over "
                 "the cycle is frame-to-frame noise (median pixel; summary.json: field_noise), "
                 "so its per-pixel normalised video and phase maps show noise more than the "

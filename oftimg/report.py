@@ -54,6 +54,11 @@ COHORT_COLUMNS = [
      ("field_noise", "radial_curvature_outer_per_mm", "noise_share")),
     ("mean_curvature_lumen_noise_share",
      ("field_noise", "mean_curvature_lumen_per_mm", "noise_share")),
+    # the sigma (ms) each was smoothed by in time (auto: as much as its noise asks)
+    ("radial_curvature_outer_smoothing_ms",
+     ("field_noise", "radial_curvature_outer_per_mm", "smoothing_ms")),
+    ("mean_curvature_lumen_smoothing_ms",
+     ("field_noise", "mean_curvature_lumen_per_mm", "smoothing_ms")),
 ]
 
 

@@ -38,9 +38,12 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
   are their neighbours'): radial curvature of the outer and inner walls and mean
   curvature of the lumen, and the inner wall's strain energy against that of the
   model's inner wall at each grid node's position along and angle around the tube
-  (each: median |error| over the median |truth|, %); for each curvature, the noise
+  (each: median |error| over the median |truth|, %); each curvature also against
+  the model at its points' positions averaged in time as the field is (a rough
+  mesh moves them along the wall from frame to frame); for each curvature, the noise
   oftimg reports (`field_noise`, after its smoothing) over the true error's spread
-  (each pixel's SD over the cycle, median; about 1 where the error is noise), and the
+  (each pixel's SD over the cycle, median, against the model at the mean positions;
+  about 1 where the error is noise), and the
   noise share it reports (a value, not an error).
 """
 from __future__ import annotations
@@ -53,6 +56,7 @@ from pathlib import Path
 import numpy as np
 
 import oftimg
+from oftimg.image.normalize import smooth_field_in_time
 from oftimg.mesh.strain import grid_strain
 from oftimg.phantom import read_truth, sample_params, write_phantom
 
@@ -93,10 +97,14 @@ METRICS = [
     *[(f"radial_curvature_{w}_pct", "%", f"radial curvature, {w} (median |error|)")
       for w in ("outer", "inner")],
     ("mean_curvature_lumen_pct", "%", "mean curvature, lumen (median |error|)"),
+    *[(f"{name}_mean_position_pct", "%", f"{what}, truth at mean positions")
+      for name, what in CURVATURES],
     ("strain_energy_inner_pct", "%", "strain energy, inner wall (median |error|)"),
     *[(f"{name}_noise_ratio", "x", f"{what}: noise oftimg reports / true error's SD")
       for name, what in CURVATURES],
     *[(f"{name}_noise_share", "", f"{what}: noise share oftimg reports (not an error)")
+      for name, what in CURVATURES],
+    *[(f"{name}_smoothing_ms", "ms", f"{what}: smoothing taken (not an error)")
       for name, what in CURVATURES],
 ]
 
@@ -190,34 +198,53 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
         e["band_mm"] = np.nan if found is None else found - truth["band_position_mm"]
     e["corners_wrong"] = float(summ["corner_count"] != truth["corner_count"])
     e.update(field_errors(ph, arr, np.load(results / "grids.npz"), t_ms,
-                          summ.get("field_noise") or {}))
+                          summ.get("field_noise") or {}, period))
     return {k: float(v) for k, v in e.items()}
 
 
-def field_errors(ph, arr, grids, t_ms: np.ndarray, field_noise: dict) -> dict[str, float]:
-    """The shape fields' errors against the model, away from the end rows; for each
-    curvature, the noise oftimg reports (``summary.json: field_noise``, after its
-    smoothing) over the true error's spread (each pixel's SD over the cycle, median),
+def field_errors(ph, arr, grids, t_ms: np.ndarray, field_noise: dict, period_ms: float
+                 ) -> dict[str, float]:
+    """The shape fields' errors against the model, away from the end rows; each
+    curvature (smoothed in time: ``field_noise[name]["smoothing_ms"]``) also against
+    the model at its points' positions averaged alike (on a rough mesh a contour
+    point moves along the wall by several um from frame to frame, the smoothed
+    field does not follow it, and the model's curvature changes fast around a
+    cornered section); for each curvature, the noise oftimg reports (``summary.json:
+    field_noise``, after its smoothing) over the true error's spread (each
+    pixel's SD over the cycle, median, against the model at the mean positions),
     and the noise share it reports."""
     rows, t = slice(2, -2), t_ms[None, None, :]
 
     def median_pct(measured, true):
         return 100.0 * np.nanmedian(np.abs(measured - true)) / np.nanmedian(np.abs(true))
 
+    def truth_at(points, model, name):
+        """The model at ``points (n_u, n_v, n_t, 3)``, and at their positions averaged
+        in time as the field ``name`` is."""
+        sigma = field_noise[f"{name}_per_mm"]["smoothing_ms"]
+        mean_points = np.moveaxis(smooth_field_in_time(np.moveaxis(points, -1, 0), period_ms,
+                                                       sigma), 0, -1)
+        return [model(*ph.window_coordinates(p), t) for p in (points, mean_points)]
+
     truths = {}
     for w in ("outer", "inner"):
-        s, theta = ph.window_coordinates(arr[f"contour_{w}_mm"][:, rows].astype(float))
-        truths[f"radial_curvature_{w}"] = ph.section_curvature(w, s, theta, t)
-    s, theta = ph.window_coordinates(grids["lumen"][:, rows].astype(float))
-    truths["mean_curvature_lumen"] = ph.mean_curvature("lumen", s, theta, t)
+        truths[f"radial_curvature_{w}"] = truth_at(
+            arr[f"contour_{w}_mm"][:, rows].astype(float),
+            lambda s, theta, t, w=w: ph.section_curvature(w, s, theta, t),
+            f"radial_curvature_{w}")
+    truths["mean_curvature_lumen"] = truth_at(
+        grids["lumen"][:, rows].astype(float),
+        lambda s, theta, t: ph.mean_curvature("lumen", s, theta, t), "mean_curvature_lumen")
     e = {}
-    for name, truth in truths.items():
+    for name, (truth, truth_at_mean) in truths.items():
         measured = arr[f"{name}_per_mm"][:, rows]
         e[f"{name}_pct"] = median_pct(measured, truth)
+        e[f"{name}_mean_position_pct"] = median_pct(measured, truth_at_mean)
         noise = field_noise.get(f"{name}_per_mm") or {}
-        spread = np.nanmedian(np.nanstd(measured - truth, axis=-1))
+        spread = np.nanmedian(np.nanstd(measured - truth_at_mean, axis=-1))
         e[f"{name}_noise_ratio"] = (noise.get("noise_sd_smoothed") or np.nan) / spread
         e[f"{name}_noise_share"] = noise.get("noise_share") or np.nan
+        e[f"{name}_smoothing_ms"] = noise.get("smoothing_ms", np.nan)
     s, theta = ph.window_coordinates(grids["outer"].astype(float))
     model = grid_strain(ph.point("inner", s, theta, t))[0][:, rows]
     e["strain_energy_inner_pct"] = median_pct(arr["strain_energy_inner"][:, rows], model)
@@ -275,7 +302,7 @@ def main() -> None:
                          "(default: 4000-8000)")
     ap.add_argument("--lumen-smoothing-steps", type=int, default=0,
                     help="oftimg run --lumen-smoothing-steps")
-    ap.add_argument("--field-smoothing-ms", type=float, default=5.0,
+    ap.add_argument("--field-smoothing-ms", default="auto",
                     help="oftimg run --field-smoothing-ms")
     ap.add_argument("--jobs", type=int, default=None)
     ap.add_argument("--cache", type=Path, default=None,

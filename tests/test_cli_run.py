@@ -131,7 +131,9 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     summary = json.loads((out / "tiny" / "summary.json").read_text())
     assert summary["time_warp"] is True
     assert summary["provenance"]["options"]["map_positions"] == "fixed"
-    assert summary["field_smoothing_ms"] == summary["provenance"]["options"]["field_smoothing_ms"] == 7
+    assert summary["provenance"]["options"]["field_smoothing_ms"] == 7
+    assert set(summary["field_smoothing_ms"].values()) == {7}        # taken by every field
+    assert all(n["smoothing_ms"] == 7 for n in summary["field_noise"].values())
     arrays = np.load(out / "tiny" / "arrays.npz")           # the maps at fixed positions, and
     described = json.loads((out / "tiny" / "arrays.json").read_text())     # the rows' own
     for wall in ("outer", "inner", "lumen"):

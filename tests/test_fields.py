@@ -298,6 +298,30 @@ def test_surface_render_covers_the_view_and_follows_the_motion():
         assert np.array_equal(whole.render(G[:, :, t], values, vmin=0, vmax=1), img)
 
 
+@pytest.mark.parametrize("noise_sd, expected_ms", [(0.0, 5.0), (0.8, 7.0), (1.15, 14.0),
+                                                   (3.0, 20.0)])
+def test_auto_field_smoothing_takes_the_least_sigma_that_quiets_the_noise(noise_sd,
+                                                                          expected_ms):
+    """A beat of amplitude 1 (variance 1/2) under white noise of SD s: after a Gaussian
+    of noise gain g the noise share is (g s)^2 / (1/2 + (g s)^2). For 195 frames of
+    1.85 ms, g = 0.32, 0.27, 0.23, 0.19, 0.16 for the ladder's 5, 7, 10, 14, 20 ms:
+    s = 0.8 gives 0.12 at 5 ms and 0.087 at 7; s = 1.15 0.12 at 10 ms and 0.090 at 14;
+    s = 3 never gets under 0.10 (0.32 at 20 ms) and takes the most."""
+    from oftimg.image.normalize import FIELD_NOISE_TARGET, smooth_field
+
+    period, n_t = 360.0, 195
+    rng = np.random.default_rng(2)
+    t = np.arange(n_t) / n_t
+    field = np.sin(2 * np.pi * t) + noise_sd * rng.standard_normal((30, 40, n_t))
+    smoothed, noise = smooth_field(field, period, "auto")
+    assert noise["smoothing_ms"] == expected_ms
+    assert noise["noise_share"] <= FIELD_NOISE_TARGET or expected_ms == 20.0
+    assert np.allclose(smoothed, smooth_field_in_time(field, period, expected_ms))
+    assert smooth_field(field, period, 7.0)[1]["smoothing_ms"] == 7.0      # a sigma given
+    short = field[..., :8]                          # under 10 frames: no noise measure
+    assert smooth_field(short, period, "auto")[1]["smoothing_ms"] == 5.0
+
+
 def test_field_noise_measures_white_noise_and_its_smoothing():
     """A travelling pattern plus white noise of known SD in every pixel and frame."""
     rng = np.random.default_rng(0)
@@ -352,6 +376,7 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
         assert noise["noise_sd_smoothed"] == pytest.approx(np.median(np.std(error, axis=-1)),
                                                            rel=0.1)
         assert noise["noise_share"] > 0.9
+        assert noise["smoothing_ms"] == 20.0       # auto: the most, and not enough (warned)
 
 
 @pytest.mark.slow
@@ -373,3 +398,8 @@ def test_radial_curvature_is_the_models(analysed_normal, wall):
     assert np.corrcoef(k.ravel(), model.ravel())[0, 1] > 0.985
     # the smooth phantom's curvatures are not called noisy: measured 0.02, 0.02, 0.10
     assert all(n["noise_share"] < 0.15 for n in res["summary"]["field_noise"].values())
+    # so auto smoothing takes the least sigma for the radial curvatures (the lumen's, at
+    # 0.10 just over the target, took 7 ms)
+    taken = res["summary"]["field_smoothing_ms"]
+    assert taken["radial_curvature_outer_per_mm"] == taken["radial_curvature_inner_per_mm"] == 5
+    assert taken["mean_curvature_lumen_per_mm"] <= 7

@@ -507,9 +507,10 @@ def test_map_positions_are_checked():
             PipelineOptions(ridge_smoothing_ms=bad)
     assert PipelineOptions(ridge_smoothing_ms=0).as_dict()["ridge_smoothing_ms"] == 0.0
     for bad in (-1, "5 ms", None, float("nan"), float("inf")):
-        with pytest.raises(InputError, match="field_smoothing_ms must be a number of ms"):
+        with pytest.raises(InputError, match="field_smoothing_ms must be 'auto' or a number"):
             PipelineOptions(field_smoothing_ms=bad)
     assert PipelineOptions(field_smoothing_ms="7").as_dict()["field_smoothing_ms"] == 7.0
+    assert PipelineOptions().as_dict()["field_smoothing_ms"] == "auto"
 
 
 def test_cells_without_a_contour_are_filled_periodically_in_time_and_rows_along_v():

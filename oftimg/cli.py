@@ -102,6 +102,10 @@ def _parser() -> argparse.ArgumentParser:
                         f"which at most {100 * FIELD_NOISE_TARGET:g} %% of each pixel's change "
                         "over the cycle is noise; 0: none. summary.json: field_noise says how "
                         "much of each field is noise and the sigma taken")
+    r.add_argument("--strain-smoothing-ms", type=float, default=RIDGE_SMOOTHING_MS, metavar="MS",
+                   help="Gaussian sigma (ms) with which every grid node's position is smoothed "
+                        "in time before the strain fields (each frame's grid moves along the "
+                        "wall with its own mesh's roughness); default %(default)g, 0: none")
     r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
                    help="Taubin smoothing steps on each lumen mesh before its mean curvature "
                         "(default 0: none, as the paper); for rough segmentations, whose "
@@ -251,7 +255,8 @@ def _command(args) -> int:
                    "lumen_smoothing_steps": args.lumen_smoothing_steps,
                    "map_positions": args.map_positions,
                    "ridge_smoothing_ms": args.ridge_smoothing_ms,
-                   "field_smoothing_ms": args.field_smoothing_ms}
+                   "field_smoothing_ms": args.field_smoothing_ms,
+                   "strain_smoothing_ms": args.strain_smoothing_ms}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume)

@@ -300,7 +300,8 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "radial_curvature_{w}_per_mm": ("1/mm", "signed in-plane curvature of the {w} section "
                                                 "contours (Savitzky-Golay, 7 points; smoothed "
                                                 "in time by summary.field_smoothing_ms)"),
-        "strain_energy_{w}": ("1", "(l1-1)^2 + (l2-1)^2 of the {w} grid against t = 0"),
+        "strain_energy_{w}": ("1", "(l1-1)^2 + (l2-1)^2 of the {w} grid against t = 0 (its "
+                                   "nodes smoothed in time by summary.strain_smoothing_ms)"),
         "mean_curvature_lumen_per_mm": ("1/mm", "mean curvature of the lumen (cotangent "
                                                 "Laplacian; rim vertices: mean of neighbours; "
                                                 "smoothed in time by summary.field_smoothing_ms)"),
@@ -315,11 +316,13 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                     return {"dims": ["u", "v"], "unit": "ms",
                             "description": f"time of each pixel's {which}imum of {f} "
                                            f"(smoothed in time by {RIDGE_SMOOTHING_MS:g} ms, "
-                                           "a curvature by summary.field_smoothing_ms if "
-                                           "more; sub-frame)"}
+                                           "a curvature by summary.field_smoothing_ms "
+                                           "and a strain by summary.strain_smoothing_ms "
+                                           "if more; sub-frame)"}
         if name == f"principal_stretch_{w}":
             return {"dims": ["u", "v", "t", "l1,l2"], "unit": "1",
-                    "description": f"principal stretches of the {w} grid against t = 0"}
+                    "description": f"principal stretches of the {w} grid against t = 0 "
+                                   "(its nodes smoothed in time by summary.strain_smoothing_ms)"}
     per_wall = {
         "max_area_{w}_mm2": (["v"], "mm^2", "maximum over the cycle of the {w} area"),
         "expanded_fraction_75_{w}": (["v"], "1", "share of the cycle with {w} area >= 75 % of "

@@ -127,13 +127,14 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
                  "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
                  "--authalic-weight", "0.25", "--seam-method", "heat",
                  "--map-positions", "fixed", "--field-smoothing-ms", "7",
-                 "--lumen-smoothing-steps", "3"]) == 0
+                 "--lumen-smoothing-steps", "3", "--strain-smoothing-ms", "2.5"]) == 0
     summary = json.loads((out / "tiny" / "summary.json").read_text())
     assert summary["time_warp"] is True
     assert summary["provenance"]["options"]["map_positions"] == "fixed"
     assert summary["provenance"]["options"]["field_smoothing_ms"] == 7
     assert set(summary["field_smoothing_ms"].values()) == {7}        # taken by every field
     assert all(n["smoothing_ms"] == 7 for n in summary["field_noise"].values())
+    assert summary["strain_smoothing_ms"] == summary["provenance"]["options"]["strain_smoothing_ms"] == 2.5
     arrays = np.load(out / "tiny" / "arrays.npz")           # the maps at fixed positions, and
     described = json.loads((out / "tiny" / "arrays.json").read_text())     # the rows' own
     for wall in ("outer", "inner", "lumen"):

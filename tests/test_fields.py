@@ -208,6 +208,32 @@ def waving_tube(u, v, t):
                     -1)
 
 
+def test_strain_from_a_rough_grid_smoothed_in_time_is_the_walls():
+    """A cylinder whose radius beats by 20 % over 195 frames of 1.85 ms, every node
+    moved by 0.5 % of the radius at random in every frame (as a mesh segmented on
+    its own moves it): the strain energy (circumferential stretch r / r0, none along;
+    a square, so the roughness biases it up) came out 59-62 % off unsmoothed and
+    8-9 % after 5 ms of smoothing the nodes in time; without the roughness 5 ms
+    costs 0.8 % on this beat."""
+    from oftimg.pipeline import smoothed_strain
+
+    n_t, period, r0 = 195, 360.0, 0.2
+    radius = r0 * (1 + 0.2 * np.sin(np.pi * np.arange(n_t) / n_t) ** 2)
+    u, v = np.meshgrid(np.arange(40) / 40, np.linspace(0, 1, 20), indexing="ij")
+    smooth = np.stack([cylinder(r, 1.0)(u, v, 0) for r in radius], axis=2)  # (40, 20, n_t, 3)
+    rough = smooth + 0.005 * r0 * np.random.default_rng(1).standard_normal(smooth.shape)
+    truth = np.broadcast_to((radius / r0 - 1) ** 2, (40, 20, n_t))[:, 1:-1, 20:]
+
+    def off(G, sigma):          # median |error| over the median truth, where it strains
+        energy = smoothed_strain(G, period, sigma)[0][:, 1:-1, 20:]
+        return np.median(np.abs(energy - truth)) / np.median(truth)
+
+    assert off(rough, 0.0) > 0.45
+    assert off(rough, 5.0) < 0.12
+    assert off(smooth, 0.0) < 1e-6 and off(smooth, 5.0) < 0.012
+    assert np.array_equal(smoothed_strain(smooth, period, 0.0)[0], grid_strain(smooth)[0])
+
+
 def test_strain_does_not_depend_on_which_way_the_grid_runs():
     """Mirrored with u reversed, or with v reversed, the grid gives the same strain
     reversed; and within 0.012 of an 8x finer grid's. (With each quad split along one

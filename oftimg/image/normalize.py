@@ -71,17 +71,31 @@ def field_noise(field: np.ndarray, smoothed: np.ndarray, period_ms: float, sigma
     that variance that is noise (0 to 1, flat pixels left out; above 0.25 the
     noise is over half the change the per-pixel views show). NaN for under 10 frames.
     """
+    return _noise_after(*_pixel_noise(field), smoothed, period_ms, sigma_ms)
+
+
+def _pixel_noise(field: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Which pixels of ``field (..., n_t)`` have a value in every frame (flat mask),
+    and their frame-to-frame noise SD (None for under 10 frames)."""
     n_t = field.shape[-1]
     pixels = np.reshape(field, (-1, n_t)).astype(float)
     whole = np.isfinite(pixels).all(axis=1)
-    pixels = pixels[whole]
+    if not whole.any() or n_t < 10:
+        return whole, None
+    return whole, map_noise_sd(pixels[whole])
+
+
+def _noise_after(whole: np.ndarray, noise: np.ndarray | None, smoothed: np.ndarray,
+                 period_ms: float, sigma_ms: float) -> dict:
+    """:func:`field_noise` from :func:`_pixel_noise`'s pixels and noise."""
     keys = ("noise_sd", "noise_sd_smoothed", "temporal_sd", "noise_share")
-    if len(pixels) == 0 or n_t < 10:
+    if noise is None:
         return dict.fromkeys(keys, float("nan"))
+    n_t = smoothed.shape[-1]
     impulse = np.zeros((1, n_t))
     impulse[0, 0] = 1.0
     gain = float(np.sqrt((smooth_in_time(impulse, period_ms, sigma_ms) ** 2).sum()))
-    noise = gain * map_noise_sd(pixels)
+    noise = gain * noise
     variance = np.reshape(smoothed, (-1, n_t))[whole].astype(float).var(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         share = np.clip(noise ** 2 / np.where(variance > 0, variance, np.nan), 0.0, 1.0)
@@ -101,9 +115,10 @@ def smooth_field(field: np.ndarray, period_ms: float, sigma_ms: float | str
     cannot be measured, as on under 10 frames).
     """
     ladder = RIDGE_SMOOTHING_LADDER_MS if sigma_ms == "auto" else (float(sigma_ms),)
+    pixels = _pixel_noise(field)                       # measured once for every sigma
     for sigma in ladder:
         smoothed = smooth_field_in_time(field, period_ms, sigma)
-        noise = field_noise(field, smoothed, period_ms, sigma)
+        noise = _noise_after(*pixels, smoothed, period_ms, sigma)
         if not noise["noise_share"] > FIELD_NOISE_TARGET:       # NaN: not measurable
             break
     return smoothed, {**noise, "smoothing_ms": float(sigma)}

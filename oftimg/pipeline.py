@@ -215,7 +215,7 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     and the corner count of the outer contours at each row's own maximum
     contraction (curvature averaged over the ``2 CORNER_FRAMES + 1`` frames
     around it). Phase maps are taken on each field smoothed in time by
-    ``RIDGE_SMOOTHING_MS`` in all (or by ``smoothing_ms`` if more).
+    ``RIDGE_SMOOTHING_MS`` in all (or by its own sigma if more).
     """
     arrays, noise, unsmoothed = {}, {}, {}
     for w in ("outer", "inner"):
@@ -230,7 +230,7 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
         arrays["mean_curvature_lumen_per_mm"] = mean_curvature_lumen
     smoothed_ms = {name: noise[name]["smoothing_ms"] for name in noise}
     smoothed_ms["mean_curvature_lumen_per_mm"] = lumen_smoothed_ms
-    smoothed_ms.update({f"strain_energy_{w}": strain_smoothing_ms for w in contour})
+    smoothed_ms.update({f"strain_energy_{w}": strain_smoothing_ms for w in ("outer", "inner")})
     for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv"))]:
         # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
         rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothed_ms.get(name, 0.0) ** 2))

@@ -450,13 +450,14 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
     ``folder``, which holds each dataset's results in ``folder/<name>``."""
     from .figures import group_figures
     from .html import cohort_page, dataset_page
-    from .report import (group_comparison, smoothing_caveat, write_cohort_markdown,
-                         write_cohort_table, write_groups_table)
+    from .report import (field_smoothing_caveat, group_comparison, smoothing_caveat,
+                         write_cohort_markdown, write_cohort_table, write_groups_table)
 
-    caveat = smoothing_caveat(summaries)
-    if caveat:
+    caveats = [c for c in (smoothing_caveat(summaries), field_smoothing_caveat(summaries)) if c]
+    for caveat in caveats:
         warnings.warn(caveat, OftimgWarning, stacklevel=2)
-        run_info = {**run_info, "notes": [caveat]}
+    if caveats:
+        run_info = {**run_info, "notes": caveats}
     write_cohort_table(folder, summaries)
     write_cohort_markdown(folder, summaries)
     comparison = group_comparison(summaries)

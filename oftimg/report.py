@@ -180,25 +180,55 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
     return out
 
 
-def smoothing_caveat(summaries: list[dict]) -> str | None:
-    """What to know before comparing groups whose embryos' ridges were smoothed in time
-    by different sigmas (``ridge_smoothing_ms``: "auto" takes as much as each map's
-    noise needs); None when there is one group or one sigma."""
+def _sigmas_by_group(summaries: list[dict], sigma_of) -> tuple[str, float] | None:
+    """Each group's range of the sigma ``sigma_of(summary)`` gives ("a: 5 ms; b: 7-20
+    ms") and the largest; None when there is one group or one sigma."""
     by_group: dict[str, list[float]] = {}
     for s in summaries:
-        sigma = s.get("ridge_smoothing_ms")
+        sigma = sigma_of(s)
         if isinstance(sigma, (int, float)) and np.isfinite(sigma):
             by_group.setdefault(s["group"], []).append(float(sigma))
     if len(by_group) < 2 or len({x for v in by_group.values() for x in v}) < 2:
         return None
     ranges = "; ".join(f"{g}: {min(v):g}" + (f"-{max(v):g}" if max(v) > min(v) else "") + " ms"
                        for g, v in sorted(by_group.items()))
-    largest = max(x for v in by_group.values() for x in v)
+    return ranges, max(x for v in by_group.values() for x in v)
+
+
+def smoothing_caveat(summaries: list[dict]) -> str | None:
+    """What to know before comparing groups whose embryos' ridges were smoothed in time
+    by different sigmas (``ridge_smoothing_ms``: "auto" takes as much as each map's
+    noise needs); None when there is one group or one sigma."""
+    found = _sigmas_by_group(summaries, lambda s: s.get("ridge_smoothing_ms"))
+    if found is None:
+        return None
+    ranges, largest = found
     return (f"the embryos' ridges were smoothed in time by different sigmas ({ranges}), as "
             "their maps' noise asked: more smoothing puts the ridge later where the beat's "
             "peak is asymmetric, so group differences in ridge times, and in wave speeds where "
             "the expansion share changes along the tube, may come from it (README, Accuracy); "
             f"to compare the groups, analyse them all with --ridge-smoothing-ms {largest:g}")
+
+
+def field_smoothing_caveat(summaries: list[dict]) -> str | None:
+    """The same for the curvature fields (``field_smoothing_ms``, per field: "auto"
+    takes as much as each field's noise needs); None when each field's sigma is the
+    same in every group."""
+    names = sorted({n for s in summaries for n in (s.get("field_smoothing_ms") or {})})
+    differing, largest = [], 0.0
+    for name in names:
+        found = _sigmas_by_group(summaries,
+                                 lambda s: (s.get("field_smoothing_ms") or {}).get(name))
+        if found is not None:
+            differing.append(f"{name} ({found[0]})")
+            largest = max(largest, found[1])
+    if not differing:
+        return None
+    return ("the embryos' curvature fields were smoothed in time by different sigmas, as "
+            f"their noise asked: {', '.join(differing)}; more smoothing lowers and widens "
+            "each pixel's peaks over the cycle, so group differences in those fields' size "
+            "and phase maps may come from it (README, Accuracy); to compare the groups, "
+            f"analyse them all with --field-smoothing-ms {largest:g}")
 
 
 def holm(p: list[float]) -> list[float]:

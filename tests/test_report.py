@@ -108,3 +108,19 @@ def test_smoothing_caveat_only_where_groups_were_smoothed_differently():
     assert smoothing_caveat(cohort([("a", 5.0), ("b", float("nan"))])) is None
     text = smoothing_caveat(cohort([("a", 5.0), ("a", 7.0), ("b", 20.0)]))
     assert "a: 5-7 ms; b: 20 ms" in text and text.endswith("--ridge-smoothing-ms 20")
+
+
+def test_field_smoothing_caveat_names_the_fields_smoothed_differently():
+    from oftimg.report import field_smoothing_caveat
+
+    def cohort(sigmas):
+        return [{"name": f"e{k}", "group": g,
+                 "field_smoothing_ms": {"radial": radial, "lumen": 20.0}}
+                for k, (g, radial) in enumerate(sigmas)]
+
+    assert field_smoothing_caveat(cohort([("a", 5.0), ("b", 5.0)])) is None  # lumen: 20 in all
+    assert field_smoothing_caveat(cohort([("a", 5.0), ("a", 14.0)])) is None  # one group
+    assert field_smoothing_caveat([{"name": "e", "group": "a"}, {"name": "f", "group": "b"}]) is None
+    text = field_smoothing_caveat(cohort([("a", 5.0), ("a", 7.0), ("b", 14.0)]))
+    assert "radial (a: 5-7 ms; b: 14 ms)" in text and "lumen" not in text
+    assert text.endswith("--field-smoothing-ms 14")

@@ -181,8 +181,8 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
 
 
 def _sigmas_by_group(summaries: list[dict], sigma_of) -> tuple[str, float] | None:
-    """Each group's range of the sigma ``sigma_of(summary)`` gives ("a: 5 ms; b: 7-20
-    ms") and the largest; None when there is one group or one sigma."""
+    """The range of ``sigma_of(summary)`` in each group, as text ("a: 5 ms; b: 7-20
+    ms"), and the largest sigma; None when there is one group or one sigma."""
     by_group: dict[str, list[float]] = {}
     for s in summaries:
         sigma = sigma_of(s)

@@ -105,7 +105,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--strain-smoothing-ms", type=float, default=RIDGE_SMOOTHING_MS, metavar="MS",
                    help="Gaussian sigma (ms) with which every grid node's position is smoothed "
                         "in time before the strain fields (each frame's grid moves along the "
-                        "wall with its own mesh's roughness); default %(default)g, 0: none")
+                        "wall with its own mesh's roughness); default %(default)g, 0: none. "
+                        "summary.json: strain_noise says how much that noise still moves "
+                        "each field")
     r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
                    help="Taubin smoothing steps on each lumen mesh before its mean curvature "
                         "(default 0: none, as the paper); for rough segmentations, whose "

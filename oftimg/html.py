@@ -121,6 +121,10 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                         "frame-to-frame noise (well under 0.25)",
                "value": {name: (noise or {}).get("noise_share") for name, noise in
                          (summary.get("field_noise") or {}).items()}},
+              {"check": "share of each strain energy field's size by which its grid's "
+                        "node noise moves it (well under 0.25)",
+               "value": {name: (noise or {}).get("error_share") for name, noise in
+                         (summary.get("strain_noise") or {}).items()}},
               {"check": "section planes still crossing (0)",
                "value": summary.get("section_planes_still_crossing")},
               {"check": "sections measured on the projected grid ring (0)",

@@ -59,6 +59,9 @@ COHORT_COLUMNS = [
      ("field_noise", "radial_curvature_outer_per_mm", "smoothing_ms")),
     ("mean_curvature_lumen_smoothing_ms",
      ("field_noise", "mean_curvature_lumen_per_mm", "smoothing_ms")),
+    # share of each strain energy field's size by which its grid's node noise moves it
+    ("strain_energy_outer_error_share", ("strain_noise", "strain_energy_outer", "error_share")),
+    ("strain_energy_inner_error_share", ("strain_noise", "strain_energy_inner", "error_share")),
 ]
 
 

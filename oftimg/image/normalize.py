@@ -56,6 +56,15 @@ def smooth_field_in_time(field: np.ndarray, period_ms: float, sigma_ms: float) -
     return smooth_in_time(np.reshape(field, (-1, n_t)), period_ms, sigma_ms).reshape(field.shape)
 
 
+def smoothing_kernel(n_t: int, period_ms: float, sigma_ms: float) -> np.ndarray:
+    """The weights ``(n_t,)`` that :func:`smooth_field_in_time` gives frames 0, 1, ...
+    (wrapping around) in frame 0's smoothed value: white noise of SD s comes out
+    with SD ``s * sqrt(sum(weights ** 2))``."""
+    impulse = np.zeros((1, n_t))
+    impulse[0, 0] = 1.0
+    return smooth_in_time(impulse, period_ms, sigma_ms)[0]
+
+
 def field_noise(field: np.ndarray, smoothed: np.ndarray, period_ms: float, sigma_ms: float
                 ) -> dict:
     """How much of a field's change over the cycle is frame-to-frame noise.
@@ -92,9 +101,7 @@ def _noise_after(whole: np.ndarray, noise: np.ndarray | None, smoothed: np.ndarr
     if noise is None:
         return dict.fromkeys(keys, float("nan"))
     n_t = smoothed.shape[-1]
-    impulse = np.zeros((1, n_t))
-    impulse[0, 0] = 1.0
-    gain = float(np.sqrt((smooth_in_time(impulse, period_ms, sigma_ms) ** 2).sum()))
+    gain = float(np.sqrt((smoothing_kernel(n_t, period_ms, sigma_ms) ** 2).sum()))
     noise = gain * noise
     variance = np.reshape(smoothed, (-1, n_t))[whole].astype(float).var(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):

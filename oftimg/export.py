@@ -302,6 +302,9 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                                                 "in time by summary.field_smoothing_ms)"),
         "strain_energy_{w}": ("1", "(l1-1)^2 + (l2-1)^2 of the {w} grid against t = 0 (its "
                                    "nodes smoothed in time by summary.strain_smoothing_ms)"),
+        "wall_thickness_mm": ("mm", "myocardial wall thickness: distance from each outer grid "
+                                    "node to its inner node (carried towards the row's "
+                                    "centre); smoothed in time by summary.field_smoothing_ms"),
         "mean_curvature_lumen_per_mm": ("1/mm", "mean curvature of the lumen (cotangent "
                                                 "Laplacian; rim vertices: mean of neighbours; "
                                                 "smoothed in time by summary.field_smoothing_ms)"),
@@ -316,7 +319,8 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                     return {"dims": ["u", "v"], "unit": "ms",
                             "description": f"time of each pixel's {which}imum of {f} "
                                            f"(smoothed in time by {RIDGE_SMOOTHING_MS:g} ms, "
-                                           "a curvature by summary.field_smoothing_ms "
+                                           "a curvature or the wall thickness by "
+                                           "summary.field_smoothing_ms "
                                            "and a strain by summary.strain_smoothing_ms "
                                            "if more; sub-frame)"}
         if name == f"principal_stretch_{w}":

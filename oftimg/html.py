@@ -117,8 +117,8 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                "value": summary.get("maps_with_clamped_weights")},
               {"check": "inner grid nodes at the closest point, not towards the centre (0)",
                "value": summary.get("inner_nodes_at_closest_point")},
-              {"check": "share of each curvature field's change over the cycle that is "
-                        "frame-to-frame noise (well under 0.25)",
+              {"check": "share of each curvature or thickness field's change over the "
+                        "cycle that is frame-to-frame noise (well under 0.25)",
                "value": {name: (noise or {}).get("noise_share") for name, noise in
                          (summary.get("field_noise") or {}).items()}},
               {"check": "share of each strain energy field's size by which its grid's "

@@ -250,8 +250,9 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                  strain_smoothing_ms: float = RIDGE_SMOOTHING_MS) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
-    Radial curvature of the outer and inner section contours (smoothed in time
-    by ``smoothing_ms``: :func:`smoothed_curvature`; how much of each is noise, and
+    Radial curvature of the outer and inner section contours and the myocardial
+    wall's thickness, outer to inner grid node (each smoothed in time by
+    ``smoothing_ms``: :func:`smoothed_curvature`; how much of each is noise, and
     the sigma taken, in ``field_noise``), strain energy and principal stretches of
     the outer and inner grids against t = 0 (:func:`smoothed_strain` by
     ``strain_smoothing_ms``; how far their nodes' noise moves the energy in
@@ -273,12 +274,17 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                 grid[w], period_ms, strain_smoothing_ms)
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
             arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
+    if "inner" in grid:
+        # each outer node to its inner node, carried towards the row's centre
+        thickness = np.linalg.norm(grid["outer"] - grid["inner"], axis=-1)
+        thickness, noise["wall_thickness_mm"] = smooth_field(thickness, period_ms, smoothing_ms)
+        arrays["wall_thickness_mm"] = thickness.astype(np.float32)
     if mean_curvature_lumen is not None:
         arrays["mean_curvature_lumen_per_mm"] = mean_curvature_lumen
     smoothed_ms = {name: noise[name]["smoothing_ms"] for name in noise}
     smoothed_ms["mean_curvature_lumen_per_mm"] = lumen_smoothed_ms
     smoothed_ms.update({f"strain_energy_{w}": strain_smoothing_ms for w in ("outer", "inner")})
-    for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv"))]:
+    for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv", "wall"))]:
         # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
         rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothed_ms.get(name, 0.0) ** 2))
         t_max, t_min = phase_maps(arrays[name], period_ms, smoothing_ms=rest_ms)
@@ -299,8 +305,26 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     if len(inner_rows):
         values, freq = np.unique(inner_rows, return_counts=True)
         corners = int(values[np.argmax(freq)])
-    return {"arrays": arrays, "corner_count": corners, "field_noise": noise,
-            "strain_noise": strain_noise}
+    out = {"arrays": arrays, "corner_count": corners, "field_noise": noise,
+           "strain_noise": strain_noise}
+    if "wall_thickness_mm" in arrays:
+        out.update(wall_thickness_summary(arrays["wall_thickness_mm"]))
+    return out
+
+
+def wall_thickness_summary(thickness: np.ndarray) -> dict:
+    """The myocardial wall's median thickness (mm) over the (u, v) pixels and the
+    cycle, and its thickening over the beat: per row, the largest over the smallest
+    of its mean thickness around the tube over the cycle, less 1; median over the
+    rows (``thickness (n_u, n_v, n_t)``, NaN left out). Each pixel's own largest over
+    smallest takes its noise's extremes for thickening: on the phantoms 11 % and 25 %
+    high with 2 and 5 um of roughness where the rows' means were within 2 %."""
+    with warnings.catch_warnings():      # rows without a value: NaN, left out
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ring = np.nanmean(thickness, axis=0)                         # (n_v, n_t)
+        ratio = np.nanmax(ring, axis=-1) / np.nanmin(ring, axis=-1)
+    return {"wall_thickness_median_mm": float(np.nanmedian(thickness)),
+            "wall_thickening": float(np.nanmedian(ratio) - 1.0)}
 
 
 def _retime(f, grid, area, contour, volume, per_row):
@@ -480,7 +504,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise
     summary.update(fields)
-    # the sigma taken for each curvature field ("auto": as much as its noise asks)
+    # the sigma taken for each curvature and thickness field ("auto": as much as its noise asks)
     summary["field_smoothing_ms"] = {name: noise["smoothing_ms"]
                                      for name, noise in fields["field_noise"].items()}
     summary["strain_smoothing_ms"] = options.strain_smoothing_ms

@@ -43,22 +43,26 @@ COHORT_COLUMNS = [
     ("corner_count", ("corner_count",)),
     ("tube_length_mm", ("tube_length_mm",)),
     ("myocardial_volume_change", ("myocardial_volume_change",)),
+    ("wall_thickness_median_mm", ("wall_thickness_median_mm",)),
+    ("wall_thickening", ("wall_thickening",)),       # median pixel's max / min - 1
     # quality checks: 0, 0 and about 0 on good data
     ("flipped_triangles_outer", ("flipped_triangles", "outer")),
     ("sections_from_ring_outer", ("sections_from_ring", "outer")),
     ("section_volume_error_outer", ("section_volume_error", "outer")),
     ("standout_frames", ("frame_series_checks", "standout_frame_count")),
     ("wrap_step_ratio", ("frame_series_checks", "wrap_step_ratio")),     # <= 1: one cycle
-    # share of each curvature field's change over the cycle that is noise (well under 0.25)
+    # share of a shape field's change over the cycle that is noise (well under 0.25)
     ("radial_curvature_outer_noise_share",
      ("field_noise", "radial_curvature_outer_per_mm", "noise_share")),
     ("mean_curvature_lumen_noise_share",
      ("field_noise", "mean_curvature_lumen_per_mm", "noise_share")),
+    ("wall_thickness_noise_share", ("field_noise", "wall_thickness_mm", "noise_share")),
     # the sigma (ms) each was smoothed by in time (auto: as much as its noise asks)
     ("radial_curvature_outer_smoothing_ms",
      ("field_noise", "radial_curvature_outer_per_mm", "smoothing_ms")),
     ("mean_curvature_lumen_smoothing_ms",
      ("field_noise", "mean_curvature_lumen_per_mm", "smoothing_ms")),
+    ("wall_thickness_smoothing_ms", ("field_noise", "wall_thickness_mm", "smoothing_ms")),
     # share of each strain energy field's size by which its grid's node noise moves it
     ("strain_energy_outer_error_share", ("strain_noise", "strain_energy_outer", "error_share")),
     ("strain_energy_inner_error_share", ("strain_noise", "strain_energy_inner", "error_share")),
@@ -214,9 +218,9 @@ def smoothing_caveat(summaries: list[dict]) -> str | None:
 
 
 def field_smoothing_caveat(summaries: list[dict]) -> str | None:
-    """The same for the curvature fields (``field_smoothing_ms``, per field: "auto"
-    takes as much as each field's noise needs); None when each field's sigma is the
-    same in every group."""
+    """The same for the curvature and wall thickness fields (``field_smoothing_ms``,
+    per field: "auto" takes as much as each field's noise needs); None when each
+    field's sigma is the same in every group."""
     names = sorted({n for s in summaries for n in (s.get("field_smoothing_ms") or {})})
     differing, largest = [], 0.0
     for name in names:
@@ -227,7 +231,7 @@ def field_smoothing_caveat(summaries: list[dict]) -> str | None:
             largest = max(largest, found[1])
     if not differing:
         return None
-    return ("the embryos' curvature fields were smoothed in time by different sigmas, as "
+    return ("the embryos' shape fields were smoothed in time by different sigmas, as "
             f"their noise asked: {', '.join(differing)}; more smoothing lowers and widens "
             "each pixel's peaks over the cycle, so group differences in those fields' size "
             "and phase maps may come from it (README, Accuracy); to compare the groups, "

@@ -147,6 +147,8 @@ FIELD_VIDEOS = [
      dict(cmap="RdYlGn_r", label="strain energy")),
     ("strain_energy_outer_per_frame", "strain_energy_outer", False,
      dict(cmap="RdYlGn_r", per_frame=True, label="strain energy (frame)")),
+    ("wall_thickness", "wall_thickness_mm", False,
+     dict(cmap="viridis", label="wall thickness mm")),
     ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", False,
      dict(cmap="coolwarm", label="mean curv. 1/mm")),
 ]

@@ -64,6 +64,7 @@ def test_videos_read_back(run_out):
                                         "radial_curvature_outer_normalized.mp4",
                                         "strain_energy_outer.mp4",
                                         "strain_energy_outer_per_frame.mp4",
+                                        "wall_thickness.mp4",
                                         "mean_curvature_lumen.mp4", "area_map_cursor.mp4"}
     for path in videos:
         reader = imageio.get_reader(path)

@@ -36,7 +36,9 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
 - shape: band position (mm, banded embryos), corner count (wrong ones counted);
   the shape fields at their own positions (rows 2 to n_v - 3: the end rows' values
   are their neighbours'): radial curvature of the outer and inner walls and mean
-  curvature of the lumen, and the inner wall's strain energy against that of the
+  curvature of the lumen, the wall thickness (outer to inner grid node against the
+  model's radial thickness; its thickening over the beat, as summary.json's, against
+  the model's, every row), and the inner wall's strain energy against that of the
   model's inner wall at each grid node's position along and angle around the tube
   (each: median |error| over the median |truth|, %); each curvature also against
   the model at its points' positions averaged in time as the field is, and the
@@ -45,7 +47,11 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
   oftimg reports (`field_noise`, after its smoothing) over the true error's spread
   (each pixel's SD over the cycle, median, against the model at the mean positions;
   about 1 where the error is noise), and the
-  noise share it reports (a value, not an error).
+  noise share it reports (a value, not an error);
+- with noise 0 among the levels: each noisy phantom's outer and inner strain energy
+  against the same phantom's analysed without noise (what the roughness alone does
+  to the field), and the share by which oftimg says its noise moves it
+  (`strain_noise`) over that (about 1 where it is right).
 """
 from __future__ import annotations
 
@@ -60,12 +66,15 @@ import oftimg
 from oftimg.image.normalize import smooth_field_in_time
 from oftimg.image.kymograph import RIDGE_SMOOTHING_MS
 from oftimg.mesh.strain import grid_strain
+from oftimg.pipeline import smoothed_strain, wall_thickness_summary
 from oftimg.phantom import read_truth, sample_params, write_phantom
 
 WALLS = ("outer", "inner", "lumen")
+# the fields smoothed in time as their noise asks
 CURVATURES = [("radial_curvature_outer", "radial curvature, outer"),
               ("radial_curvature_inner", "radial curvature, inner"),
-              ("mean_curvature_lumen", "mean curvature, lumen")]
+              ("mean_curvature_lumen", "mean curvature, lumen"),
+              ("wall_thickness", "wall thickness")]
 
 # (key, unit, what): the rows of the printed table, in this order
 METRICS = [
@@ -99,13 +108,21 @@ METRICS = [
     *[(f"radial_curvature_{w}_pct", "%", f"radial curvature, {w} (median |error|)")
       for w in ("outer", "inner")],
     ("mean_curvature_lumen_pct", "%", "mean curvature, lumen (median |error|)"),
+    ("wall_thickness_pct", "%", "wall thickness (median |error|)"),
+    ("wall_thickening_pct", "%", "wall thickening over the beat (median row)"),
     *[(f"{name}_mean_position_pct", "%", f"{what}, truth at mean positions")
       for name, what in CURVATURES],
     ("strain_energy_inner_pct", "%", "strain energy, inner wall (median |error|)"),
     ("strain_energy_inner_mean_position_pct", "%",
      "strain energy, inner wall, truth at 5 ms mean positions"),
+    *[(f"strain_energy_{w}_vs_noise_free_pct", "%",
+       f"strain energy, {w} wall, against the run without noise") for w in ("outer", "inner")],
     *[(f"{name}_noise_ratio", "x", f"{what}: noise oftimg reports / true error's SD")
       for name, what in CURVATURES],
+    *[(f"strain_energy_{w}_noise_ratio", "x",
+       f"strain energy, {w}: noise share oftimg reports / change") for w in ("outer", "inner")],
+    *[(f"strain_energy_{w}_error_share", "", f"strain energy, {w}: noise share oftimg reports")
+      for w in ("outer", "inner")],
     *[(f"{name}_noise_share", "", f"{what}: noise share oftimg reports (not an error)")
       for name, what in CURVATURES],
     *[(f"{name}_smoothing_ms", "ms", f"{what}: smoothing taken (not an error)")
@@ -201,15 +218,15 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
         found = summ["band_position_mm"]
         e["band_mm"] = np.nan if found is None else found - truth["band_position_mm"]
     e["corners_wrong"] = float(summ["corner_count"] != truth["corner_count"])
-    e.update(field_errors(ph, arr, np.load(results / "grids.npz"), t_ms,
-                          summ.get("field_noise") or {}, period))
+    e.update(field_errors(ph, arr, np.load(results / "grids.npz"), t_ms, summ, period))
     return {k: float(v) for k, v in e.items()}
 
 
-def field_errors(ph, arr, grids, t_ms: np.ndarray, field_noise: dict, period_ms: float
+def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
                  ) -> dict[str, float]:
     """The shape fields' errors against the model, away from the end rows; each
-    curvature (smoothed in time: ``field_noise[name]["smoothing_ms"]``) also against
+    curvature and the wall thickness (smoothed in time:
+    ``field_noise[name]["smoothing_ms"]``) also against
     the model at its points' positions averaged alike (on a rough mesh a contour
     point moves along the wall by several um from frame to frame, the smoothed
     field does not follow it, and the model's curvature changes fast around a
@@ -217,38 +234,48 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, field_noise: dict, period_ms:
     field_noise``, after its smoothing) over the true error's spread (each
     pixel's SD over the cycle, median, against the model at the mean positions),
     and the noise share it reports."""
+    field_noise, strain_noise = summ.get("field_noise") or {}, summ["strain_noise"]
     rows, t = slice(2, -2), t_ms[None, None, :]
 
     def median_pct(measured, true):
         return 100.0 * np.nanmedian(np.abs(measured - true)) / np.nanmedian(np.abs(true))
 
-    def truth_at(points, model, name):
+    def truth_at(points, model, array):
         """The model at ``points (n_u, n_v, n_t, 3)``, and at their positions averaged
-        in time as the field ``name`` is."""
-        sigma = field_noise[f"{name}_per_mm"]["smoothing_ms"]
+        in time as the field ``array`` is."""
+        sigma = field_noise[array]["smoothing_ms"]
         mean_points = np.moveaxis(smooth_field_in_time(np.moveaxis(points, -1, 0), period_ms,
                                                        sigma), 0, -1)
         return [model(*ph.window_coordinates(p), t) for p in (points, mean_points)]
 
-    truths = {}
+    truths = {}                  # metric name: (array, truth, truth at the mean positions)
     for w in ("outer", "inner"):
-        truths[f"radial_curvature_{w}"] = truth_at(
+        array = f"radial_curvature_{w}_per_mm"
+        truths[f"radial_curvature_{w}"] = (array, *truth_at(
             arr[f"contour_{w}_mm"][:, rows].astype(float),
-            lambda s, theta, t, w=w: ph.section_curvature(w, s, theta, t),
-            f"radial_curvature_{w}")
-    truths["mean_curvature_lumen"] = truth_at(
+            lambda s, theta, t, w=w: ph.section_curvature(w, s, theta, t), array))
+    truths["mean_curvature_lumen"] = ("mean_curvature_lumen_per_mm", *truth_at(
         grids["lumen"][:, rows].astype(float),
-        lambda s, theta, t: ph.mean_curvature("lumen", s, theta, t), "mean_curvature_lumen")
+        lambda s, theta, t: ph.mean_curvature("lumen", s, theta, t),
+        "mean_curvature_lumen_per_mm"))
+    truths["wall_thickness"] = ("wall_thickness_mm", *truth_at(
+        grids["outer"][:, rows].astype(float), ph.wall_thickness, "wall_thickness_mm"))
     e = {}
-    for name, (truth, truth_at_mean) in truths.items():
-        measured = arr[f"{name}_per_mm"][:, rows]
+    for name, (array, truth, truth_at_mean) in truths.items():
+        measured = arr[array][:, rows]
         e[f"{name}_pct"] = median_pct(measured, truth)
         e[f"{name}_mean_position_pct"] = median_pct(measured, truth_at_mean)
-        noise = field_noise.get(f"{name}_per_mm") or {}
+        noise = field_noise.get(array) or {}
         spread = np.nanmedian(np.nanstd(measured - truth_at_mean, axis=-1))
         e[f"{name}_noise_ratio"] = (noise.get("noise_sd_smoothed") or np.nan) / spread
         e[f"{name}_noise_share"] = noise.get("noise_share") or np.nan
         e[f"{name}_smoothing_ms"] = noise.get("smoothing_ms", np.nan)
+    for w in ("outer", "inner"):
+        e[f"strain_energy_{w}_error_share"] = strain_noise[f"strain_energy_{w}"]["error_share"]
+    # the thickening over the beat, as summary.json's: every row
+    model = truth_at(grids["outer"].astype(float), ph.wall_thickness, "wall_thickness_mm")[1]
+    e["wall_thickening_pct"] = _relative_pct(summ["wall_thickening"],
+                                             wall_thickness_summary(model)["wall_thickening"])
     # the strain: against the model's at the outer grid nodes' own positions in each
     # frame, and at their positions averaged over 5 ms: the grid of a smooth wall (at
     # its own positions the model shares the nodes' jitter along the wall, which the
@@ -261,6 +288,31 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, field_noise: dict, period_ms:
                         ("strain_energy_inner_mean_position_pct", mean_G)):
         s, theta = ph.window_coordinates(points)
         e[key] = median_pct(measured, grid_strain(ph.point("inner", s, theta, t))[0][:, rows])
+    return e
+
+
+def strain_noise_errors(results: Path, noise_free: Path, smoothing_ms: float
+                        ) -> dict[str, float]:
+    """Each wall's strain energy against the same phantom's without noise (median
+    |difference| over the median |energy without|: what the roughness alone does,
+    the grid nodes' slow sliding along the wall included, which a truth at the nodes'
+    mean positions hides), both strained against the same input frame; and the share
+    oftimg reports (``summary.json: strain_noise``) over it."""
+    runs = [(json.loads((r / "summary.json").read_text()), np.load(r / "grids.npz"))
+            for r in (results, noise_free)]
+    (summ, grids), (summ_free, grids_free) = runs
+    shift = summ["t0_frame"] - summ_free["t0_frame"]       # the same input frame first
+    period_ms = summ["period_ms"]
+    e = {}
+    for w in ("outer", "inner"):
+        energy = smoothed_strain(np.roll(grids[w].astype(float), shift, axis=2), period_ms,
+                                 smoothing_ms, noise_seed=None)[0]
+        free = smoothed_strain(grids_free[w].astype(float), period_ms, smoothing_ms,
+                               noise_seed=None)[0]
+        change = np.nanmedian(np.abs(energy - free)) / np.nanmedian(np.abs(free))
+        e[f"strain_energy_{w}_vs_noise_free_pct"] = 100.0 * change
+        e[f"strain_energy_{w}_noise_ratio"] = (
+            summ["strain_noise"][f"strain_energy_{w}"]["error_share"] / change)
     return e
 
 
@@ -333,7 +385,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cache = args.cache or Path(tmp)
         report = {}
-        for noise in args.noise_mm:
+        noise_free = {}                 # map positions -> the run without noise, if made
+        for noise in sorted(args.noise_mm):
             changing = f"_expand{args.expand_change:+g}" if args.expand_change else ""
             sized = f"_{args.vertices}v" if args.vertices else ""
             cohort = make_cohort(cache / f"accuracy_{args.frames}f_noise{noise:g}mm{changing}{sized}",
@@ -349,6 +402,12 @@ def main() -> None:
                                     "lumen_smoothing_steps": args.lumen_smoothing_steps})
                 errors = {d.name: embryo_errors(d, results / d.name)
                           for d in sorted(cohort.iterdir()) if (d / "truth.json").exists()}
+                if noise == 0:
+                    noise_free[positions] = results
+                elif positions in noise_free:
+                    for name, e in errors.items():
+                        e.update(strain_noise_errors(results / name, noise_free[positions] / name,
+                                                     args.strain_smoothing_ms))
                 tables = {}
                 for group in ("normal", "banded"):
                     tables[group] = summarise({k: e for k, e in errors.items()

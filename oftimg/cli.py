@@ -97,7 +97,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--field-smoothing-ms", default="auto", metavar="MS",
                    help="Gaussian sigma (ms) with which every pixel of each curvature field "
                         "and of the wall thickness is smoothed in time (each frame's surface "
-                        "carries its own noise, which a curvature multiplies); auto (default): the least of "
+                        "carries its own noise, which a curvature multiplies); auto "
+                        "(default): the least of "
                         f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms after "
                         f"which at most {100 * FIELD_NOISE_TARGET:g} %% of each pixel's change "
                         "over the cycle is noise; 0: none. summary.json: field_noise says how "

@@ -213,7 +213,7 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float, *,
     the median |energy| (every ``STRAIN_NOISE_EVERY``-th frame): the share by which
     the noise alone moves the field, a square that noise biases up. On the phantoms
     and a jittered cylinder it came out 0.85-1.2x the change the roughness made where
-    that was under 0.4, and low above (0.55x at 0.8). ``node_noise_mm`` is the
+    that was under 0.4, and low above (about 0.5x for changes of 0.6-1.5). ``node_noise_mm`` is the
     noise's median length over nodes and frames; with ``smoothing_ms``. NaN for under
     10 frames or without ``noise_seed``.
     """

@@ -44,7 +44,7 @@ COHORT_COLUMNS = [
     ("tube_length_mm", ("tube_length_mm",)),
     ("myocardial_volume_change", ("myocardial_volume_change",)),
     ("wall_thickness_median_mm", ("wall_thickness_median_mm",)),
-    ("wall_thickening", ("wall_thickening",)),       # median pixel's max / min - 1
+    ("wall_thickening", ("wall_thickening",)),   # rows' mean thickness, max / min - 1
     # quality checks: 0, 0 and about 0 on good data
     ("flipped_triangles_outer", ("flipped_triangles", "outer")),
     ("sections_from_ring_outer", ("sections_from_ring", "outer")),

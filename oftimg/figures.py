@@ -4,6 +4,7 @@ Each function takes the arrays it draws and a path, and writes one PNG.
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import matplotlib
@@ -113,6 +114,16 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
                                        title=f"{name}: t = 0 (minimum volume)"))
     if "ridge_t_ms" in arrays:
         written += map_figures(folder, name, arrays, summary, summary["period_ms"])
+    if "wall_thickness_mm" in arrays:
+        with warnings.catch_warnings():          # a row without a value: NaN, grey
+            warnings.simplefilter("ignore", RuntimeWarning)
+            rows_um = 1000 * np.nanmean(arrays["wall_thickness_mm"], axis=0)     # (n_v, n_t)
+        written.append(area_map(rows_um, arrays["s_mm"], t_ms,
+                                folder / "wall_thickness_map.png",
+                                ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
+                                label="wall thickness, mean around the tube (µm)",
+                                title=f"{name}: myocardial wall thickness (dots: maximum "
+                                      "outer area)"))
     return written
 
 
@@ -123,14 +134,16 @@ def _map_extent(s_mm, t_ms):
 
 
 def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Path, *,
-             ridge_t_ms=None, crossings_75_ms=None, sigma_ms=None, title: str = "") -> Path:
-    """The paper's Fig. 'area to line' A: area as colour, v up (inlet at the bottom),
-    t to the right, with the ridge (line), 75 % crossings (x) and one-sigma times (*)."""
+             ridge_t_ms=None, crossings_75_ms=None, sigma_ms=None, title: str = "",
+             label: str = "cross-sectional area (mm$^2$)", cmap: str = "jet") -> Path:
+    """The paper's Fig. 'area to line' A: area (or another (v, t) map, ``label``) as
+    colour, v up (inlet at the bottom), t to the right, with the ridge (line), 75 %
+    crossings (x) and one-sigma times (*)."""
     period = t_ms[-1] + (t_ms[1] - t_ms[0])
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    im = ax.imshow(area_mm2, origin="lower", aspect="auto", cmap="jet",
+    im = ax.imshow(area_mm2, origin="lower", aspect="auto", cmap=cmap,
                    extent=_map_extent(s_mm, t_ms), interpolation="nearest")
-    fig.colorbar(im, ax=ax, label="cross-sectional area (mm$^2$)")
+    fig.colorbar(im, ax=ax, label=label)
     if ridge_t_ms is not None:
         ax.plot(np.mod(ridge_t_ms, period), s_mm, "k.", ms=3, label="maximum area")
     if crossings_75_ms is not None:

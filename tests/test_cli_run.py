@@ -42,7 +42,8 @@ def test_output_contract(run_out, phantom_normal):
             dims = described[name]["dims"]
             assert arrays[name].shape[dims.index("v")] == 50
             assert arrays[name].shape[dims.index("t")] == 36
-    for fig in ("volume_over_cycle.png", "trim_over_cycle.png", "frame_t0_contours.png"):
+    for fig in ("volume_over_cycle.png", "trim_over_cycle.png", "frame_t0_contours.png",
+                "wall_thickness_map.png"):
         assert (folder / "figures" / fig).stat().st_size > 10_000
     rows = list(csv.DictReader(open(run_out / "cohort.csv")))
     assert len(rows) == 1 and rows[0]["name"] == "normal"

@@ -229,12 +229,14 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float, *,
     residual = G - (smoothed if smoothing_ms == apart_ms
                     else _smoothed_grid(G, period_ms, apart_ms))
     residual /= np.sqrt(1.0 - 2.0 * kernel[0] + (kernel ** 2).sum())  # white noise's share
-    shuffled = residual[:, :, np.random.default_rng(noise_seed).permutation(n_t)]
-    frames = np.arange(0, n_t, STRAIN_NOISE_EVERY)
-    again = smoothed + _smoothed_grid(shuffled, period_ms, smoothing_ms)
-    change = np.abs(grid_strain(again[:, :, frames])[0] - energy[:, :, frames])
-    noise["error_share"] = float(np.nanmedian(change) / np.nanmedian(np.abs(energy[:, :, frames])))
     noise["node_noise_mm"] = float(np.median(np.linalg.norm(residual, axis=-1)))
+    residual = residual[:, :, np.random.default_rng(noise_seed).permutation(n_t)]  # shuffled
+    frames = np.arange(0, n_t, STRAIN_NOISE_EVERY)
+    again = _smoothed_grid(residual, period_ms, smoothing_ms)[:, :, frames]
+    del residual                                 # a grid's copies: ~20 MB each
+    again += smoothed[:, :, frames]
+    change = np.abs(grid_strain(again)[0] - energy[:, :, frames])
+    noise["error_share"] = float(np.nanmedian(change) / np.nanmedian(np.abs(energy[:, :, frames])))
     return energy, stretch, noise
 
 

@@ -203,7 +203,9 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float, *,
     Each frame is meshed on its own, and its grid nodes move along the wall by several
     um from frame to frame: on the phantoms with 2 um of roughness the inner wall's
     strain energy came out 23 % off unsmoothed and 3.9 % with 5 ms, 130 % and 11 % with
-    5 um; without noise 0.7 % both; 10 ms cost 3.4 % there.
+    5 um (against the model at the nodes' 5 ms mean positions, which shares their slow
+    sliding along the wall: against the same phantom analysed without roughness, 5 ms
+    left 5-10 % and 24-52 %); without noise 0.7 % both; 10 ms cost 3.4 % there.
 
     The noise (the third result): each node's departure from its position smoothed
     over ``RIDGE_SMOOTHING_MS`` (or a frame, if longer), scaled to the white noise

@@ -453,7 +453,8 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
     from .report import (field_smoothing_caveat, group_comparison, smoothing_caveat,
                          write_cohort_markdown, write_cohort_table, write_groups_table)
 
-    caveats = [c for c in (smoothing_caveat(summaries), field_smoothing_caveat(summaries)) if c]
+    caveats = [c for c in (smoothing_caveat(summaries), field_smoothing_caveat(summaries),
+                           field_smoothing_caveat(summaries, "strain_smoothing_ms")) if c]
     for caveat in caveats:
         warnings.warn(caveat, OftimgWarning, stacklevel=2)
     if caveats:

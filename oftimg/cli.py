@@ -17,8 +17,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import __version__
-from .image.kymograph import AUTO_SPREAD_TARGET, RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS
-from .image.normalize import FIELD_NOISE_TARGET
+from .image.kymograph import AUTO_SPREAD_TARGET, RIDGE_SMOOTHING_LADDER_MS
+from .image.normalize import FIELD_NOISE_TARGET, STRAIN_NOISE_TARGET
 
 
 class Terminated(BaseException):
@@ -103,12 +103,16 @@ def _parser() -> argparse.ArgumentParser:
                         f"which at most {100 * FIELD_NOISE_TARGET:g} %% of each pixel's change "
                         "over the cycle is noise; 0: none. summary.json: field_noise says how "
                         "much of each field is noise and the sigma taken")
-    r.add_argument("--strain-smoothing-ms", type=float, default=RIDGE_SMOOTHING_MS, metavar="MS",
+    r.add_argument("--strain-smoothing-ms", default="auto", metavar="MS",
                    help="Gaussian sigma (ms) with which every grid node's position is smoothed "
                         "in time before the strain fields (each frame's grid moves along the "
-                        "wall with its own mesh's roughness); default %(default)g, 0: none. "
+                        "wall with its own mesh's roughness, which a strain takes for stretch); "
+                        "auto (default): the least of "
+                        f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms after "
+                        "which that noise moves the strain energy by at most "
+                        f"{100 * STRAIN_NOISE_TARGET:g} %% of its median; 0: none. "
                         "summary.json: strain_noise says how much that noise still moves "
-                        "each field")
+                        "each field and the sigma taken")
     r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
                    help="Taubin smoothing steps on each lumen mesh before its mean curvature "
                         "(default 0: none, as the paper); for rough segmentations, whose "

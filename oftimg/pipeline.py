@@ -14,8 +14,9 @@ from .io import Dataset, OftimgWarning
 from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                     wrap_step_ratio)
 from .image.analysis import analyse_area_maps
-from .image.kymograph import RIDGE_SMOOTHING_MS, at_fixed_positions
-from .image.normalize import phase_maps, smooth_field, smooth_field_in_time, smoothing_kernel
+from .image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_fixed_positions
+from .image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
+                              smoothing_kernel)
 from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import GridOptions, smooth_endpoints
@@ -41,12 +42,12 @@ class PipelineOptions:
     map_positions: str = "rows"
     ridge_smoothing_ms: float | str = "auto"
     field_smoothing_ms: float | str = "auto"
-    strain_smoothing_ms: float = RIDGE_SMOOTHING_MS
+    strain_smoothing_ms: float | str = "auto"
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
                  map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
                  field_smoothing_ms: float | str = "auto",
-                 strain_smoothing_ms: float = RIDGE_SMOOTHING_MS, **grid_kwargs):
+                 strain_smoothing_ms: float | str = "auto", **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
         if map_positions not in MAP_POSITIONS:
@@ -63,8 +64,10 @@ class PipelineOptions:
         object.__setattr__(self, "map_positions", map_positions)
         object.__setattr__(self, "ridge_smoothing_ms", ridge_smoothing_ms)
         object.__setattr__(self, "field_smoothing_ms", field_smoothing_ms)
-        object.__setattr__(self, "strain_smoothing_ms", _sigma_ms(
-            strain_smoothing_ms, "strain_smoothing_ms must be a number of ms >= 0 (0: none)"))
+        if strain_smoothing_ms != "auto":
+            strain_smoothing_ms = _sigma_ms(strain_smoothing_ms, "strain_smoothing_ms must be "
+                                            "'auto' or a number of ms >= 0 (0: none)")
+        object.__setattr__(self, "strain_smoothing_ms", strain_smoothing_ms)
 
     def as_dict(self) -> dict:
         return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions,
@@ -194,11 +197,16 @@ def _smoothed_grid(G: np.ndarray, period_ms: float, smoothing_ms: float) -> np.n
                        0, -1)
 
 
-def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float, *,
+def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, *,
                     noise_seed: int | None = 0) -> tuple[np.ndarray, np.ndarray, dict]:
     """Strain energy ``(n_u, n_v, n_t)`` and principal stretches ``(n_u, n_v, n_t, 2)``
     of a grid ``G (n_u, n_v, n_t, 3)`` (mm) against t = 0, from its node positions
     smoothed in time by ``smoothing_ms``, and how far the nodes' noise moves the energy.
+
+    ``smoothing_ms``: a Gaussian sigma in ms (0: none), or "auto": the least of
+    ``RIDGE_SMOOTHING_LADDER_MS`` after which the noise moves the energy by at most
+    ``STRAIN_NOISE_TARGET`` of its median (``error_share`` below; the largest when
+    none does, the first when it cannot be measured).
 
     Each frame is meshed on its own, and its grid nodes move along the wall by several
     um from frame to frame: on the phantoms with 2 um of roughness the inner wall's
@@ -210,36 +218,44 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float, *,
     The noise (the third result): each node's departure from its position smoothed
     over ``RIDGE_SMOOTHING_MS`` (or a frame, if longer), scaled to the white noise
     that leaves it, its frames shuffled in time (white noise with each frame's pattern
-    over the grid kept), smoothed by ``smoothing_ms`` and added once more to the
+    over the grid kept), smoothed by the sigma and added once more to the
     smoothed grid. Its ``error_share`` is the median |energy with it - without| over
     the median |energy| (every ``STRAIN_NOISE_EVERY``-th frame): the share by which
     the noise alone moves the field, a square that noise biases up. On the phantoms
     and a jittered cylinder it came out 0.85-1.2x the change the roughness made where
     that was under 0.4, and low above (about 0.5x for changes of 0.6-1.5). ``node_noise_mm`` is the
-    noise's median length over nodes and frames; with ``smoothing_ms``. NaN for under
-    10 frames or without ``noise_seed``.
+    noise's median length over nodes and frames; ``smoothing_ms`` the sigma taken.
+    NaN for under 10 frames or without ``noise_seed``.
     """
     n_t = G.shape[2]
-    smoothed = _smoothed_grid(G, period_ms, smoothing_ms)
-    energy, stretch = grid_strain(smoothed)
-    noise = {"error_share": float("nan"), "node_noise_mm": float("nan"),
-             "smoothing_ms": float(smoothing_ms)}
+    ladder = RIDGE_SMOOTHING_LADDER_MS if smoothing_ms == "auto" else (float(smoothing_ms),)
+    noise = {"error_share": float("nan"), "node_noise_mm": float("nan")}
     if n_t < 10 or noise_seed is None:
-        return energy, stretch, noise
+        smoothed = _smoothed_grid(G, period_ms, ladder[0])
+        return (*grid_strain(smoothed), {**noise, "smoothing_ms": ladder[0]})
     apart_ms = max(RIDGE_SMOOTHING_MS, period_ms / n_t)      # at least a frame
     kernel = smoothing_kernel(n_t, period_ms, apart_ms)
-    residual = G - (smoothed if smoothing_ms == apart_ms
-                    else _smoothed_grid(G, period_ms, apart_ms))
+    whole, whole_ms = _smoothed_grid(G, period_ms, apart_ms), apart_ms
+    residual = G - whole
     residual /= np.sqrt(1.0 - 2.0 * kernel[0] + (kernel ** 2).sum())  # white noise's share
     noise["node_noise_mm"] = float(np.median(np.linalg.norm(residual, axis=-1)))
     residual = residual[:, :, np.random.default_rng(noise_seed).permutation(n_t)]  # shuffled
-    frames = np.arange(0, n_t, STRAIN_NOISE_EVERY)
-    again = _smoothed_grid(residual, period_ms, smoothing_ms)[:, :, frames]
-    del residual                                 # a grid's copies: ~20 MB each
-    again += smoothed[:, :, frames]
-    change = np.abs(grid_strain(again)[0] - energy[:, :, frames])
-    noise["error_share"] = float(np.nanmedian(change) / np.nanmedian(np.abs(energy[:, :, frames])))
-    return energy, stretch, noise
+    frames = np.arange(0, n_t, STRAIN_NOISE_EVERY)             # frame 0, the reference, first
+    for sigma in ladder:
+        if sigma != whole_ms:                      # (the usual first sigma: smoothed above)
+            whole, whole_ms = _smoothed_grid(G, period_ms, sigma), sigma
+        # the first sigma's fields whole (most often the ones kept), the others' at the frames
+        fields = grid_strain(whole) if sigma == ladder[0] else None
+        energy = (fields[0][:, :, frames] if fields is not None
+                  else grid_strain(whole[:, :, frames])[0])
+        again = _smoothed_grid(residual, period_ms, sigma)[:, :, frames] + whole[:, :, frames]
+        change = np.abs(grid_strain(again)[0] - energy)
+        del again                                # a grid's copies: ~7 MB each
+        noise["error_share"] = float(np.nanmedian(change) / np.nanmedian(np.abs(energy)))
+        if not noise["error_share"] > STRAIN_NOISE_TARGET:
+            break
+    del residual
+    return (*(fields or grid_strain(whole)), {**noise, "smoothing_ms": sigma})
 
 
 # strain noise: frames the energy is compared on (every this many, from the reference)
@@ -251,7 +267,7 @@ NOISY_STRAIN_SHARE = 0.25
 
 def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                  smoothing_ms: float | str = "auto", lumen_smoothed_ms: float = 0.0,
-                 strain_smoothing_ms: float = RIDGE_SMOOTHING_MS) -> dict:
+                 strain_smoothing_ms: float | str = "auto") -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
     Radial curvature of the outer and inner section contours and the myocardial
@@ -259,8 +275,8 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     ``smoothing_ms``: :func:`smoothed_curvature`; how much of each is noise, and
     the sigma taken, in ``field_noise``), strain energy and principal stretches of
     the outer and inner grids against t = 0 (:func:`smoothed_strain` by
-    ``strain_smoothing_ms``; how far their nodes' noise moves the energy in
-    ``strain_noise``), the phase maps of these and of the
+    ``strain_smoothing_ms``, ms or "auto"; how far their nodes' noise moves the energy,
+    and the sigma taken, in ``strain_noise``), the phase maps of these and of the
     lumen's mean curvature (``(n_u, n_v, n_t)`` on the lumen grid, already
     smoothed by ``lumen_smoothed_ms``, or None),
     and the corner count of the outer contours at each row's own maximum
@@ -287,7 +303,7 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
         arrays["mean_curvature_lumen_per_mm"] = mean_curvature_lumen
     smoothed_ms = {name: noise[name]["smoothing_ms"] for name in noise}
     smoothed_ms["mean_curvature_lumen_per_mm"] = lumen_smoothed_ms
-    smoothed_ms.update({f"strain_energy_{w}": strain_smoothing_ms for w in ("outer", "inner")})
+    smoothed_ms.update({name: n["smoothing_ms"] for name, n in strain_noise.items()})
     for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv", "wall"))]:
         # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
         rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothed_ms.get(name, 0.0) ** 2))
@@ -511,7 +527,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     # the sigma taken for each curvature and thickness field ("auto": as much as its noise asks)
     summary["field_smoothing_ms"] = {name: noise["smoothing_ms"]
                                      for name, noise in fields["field_noise"].items()}
-    summary["strain_smoothing_ms"] = options.strain_smoothing_ms
+    # and for each strain field ("auto": as much as its nodes' noise asks)
+    summary["strain_smoothing_ms"] = {name: noise["smoothing_ms"]
+                                      for name, noise in fields["strain_noise"].items()}
     for name, noise in fields["field_noise"].items():
         if noise["noise_share"] > NOISY_FIELD_SHARE:
             helps = ("--lumen-smoothing-steps 20" if name.startswith("mean_curvature_lumen")

@@ -66,6 +66,9 @@ COHORT_COLUMNS = [
     # share of each strain energy field's size by which its grid's node noise moves it
     ("strain_energy_outer_error_share", ("strain_noise", "strain_energy_outer", "error_share")),
     ("strain_energy_inner_error_share", ("strain_noise", "strain_energy_inner", "error_share")),
+    # the sigma its grid nodes were smoothed by ("auto": as much as that noise asks)
+    ("strain_energy_outer_smoothing_ms", ("strain_noise", "strain_energy_outer", "smoothing_ms")),
+    ("strain_energy_inner_smoothing_ms", ("strain_noise", "strain_energy_inner", "smoothing_ms")),
 ]
 
 
@@ -217,25 +220,34 @@ def smoothing_caveat(summaries: list[dict]) -> str | None:
             f"to compare the groups, analyse them all with --ridge-smoothing-ms {largest:g}")
 
 
-def field_smoothing_caveat(summaries: list[dict]) -> str | None:
+# the fields whose sigma "auto" chooses per dataset: summary key -> (what, run option)
+FIELD_SIGMAS = {"field_smoothing_ms": ("shape fields", "--field-smoothing-ms"),
+                "strain_smoothing_ms": ("strain fields (their grid nodes)",
+                                        "--strain-smoothing-ms")}
+
+
+def field_smoothing_caveat(summaries: list[dict], key: str = "field_smoothing_ms"
+                           ) -> str | None:
     """The same for the curvature and wall thickness fields (``field_smoothing_ms``,
-    per field: "auto" takes as much as each field's noise needs); None when each
-    field's sigma is the same in every group."""
-    names = sorted({n for s in summaries for n in (s.get("field_smoothing_ms") or {})})
+    per field: "auto" takes as much as each field's noise needs), or the strain
+    fields (``key="strain_smoothing_ms"``); None when each field's sigma is the
+    same in every group."""
+    what, option = FIELD_SIGMAS[key]
+    names = sorted({n for s in summaries if isinstance(s.get(key), dict) for n in s[key]})
     differing, largest = [], 0.0
     for name in names:
-        found = _sigmas_by_group(summaries,
-                                 lambda s: (s.get("field_smoothing_ms") or {}).get(name))
+        found = _sigmas_by_group(
+            summaries, lambda s: s[key].get(name) if isinstance(s.get(key), dict) else None)
         if found is not None:
             differing.append(f"{name} ({found[0]})")
             largest = max(largest, found[1])
     if not differing:
         return None
-    return ("the embryos' shape fields were smoothed in time by different sigmas, as "
+    return (f"the embryos' {what} were smoothed in time by different sigmas, as "
             f"their noise asked: {', '.join(differing)}; more smoothing lowers and widens "
             "each pixel's peaks over the cycle, so group differences in those fields' size "
             "and phase maps may come from it (README, Accuracy); to compare the groups, "
-            f"analyse them all with --field-smoothing-ms {largest:g}")
+            f"analyse them all with {option} {largest:g}")
 
 
 def holm(p: list[float]) -> list[float]:

@@ -127,6 +127,8 @@ METRICS = [
       for name, what in CURVATURES],
     *[(f"{name}_smoothing_ms", "ms", f"{what}: smoothing taken (not an error)")
       for name, what in CURVATURES],
+    *[(f"strain_energy_{w}_smoothing_ms", "ms", f"strain energy, {w}: smoothing taken "
+       "(not an error)") for w in ("outer", "inner")],
 ]
 
 
@@ -272,6 +274,7 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
         e[f"{name}_smoothing_ms"] = noise.get("smoothing_ms", np.nan)
     for w in ("outer", "inner"):
         e[f"strain_energy_{w}_error_share"] = strain_noise[f"strain_energy_{w}"]["error_share"]
+        e[f"strain_energy_{w}_smoothing_ms"] = strain_noise[f"strain_energy_{w}"]["smoothing_ms"]
     # the thickening over the beat, as summary.json's: every row
     model = truth_at(grids["outer"].astype(float), ph.wall_thickness, "wall_thickness_mm")[1]
     e["wall_thickening_pct"] = _relative_pct(summ["wall_thickening"],
@@ -291,13 +294,14 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
     return e
 
 
-def strain_noise_errors(results: Path, noise_free: Path, smoothing_ms: float
-                        ) -> dict[str, float]:
+def strain_noise_errors(results: Path, noise_free: Path) -> dict[str, float]:
     """Each wall's strain energy against the same phantom's without noise (median
     |difference| over the median |energy without|: what the roughness alone does,
     the grid nodes' slow sliding along the wall included, which a truth at the nodes'
-    mean positions hides), both strained against the same input frame; and the share
-    oftimg reports (``summary.json: strain_noise``) over it."""
+    mean positions hides), both strained against the same input frame, each with the
+    sigma its run took (``strain_noise: smoothing_ms``; with "auto", the noisy run's
+    larger sigma's bias is part of the difference); and the share oftimg reports
+    (``summary.json: strain_noise``) over it."""
     runs = [(json.loads((r / "summary.json").read_text()), np.load(r / "grids.npz"))
             for r in (results, noise_free)]
     (summ, grids), (summ_free, grids_free) = runs
@@ -305,9 +309,11 @@ def strain_noise_errors(results: Path, noise_free: Path, smoothing_ms: float
     period_ms = summ["period_ms"]
     e = {}
     for w in ("outer", "inner"):
+        sigma, sigma_free = (s["strain_noise"][f"strain_energy_{w}"]["smoothing_ms"]
+                             for s in (summ, summ_free))
         energy = smoothed_strain(np.roll(grids[w].astype(float), shift, axis=2), period_ms,
-                                 smoothing_ms, noise_seed=None)[0]
-        free = smoothed_strain(grids_free[w].astype(float), period_ms, smoothing_ms,
+                                 sigma, noise_seed=None)[0]
+        free = smoothed_strain(grids_free[w].astype(float), period_ms, sigma_free,
                                noise_seed=None)[0]
         change = np.nanmedian(np.abs(energy - free)) / np.nanmedian(np.abs(free))
         e[f"strain_energy_{w}_vs_noise_free_pct"] = 100.0 * change
@@ -369,7 +375,7 @@ def main() -> None:
                     help="oftimg run --lumen-smoothing-steps")
     ap.add_argument("--field-smoothing-ms", default="auto",
                     help="oftimg run --field-smoothing-ms")
-    ap.add_argument("--strain-smoothing-ms", type=float, default=RIDGE_SMOOTHING_MS,
+    ap.add_argument("--strain-smoothing-ms", default="auto",
                     help="oftimg run --strain-smoothing-ms")
     ap.add_argument("--jobs", type=int, default=None)
     ap.add_argument("--cache", type=Path, default=None,
@@ -406,8 +412,7 @@ def main() -> None:
                     noise_free[positions] = results
                 elif positions in noise_free:
                     for name, e in errors.items():
-                        e.update(strain_noise_errors(results / name, noise_free[positions] / name,
-                                                     args.strain_smoothing_ms))
+                        e.update(strain_noise_errors(results / name, noise_free[positions] / name))
                 tables = {}
                 for group in ("normal", "banded"):
                     tables[group] = summarise({k: e for k, e in errors.items()

@@ -136,7 +136,9 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     assert summary["provenance"]["options"]["field_smoothing_ms"] == 7
     assert set(summary["field_smoothing_ms"].values()) == {7}        # taken by every field
     assert all(n["smoothing_ms"] == 7 for n in summary["field_noise"].values())
-    assert summary["strain_smoothing_ms"] == summary["provenance"]["options"]["strain_smoothing_ms"] == 2.5
+    assert summary["provenance"]["options"]["strain_smoothing_ms"] == 2.5
+    assert summary["strain_smoothing_ms"] == {"strain_energy_outer": 2.5, "strain_energy_inner": 2.5}
+    assert all(n["smoothing_ms"] == 2.5 for n in summary["strain_noise"].values())
     arrays = np.load(out / "tiny" / "arrays.npz")           # the maps at fixed positions, and
     described = json.loads((out / "tiny" / "arrays.json").read_text())     # the rows' own
     for wall in ("outer", "inner", "lumen"):

@@ -264,6 +264,39 @@ def test_strain_noise_is_the_change_the_roughness_makes():
     assert np.isnan(smoothed_strain(smooth, period, 5.0, noise_seed=None)[2]["error_share"])
 
 
+def test_strain_smoothing_auto_takes_the_least_sigma_its_noise_allows():
+    """"auto" smooths the beating cylinder's nodes by the least sigma of the ladder
+    after which their noise moves the strain energy by at most STRAIN_NOISE_TARGET
+    (the one before moves it more), and only as much as that: 5 ms on the smooth
+    cylinder, the same field as 5 ms given; more with the roughness, and closer to
+    the truth for it."""
+    from oftimg.image.kymograph import RIDGE_SMOOTHING_LADDER_MS as LADDER
+    from oftimg.image.normalize import STRAIN_NOISE_TARGET
+    from oftimg.pipeline import smoothed_strain
+
+    n_t, period, r0 = 195, 360.0, 0.2
+    radius = r0 * (1 + 0.2 * np.sin(np.pi * np.arange(n_t) / n_t) ** 2)
+    u, v = np.meshgrid(np.arange(40) / 40, np.linspace(0, 1, 20), indexing="ij")
+    smooth = np.stack([cylinder(r, 1.0)(u, v, 0) for r in radius], axis=2)
+    truth = np.broadcast_to((radius / r0 - 1) ** 2, (40, 20, n_t))[:, 1:-1, 20:]
+    jitter = np.random.default_rng(1).standard_normal(smooth.shape)
+
+    def off(energy):
+        return np.median(np.abs(energy[:, 1:-1, 20:] - truth)) / np.median(truth)
+
+    energy, stretch, noise = smoothed_strain(smooth, period, "auto")
+    fixed = smoothed_strain(smooth, period, LADDER[0])
+    assert noise["smoothing_ms"] == LADDER[0]
+    assert np.array_equal(energy, fixed[0]) and np.array_equal(stretch, fixed[1])
+    rough = smooth + 0.005 * r0 * jitter
+    energy, _, noise = smoothed_strain(rough, period, "auto")
+    k = LADDER.index(noise["smoothing_ms"])
+    assert k > 0 and noise["error_share"] <= STRAIN_NOISE_TARGET
+    assert smoothed_strain(rough, period, LADDER[k - 1])[2]["error_share"] > STRAIN_NOISE_TARGET
+    assert np.array_equal(energy, smoothed_strain(rough, period, LADDER[k])[0])
+    assert off(energy) < 0.7 * off(smoothed_strain(rough, period, LADDER[0])[0])
+
+
 def test_strain_does_not_depend_on_which_way_the_grid_runs():
     """Mirrored with u reversed, or with v reversed, the grid gives the same strain
     reversed; and within 0.012 of an 8x finer grid's. (With each quad split along one

@@ -511,10 +511,11 @@ def test_map_positions_are_checked():
             PipelineOptions(field_smoothing_ms=bad)
     assert PipelineOptions(field_smoothing_ms="7").as_dict()["field_smoothing_ms"] == 7.0
     assert PipelineOptions().as_dict()["field_smoothing_ms"] == "auto"
-    for bad in (-1, "auto", None, float("nan")):
-        with pytest.raises(InputError, match="strain_smoothing_ms must be a number of ms"):
+    for bad in (-1, "5 ms", None, float("nan")):
+        with pytest.raises(InputError, match="strain_smoothing_ms must be 'auto' or a number"):
             PipelineOptions(strain_smoothing_ms=bad)
     assert PipelineOptions(strain_smoothing_ms="0").as_dict()["strain_smoothing_ms"] == 0.0
+    assert PipelineOptions().as_dict()["strain_smoothing_ms"] == "auto"
 
 
 def test_cells_without_a_contour_are_filled_periodically_in_time_and_rows_along_v():

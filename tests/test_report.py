@@ -124,3 +124,10 @@ def test_field_smoothing_caveat_names_the_fields_smoothed_differently():
     text = field_smoothing_caveat(cohort([("a", 5.0), ("a", 7.0), ("b", 14.0)]))
     assert "radial (a: 5-7 ms; b: 14 ms)" in text and "lumen" not in text
     assert text.endswith("--field-smoothing-ms 14")
+    strained = [{"name": f"e{k}", "group": g, "strain_smoothing_ms": {"strain_energy_inner": x}}
+                for k, (g, x) in enumerate([("a", 5.0), ("b", 10.0)])]
+    assert field_smoothing_caveat(strained) is None                  # no curvature sigmas
+    text = field_smoothing_caveat(strained + [{"name": "old", "group": "b",   # an older summary
+                                               "strain_smoothing_ms": 5.0}], "strain_smoothing_ms")
+    assert "strain fields" in text and "strain_energy_inner (a: 5 ms; b: 10 ms)" in text
+    assert text.endswith("--strain-smoothing-ms 10")

@@ -42,8 +42,8 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
   model's inner wall at each grid node's position along and angle around the tube
   (each: median |error| over the median |truth|, %); each curvature also against
   the model at its points' positions averaged in time as the field is, and the
-  strain at the grid nodes' positions averaged over 5 ms (a rough mesh moves them
-  along the wall from frame to frame); for each curvature, the noise
+  strain at the grid nodes' positions averaged as its nodes were (a rough mesh moves
+  them along the wall from frame to frame); for each curvature, the noise
   oftimg reports (`field_noise`, after its smoothing) over the true error's spread
   (each pixel's SD over the cycle, median, against the model at the mean positions;
   about 1 where the error is noise), and the
@@ -64,7 +64,6 @@ import numpy as np
 
 import oftimg
 from oftimg.image.normalize import smooth_field_in_time
-from oftimg.image.kymograph import RIDGE_SMOOTHING_MS
 from oftimg.mesh.strain import grid_strain
 from oftimg.pipeline import smoothed_strain, wall_thickness_summary
 from oftimg.phantom import read_truth, sample_params, write_phantom
@@ -114,7 +113,7 @@ METRICS = [
       for name, what in CURVATURES],
     ("strain_energy_inner_pct", "%", "strain energy, inner wall (median |error|)"),
     ("strain_energy_inner_mean_position_pct", "%",
-     "strain energy, inner wall, truth at 5 ms mean positions"),
+     "strain energy, inner wall, truth at mean positions"),
     *[(f"strain_energy_{w}_vs_noise_free_pct", "%",
        f"strain energy, {w} wall, against the run without noise") for w in ("outer", "inner")],
     *[(f"{name}_noise_ratio", "x", f"{what}: noise oftimg reports / true error's SD")
@@ -280,13 +279,13 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
     e["wall_thickening_pct"] = _relative_pct(summ["wall_thickening"],
                                              wall_thickness_summary(model)["wall_thickening"])
     # the strain: against the model's at the outer grid nodes' own positions in each
-    # frame, and at their positions averaged over 5 ms: the grid of a smooth wall (at
-    # its own positions the model shares the nodes' jitter along the wall, which the
-    # grid's strain suffers too, and so hides it)
+    # frame, and at their positions averaged in time as the field's nodes were: the grid
+    # of a smooth wall (at its own positions the model shares the nodes' jitter along
+    # the wall, which the grid's strain suffers too, and so hides it)
     measured = arr["strain_energy_inner"][:, rows]
     G = grids["outer"].astype(float)
-    mean_G = np.moveaxis(smooth_field_in_time(np.moveaxis(G, -1, 0), period_ms,
-                                              RIDGE_SMOOTHING_MS), 0, -1)
+    mean_G = np.moveaxis(smooth_field_in_time(np.moveaxis(G, -1, 0), period_ms, strain_noise[
+        "strain_energy_inner"]["smoothing_ms"]), 0, -1)
     for key, points in (("strain_energy_inner_pct", G),
                         ("strain_energy_inner_mean_position_pct", mean_G)):
         s, theta = ph.window_coordinates(points)

@@ -213,7 +213,8 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
     strain energy came out 23 % off unsmoothed and 3.9 % with 5 ms, 130 % and 11 % with
     5 um (against the model at the nodes' 5 ms mean positions, which shares their slow
     sliding along the wall: against the same phantom analysed without roughness, 5 ms
-    left 5-10 % and 24-52 %); without noise 0.7 % both; 10 ms cost 3.4 % there.
+    left 5-10 % and 24-52 %, "auto" 5-7 % and 9-16 %, taking 5-10 and 20 ms); without
+    noise 0.7 % both; 7, 10, 14, 20 ms cost 0.7-1, 2-3, 5-7, 10-15 % there.
 
     The noise (the third result): each node's departure from its position smoothed
     over ``RIDGE_SMOOTHING_MS`` (or a frame, if longer), scaled to the white noise

@@ -90,6 +90,8 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             raise _not_triangles(path, others)
         V = np.asarray(m.points, dtype=np.float64)
         F = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
+    elif suffix == ".ply" and (simple := _read_simple_ply(path)) is not None:
+        V, F = simple
     elif suffix in MESH_SUFFIXES:
         if suffix == ".ply":
             _check_binary_ply_size(path)
@@ -207,6 +209,57 @@ def _ply_header(path: Path) -> tuple[bool, int, list[tuple[str, int, int | None]
                 item[2] = None
     binary = head.startswith(b"ply") and b"format binary" in head[:end]
     return binary, data_start, [tuple(e) for e in elements]
+
+
+_PLY_TYPES = {"char": "i1", "uchar": "u1", "int8": "i1", "uint8": "u1", "short": "i2",
+              "ushort": "u2", "int16": "i2", "uint16": "u2", "int": "i4", "uint": "u4",
+              "int32": "i4", "uint32": "u4", "float": "f4", "float32": "f4", "double": "f8",
+              "float64": "f8"}
+
+
+def _read_simple_ply(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(V float64, F int64)`` of a little-endian binary .ply that holds vertices (x,
+    y, z among scalar properties) and triangles (one list of integers) and nothing
+    else, read with NumPy: ~15x faster than open3d, which a process then need not
+    load (0.7 s, 0.2 GB). None for any other .ply, or one whose size or face lists
+    do not match that exactly (open3d reads it, and the checks say what is wrong)."""
+    data = path.read_bytes()
+    end = data.find(b"end_header")
+    start = data.find(b"\n", end) + 1 if end >= 0 else 0
+    if not data.startswith(b"ply") or start == 0:
+        return None
+    lines = [line.split() for line in data[:end].decode("ascii", "replace").splitlines()]
+    if ["format", "binary_little_endian", "1.0"] not in lines:
+        return None
+    elements = []
+    for words in lines:
+        if words[:1] == ["element"] and len(words) == 3 and words[2].isdigit():
+            elements.append((words[1], int(words[2]), []))
+        elif words[:1] in (["element"], ["property"]):
+            if not elements or words[0] == "element":
+                return None
+            elements[-1][2].append(words[1:])
+    if [name for name, _, _ in elements] != ["vertex", "face"]:
+        return None
+    (_, n_vert, vertex_props), (_, n_face, face_props) = elements
+    names = [p[-1] for p in vertex_props]
+    if (any(len(p) != 2 or p[0] not in _PLY_TYPES for p in vertex_props)
+            or len(set(names)) != len(names) or not {"x", "y", "z"} <= set(names)):
+        return None
+    if len(face_props) != 1 or len(face_props[0]) != 4 or face_props[0][0] != "list" \
+            or any(_PLY_TYPES.get(t, "f")[0] == "f" for t in face_props[0][1:3]):
+        return None
+    vertex = np.dtype([(name, "<" + _PLY_TYPES[kind]) for kind, name in vertex_props])
+    _, count, index, _ = face_props[0]
+    face = np.dtype([("n", "<" + _PLY_TYPES[count]), ("idx", "<" + _PLY_TYPES[index], (3,))])
+    if len(data) != start + n_vert * vertex.itemsize + n_face * face.itemsize:
+        return None                     # other faces than triangles, or a damaged file
+    faces = np.frombuffer(data, face, n_face, start + n_vert * vertex.itemsize)
+    if np.any(faces["n"] != 3):
+        return None
+    verts = np.frombuffer(data, vertex, n_vert, start)
+    V = np.column_stack([verts["x"], verts["y"], verts["z"]]).astype(np.float64)
+    return V, faces["idx"].astype(np.int64)
 
 
 def _check_binary_ply_size(path: Path) -> None:

@@ -10,7 +10,8 @@ seconds summed over the workers, scaled to wall time), the time merely to read
 all meshes (the floor no pipeline can beat: the median of 3 passes before the
 run and 3 after, so that the mesh reader's one-off import, ~1 s, is not counted
 and the machine's drift is seen; both medians are printed) and total / read-only, where
-the total leaves out the PCA, as the targets do. It also prints the CPU seconds
+the total leaves out the PCA, as the targets do; also that ratio to open3d's read, the
+floor as first measured (oftimg reads binary .ply files with NumPy since, ~7x faster). It also prints the CPU seconds
 of all processes (this one, the workers, the video encoders): wall time cannot
 fall below them divided by the cores; the CPU milliseconds per frame of the
 per-frame pass (all walls); and the peak memory of the largest process and of
@@ -49,18 +50,26 @@ def phantom(cache: Path, frames: int, vertices: int) -> Path:
     return path
 
 
-def read_only_seconds(path: Path, repeats: int = 3) -> list[float]:
-    """Seconds of reading every mesh once, ``repeats`` times (a single pass varies
-    by ~30 %)."""
+def read_only_seconds(path: Path, repeats: int = 3, read=read_mesh_file) -> list[float]:
+    """Seconds of reading every mesh once with ``read`` (oftimg's reader), ``repeats``
+    times (a single pass varies by ~30 %)."""
     ds = load_dataset(path)
     times = []
     for _ in range(repeats):
         tick = time.perf_counter()
         for files in ds.frames.values():
             for f in files:
-                read_mesh_file(f)
+                read(f)
         times.append(time.perf_counter() - tick)
     return times
+
+
+def open3d_read(path) -> None:
+    """A mesh read as oftimg read every .ply up to session 21 (open3d: ~1.4 ms for
+    5.5k vertices against ~0.2 ms with NumPy), for the ratio as it was first measured."""
+    from oftimg.io import _open3d
+
+    _open3d().io.read_triangle_mesh(str(path), enable_post_processing=False)
 
 
 def peak_mb() -> float:
@@ -139,6 +148,7 @@ def bench(path: Path, jobs: int) -> dict:
     # ratio is taken to the median of all six passes
     read_after = read_only_seconds(path)
     read_s = float(np.median(read_before + read_after))
+    read_open3d_s = float(np.median(read_only_seconds(path, read=open3d_read)))
     tm = summary["timings_s"]
     frames_wall = tm["frames_s"]
     cpu = tm["frames_cpu_s"]
@@ -156,6 +166,7 @@ def bench(path: Path, jobs: int) -> dict:
             "total_without_pca_s": target, "read_only_s": read_s, "ratio": target / read_s,
             "read_only_before_s": float(np.median(read_before)),
             "read_only_after_s": float(np.median(read_after)),
+            "read_open3d_s": read_open3d_s, "ratio_open3d": target / read_open3d_s,
             "peak_mb": peak_mb(), "peak_all_processes_mb": tree.peak_mb, "cpu_s": cpu_s,
             "per_frame_work_s": per_frame,
             "frame_cpu_ms": 1e3 * sum(cpu.values()) / summary["n_frames"], "stages_s": stages}
@@ -165,7 +176,8 @@ def print_table(r: dict) -> None:
     print(f"{r['frames']} frames, jobs {r['jobs']}: total {r['total_s']:.1f} s, "
           f"{r['total_without_pca_s']:.1f} s without PCA (targets: < 60 s and < 25 x read-only), "
           f"read-only {r['read_only_s']:.2f} s (x{r['ratio']:.0f}; {r['read_only_before_s']:.2f} "
-          f"before the run, {r['read_only_after_s']:.2f} after), peak memory "
+          f"before the run, {r['read_only_after_s']:.2f} after; open3d's read "
+          f"{r['read_open3d_s']:.2f} s, x{r['ratio_open3d']:.0f}), peak memory "
           f"{r['peak_mb']:.0f} MB (largest process)")
     if r["peak_all_processes_mb"] is not None:
         print(f"peak memory of all processes together {r['peak_all_processes_mb']:.0f} MB "

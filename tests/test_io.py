@@ -285,6 +285,68 @@ def test_whole_files_with_their_counts_are_read(tmp_path, kind):
     assert len(load_tube(path).F) == len(F)
 
 
+def _write_binary_ply(path, V, faces, *, vertex_type="float", extra=(), count="uchar",
+                      index="int", order="little"):
+    """A binary .ply of ``V`` (with ``extra`` uchar properties, zeros) and ``faces`` (lists
+    of vertex indices, any length), a comment line in the header."""
+    types = {"float": "f4", "double": "f8", "uchar": "u1", "ushort": "u2", "int": "i4",
+             "uint": "u4"}
+    end = "<" if order == "little" else ">"
+    head = ["ply", f"format binary_{order}_endian 1.0", "comment made by a test",
+            f"element vertex {len(V)}", *[f"property {vertex_type} {c}" for c in "xyz"],
+            *[f"property uchar {name}" for name in extra], f"element face {len(faces)}",
+            f"property list {count} {index} vertex_indices", "end_header"]
+    verts = np.zeros(len(V), [(c, end + types[vertex_type]) for c in "xyz"]
+                     + [(name, "u1") for name in extra])
+    for k, c in enumerate("xyz"):
+        verts[c] = V[:, k]
+    data = ["\n".join(head).encode() + b"\n", verts.tobytes()]
+    for f in faces:
+        data += [np.array(len(f), end + types[count]).tobytes(),
+                 np.array(f, end + types[index]).tobytes()]
+    path.write_bytes(b"".join(data))
+
+
+def test_binary_ply_is_read_as_open3d_reads_it(tmp_path):
+    """Binary little-endian .ply files of vertices and triangles are read with NumPy
+    (``write_ply``'s, double coordinates, more vertex properties, other list types);
+    other .ply files go to open3d, whose checks still name a damaged file."""
+    from oftimg.io import _open3d, _read_simple_ply
+
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    cases = {"written.ply": None,
+             "double.ply": dict(vertex_type="double", extra=("red", "green", "blue"),
+                                count="uint", index="uint"),
+             "short_list.ply": dict(count="ushort", index="int"),
+             "big_endian.ply": dict(order="big")}
+    for name, kw in cases.items():
+        path = tmp_path / name
+        if kw is None:
+            write_ply(path, V, F)
+        else:
+            _write_binary_ply(path, V, F.tolist(), **kw)
+        mesh = _open3d().io.read_triangle_mesh(str(path))
+        read = read_mesh_file(path)
+        assert np.array_equal(read[0], np.asarray(mesh.vertices))
+        assert np.array_equal(read[1], np.asarray(mesh.triangles))
+        assert read[0].dtype == np.float64 and read[1].dtype == np.int64
+        assert (_read_simple_ply(path) is None) == (name == "big_endian.ply")
+    quads = [[k, k + 1, k + 25, k + 24] for k in range(23)]
+    rest = F[~np.isin(F, np.arange(24)).any(axis=1)].tolist()
+    _write_binary_ply(tmp_path / "quads.ply", V, quads + [[23, 0, 24, 47]] + rest)
+    assert _read_simple_ply(tmp_path / "quads.ply") is None
+    with pytest.raises(DatasetError, match=r"quads\.ply: lists 408 faces but"):
+        read_mesh_file(tmp_path / "quads.ply")
+    _write_binary_ply(tmp_path / "cut.ply", V, F.tolist())
+    (tmp_path / "cut.ply").write_bytes((tmp_path / "cut.ply").read_bytes()[:-13 * 5])
+    assert _read_simple_ply(tmp_path / "cut.ply") is None
+    with pytest.raises(DatasetError, match=r"cut\.ply: the file is truncated"):
+        read_mesh_file(tmp_path / "cut.ply")
+    _write_binary_ply(tmp_path / "range.ply", V, F.tolist() + [[0, 1, len(V)]])
+    with pytest.raises(DatasetError, match=r"range\.ply: face indices out of range"):
+        read_mesh_file(tmp_path / "range.ply")
+
+
 def test_repairs_are_counted(tmp_path):
     V, F = tube_mesh(n_theta=20, n_s=6)
     V2 = np.concatenate([V, V[:3]])  # 3 duplicate vertices used by one face each

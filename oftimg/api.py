@@ -1,4 +1,4 @@
-"""The Python API behind the command line: run, cohort, demo, make_phantom.
+"""The Python API behind the command line: run, cohort, paraview, demo, make_phantom.
 
 File access happens here and in :mod:`oftimg.io` / :mod:`oftimg.export`; the
 science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
@@ -511,6 +511,32 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
         run_info = _run_info(folders, options, started)
         run_info["datasets_seconds"] = _datasets_seconds(summaries)
         write_cohort_outputs(tmp, summaries, run_info)
+    return out
+
+
+def paraview(sources, out, *, quiet: bool = False) -> Path:
+    """Every dataset's results among ``sources`` (as :func:`cohort` takes them) as
+    ParaView time series in ``out/<name>/``
+    (:func:`oftimg.paraview_series.write_dataset_paraview`): the grids with their
+    node fields, and the section contours. ``out`` must be new
+    or empty; it appears only when complete. Returns ``out``."""
+    from .paraview_series import frame_file_count, write_dataset_paraview
+
+    out = Path(out)
+    folders = _result_folders(sources)
+    names = [_read_results(f)["name"] for f in folders]
+    _check_names(list(zip(names, folders)), "export them one at a time")
+    for f in folders:
+        if not (f / "grids.npz").is_file():
+            raise DatasetError(f"{f}: has no grids.npz (the grids are what ParaView shows)")
+    require_new_folder(out)
+    check_output_location(out, folders, overwrite=False)
+    bar = Progress(sum(frame_file_count(f) for f in folders), "ParaView series",
+                   quiet=quiet, unit="file")
+    with staged_output(out) as tmp:
+        for name, folder in zip(names, folders):
+            write_dataset_paraview(folder, tmp / name, progress=bar.advance)
+    bar.close()
     return out
 
 

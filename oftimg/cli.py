@@ -126,6 +126,16 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--out", type=Path, required=True, help="cohort folder (created)")
     c.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
 
+    pv = sub.add_parser("paraview", help="write analysed datasets' grids (with every field on "
+                                         "their nodes) and section contours as ParaView time "
+                                         "series (.pvd)")
+    pv.add_argument("results", type=Path, nargs="+",
+                    help="one dataset's results (a folder with summary.json) or a folder of "
+                         "them (a run's --out)")
+    pv.add_argument("--out", type=Path, required=True,
+                    help="folder to create (one subfolder per dataset)")
+    pv.add_argument("--quiet", action="store_true", help="no progress bar")
+
     d = sub.add_parser("demo", help="make the built-in phantom cohort and process it")
     d.add_argument("--out", type=Path, default=Path("oftimg-demo"), help="results folder")
     d.add_argument("--full", action="store_true", help="4 normal + 4 banded, 195 frames")
@@ -273,6 +283,9 @@ def _command(args) -> int:
         n = len(json.loads((out / "run.json").read_text())["inputs"])
         print(f"cohort: {out} ({n} dataset{'s' * (n != 1)})\n"
               f"cohort table: {out / 'cohort.csv'}")
+    elif args.command == "paraview":
+        out = api.paraview(args.results, args.out, quiet=args.quiet)
+        print(f"ParaView series: {out} (open each dataset's *.pvd)")
     elif args.command == "demo":
         out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
                        jobs=args.jobs)

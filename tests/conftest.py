@@ -47,3 +47,13 @@ def analysed_banded(phantom_banded):
 
     ph, truth = read_truth(phantom_banded)
     return ph, truth, analyse_dataset(load_dataset(phantom_banded), PipelineOptions(), quiet=True)
+
+
+@pytest.fixture(scope="session")
+def run_out(phantom_normal, tmp_path_factory):
+    """The small normal phantom run through the command line: a results folder."""
+    from oftimg.cli import main
+
+    out = tmp_path_factory.mktemp("run") / "results"
+    assert main(["run", str(phantom_normal), "--out", str(out), "--quiet"]) == 0
+    return out

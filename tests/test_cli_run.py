@@ -15,13 +15,6 @@ SUMMARY_KEYS = {"name", "group", "n_frames", "period_ms", "t0_frame", "expand_fr
                 "tube_length_mm", "myocardial_volume_change", "provenance"}
 
 
-@pytest.fixture(scope="module")
-def run_out(phantom_normal, tmp_path_factory):
-    out = tmp_path_factory.mktemp("run") / "results"
-    assert main(["run", str(phantom_normal), "--out", str(out), "--quiet"]) == 0
-    return out
-
-
 def test_output_contract(run_out, phantom_normal):
     folder = run_out / "normal"
     summary = json.loads((folder / "summary.json").read_text())

@@ -1,0 +1,145 @@
+"""A dataset's results as ParaView time series: each grid (a quad surface closed
+around the seam) with every field that lives on its nodes, and each wall's section
+contours (closed polylines), one VTK XML file (.vtu, meshio) per frame and one
+.pvd collection per series whose time steps are ``t_ms``."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+WALLS = ("outer", "inner", "lumen")
+MYOCARDIUM = ("outer", "inner")          # the walls the wall thickness belongs to
+
+
+def quad_cells(n_u: int, n_v: int) -> np.ndarray:
+    """Quads ``(n_u (n_v - 1), 4)`` of a grid whose nodes are numbered ``i n_v + j``
+    (``G[i, j]`` flattened), closed around u. Corners in the order (i, j), (i+1, j),
+    (i+1, j+1), (i, j+1): the normal d/du x d/dv points out of the tube (u runs
+    clockwise looking from the inlet towards the outlet)."""
+    i, j = np.meshgrid(np.arange(n_u), np.arange(n_v - 1), indexing="ij")
+    nxt = (i + 1) % n_u
+    return np.stack([i * n_v + j, nxt * n_v + j, nxt * n_v + j + 1, i * n_v + j + 1],
+                    axis=-1).reshape(-1, 4).astype(np.int32)
+
+
+def ring_segments(n_u: int, n_v: int) -> np.ndarray:
+    """Line segments ``(n_u n_v, 2)`` closing each of the ``n_v`` rings of ``n_u``
+    points (numbered ``i n_v + j``, as :func:`quad_cells`)."""
+    i, j = np.meshgrid(np.arange(n_u), np.arange(n_v), indexing="ij")
+    return np.stack([i * n_v + j, (i + 1) % n_u * n_v + j], axis=-1).reshape(-1, 2).astype(np.int32)
+
+
+def node_field_names(described: dict, wall: str) -> list[str]:
+    """The arrays of ``arrays.json`` (``described``: name -> {"dims", ...}) that
+    live on ``wall``'s grid nodes: its ``(u, v, t[, k])`` fields and ``(u, v)`` phase
+    maps, and for the myocardial walls the wall thickness's."""
+    def belongs(name):
+        return f"_{wall}" in name or (wall in MYOCARDIUM and "wall_thickness" in name)
+
+    return [name for name, d in described.items()
+            if d.get("file", "arrays.npz") == "arrays.npz" and d["dims"][:2] == ["u", "v"]
+            and d["dims"][-1] != "xyz" and belongs(name)]
+
+
+def row_area_name(described: dict, wall: str) -> str:
+    """The area map whose rows are ``wall``'s grid rows (``area_rows_*`` when the
+    run's maps were resampled to fixed positions)."""
+    rows = f"area_rows_{wall}_mm2"
+    return rows if rows in described else f"area_{wall}_mm2"
+
+
+def _point_values(a: np.ndarray) -> np.ndarray:
+    """A field on the grid's ``(n_u, n_v[, k])`` nodes as VTK point data ``(n_u n_v[, k])``
+    (bool as uint8: VTK has no bool)."""
+    a = np.asarray(a)
+    a = a.astype(np.uint8) if a.dtype == bool else a.astype(np.float32)
+    return a.reshape(a.shape[0] * a.shape[1], *a.shape[2:])
+
+
+def uv_data(n_u: int, n_v: int) -> dict:
+    """The grid parameters u (around, from the seam) and v (along, from the inlet)
+    of every node, as VTK point data."""
+    u, v = np.meshgrid(np.arange(n_u) / n_u, np.linspace(0.0, 1.0, n_v), indexing="ij")
+    return {"u": _point_values(u), "v": _point_values(v)}
+
+
+def grid_frame_data(arrays, described: dict, wall: str, t: int, n_u: int, n_v: int) -> dict:
+    """Point data of ``wall``'s ``(n_u, n_v)`` grid at time index ``t``: u and v, the
+    node fields (:func:`node_field_names`), the area of each node's row and the
+    row's position along the tube ``s_rows_mm``."""
+    data = uv_data(n_u, n_v)
+    for name in node_field_names(described, wall):
+        a = arrays[name]
+        data[name] = _point_values(a[:, :, t] if described[name]["dims"][2:3] == ["t"] else a)
+    for name in (row_area_name(described, wall), "s_rows_mm"):
+        data[name] = _point_values(np.broadcast_to(arrays[name][:, t], (n_u, n_v)))
+    return data
+
+
+def write_pvd(path: Path, steps: list[tuple[float, str]]) -> None:
+    """A ParaView collection: ``steps`` of (time, file relative to ``path``'s folder)."""
+    rows = "".join(f'    <DataSet timestep="{t!r}" group="" part="0" file={quoteattr(f)}/>\n'
+                   for t, f in steps)
+    path.write_text('<?xml version="1.0"?>\n'
+                    '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+                    f"  <Collection>\n{rows}  </Collection>\n</VTKFile>\n")
+
+
+def write_dataset_paraview(results: Path, out: Path, *, progress=None) -> list[Path]:
+    """One dataset's results folder (``grids.npz``, ``arrays.npz``, ``arrays.json``)
+    as ParaView series in ``out`` (created): ``<grid>.pvd`` for every grid of
+    ``grids.npz`` (the walls with their node fields; the clipped grids with u and
+    v only) and ``sections_<wall>.pvd``, with the ``.vtu`` frames in a folder of
+    the same name. ``progress(n)`` after each frame of each series. Returns the
+    .pvd files."""
+    import meshio
+
+    described = json.loads((results / "arrays.json").read_text())
+    with np.load(results / "arrays.npz") as npz, np.load(results / "grids.npz") as grids_npz:
+        arrays = {k: npz[k] for k in npz.files}
+        grids = {k: grids_npz[k] for k in grids_npz.files}
+    t_ms = arrays["t_ms"]
+    n_u, n_v = next(iter(grids.values())).shape[:2]
+    quads, segments = quad_cells(n_u, n_v), ring_segments(n_u, n_v)
+    written = []
+
+    def series(name, frames):
+        (out / name).mkdir(parents=True)
+        steps = []
+        for t, (points, cells, data) in enumerate(frames):
+            file = f"{name}/{name}_{t:04d}.vtu"
+            meshio.write(out / file, meshio.Mesh(points.reshape(-1, 3), [cells],
+                                                 point_data=data), binary=True)
+            steps.append((float(t_ms[t]), file))
+            if progress:
+                progress(1)
+        write_pvd(out / f"{name}.pvd", steps)
+        written.append(out / f"{name}.pvd")
+
+    for name, G in grids.items():
+        wall = name.removesuffix("_clipped")
+        series(name, ((G[:, :, t], ("quad", quads),
+                       uv_data(n_u, n_v) if name != wall else
+                       grid_frame_data(arrays, described, wall, t, n_u, n_v))
+                      for t in range(len(t_ms))))
+    for wall in WALLS:
+        if f"contour_{wall}_mm" not in arrays:
+            continue
+        contour, area_name = arrays[f"contour_{wall}_mm"], row_area_name(described, wall)
+        u = uv_data(n_u, n_v)["u"]
+        series(f"sections_{wall}",
+               ((contour[:, :, t], ("line", segments),
+                 {"u": u, area_name: _point_values(np.broadcast_to(arrays[area_name][:, t],
+                                                                   (n_u, n_v)))})
+                for t in range(len(t_ms))))
+    return written
+
+
+def frame_file_count(results: Path) -> int:
+    """How many .vtu files :func:`write_dataset_paraview` writes for ``results``."""
+    with np.load(results / "grids.npz") as grids, np.load(results / "arrays.npz") as npz:
+        n_series = len(grids.files) + sum(f"contour_{w}_mm" in npz.files for w in WALLS)
+        return n_series * len(npz["t_ms"])

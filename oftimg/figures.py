@@ -325,37 +325,63 @@ def _common_position(curves: list[tuple]) -> np.ndarray:
     return np.linspace(0.0, max(float(np.nanmax(xk)) for _, xk, _ in curves), 100)
 
 
+# the cohort's profiles along the tube: (key of _group_profiles, y label, file)
+GROUP_PROFILES = [
+    ("max_area_outer_mm2", "maximum outer area (mm$^2$)", "group_max_area.png"),
+    ("ridge_t_ms", "time of maximum area (ms)", "group_ridge_time.png"),
+    ("time_expanded_percent", "time expanded, one sigma (% of cycle)",
+     "group_time_expanded.png"),
+    ("wall_thickness_um", "wall thickness, mean over the cycle (µm)",
+     "group_wall_thickness.png"),
+    ("wall_thickening_percent", "wall thickening over the beat (%)",
+     "group_wall_thickening.png"),
+]
+
+
+def _group_profiles(path: Path) -> dict:
+    """One embryo's curves for the cohort figures from its ``arrays.npz``: ``s_mm``,
+    ``t_ms``, ``volume_outer_mm3`` and each :data:`GROUP_PROFILES` key along the
+    tube (the wall's only with an inner wall). Read and closed: hundreds of open
+    files would hit the OS limit."""
+    from .pipeline import wall_thickness_by_row
+
+    with np.load(path) as arrays:
+        out = {key: arrays[key] for key in ("s_mm", "t_ms", "volume_outer_mm3",
+                                            "max_area_outer_mm2", "ridge_t_ms")}
+        out["time_expanded_percent"] = 100 * arrays["expanded_fraction_sigma_outer"]
+        if "wall_thickness_mm" in arrays.files:
+            mean, thickening = wall_thickness_by_row(arrays["wall_thickness_mm"])
+            out["wall_thickness_um"], out["wall_thickening_percent"] = 1000 * mean, 100 * thickening
+    return out
+
+
 def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Path]:
     """Groups side by side (normals left, banded right, as the paper): maximum area,
-    ridge time and % time expanded vs position, and volume over the aligned cycle
-    (groups overlaid). Up to :data:`NAMED_CURVES_MAX` embryos of a group are named
-    lines; a larger group shows its mean +- SD over thin lines.
+    ridge time, % time expanded, and the myocardial wall's thickness and thickening
+    vs position, and volume over the aligned cycle (groups overlaid). Up to
+    :data:`NAMED_CURVES_MAX` embryos of a group are named lines; a larger group shows
+    its mean +- SD over thin lines.
     Reads each dataset's ``arrays.npz`` from ``results``."""
     groups = sorted({s["group"] for s in summaries}, key=lambda g: (g != "normal", g))
     colours = dict(zip(groups, GROUP_COLOURS * len(groups)))
     members = {g: [s for s in summaries if s["group"] == g] for g in groups}
-    panels = [("max_area_outer_mm2", "maximum outer area (mm$^2$)", "group_max_area.png"),
-              ("ridge_t_ms", "time of maximum area (ms)", "group_ridge_time.png"),
-              ("expanded_fraction_sigma_outer", "time expanded, one sigma (% of cycle)",
-               "group_time_expanded.png")]
-    needed = ["s_mm", "t_ms", "volume_outer_mm3"] + [key for key, _, _ in panels]
-    data = {}
-    for s in summaries:  # read and closed: hundreds of open files would hit the OS limit
-        with np.load(Path(results) / s["name"] / "arrays.npz") as arrays:
-            data[s["name"]] = {key: arrays[key] for key in needed}
+    data = {s["name"]: _group_profiles(Path(results) / s["name"] / "arrays.npz")
+            for s in summaries}
     written = []
-    for key, ylabel, fname in panels:
+    for key, ylabel, fname in GROUP_PROFILES:
+        if not any(key in d for d in data.values()):      # no embryo with an inner wall
+            continue
         fig, axes = plt.subplots(1, len(groups), figsize=(4.5 * len(groups), 3.6), sharey=True,
                                  squeeze=False)
         for ax, g in zip(axes[0], groups):
-            curves = [(s["name"], data[s["name"]]["s_mm"],
-                       data[s["name"]][key] * (100 if "fraction" in key else 1))
-                      for s in members[g]]
-            _group_curves(ax, curves, colours[g], _common_position(curves))
+            curves = [(s["name"], data[s["name"]]["s_mm"], data[s["name"]][key])
+                      for s in members[g] if key in data[s["name"]]]
+            if curves:
+                _group_curves(ax, curves, colours[g], _common_position(curves))
+                ax.legend(fontsize=7)
             ax.set_title(plain_text(g), fontsize=10)
             ax.set_xlabel("position along the tube s (mm)")
             ax.grid(alpha=0.3)
-            ax.legend(fontsize=7)
         axes[0][0].set_ylabel(ylabel)
         written.append(_save(fig, folder / fname))
     fig, ax = plt.subplots(figsize=(6, 3.6))

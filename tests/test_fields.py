@@ -487,6 +487,22 @@ def test_wall_thickness_summary():
     assert np.median(noisy.max(axis=-1)[ok] / noisy.min(axis=-1)[ok]) - 1 > 0.55
 
 
+def test_wall_thickness_by_row():
+    """Row j beating by +-a_j around b_j: mean b_j, thickening (1 + a_j) / (1 - a_j) - 1;
+    a row without any value NaN."""
+    from oftimg.pipeline import wall_thickness_by_row
+
+    a, b = np.linspace(0.05, 0.3, 6), np.linspace(0.02, 0.04, 6)
+    beat = np.sin(2 * np.pi * np.arange(40) / 40)
+    thickness = np.broadcast_to(b[:, None] * (1 + a[:, None] * beat), (16, 6, 40)).copy()
+    thickness[:, 4] = np.nan
+    mean, thickening = wall_thickness_by_row(thickness)
+    keep = np.arange(6) != 4
+    assert mean[keep] == pytest.approx(b[keep], rel=1e-12)
+    assert thickening[keep] == pytest.approx(2 * a[keep] / (1 - a[keep]), rel=1e-12)
+    assert np.isnan(mean[4]) and np.isnan(thickening[4])
+
+
 @pytest.mark.slow
 def test_wall_thickness_is_the_models(analysed_normal):
     """The myocardium's thickness at each outer grid node against the model's radial

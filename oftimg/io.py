@@ -3,7 +3,8 @@
 Dataset layout::
 
     DATASET/
-      meta.json   optional: {"name", "group", "period_ms", "length_unit", "inlet"}
+      meta.json   optional: {"name", "group", "period_ms", "length_unit", "voxel_size",
+                             "inlet"}
       outer/      one mesh file per time frame (required)
       inner/      same number of frames (optional)
       lumen/      same number of frames (optional)
@@ -32,7 +33,7 @@ MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off", ".vtk", ".vtp")
 UNIT_TO_MM = {"mm": 1.0, "um": 1e-3}
 DEFAULT_FRAME_MS = 2.0
 META_KEYS = {"name": str, "group": str, "period_ms": (int, float),
-             "length_unit": str, "inlet": list}
+             "length_unit": str, "voxel_size": list, "inlet": list}
 
 
 class DatasetError(InputError):
@@ -373,11 +374,13 @@ class Checked:
     outlet: np.ndarray
 
 
-def load_tube(path: str | Path, *, unit_scale: float = 1.0,
+def load_tube(path: str | Path, *, unit_scale: float | tuple = 1.0,
               inlet_point: np.ndarray | None = None, checked: Checked | None = None,
               warn: bool = True) -> Tube:
     """Read, repair and check one frame; pick the inlet loop.
 
+    ``unit_scale`` multiplies the file's coordinates to give mm: one number, or
+    one per axis (x, y, z) for a mesh in anisotropic voxel coordinates.
     The inlet is the loop whose centroid is nearest ``inlet_point`` (mm), or
     the loop with the larger enclosed area when no point is given. With
     ``checked`` (from :func:`check_tube_file`) and the file unchanged since
@@ -392,7 +395,7 @@ def load_tube(path: str | Path, *, unit_scale: float = 1.0,
             st = None
         if st is not None and (st.st_size, st.st_mtime_ns) == (checked.size, checked.mtime_ns):
             V, F = read_mesh_file(path)
-            return Tube(V=V * unit_scale, F=F[:, ::-1].copy() if checked.reverse else F,
+            return Tube(V=V * np.asarray(unit_scale), F=F[:, ::-1].copy() if checked.reverse else F,
                         inlet=checked.inlet.astype(np.int64),
                         outlet=checked.outlet.astype(np.int64), source=str(path))
     tube, _, repairs = check_tube_file(path, unit_scale=unit_scale, inlet_point=inlet_point)
@@ -401,7 +404,7 @@ def load_tube(path: str | Path, *, unit_scale: float = 1.0,
     return tube
 
 
-def check_tube_file(path: str | Path, *, unit_scale: float = 1.0,
+def check_tube_file(path: str | Path, *, unit_scale: float | tuple = 1.0,
                     inlet_point: np.ndarray | None = None
                     ) -> tuple[Tube, Checked | None, RepairCounts]:
     """:func:`load_tube` with all checks and no warning: the tube, a :class:`Checked`
@@ -409,7 +412,7 @@ def check_tube_file(path: str | Path, *, unit_scale: float = 1.0,
     None), and what was repaired."""
     st = Path(path).stat() if Path(path).is_file() else None
     V, F = read_mesh_file(path)
-    V = V * unit_scale
+    V = V * np.asarray(unit_scale)
     if not np.all(np.isfinite(V)):
         bad = int(np.count_nonzero(~np.isfinite(V).all(axis=1)))
         raise DatasetError(f"{path}: {bad} vertices have NaN or infinite coordinates")
@@ -453,6 +456,14 @@ class Meta:
     length_unit: str
     inlet_mm: tuple[float, float, float] | None
     period_assumed: bool = False
+    voxel_size: tuple[float, float, float] | None = None   # in length_unit, x y z
+
+    @property
+    def scale_to_mm(self) -> float | tuple[float, float, float]:
+        """What the files' coordinates are multiplied by to give mm: one number, or
+        one per axis for meshes in (anisotropic) voxel coordinates."""
+        unit = UNIT_TO_MM[self.length_unit]
+        return unit if self.voxel_size is None else tuple(unit * d for d in self.voxel_size)
 
 
 def read_meta(folder: Path, n_frames: int) -> Meta:
@@ -480,18 +491,28 @@ def read_meta(folder: Path, n_frames: int) -> Meta:
     period = float(raw.get("period_ms", n_frames * DEFAULT_FRAME_MS))
     if not np.isfinite(period) or period <= 0:
         raise DatasetError(f"{path}: period_ms must be a positive number, found {period}")
+    voxel = raw.get("voxel_size")
+    if voxel is not None:
+        if (len(voxel) != 3 or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                       for x in voxel)
+                or not all(np.isfinite(x) and x > 0 for x in voxel)):
+            raise DatasetError(f"{path}: voxel_size must be three positive numbers [dx, dy, dz] "
+                               f"in length_unit (the files' coordinates are voxel indices), "
+                               f"found {voxel!r}")
+        voxel = tuple(float(x) for x in voxel)
+    scale = np.broadcast_to(UNIT_TO_MM[unit] * np.asarray(voxel or 1.0), 3)
     inlet = raw.get("inlet")
     if inlet is not None:
         if len(inlet) != 3 or not all(isinstance(x, (int, float)) for x in inlet):
             raise DatasetError(f"{path}: inlet must be [x, y, z], found {inlet!r}")
-        inlet = tuple(float(x) * UNIT_TO_MM[unit] for x in inlet)
+        inlet = tuple(float(x) * float(k) for x, k in zip(inlet, scale))
     name = str(raw.get("name", folder.name))
     if name in ("", ".", "..") or any(c in name for c in "/\\\0"):
         raise DatasetError(f"{path}: name {name!r} cannot be a folder name (the dataset's "
                            "results are written to a folder of that name)")
     return Meta(name=name, group=str(raw.get("group", "unknown")),
                 period_ms=period, length_unit=unit, inlet_mm=inlet,
-                period_assumed=period_assumed)
+                period_assumed=period_assumed, voxel_size=voxel)
 
 
 @dataclass(frozen=True)
@@ -499,7 +520,7 @@ class Frame:
     """The files of one time frame: what a worker needs to read it (small to send)."""
 
     files: dict[str, str]
-    unit_scale: float
+    unit_scale: float | tuple[float, float, float]   # file coordinates to mm (per axis)
     inlet_mm: tuple[float, float, float]
     checked: dict = field(default_factory=dict)  # surface -> Checked, from validation
     validated: bool = False                      # repairs reported by the validation
@@ -538,8 +559,8 @@ class Dataset:
         return tuple(s for s in SURFACES if s in self.frames)
 
     @property
-    def unit_scale(self) -> float:
-        return UNIT_TO_MM[self.meta.length_unit]
+    def unit_scale(self) -> float | tuple[float, float, float]:
+        return self.meta.scale_to_mm
 
     def frame(self, t: int) -> Frame:
         """The files of frame ``t``, as sent to worker processes."""
@@ -561,7 +582,7 @@ class Dataset:
             yield self.tube(surface, t)
 
 
-def _reference_inlet(frames: list[Path], unit_scale: float, n_probe: int = 5) -> np.ndarray:
+def _reference_inlet(frames: list[Path], unit_scale, n_probe: int = 5) -> np.ndarray:
     """Centroid (mm) of the inlet loop, chosen once for the whole series.
 
     The loops of a few evenly spaced frames are matched to the first frame's
@@ -625,11 +646,10 @@ def load_dataset(path: str | Path) -> Dataset:
     if meta.period_assumed:
         warnings.warn(f"{path / 'meta.json'}: no period_ms; assuming {DEFAULT_FRAME_MS} ms "
                       f"per frame ({meta.period_ms:g} ms)", OftimgWarning, stacklevel=2)
-    scale = UNIT_TO_MM[meta.length_unit]
     if meta.inlet_mm is not None:
         inlet = np.asarray(meta.inlet_mm)
     else:
-        inlet = _reference_inlet(frames["outer"], scale)
+        inlet = _reference_inlet(frames["outer"], meta.scale_to_mm)
     return Dataset(path=path, meta=meta, frames=frames, inlet_mm=inlet)
 
 

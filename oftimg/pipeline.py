@@ -588,6 +588,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             w: float(np.median(np.abs(volume_sections[w] / volume[w] - 1))) for w in walls},
         "provenance": {
             "oftimg_version": __version__, "options": options.as_dict(),
+            "length_unit": ds.meta.length_unit, "voxel_size": ds.meta.voxel_size,
             "inputs": {s: [{"file": str(p), "bytes": p.stat().st_size} for p in files]
                        for s, files in ds.frames.items()},
         },

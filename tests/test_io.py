@@ -105,6 +105,30 @@ def test_micrometres_are_converted(tmp_path):
     assert np.allclose(ds.inlet_mm, 0)
 
 
+def test_voxel_coordinates_are_scaled_per_axis(tmp_path):
+    """Meshes in voxel indices of 4 x 2 x 0.5 um voxels come out as the tube in mm,
+    the inlet point given in voxels too (here at the small end)."""
+    voxel = np.array([4.0, 2.0, 0.5])
+    frames = cone_frames()
+    ds_path = write_series(tmp_path / "emb", [(1e3 * V / voxel, F) for V, F in frames])
+    (ds_path / "meta.json").write_text(json.dumps({
+        "length_unit": "um", "voxel_size": voxel.tolist(), "period_ms": 3.0,
+        "inlet": (np.array([0, 0, 1.0]) * 1e3 / voxel).tolist()}))
+    ds = load_dataset(ds_path)
+    assert ds.inlet_mm == pytest.approx([0, 0, 1.0])
+    for t, (V, _) in enumerate(frames):
+        tube = ds.tube("outer", t)
+        assert np.allclose(tube.V, V, rtol=0, atol=1e-6)
+        assert tube.V[tube.inlet, 2].mean() == pytest.approx(1.0)
+    in_mm = write_series(tmp_path / "mm", frames)
+    (in_mm / "meta.json").write_text(json.dumps({"period_ms": 3.0, "inlet": [0, 0, 1.0]}))
+    found, expected = (validate_dataset(load_dataset(p))["surfaces"]["outer"]
+                       for p in (ds_path, in_mm))
+    for key in ("inlet_area_mm2_median", "outlet_area_mm2_median"):
+        assert found[key] == pytest.approx(expected[key], rel=1e-6)
+    assert expected["inlet_area_mm2_median"] < expected["outlet_area_mm2_median"]
+
+
 @pytest.mark.parametrize("flip", [False, True])
 def test_inlet_is_the_larger_end(tmp_path, flip, dataset):
     ds_path = write_series(tmp_path / "emb2", cone_frames(flip=flip))
@@ -497,6 +521,11 @@ def _bad(tmp_path, kind):
     elif kind == "meta_unit":
         (ds / "meta.json").write_text(json.dumps({"length_unit": "inch"}))
         return ds, ds / "meta.json"
+    elif kind.startswith("meta_voxel"):
+        voxel = {"meta_voxel_two": [1, 2], "meta_voxel_zero": [1, 0, 1],
+                 "meta_voxel_text": [1, "2", 1], "meta_voxel_negative": [1, 1, -0.5]}[kind]
+        (ds / "meta.json").write_text(json.dumps({"voxel_size": voxel}))
+        return ds, ds / "meta.json"
     elif kind == "missing":
         return tmp_path / "nope", tmp_path / "nope"
     return ds, target
@@ -512,6 +541,8 @@ BAD = {"empty": "empty", "garbage": "no triangles",
        "truncated": "it ends among its faces, with 427 of the 432",
        "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
        "meta_unit": "length_unit", "meta_name": "cannot be a folder name",
+       **{f"meta_voxel_{k}": "voxel_size must be three positive numbers"
+          for k in ("two", "zero", "text", "negative")},
        "missing": "not found"}
 
 

@@ -12,7 +12,9 @@ import oftimg
 from oftimg.cli import main
 from oftimg.errors import InputError
 from oftimg.io import DatasetError
-from oftimg.paraview_series import quad_cells, ring_segments
+from oftimg.export import describe_array
+from oftimg.paraview_series import (node_field_names, quad_cells, ring_segments,
+                                    row_area_name)
 
 
 def _edge_uses(cells: np.ndarray) -> dict:
@@ -59,6 +61,24 @@ def test_ring_segments_close_each_ring():
     assert np.array_equal(np.sort(seg[:, 0]), np.arange(n_u * n_v))
     assert np.array_equal(np.sort(seg[:, 1]), np.arange(n_u * n_v))
     assert np.all(seg[:, 0] % n_v == seg[:, 1] % n_v)
+
+
+def test_each_wall_carries_its_own_node_fields_and_its_rows_areas():
+    names = ["outer", "inner", "contour_inner_mm", "area_inner_mm2", "area_rows_inner_mm2",
+             "radial_curvature_inner_per_mm", "strain_energy_inner", "principal_stretch_inner",
+             "strain_energy_outer", "wall_thickness_mm", "phase_max_wall_thickness_mm_ms",
+             "phase_min_strain_energy_inner_ms", "mean_curvature_lumen_per_mm"]
+    described = {n: dict(describe_array(n, map_positions="fixed"),
+                         file="grids.npz" if n in ("outer", "inner") else "arrays.npz")
+                 for n in names}
+    assert sorted(node_field_names(described, "inner")) == sorted([
+        "radial_curvature_inner_per_mm", "strain_energy_inner", "principal_stretch_inner",
+        "wall_thickness_mm", "phase_max_wall_thickness_mm_ms",
+        "phase_min_strain_energy_inner_ms"])
+    assert node_field_names(described, "lumen") == ["mean_curvature_lumen_per_mm"]
+    # maps resampled to fixed positions: the grid rows' own areas are area_rows_*
+    assert row_area_name(described, "inner") == "area_rows_inner_mm2"
+    assert row_area_name({"area_outer_mm2": {}}, "outer") == "area_outer_mm2"
 
 
 def _steps(pvd):

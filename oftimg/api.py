@@ -527,8 +527,10 @@ def paraview(sources, out, *, quiet: bool = False) -> Path:
     names = [_read_results(f)["name"] for f in folders]
     _check_names(list(zip(names, folders)), "export them one at a time")
     for f in folders:
-        if not (f / "grids.npz").is_file():
-            raise DatasetError(f"{f}: has no grids.npz (the grids are what ParaView shows)")
+        for needed, why in (("grids.npz", "the grids are what ParaView shows"),
+                            ("arrays.json", "it says which arrays lie on the grids")):
+            if not (f / needed).is_file():
+                raise DatasetError(f"{f}: has no {needed} ({why})")
     require_new_folder(out)
     check_output_location(out, folders, overwrite=False)
     bar = Progress(sum(frame_file_count(f) for f in folders), "ParaView series",

@@ -160,6 +160,10 @@ def test_paraview_refuses_what_it_cannot_write(run_out, tmp_path):
     (copy / "grids.npz").unlink()
     with pytest.raises(DatasetError, match=r"copy: has no grids\.npz"):
         oftimg.paraview(copy, tmp_path / "pv", quiet=True)
+    shutil.copy(run_out / "normal" / "grids.npz", copy / "grids.npz")
+    (copy / "arrays.json").unlink()
+    with pytest.raises(DatasetError, match=r"copy: has no arrays\.json"):
+        oftimg.paraview(copy, tmp_path / "pv", quiet=True)
     assert not (tmp_path / "pv").exists()
     assert main(["paraview", str(copy), "--out", str(tmp_path / "pv")]) == 2
     assert json.loads((copy / "summary.json").read_text())["name"] == "normal"

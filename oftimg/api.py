@@ -514,13 +514,14 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
     return out
 
 
-def paraview(sources, out, *, quiet: bool = False) -> Path:
+def paraview(sources, out, *, quiet: bool = False, jobs: int | None = None) -> Path:
     """Every dataset's results among ``sources`` (as :func:`cohort` takes them) as
-    ParaView time series in ``out/<name>/``
-    (:func:`oftimg.paraview_series.write_dataset_paraview`): the grids with their
-    node fields, and the section contours. ``out`` must be new
-    or empty; it appears only when complete. Returns ``out``."""
-    from .paraview_series import frame_file_count, write_dataset_paraview
+    ParaView time series in ``out/<name>/`` (:mod:`oftimg.paraview_series`): the
+    grids with their node fields, and the section contours; each series in one of
+    ``jobs`` worker processes (default: all cores). ``out`` must be new or empty;
+    it appears only when complete. Returns ``out``."""
+    from .paraview_series import series_names, write_series
+    from .pipeline import run_tasks
 
     out = Path(out)
     folders = _result_folders(sources)
@@ -533,12 +534,13 @@ def paraview(sources, out, *, quiet: bool = False) -> Path:
                 raise DatasetError(f"{f}: has no {needed} ({why})")
     require_new_folder(out)
     check_output_location(out, folders, overwrite=False)
-    bar = Progress(sum(frame_file_count(f) for f in folders), "ParaView series",
-                   quiet=quiet, unit="file")
     with staged_output(out) as tmp:
-        for name, folder in zip(names, folders):
-            write_dataset_paraview(folder, tmp / name, progress=bar.advance)
-    bar.close()
+        tasks = [(f, series, tmp / name) for name, f in zip(names, folders)
+                 for series in series_names(f)]
+        bar = Progress(len(tasks), "ParaView series", quiet=quiet, unit="series")
+        with closing_executor(make_executor(jobs)) as executor:
+            run_tasks(write_series, tasks, executor=executor, progress=bar.advance)
+        bar.close()
     return out
 
 

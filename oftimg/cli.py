@@ -134,6 +134,9 @@ def _parser() -> argparse.ArgumentParser:
                          "them (a run's --out)")
     pv.add_argument("--out", type=Path, required=True,
                     help="folder to create (one subfolder per dataset)")
+    pv.add_argument("--jobs", type=int, default=None,
+                    help="worker processes, each writing one series at a time (default: all "
+                         "cores this job may use)")
     pv.add_argument("--quiet", action="store_true", help="no progress bar")
 
     d = sub.add_parser("demo", help="make the built-in phantom cohort and process it")
@@ -284,7 +287,7 @@ def _command(args) -> int:
         print(f"cohort: {out} ({n} dataset{'s' * (n != 1)})\n"
               f"cohort table: {out / 'cohort.csv'}")
     elif args.command == "paraview":
-        out = api.paraview(args.results, args.out, quiet=args.quiet)
+        out = api.paraview(args.results, args.out, quiet=args.quiet, jobs=args.jobs)
         print(f"ParaView series: {out} (open each dataset's *.pvd)")
     elif args.command == "demo":
         out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,

@@ -88,58 +88,59 @@ def write_pvd(path: Path, steps: list[tuple[float, str]]) -> None:
                     f"  <Collection>\n{rows}  </Collection>\n</VTKFile>\n")
 
 
-def write_dataset_paraview(results: Path, out: Path, *, progress=None) -> list[Path]:
-    """One dataset's results folder (``grids.npz``, ``arrays.npz``, ``arrays.json``)
-    as ParaView series in ``out`` (created): ``<grid>.pvd`` for every grid of
-    ``grids.npz`` (the walls with their node fields; the clipped grids with u and
-    v only) and ``sections_<wall>.pvd``, with the ``.vtu`` frames in a folder of
-    the same name. ``progress(n)`` after each frame of each series. Returns the
-    .pvd files."""
+def series_names(results: Path) -> list[str]:
+    """The series :func:`write_series` can make of a results folder: every grid of
+    ``grids.npz``, then ``sections_<wall>`` for each wall with section contours."""
+    with np.load(results / "grids.npz") as grids, np.load(results / "arrays.npz") as npz:
+        return grids.files + [f"sections_{w}" for w in WALLS if f"contour_{w}_mm" in npz.files]
+
+
+def _series_frames(results: Path, name: str):
+    """The ``(points (n_u, n_v, 3), (cell type, cells), point data)`` of each frame of
+    series ``name``, and the times (ms); reads only the arrays the series needs."""
+    described = json.loads((results / "arrays.json").read_text())
+    with np.load(results / "arrays.npz") as npz:
+        t_ms = npz["t_ms"]
+        if name.startswith("sections_"):
+            wall = name.removeprefix("sections_")
+            contour, area_name = npz[f"contour_{wall}_mm"], row_area_name(described, wall)
+            area = npz[area_name]
+            n_u, n_v = contour.shape[:2]
+            u = uv_data(n_u, n_v)["u"]
+            cells = ("line", ring_segments(n_u, n_v))
+            return t_ms, ((contour[:, :, t], cells,
+                           {"u": u, area_name: _point_values(np.broadcast_to(area[:, t],
+                                                                             (n_u, n_v)))})
+                          for t in range(len(t_ms)))
+        with np.load(results / "grids.npz") as grids:
+            G = grids[name]
+        n_u, n_v = G.shape[:2]
+        wall = name.removesuffix("_clipped")
+        cells = ("quad", quad_cells(n_u, n_v))
+        if name != wall:                            # clipped: other nodes than the fields'
+            return t_ms, ((G[:, :, t], cells, uv_data(n_u, n_v)) for t in range(len(t_ms)))
+        needed = node_field_names(described, wall) + [row_area_name(described, wall),
+                                                      "s_rows_mm"]
+        arrays = {k: npz[k] for k in needed}
+    return t_ms, ((G[:, :, t], cells, grid_frame_data(arrays, described, wall, t, n_u, n_v))
+                  for t in range(len(t_ms)))
+
+
+def write_series(results: Path, name: str, out: Path) -> Path:
+    """Series ``name`` (:func:`series_names`) of one dataset's results folder
+    (``grids.npz``, ``arrays.npz``, ``arrays.json``) into ``out``: ``<name>.pvd`` and
+    its frames ``<name>/<name>_<t>.vtu``. The walls' grids carry their node fields
+    (:func:`grid_frame_data`); the clipped grids u and v only; the sections each
+    ring's area. Returns the .pvd file."""
     import meshio
 
-    described = json.loads((results / "arrays.json").read_text())
-    with np.load(results / "arrays.npz") as npz, np.load(results / "grids.npz") as grids_npz:
-        arrays = {k: npz[k] for k in npz.files}
-        grids = {k: grids_npz[k] for k in grids_npz.files}
-    t_ms = arrays["t_ms"]
-    n_u, n_v = next(iter(grids.values())).shape[:2]
-    quads, segments = quad_cells(n_u, n_v), ring_segments(n_u, n_v)
-    written = []
-
-    def series(name, frames):
-        (out / name).mkdir(parents=True)
-        steps = []
-        for t, (points, cells, data) in enumerate(frames):
-            file = f"{name}/{name}_{t:04d}.vtu"
-            meshio.write(out / file, meshio.Mesh(points.reshape(-1, 3), [cells],
-                                                 point_data=data), binary=True)
-            steps.append((float(t_ms[t]), file))
-            if progress:
-                progress(1)
-        write_pvd(out / f"{name}.pvd", steps)
-        written.append(out / f"{name}.pvd")
-
-    for name, G in grids.items():
-        wall = name.removesuffix("_clipped")
-        series(name, ((G[:, :, t], ("quad", quads),
-                       uv_data(n_u, n_v) if name != wall else
-                       grid_frame_data(arrays, described, wall, t, n_u, n_v))
-                      for t in range(len(t_ms))))
-    for wall in WALLS:
-        if f"contour_{wall}_mm" not in arrays:
-            continue
-        contour, area_name = arrays[f"contour_{wall}_mm"], row_area_name(described, wall)
-        u = uv_data(n_u, n_v)["u"]
-        series(f"sections_{wall}",
-               ((contour[:, :, t], ("line", segments),
-                 {"u": u, area_name: _point_values(np.broadcast_to(arrays[area_name][:, t],
-                                                                   (n_u, n_v)))})
-                for t in range(len(t_ms))))
-    return written
-
-
-def frame_file_count(results: Path) -> int:
-    """How many .vtu files :func:`write_dataset_paraview` writes for ``results``."""
-    with np.load(results / "grids.npz") as grids, np.load(results / "arrays.npz") as npz:
-        n_series = len(grids.files) + sum(f"contour_{w}_mm" in npz.files for w in WALLS)
-        return n_series * len(npz["t_ms"])
+    t_ms, frames = _series_frames(results, name)
+    (out / name).mkdir(parents=True)
+    steps = []
+    for t, (points, cells, data) in enumerate(frames):
+        file = f"{name}/{name}_{t:04d}.vtu"
+        meshio.write(out / file, meshio.Mesh(points.reshape(-1, 3), [cells], point_data=data),
+                     binary=True)
+        steps.append((float(t_ms[t]), file))
+    write_pvd(out / f"{name}.pvd", steps)
+    return out / f"{name}.pvd"

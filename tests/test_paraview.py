@@ -134,7 +134,7 @@ def test_paraview_series_hold_the_results(run_out, tmp_path):
 
 
 @pytest.mark.slow
-def test_paraview_files_open_in_vtk(run_out, tmp_path):
+def test_paraview_files_open_in_vtk_and_do_not_depend_on_jobs(run_out, tmp_path):
     vtk_xml = pytest.importorskip("vtkmodules.vtkIOXML")
     pv = tmp_path / "pv"
     assert main(["paraview", str(run_out / "normal"), "--out", str(pv), "--quiet"]) == 0
@@ -144,6 +144,13 @@ def test_paraview_files_open_in_vtk(run_out, tmp_path):
     grid = reader.GetOutput()
     assert grid.GetNumberOfPoints() == 80 * 50 and grid.GetNumberOfCells() == 80 * 49
     assert grid.GetPointData().GetArray("strain_energy_inner").GetNumberOfTuples() == 4000
+    # one process writes the same files as several
+    serial = tmp_path / "serial"
+    assert main(["paraview", str(run_out / "normal"), "--out", str(serial), "--jobs", "1",
+                 "--quiet"]) == 0
+    files = sorted(p.relative_to(pv) for p in pv.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(serial) for p in serial.rglob("*") if p.is_file())
+    assert all((pv / f).read_bytes() == (serial / f).read_bytes() for f in files)
 
 
 @pytest.mark.slow

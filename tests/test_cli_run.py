@@ -58,6 +58,8 @@ def test_videos_read_back(run_out):
                                         "radial_curvature_outer_normalized.mp4",
                                         "strain_energy_outer.mp4",
                                         "strain_energy_outer_per_frame.mp4",
+                                        "radial_curvature_inner.mp4",
+                                        "strain_energy_inner.mp4",
                                         "wall_thickness.mp4",
                                         "mean_curvature_lumen.mp4", "area_map_cursor.mp4"}
     for path in videos:

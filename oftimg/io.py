@@ -462,8 +462,13 @@ class Meta:
     def scale_to_mm(self) -> float | tuple[float, float, float]:
         """What the files' coordinates are multiplied by to give mm: one number, or
         one per axis for meshes in (anisotropic) voxel coordinates."""
-        unit = UNIT_TO_MM[self.length_unit]
-        return unit if self.voxel_size is None else tuple(unit * d for d in self.voxel_size)
+        return _scale_to_mm(self.length_unit, self.voxel_size)
+
+
+def _scale_to_mm(unit: str, voxel_size) -> float | tuple[float, float, float]:
+    """:attr:`Meta.scale_to_mm` of a length unit and a voxel size (or None)."""
+    to_mm = UNIT_TO_MM[unit]
+    return to_mm if voxel_size is None else tuple(to_mm * d for d in voxel_size)
 
 
 def read_meta(folder: Path, n_frames: int) -> Meta:
@@ -500,11 +505,11 @@ def read_meta(folder: Path, n_frames: int) -> Meta:
                                f"in length_unit (the files' coordinates are voxel indices), "
                                f"found {voxel!r}")
         voxel = tuple(float(x) for x in voxel)
-    scale = np.broadcast_to(UNIT_TO_MM[unit] * np.asarray(voxel or 1.0), 3)
     inlet = raw.get("inlet")
     if inlet is not None:
         if len(inlet) != 3 or not all(isinstance(x, (int, float)) for x in inlet):
             raise DatasetError(f"{path}: inlet must be [x, y, z], found {inlet!r}")
+        scale = np.broadcast_to(_scale_to_mm(unit, voxel), 3)   # in the files' coordinates
         inlet = tuple(float(x) * float(k) for x, k in zip(inlet, scale))
     name = str(raw.get("name", folder.name))
     if name in ("", ".", "..") or any(c in name for c in "/\\\0"):

@@ -20,8 +20,8 @@ from pathlib import Path
 from . import __version__
 from .errors import InputError
 from .export import (COHORT_OUTPUTS, Finished, check_output_location, check_replaceable,
-                     finished_folder, link_or_copy, require_new_folder, staged_output,
-                     write_dataset_results, write_json)
+                     cohort_maps, finished_folder, link_or_copy, require_new_folder,
+                     staged_output, write_cohort_maps, write_dataset_results, write_json)
 from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_dataset,
                  natural_key, validate_dataset)
 from .phantom import sample_params, write_phantom
@@ -445,8 +445,9 @@ def _run_info(inputs: list[Path], options: dict, started: float) -> dict:
 
 
 def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) -> None:
-    """Cohort table (csv, md), group comparison, group figures (two groups or more),
-    every dataset's page and the cohort's, ``run.json`` (``run_info``), into
+    """Cohort table (csv, md), group comparison, the area maps on one grid
+    (``cohort_maps.npz``), group figures (two groups or more), every dataset's page
+    and the cohort's, ``run.json`` (``run_info``), into
     ``folder``, which holds each dataset's results in ``folder/<name>``."""
     from .figures import group_figures
     from .html import cohort_page, dataset_page
@@ -463,10 +464,12 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
     write_cohort_markdown(folder, summaries)
     comparison = group_comparison(summaries)
     write_groups_table(folder, summaries, comparison)
+    maps = cohort_maps(folder, summaries)
+    write_cohort_maps(folder, maps)
     group_figs = []
     if len({s["group"] for s in summaries}) >= 2:
         (folder / "figures").mkdir()
-        group_figs = group_figures(folder, summaries, folder / "figures")
+        group_figs = group_figures(folder, summaries, folder / "figures", maps=maps)
     for s in summaries:
         dataset_page(folder / s["name"], s)
     write_json(folder / "run.json", run_info)

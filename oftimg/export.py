@@ -19,7 +19,8 @@ from .image.kymograph import RIDGE_SMOOTHING_MS
 
 
 # what a run writes beside the datasets' folders (report, html, api._write_run)
-COHORT_OUTPUTS = ("cohort.csv", "cohort.md", "groups.csv", "figures", "index.html", "run.json")
+COHORT_OUTPUTS = ("cohort.csv", "cohort.md", "groups.csv", "cohort_maps.npz", "cohort_maps.json",
+                  "figures", "index.html", "run.json")
 # what a file browser leaves in any folder it shows
 BROWSER_FILES = (".DS_Store", "Thumbs.db", "desktop.ini")
 
@@ -253,6 +254,50 @@ def write_arrays(folder: Path, arrays: dict[str, np.ndarray], described: dict[st
 
 
 WALLS = ("outer", "inner", "lumen")
+
+
+# the cohort's maps on one grid (cohort_maps.npz): name -> (dims, unit, description)
+COHORT_MAPS = {
+    "names": (["embryo"], "", "dataset names, in the cohort table's order"),
+    "groups": (["embryo"], "", "each dataset's group"),
+    "position_fraction": (["position"], "1", "s / tube length: 0 at the inlet, 1 at the "
+                                             "outlet"),
+    "cycle_fraction": (["phase"], "1", "t / period: 0 at the minimum outer volume"),
+    "area_outer_mm2": (["embryo", "position", "phase"], "mm^2",
+                       "outer area map (area_outer_mm2) resampled linearly onto the common "
+                       "grid, periodic in time"),
+    "area_outer_normalized": (["embryo", "position", "phase"], "1",
+                              "each row of the outer area map over its maximum, resampled "
+                              "likewise"),
+}
+
+
+def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
+    """Every dataset's outer area map (and each row over its maximum) on one grid
+    of position and cycle fractions (:mod:`oftimg.image.group_maps`), read from
+    ``results/<name>/arrays.npz``: the arrays of :data:`COHORT_MAPS`."""
+    from .image.group_maps import common_grid, on_common_grid, row_normalized
+
+    area, normalized = [], []
+    for s in summaries:
+        with np.load(Path(results) / s["name"] / "arrays.npz") as a:
+            grid = (a["s_mm"], a["t_ms"], s["period_ms"])
+            area.append(on_common_grid(a["area_outer_mm2"], *grid))
+            normalized.append(on_common_grid(row_normalized(a["area_outer_mm2"]), *grid))
+    position, phase = common_grid()
+    return {"names": np.array([s["name"] for s in summaries]),
+            "groups": np.array([s["group"] for s in summaries]),
+            "position_fraction": position, "cycle_fraction": phase,
+            "area_outer_mm2": np.array(area), "area_outer_normalized": np.array(normalized)}
+
+
+def write_cohort_maps(folder: Path, maps: dict[str, np.ndarray]) -> None:
+    """``cohort_maps.npz`` and ``cohort_maps.json`` (dims, unit, meaning of each)."""
+    np.savez(folder / "cohort_maps.npz", **maps)
+    write_json(folder / "cohort_maps.json",
+               {k: {"dims": dims, "unit": unit, "description": text,
+                    "shape": list(maps[k].shape), "dtype": str(maps[k].dtype)}
+                for k, (dims, unit, text) in COHORT_MAPS.items()})
 
 
 def describe_array(name: str, *, map_positions: str = "rows") -> dict:

@@ -355,12 +355,41 @@ def _group_profiles(path: Path) -> dict:
     return out
 
 
-def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Path]:
+def group_area_maps(maps: dict, path: Path) -> Path:
+    """Each group's mean outer area map, each row over its maximum, on the cohort's
+    common grid (``maps``: :func:`oftimg.export.cohort_maps`), and each other group's
+    difference from the first (normals first)."""
+    from .image.group_maps import group_mean_maps
+
+    order = sorted(dict.fromkeys(maps["groups"].tolist()), key=lambda g: (g != "normal", g))
+    means = group_mean_maps(maps["area_outer_normalized"], maps["groups"])
+    extent = [0, 1, 0, 1]
+    panels = [(f"{g} mean (n = {means[g][2]})", means[g][0], "jet", 0.0, 1.0) for g in order]
+    base = order[0]
+    lim = max(float(np.nanmax(np.abs(means[g][0] - means[base][0]))) for g in order[1:])
+    panels += [(f"{g} - {base}", means[g][0] - means[base][0], "RdBu_r", -lim, lim)
+               for g in order[1:]]
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.4), sharey=True,
+                             squeeze=False)
+    for ax, (title, image, cmap, lo, hi) in zip(axes[0], panels):
+        im = ax.imshow(image, origin="lower", aspect="auto", cmap=cmap, vmin=lo, vmax=hi,
+                       extent=extent, interpolation="nearest")
+        fig.colorbar(im, ax=ax, fraction=0.05)
+        ax.set_title(plain_text(title), fontsize=9)
+        ax.set_xlabel("fraction of the cycle since minimum volume")
+    axes[0][0].set_ylabel("position, fraction of the tube")
+    fig.suptitle("outer area, each row over its maximum", fontsize=10)
+    return _save(fig, path)
+
+
+def group_figures(results: Path, summaries: list[dict], folder: Path, *,
+                  maps: dict | None = None) -> list[Path]:
     """Groups side by side (normals left, banded right, as the paper): maximum area,
     ridge time, % time expanded, and the myocardial wall's thickness and thickening
     vs position, and volume over the aligned cycle (groups overlaid). Up to
     :data:`NAMED_CURVES_MAX` embryos of a group are named lines; a larger group shows
-    its mean +- SD over thin lines.
+    its mean +- SD over thin lines. With ``maps`` (:func:`oftimg.export.cohort_maps`),
+    the groups' mean area maps too (:func:`group_area_maps`).
     Reads each dataset's ``arrays.npz`` from ``results``."""
     groups = sorted({s["group"] for s in summaries}, key=lambda g: (g != "normal", g))
     colours = dict(zip(groups, GROUP_COLOURS * len(groups)))
@@ -401,6 +430,8 @@ def group_figures(results: Path, summaries: list[dict], folder: Path) -> list[Pa
     ax.set_ylabel("outer volume / its mean")
     ax.grid(alpha=0.3)
     written.append(_save(fig, folder / "group_volume.png"))
+    if maps is not None:
+        written.append(group_area_maps(maps, folder / "group_area_maps.png"))
     for phase in ("expansion", "contraction"):
         p = pca_groups_figure(results, summaries, folder / f"group_pca_{phase}.png", phase=phase)
         if p is not None:

@@ -64,6 +64,29 @@ def test_separate_runs_gathered_equal_one_run(runs, tmp_path):
         (runs / "alone" / "n0" / "arrays.npz").stat().st_ino
 
 
+def test_cohort_maps_hold_every_embryos_area_map_on_one_grid(runs):
+    """In the cohort table's order; at the tube's ends and at frame times on the grid
+    (5 frames: every 20th of 100 phases) each embryo's own values; a figure of the
+    groups' means."""
+    out = runs / "joint"
+    maps = np.load(out / "cohort_maps.npz")
+    described = json.loads((out / "cohort_maps.json").read_text())
+    assert set(described) == set(maps.files)
+    names = [row.split(",")[0] for row in (out / "cohort.csv").read_text().splitlines()[1:]]
+    assert maps["names"].tolist() == names == ["b0", "n0", "n1"]
+    assert maps["groups"].tolist() == ["banded", "normal", "normal"]
+    assert maps["area_outer_mm2"].shape == (3, 50, 100) == tuple(
+        described["area_outer_normalized"]["shape"])
+    for k, name in enumerate(names):
+        own = np.load(out / name / "arrays.npz")["area_outer_mm2"]
+        assert maps["area_outer_mm2"][k][[0, -1]][:, ::20] == pytest.approx(own[[0, -1]],
+                                                                             rel=1e-12)
+        rows = maps["area_outer_normalized"][k]
+        assert rows[[0, -1]][:, ::20] == pytest.approx(own[[0, -1]] / own[[0, -1]].max(
+            axis=1, keepdims=True), rel=1e-12)
+    assert (out / "figures" / "group_area_maps.png").is_file()
+
+
 def test_cohort_refuses_what_cannot_be_compared(runs, tmp_path):
     other = tmp_path / "other"
     shutil.copytree(runs / "alone" / "n0", other / "n0")

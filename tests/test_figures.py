@@ -171,6 +171,25 @@ def test_group_figures_draw_the_wall_thickness_and_its_thickening_along_the_tube
         assert not banded.lines
 
 
+def test_group_area_maps_show_each_groups_mean_and_its_difference_from_normal(
+        tmp_path, monkeypatch):
+    drawn = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig)
+                        and path)
+    groups = np.array(["KO", "normal", "banded", "normal"])
+    level = {"normal": 0.5, "banded": 0.8, "KO": 0.2}
+    maps = {"groups": groups, "area_outer_normalized": np.stack(
+        [np.full((50, 100), level[g] + 0.01 * k) for k, g in enumerate(groups)])}
+    figures.group_area_maps(maps, tmp_path / "m.png")
+    images = [ax.images[0] for ax in drawn["fig"].axes if ax.images]
+    titles = [ax.get_title() for ax in drawn["fig"].axes if ax.images]
+    assert titles == ["normal mean (n = 2)", "KO mean (n = 1)", "banded mean (n = 1)",
+                      "KO - normal", "banded - normal"]
+    assert np.asarray(images[0].get_array()) == pytest.approx(0.52)
+    assert np.asarray(images[4].get_array()) == pytest.approx(0.82 - 0.52)
+    assert images[3].get_clim() == pytest.approx((-0.32, 0.32))     # symmetric, both fit
+
+
 def test_names_with_dollar_signs_are_drawn_as_they_are(tmp_path):
     """A "$" in a dataset's or group's name is not matplotlib mathtext: "$x^{$" stopped
     the run with a ParseSyntaxException."""

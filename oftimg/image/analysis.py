@@ -117,7 +117,9 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     summary["max_contraction_rate_mm2_ms"] = contract_rate
     summary["band_position_mm"] = detect_band(area["outer"], s_mm)
     summary["max_area_neck_depth"] = neck_depth(area["outer"])
-    summary["expanded_fraction_75_mean"] = float(np.nanmean(arrays["expanded_fraction_75_outer"]))
+    fractions = arrays["expanded_fraction_75_outer"]
+    fractions = fractions[np.isfinite(fractions)]               # none: a tube that never moves
+    summary["expanded_fraction_75_mean"] = float(fractions.mean()) if fractions.size else np.nan
     summary["image_analysis_notes"] = notes
     return arrays, summary
 

@@ -269,26 +269,35 @@ COHORT_MAPS = {
     "area_outer_normalized": (["embryo", "position", "phase"], "1",
                               "each row of the outer area map over its maximum, resampled "
                               "likewise"),
+    "wall_thickness_mm": (["embryo", "position", "phase"], "mm",
+                          "the myocardial wall's mean thickness around the tube, resampled "
+                          "likewise (NaN for a dataset without an inner wall)"),
 }
 
 
 def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
-    """Every dataset's outer area map (and each row over its maximum) on one grid
-    of position and cycle fractions (:mod:`oftimg.image.group_maps`), read from
-    ``results/<name>/arrays.npz``: the arrays of :data:`COHORT_MAPS`."""
+    """Every dataset's outer area map (and each row over its maximum) and wall
+    thickness around the tube on one grid of position and cycle fractions
+    (:mod:`oftimg.image.group_maps`), read from ``results/<name>/arrays.npz``: the
+    arrays of :data:`COHORT_MAPS`."""
     from .image.group_maps import common_grid, on_common_grid, row_normalized
+    from .pipeline import wall_thickness_around
 
-    area, normalized = [], []
+    position, phase = common_grid()
+    area, normalized, thickness = [], [], []
     for s in summaries:
         with np.load(Path(results) / s["name"] / "arrays.npz") as a:
             grid = (a["s_mm"], a["t_ms"], s["period_ms"])
             area.append(on_common_grid(a["area_outer_mm2"], *grid))
             normalized.append(on_common_grid(row_normalized(a["area_outer_mm2"]), *grid))
-    position, phase = common_grid()
+            thickness.append(on_common_grid(wall_thickness_around(a["wall_thickness_mm"]), *grid)
+                             if "wall_thickness_mm" in a.files
+                             else np.full((len(position), len(phase)), np.nan))
     return {"names": np.array([s["name"] for s in summaries]),
             "groups": np.array([s["group"] for s in summaries]),
             "position_fraction": position, "cycle_fraction": phase,
-            "area_outer_mm2": np.array(area), "area_outer_normalized": np.array(normalized)}
+            "area_outer_mm2": np.array(area), "area_outer_normalized": np.array(normalized),
+            "wall_thickness_mm": np.array(thickness)}
 
 
 def write_cohort_maps(folder: Path, maps: dict[str, np.ndarray]) -> None:

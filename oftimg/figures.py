@@ -4,7 +4,6 @@ Each function takes the arrays it draws and a path, and writes one PNG.
 """
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import matplotlib
@@ -115,9 +114,9 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
     if "ridge_t_ms" in arrays:
         written += map_figures(folder, name, arrays, summary, summary["period_ms"])
     if "wall_thickness_mm" in arrays:
-        with warnings.catch_warnings():          # a row without a value: NaN, grey
-            warnings.simplefilter("ignore", RuntimeWarning)
-            rows_um = 1000 * np.nanmean(arrays["wall_thickness_mm"], axis=0)     # (n_v, n_t)
+        from .pipeline import wall_thickness_around
+
+        rows_um = 1000 * wall_thickness_around(arrays["wall_thickness_mm"])     # (n_v, n_t)
         written.append(area_map(rows_um, arrays["s_mm"], t_ms,
                                 folder / "wall_thickness_map.png",
                                 ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",

@@ -66,8 +66,8 @@ def test_separate_runs_gathered_equal_one_run(runs, tmp_path):
 
 def test_cohort_maps_hold_every_embryos_area_map_on_one_grid(runs):
     """In the cohort table's order; at the tube's ends and at frame times on the grid
-    (5 frames: every 20th of 100 phases) each embryo's own values; a figure of the
-    groups' means."""
+    (5 frames: every 20th of 100 phases) each embryo's own areas and wall thickness
+    around the tube; a figure of the groups' means."""
     out = runs / "joint"
     maps = np.load(out / "cohort_maps.npz")
     described = json.loads((out / "cohort_maps.json").read_text())
@@ -84,6 +84,8 @@ def test_cohort_maps_hold_every_embryos_area_map_on_one_grid(runs):
         rows = maps["area_outer_normalized"][k]
         assert rows[[0, -1]][:, ::20] == pytest.approx(own[[0, -1]] / own[[0, -1]].max(
             axis=1, keepdims=True), rel=1e-12)
+        wall = np.load(out / name / "arrays.npz")["wall_thickness_mm"][:, [0, -1]].mean(axis=0)
+        assert maps["wall_thickness_mm"][k][[0, -1]][:, ::20] == pytest.approx(wall, rel=1e-12)
     assert (out / "figures" / "group_area_maps.png").is_file()
 
 

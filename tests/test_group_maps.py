@@ -50,3 +50,24 @@ def test_rows_over_their_maximum_and_group_means():
     assert n == 2 and np.all(mean == 3.0) and sd == pytest.approx(np.full((2, 3), 2 ** 1.5))
     one = group_mean_maps(maps[:1], ["x"])["x"]
     assert one[2] == 1 and np.isnan(one[1]).all()
+
+
+def test_cohort_maps_of_a_dataset_without_an_inner_wall(tmp_path):
+    """Its wall thickness map is NaN throughout (and said by nothing but NaN); the
+    other's is its rows' mean around the tube."""
+    from oftimg.export import cohort_maps
+
+    s, t = np.linspace(0.0, 1.2, 50), np.arange(20) * 18.0
+    area = wave((s / s[-1])[:, None], (t / 360.0)[None, :])
+    thickness = np.broadcast_to(0.03 + 0.01 * (s / s[-1])[None, :, None], (8, 50, 20))
+    summaries = []
+    for name, extra in (("with", {"wall_thickness_mm": thickness}), ("without", {})):
+        (tmp_path / name).mkdir()
+        np.savez(tmp_path / name / "arrays.npz", s_mm=s, t_ms=t, area_outer_mm2=area, **extra)
+        summaries.append({"name": name, "group": "normal", "period_ms": 360.0})
+    maps = cohort_maps(tmp_path, summaries)
+    position, _ = common_grid()
+    assert maps["wall_thickness_mm"][0] == pytest.approx(
+        np.broadcast_to((0.03 + 0.01 * position)[:, None], (50, 100)), rel=1e-12)
+    assert np.isnan(maps["wall_thickness_mm"][1]).all()
+    assert maps["area_outer_mm2"][0] == pytest.approx(maps["area_outer_mm2"][1])

@@ -26,6 +26,7 @@ from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_datas
                  natural_key, validate_dataset)
 from .phantom import sample_params, write_phantom
 from .progress import Progress
+from .results import read_summary, result_folders
 from .workers import available_memory, closing_executor, make_executor
 
 log = logging.getLogger("oftimg")
@@ -488,7 +489,7 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
     """
     started = time.time()
     out = Path(out)
-    pairs = sorted(((_read_results(f), f) for f in _result_folders(sources)),
+    pairs = sorted(((read_summary(f), f) for f in result_folders(sources)),
                    key=lambda sf: natural_key(sf[0]["name"]))     # as run orders a cohort
     summaries, folders = [s for s, _ in pairs], [f for _, f in pairs]
     _check_names([(s["name"], f) for s, f in zip(summaries, folders)],
@@ -527,8 +528,8 @@ def paraview(sources, out, *, quiet: bool = False, jobs: int | None = None) -> P
     from .pipeline import run_tasks
 
     out = Path(out)
-    folders = _result_folders(sources)
-    names = [_read_results(f)["name"] for f in folders]
+    folders = result_folders(sources)
+    names = [read_summary(f)["name"] for f in folders]
     _check_names(list(zip(names, folders)), "export them one at a time")
     for f in folders:
         for needed, why in (("grids.npz", "the grids are what ParaView shows"),
@@ -581,44 +582,6 @@ def _flat(options: dict, prefix: str = "") -> dict:
         else:
             out[prefix + key] = value
     return out
-
-
-def _result_folders(sources) -> list[Path]:
-    """Every dataset results folder (with summary.json) among ``sources``: each one
-    such folder, or a folder of them."""
-    folders = []
-    for src in [sources] if isinstance(sources, (str, Path)) else sources:
-        src = Path(src)
-        if (src / "summary.json").is_file():
-            folders.append(src)
-            continue
-        subs = sorted((p for p in src.iterdir() if (p / "summary.json").is_file()),
-                      key=lambda p: natural_key(p.name)) if src.is_dir() else []
-        if not subs:
-            hint = (f"; it is one of the cohort files of the run {src.parent}: give that "
-                    "folder itself" if src.name in COHORT_OUTPUTS
-                    and (src.parent / "run.json").is_file() else "")
-            raise DatasetError(f"{src}: neither one dataset's results (no summary.json) nor "
-                               f"a folder of them (an oftimg run's --out){hint}")
-        folders += subs
-    return folders
-
-
-def _read_results(folder: Path) -> dict:
-    """A dataset results folder's summary, checked to be oftimg's, with its arrays."""
-    path = folder / "summary.json"
-    try:
-        summary = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise DatasetError(f"{path}: cannot be read as JSON ({exc})") from None
-    provenance = summary.get("provenance") if isinstance(summary, dict) else None
-    if (not isinstance(provenance, dict) or not {"name", "group"} <= set(summary)
-            or not {"options", "oftimg_version"} <= set(provenance)):
-        raise DatasetError(f"{path}: not an oftimg dataset summary (no name, group, or "
-                           "options and version in its provenance)")
-    if not (folder / "arrays.npz").is_file():
-        raise DatasetError(f"{folder}: has no arrays.npz (the cohort's figures need it)")
-    return summary
 
 
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,

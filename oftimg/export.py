@@ -425,8 +425,10 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
             return {"dims": ["u", "v", "t", "xyz"], "unit": "mm",
                     "description": f"{w} grid G_t(u, v), Eulerian (fixed window)"}
         if name == f"{w}_clipped":
-            return {"dims": ["u", "v", "t", "xyz"], "unit": "mm",
-                    "description": f"{w} grid clipped at the Lagrangian plane and resampled"}
+            return {"dims": ["u", "v_clipped", "t", "xyz"], "unit": "mm",
+                    "description": f"{w} grid clipped at the Lagrangian plane and resampled "
+                                   "by arc length along each u-line: v_clipped from the "
+                                   "plane (0) to the outlet (1)"}
     raise KeyError(f"no description for array {name!r}")
 
 

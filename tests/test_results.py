@@ -1,0 +1,101 @@
+"""Results read back (oftimg.load_results): every array as the run wrote it, with
+its dims, unit and meaning; as an xarray Dataset on labelled axes."""
+import json
+import shutil
+import sys
+
+import numpy as np
+import pytest
+
+import oftimg
+from oftimg.io import DatasetError
+
+
+def _npz(folder, file):
+    with np.load(folder / file) as npz:
+        return {k: npz[k] for k in npz.files}
+
+
+def test_every_array_reads_back_with_its_dims(run_out):
+    folder = run_out / "normal"
+    res = oftimg.load_results(folder)
+    assert (res.name, res.group) == ("normal", "normal")
+    stored = {f: _npz(folder, f) for f in ("arrays.npz", "grids.npz", "pca.npz")}
+    assert set(res.names) == set().union(*map(set, stored.values()))
+    read = res.arrays(res.names)
+    summary = json.loads((folder / "summary.json").read_text())
+    n_u, n_v = summary["provenance"]["options"]["grid"]["n_u"], summary["provenance"]["options"]["grid"]["n_v"]
+    sizes = {"u": n_u, "v": n_v, "v_clipped": n_v, "t": len(stored["arrays.npz"]["t_ms"]),
+             "xyz": 3, "xy": 2, "l1,l2": 2, "up/down": 2}
+    for name in res.names:
+        info = res.info(name)
+        np.testing.assert_array_equal(read[name], stored[info["file"]][name])
+        assert len(info["dims"]) == read[name].ndim, name
+        for dim, n in zip(info["dims"], read[name].shape):
+            assert sizes.get(dim, n) == n, (name, dim)
+    np.testing.assert_array_equal(res["outer"], stored["grids.npz"]["outer"])
+    assert "outer_clipped" in res and "no_such_array" not in res
+
+
+def test_unknown_names_and_bad_folders_are_named(run_out, tmp_path):
+    res = oftimg.load_results(run_out / "normal")
+    with pytest.raises(KeyError, match="area_outer_mm2"):
+        res["area_outr_mm2"]
+    with pytest.raises(DatasetError, match="load_cohort"):
+        oftimg.load_results(run_out)
+    broken = tmp_path / "normal"
+    shutil.copytree(run_out / "normal", broken)
+    (broken / "arrays.npz").write_bytes(b"not a zip file")
+    with pytest.raises(DatasetError, match="arrays.npz: cannot be read"):
+        oftimg.load_results(broken)["area_outer_mm2"]
+    (broken / "arrays.json").unlink()
+    with pytest.raises(DatasetError, match="has no arrays.json"):
+        oftimg.load_results(broken)
+    with pytest.raises(DatasetError, match="no summary.json"):
+        oftimg.load_cohort(tmp_path / "nothing")
+
+
+def test_load_cohort_reads_every_dataset_in_name_order(run_out, tmp_path):
+    for name in ("b10", "b2"):
+        shutil.copytree(run_out / "normal", tmp_path / name)
+        summary = json.loads((tmp_path / name / "summary.json").read_text())
+        (tmp_path / name / "summary.json").write_text(json.dumps(dict(summary, name=name)))
+    assert [r.name for r in oftimg.load_cohort([tmp_path])] == ["b2", "b10"]
+    assert [r.name for r in oftimg.load_cohort(run_out)] == ["normal"]
+
+
+def test_xarray_dataset_on_labelled_axes(run_out):
+    pytest.importorskip("xarray")
+    res = oftimg.load_results(run_out / "normal")
+    ds = res.to_xarray()
+    n_u, n_v, n_t = res["outer"].shape[:3]
+    assert dict(ds.sizes) == {"u": n_u, "v": n_v, "v_clipped": n_v, "t": n_t, "xyz": 3,
+                              "stretch": 2, "crossing": 2}
+    np.testing.assert_array_equal(ds["t"], res["t_ms"])
+    np.testing.assert_array_equal(ds["s_mm"], res["s_mm"])
+    np.testing.assert_allclose(ds["u"], np.arange(n_u) / n_u)
+    assert ds["v"][0] == 0 and ds["v"][-1] == 1
+    assert ds["area_outer_mm2"].attrs["units"] == "mm^2"
+    assert ds["outer_clipped"].dims == ("u", "v_clipped", "t", "xyz")
+    # labelled selection picks what indexing the arrays does
+    t5 = float(res["t_ms"][5])
+    np.testing.assert_array_equal(ds["area_outer_mm2"].sel(t=t5), res["area_outer_mm2"][:, 5])
+    np.testing.assert_array_equal(ds["outer"].sel(xyz="z", u=0.0).isel(t=5),
+                                  res["outer"][0, :, 5, 2])
+    np.testing.assert_array_equal(ds["principal_stretch_outer"].sel(stretch="l2"),
+                                  res["principal_stretch_outer"][..., 1])
+    # the mean around the tube of the wall thickness, by dim name
+    np.testing.assert_allclose(ds["wall_thickness_mm"].mean("u"),
+                               res["wall_thickness_mm"].mean(axis=0), rtol=1e-6)
+    assert set(ds.data_vars) == {n for n in res.names if not n.startswith("pca_")} - {"s_mm", "t_ms"}
+    only = res.to_xarray(["volume_outer_mm3"])
+    assert list(only.data_vars) == ["volume_outer_mm3"] and only["t"].size == n_t
+    pca = next(n for n in res.names if n.startswith("pca_"))
+    with pytest.raises(KeyError, match="PCA"):
+        res.to_xarray([pca])
+
+
+def test_xarray_missing_says_how_to_install(run_out, monkeypatch):
+    monkeypatch.setitem(sys.modules, "xarray", None)
+    with pytest.raises(ImportError, match=r"oftimg\[xarray\]"):
+        oftimg.load_results(run_out / "normal").to_xarray()

@@ -272,15 +272,29 @@ COHORT_MAPS = {
     "wall_thickness_mm": (["embryo", "position", "phase"], "mm",
                           "the myocardial wall's mean thickness around the tube, resampled "
                           "likewise (NaN for a dataset without an inner wall)"),
+    "comparisons": (["comparison"], "", "each other group against the first (normals "
+                                        "first): 'banded - normal'"),
 }
+TESTED_MAPS = ("area_outer_normalized", "wall_thickness_mm")   # compared between groups
+for _key in TESTED_MAPS:
+    _unit = COHORT_MAPS[_key][1]
+    COHORT_MAPS[f"{_key}_difference"] = (
+        ["comparison", "position", "phase"], _unit,
+        f"difference of the two groups' means of {_key} (first group minus second)")
+    COHORT_MAPS[f"{_key}_p_fwer"] = (
+        ["comparison", "position", "phase"], "1",
+        f"two-sided p-value of that difference, corrected over the whole map (max-statistic "
+        f"permutation test; NaN with fewer than 2 embryos in a group)")
 
 
 def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
     """Every dataset's outer area map (and each row over its maximum) and wall
     thickness around the tube on one grid of position and cycle fractions
-    (:mod:`oftimg.image.group_maps`), read from ``results/<name>/arrays.npz``: the
-    arrays of :data:`COHORT_MAPS`."""
-    from .image.group_maps import common_grid, on_common_grid, row_normalized
+    (:mod:`oftimg.image.group_maps`), read from ``results/<name>/arrays.npz``, and
+    where the groups differ in the maps of :data:`TESTED_MAPS`: the arrays of
+    :data:`COHORT_MAPS`."""
+    from .image.group_maps import (common_grid, group_differences, on_common_grid,
+                                   row_normalized)
     from .pipeline import wall_thickness_around
 
     position, phase = common_grid()
@@ -293,11 +307,16 @@ def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
             thickness.append(on_common_grid(wall_thickness_around(a["wall_thickness_mm"]), *grid)
                              if "wall_thickness_mm" in a.files
                              else np.full((len(position), len(phase)), np.nan))
-    return {"names": np.array([s["name"] for s in summaries]),
+    maps = {"names": np.array([s["name"] for s in summaries]),
             "groups": np.array([s["group"] for s in summaries]),
             "position_fraction": position, "cycle_fraction": phase,
             "area_outer_mm2": np.array(area), "area_outer_normalized": np.array(normalized),
             "wall_thickness_mm": np.array(thickness)}
+    for key in TESTED_MAPS:
+        names, maps[f"{key}_difference"], maps[f"{key}_p_fwer"] = group_differences(
+            maps[key], maps["groups"])
+        maps["comparisons"] = np.array(names, dtype=str)
+    return maps
 
 
 def write_cohort_maps(folder: Path, maps: dict[str, np.ndarray]) -> None:

@@ -12,6 +12,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .image.group_maps import groups_in_order  # noqa: E402
+
 WALL_COLOURS = {"outer": "#c0392b", "inner": "#e59866", "lumen": "#2e86c1",
                 "myocardium": "#6c3483"}
 
@@ -354,30 +356,61 @@ def _group_profiles(path: Path) -> dict:
     return out
 
 
-def group_area_maps(maps: dict, path: Path) -> Path:
-    """Each group's mean outer area map, each row over its maximum, on the cohort's
-    common grid (``maps``: :func:`oftimg.export.cohort_maps`), and each other group's
-    difference from the first (normals first)."""
+# the cohort maps drawn per group: key of cohort_maps.npz, title, file, range of the means
+GROUP_MAPS = [
+    ("area_outer_normalized", "outer area, each row over its maximum", "group_area_maps.png",
+     (0.0, 1.0)),
+    ("wall_thickness_mm", "myocardial wall thickness, mean around the tube (mm)",
+     "group_wall_thickness_maps.png", None),
+]
+
+
+def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normalized",
+                      title: str = "outer area, each row over its maximum", value_range=None,
+                      alpha: float = 0.05) -> Path:
+    """Each group's mean of map ``key`` on the cohort's common grid (``maps``:
+    :func:`oftimg.export.cohort_maps`; ``value_range`` its colour range, default the
+    means' own), and each other group's difference from the first (normals first),
+    the pixels where it is significant (p corrected over the map below ``alpha``)
+    outlined. Embryos without the map (all NaN) are left out."""
     from .image.group_maps import group_mean_maps
 
-    order = sorted(dict.fromkeys(maps["groups"].tolist()), key=lambda g: (g != "normal", g))
-    means = group_mean_maps(maps["area_outer_normalized"], maps["groups"])
+    order = groups_in_order(maps["groups"])
+    present = ~np.all(np.isnan(maps[key]), axis=(1, 2))
+    means = group_mean_maps(maps[key][present], maps["groups"][present])
+    order = [g for g in order if g in means]
+    lo, hi = value_range or (np.nanmin([means[g][0] for g in order]),
+                             np.nanmax([means[g][0] for g in order]))
     extent = [0, 1, 0, 1]
-    panels = [(f"{g} mean (n = {means[g][2]})", means[g][0], "jet", 0.0, 1.0) for g in order]
-    base = order[0]
-    lim = max(float(np.nanmax(np.abs(means[g][0] - means[base][0]))) for g in order[1:])
-    panels += [(f"{g} - {base}", means[g][0] - means[base][0], "RdBu_r", -lim, lim)
-               for g in order[1:]]
+    panels = [(f"{g} mean (n = {means[g][2]})", means[g][0], "jet", lo, hi, None)
+              for g in order]
+    differences = maps[f"{key}_difference"]
+    lim = (float(np.nanmax(np.abs(differences)))
+           if np.isfinite(differences).any() else 1.0)
+    for name, difference, p in zip(maps["comparisons"], differences, maps[f"{key}_p_fwer"]):
+        if np.all(np.isnan(difference)):
+            continue                                  # a group without this map
+        if np.all(np.isnan(p)):
+            note = "too few embryos to test"
+        else:
+            note = (f"p < {alpha:g} outlined" if np.nanmin(p) < alpha
+                    else f"nowhere p < {alpha:g}: least p {np.nanmin(p):.2g}")
+        panels.append((f"{name} ({note})", difference, "RdBu_r", -lim, lim, p))
     fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.4), sharey=True,
                              squeeze=False)
-    for ax, (title, image, cmap, lo, hi) in zip(axes[0], panels):
-        im = ax.imshow(image, origin="lower", aspect="auto", cmap=cmap, vmin=lo, vmax=hi,
+    for ax, (panel_title, image, cmap, vmin, vmax, p) in zip(axes[0], panels):
+        im = ax.imshow(image, origin="lower", aspect="auto", cmap=cmap, vmin=vmin, vmax=vmax,
                        extent=extent, interpolation="nearest")
+        if p is not None and np.nanmin(p, initial=np.inf) < alpha:
+            rows, cols = p.shape
+            ax.contour((np.arange(cols) + 0.5) / cols, (np.arange(rows) + 0.5) / rows,
+                       np.nan_to_num(p, nan=1.0) < alpha, levels=[0.5], colors="k",
+                       linewidths=1.0)
         fig.colorbar(im, ax=ax, fraction=0.05)
-        ax.set_title(plain_text(title), fontsize=9)
+        ax.set_title(plain_text(panel_title), fontsize=9)
         ax.set_xlabel("fraction of the cycle since minimum volume")
     axes[0][0].set_ylabel("position, fraction of the tube")
-    fig.suptitle("outer area, each row over its maximum", fontsize=10)
+    fig.suptitle(title, fontsize=10)
     return _save(fig, path)
 
 
@@ -388,9 +421,9 @@ def group_figures(results: Path, summaries: list[dict], folder: Path, *,
     vs position, and volume over the aligned cycle (groups overlaid). Up to
     :data:`NAMED_CURVES_MAX` embryos of a group are named lines; a larger group shows
     its mean +- SD over thin lines. With ``maps`` (:func:`oftimg.export.cohort_maps`),
-    the groups' mean area maps too (:func:`group_area_maps`).
+    the groups' mean maps too (:data:`GROUP_MAPS`, :func:`group_maps_figure`).
     Reads each dataset's ``arrays.npz`` from ``results``."""
-    groups = sorted({s["group"] for s in summaries}, key=lambda g: (g != "normal", g))
+    groups = groups_in_order([s["group"] for s in summaries])
     colours = dict(zip(groups, GROUP_COLOURS * len(groups)))
     members = {g: [s for s in summaries if s["group"] == g] for g in groups}
     data = {s["name"]: _group_profiles(Path(results) / s["name"] / "arrays.npz")
@@ -429,8 +462,10 @@ def group_figures(results: Path, summaries: list[dict], folder: Path, *,
     ax.set_ylabel("outer volume / its mean")
     ax.grid(alpha=0.3)
     written.append(_save(fig, folder / "group_volume.png"))
-    if maps is not None:
-        written.append(group_area_maps(maps, folder / "group_area_maps.png"))
+    for key, title, fname, value_range in GROUP_MAPS if maps is not None else []:
+        if np.isfinite(maps[key]).any():
+            written.append(group_maps_figure(maps, folder / fname, key=key, title=title,
+                                             value_range=value_range))
     for phase in ("expansion", "contraction"):
         p = pca_groups_figure(results, summaries, folder / f"group_pca_{phase}.png", phase=phase)
         if p is not None:
@@ -466,7 +501,7 @@ def pca_groups_figure(results: Path, summaries: list[dict], path: Path, *,
             firsts.setdefault(s["group"], s)
     if len(firsts) < 2:
         return None
-    groups = sorted(firsts, key=lambda g: (g != "normal", g))
+    groups = groups_in_order(list(firsts))
     n_rows = len(firsts[groups[0]]["pca"]["rows"])
     fig, axes = plt.subplots(2, n_rows * len(groups), figsize=(2.3 * n_rows * len(groups), 5.8),
                              squeeze=False)

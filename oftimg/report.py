@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 import csv
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+
+from .stats import holm, permutation_test
 
 # (column header with unit, summary key path)
 COHORT_COLUMNS = [
@@ -115,44 +116,6 @@ def write_cohort_markdown(folder: Path, summaries: list[dict]) -> Path:
     return path
 
 
-def permutation_test(a, b, *, n_random: int = 20000, seed: int = 0) -> float:
-    """Two-sided permutation test of the difference of means; returns the p-value.
-
-    Exact (every relabelling) when both groups have at most 10 members, else
-    ``n_random`` random relabellings. NaN values are left out.
-    """
-    a = np.asarray([x for x in a if x == x], float)
-    b = np.asarray([x for x in b if x == x], float)
-    if len(a) < 2 or len(b) < 2:
-        return float("nan")
-    pooled = np.concatenate([a, b])
-    observed = abs(a.mean() - b.mean())
-    n, m = len(a), len(b)
-    tol = 1e-12 * max(1.0, abs(observed))
-    total = pooled.sum()
-    if n <= 10 and m <= 10:
-        sums = pooled[_subsets(n + m, n)].sum(axis=1)
-        return float(np.mean(np.abs(sums / n - (total - sums) / m) >= observed - tol))
-    rng = np.random.default_rng(seed)
-    count = 0
-    for start in range(0, n_random, 2000):  # 2000 relabellings at a time: bounded memory
-        rows = min(2000, n_random - start)
-        first = np.argsort(rng.random((rows, n + m)), axis=1)[:, :n]  # a random n-subset
-        sums = pooled[first].sum(axis=1)
-        count += int(np.count_nonzero(np.abs(sums / n - (total - sums) / m) >= observed - tol))
-    return float((count + 1) / (n_random + 1))
-
-
-@lru_cache(maxsize=8)
-def _subsets(size: int, k: int) -> np.ndarray:
-    """Every k-subset of ``range(size)`` as rows, ``(C(size, k), k)`` int8 (at most
-    184756 x 10 for the exact test's 10 + 10)."""
-    from itertools import chain, combinations
-
-    flat = np.fromiter(chain.from_iterable(combinations(range(size), k)), dtype=np.int8)
-    return flat.reshape(-1, k)
-
-
 def group_comparison(summaries: list[dict]) -> list[dict]:
     """Per numeric cohort metric and pair of groups (in name order): each group's n,
     mean and sd, the two-sided permutation p-value of the pair, and that p-value
@@ -248,19 +211,6 @@ def field_smoothing_caveat(summaries: list[dict], key: str = "field_smoothing_ms
             "each pixel's peaks over the cycle, so group differences in those fields' size "
             "and phase maps may come from it (README, Accuracy); to compare the groups, "
             f"analyse them all with {option} {largest:g}")
-
-
-def holm(p: list[float]) -> list[float]:
-    """Holm-Bonferroni adjusted p-values, in the order given; NaN stays NaN and
-    does not count as a test."""
-    p = np.asarray(p, float)
-    out = np.full(len(p), np.nan)
-    tested = np.nonzero(np.isfinite(p))[0]
-    order = tested[np.argsort(p[tested], kind="stable")]
-    m = len(order)
-    adjusted = np.maximum.accumulate((m - np.arange(m)) * p[order])
-    out[order] = np.minimum(adjusted, 1.0)
-    return out.tolist()
 
 
 def write_groups_table(folder: Path, summaries: list[dict],

@@ -86,6 +86,12 @@ def test_cohort_maps_hold_every_embryos_area_map_on_one_grid(runs):
             axis=1, keepdims=True), rel=1e-12)
         wall = np.load(out / name / "arrays.npz")["wall_thickness_mm"][:, [0, -1]].mean(axis=0)
         assert maps["wall_thickness_mm"][k][[0, -1]][:, ::20] == pytest.approx(wall, rel=1e-12)
+    # one banded embryo against two normals: the difference, but too few to test
+    assert maps["comparisons"].tolist() == ["banded - normal"]
+    for key in ("area_outer_normalized", "wall_thickness_mm"):
+        assert maps[f"{key}_difference"][0] == pytest.approx(
+            maps[key][0] - maps[key][1:].mean(axis=0), rel=1e-12)
+        assert np.isnan(maps[f"{key}_p_fwer"]).all()
     assert (out / "figures" / "group_area_maps.png").is_file()
 
 

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from oftimg.report import (cohort_rows, group_comparison, holm, mean_curve, permutation_test,
-                           write_cohort_markdown)
+from oftimg.report import cohort_rows, group_comparison, mean_curve, write_cohort_markdown
+from oftimg.stats import holm, permutation_test
 
 
 def test_exact_permutation_test():

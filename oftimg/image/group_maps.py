@@ -53,3 +53,30 @@ def group_mean_maps(maps: np.ndarray, groups) -> dict[str, tuple[np.ndarray, np.
               else np.full(members.shape[1:], np.nan))
         out[g] = (members.mean(axis=0), sd, len(members))
     return out
+
+
+def groups_in_order(groups) -> list[str]:
+    """The distinct groups, normals first, then by name (as the paper sets them side
+    by side)."""
+    return sorted(dict.fromkeys(np.asarray(groups).tolist()), key=lambda g: (g != "normal", g))
+
+
+def group_differences(maps: np.ndarray, groups, **test_options):
+    """Each other group against the first of :func:`groups_in_order`: the names
+    (``"banded - normal"``), the differences of the group means of ``maps (n, rows,
+    cols)`` and each pixel's p-value corrected over the map
+    (:func:`oftimg.stats.map_permutation_test`), both ``(n_comparisons, rows, cols)``."""
+    from ..stats import map_permutation_test
+
+    groups = np.asarray(groups)
+    order = groups_in_order(groups)
+    names, differences, p_values = [], [], []
+    for g in order[1:]:
+        difference, p = map_permutation_test(maps[groups == g], maps[groups == order[0]],
+                                             **test_options)
+        names.append(f"{g} - {order[0]}")
+        differences.append(difference)
+        p_values.append(p)
+    empty = np.empty((0,) + maps.shape[1:])
+    return (names, np.array(differences) if names else empty,
+            np.array(p_values) if names else empty)

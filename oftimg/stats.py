@@ -97,12 +97,15 @@ def map_permutation_test(a: np.ndarray, b: np.ndarray, *, n_random: int = 10000,
     if n < 2 or m < 2:
         return difference.reshape(shape), p.reshape(shape)
     exact = comb(n + m, n) <= exact_max
+    # a relabelling's differences in one product: [member, 1] @ [X (1/n + 1/m); -total/m]
+    weighted = np.vstack([X * (1.0 / n + 1.0 / m), -total / m])
     largest = []                   # each relabelling's largest |difference| over the map
     for first in relabellings(n, m, exact=exact, n_random=n_random, seed=seed):
-        member = np.zeros((len(first), n + m))
+        member = np.zeros((len(first), n + m + 1))
         member[np.arange(len(first))[:, None], first] = 1.0
-        sums = member @ X
-        largest.append(np.max(np.abs(sums / n - (total - sums) / m), axis=1))
+        member[:, -1] = 1.0
+        d = member @ weighted
+        largest.append(np.maximum(d.max(axis=1), -d.min(axis=1)))
     largest = np.sort(np.concatenate(largest))
     tol = 1e-12 * max(1.0, float(np.max(np.abs(observed))))
     reached = len(largest) - np.searchsorted(largest, np.abs(observed) - tol, side="left")

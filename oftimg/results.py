@@ -145,10 +145,7 @@ class Results:
         down); ``s_mm`` is a coordinate along v. Each variable's
         attrs hold its ``units`` and ``description``. The PCA arrays, whose contour
         axes differ by row and phase, are read with ``results[name]``."""
-        try:
-            import xarray as xr
-        except ImportError:
-            raise ImportError("to_xarray needs xarray: pip install 'oftimg[xarray]'") from None
+        xr = _xarray("to_xarray")
         if names is None:
             names = [n for n, d in self.described.items() if d["file"] != "pca.npz"]
         pca = [n for n in names if self.info(n)["file"] == "pca.npz"]
@@ -187,6 +184,14 @@ class Results:
             "source": str(self.folder)})
 
 
+def _xarray(what: str):
+    try:
+        import xarray
+    except ImportError:
+        raise ImportError(f"{what} needs xarray: pip install 'oftimg[xarray]'") from None
+    return xarray
+
+
 def load_results(folder) -> Results:
     """One dataset's results folder (``OUT/<name>``) read back: :class:`Results`."""
     folder = Path(folder)
@@ -201,3 +206,33 @@ def load_cohort(sources) -> list[Results]:
     a folder of them, as ``oftimg cohort`` takes them), ordered by name."""
     results = [Results(f) for f in result_folders(sources)]
     return sorted(results, key=lambda r: natural_key(r.name))
+
+
+def load_cohort_maps(out):
+    """A run's (or ``oftimg cohort``'s) ``cohort_maps.npz`` as an ``xarray.Dataset``:
+    every embryo's maps on dims embryo (its name; coordinate ``group``), position
+    (fraction of the tube, inlet 0) and phase (fraction of the cycle), and where the
+    groups differ on dim comparison; units and descriptions from cohort_maps.json."""
+    xr = _xarray("load_cohort_maps")
+    out = Path(out)
+    path = out / "cohort_maps.npz"
+    if not path.is_file():
+        raise DatasetError(f"{out}: has no cohort_maps.npz (an oftimg run's --out, or "
+                           "oftimg cohort's, has one)")
+    described = _read_json(out / "cohort_maps.json")
+    try:
+        with np.load(path) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise DatasetError(f"{path}: cannot be read ({exc})") from None
+    coords = {"embryo": arrays.pop("names"), "group": ("embryo", arrays.pop("groups")),
+              "position": ("position", arrays.pop("position_fraction"),
+                           {"units": "1", "description": described["position_fraction"]
+                            ["description"]}),
+              "phase": ("phase", arrays.pop("cycle_fraction"),
+                        {"units": "1", "description": described["cycle_fraction"]["description"]})}
+    if "comparisons" in arrays:
+        coords["comparison"] = ("comparison", arrays.pop("comparisons"))
+    return xr.Dataset({k: (described[k]["dims"], v, {"units": described[k]["unit"],
+                                                     "description": described[k]["description"]})
+                       for k, v in arrays.items()}, coords, attrs={"source": str(out)})

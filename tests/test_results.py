@@ -99,3 +99,20 @@ def test_xarray_missing_says_how_to_install(run_out, monkeypatch):
     monkeypatch.setitem(sys.modules, "xarray", None)
     with pytest.raises(ImportError, match=r"oftimg\[xarray\]"):
         oftimg.load_results(run_out / "normal").to_xarray()
+
+
+def test_cohort_maps_as_xarray(run_out, tmp_path):
+    pytest.importorskip("xarray")
+    ds = oftimg.load_cohort_maps(run_out)
+    with np.load(run_out / "cohort_maps.npz") as npz:
+        assert ds["embryo"].values.tolist() == npz["names"].tolist() == ["normal"]
+        assert ds["group"].values.tolist() == ["normal"]
+        np.testing.assert_array_equal(ds["position"], npz["position_fraction"])
+        np.testing.assert_array_equal(ds["phase"], npz["cycle_fraction"])
+        np.testing.assert_array_equal(ds["area_outer_mm2"].sel(embryo="normal"),
+                                      npz["area_outer_mm2"][0])
+        assert ds.sizes["comparison"] == 0             # one group: nothing to compare
+    assert ds["wall_thickness_mm"].attrs["units"] == "mm"
+    assert ds["area_outer_normalized"].dims == ("embryo", "position", "phase")
+    with pytest.raises(DatasetError, match="has no cohort_maps.npz"):
+        oftimg.load_cohort_maps(tmp_path)

@@ -68,6 +68,21 @@ def _read_json(path: Path):
         raise DatasetError(f"{path}: cannot be read as JSON ({exc})") from None
 
 
+def _read_npz(path: Path, names=None) -> dict[str, np.ndarray]:
+    """Arrays ``names`` (default: all) of an .npz file; a file that cannot be read, or
+    lacks one of them, is named."""
+    try:
+        with np.load(path) as npz:
+            missing = [n for n in names or [] if n not in npz.files]
+            arrays = {n: npz[n] for n in (npz.files if names is None else names)
+                      if n not in missing}
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise DatasetError(f"{path}: cannot be read ({exc})") from None
+    if missing:
+        raise DatasetError(f"{path}: has no {', '.join(missing)}, which arrays.json lists")
+    return arrays
+
+
 class Results:
     """One dataset's results folder (``oftimg run``'s ``OUT/<name>``): ``summary``
     (summary.json), and every array of arrays.npz, grids.npz and pca.npz by name,
@@ -120,18 +135,7 @@ class Results:
             by_file.setdefault(self.info(name)["file"], []).append(name)
         out = {}
         for file, wanted in by_file.items():
-            path = self.folder / file
-            try:
-                with np.load(path) as npz:
-                    missing = [n for n in wanted if n not in npz.files]
-                    if missing:
-                        raise DatasetError(f"{path}: has no {', '.join(missing)}, which "
-                                           "arrays.json lists")
-                    out.update({n: npz[n] for n in wanted})
-            except DatasetError:
-                raise
-            except (OSError, ValueError, zipfile.BadZipFile) as exc:
-                raise DatasetError(f"{path}: cannot be read ({exc})") from None
+            out.update(_read_npz(self.folder / file, wanted))
         return {n: out[n] for n in names}
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -220,11 +224,7 @@ def load_cohort_maps(out):
         raise DatasetError(f"{out}: has no cohort_maps.npz (an oftimg run's --out, or "
                            "oftimg cohort's, has one)")
     described = _read_json(out / "cohort_maps.json")
-    try:
-        with np.load(path) as npz:
-            arrays = {k: npz[k] for k in npz.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise DatasetError(f"{path}: cannot be read ({exc})") from None
+    arrays = _read_npz(path)
     coords = {"embryo": arrays.pop("names"), "group": ("embryo", arrays.pop("groups")),
               "position": ("position", arrays.pop("position_fraction"),
                            {"units": "1", "description": described["position_fraction"]

@@ -45,6 +45,11 @@ def test_unknown_names_and_bad_folders_are_named(run_out, tmp_path):
         oftimg.load_results(run_out)
     broken = tmp_path / "normal"
     shutil.copytree(run_out / "normal", broken)
+    described = json.loads((broken / "arrays.json").read_text())
+    described["ghost"] = dict(described["area_outer_mm2"])
+    (broken / "arrays.json").write_text(json.dumps(described))
+    with pytest.raises(DatasetError, match="arrays.npz: has no ghost, which arrays.json lists"):
+        oftimg.load_results(broken)["ghost"]
     (broken / "arrays.npz").write_bytes(b"not a zip file")
     with pytest.raises(DatasetError, match="arrays.npz: cannot be read"):
         oftimg.load_results(broken)["area_outer_mm2"]

@@ -283,8 +283,13 @@ for _key in TESTED_MAPS:
         f"difference of the two groups' means of {_key} (first group minus second)")
     COHORT_MAPS[f"{_key}_p_fwer"] = (
         ["comparison", "position", "phase"], "1",
-        f"two-sided p-value of that difference, corrected over the whole map (max-statistic "
-        f"permutation test; NaN with fewer than 2 embryos in a group)")
+        "two-sided p-value of that difference, corrected over the whole map (max-statistic "
+        "permutation test; NaN with fewer than 2 embryos in a group)")
+    COHORT_MAPS[f"{_key}_p_cluster"] = (
+        ["comparison", "position", "phase"], "1",
+        "p-value of the cluster of pixels each pixel belongs to, corrected over the whole "
+        "map (cluster-mass permutation test, clusters of uncorrected p <= 0.05 joined "
+        "across the cycle's ends; 1 outside clusters, NaN as p_fwer)")
 
 
 def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
@@ -313,9 +318,9 @@ def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
             "area_outer_mm2": np.array(area), "area_outer_normalized": np.array(normalized),
             "wall_thickness_mm": np.array(thickness)}
     for key in TESTED_MAPS:
-        names, maps[f"{key}_difference"], maps[f"{key}_p_fwer"] = group_differences(
-            maps[key], maps["groups"])
-        maps["comparisons"] = np.array(names, dtype=str)
+        compared = group_differences(maps[key], maps["groups"])
+        maps["comparisons"] = np.array(compared.pop("names"), dtype=str)
+        maps.update({f"{key}_{what}": value for what, value in compared.items()})
     return maps
 
 

@@ -371,8 +371,9 @@ def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normaliz
     """Each group's mean of map ``key`` on the cohort's common grid (``maps``:
     :func:`oftimg.export.cohort_maps`; ``value_range`` its colour range, default the
     means' own), and each other group's difference from the first (normals first),
-    the pixels where it is significant (p corrected over the map below ``alpha``)
-    outlined. Embryos without the map (all NaN) are left out."""
+    with the clusters (solid) and the single pixels (dashed) where it is significant
+    over the whole map (``*_p_cluster``, ``*_p_fwer`` below ``alpha``) outlined.
+    Embryos without the map (all NaN) are left out."""
     from .image.group_maps import group_mean_maps
 
     order = groups_in_order(maps["groups"])
@@ -387,31 +388,42 @@ def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normaliz
     differences = maps[f"{key}_difference"]
     lim = (float(np.nanmax(np.abs(differences)))
            if np.isfinite(differences).any() else 1.0)
-    for name, difference, p in zip(maps["comparisons"], differences, maps[f"{key}_p_fwer"]):
+    for name, difference, p_fwer, p_cluster in zip(
+            maps["comparisons"], differences, maps[f"{key}_p_fwer"], maps[f"{key}_p_cluster"]):
         if np.all(np.isnan(difference)):
             continue                                  # a group without this map
-        if np.all(np.isnan(p)):
-            note = "too few embryos to test"
-        else:
-            note = (f"p < {alpha:g} outlined" if np.nanmin(p) < alpha
-                    else f"nowhere p < {alpha:g}: least p {np.nanmin(p):.2g}")
-        panels.append((f"{name} ({note})", difference, "RdBu_r", -lim, lim, p))
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.4), sharey=True,
+        panels.append((f"{name}\n{_significance_note(p_cluster, p_fwer, alpha)}", difference,
+                       "RdBu_r", -lim, lim, (p_cluster, p_fwer)))
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.6), sharey=True,
                              squeeze=False)
     for ax, (panel_title, image, cmap, vmin, vmax, p) in zip(axes[0], panels):
         im = ax.imshow(image, origin="lower", aspect="auto", cmap=cmap, vmin=vmin, vmax=vmax,
                        extent=extent, interpolation="nearest")
-        if p is not None and np.nanmin(p, initial=np.inf) < alpha:
-            rows, cols = p.shape
-            ax.contour((np.arange(cols) + 0.5) / cols, (np.arange(rows) + 0.5) / rows,
-                       np.nan_to_num(p, nan=1.0) < alpha, levels=[0.5], colors="k",
-                       linewidths=1.0)
+        for p_map, style in zip(p or (), ("solid", "dashed")):
+            if np.nanmin(p_map, initial=np.inf) < alpha:
+                rows, cols = p_map.shape
+                ax.contour((np.arange(cols) + 0.5) / cols, (np.arange(rows) + 0.5) / rows,
+                           np.nan_to_num(p_map, nan=1.0) < alpha, levels=[0.5], colors="k",
+                           linewidths=1.0, linestyles=style)
         fig.colorbar(im, ax=ax, fraction=0.05)
         ax.set_title(plain_text(panel_title), fontsize=9)
         ax.set_xlabel("fraction of the cycle since minimum volume")
     axes[0][0].set_ylabel("position, fraction of the tube")
     fig.suptitle(title, fontsize=10)
     return _save(fig, path)
+
+
+def _significance_note(p_cluster: np.ndarray, p_fwer: np.ndarray, alpha: float) -> str:
+    """What a difference panel outlines: clusters (solid) and single pixels (dashed)
+    significant over the whole map."""
+    if np.all(np.isnan(p_cluster)):
+        return "too few embryos to test"
+    least = float(np.nanmin(p_cluster))
+    note = (f"clusters p < {alpha:g} outlined" if least < alpha
+            else f"no cluster p < {alpha:g} (least {least:.2g})")
+    if np.nanmin(p_fwer) < alpha:
+        note += f", pixels p < {alpha:g} dashed"
+    return note
 
 
 def group_figures(results: Path, summaries: list[dict], folder: Path, *,

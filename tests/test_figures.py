@@ -9,6 +9,7 @@ from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
+from scipy import ndimage
 import pytest
 
 from oftimg import figures
@@ -171,10 +172,18 @@ def test_group_figures_draw_the_wall_thickness_and_its_thickening_along_the_tube
         assert not banded.lines
 
 
-def test_group_area_maps_show_each_groups_mean_and_its_difference_from_normal(
-        tmp_path, monkeypatch):
+def _compared(maps: np.ndarray, groups, key: str = "area_outer_normalized") -> dict:
+    """Cohort maps of one kind with the groups' differences, as cohort_maps makes them."""
     from oftimg.image.group_maps import group_differences
 
+    compared = group_differences(maps, groups)
+    out = {"groups": np.asarray(groups), key: maps, "comparisons": compared.pop("names")}
+    out.update({f"{key}_{what}": value for what, value in compared.items()})
+    return out
+
+
+def test_group_area_maps_show_each_groups_mean_and_its_difference_from_normal(
+        tmp_path, monkeypatch):
     drawn = {}
     monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig)
                         and path)
@@ -182,15 +191,13 @@ def test_group_area_maps_show_each_groups_mean_and_its_difference_from_normal(
     level = {"normal": 0.5, "banded": 0.8, "KO": 0.2}
     normalized = np.stack([np.full((50, 100), level[g] + 0.01 * k)
                            for k, g in enumerate(groups)])
-    names, difference, p = group_differences(normalized, groups)
-    maps = {"groups": groups, "area_outer_normalized": normalized, "comparisons": names,
-            "area_outer_normalized_difference": difference, "area_outer_normalized_p_fwer": p}
-    figures.group_maps_figure(maps, tmp_path / "m.png", value_range=(0, 1))
+    figures.group_maps_figure(_compared(normalized, groups), tmp_path / "m.png",
+                              value_range=(0, 1))
     images = [ax.images[0] for ax in drawn["fig"].axes if ax.images]
     titles = [ax.get_title() for ax in drawn["fig"].axes if ax.images]
     assert titles == ["normal mean (n = 2)", "KO mean (n = 1)", "banded mean (n = 1)",
-                      "KO - normal (too few embryos to test)",
-                      "banded - normal (too few embryos to test)"]
+                      "KO - normal\ntoo few embryos to test",
+                      "banded - normal\ntoo few embryos to test"]
     assert np.asarray(images[0].get_array()) == pytest.approx(0.52)
     assert np.asarray(images[4].get_array()) == pytest.approx(0.82 - 0.52)
     assert images[3].get_clim() == pytest.approx((-0.32, 0.32))     # symmetric, both fit
@@ -198,9 +205,7 @@ def test_group_area_maps_show_each_groups_mean_and_its_difference_from_normal(
 
 def test_group_area_maps_outline_where_the_groups_differ(tmp_path, monkeypatch):
     """4 + 4 embryos, the banded ones fuller in a block of rows and phases: that block
-    outlined (p = 2/70 there), the rest not."""
-    from oftimg.image.group_maps import group_differences
-
+    outlined, as a cluster and as pixels (p = 2/70 there), the rest not."""
     drawn = {}
     monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig)
                         and path)
@@ -208,43 +213,43 @@ def test_group_area_maps_outline_where_the_groups_differ(tmp_path, monkeypatch):
     groups = np.array(["normal", "banded"] * 4)
     normalized = 0.6 + 0.02 * rng.standard_normal((8, 50, 100))
     normalized[groups == "banded", 20:30, 40:60] += 0.3
-    names, difference, p = group_differences(normalized, groups)
-    assert names == ["banded - normal"]
-    assert p[0, 20:30, 40:60] == pytest.approx(2 / 70)
-    assert np.all(np.delete(p[0].ravel(), np.ravel_multi_index(
-        np.mgrid[20:30, 40:60].reshape(2, -1), (50, 100))) > 0.05)
-    maps = {"groups": groups, "area_outer_normalized": normalized, "comparisons": names,
-            "area_outer_normalized_difference": difference, "area_outer_normalized_p_fwer": p}
+    maps = _compared(normalized, groups)
+    assert maps["comparisons"] == ["banded - normal"]
+    block = np.zeros((50, 100), bool)
+    block[20:30, 40:60] = True
+    near = ndimage.binary_dilation(block, iterations=2)
+    for p, around in ((maps["area_outer_normalized_p_fwer"][0], block),
+                      (maps["area_outer_normalized_p_cluster"][0], near)):   # + the fringe
+        assert p[block] == pytest.approx(2 / 70)
+        assert np.all(p[~around] > 0.05)
     figures.group_maps_figure(maps, tmp_path / "m.png", value_range=(0, 1))
     axes = [ax for ax in drawn["fig"].axes if ax.images]
-    assert axes[-1].get_title() == "banded - normal (p < 0.05 outlined)"
-    outline = np.concatenate([path.vertices for c in axes[-1].collections
-                              for path in c.get_paths()])
-    # the contour runs round the block: rows 20-30 of 50, phases 40-60 of 100
-    assert outline[:, 0].min() == pytest.approx(0.4, abs=0.011)
-    assert outline[:, 0].max() == pytest.approx(0.6, abs=0.011)
-    assert outline[:, 1].min() == pytest.approx(0.4, abs=0.011)
-    assert outline[:, 1].max() == pytest.approx(0.6, abs=0.011)
+    assert axes[-1].get_title() == ("banded - normal\nclusters p < 0.05 outlined, "
+                                    "pixels p < 0.05 dashed")
+    assert len(axes[-1].collections) == 2                  # the cluster, the pixels
+    for c, pixels in zip(axes[-1].collections, (2, 0)):   # the cluster's fringe: 2 pixels
+        outline = np.concatenate([path.vertices for path in c.get_paths()])
+        # the contour runs round the block: rows 20-30 of 50, phases 40-60 of 100
+        assert 0.4 - 0.01 * (pixels + 1) < outline[:, 0].min() < 0.41
+        assert 0.59 < outline[:, 0].max() < 0.6 + 0.01 * (pixels + 1)
+        assert 0.4 - 0.02 * (pixels + 1) < outline[:, 1].min() < 0.41
+        assert 0.59 < outline[:, 1].max() < 0.6 + 0.02 * (pixels + 1)
     assert not axes[0].collections
 
 
 def test_group_maps_leave_out_embryos_without_the_map(tmp_path, monkeypatch):
     """Wall thickness maps: an embryo without an inner wall (all NaN) is not counted,
     and a group with none has no difference panel."""
-    from oftimg.image.group_maps import group_differences
-
     drawn = []
     monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.append(fig) or path)
     groups = np.array(["normal", "normal", "banded", "banded", "KO"])
     thickness = np.stack([np.full((50, 100), 0.03 + 0.01 * k) for k in range(5)])
     thickness[[3, 4]] = np.nan
-    names, difference, p = group_differences(thickness, groups)
-    maps = {"groups": groups, "wall_thickness_mm": thickness, "comparisons": names,
-            "wall_thickness_mm_difference": difference, "wall_thickness_mm_p_fwer": p}
-    figures.group_maps_figure(maps, tmp_path / "w.png", key="wall_thickness_mm", title="wall")
+    figures.group_maps_figure(_compared(thickness, groups, "wall_thickness_mm"),
+                              tmp_path / "w.png", key="wall_thickness_mm", title="wall")
     axes = [ax for ax in drawn[0].axes if ax.images]
     assert [ax.get_title() for ax in axes] == [
-        "normal mean (n = 2)", "banded mean (n = 1)", "banded - normal (too few embryos to test)"]
+        "normal mean (n = 2)", "banded mean (n = 1)", "banded - normal\ntoo few embryos to test"]
     assert axes[0].images[0].get_clim() == pytest.approx((0.035, 0.05))   # the means' range
     assert np.asarray(axes[2].images[0].get_array()) == pytest.approx(0.05 - 0.035)
 

@@ -61,22 +61,26 @@ def groups_in_order(groups) -> list[str]:
     return sorted(dict.fromkeys(np.asarray(groups).tolist()), key=lambda g: (g != "normal", g))
 
 
-def group_differences(maps: np.ndarray, groups, **test_options):
-    """Each other group against the first of :func:`groups_in_order`: the names
-    (``"banded - normal"``), the differences of the group means of ``maps (n, rows,
-    cols)`` and each pixel's p-value corrected over the map
-    (:func:`oftimg.stats.map_permutation_test`), both ``(n_comparisons, rows, cols)``."""
-    from ..stats import map_permutation_test
+def group_differences(maps: np.ndarray, groups, **test_options) -> dict:
+    """Each other group against the first of :func:`groups_in_order`, on
+    ``maps (n, positions, phases)``: ``names`` (``"banded - normal"``), and each
+    ``(n_comparisons, positions, phases)``: ``difference`` of the group means,
+    ``p_fwer`` each pixel's p corrected over the map
+    (:func:`oftimg.stats.map_permutation_test`) and ``p_cluster`` the p of the
+    cluster each pixel belongs to (:func:`oftimg.stats.map_cluster_test`, clusters
+    joined across the cycle's ends; 1 outside clusters)."""
+    from ..stats import map_cluster_test, map_permutation_test
 
     groups = np.asarray(groups)
     order = groups_in_order(groups)
-    names, differences, p_values = [], [], []
+    out = {"names": [], "difference": [], "p_fwer": [], "p_cluster": []}
     for g in order[1:]:
-        difference, p = map_permutation_test(maps[groups == g], maps[groups == order[0]],
-                                             **test_options)
-        names.append(f"{g} - {order[0]}")
-        differences.append(difference)
-        p_values.append(p)
-    empty = np.empty((0,) + maps.shape[1:])
-    return (names, np.array(differences) if names else empty,
-            np.array(p_values) if names else empty)
+        a, b = maps[groups == g], maps[groups == order[0]]
+        difference, p = map_permutation_test(a, b, **test_options)
+        out["names"].append(f"{g} - {order[0]}")
+        out["difference"].append(difference)
+        out["p_fwer"].append(p)
+        out["p_cluster"].append(map_cluster_test(a, b, periodic_axis=1, **test_options))
+    for key in ("difference", "p_fwer", "p_cluster"):
+        out[key] = np.array(out[key]).reshape((len(out["names"]),) + maps.shape[1:])
+    return out

@@ -452,8 +452,9 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
     ``folder``, which holds each dataset's results in ``folder/<name>``."""
     from .figures import group_figures
     from .html import cohort_page, dataset_page
-    from .report import (field_smoothing_caveat, group_comparison, smoothing_caveat,
-                         write_cohort_markdown, write_cohort_table, write_groups_table)
+    from .report import (field_smoothing_caveat, group_comparison, map_comparison_rows,
+                         smoothing_caveat, write_cohort_markdown, write_cohort_table,
+                         write_groups_table)
 
     caveats = [c for c in (smoothing_caveat(summaries), field_smoothing_caveat(summaries),
                            field_smoothing_caveat(summaries, "strain_smoothing_ms")) if c]
@@ -474,7 +475,7 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
     for s in summaries:
         dataset_page(folder / s["name"], s)
     write_json(folder / "run.json", run_info)
-    cohort_page(folder, summaries, run_info, group_figs, comparison)
+    cohort_page(folder, summaries, run_info, group_figs, comparison, map_comparison_rows(maps))
 
 
 def cohort(sources, out, *, overwrite: bool = False) -> Path:

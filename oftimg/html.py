@@ -157,9 +157,11 @@ def dataset_page(folder: Path, summary: dict) -> Path:
 
 
 def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: list[Path],
-                comparison: list[dict] | None = None) -> Path:
+                comparison: list[dict] | None = None, map_rows: list[dict] | None = None
+                ) -> Path:
     """``index.html``: cohort table, group comparison and figures, provenance;
-    ``comparison``: :func:`~oftimg.report.group_comparison` if already made."""
+    ``comparison``: :func:`~oftimg.report.group_comparison` if already made;
+    ``map_rows``: :func:`~oftimg.report.map_comparison_rows`."""
     cols = [c for c, _ in COHORT_COLUMNS]
     body = ["<h1>oftimg results</h1>",
             f"<p class=\"small\">{len(summaries)} datasets; oftimg "
@@ -181,6 +183,15 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                         and r["p_holm"] < 0.05)]
         body += [f"<p class=\"small\">Note: {html.escape(n)}</p>"
                  for n in run_info.get("notes", [])]
+    if map_rows:
+        body += ["<h2>Where the groups differ on the maps</h2><p class=\"small\">"
+                 "cohort_maps.npz: each group against the normals on the common (position, "
+                 "cycle) grid; p corrected over the whole map, pixel by pixel (max-statistic "
+                 "permutation test) and by cluster (cluster-mass permutation test: the groups "
+                 "differ somewhere in a cluster, not at each of its pixels); the group map "
+                 "figures outline both</p>",
+                 _table(map_rows, list(map_rows[0]), highlight=lambda r: r["least_p_cluster"]
+                        is not None and r["least_p_cluster"] < 0.05)]
     if group_figs:
         body.append("<div class=\"grid\">")
         body += [f'<img src="{p.relative_to(out).as_posix()}" alt="{p.stem}">'

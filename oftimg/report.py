@@ -213,6 +213,27 @@ def field_smoothing_caveat(summaries: list[dict], key: str = "field_smoothing_ms
             f"analyse them all with {option} {largest:g}")
 
 
+def map_comparison_rows(maps: dict, alpha: float = 0.05) -> list[dict]:
+    """Per comparison of groups and tested map of ``maps``
+    (:func:`oftimg.export.cohort_maps`): the least p pixel by pixel and by cluster,
+    and the share of the map (of its pixels with a value) in clusters with p below
+    ``alpha``."""
+    from .export import TESTED_MAPS
+
+    rows = []
+    for k, name in enumerate(maps["comparisons"]):
+        for key in TESTED_MAPS:
+            p_fwer, p_cluster = maps[f"{key}_p_fwer"][k], maps[f"{key}_p_cluster"][k]
+            tested_pixels = np.isfinite(p_cluster)
+            rows.append({
+                "comparison": str(name), "map": key,
+                "least_p_pixel": float(np.nanmin(p_fwer)) if tested_pixels.any() else None,
+                "least_p_cluster": float(np.nanmin(p_cluster)) if tested_pixels.any() else None,
+                f"share_in_clusters_p<{alpha:g}": (float(np.mean(p_cluster[tested_pixels] < alpha))
+                                                   if tested_pixels.any() else None)})
+    return rows
+
+
 def write_groups_table(folder: Path, summaries: list[dict],
                        comparison: list[dict] | None = None) -> Path | None:
     """``groups.csv``: group means, sds and permutation p-values (two groups or more);

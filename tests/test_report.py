@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from oftimg.report import cohort_rows, group_comparison, mean_curve, write_cohort_markdown
+from oftimg.report import (cohort_rows, group_comparison, map_comparison_rows, mean_curve,
+                           write_cohort_markdown)
 from oftimg.stats import holm, permutation_test
 
 
@@ -131,3 +132,24 @@ def test_field_smoothing_caveat_names_the_fields_smoothed_differently():
                                                "strain_smoothing_ms": 5.0}], "strain_smoothing_ms")
     assert "strain fields" in text and "strain_energy_inner (a: 5 ms; b: 10 ms)" in text
     assert text.endswith("--strain-smoothing-ms 10")
+
+
+def test_map_comparison_rows_sum_up_where_the_groups_differ():
+    from oftimg.image.group_maps import group_differences
+
+    rng = np.random.default_rng(0)
+    groups = np.array(["normal", "banded"] * 4)
+    maps = {"groups": groups}
+    area = 0.6 + 0.02 * rng.standard_normal((8, 50, 100))
+    area[groups == "banded", 20:30, 40:60] += 0.3                 # 4 % of the map
+    thickness = 0.03 + 0.002 * rng.standard_normal((8, 50, 100))
+    thickness[groups == "normal"] = np.nan                          # no inner walls
+    for key, values in (("area_outer_normalized", area), ("wall_thickness_mm", thickness)):
+        compared = group_differences(values, groups)
+        maps["comparisons"] = compared.pop("names")
+        maps.update({f"{key}_{what}": v for what, v in compared.items()})
+    area_row, thickness_row = map_comparison_rows(maps)
+    assert area_row["comparison"] == "banded - normal" and area_row["map"] == "area_outer_normalized"
+    assert area_row["least_p_pixel"] == area_row["least_p_cluster"] == pytest.approx(2 / 70)
+    assert 0.04 <= area_row["share_in_clusters_p<0.05"] < 0.06      # the block and its fringe
+    assert thickness_row["least_p_cluster"] is None

@@ -156,23 +156,20 @@ def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.0
     exact = comb(n + m, n) <= exact_max
     relabelling = dict(exact=exact, n_random=n_random, seed=seed)
     total = comb(n + m, n) if exact else n_random
-    k = max(1, int(np.floor(cluster_alpha * total)))
-    top = np.empty((0, X.shape[1]))    # each pixel's k largest |difference| so far
+    n_top = max(1, int(np.floor(cluster_alpha * total)))
+    top = np.empty((0, X.shape[1]))    # each pixel's n_top largest |difference| so far
     for d in _relabelled_differences(X, n, m, **relabelling):
         top = np.concatenate([top, np.abs(d)])
-        if len(top) > k:
-            top = np.partition(top, len(top) - k, axis=0)[-k:]
-    threshold = top.min(axis=0)      # the k-th largest: uncorrected p <= cluster_alpha
+        if len(top) > n_top:
+            top = np.partition(top, len(top) - n_top, axis=0)[-n_top:]
+    threshold = top.min(axis=0)     # the n_top-th largest: uncorrected p <= cluster_alpha
 
     def clusters(abs_difference):
         """Cluster labels ``(k, rows, cols)`` of the maps ``abs_difference (k, valid
         pixels)``, numbered across them, and each cluster's weight (0: outside)."""
         supra = (abs_difference >= threshold * (1 - 1e-12)) & (abs_difference > 0)
-        if not valid.all():
-            full = np.zeros((len(abs_difference), valid.size))
-            full[:, valid], abs_difference = abs_difference, full
-            full = np.zeros(full.shape, bool)
-            full[:, valid], supra = supra, full
+        if not valid.all():                          # back onto every pixel of the map
+            abs_difference, supra = _on_map(abs_difference, valid), _on_map(supra, valid)
         labels, count = _cluster_labels(supra.reshape((-1,) + shape), periodic_axis)
         return labels, np.bincount(labels.ravel(), weights=abs_difference.ravel(),
                                    minlength=count + 1)
@@ -190,6 +187,13 @@ def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.0
                                                        exact=exact)])
     p[valid] = cluster_p[labels[0].ravel()[valid]]
     return p.reshape(shape)
+
+
+def _on_map(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """``values (k, valid pixels)`` on every pixel ``(k, pixels)``, 0 (False) elsewhere."""
+    out = np.zeros((len(values), valid.size), dtype=values.dtype)
+    out[:, valid] = values
+    return out
 
 
 def _cluster_labels(mask: np.ndarray, periodic_axis: int | None) -> tuple[np.ndarray, int]:

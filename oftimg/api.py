@@ -6,7 +6,6 @@ science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
 from __future__ import annotations
 
 import contextlib
-import json
 import logging
 import math
 import platform

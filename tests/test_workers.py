@@ -220,8 +220,16 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
 
 
 def _worker_pids(main_pid: int) -> list[int]:
+    """The main process's pool workers; a child that ends while it is looked at (a
+    short-lived helper process) is not one."""
+    def cmdline(pid):
+        try:
+            return open(f"/proc/{pid}/cmdline", "rb").read()
+        except OSError:                                  # ProcessLookupError: gone
+            return b""
+
     children = open(f"/proc/{main_pid}/task/{main_pid}/children").read().split()
-    return [int(c) for c in children if b"spawn_main" in open(f"/proc/{c}/cmdline", "rb").read()]
+    return [int(c) for c in children if b"spawn_main" in cmdline(c)]
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")

@@ -319,8 +319,9 @@ def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
             "wall_thickness_mm": np.array(thickness)}
     for key in TESTED_MAPS:
         compared = group_differences(maps[key], maps["groups"])
-        maps["comparisons"] = np.array(compared.pop("names"), dtype=str)
+        names = compared.pop("names")            # the same groups for every map
         maps.update({f"{key}_{what}": value for what, value in compared.items()})
+    maps["comparisons"] = np.array(names, dtype=str)
     return maps
 
 

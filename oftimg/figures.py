@@ -376,10 +376,9 @@ def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normaliz
     Embryos without the map (all NaN) are left out."""
     from .image.group_maps import group_mean_maps
 
-    order = groups_in_order(maps["groups"])
     present = ~np.all(np.isnan(maps[key]), axis=(1, 2))
+    order = groups_in_order(maps["groups"][present])
     means = group_mean_maps(maps[key][present], maps["groups"][present])
-    order = [g for g in order if g in means]
     lo, hi = value_range or (np.nanmin([means[g][0] for g in order]),
                              np.nanmax([means[g][0] for g in order]))
     extent = [0, 1, 0, 1]

@@ -272,10 +272,15 @@ COHORT_MAPS = {
     "wall_thickness_mm": (["embryo", "position", "phase"], "mm",
                           "the myocardial wall's mean thickness around the tube, resampled "
                           "likewise (NaN for a dataset without an inner wall)"),
+    "strain_energy_outer": (["embryo", "position", "phase"], "1",
+                            "the outer wall's strain energy against t = 0 "
+                            "(strain_energy_outer), mean around the tube, resampled likewise"),
     "comparisons": (["comparison"], "", "each other group against the first (normals "
                                         "first): 'banded - normal'"),
 }
-TESTED_MAPS = ("area_outer_normalized", "wall_thickness_mm")   # compared between groups
+# fields (n_u, n_v, n_t) of arrays.npz whose mean around the tube is a cohort map
+AROUND_TUBE_MAPS = ("wall_thickness_mm", "strain_energy_outer")
+TESTED_MAPS = ("area_outer_normalized", *AROUND_TUBE_MAPS)   # compared between groups
 for _key in TESTED_MAPS:
     _unit = COHORT_MAPS[_key][1]
     COHORT_MAPS[f"{_key}_difference"] = (
@@ -293,30 +298,32 @@ for _key in TESTED_MAPS:
 
 
 def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
-    """Every dataset's outer area map (and each row over its maximum) and wall
-    thickness around the tube on one grid of position and cycle fractions
+    """Every dataset's outer area map (and each row over its maximum) and the mean
+    around the tube of each field of :data:`AROUND_TUBE_MAPS` (NaN where a dataset
+    has none) on one grid of position and cycle fractions
     (:mod:`oftimg.image.group_maps`), read from ``results/<name>/arrays.npz``, and
     where the groups differ in the maps of :data:`TESTED_MAPS`: the arrays of
     :data:`COHORT_MAPS`."""
     from .image.group_maps import (common_grid, group_differences, on_common_grid,
                                    row_normalized)
-    from .pipeline import wall_thickness_around
+    from .pipeline import mean_around_tube
 
     position, phase = common_grid()
-    area, normalized, thickness = [], [], []
+    missing = np.full((len(position), len(phase)), np.nan)
+    stacks = {key: [] for key in ("area_outer_mm2", "area_outer_normalized", *AROUND_TUBE_MAPS)}
     for s in summaries:
         with np.load(Path(results) / s["name"] / "arrays.npz") as a:
             grid = (a["s_mm"], a["t_ms"], s["period_ms"])
-            area.append(on_common_grid(a["area_outer_mm2"], *grid))
-            normalized.append(on_common_grid(row_normalized(a["area_outer_mm2"]), *grid))
-            thickness.append(on_common_grid(wall_thickness_around(a["wall_thickness_mm"]), *grid)
-                             if "wall_thickness_mm" in a.files
-                             else np.full((len(position), len(phase)), np.nan))
+            stacks["area_outer_mm2"].append(on_common_grid(a["area_outer_mm2"], *grid))
+            stacks["area_outer_normalized"].append(
+                on_common_grid(row_normalized(a["area_outer_mm2"]), *grid))
+            for key in AROUND_TUBE_MAPS:
+                stacks[key].append(on_common_grid(mean_around_tube(a[key]), *grid)
+                                   if key in a.files else missing)
     maps = {"names": np.array([s["name"] for s in summaries]),
             "groups": np.array([s["group"] for s in summaries]),
             "position_fraction": position, "cycle_fraction": phase,
-            "area_outer_mm2": np.array(area), "area_outer_normalized": np.array(normalized),
-            "wall_thickness_mm": np.array(thickness)}
+            **{key: np.array(stack) for key, stack in stacks.items()}}
     for key in TESTED_MAPS:
         compared = group_differences(maps[key], maps["groups"])
         names = compared.pop("names")            # the same groups for every map

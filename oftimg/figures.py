@@ -116,9 +116,9 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
     if "ridge_t_ms" in arrays:
         written += map_figures(folder, name, arrays, summary, summary["period_ms"])
     if "wall_thickness_mm" in arrays:
-        from .pipeline import wall_thickness_around
+        from .pipeline import mean_around_tube
 
-        rows_um = 1000 * wall_thickness_around(arrays["wall_thickness_mm"])     # (n_v, n_t)
+        rows_um = 1000 * mean_around_tube(arrays["wall_thickness_mm"])     # (n_v, n_t)
         written.append(area_map(rows_um, arrays["s_mm"], t_ms,
                                 folder / "wall_thickness_map.png",
                                 ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
@@ -362,6 +362,8 @@ GROUP_MAPS = [
      (0.0, 1.0)),
     ("wall_thickness_mm", "myocardial wall thickness, mean around the tube (mm)",
      "group_wall_thickness_maps.png", None),
+    ("strain_energy_outer", "outer wall's strain energy against t = 0, mean around the tube",
+     "group_strain_energy_maps.png", None),
 ]
 
 

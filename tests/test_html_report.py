@@ -44,7 +44,7 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
     text = index.read_text()
     assert "normal" in text and "banded" in text and "permutation" in text
     assert "Where the groups differ on the maps" in text
-    assert text.count("<td>banded - normal</td>") == 2       # area and wall thickness
+    assert text.count("<td>banded - normal</td>") == 3       # area, wall thickness, strain
     pages = [index] + sorted(cohort_out.glob("*/index.html"))
     assert len(pages) == 3
     for page in pages[1:]:

@@ -318,8 +318,8 @@ def _command(args) -> int:
 
 
 def _validate(path: Path, *, as_json: bool) -> int:
-    """Check a dataset, or every dataset of a cohort (each one's first problem is
-    printed, and the rest are checked); 2 if any has a problem."""
+    """Check a dataset, or every dataset of a cohort (each one's problem, or its bad
+    frames, printed, and the rest are checked); 2 if any has a problem."""
     from .errors import InputError
     from .io import find_datasets, load_dataset, validate_dataset
     from .progress import Progress

@@ -32,6 +32,7 @@ SURFACES = ("outer", "inner", "lumen")
 MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off", ".vtk", ".vtp")
 UNIT_TO_MM = {"mm": 1.0, "um": 1e-3}
 DEFAULT_FRAME_MS = 2.0
+FILES_NAMED = 6     # bad files an error names of a kind (the rest counted)
 META_KEYS = {"name": str, "group": str, "period_ms": (int, float),
              "length_unit": str, "voxel_size": list, "inlet": list}
 
@@ -592,13 +593,23 @@ def _reference_inlet(frames: list[Path], unit_scale, n_probe: int = 5) -> np.nda
 
     The loops of a few evenly spaced frames are matched to the first frame's
     loops by centroid; the end whose enclosed area summed over these frames is
-    larger is the inlet (the OFT tapers towards the outlet).
+    larger is the inlet (the OFT tapers towards the outlet). A frame that cannot be
+    read is passed over for the next one (the validation names every such frame);
+    when none can, the first one's error is raised.
     """
     idx = np.unique(np.linspace(0, len(frames) - 1, min(n_probe, len(frames))).astype(int))
-    ref = None
+    order = [*idx, *sorted(set(range(len(frames))) - set(idx))]
+    ref, refused, n_read = None, [], 0
     area = np.zeros(2)
-    for i in idx:
-        tube = load_tube(frames[i], unit_scale=unit_scale, warn=False)  # validation will
+    for i in order:
+        if n_read == len(idx):
+            break
+        try:
+            tube = load_tube(frames[i], unit_scale=unit_scale, warn=False)  # validation will
+        except DatasetError as exc:
+            refused.append(exc)
+            continue
+        n_read += 1
         loops = (tube.inlet, tube.outlet)
         cents = [loop_centroid(tube.V[lp]) for lp in loops]
         areas = [np.linalg.norm(loop_vector_area(tube.V[lp])) for lp in loops]
@@ -609,6 +620,10 @@ def _reference_inlet(frames: list[Path], unit_scale, n_probe: int = 5) -> np.nda
         if d_swap < d_same:
             areas = areas[::-1]
         area += areas
+    if ref is None:
+        refused[0].add_note(f"no frame of {frames[0].parent} can be read as a tube "
+                            f"(all {len(frames)} were tried)")
+        raise refused[0]
     return np.asarray(ref[0] if area[0] >= area[1] else ref[1])
 
 
@@ -642,6 +657,13 @@ def load_dataset(path: str | Path) -> Dataset:
             files = list_frames(folder)
             if not files:
                 raise DatasetError(f"{folder}: no mesh files ({', '.join(MESH_SUFFIXES)})")
+            broken = [f for f in files if not f.exists()]     # a frame moved away
+            if broken:
+                raise DatasetError(f"{broken[0]}: a broken link" + (
+                    f" (and {len(broken) - 1} more in {folder}: "
+                    f"{', '.join(f.name for f in broken[1:FILES_NAMED + 1])}"
+                    f"{', ...' if len(broken) > FILES_NAMED + 1 else ''})"
+                    if len(broken) > 1 else ""))
             frames[surface] = files
     n = len(frames["outer"])
     for surface, files in frames.items():
@@ -684,10 +706,49 @@ def frame_facts(frame: Frame, surface: str
     return facts, record, repairs.describe()
 
 
+def _facts_or_problem(frame: Frame, surface: str):
+    """:func:`frame_facts`, or the :class:`DatasetError` that refuses the frame's
+    mesh, returned: one pass finds every bad frame."""
+    try:
+        return frame_facts(frame, surface)
+    except DatasetError as exc:
+        return exc
+
+
+def _every_bad_frame(ds: Dataset, problems: list[tuple[str, DatasetError]]) -> DatasetError:
+    """One error for the meshes that cannot be used, ``problems`` (file, its error)
+    in surface and time order: the first one's message, with how many more, and a
+    note per kind of problem (the same message but for its numbers) giving its
+    first file's message and naming the others, relative to the dataset."""
+    if len(problems) == 1:
+        return problems[0][1]
+    kinds: dict[str, list[tuple[str, str]]] = {}
+    for file, exc in problems:
+        problem = str(exc).removeprefix(f"{file}: ")
+        kinds.setdefault(re.sub(r"\d+", "#", problem), []).append(
+            (Path(file).relative_to(ds.path).as_posix(), problem))
+    error = DatasetError(f"{problems[0][1]} (and {len(problems) - 1} more of the dataset's "
+                         f"{ds.n_frames * len(ds.surfaces)} meshes cannot be used: below)")
+    for k, members in enumerate(kinds.values()):
+        others = [file for file, _ in members[1:]]
+        named = ", ".join(others[:FILES_NAMED]) + (f", ... {others[-1]}"
+                                                   if len(others) > FILES_NAMED else "")
+        same = (f"the same problem in {len(others)} more mesh{'es' if len(others) > 1 else ''}: "
+                f"{named}") if others else ""
+        if k == 0 and not others:       # the first line names it
+            continue
+        error.add_note(same if k == 0 else f"{members[0][0]}: {members[0][1]}"
+                       + (f"; {same}" if same else ""))
+    error.problems = [(file, str(exc)) for file, exc in problems]
+    return error
+
+
 def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
     """Read every frame of every surface once; return a per-surface report.
 
-    Raises :class:`DatasetError` at the first bad frame, naming its file. With
+    Raises one :class:`DatasetError` for every bad frame: the first one's message
+    names its file, the notes the others by kind of problem (its ``problems``:
+    each file and its message), so that one pass finds them all. With
     an ``executor`` (``concurrent.futures``), frames are checked in its workers.
     Remembers in ``ds.checked`` which files needed no repair, so that the
     analysis reads them again without the checks while they are unchanged.
@@ -699,15 +760,21 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
               "inlet_mm": [round(float(x), 6) for x in ds.inlet_mm],
               "inlet_from": "meta.json" if ds.meta.inlet_mm is not None else "larger end loop",
               "surfaces": {}}
+    problems = []
     for surface in ds.surfaces:
         frames = [ds.frame(t) for t in range(ds.n_frames)]
-        checks = (map(frame_facts, frames, [surface] * ds.n_frames) if executor is None
-                  else executor.map(frame_facts, frames, [surface] * ds.n_frames))
+        checks = (map(_facts_or_problem, frames, [surface] * ds.n_frames) if executor is None
+                  else executor.map(_facts_or_problem, frames, [surface] * ds.n_frames))
         results = []
         for result in checks:
             results.append(result)
             if progress:
                 progress()
+        bad = [(ds.frames[surface][t], r) for t, r in enumerate(results)
+               if isinstance(r, DatasetError)]
+        if bad:
+            problems += [(str(file), exc) for file, exc in bad]
+            continue
         for t, (_, record, _) in enumerate(results):
             if record is not None:
                 ds.checked[surface, t] = record
@@ -727,5 +794,7 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
             "outlet_area_mm2_median": float(np.median(outlet_area)),
             "repairs": repairs,
         }
+    if problems:
+        raise _every_bad_frame(ds, problems)
     ds.validated = True
     return report

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from helpers import tube_mesh, write_series
+from helpers import InPlace, tube_mesh, write_series
 from oftimg.cli import main
 from oftimg.io import (DatasetError, OftimgWarning, check_tube_file, declared_counts,
                        find_datasets, list_frames, load_dataset, load_tube, natural_key,
@@ -469,7 +469,7 @@ def test_repairs_are_reported_once_per_surface_not_per_frame_and_pass(tmp_path):
 
 # ------------------------------------------------------------------ bad input
 def _bad(tmp_path, kind):
-    ds = write_series(tmp_path / "bad", cone_frames())
+    ds = write_series(tmp_path / "bad", cone_frames(5))
     (ds / "meta.json").write_text(json.dumps({"period_ms": 3.0}))
     target = ds / "outer" / "f1.ply"
     V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
@@ -539,7 +539,7 @@ BAD = {"empty": "empty", "garbage": "no triangles",
        "two_tubes": "2 connected components (432, 432 faces); a tube has 1",
        "nan": "NaN", "broken_link": "a broken link", "capitals": "rename it inner/",
        "truncated": "it ends among its faces, with 427 of the 432",
-       "frame_count": "2 frames, but outer/ has 3", "meta_json": "not valid JSON",
+       "frame_count": "2 frames, but outer/ has 5", "meta_json": "not valid JSON",
        "meta_unit": "length_unit", "meta_name": "cannot be a folder name",
        **{f"meta_voxel_{k}": "voxel_size must be three positive numbers"
           for k in ("two", "zero", "text", "negative")},
@@ -561,6 +561,58 @@ def test_bad_input_names_file_and_problem(tmp_path, kind, capsys):
     assert not out.exists()
     if before is not None:
         assert listing(ds) == before
+
+
+def test_every_bad_frame_is_named_in_one_pass(tmp_path, capsys):
+    """A segmentation that failed in several frames: one run names them all, by kind
+    of problem, where it named one a run; nothing is written."""
+    ds = write_series(tmp_path / "emb", cone_frames(12))
+    write_series(ds, cone_frames(12), surface="inner")
+    truncated = [ds / "outer" / f"f{t}.ply" for t in (2, 3, 4, 5, 6, 7, 8, 10)]
+    for f in truncated:
+        f.write_bytes(f.read_bytes()[:400])
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    V[7] = np.nan
+    write_ply(ds / "inner" / "f5.ply", V, F)
+    with pytest.raises(DatasetError) as err:
+        validate_dataset(load_dataset(ds), executor=InPlace())
+    first = f"{truncated[0]}: the file is truncated"
+    assert str(err.value).startswith(first)
+    assert str(err.value).endswith("(and 8 more of the dataset's 24 meshes cannot be used: "
+                                   "below)")
+    assert err.value.__notes__ == [
+        "the same problem in 7 more meshes: outer/f3.ply, outer/f4.ply, outer/f5.ply, "
+        "outer/f6.ply, outer/f7.ply, outer/f8.ply, ... outer/f10.ply",
+        "inner/f5.ply: 1 vertices have NaN or infinite coordinates"]
+    assert [file for file, _ in err.value.problems] == [str(f) for f in truncated] + [
+        str(ds / "inner" / "f5.ply")]
+    out = tmp_path / "out"
+    assert main(["run", str(ds), "--out", str(out), "--quiet"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines[0].startswith(f"oftimg: error: {first}") and len(lines) == 3
+    assert lines[2] == "oftimg: " + err.value.__notes__[1]
+    assert not out.exists()
+
+
+def test_every_broken_link_is_named(tmp_path):
+    ds = write_series(tmp_path / "emb", cone_frames(5))
+    for t in (1, 2, 4):
+        (ds / "outer" / f"f{t}.ply").unlink()
+        (ds / "outer" / f"f{t}.ply").symlink_to(tmp_path / "moved_away.ply")
+    with pytest.raises(DatasetError) as err:
+        load_dataset(ds)
+    assert str(err.value) == (f"{ds / 'outer' / 'f1.ply'}: a broken link (and 2 more in "
+                              f"{ds / 'outer'}: f2.ply, f4.ply)")
+
+
+def test_a_series_without_one_readable_frame_says_so(tmp_path):
+    ds = write_series(tmp_path / "emb", cone_frames(7))
+    for f in (ds / "outer").iterdir():
+        f.write_bytes(f.read_bytes()[:400])
+    with pytest.raises(DatasetError, match="f0.ply: the file is truncated") as err:
+        load_dataset(ds)
+    assert err.value.__notes__ == [f"no frame of {ds / 'outer'} can be read as a tube "
+                                   "(all 7 were tried)"]
 
 
 def test_out_inside_dataset_and_nonempty_out_are_refused(dataset, tmp_path, capsys):

@@ -28,9 +28,14 @@ def test_output_contract(run_out, phantom_normal):
     described = json.loads((folder / "arrays.json").read_text())
     pca = np.load(folder / "pca.npz")
     assert set(arrays.files) | set(grids.files) | set(pca.files) == set(described)
+    for file, held in (("arrays.npz", arrays), ("grids.npz", grids), ("pca.npz", pca)):
+        for name in held.files:
+            assert described[name]["file"] == file
+            assert described[name]["shape"] == list(held[name].shape)
+            assert described[name]["dtype"] == str(held[name].dtype)
+            assert described[name]["dims"] and "description" in described[name]
     for name in arrays.files:
-        assert described[name]["shape"] == list(arrays[name].shape)
-        assert described[name]["unit"] and described[name]["dims"]
+        assert described[name]["unit"]
         if "v" in described[name]["dims"] and "t" in described[name]["dims"]:
             dims = described[name]["dims"]
             assert arrays[name].shape[dims.index("v")] == 50

@@ -194,8 +194,8 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                         is not None and r["least_p_cluster"] < 0.05)]
     if group_figs:
         body.append("<div class=\"grid\">")
-        body += [f'<img src="{p.relative_to(out).as_posix()}" alt="{p.stem}">'
-                 for p in group_figs]
+        body += [f'<figure><img src="{p.relative_to(out).as_posix()}" alt="{p.stem}">'
+                 f'<figcaption class="small">{p.stem}</figcaption></figure>' for p in group_figs]
         body.append("</div>")
     body.append("<h2>Run</h2><pre class=\"small\">"
                 + html.escape(json.dumps(run_info, indent=1)) + "</pre>")

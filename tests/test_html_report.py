@@ -45,6 +45,9 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
     assert "normal" in text and "banded" in text and "permutation" in text
     assert "Where the groups differ on the maps" in text
     assert text.count("<td>banded - normal</td>") == 3       # area, wall thickness, strain
+    for figure in sorted((cohort_out / "figures").glob("*.png")):   # each named below it
+        assert (f'<img src="figures/{figure.name}" alt="{figure.stem}"><figcaption '
+                f'class="small">{figure.stem}</figcaption>') in text
     pages = [index] + sorted(cohort_out.glob("*/index.html"))
     assert len(pages) == 3
     for page in pages[1:]:

@@ -53,6 +53,15 @@ def cycle_timing(volume: np.ndarray, period_ms: float) -> dict:
     }
 
 
+def volume_change(volume_mm3: np.ndarray) -> float:
+    """How much a volume changes over the cycle: (largest - smallest) / smallest of
+    ``volume_mm3 (n_t,)``; NaN where the smallest is not positive (a layer between two
+    walls that cross: its inside wall is larger than its outside one)."""
+    volume_mm3 = np.asarray(volume_mm3, dtype=float)
+    smallest = volume_mm3.min()
+    return float((volume_mm3.max() - smallest) / smallest) if smallest > 0 else float("nan")
+
+
 def wrap_step_ratio(volume: np.ndarray) -> float:
     """The step from the last frame back to the first over the largest step between
     consecutive frames, ``volume (n_t,)``. At most 1 when the frames sample one

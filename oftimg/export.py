@@ -357,6 +357,10 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "clip_v": (["t"], "1", "v of the Lagrangian clipping plane (constant myocardial volume)"),
         "trim_percent": (["t"], "%", "trim distance along the centroid line, % of its length"),
         "volume_myocardium_mm3": (["t"], "mm^3", "outer minus inner capped volume"),
+        "volume_jelly_mm3": (["t"], "mm^3", "the cardiac jelly: inner minus lumen capped "
+                                            "volume"),
+        "area_jelly_mm2": (["v", "t"], "mm^2", "the cardiac jelly's section area: "
+                                               "area_inner_mm2 minus area_lumen_mm2"),
         "centroid_outer_mm": (["v", "t", "xyz"], "mm", "centroids of the outer section contours"),
         "plane_origin_mm": (["v", "t", "xyz"], "mm", "a point of each cross-section plane"),
         "plane_normal": (["v", "t", "xyz"], "1", "unit normal of each cross-section plane, "

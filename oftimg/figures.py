@@ -15,7 +15,8 @@ import numpy as np  # noqa: E402
 from .image.group_maps import groups_in_order  # noqa: E402
 
 WALL_COLOURS = {"outer": "#c0392b", "inner": "#e59866", "lumen": "#2e86c1",
-                "myocardium": "#6c3483"}
+                "myocardium": "#6c3483", "jelly": "#16a085"}
+LAYERS = {"myocardium": "myocardium (outer - inner)", "jelly": "cardiac jelly (inner - lumen)"}
 
 
 def plain_text(text: str) -> str:
@@ -33,12 +34,13 @@ def _save(fig, path: Path) -> Path:
 
 def volume_over_cycle(t_ms: np.ndarray, volumes_mm3: dict[str, np.ndarray], path: Path,
                       *, title: str = "") -> Path:
-    """Volumes of each wall and the myocardium over the aligned cycle."""
+    """Volumes of each wall, and of the layers between them (``myocardium``: outer -
+    inner, ``jelly``: inner - lumen), over the aligned cycle."""
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
     for name, v in volumes_mm3.items():
-        ax = axes[1] if name == "myocardium" else axes[0]
-        ax.plot(t_ms, v, color=WALL_COLOURS.get(name, "k"), label=name, lw=1.6)
-    for ax, what in zip(axes, ("volume inside each wall", "myocardial volume (outer - inner)")):
+        ax = axes[1] if name in LAYERS else axes[0]
+        ax.plot(t_ms, v, color=WALL_COLOURS.get(name, "k"), label=LAYERS.get(name, name), lw=1.6)
+    for ax, what in zip(axes, ("volume inside each wall", "volume between the walls")):
         ax.set_xlabel("time since minimum volume (ms)")
         ax.set_ylabel("volume (mm$^3$)")
         ax.set_title(what, fontsize=9)
@@ -100,8 +102,8 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
     written = []
     volumes = {w: arrays[f"volume_{w}_mm3"] for w in ("outer", "inner", "lumen")
                if f"volume_{w}_mm3" in arrays}
-    if "volume_myocardium_mm3" in arrays:
-        volumes["myocardium"] = arrays["volume_myocardium_mm3"]
+    volumes.update({layer: arrays[f"volume_{layer}_mm3"] for layer in LAYERS
+                    if f"volume_{layer}_mm3" in arrays})
     written.append(volume_over_cycle(t_ms, volumes, folder / "volume_over_cycle.png",
                                      title=name))
     if "trim_percent" in arrays:

@@ -11,7 +11,7 @@ import numpy as np
 from . import __version__
 from .errors import InputError
 from .io import Dataset, OftimgWarning
-from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
+from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp, volume_change,
                     wrap_step_ratio)
 from .image.analysis import analyse_area_maps
 from .image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_fixed_positions
@@ -493,6 +493,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         arrays[f"contour_{w}_mm"] = contour[w].astype(np.float32)
         arrays[f"volume_from_sections_{w}_mm3"] = volume_sections[w]
         arrays[f"section_from_ring_{w}"] = rows[f"from_ring_{w}"] > 0
+    if "inner" in walls and "lumen" in walls:       # the cardiac jelly between them
+        arrays["area_jelly_mm2"] = maps["inner"] - maps["lumen"]
+        arrays["volume_jelly_mm3"] = volume["inner"] - volume["lumen"]
     arrays["centroid_outer_mm"] = centroid
     arrays["plane_origin_mm"] = origins
     arrays["plane_normal"] = normals
@@ -516,10 +519,17 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "tube_length_mm": float(s_mm[-1]),
         "t_max_volume_ms": ((timing["t_max_frame"] - t0) % n_t) * ds.meta.period_ms / n_t,
     }
+    if "volume_jelly_mm3" in arrays:
+        summary["jelly_volume_change"] = volume_change(arrays["volume_jelly_mm3"])
+        crossed = int(np.count_nonzero(arrays["volume_jelly_mm3"] <= 0))
+        if crossed:
+            warnings.warn(f"{ds.path}: the lumen holds as much as the inner wall or more in "
+                          f"{crossed} of {n_t} frames (walls crossing?): jelly_volume_change "
+                          "is NaN", OftimgWarning, stacklevel=2)
     if "inner" in walls:
         myo = volume["outer"] - volume["inner"]
         arrays["volume_myocardium_mm3"] = myo
-        summary["myocardial_volume_change"] = float((myo.max() - myo.min()) / myo.min())
+        summary["myocardial_volume_change"] = volume_change(myo)
         clip_v, target = clip_positions(area["outer"] - area["inner"], thickness["outer"])
         arrays["clip_v"] = clip_v
         arrays["trim_percent"] = 100.0 * np.array(

@@ -44,6 +44,7 @@ COHORT_COLUMNS = [
     ("corner_count", ("corner_count",)),
     ("tube_length_mm", ("tube_length_mm",)),
     ("myocardial_volume_change", ("myocardial_volume_change",)),
+    ("jelly_volume_change", ("jelly_volume_change",)),   # inner - lumen (not in the paper)
     ("wall_thickness_median_mm", ("wall_thickness_median_mm",)),
     ("wall_thickening", ("wall_thickening",)),   # rows' mean thickness, max / min - 1
     # quality checks: 0, 0 and about 0 on good data

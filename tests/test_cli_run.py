@@ -12,7 +12,7 @@ pytestmark = pytest.mark.slow
 
 SUMMARY_KEYS = {"name", "group", "n_frames", "period_ms", "t0_frame", "expand_fraction",
                 "contract_fraction", "expand_contract_ratio", "expand_ms", "contract_ms",
-                "tube_length_mm", "myocardial_volume_change", "provenance"}
+                "tube_length_mm", "myocardial_volume_change", "jelly_volume_change", "provenance"}
 
 
 def test_output_contract(run_out, phantom_normal):

@@ -40,7 +40,8 @@ def fixed_map():
 def figure_cases(tmp):
     arrays, summary, period = fixed_map()
     s, t = arrays["s_mm"], arrays["t_ms"]
-    vol = {"outer": 0.1 + 0.02 * np.sin(2 * np.pi * t / period), "myocardium": 0.03 + 0 * t}
+    vol = {"outer": 0.1 + 0.02 * np.sin(2 * np.pi * t / period), "myocardium": 0.03 + 0 * t,
+           "jelly": 0.02 + 0.005 * np.sin(2 * np.pi * t / period)}
     return {
         "area_map": lambda p: figures.area_map(
             arrays["area_outer_mm2"], s, t, p, ridge_t_ms=arrays["ridge_t_ms"],

@@ -6,7 +6,7 @@ import pytest
 
 from helpers import tube_mesh
 from oftimg.cycle import (cycle_timing, periodic_peak, resample_time, standout_frames,
-                          two_segment_warp, wrap_step_ratio)
+                          two_segment_warp, volume_change, wrap_step_ratio)
 from oftimg.mesh.clip import clip_grid, clip_positions, cumulative_from_outlet
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
 from oftimg.mesh.sections import (contour_around, crossing_planes, fix_crossing_planes,
@@ -170,6 +170,14 @@ def test_periodic_peak_and_timing():
     assert tim["expand_ms"] + tim["contract_ms"] == pytest.approx(400.0)
 
 
+def test_volume_change_is_the_range_over_the_least_and_nan_for_crossed_walls():
+    t = np.linspace(0, 1, 40, endpoint=False)
+    assert volume_change(0.02 + 0.01 * np.sin(2 * np.pi * t)) == pytest.approx(0.02 / 0.01)
+    assert volume_change(np.full(5, 0.03)) == 0.0
+    assert np.isnan(volume_change(np.array([0.01, 0.0, 0.02])))      # lumen as large
+    assert np.isnan(volume_change(np.array([0.01, -0.001, 0.02])))   # lumen larger
+
+
 @pytest.mark.parametrize("cycles, one_cycle", [(1.0, True), (0.6, False), (1.3, False),
                                                (0.97, True)])
 def test_wrap_step_tells_whether_the_frames_are_one_cycle(cycles, one_cycle):
@@ -293,6 +301,24 @@ def test_phantom_areas_match_truth(analysed_normal, wall, median_tol):
     rel = np.abs(measured / expected - 1)
     assert np.median(rel) < median_tol
     assert rel.max() < 0.10
+
+
+@pytest.mark.slow
+def test_phantom_cardiac_jelly_matches_truth(analysed_normal):
+    """The layer between the inner wall and the lumen: its section areas and its
+    volume's change over the cycle against the model's."""
+    ph, truth, res = analysed_normal
+    t0 = res["summary"]["t0_frame"]
+    t_ms = np.roll(truth["t_ms"], -t0)
+    s_mm = res["arrays"]["s_mm"]
+    expected = (ph.area_mm2("inner", s_mm[:, None], t_ms[None, :])
+                - ph.area_mm2("lumen", s_mm[:, None], t_ms[None, :]))
+    rel = np.abs(res["arrays"]["area_jelly_mm2"] / expected - 1)
+    jelly = np.roll(np.subtract(truth["volume_mm3"]["inner"], truth["volume_mm3"]["lumen"]), -t0)
+    assert np.allclose(res["arrays"]["volume_jelly_mm3"], jelly, rtol=0.02)
+    change = (jelly.max() - jelly.min()) / jelly.min()
+    assert res["summary"]["jelly_volume_change"] == pytest.approx(change, rel=0.02)
+    assert np.median(rel) < 0.01 and rel.max() < 0.03       # measured 0.34 %, 0.83 %
 
 
 @pytest.mark.slow

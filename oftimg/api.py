@@ -528,16 +528,9 @@ def paraview(sources, out, *, quiet: bool = False, jobs: int | None = None) -> P
     from .pipeline import run_tasks
 
     out = Path(out)
-    folders = result_folders(sources)
-    names = [read_summary(f)["name"] for f in folders]
-    _check_names(list(zip(names, folders)), "export them one at a time")
-    for f in folders:
-        for needed, why in (("grids.npz", "the grids are what ParaView shows"),
-                            ("arrays.json", "it says which arrays lie on the grids")):
-            if not (f / needed).is_file():
-                raise DatasetError(f"{f}: has no {needed} ({why})")
-    require_new_folder(out)
-    check_output_location(out, folders, overwrite=False)
+    names, folders = _exported(sources, out, (
+        ("grids.npz", "the grids are what ParaView shows"),
+        ("arrays.json", "it says which arrays lie on the grids")))
     with staged_output(out) as tmp:
         tasks = [(f, series, tmp / name) for name, f in zip(names, folders)
                  for series in series_names(f)]
@@ -546,6 +539,43 @@ def paraview(sources, out, *, quiet: bool = False, jobs: int | None = None) -> P
             run_tasks(write_series, tasks, executor=executor, progress=bar.advance)
         bar.close()
     return out
+
+
+def tiff(sources, out, *, quiet: bool = False) -> Path:
+    """Every dataset's maps and fields among ``sources`` (as :func:`cohort` takes
+    them) as TIFF images that Fiji / ImageJ open, in ``out/<name>/``
+    (:mod:`oftimg.tiff_images`). ``out`` must be new or empty; it appears only when
+    complete. Returns ``out``."""
+    from .tiff_images import write_tiff_images
+
+    out = Path(out)
+    names, folders = _exported(sources, out, (
+        ("arrays.json", "it says which arrays are images"),))
+    with staged_output(out) as tmp:
+        bar = Progress(len(folders), "TIFF images", quiet=quiet, unit="dataset")
+        for name, folder in zip(names, folders):
+            write_tiff_images(folder, tmp / name)
+            bar.advance()
+        bar.close()
+    return out
+
+
+def _exported(sources, out: Path, needed: tuple[tuple[str, str], ...]
+              ) -> tuple[list[str], list[Path]]:
+    """The names and folders of the datasets' results among ``sources`` to export
+    into ``out``; refused where two share a name, one lacks a file of ``needed``
+    ((file, why it is needed) each), or ``out`` is not new and empty or lies inside
+    one of them."""
+    folders = result_folders(sources)
+    names = [read_summary(f)["name"] for f in folders]
+    _check_names(list(zip(names, folders)), "export them one at a time")
+    for f in folders:
+        for file, why in needed:
+            if not (f / file).is_file():
+                raise DatasetError(f"{f}: has no {file} ({why})")
+    require_new_folder(out)
+    check_output_location(out, folders, overwrite=False)
+    return names, folders
 
 
 def _datasets_seconds(summaries: list[dict]) -> float | None:

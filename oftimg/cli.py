@@ -139,6 +139,15 @@ def _parser() -> argparse.ArgumentParser:
                          "cores this job may use)")
     pv.add_argument("--quiet", action="store_true", help="no progress bar")
 
+    tf = sub.add_parser("tiff", help="write analysed datasets' maps and fields as TIFF images "
+                                     "that Fiji / ImageJ open (float32, time as frames)")
+    tf.add_argument("results", type=Path, nargs="+",
+                    help="one dataset's results (a folder with summary.json) or a folder of "
+                         "them (a run's --out)")
+    tf.add_argument("--out", type=Path, required=True,
+                    help="folder to create (one subfolder per dataset)")
+    tf.add_argument("--quiet", action="store_true", help="no progress bar")
+
     d = sub.add_parser("demo", help="make the built-in phantom cohort and process it")
     d.add_argument("--out", type=Path, default=Path("oftimg-demo"), help="results folder")
     d.add_argument("--full", action="store_true", help="4 normal + 4 banded, 195 frames")
@@ -289,6 +298,9 @@ def _command(args) -> int:
     elif args.command == "paraview":
         out = api.paraview(args.results, args.out, quiet=args.quiet, jobs=args.jobs)
         print(f"ParaView series: {out} (open each dataset's *.pvd)")
+    elif args.command == "tiff":
+        out = api.tiff(args.results, args.out, quiet=args.quiet)
+        print(f"TIFF images: {out} (open them in Fiji / ImageJ)")
     elif args.command == "demo":
         out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
                        jobs=args.jobs)

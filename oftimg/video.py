@@ -16,6 +16,8 @@ import imageio.v2 as imageio
 import numpy as np
 from matplotlib import colormaps
 
+from .image_order import in_image_order
+
 
 @lru_cache(maxsize=None)
 def _lut(cmap: str) -> np.ndarray:
@@ -78,7 +80,7 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
     fixed_bar = None if per_frame else _colour_bar(height, lo, hi, cmap, label)
 
     def draw(t):
-        img = field[:, :, t].T[::-1]  # rows: v (inlet at the bottom), cols: u
+        img, _ = in_image_order(field[:, :, t], ["u", "v"])  # rows: v, inlet at the bottom
         a, b = lo, hi
         if per_frame:
             f = img[np.isfinite(img)]
@@ -100,7 +102,8 @@ def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, width: int = 400,
     moving time cursor."""
     sx = max(1, round(width / area.shape[1]))
     sy = max(1, round(height / area.shape[0]))
-    base = cv2.resize(to_rgb(area[::-1], np.nanmin(area), np.nanmax(area), cmap), None,
+    image, _ = in_image_order(area, ["v", "t"])
+    base = cv2.resize(to_rgb(image, np.nanmin(area), np.nanmax(area), cmap), None,
                       fx=sx, fy=sy, interpolation=cv2.INTER_NEAREST)
     base = np.concatenate([base, _colour_bar(base.shape[0], np.nanmin(area), np.nanmax(area),
                                              cmap, "area mm^2")], axis=1)

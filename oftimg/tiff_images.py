@@ -1,0 +1,72 @@
+"""A dataset's maps and fields as TIFF images that Fiji / ImageJ open as they are:
+float32 with NaN kept (masks as 8-bit 0 / 255), time as the frames of a stack, the
+two principal stretches as channels, and what the pixels are in the image's info
+(Image > Show Info): for image analysis outside Python."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .image_order import in_image_order
+
+IMAGE_DIMS = (["v", "t"], ["u", "v"], ["u", "v", "t"], ["u", "v", "t", "l1,l2"])
+
+
+def tiff_names(described: dict) -> list[str]:
+    """The arrays of ``arrays.json`` (``described``: name -> {"dims", "file", ...})
+    that are images: (v, t) maps, (u, v) phase maps, (u, v, t) fields and the
+    principal stretches; not coordinates."""
+    return [name for name, d in described.items()
+            if d.get("file", "arrays.npz") == "arrays.npz" and d["dims"] in IMAGE_DIMS]
+
+
+def tiff_image(values: np.ndarray, info: dict, t_ms: np.ndarray, s_mm: np.ndarray
+               ) -> tuple[np.ndarray, dict]:
+    """One array on its named axes (``info``: its arrays.json entry) as ``(image,
+    ImageJ metadata)``: float32 (bool as uint8 0 / 255) in image order
+    (:func:`oftimg.image_order.in_image_order`), with its axes, the frame interval
+    (s) and each frame's time as labels when it has frames, and an Info text saying
+    what rows, columns and values are."""
+    image, axes = in_image_order(values, info["dims"])
+    image = (image.astype(np.uint8) * 255 if image.dtype == bool
+             else image.astype(np.float32))
+    across = "u around the tube from the seam (u = 0)" if "u" in info["dims"] else (
+        f"t, time since the minimum volume (ms): {_listed(t_ms)}")
+    unit = info.get("unit", "")
+    text = [info["description"] + (f" ({unit})" if unit not in ("", "1", "bool") else ""),
+            f"rows: v, from the outlet (top) to the inlet (bottom); s_mm of each row from "
+            f"the inlet: {_listed(s_mm)}", f"columns: {across}"]
+    metadata = {"axes": axes}
+    if "T" in axes:
+        text.append(f"frames: t (ms) {_listed(t_ms)}")
+        metadata["finterval"] = float(np.median(np.diff(t_ms))) / 1000.0
+        metadata["Labels"] = [f"t = {t:.1f} ms" for t in t_ms for _ in range(
+            image.shape[1] if "C" in axes else 1)]
+    if "C" in axes:
+        text.append("channels: " + ", ".join(info["dims"][-1].split(",")))
+    metadata["Info"] = "\n".join(text)
+    return image, metadata
+
+
+def _listed(values: np.ndarray) -> str:
+    return " ".join(f"{v:.4g}" for v in values)
+
+
+def write_tiff_images(results: Path, out: Path) -> list[Path]:
+    """Every image of one dataset's results folder (``arrays.npz``, ``arrays.json``;
+    :func:`tiff_names`) as ``out/<array name>.tif``. Returns the files written."""
+    import tifffile
+
+    described = json.loads((results / "arrays.json").read_text())
+    out.mkdir(parents=True)
+    written = []
+    with np.load(results / "arrays.npz") as npz:
+        t_ms, s_mm = npz["t_ms"], npz["s_mm"]
+        for name in tiff_names(described):
+            image, metadata = tiff_image(npz[name], described[name], t_ms, s_mm)
+            path = out / f"{name}.tif"
+            tifffile.imwrite(path, image, imagej=True, metadata=metadata)
+            written.append(path)
+    return written

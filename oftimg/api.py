@@ -543,18 +543,25 @@ def paraview(sources, out, *, quiet: bool = False, jobs: int | None = None) -> P
 
 def tiff(sources, out, *, quiet: bool = False) -> Path:
     """Every dataset's maps and fields among ``sources`` (as :func:`cohort` takes
-    them) as TIFF images that Fiji / ImageJ open, in ``out/<name>/``
-    (:mod:`oftimg.tiff_images`). ``out`` must be new or empty; it appears only when
-    complete. Returns ``out``."""
-    from .tiff_images import write_tiff_images
+    them) as TIFF images that Fiji / ImageJ open, in ``out/<name>/``, and the cohort
+    maps of a run's ``--out`` among them in ``out/cohort_maps/`` (with several runs,
+    ``cohort_maps_<its folder name>/``; :mod:`oftimg.tiff_images`). ``out`` must be new
+    or empty; it appears only when complete. Returns ``out``."""
+    from .tiff_images import write_cohort_map_images, write_tiff_images
 
     out = Path(out)
     names, folders = _exported(sources, out, (
         ("arrays.json", "it says which arrays are images"),))
+    runs = [Path(s) for s in ([sources] if isinstance(sources, (str, Path)) else sources)
+            if (Path(s) / "cohort_maps.json").is_file()]
     with staged_output(out) as tmp:
-        bar = Progress(len(folders), "TIFF images", quiet=quiet, unit="dataset")
+        bar = Progress(len(folders) + len(runs), "TIFF images", quiet=quiet, unit="folder")
         for name, folder in zip(names, folders):
             write_tiff_images(folder, tmp / name)
+            bar.advance()
+        for run in runs:
+            write_cohort_map_images(run, tmp / ("cohort_maps" if len(runs) == 1
+                                                else f"cohort_maps_{run.name}"))
             bar.advance()
         bar.close()
     return out

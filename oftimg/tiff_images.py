@@ -1,7 +1,8 @@
-"""A dataset's maps and fields as TIFF images that Fiji / ImageJ open as they are:
-float32 with NaN kept (masks as 8-bit 0 / 255), time as the frames of a stack, the
-two principal stretches as channels, and what the pixels are in the image's info
-(Image > Show Info): for image analysis outside Python."""
+"""A dataset's maps and fields, and a cohort's maps, as TIFF images that Fiji /
+ImageJ open as they are: float32 with NaN kept (masks as 8-bit 0 / 255), time as the
+frames of a stack, the two principal stretches as channels, the embryos of a cohort
+as its slices, and what the pixels are in the image's info (Image > Show Info): for
+image analysis outside Python."""
 from __future__ import annotations
 
 import json
@@ -34,10 +35,9 @@ def tiff_image(values: np.ndarray, info: dict, t_ms: np.ndarray, s_mm: np.ndarra
              else image.astype(np.float32))
     across = "u around the tube from the seam (u = 0)" if "u" in info["dims"] else (
         f"t, time since the minimum volume (ms): {_listed(t_ms)}")
-    unit = info.get("unit", "")
-    text = [info["description"] + (f" ({unit})" if unit not in ("", "1", "bool") else ""),
-            f"rows: v, from the outlet (top) to the inlet (bottom); s_mm of each row from "
-            f"the inlet: {_listed(s_mm)}", f"columns: {across}"]
+    text = [_with_unit(info),
+            f"rows: v, from the outlet (top) to the inlet (bottom), at s_mm from the inlet: "
+            f"{_listed(s_mm[::-1])}", f"columns: {across}"]
     metadata = {"axes": axes}
     if "T" in axes:
         text.append(f"frames: t (ms) {_listed(t_ms)}")
@@ -48,6 +48,12 @@ def tiff_image(values: np.ndarray, info: dict, t_ms: np.ndarray, s_mm: np.ndarra
         text.append("channels: " + ", ".join(info["dims"][-1].split(",")))
     metadata["Info"] = "\n".join(text)
     return image, metadata
+
+
+def _with_unit(described: dict) -> str:
+    """An array's description, and its unit in brackets where it has one."""
+    unit = described.get("unit", "")
+    return described["description"] + (f" ({unit})" if unit not in ("", "1", "bool") else "")
 
 
 def _listed(values: np.ndarray) -> str:
@@ -68,5 +74,37 @@ def write_tiff_images(results: Path, out: Path) -> list[Path]:
             image, metadata = tiff_image(npz[name], described[name], t_ms, s_mm)
             path = out / f"{name}.tif"
             tifffile.imwrite(path, image, imagej=True, metadata=metadata)
+            written.append(path)
+    return written
+
+
+def write_cohort_map_images(run: Path, out: Path) -> list[Path]:
+    """A run's (or ``oftimg cohort``'s) ``cohort_maps.npz`` (``cohort_maps.json``) as
+    ``out/<map>.tif``: each map of every embryo (or each comparison of groups) a slice,
+    labelled with its name and group; rows the position along the tube (inlet at the
+    bottom), columns the phase of the cycle. Returns the files written."""
+    import tifffile
+
+    described = json.loads((run / "cohort_maps.json").read_text())
+    out.mkdir(parents=True)
+    written = []
+    with np.load(run / "cohort_maps.npz") as npz:
+        labels = {"embryo": [f"{n} ({g})" for n, g in zip(npz["names"], npz["groups"])],
+                  "comparison": [str(c) for c in npz["comparisons"]]}
+        position, phase = npz["position_fraction"], npz["cycle_fraction"]
+        for name, d in described.items():
+            if d["dims"][1:] != ["position", "phase"] or not npz[name].size:
+                continue
+            image = np.stack([in_image_order(m, ["v", "t"])[0] for m in npz[name]])
+            info = [_with_unit(d),
+                    f"slices: {d['dims'][0]}s: " + ", ".join(labels[d["dims"][0]]),
+                    f"rows: position along the tube as a fraction of its length, from the "
+                    f"outlet (top) to the inlet (bottom): {_listed(position[::-1])}",
+                    f"columns: phase, fraction of the cycle since the minimum volume: "
+                    f"{_listed(phase)}"]
+            path = out / f"{name}.tif"
+            tifffile.imwrite(path, image.astype(np.float32), imagej=True,
+                             metadata={"axes": "ZYX", "Labels": labels[d["dims"][0]],
+                                       "Info": "\n".join(info)})
             written.append(path)
     return written

@@ -100,6 +100,23 @@ def test_cohort_maps_hold_every_embryos_area_map_on_one_grid(runs):
             "group_strain_energy_maps.png"} <= {p.name for p in (out / "figures").iterdir()}
 
 
+def test_cohort_maps_open_in_fiji_one_slice_per_comparison(runs, tmp_path):
+    import tifffile
+
+    import oftimg
+
+    out = oftimg.tiff(runs / "joint", tmp_path / "tiff", quiet=True)
+    maps = np.load(runs / "joint" / "cohort_maps.npz")
+    with tifffile.TiffFile(out / "cohort_maps" / "strain_energy_outer_difference.tif") as tif:
+        image, meta = tif.asarray(), tif.imagej_metadata
+    assert np.array_equal(image.reshape(1, 50, 100),
+                          maps["strain_energy_outer_difference"][:, ::-1].astype(np.float32))
+    assert "slices: comparisons: banded - normal" in meta["Info"]
+    with tifffile.TiffFile(out / "cohort_maps" / "wall_thickness_mm.tif") as tif:
+        assert tif.imagej_metadata["Labels"] == ["b0 (banded)", "n0 (normal)", "n1 (normal)"]
+    assert sorted(p.name for p in out.iterdir()) == ["b0", "cohort_maps", "n0", "n1"]
+
+
 def test_cohort_refuses_what_cannot_be_compared(runs, tmp_path):
     other = tmp_path / "other"
     shutil.copytree(runs / "alone" / "n0", other / "n0")

@@ -82,6 +82,18 @@ def test_tiff_images_hold_the_results(run_out, tmp_path, capsys):
     with tifffile.TiffFile(out / "normal" / "principal_stretch_outer.tif") as tif:
         assert tif.imagej_metadata["channels"] == 2
         assert "channels: l1, l2" in tif.imagej_metadata["Info"]
+    # the run's cohort maps: one slice per embryo, rows position (inlet at the bottom)
+    maps = np.load(run_out / "cohort_maps.npz")
+    assert sorted(p.stem for p in (out / "cohort_maps").iterdir()) == [
+        "area_outer_mm2", "area_outer_normalized", "strain_energy_outer", "wall_thickness_mm"]
+    for name in ("area_outer_normalized", "strain_energy_outer"):   # no comparison: 1 group
+        with tifffile.TiffFile(out / "cohort_maps" / f"{name}.tif") as tif:
+            image, meta = tif.asarray(), tif.imagej_metadata
+        stack = maps[name][:, ::-1].astype(np.float32)
+        assert np.array_equal(image.reshape(stack.shape), stack, equal_nan=True)
+        labels = meta["Labels"]                          # one label is read back bare
+        assert ([labels] if isinstance(labels, str) else labels) == ["normal (normal)"]
+        assert "slices: embryos: normal (normal)" in meta["Info"]
 
 
 def test_tiff_refuses_what_it_cannot_write(run_out, tmp_path):

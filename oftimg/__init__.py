@@ -7,6 +7,6 @@ from .errors import InputError  # noqa: E402
 from .io import Dataset, DatasetError, OftimgWarning, load_dataset, validate_dataset  # noqa: E402
 from .results import Results, load_cohort, load_cohort_maps, load_results  # noqa: E402
 
-__all__ = ["Dataset", "DatasetError", "InputError", "OftimgWarning", "cohort", "demo",
-           "load_cohort", "load_cohort_maps", "load_dataset", "load_results", "make_phantom", "paraview", "Results", "run",
-           "tiff", "validate_dataset", "__version__"]
+__all__ = ["Dataset", "DatasetError", "InputError", "OftimgWarning", "Results", "cohort", "demo",
+           "load_cohort", "load_cohort_maps", "load_dataset", "load_results", "make_phantom",
+           "paraview", "run", "tiff", "validate_dataset", "__version__"]

@@ -120,7 +120,7 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
     if "wall_thickness_mm" in arrays:
         from .pipeline import mean_around_tube
 
-        rows_um = 1000 * mean_around_tube(arrays["wall_thickness_mm"])     # (n_v, n_t)
+        rows_um = 1000 * mean_around_tube(arrays["wall_thickness_mm"])           # (n_v, n_t)
         written.append(area_map(rows_um, arrays["s_mm"], t_ms,
                                 folder / "wall_thickness_map.png",
                                 ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",

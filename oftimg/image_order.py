@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+
 def in_image_order(values: np.ndarray, dims: list[str]) -> tuple[np.ndarray, str]:
     """``values`` on axes ``dims`` (v and one of u or t, in the order u, v, t, then at
     most one component axis) as ``(image, axes)``: the axes of ``"TCYX"`` it has,

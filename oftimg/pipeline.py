@@ -11,8 +11,8 @@ import numpy as np
 from . import __version__
 from .errors import InputError
 from .io import Dataset, OftimgWarning
-from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp, volume_change,
-                    wrap_step_ratio)
+from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
+                    volume_change, wrap_step_ratio)
 from .image.analysis import analyse_area_maps
 from .image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_fixed_positions
 from .image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
@@ -349,7 +349,7 @@ def wall_thickness_by_row(thickness: np.ndarray) -> tuple[np.ndarray, np.ndarray
     pixel's own largest over smallest takes its noise's extremes for thickening: on
     the phantoms 11 % and 25 % high with 2 and 5 um of roughness where the rows'
     means were within 2 %."""
-    ring = mean_around_tube(thickness)                          # (n_v, n_t)
+    ring = mean_around_tube(thickness)                               # (n_v, n_t)
     with warnings.catch_warnings():      # rows without a value: NaN, left out
         warnings.simplefilter("ignore", RuntimeWarning)
         return (np.nanmean(ring, axis=-1),

@@ -118,35 +118,28 @@ def _parser() -> argparse.ArgumentParser:
                         "(default 0: none, as the paper); for rough segmentations, whose "
                         "curvature is otherwise noise (see README, Accuracy)")
 
+    results_help = "one dataset's results (a folder with summary.json) or a folder of them " \
+                   "(a run's --out)"
     c = sub.add_parser("cohort", help="gather datasets analysed separately (e.g. one cluster "
                                       "job each) into one cohort with its tables and report")
-    c.add_argument("results", type=Path, nargs="+",
-                   help="one dataset's results (a folder with summary.json) or a folder of "
-                        "them (a run's --out)")
+    c.add_argument("results", type=Path, nargs="+", help=results_help)
     c.add_argument("--out", type=Path, required=True, help="cohort folder (created)")
     c.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
 
-    pv = sub.add_parser("paraview", help="write analysed datasets' grids (with every field on "
-                                         "their nodes) and section contours as ParaView time "
-                                         "series (.pvd)")
-    pv.add_argument("results", type=Path, nargs="+",
-                    help="one dataset's results (a folder with summary.json) or a folder of "
-                         "them (a run's --out)")
-    pv.add_argument("--out", type=Path, required=True,
-                    help="folder to create (one subfolder per dataset)")
-    pv.add_argument("--jobs", type=int, default=None,
-                    help="worker processes, each writing one series at a time (default: all "
-                         "cores this job may use)")
-    pv.add_argument("--quiet", action="store_true", help="no progress bar")
-
-    tf = sub.add_parser("tiff", help="write analysed datasets' maps and fields as TIFF images "
-                                     "that Fiji / ImageJ open (float32, time as frames)")
-    tf.add_argument("results", type=Path, nargs="+",
-                    help="one dataset's results (a folder with summary.json) or a folder of "
-                         "them (a run's --out)")
-    tf.add_argument("--out", type=Path, required=True,
-                    help="folder to create (one subfolder per dataset)")
-    tf.add_argument("--quiet", action="store_true", help="no progress bar")
+    exports = {"paraview": "write analysed datasets' grids (with every field on their nodes) "
+                           "and section contours as ParaView time series (.pvd)",
+               "tiff": "write analysed datasets' maps and fields (and a run's cohort maps) as "
+                       "TIFF images that Fiji / ImageJ open (float32, time as frames)"}
+    for name, what in exports.items():
+        ex = sub.add_parser(name, help=what)
+        ex.add_argument("results", type=Path, nargs="+", help=results_help)
+        ex.add_argument("--out", type=Path, required=True,
+                        help="folder to create (one subfolder per dataset)")
+        if name == "paraview":
+            ex.add_argument("--jobs", type=int, default=None,
+                            help="worker processes, each writing one series at a time "
+                                 "(default: all cores this job may use)")
+        ex.add_argument("--quiet", action="store_true", help="no progress bar")
 
     d = sub.add_parser("demo", help="make the built-in phantom cohort and process it")
     d.add_argument("--out", type=Path, default=Path("oftimg-demo"), help="results folder")

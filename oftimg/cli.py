@@ -324,7 +324,8 @@ def _command(args) -> int:
 
 def _validate(path: Path, *, as_json: bool) -> int:
     """Check a dataset, or every dataset of a cohort (each one's problem, or its bad
-    frames, printed, and the rest are checked); 2 if any has a problem."""
+    frames, printed, and the rest are checked; with ``as_json`` a bad dataset's entry
+    lists its problems); 2 if any has a problem."""
     from .errors import InputError
     from .io import find_datasets, load_dataset, validate_dataset
     from .progress import Progress
@@ -345,6 +346,9 @@ def _validate(path: Path, *, as_json: bool) -> int:
                 raise
             problems += 1
             _print_error(f"error: {exc}", exc)
+            reports.append({"path": str(folder), "problems": [
+                {"file": file, "problem": text}
+                for file, text in getattr(exc, "problems", None) or [(None, str(exc))]]})
             continue
         if not as_json:
             _print_report(reports[-1])

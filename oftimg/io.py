@@ -721,7 +721,9 @@ def _every_bad_frame(ds: Dataset, problems: list[tuple[str, DatasetError]]) -> D
     note per kind of problem (the same message but for its numbers) giving its
     first file's message and naming the others, relative to the dataset."""
     if len(problems) == 1:
-        return problems[0][1]
+        error = problems[0][1]
+        error.problems = [(problems[0][0], str(error))]
+        return error
     kinds: dict[str, list[tuple[str, str]]] = {}
     for file, exc in problems:
         problem = str(exc).removeprefix(f"{file}: ")

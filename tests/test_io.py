@@ -683,8 +683,9 @@ def test_validate_cli_prints_report(dataset, capsys):
 
 def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
     """validate took one dataset; a cohort of 300 needed 300 commands. Each dataset's
-    first problem is printed and the rest are still checked; --json stays JSON
-    (open3d printed its own warnings about a broken file into stdout)."""
+    problems are printed and the rest are still checked; --json stays JSON, a bad
+    dataset's entry giving its problems (open3d printed its own warnings about a
+    broken file into stdout)."""
     for name in ("a", "b", "c"):
         write_series(tmp_path / "cohort" / name, cone_frames(2))
     bad = tmp_path / "cohort" / "b" / "outer" / "f1.ply"
@@ -696,7 +697,11 @@ def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
     assert "oftimg: error: 1 of 3 datasets have a problem" in err
     assert main(["validate", str(tmp_path / "cohort"), "--json"]) == 2
     reports = json.loads(capfd.readouterr().out)
-    assert [r["path"] for r in reports] == [str(tmp_path / "cohort" / n) for n in "ac"]
+    assert [r["path"] for r in reports] == [str(tmp_path / "cohort" / n) for n in "abc"]
+    assert reports[1]["problems"] == [{"file": str(bad), "problem": str(bad) + ": the file is "
+                                       "truncated: it ends among its vertices, with 18 of the "
+                                       "250 vertices its header lists whole"}]
+    assert "surfaces" in reports[0] and "problems" not in reports[0]
     assert main(["validate", str(tmp_path / "cohort" / "a"), "--json"]) == 0
     assert json.loads(capfd.readouterr().out)["surfaces"]["outer"]["frames"] == 2
 

@@ -30,8 +30,9 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
 - timing: the ridge (time of maximum area) along the tube, mean and RMS over the
   rows, ms;
 - size: tube length (%), volumes of each wall (largest over the frames, %), the
-  myocardial volume change (pp), section areas of each wall (median and 95th
-  percentile over the (v, t) map, %), the share of the cycle above 75 % of the
+  myocardial volume change (pp), the cardiac jelly's (inner - lumen) volume change
+  (%), section areas of each wall and of the jelly (median and 95th percentile over the
+  (v, t) map, %), the share of the cycle above 75 % of the
   maximum area (largest over the rows, pp);
 - shape: band position (mm, banded embryos), corner count (wrong ones counted);
   the shape fields at their own positions (rows 2 to n_v - 3: the end rows' values
@@ -99,6 +100,9 @@ METRICS = [
     ("length_pct", "%", "tube length"),
     *[(f"volume_{w}_pct", "%", f"volume of the {w} wall (worst frame)") for w in WALLS],
     ("myocardial_change_pp", "pp", "myocardial volume change"),
+    ("jelly_change_pct", "%", "cardiac jelly's volume change (inner - lumen)"),
+    ("area_jelly_median_pct", "%", "section area, cardiac jelly (median over v, t)"),
+    ("area_jelly_p95_pct", "%", "section area, cardiac jelly (95th percentile)"),
     *[(f"area_{w}_median_pct", "%", f"section area, {w} (median over v, t)") for w in WALLS],
     *[(f"area_{w}_p95_pct", "%", f"section area, {w} (95th percentile)") for w in WALLS],
     ("expanded_75_pp", "pp", "share of the cycle above 75 % of max area (worst row)"),
@@ -212,6 +216,14 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
         e[f"area_{w}_p95_pct"] = float(100.0 * np.nanpercentile(area_rel, 95))
     e["myocardial_change_pp"] = 100.0 * (summ["myocardial_volume_change"]
                                          - truth["myocardial_volume_change"])
+    jelly = np.subtract(truth["volume_mm3"]["inner"], truth["volume_mm3"]["lumen"])
+    e["jelly_change_pct"] = _relative_pct(summ["jelly_volume_change"],
+                                          (jelly.max() - jelly.min()) / jelly.min())
+    at = (s_mm[:, None], t_ms[None, :])
+    jelly_rel = np.abs(arr["area_jelly_mm2"] / (ph.area_mm2("inner", *at)
+                                                - ph.area_mm2("lumen", *at)) - 1.0)
+    e["area_jelly_median_pct"] = float(100.0 * np.nanmedian(jelly_rel))
+    e["area_jelly_p95_pct"] = float(100.0 * np.nanpercentile(jelly_rel, 95))
     frac = arr["expanded_fraction_75_outer"] - np.interp(s_mm, truth["s_mm"],
                                                          truth["expanded_fraction_75"])
     e["expanded_75_pp"] = float(100.0 * frac[np.nanargmax(np.abs(frac))])

@@ -275,6 +275,10 @@ COHORT_MAPS = {
     "wall_thickness_mm": (["embryo", "position", "phase"], "mm",
                           "the myocardial wall's mean thickness around the tube, resampled "
                           "likewise (NaN for a dataset without an inner wall)"),
+    "jelly_thickness_mm": (["embryo", "position", "phase"], "mm",
+                           "the cardiac jelly's mean thickness around the tube (inner wall "
+                           "to lumen), resampled likewise (NaN for a dataset without an "
+                           "inner wall and a lumen)"),
     "strain_energy_outer": (["embryo", "position", "phase"], "1",
                             "the outer wall's strain energy against t = 0 "
                             "(strain_energy_outer), mean around the tube, resampled likewise"),
@@ -282,7 +286,7 @@ COHORT_MAPS = {
                                         "first): 'banded - normal'"),
 }
 # fields (n_u, n_v, n_t) of arrays.npz whose mean around the tube is a cohort map
-AROUND_TUBE_MAPS = ("wall_thickness_mm", "strain_energy_outer")
+AROUND_TUBE_MAPS = ("wall_thickness_mm", "jelly_thickness_mm", "strain_energy_outer")
 TESTED_MAPS = ("area_outer_normalized", *AROUND_TUBE_MAPS)   # compared between groups
 for _key in TESTED_MAPS:
     _unit = COHORT_MAPS[_key][1]
@@ -398,6 +402,10 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "wall_thickness_mm": ("mm", "myocardial wall thickness: distance from each outer grid "
                                     "node to its inner node (carried towards the row's "
                                     "centre); smoothed in time by summary.field_smoothing_ms"),
+        "jelly_thickness_mm": ("mm", "cardiac jelly thickness: distance from each inner grid "
+                                     "node on along the line from its outer node to the "
+                                     "lumen; smoothed in time by "
+                                     "summary.field_smoothing_ms"),
         "mean_curvature_lumen_per_mm": ("1/mm", "mean curvature of the lumen (cotangent "
                                                 "Laplacian; rim vertices: mean of neighbours; "
                                                 "smoothed in time by summary.field_smoothing_ms)"),
@@ -412,7 +420,7 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                     return {"dims": ["u", "v"], "unit": "ms",
                             "description": f"time of each pixel's {which}imum of {f} "
                                            f"(smoothed in time by {RIDGE_SMOOTHING_MS:g} ms, "
-                                           "a curvature or the wall thickness by "
+                                           "a curvature or a thickness by "
                                            "summary.field_smoothing_ms "
                                            "and a strain by summary.strain_smoothing_ms "
                                            "if more; sub-frame)"}

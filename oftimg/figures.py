@@ -117,16 +117,17 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
                                        title=f"{name}: t = 0 (minimum volume)"))
     if "ridge_t_ms" in arrays:
         written += map_figures(folder, name, arrays, summary, summary["period_ms"])
-    if "wall_thickness_mm" in arrays:
-        from .pipeline import mean_around_tube
+    for layer, what in (("wall", "myocardial wall"), ("jelly", "cardiac jelly")):
+        if f"{layer}_thickness_mm" in arrays:
+            from .pipeline import mean_around_tube
 
-        rows_um = 1000 * mean_around_tube(arrays["wall_thickness_mm"])           # (n_v, n_t)
-        written.append(area_map(rows_um, arrays["s_mm"], t_ms,
-                                folder / "wall_thickness_map.png",
-                                ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
-                                label="wall thickness, mean around the tube (µm)",
-                                title=f"{name}: myocardial wall thickness (dots: maximum "
-                                      "outer area)"))
+            rows_um = 1000 * mean_around_tube(arrays[f"{layer}_thickness_mm"])   # (n_v, n_t)
+            written.append(area_map(rows_um, arrays["s_mm"], t_ms,
+                                    folder / f"{layer}_thickness_map.png",
+                                    ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
+                                    label=f"{layer} thickness, mean around the tube (µm)",
+                                    title=f"{name}: {what} thickness (dots: maximum "
+                                          "outer area)"))
     return written
 
 
@@ -338,23 +339,29 @@ GROUP_PROFILES = [
      "group_wall_thickness.png"),
     ("wall_thickening_percent", "wall thickening over the beat (%)",
      "group_wall_thickening.png"),
+    ("jelly_thickness_um", "cardiac jelly thickness, mean over the cycle (µm)",
+     "group_jelly_thickness.png"),
+    ("jelly_thickening_percent", "cardiac jelly thickening over the beat (%)",
+     "group_jelly_thickening.png"),
 ]
 
 
 def _group_profiles(path: Path) -> dict:
     """One embryo's curves for the cohort figures from its ``arrays.npz``: ``s_mm``,
     ``t_ms``, ``volume_outer_mm3`` and each :data:`GROUP_PROFILES` key along the
-    tube (the wall's only with an inner wall). Read and closed: hundreds of open
-    files would hit the OS limit."""
-    from .pipeline import wall_thickness_by_row
+    tube (the wall's and the jelly's only with the walls they lie between). Read and
+    closed: hundreds of open files would hit the OS limit."""
+    from .pipeline import thickness_by_row
 
     with np.load(path) as arrays:
         out = {key: arrays[key] for key in ("s_mm", "t_ms", "volume_outer_mm3",
                                             "max_area_outer_mm2", "ridge_t_ms")}
         out["time_expanded_percent"] = 100 * arrays["expanded_fraction_sigma_outer"]
-        if "wall_thickness_mm" in arrays.files:
-            mean, thickening = wall_thickness_by_row(arrays["wall_thickness_mm"])
-            out["wall_thickness_um"], out["wall_thickening_percent"] = 1000 * mean, 100 * thickening
+        for layer in ("wall", "jelly"):
+            if f"{layer}_thickness_mm" in arrays.files:
+                mean, thickening = thickness_by_row(arrays[f"{layer}_thickness_mm"])
+                out[f"{layer}_thickness_um"] = 1000 * mean
+                out[f"{layer}_thickening_percent"] = 100 * thickening
     return out
 
 
@@ -364,6 +371,8 @@ GROUP_MAPS = [
      (0.0, 1.0)),
     ("wall_thickness_mm", "myocardial wall thickness, mean around the tube (mm)",
      "group_wall_thickness_maps.png", None),
+    ("jelly_thickness_mm", "cardiac jelly thickness, mean around the tube (mm)",
+     "group_jelly_thickness_maps.png", None),
     ("strain_energy_outer", "outer wall's strain energy against t = 0, mean around the tube",
      "group_strain_energy_maps.png", None),
 ]

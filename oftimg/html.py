@@ -104,7 +104,8 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     vids = sorted((folder / "videos").glob("*.mp4"))
     keys = ["group", "n_frames", "period_ms", "t0_frame", "expand_fraction", "contract_fraction",
             "expand_ms", "contract_ms", "tube_length_mm", "myocardial_volume_change",
-            "jelly_volume_change", "band_position_mm", "corner_count", "ridge_smoothing_ms",
+            "jelly_volume_change", "wall_thickness_median_mm", "wall_thickening",
+            "jelly_thickness_median_mm", "jelly_thickening", "band_position_mm", "corner_count", "ridge_smoothing_ms",
             "field_smoothing_ms", "strain_smoothing_ms"]
     rows = [{"quantity": k, "value": summary.get(k)} for k in keys if k in summary]
     spread = summary.get("wave_speed_noise_sd_mm_s") or {}
@@ -117,6 +118,9 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                "value": summary.get("maps_with_clamped_weights")},
               {"check": "inner grid nodes at the closest point, not towards the centre (0)",
                "value": summary.get("inner_nodes_at_closest_point")},
+              {"check": "lines from the inner grid nodes that met no lumen and took its "
+                        "closest point (0)",
+               "value": summary.get("jelly_nodes_at_closest_point")},
               {"check": "share of each curvature or thickness field's change over the "
                         "cycle that is frame-to-frame noise (well under 0.25)",
                "value": {name: (noise or {}).get("noise_share") for name, noise in

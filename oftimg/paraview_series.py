@@ -12,6 +12,7 @@ import numpy as np
 
 WALLS = ("outer", "inner", "lumen")
 MYOCARDIUM = ("outer", "inner")          # the walls the wall thickness belongs to
+JELLY = "inner"                          # the wall the jelly thickness is measured from
 
 
 def quad_cells(n_u: int, n_v: int) -> np.ndarray:
@@ -35,9 +36,11 @@ def ring_segments(n_u: int, n_v: int) -> np.ndarray:
 def node_field_names(described: dict, wall: str) -> list[str]:
     """The arrays of ``arrays.json`` (``described``: name -> {"dims", ...}) that
     live on ``wall``'s grid nodes: its ``(u, v, t[, k])`` fields and ``(u, v)`` phase
-    maps, and for the myocardial walls the wall thickness's."""
+    maps, for the myocardial walls the wall thickness's, and for the inner wall the
+    cardiac jelly's thickness's (measured from its nodes)."""
     def belongs(name):
-        return f"_{wall}" in name or (wall in MYOCARDIUM and "wall_thickness" in name)
+        return (f"_{wall}" in name or (wall in MYOCARDIUM and "wall_thickness" in name)
+                or (wall == JELLY and "jelly_thickness" in name))
 
     return [name for name, d in described.items()
             if d.get("file", "arrays.npz") == "arrays.npz" and d["dims"][:2] == ["u", "v"]

@@ -59,7 +59,9 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
 
     Grids (paper section 4.1), section planes through G(0, v), G(1/3, v),
     G(2/3, v) made non-crossing, each wall's section areas and contours on its
-    original mesh, each wall's capped volume, the lumen's mean curvature.
+    original mesh, each wall's capped volume, the lumen's mean curvature, the
+    cardiac jelly's thickness at each inner grid node (on along the line from the
+    outer node to the lumen).
     ``out["cpu_s"]`` holds the seconds spent per stage.
     """
     n_c = options.n_u
@@ -96,6 +98,11 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
                         options, values=H)
         walls["lumen"] = (tl, gl.X, gl)
         out["mean_curvature_lumen"] = gl.values
+        if "inner" in walls:
+            with clock("grid"):   # the cardiac jelly: inner node on along its line to the lumen
+                Xj, out["jelly_at_closest"] = project_towards_axis(
+                    tl.V, tl.F, tl.inlet, tl.outlet, walls["inner"][1], centre=X.mean(axis=0))
+                out["jelly_thickness"] = np.linalg.norm(walls["inner"][1] - Xj, axis=-1)
     for wall, (tube, Xw, gw) in walls.items():
         with clock("sections"):
             area, centroid, contour, from_ring = sections_of_mesh(tube.V, tube.F, origins,

@@ -251,6 +251,10 @@ class Phantom:
         """Radial outer-minus-inner distance at (s, theta, t), mm."""
         return self.radius("outer", s, theta, t_ms) - self.radius("inner", s, theta, t_ms)
 
+    def jelly_thickness(self, s, theta, t_ms):
+        """Radial inner-minus-lumen distance (the cardiac jelly) at (s, theta, t), mm."""
+        return self.radius("inner", s, theta, t_ms) - self.radius("lumen", s, theta, t_ms)
+
     # -- geometry -----------------------------------------------------------
     def frame_axes(self, s):
         """Centreline point c, inside normal N and binormal B at s, each ``(..., 3)``."""

@@ -268,11 +268,13 @@ NOISY_STRAIN_SHARE = 0.25
 
 def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                  smoothing_ms: float | str = "auto", lumen_smoothed_ms: float = 0.0,
-                 strain_smoothing_ms: float | str = "auto") -> dict:
+                 strain_smoothing_ms: float | str = "auto",
+                 jelly_thickness: np.ndarray | None = None) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
     Radial curvature of the outer and inner section contours and the myocardial
-    wall's thickness, outer to inner grid node (each smoothed in time by
+    wall's thickness, outer to inner grid node, and the cardiac jelly's,
+    ``jelly_thickness (n_u, n_v, n_t)`` mm or None (each smoothed in time by
     ``smoothing_ms``: :func:`smoothed_curvature`; how much of each is noise, and
     the sigma taken, in ``field_noise``), strain energy and principal stretches of
     the outer and inner grids against t = 0 (:func:`smoothed_strain` by
@@ -300,12 +302,16 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
         thickness = np.linalg.norm(grid["outer"] - grid["inner"], axis=-1)
         thickness, noise["wall_thickness_mm"] = smooth_field(thickness, period_ms, smoothing_ms)
         arrays["wall_thickness_mm"] = thickness.astype(np.float32)
+    if jelly_thickness is not None:
+        jelly, noise["jelly_thickness_mm"] = smooth_field(jelly_thickness, period_ms,
+                                                          smoothing_ms)
+        arrays["jelly_thickness_mm"] = jelly.astype(np.float32)
     if mean_curvature_lumen is not None:
         arrays["mean_curvature_lumen_per_mm"] = mean_curvature_lumen
     smoothed_ms = {name: noise[name]["smoothing_ms"] for name in noise}
     smoothed_ms["mean_curvature_lumen_per_mm"] = lumen_smoothed_ms
     smoothed_ms.update({name: n["smoothing_ms"] for name, n in strain_noise.items()})
-    for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv", "wall"))]:
+    for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv", "wall", "jelly"))]:
         # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
         rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothed_ms.get(name, 0.0) ** 2))
         t_max, t_min = phase_maps(arrays[name], period_ms, smoothing_ms=rest_ms)
@@ -328,8 +334,9 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
         corners = int(values[np.argmax(freq)])
     out = {"arrays": arrays, "corner_count": corners, "field_noise": noise,
            "strain_noise": strain_noise}
-    if "wall_thickness_mm" in arrays:
-        out.update(wall_thickness_summary(arrays["wall_thickness_mm"]))
+    for layer in ("wall", "jelly"):
+        if f"{layer}_thickness_mm" in arrays:
+            out.update(thickness_summary(arrays[f"{layer}_thickness_mm"], layer))
     return out
 
 
@@ -341,14 +348,14 @@ def mean_around_tube(field: np.ndarray) -> np.ndarray:
         return np.nanmean(field, axis=0)
 
 
-def wall_thickness_by_row(thickness: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each row's mean myocardial wall thickness (mm) over the tube's circumference
-    and the cycle, and its thickening over the beat: the largest over the smallest
-    of its mean thickness around the tube, less 1 (``thickness (n_u, n_v, n_t)``;
-    two ``(n_v,)`` arrays, NaN left out, NaN for a row without a value). Each
-    pixel's own largest over smallest takes its noise's extremes for thickening: on
-    the phantoms 11 % and 25 % high with 2 and 5 um of roughness where the rows'
-    means were within 2 %."""
+def thickness_by_row(thickness: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's mean thickness (mm) of a layer (the myocardial wall, the cardiac
+    jelly) over the tube's circumference and the cycle, and its thickening over the
+    beat: the largest over the smallest of its mean thickness around the tube,
+    less 1 (``thickness (n_u, n_v, n_t)``; two ``(n_v,)`` arrays, NaN left out, NaN
+    for a row without a value). Each pixel's own largest over smallest takes its
+    noise's extremes for thickening: on the phantoms 11 % and 25 % high with 2 and
+    5 um of roughness where the rows' means were within 2 %."""
     ring = mean_around_tube(thickness)                               # (n_v, n_t)
     with warnings.catch_warnings():      # rows without a value: NaN, left out
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -356,12 +363,13 @@ def wall_thickness_by_row(thickness: np.ndarray) -> tuple[np.ndarray, np.ndarray
                 np.nanmax(ring, axis=-1) / np.nanmin(ring, axis=-1) - 1.0)
 
 
-def wall_thickness_summary(thickness: np.ndarray) -> dict:
-    """The myocardial wall's median thickness (mm) over the (u, v) pixels and the
-    cycle, and its thickening over the beat, the median over the rows of
-    :func:`wall_thickness_by_row`'s."""
-    return {"wall_thickness_median_mm": float(np.nanmedian(thickness)),
-            "wall_thickening": float(np.nanmedian(wall_thickness_by_row(thickness)[1]))}
+def thickness_summary(thickness: np.ndarray, layer: str = "wall") -> dict:
+    """A layer's median thickness (mm) over the (u, v) pixels and the cycle, and its
+    thickening over the beat, the median over the rows of :func:`thickness_by_row`'s
+    (``{layer}_thickness_median_mm``, ``{layer}_thickening``; ``layer`` "wall" for
+    the myocardium, "jelly" for the cardiac jelly)."""
+    return {f"{layer}_thickness_median_mm": float(np.nanmedian(thickness)),
+            f"{layer}_thickening": float(np.nanmedian(thickness_by_row(thickness)[1]))}
 
 
 def _retime(f, grid, area, contour, volume, per_row):
@@ -435,6 +443,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     crossing = np.stack([f["crossing"] for f in frames], axis=1)       # (n_v, n_t)
     H = (np.stack([f["mean_curvature_lumen"] for f in frames], axis=2)
          if "mean_curvature_lumen" in frames[0] else None)
+    jelly = (np.stack([f["jelly_thickness"] for f in frames], axis=2)
+             if "jelly_thickness" in frames[0] else None)                # (n_u, n_v, n_t)
+    jelly_closest = int(sum(f.get("jelly_at_closest", 0) for f in frames))
     del frames  # each frame's arrays, stacked above: ~120 MB for 195 frames
     if crossing.any():
         warnings.warn(f"{ds.path}: {int(crossing.sum())} section planes still cross another "
@@ -454,10 +465,13 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                           "closed contour (none, or one merged with another part of the tube) "
                           "and were measured on the grid ring projected onto the plane "
                           f"(see section_from_ring_{w})", OftimgWarning, stacklevel=2)
-    if inner_closest:
-        warnings.warn(f"{ds.path}: {inner_closest} inner grid nodes met no inner wall on the "
-                      "way to their row's centre and took the closest point (see "
-                      "inner_nodes_at_closest_point)", OftimgWarning, stacklevel=2)
+    for closest, wall, what in ((inner_closest, "inner", "inner grid nodes"),
+                                (jelly_closest, "lumen", "lines from the inner grid nodes")):
+        if closest:
+            warnings.warn(f"{ds.path}: {closest} {what} met no {wall} wall on the way to "
+                          "their row's centre and took the closest point (see "
+                          f"{'inner' if wall == 'inner' else 'jelly'}_nodes_at_closest_point)",
+                          OftimgWarning, stacklevel=2)
     if sum(flipped.values()):
         warnings.warn(f"{ds.path}: {sum(flipped.values())} flipped triangles in the (u, v) "
                       "maps (the map is not one-to-one there)", OftimgWarning, stacklevel=2)
@@ -500,6 +514,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     arrays["plane_origin_mm"] = origins
     arrays["plane_normal"] = normals
     arrays["plane_crossing"] = crossing
+    if options.warp and jelly is not None:
+        jelly = resample_time(jelly, t_frames, axis=2)
     if H is not None:
         if options.warp:
             H = resample_time(H, t_frames, axis=2)
@@ -546,7 +562,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     fields = shape_fields(grid, contour, normals, area, H, ds.meta.period_ms,
                           options.field_smoothing_ms,
                           lumen_smoothed_ms=lumen_noise["smoothing_ms"] if H is not None else 0.0,
-                          strain_smoothing_ms=options.strain_smoothing_ms)
+                          strain_smoothing_ms=options.strain_smoothing_ms,
+                          jelly_thickness=jelly)
     arrays.update(fields.pop("arrays"))
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise
@@ -598,6 +615,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "flipped_triangles": flipped,
         "maps_with_clamped_weights": repaired,
         "inner_nodes_at_closest_point": inner_closest,
+        "jelly_nodes_at_closest_point": jelly_closest,
         "section_plane_fixes": plane_fixes,
         "section_planes_still_crossing": int(crossing.sum()),
         "frame_series_checks": series_checks,

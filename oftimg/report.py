@@ -47,6 +47,8 @@ COHORT_COLUMNS = [
     ("jelly_volume_change", ("jelly_volume_change",)),   # inner - lumen (not in the paper)
     ("wall_thickness_median_mm", ("wall_thickness_median_mm",)),
     ("wall_thickening", ("wall_thickening",)),   # rows' mean thickness, max / min - 1
+    ("jelly_thickness_median_mm", ("jelly_thickness_median_mm",)),   # inner wall to lumen
+    ("jelly_thickening", ("jelly_thickening",)),
     # quality checks: 0, 0 and about 0 on good data
     ("flipped_triangles_outer", ("flipped_triangles", "outer")),
     ("sections_from_ring_outer", ("sections_from_ring", "outer")),
@@ -59,12 +61,14 @@ COHORT_COLUMNS = [
     ("mean_curvature_lumen_noise_share",
      ("field_noise", "mean_curvature_lumen_per_mm", "noise_share")),
     ("wall_thickness_noise_share", ("field_noise", "wall_thickness_mm", "noise_share")),
+    ("jelly_thickness_noise_share", ("field_noise", "jelly_thickness_mm", "noise_share")),
     # the sigma (ms) each was smoothed by in time (auto: as much as its noise asks)
     ("radial_curvature_outer_smoothing_ms",
      ("field_noise", "radial_curvature_outer_per_mm", "smoothing_ms")),
     ("mean_curvature_lumen_smoothing_ms",
      ("field_noise", "mean_curvature_lumen_per_mm", "smoothing_ms")),
     ("wall_thickness_smoothing_ms", ("field_noise", "wall_thickness_mm", "smoothing_ms")),
+    ("jelly_thickness_smoothing_ms", ("field_noise", "jelly_thickness_mm", "smoothing_ms")),
     # share of each strain energy field's size by which its grid's node noise moves it
     ("strain_energy_outer_error_share", ("strain_noise", "strain_energy_outer", "error_share")),
     ("strain_energy_inner_error_share", ("strain_noise", "strain_energy_inner", "error_share")),

@@ -156,6 +156,8 @@ FIELD_VIDEOS = [
      dict(cmap="RdYlGn_r", label="strain energy")),
     ("wall_thickness", "wall_thickness_mm", False,
      dict(cmap="viridis", label="wall thickness mm")),
+    ("jelly_thickness", "jelly_thickness_mm", False,
+     dict(cmap="viridis", label="jelly thickness mm")),
     ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", False,
      dict(cmap="coolwarm", label="mean curv. 1/mm")),
 ]

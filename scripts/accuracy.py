@@ -39,7 +39,9 @@ Errors (measured minus true; "%" relative to the truth, "pp" percentage points):
   are their neighbours'): radial curvature of the outer and inner walls and mean
   curvature of the lumen, the wall thickness (outer to inner grid node against the
   model's radial thickness; its thickening over the beat, as summary.json's, against
-  the model's, every row), and the inner wall's strain energy against that of the
+  the model's, every row), the cardiac jelly's thickness (inner grid node to the
+  lumen, against the model's radial inner-minus-lumen distance; its thickening
+  alike), and the inner wall's strain energy against that of the
   model's inner wall at each grid node's position along and angle around the tube
   (each: median |error| over the median |truth|, %); each curvature also against
   the model at its points' positions averaged in time as the field is, and the
@@ -66,7 +68,7 @@ import numpy as np
 import oftimg
 from oftimg.image.normalize import smooth_field_in_time
 from oftimg.mesh.strain import grid_strain
-from oftimg.pipeline import smoothed_strain, wall_thickness_summary
+from oftimg.pipeline import smoothed_strain, thickness_summary
 from oftimg.phantom import read_truth, sample_params, write_phantom
 
 WALLS = ("outer", "inner", "lumen")
@@ -74,7 +76,8 @@ WALLS = ("outer", "inner", "lumen")
 CURVATURES = [("radial_curvature_outer", "radial curvature, outer"),
               ("radial_curvature_inner", "radial curvature, inner"),
               ("mean_curvature_lumen", "mean curvature, lumen"),
-              ("wall_thickness", "wall thickness")]
+              ("wall_thickness", "wall thickness"),
+              ("jelly_thickness", "jelly thickness")]
 
 # (key, unit, what): the rows of the printed table, in this order
 METRICS = [
@@ -113,6 +116,8 @@ METRICS = [
     ("mean_curvature_lumen_pct", "%", "mean curvature, lumen (median |error|)"),
     ("wall_thickness_pct", "%", "wall thickness (median |error|)"),
     ("wall_thickening_pct", "%", "wall thickening over the beat (median row)"),
+    ("jelly_thickness_pct", "%", "jelly thickness (median |error|)"),
+    ("jelly_thickening_pct", "%", "jelly thickening over the beat (median row)"),
     *[(f"{name}_mean_position_pct", "%", f"{what}, truth at mean positions")
       for name, what in CURVATURES],
     ("strain_energy_inner_pct", "%", "strain energy, inner wall (median |error|)"),
@@ -271,8 +276,10 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
         grids["lumen"][:, rows].astype(float),
         lambda s, theta, t: ph.mean_curvature("lumen", s, theta, t),
         "mean_curvature_lumen_per_mm"))
-    truths["wall_thickness"] = ("wall_thickness_mm", *truth_at(
-        grids["outer"][:, rows].astype(float), ph.wall_thickness, "wall_thickness_mm"))
+    for layer in ("wall", "jelly"):     # both measured along the lines from the outer nodes
+        truths[f"{layer}_thickness"] = (f"{layer}_thickness_mm", *truth_at(
+            grids["outer"][:, rows].astype(float), getattr(ph, f"{layer}_thickness"),
+            f"{layer}_thickness_mm"))
     e = {}
     for name, (array, truth, truth_at_mean) in truths.items():
         measured = arr[array][:, rows]
@@ -287,9 +294,11 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
         e[f"strain_energy_{w}_error_share"] = strain_noise[f"strain_energy_{w}"]["error_share"]
         e[f"strain_energy_{w}_smoothing_ms"] = strain_noise[f"strain_energy_{w}"]["smoothing_ms"]
     # the thickening over the beat, as summary.json's: every row
-    model = truth_at(grids["outer"].astype(float), ph.wall_thickness, "wall_thickness_mm")[1]
-    e["wall_thickening_pct"] = _relative_pct(summ["wall_thickening"],
-                                             wall_thickness_summary(model)["wall_thickening"])
+    for layer in ("wall", "jelly"):
+        model = truth_at(grids["outer"].astype(float), getattr(ph, f"{layer}_thickness"),
+                         f"{layer}_thickness_mm")[1]
+        e[f"{layer}_thickening_pct"] = _relative_pct(
+            summ[f"{layer}_thickening"], thickness_summary(model, layer)[f"{layer}_thickening"])
     # the strain: against the model's at the outer grid nodes' own positions in each
     # frame, and at their positions averaged in time as the field's nodes were: the grid
     # of a smooth wall (at its own positions the model shares the nodes' jitter along

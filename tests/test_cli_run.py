@@ -41,7 +41,7 @@ def test_output_contract(run_out, phantom_normal):
             assert arrays[name].shape[dims.index("v")] == 50
             assert arrays[name].shape[dims.index("t")] == 36
     for fig in ("volume_over_cycle.png", "trim_over_cycle.png", "frame_t0_contours.png",
-                "wall_thickness_map.png"):
+                "wall_thickness_map.png", "jelly_thickness_map.png"):
         assert (folder / "figures" / fig).stat().st_size > 10_000
     rows = list(csv.DictReader(open(run_out / "cohort.csv")))
     assert len(rows) == 1 and rows[0]["name"] == "normal"
@@ -65,7 +65,7 @@ def test_videos_read_back(run_out):
                                         "strain_energy_outer_per_frame.mp4",
                                         "radial_curvature_inner.mp4",
                                         "strain_energy_inner.mp4",
-                                        "wall_thickness.mp4",
+                                        "wall_thickness.mp4", "jelly_thickness.mp4",
                                         "mean_curvature_lumen.mp4", "area_map_cursor.mp4"}
     for path in videos:
         reader = imageio.get_reader(path)

@@ -85,19 +85,19 @@ def test_cohort_maps_hold_every_embryos_area_map_on_one_grid(runs):
         rows = maps["area_outer_normalized"][k]
         assert rows[[0, -1]][:, ::20] == pytest.approx(own[[0, -1]] / own[[0, -1]].max(
             axis=1, keepdims=True), rel=1e-12)
-        for key in AROUND_TUBE_MAPS:         # wall thickness, strain energy
+        for key in AROUND_TUBE_MAPS:         # wall and jelly thickness, strain energy
             around = np.load(out / name / "arrays.npz")[key][:, [0, -1]].mean(axis=0)
             assert maps[key][k][[0, -1]][:, ::20] == pytest.approx(around, rel=1e-12, abs=1e-15)
     # one banded embryo against two normals: the difference, but too few to test
     assert maps["comparisons"].tolist() == ["banded - normal"]
     assert set(TESTED_MAPS) == {"area_outer_normalized", "wall_thickness_mm",
-                                "strain_energy_outer"}
+                                "jelly_thickness_mm", "strain_energy_outer"}
     for key in TESTED_MAPS:
         assert maps[f"{key}_difference"][0] == pytest.approx(
             maps[key][0] - maps[key][1:].mean(axis=0), rel=1e-12)
         assert np.isnan(maps[f"{key}_p_fwer"]).all() and np.isnan(maps[f"{key}_p_cluster"]).all()
     assert {"group_area_maps.png", "group_wall_thickness_maps.png",
-            "group_strain_energy_maps.png"} <= {p.name for p in (out / "figures").iterdir()}
+            "group_jelly_thickness_maps.png", "group_strain_energy_maps.png"} <= {p.name for p in (out / "figures").iterdir()}
 
 
 def test_cohort_maps_open_in_fiji_one_slice_per_comparison(runs, tmp_path):

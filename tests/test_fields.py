@@ -10,6 +10,7 @@ from oftimg.mesh.curvature import (contour_curvature, count_corners, mixed_areas
 from oftimg.mesh.parameterize import corner_terms
 from oftimg.mesh.strain import grid_strain, grid_triangles
 from oftimg.mesh.topology import check_tube
+from oftimg.pipeline import thickness_by_row, thickness_summary
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -468,35 +469,34 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
         assert noise["smoothing_ms"] == 20.0       # auto: the most, and not enough (warned)
 
 
-def test_wall_thickness_summary():
+def test_thickness_summary():
     """A wall of 30 um beating by +-20 %: thickening 1.2 / 0.8 - 1 = 0.5 in every row
     (one pixel all NaN, left out), the median thickness 30 um; with white noise of
     a tenth of the beat's amplitude on every pixel the rows' means stay within 2 %
-    (each pixel's own largest over smallest: 0.56, 13 % high)."""
-    from oftimg.pipeline import wall_thickness_summary
-
+    (each pixel's own largest over smallest: 0.56, 13 % high); the keys name the
+    layer."""
     t = np.arange(40) / 40
     thickness = np.broadcast_to(0.03 * (1 + 0.2 * np.sin(2 * np.pi * t)), (80, 5, 40)).copy()
     thickness[2, 3] = np.nan
-    found = wall_thickness_summary(thickness)
+    found = thickness_summary(thickness)
     assert found["wall_thickening"] == pytest.approx(0.5, rel=1e-9)
     assert found["wall_thickness_median_mm"] == pytest.approx(0.03, rel=1e-9)
     noisy = thickness + 0.0006 * np.random.default_rng(0).standard_normal(thickness.shape)
-    assert wall_thickness_summary(noisy)["wall_thickening"] == pytest.approx(0.5, rel=0.02)
+    assert thickness_summary(noisy)["wall_thickening"] == pytest.approx(0.5, rel=0.02)
+    assert thickness_summary(thickness, "jelly") == pytest.approx(
+        {"jelly_thickening": 0.5, "jelly_thickness_median_mm": 0.03}, rel=1e-9)
     ok = np.isfinite(noisy).all(axis=-1)
     assert np.median(noisy.max(axis=-1)[ok] / noisy.min(axis=-1)[ok]) - 1 > 0.55
 
 
-def test_wall_thickness_by_row():
+def test_thickness_by_row():
     """Row j beating by +-a_j around b_j: mean b_j, thickening (1 + a_j) / (1 - a_j) - 1;
     a row without any value NaN."""
-    from oftimg.pipeline import wall_thickness_by_row
-
     a, b = np.linspace(0.05, 0.3, 6), np.linspace(0.02, 0.04, 6)
     beat = np.sin(2 * np.pi * np.arange(40) / 40)
     thickness = np.broadcast_to(b[:, None] * (1 + a[:, None] * beat), (16, 6, 40)).copy()
     thickness[:, 4] = np.nan
-    mean, thickening = wall_thickness_by_row(thickness)
+    mean, thickening = thickness_by_row(thickness)
     keep = np.arange(6) != 4
     assert mean[keep] == pytest.approx(b[keep], rel=1e-12)
     assert thickening[keep] == pytest.approx(2 * a[keep] / (1 - a[keep]), rel=1e-12)
@@ -504,26 +504,27 @@ def test_wall_thickness_by_row():
 
 
 @pytest.mark.slow
-def test_wall_thickness_is_the_models(analysed_normal):
-    """The myocardium's thickness at each outer grid node against the model's radial
-    thickness at the node's position (averaged in time as the field is): measured
-    0.3 % off (median), 1.5 % (95th percentile); the thickening over the beat
-    against the model's."""
-    from oftimg.pipeline import wall_thickness_summary
-
+@pytest.mark.parametrize("layer", ["wall", "jelly"])
+def test_thickness_is_the_models(analysed_normal, layer):
+    """The myocardium's thickness at each outer grid node, and the cardiac jelly's at
+    each inner node (on along the same line to the lumen), against the model's
+    radial thickness at the node's position (averaged in time as the field is):
+    measured 0.3 % and 0.4 % off (median), 1.5 % and 1.5 % (95th percentile); the
+    thickening over the beat against the model's."""
     ph, truth, res = analysed_normal
-    sigma = res["summary"]["field_noise"]["wall_thickness_mm"]["smoothing_ms"]
+    name = f"{layer}_thickness_mm"
+    sigma = res["summary"]["field_noise"][name]["smoothing_ms"]
     X = np.moveaxis(smooth_field_in_time(np.moveaxis(res["grids"]["outer"], -1, 0),
                                          ph.p.period_ms, sigma), 0, -1)
     t_ms = np.roll(np.asarray(truth["t_ms"]), -res["summary"]["t0_frame"])[None, None, :]
-    model = ph.wall_thickness(*ph.window_coordinates(X), t_ms)
-    found = res["arrays"]["wall_thickness_mm"]
+    model = getattr(ph, f"{layer}_thickness")(*ph.window_coordinates(X), t_ms)
+    found = res["arrays"][name]
     rel = np.abs(found / model - 1)
     assert np.median(rel) < 0.01 and np.percentile(rel, 95) < 0.04
-    thickening = wall_thickness_summary(model)["wall_thickening"]
-    assert res["summary"]["wall_thickening"] == pytest.approx(thickening, rel=0.03)
-    assert res["summary"]["field_noise"]["wall_thickness_mm"]["noise_share"] < 0.05
-    assert res["arrays"]["phase_max_wall_thickness_mm_ms"].shape == found.shape[:2]
+    thickening = thickness_summary(model, layer)[f"{layer}_thickening"]
+    assert res["summary"][f"{layer}_thickening"] == pytest.approx(thickening, rel=0.03)
+    assert res["summary"]["field_noise"][name]["noise_share"] < 0.05
+    assert res["arrays"][f"phase_max_{name}_ms"].shape == found.shape[:2]
 
 
 @pytest.mark.slow

@@ -143,11 +143,12 @@ def test_group_figures_name_few_embryos_and_summarise_many(tmp_path, monkeypatch
     assert legends[-1] == ["normal mean ± SD (n = 12)", "banded"]   # the volume figure
 
 
-def test_group_figures_draw_the_wall_thickness_and_its_thickening_along_the_tube(
-        tmp_path, monkeypatch):
+@pytest.mark.parametrize("layer", ["wall", "jelly"])
+def test_group_figures_draw_a_layers_thickness_and_its_thickening_along_the_tube(
+        tmp_path, monkeypatch, layer):
     """Rows of 30-36 um beating by +-10 to 30 % (sin over whole cycles): each row's
-    mean thickness and thickening (1 + a) / (1 - a) - 1 drawn as they are; a group
-    without inner walls is left empty."""
+    mean thickness and thickening (1 + a) / (1 - a) - 1 drawn as they are, for the
+    myocardial wall and the cardiac jelly; a group without that layer is left empty."""
     summaries = cohort_results(tmp_path, {"normal": 2, "banded": 2})
     expected = {}
     for summ in summaries[:2]:
@@ -156,7 +157,7 @@ def test_group_figures_draw_the_wall_thickness_and_its_thickening_along_the_tube
         s = arrays["s_mm"]
         base, amp = 0.030 + 0.006 * s / s[-1], 0.1 + 0.2 * s / s[-1]
         beat = np.sin(2 * np.pi * np.arange(20) / 20)
-        arrays["wall_thickness_mm"] = np.broadcast_to(
+        arrays[f"{layer}_thickness_mm"] = np.broadcast_to(
             base[:, None] * (1 + amp[:, None] * beat), (8, len(s), 20)).copy()
         np.savez(path, **arrays)
         expected[summ["name"]] = (1000 * base, 100 * (2 * amp / (1 - amp)))
@@ -164,8 +165,9 @@ def test_group_figures_draw_the_wall_thickness_and_its_thickening_along_the_tube
     monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault(path.name, fig)
                         and path)
     paths = figures.group_figures(tmp_path, summaries, tmp_path)
-    assert {"group_wall_thickness.png", "group_wall_thickening.png"} <= {p.name for p in paths}
-    for fname, k in (("group_wall_thickness.png", 0), ("group_wall_thickening.png", 1)):
+    files = (f"group_{layer}_thickness.png", f"group_{layer}_thickening.png")
+    assert set(files) <= {p.name for p in paths}
+    for fname, k in zip(files, (0, 1)):
         normal, banded = drawn[fname].axes
         assert [line.get_label() for line in normal.lines] == ["normal0", "normal1"]
         for line in normal.lines:

@@ -177,6 +177,29 @@ def test_inner_wall_takes_the_outer_grid_towards_the_axis():
     assert np.allclose(stretch[..., 1], 1, atol=1e-6)                    # along
 
 
+def test_the_inner_grid_goes_on_to_the_lumen_along_the_same_lines():
+    """Three concentric cylinders (r = 0.2, 0.12, 0.07), each meshed on its own: the
+    inner grid carried on towards the outer rows' centres meets the lumen at the
+    same angle and height, 0.05 from the inner wall (within the facets' sag);
+    towards any other centre, on the line from each inner node to it."""
+    X = cylinder_grid(radius=0.2)[0].X
+    Xi, _ = project_towards_axis(*inner_cylinder(0.12), X)
+    lumen = inner_cylinder(0.07, n_theta=29, theta0=2.5)
+    Xj, at_closest = project_towards_axis(*lumen, Xi, centre=X.mean(axis=0))
+    assert at_closest == 0
+    angle = np.angle(np.exp(1j * (np.arctan2(Xj[..., 1], Xj[..., 0])
+                                  - np.arctan2(X[..., 1], X[..., 0]))))
+    assert np.abs(angle).max() < 1e-4 and np.allclose(Xj[..., 2], X[..., 2], atol=1e-6)
+    jelly = np.linalg.norm(Xi - Xj, axis=-1)
+    sag = 0.07 * (1 - np.cos(np.pi / 29)) + 0.12 * (1 - np.cos(np.pi / 37))
+    assert np.all(np.abs(jelly - 0.05) <= sag + 1e-6) and np.abs(jelly - 0.05).max() > 1e-4
+    centre = X.mean(axis=0) + np.array([0.03, -0.02, 0.0])
+    Xj, _ = project_towards_axis(*lumen, Xi, centre=centre)
+    towards, went = centre[None, 1:-1] - Xi[:, 1:-1], Xj[:, 1:-1] - Xi[:, 1:-1]
+    off_line = np.linalg.norm(np.cross(towards, went), axis=-1) / np.linalg.norm(towards, axis=-1)
+    assert off_line.max() < 1e-5 and np.einsum("...k,...k", towards, went).min() > 0
+
+
 def test_inner_nodes_with_no_wall_on_the_way_take_the_closest_point():
     """An inner wall half as long as the outer one: the rows beyond its end meet no
     wall towards the axis and take its closest point, on its outlet rim; the

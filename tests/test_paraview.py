@@ -67,14 +67,17 @@ def test_each_wall_carries_its_own_node_fields_and_its_rows_areas():
     names = ["outer", "inner", "contour_inner_mm", "area_inner_mm2", "area_rows_inner_mm2",
              "radial_curvature_inner_per_mm", "strain_energy_inner", "principal_stretch_inner",
              "strain_energy_outer", "wall_thickness_mm", "phase_max_wall_thickness_mm_ms",
-             "phase_min_strain_energy_inner_ms", "mean_curvature_lumen_per_mm"]
+             "phase_min_strain_energy_inner_ms", "mean_curvature_lumen_per_mm",
+             "jelly_thickness_mm", "phase_max_jelly_thickness_mm_ms"]
     described = {n: dict(describe_array(n, map_positions="fixed"),
                          file="grids.npz" if n in ("outer", "inner") else "arrays.npz")
                  for n in names}
     assert sorted(node_field_names(described, "inner")) == sorted([
         "radial_curvature_inner_per_mm", "strain_energy_inner", "principal_stretch_inner",
         "wall_thickness_mm", "phase_max_wall_thickness_mm_ms",
-        "phase_min_strain_energy_inner_ms"])
+        "phase_min_strain_energy_inner_ms", "jelly_thickness_mm",
+        "phase_max_jelly_thickness_mm_ms"])
+    assert "jelly_thickness_mm" not in node_field_names(described, "outer")
     assert node_field_names(described, "lumen") == ["mean_curvature_lumen_per_mm"]
     # maps resampled to fixed positions: the grid rows' own areas are area_rows_*
     assert row_area_name(described, "inner") == "area_rows_inner_mm2"
@@ -121,8 +124,12 @@ def test_paraview_series_hold_the_results(run_out, tmp_path):
         area = m.point_data["area_outer_mm2"].reshape(n_u, n_v)
         assert np.array_equal(area[3], arrays["area_outer_mm2"][:, t].astype(np.float32))
         assert m.point_data["u"].reshape(n_u, n_v)[:, 0] == pytest.approx(np.arange(n_u) / n_u)
-    # the wall thickness is the myocardium's: on outer and inner, not on the lumen
-    assert "wall_thickness_mm" in meshio.read(out / _steps(out / "inner.pvd")[0][1]).point_data
+    # the wall thickness is the myocardium's: on outer and inner, not on the lumen; the
+    # jelly's is measured from the inner nodes
+    inner = meshio.read(out / _steps(out / "inner.pvd")[0][1]).point_data
+    assert np.array_equal(inner["jelly_thickness_mm"], arrays["jelly_thickness_mm"][:, :, 0].ravel())
+    assert "wall_thickness_mm" in inner
+    assert "jelly_thickness_mm" not in m.point_data
     lumen = meshio.read(out / _steps(out / "lumen.pvd")[0][1]).point_data
     assert "mean_curvature_lumen_per_mm" in lumen and "wall_thickness_mm" not in lumen
     # section rings: closed, and enclosing the section's measured area

@@ -131,12 +131,15 @@ def trim_to_loops(chain: np.ndarray, inlet: np.ndarray, outlet: np.ndarray) -> n
 
 
 def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndarray,
-                         X: np.ndarray) -> tuple[np.ndarray, int]:
+                         X: np.ndarray, centre: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, int]:
     """The grid ``X (n_u, n_v, 3)`` of the outer wall carried onto the inner wall
     ``(V, F)`` (paper section 4.1): each node along the line towards its row's
-    centre (the mean of the row's nodes), to the first point of the wall on the
-    way; the first and last rows to the points of the wall's ``inlet`` and
-    ``outlet`` loops nearest those lines, on the same side of the centre.
+    centre (``centre (n_v, 3)`` mm; by default the mean of the row's nodes), to
+    the first point of the wall on the way; the first and last rows to the points
+    of the wall's ``inlet`` and ``outlet`` loops nearest those lines, on the same
+    side of the centre. (Given the inner grid and the outer rows' centres, it
+    carries the inner grid on along the same lines onto the lumen.)
 
     The paper takes the closest point of the inner surface, which for a round
     tube is the same point. On a mesh of flat triangles the closest point sticks
@@ -156,7 +159,8 @@ def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet
     scene.add_triangles(o3d.core.Tensor((V - mid).astype(np.float32)),
                         o3d.core.Tensor(F.astype(np.uint32)))
     q = X - mid
-    towards = q.mean(axis=0, keepdims=True) - q                  # to the row's centre
+    ends = q.mean(axis=0, keepdims=True) if centre is None else (centre - mid)[None]
+    towards = ends - q                                           # to the row's centre
     reach = np.linalg.norm(towards, axis=-1)
     D = towards / reach[..., None]
     rays = np.concatenate([q, D], axis=-1).reshape(-1, 6).astype(np.float32)

@@ -105,8 +105,8 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     keys = ["group", "n_frames", "period_ms", "t0_frame", "expand_fraction", "contract_fraction",
             "expand_ms", "contract_ms", "tube_length_mm", "myocardial_volume_change",
             "jelly_volume_change", "wall_thickness_median_mm", "wall_thickening",
-            "jelly_thickness_median_mm", "jelly_thickening", "band_position_mm", "corner_count", "ridge_smoothing_ms",
-            "field_smoothing_ms", "strain_smoothing_ms"]
+            "jelly_thickness_median_mm", "jelly_thickening", "band_position_mm",
+            "corner_count", "ridge_smoothing_ms", "field_smoothing_ms", "strain_smoothing_ms"]
     rows = [{"quantity": k, "value": summary.get(k)} for k in keys if k in summary]
     spread = summary.get("wave_speed_noise_sd_mm_s") or {}
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():

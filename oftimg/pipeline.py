@@ -311,7 +311,8 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     smoothed_ms = {name: noise[name]["smoothing_ms"] for name in noise}
     smoothed_ms["mean_curvature_lumen_per_mm"] = lumen_smoothed_ms
     smoothed_ms.update({name: n["smoothing_ms"] for name, n in strain_noise.items()})
-    for name in [n for n in arrays if n.startswith(("radial", "strain", "mean_curv", "wall", "jelly"))]:
+    phased = ("radial", "strain", "mean_curv", "wall", "jelly")
+    for name in [n for n in arrays if n.startswith(phased)]:
         # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
         rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothed_ms.get(name, 0.0) ** 2))
         t_max, t_min = phase_maps(arrays[name], period_ms, smoothing_ms=rest_ms)

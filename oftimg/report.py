@@ -196,7 +196,7 @@ FIELD_SIGMAS = {"field_smoothing_ms": ("shape fields", "--field-smoothing-ms"),
 
 def field_smoothing_caveat(summaries: list[dict], key: str = "field_smoothing_ms"
                            ) -> str | None:
-    """The same for the curvature and wall thickness fields (``field_smoothing_ms``,
+    """The same for the curvature and thickness fields (``field_smoothing_ms``,
     per field: "auto" takes as much as each field's noise needs), or the strain
     fields (``key="strain_smoothing_ms"``); None when each field's sigma is the
     same in every group."""

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from oftimg.cli import main
+from oftimg.export import TESTED_MAPS
 
 pytestmark = pytest.mark.slow
 
@@ -44,7 +45,9 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
     text = index.read_text()
     assert "normal" in text and "banded" in text and "permutation" in text
     assert "Where the groups differ on the maps" in text
-    assert text.count("<td>banded - normal</td>") == 3       # area, wall thickness, strain
+    assert "clusters of uncorrected p &le; 0.05" in text              # the default
+    # area, wall and jelly thickness, strain energy
+    assert text.count("<td>banded - normal</td>") == len(TESTED_MAPS) == 4
     for figure in sorted((cohort_out / "figures").glob("*.png")):   # each named below it
         assert (f'<img src="figures/{figure.name}" alt="{figure.stem}"><figcaption '
                 f'class="small">{figure.stem}</figcaption>') in text

@@ -40,7 +40,7 @@ def _as_dataset_paths(source) -> list[Path]:
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         options: dict | None = None, jobs: int | None = None,
         scheduler: str | None = None, fps: float = 30.0, parallel: str = "auto",
-        resume: bool = False) -> Path:
+        resume: bool = False, cluster_alpha: float = 0.05) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
     Every frame of every dataset is validated before any work. The work runs
@@ -55,7 +55,8 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     dataset's complete results are also kept in :func:`finished_folder` until
     the run succeeds; with ``resume``, those whose inputs, options and oftimg
     code are unchanged are reused (neither validated nor analysed again).
-    Returns ``out``.
+    ``cluster_alpha``: the cluster-forming threshold of the cohort maps' tests
+    (:func:`cohort_maps`). Returns ``out``.
     """
     from .pipeline import PipelineOptions
 
@@ -63,6 +64,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         raise InputError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
     if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
         raise InputError(f"--fps must be a positive number of frames per second, found {fps!r}")
+    _check_cluster_alpha(cluster_alpha)
     out = Path(out)
     paths = _as_dataset_paths(source)
     check_output_location(out, paths, overwrite=overwrite)
@@ -75,11 +77,12 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     with finished.locked(out):
         return _run_locked(datasets, finished, out, paths, opts, resume=resume, jobs=jobs,
                            scheduler=scheduler, parallel=parallel, overwrite=overwrite,
-                           quiet=quiet, fps=fps, started=started)
+                           quiet=quiet, fps=fps, started=started,
+                           cluster_alpha=cluster_alpha)
 
 
 def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs, scheduler,
-                parallel, overwrite, quiet, fps, started) -> Path:
+                parallel, overwrite, quiet, fps, started, cluster_alpha) -> Path:
     """:func:`run` once it holds ``finished``: what to reuse, validation, the work,
     the cohort outputs; on failure, the note on what is kept."""
     from .pipeline import check_enough_frames
@@ -110,7 +113,7 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
                         quiet=quiet)
             summaries = [reused.get(name) or done[name] for name in names]
             _write_run(summaries, finished, out, paths, opts, overwrite=overwrite,
-                       started=started)
+                       started=started, cluster_alpha=cluster_alpha)
     except BaseException as exc:
         kept = finished.names()
         if kept:
@@ -135,6 +138,16 @@ def _validated(ds: Dataset, executor, quiet: bool) -> dict:
         bar.close()
     report["seconds"] = round(time.time() - tick, 2)
     return report
+
+
+def _check_cluster_alpha(cluster_alpha) -> None:
+    """:func:`oftimg.stats.check_cluster_alpha` as an :class:`InputError`, before any work."""
+    from .stats import check_cluster_alpha
+
+    try:
+        check_cluster_alpha(cluster_alpha)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
 
 
 def _check_names(named: list[tuple[str, Path]], fix: str) -> None:
@@ -428,12 +441,14 @@ def _log_done(summary: dict) -> None:
              summary["expand_fraction"], summary["wave_speed_mm_s"]["cycle"])
 
 
-def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, started):
+def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, started,
+               cluster_alpha):
     """The finished datasets and the cohort tables, figures and pages, staged into ``out``."""
     with staged_output(out, overwrite=overwrite) as tmp:
         for s in summaries:
             finished.copy_into(s["name"], tmp)
-        write_cohort_outputs(tmp, summaries, _run_info(paths, opts.as_dict(), started))
+        write_cohort_outputs(tmp, summaries, _run_info(paths, opts.as_dict(), started),
+                             cluster_alpha=cluster_alpha)
     return out
 
 
@@ -444,11 +459,13 @@ def _run_info(inputs: list[Path], options: dict, started: float) -> dict:
             "options": options, "seconds": round(time.time() - started, 2)}
 
 
-def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) -> None:
+def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
+                         cluster_alpha: float = 0.05) -> None:
     """Cohort table (csv, md), group comparison, the area maps on one grid
-    (``cohort_maps.npz``), group figures (two groups or more), every dataset's page
-    and the cohort's, ``run.json`` (``run_info``), into
-    ``folder``, which holds each dataset's results in ``folder/<name>``."""
+    (``cohort_maps.npz``, clusters formed at ``cluster_alpha``), group figures (two
+    groups or more), every dataset's page and the cohort's, ``run.json``
+    (``run_info`` and ``cluster_alpha``), into ``folder``, which holds each
+    dataset's results in ``folder/<name>``."""
     from .figures import group_figures
     from .html import cohort_page, dataset_page
     from .report import (field_smoothing_caveat, group_comparison, map_comparison_rows,
@@ -459,13 +476,14 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
                            field_smoothing_caveat(summaries, "strain_smoothing_ms")) if c]
     for caveat in caveats:
         warnings.warn(caveat, OftimgWarning, stacklevel=2)
+    run_info = {**run_info, "cluster_alpha": cluster_alpha}
     if caveats:
-        run_info = {**run_info, "notes": caveats}
+        run_info["notes"] = caveats
     write_cohort_table(folder, summaries)
     write_cohort_markdown(folder, summaries)
     comparison = group_comparison(summaries)
     write_groups_table(folder, summaries, comparison)
-    maps = cohort_maps(folder, summaries)
+    maps = cohort_maps(folder, summaries, cluster_alpha=cluster_alpha)
     write_cohort_maps(folder, maps)
     group_figs = []
     if len({s["group"] for s in summaries}) >= 2:
@@ -477,7 +495,7 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict) ->
     cohort_page(folder, summaries, run_info, group_figs, comparison, map_comparison_rows(maps))
 
 
-def cohort(sources, out, *, overwrite: bool = False) -> Path:
+def cohort(sources, out, *, overwrite: bool = False, cluster_alpha: float = 0.05) -> Path:
     """Gather datasets analysed separately (say one cluster job each, ``oftimg run
     embryo_k --out results/embryo_k``) into one cohort in ``out``, with the tables,
     group comparison, figures and pages that :func:`run` writes for a cohort.
@@ -485,8 +503,10 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
     Each source is one dataset's results (a folder with ``summary.json``) or a
     folder of them (a run's ``--out``). All must have been analysed with the
     same options. Their files reach ``out`` by hard links where possible (or
-    copies); the sources are never written to. Returns ``out``.
+    copies); the sources are never written to. ``cluster_alpha`` as in :func:`run`.
+    Returns ``out``.
     """
+    _check_cluster_alpha(cluster_alpha)
     started = time.time()
     out = Path(out)
     pairs = sorted(((read_summary(f), f) for f in result_folders(sources)),
@@ -514,7 +534,7 @@ def cohort(sources, out, *, overwrite: bool = False) -> Path:
             shutil.copytree(folder, tmp / s["name"], copy_function=link_or_copy)
         run_info = _run_info(folders, options, started)
         run_info["datasets_seconds"] = _datasets_seconds(summaries)
-        write_cohort_outputs(tmp, summaries, run_info)
+        write_cohort_outputs(tmp, summaries, run_info, cluster_alpha=cluster_alpha)
     return out
 
 

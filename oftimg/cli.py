@@ -125,6 +125,11 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("results", type=Path, nargs="+", help=results_help)
     c.add_argument("--out", type=Path, required=True, help="cohort folder (created)")
     c.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
+    for parser in (r, c):
+        parser.add_argument("--cluster-alpha", type=float, default=0.05, metavar="P",
+                            help="cluster-forming threshold of the cohort maps' cluster test: "
+                                 "pixels of uncorrected p <= P form clusters (default 0.05; "
+                                 "lower finds smaller, stronger clusters)")
 
     exports = {"paraview": "write analysed datasets' grids (with every field on their nodes) "
                            "and section contours as ParaView time series (.pvd)",
@@ -281,10 +286,12 @@ def _command(args) -> int:
                    "strain_smoothing_ms": args.strain_smoothing_ms}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
-                      parallel=args.parallel, resume=args.resume)
+                      parallel=args.parallel, resume=args.resume,
+                      cluster_alpha=args.cluster_alpha)
         print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
     elif args.command == "cohort":
-        out = api.cohort(args.results, args.out, overwrite=args.overwrite)
+        out = api.cohort(args.results, args.out, overwrite=args.overwrite,
+                         cluster_alpha=args.cluster_alpha)
         n = len(json.loads((out / "run.json").read_text())["inputs"])
         print(f"cohort: {out} ({n} dataset{'s' * (n != 1)})\n"
               f"cohort table: {out / 'cohort.csv'}")

@@ -300,17 +300,21 @@ for _key in TESTED_MAPS:
     COHORT_MAPS[f"{_key}_p_cluster"] = (
         ["comparison", "position", "phase"], "1",
         "p-value of the cluster of pixels each pixel belongs to, corrected over the whole "
-        "map (cluster-mass permutation test, clusters of uncorrected p <= 0.05 joined "
-        "across the cycle's ends; 1 outside clusters, NaN as p_fwer)")
+        "map (cluster-mass permutation test, clusters of uncorrected p <= cluster_alpha "
+        "joined across the cycle's ends; 1 outside clusters, NaN as p_fwer)")
+COHORT_MAPS["cluster_alpha"] = (
+    [], "1", "cluster-forming threshold of the *_p_cluster maps: the uncorrected p a pixel's "
+             "|difference| must reach to join a cluster (--cluster-alpha, default 0.05)")
 
 
-def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
+def cohort_maps(results: Path, summaries: list[dict], *,
+                cluster_alpha: float = 0.05) -> dict[str, np.ndarray]:
     """Every dataset's outer area map (and each row over its maximum) and the mean
     around the tube of each field of :data:`AROUND_TUBE_MAPS` (NaN where a dataset
     has none) on one grid of position and cycle fractions
     (:mod:`oftimg.image.group_maps`), read from ``results/<name>/arrays.npz``, and
     where the groups differ in the maps of :data:`TESTED_MAPS`: the arrays of
-    :data:`COHORT_MAPS`."""
+    :data:`COHORT_MAPS`, clusters formed at uncorrected p <= ``cluster_alpha``."""
     from .image.group_maps import (common_grid, group_differences, on_common_grid,
                                    row_normalized)
     from .pipeline import mean_around_tube
@@ -332,10 +336,11 @@ def cohort_maps(results: Path, summaries: list[dict]) -> dict[str, np.ndarray]:
             "position_fraction": position, "cycle_fraction": phase,
             **{key: np.array(stack) for key, stack in stacks.items()}}
     for key in TESTED_MAPS:
-        compared = group_differences(maps[key], maps["groups"])
+        compared = group_differences(maps[key], maps["groups"], cluster_alpha=cluster_alpha)
         names = compared.pop("names")            # the same groups for every map
         maps.update({f"{key}_{what}": value for what, value in compared.items()})
     maps["comparisons"] = np.array(names, dtype=str)
+    maps["cluster_alpha"] = np.array(float(cluster_alpha))
     return maps
 
 

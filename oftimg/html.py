@@ -191,7 +191,8 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
         body += ["<h2>Where the groups differ on the maps</h2><p class=\"small\">"
                  "cohort_maps.npz: each group against the normals on the common (position, "
                  "cycle) grid; p corrected over the whole map, pixel by pixel (max-statistic "
-                 "permutation test) and by cluster (cluster-mass permutation test: the groups "
+                 "permutation test) and by cluster (cluster-mass permutation test, clusters of "
+                 f"uncorrected p &le; {run_info.get('cluster_alpha', 0.05):g}: the groups "
                  "differ somewhere in a cluster, not at each of its pixels); the group map "
                  "figures outline both</p>",
                  _table(map_rows, list(map_rows[0]), highlight=lambda r: r["least_p_cluster"]

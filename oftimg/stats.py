@@ -150,6 +150,7 @@ def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.0
     shape, X, n, m, valid = _map_groups(a, b)
     if len(shape) != 2:
         raise ValueError(f"clusters need 2-D maps, not of shape {shape}")
+    check_cluster_alpha(cluster_alpha)
     p = np.full(valid.shape, np.nan)
     if n < 2 or m < 2 or not valid.any():
         return p.reshape(shape)
@@ -187,6 +188,13 @@ def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.0
                                                        exact=exact)])
     p[valid] = cluster_p[labels[0].ravel()[valid]]
     return p.reshape(shape)
+
+
+def check_cluster_alpha(cluster_alpha) -> None:
+    """A cluster-forming threshold must be an uncorrected p strictly between 0 and 1."""
+    if not (isinstance(cluster_alpha, (int, float)) and 0 < cluster_alpha < 1):
+        raise ValueError(f"the cluster-forming threshold (--cluster-alpha) must be an "
+                         f"uncorrected p between 0 and 1, found {cluster_alpha!r}")
 
 
 def _on_map(values: np.ndarray, valid: np.ndarray) -> np.ndarray:

@@ -129,7 +129,11 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
                  "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
                  "--authalic-weight", "0.25", "--seam-method", "heat",
                  "--map-positions", "fixed", "--field-smoothing-ms", "7",
-                 "--lumen-smoothing-steps", "3", "--strain-smoothing-ms", "2.5"]) == 0
+                 "--lumen-smoothing-steps", "3", "--strain-smoothing-ms", "2.5",
+                 "--cluster-alpha", "0.2"]) == 0
+    assert json.loads((out / "run.json").read_text())["cluster_alpha"] == 0.2
+    assert np.load(out / "cohort_maps.npz")["cluster_alpha"] == 0.2
+    assert "uncorrected p &le; 0.2" not in (out / "index.html").read_text()   # one group
     summary = json.loads((out / "tiny" / "summary.json").read_text())
     assert summary["time_warp"] is True
     assert summary["provenance"]["options"]["map_positions"] == "fixed"
@@ -266,6 +270,17 @@ def test_frames_per_second_must_be_positive(tmp_path, capsys, fps):
     out = tmp_path / "out"
     assert main(["run", str(tmp_path / "any"), "--out", str(out), "--quiet", "--fps", fps]) == 2
     assert "oftimg: error: --fps must be a positive number" in capsys.readouterr().err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["run", "cohort"])
+@pytest.mark.parametrize("alpha", ["0", "1", "-0.1", "nan"])
+def test_a_cluster_forming_threshold_must_be_a_p_value(tmp_path, capsys, command, alpha):
+    """Refused before any work (a run would otherwise fail after its embryos, at the
+    cohort maps), leaving no --out."""
+    out = tmp_path / "out"
+    assert main([command, str(tmp_path / "any"), "--out", str(out), "--cluster-alpha", alpha]) == 2
+    assert "--cluster-alpha) must be an uncorrected p between 0 and 1" in capsys.readouterr().err
     assert not out.exists()
 
 

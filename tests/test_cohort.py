@@ -37,7 +37,9 @@ def test_separate_runs_gathered_equal_one_run(runs, tmp_path):
     before = source_page.read_bytes()
     out = tmp_path / "cohort"
     assert main(["cohort", str(runs / "alone" / "n0"), str(runs / "together"),
-                 "--out", str(out)]) == 0
+                 "--out", str(out), "--cluster-alpha", "0.1"]) == 0
+    assert np.load(out / "cohort_maps.npz")["cluster_alpha"] == 0.1
+    assert np.load(runs / "joint" / "cohort_maps.npz")["cluster_alpha"] == 0.05
     for table in ("cohort.csv", "cohort.md", "groups.csv"):
         assert (out / table).read_text() == (runs / "joint" / table).read_text(), table
     for name in ("b0", "n0", "n1"):
@@ -48,6 +50,7 @@ def test_separate_runs_gathered_equal_one_run(runs, tmp_path):
         p.name for p in (runs / "joint" / "figures").iterdir())
     assert "n0/index.html" in (out / "index.html").read_text()
     run_info = json.loads((out / "run.json").read_text())
+    assert run_info["cluster_alpha"] == 0.1
     assert run_info["inputs"] == [str(runs / "together" / "b0"), str(runs / "alone" / "n0"),
                                   str(runs / "together" / "n1")]
     # run.json's seconds are the gathering's; the datasets' own runs are summed apart

@@ -82,8 +82,13 @@ def test_each_group_against_the_normals():
                                - maps[g == "normal"].mean(0))
     np.testing.assert_array_equal(compared["p_cluster"][1], map_cluster_test(
         maps[g == "banded"], maps[g == "normal"], periodic_axis=1))
+    p_fwer = compared["p_fwer"]
     compared = group_differences(maps, ["normal"] * 7)
     assert compared["names"] == [] and compared["p_cluster"].shape == (0, 4, 6)
+    wider = group_differences(maps, groups, cluster_alpha=0.3)     # the clusters' only
+    np.testing.assert_array_equal(wider["p_cluster"][1], map_cluster_test(
+        maps[g == "banded"], maps[g == "normal"], periodic_axis=1, cluster_alpha=0.3))
+    np.testing.assert_array_equal(wider["p_fwer"], p_fwer)
 
 
 def test_a_weak_extended_difference_is_found_as_a_cluster():
@@ -100,6 +105,26 @@ def test_a_weak_extended_difference_is_found_as_a_cluster():
     assert np.mean(np.isclose(p[band], 2 / 70)) > 0.7              # 2 of C(8, 4)
     assert np.mean(p[~band] < 0.05) < 0.01                          # the band's fringe
     assert np.all(np.isclose(p[p < 0.05], 2 / 70))
+
+
+def test_a_higher_cluster_forming_threshold_finds_more_of_a_weak_difference():
+    """4 + 4 embryos, a band 1.5 SD apart: clusters formed at uncorrected p <= 0.2 find
+    twice as much of it (p < 0.05) as at 0.05, for a wider fringe outside it (still a
+    few % of the map); the threshold must be a p strictly between 0 and 1."""
+    rng = np.random.default_rng(1)
+    a, b = rng.normal(0, 1, (4, 30, 40)), rng.normal(0, 1, (4, 30, 40))
+    a[:, 10:20, :] += 1.5
+    band = np.zeros((30, 40), bool)
+    band[10:20] = True
+    found, fringe = {}, {}
+    for alpha in (0.01, 0.05, 0.2):
+        p = map_cluster_test(a, b, periodic_axis=1, cluster_alpha=alpha)
+        found[alpha], fringe[alpha] = np.mean(p[band] < 0.05), np.mean(p[~band] < 0.05)
+    assert found[0.01] < found[0.05] < 0.5 < 2 * found[0.05] < found[0.2]
+    assert fringe[0.01] <= fringe[0.05] < fringe[0.2] < 0.05
+    for bad in (0, 1, -0.1, 1.5, float("nan"), True, "0.05"):
+        with pytest.raises(ValueError, match="between 0 and 1"):
+            map_cluster_test(a, b, cluster_alpha=bad)
 
 
 def test_clusters_join_across_the_cycles_end():

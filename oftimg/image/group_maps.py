@@ -61,14 +61,16 @@ def groups_in_order(groups) -> list[str]:
     return sorted(dict.fromkeys(np.asarray(groups).tolist()), key=lambda g: (g != "normal", g))
 
 
-def group_differences(maps: np.ndarray, groups, **test_options) -> dict:
+def group_differences(maps: np.ndarray, groups, *, cluster_alpha: float = 0.05,
+                      **test_options) -> dict:
     """Each other group against the first of :func:`groups_in_order`, on
     ``maps (n, positions, phases)``: ``names`` (``"banded - normal"``), and each
     ``(n_comparisons, positions, phases)``: ``difference`` of the group means,
     ``p_fwer`` each pixel's p corrected over the map
     (:func:`oftimg.stats.map_permutation_test`) and ``p_cluster`` the p of the
     cluster each pixel belongs to (:func:`oftimg.stats.map_cluster_test`, clusters
-    joined across the cycle's ends; 1 outside clusters)."""
+    of uncorrected p <= ``cluster_alpha`` joined across the cycle's ends; 1 outside
+    clusters)."""
     from ..stats import map_cluster_test, map_permutation_test
 
     groups = np.asarray(groups)
@@ -80,7 +82,8 @@ def group_differences(maps: np.ndarray, groups, **test_options) -> dict:
         out["names"].append(f"{g} - {order[0]}")
         out["difference"].append(difference)
         out["p_fwer"].append(p)
-        out["p_cluster"].append(map_cluster_test(a, b, periodic_axis=1, **test_options))
+        out["p_cluster"].append(map_cluster_test(a, b, periodic_axis=1,
+                                                  cluster_alpha=cluster_alpha, **test_options))
     for key in ("difference", "p_fwer", "p_cluster"):
         out[key] = np.array(out[key]).reshape((len(out["names"]),) + maps.shape[1:])
     return out

@@ -144,17 +144,19 @@ def test_map_comparison_rows_sum_up_where_the_groups_differ():
     area[groups == "banded", 20:30, 40:60] += 0.3                 # 4 % of the map
     thickness = 0.03 + 0.002 * rng.standard_normal((8, 50, 100))
     thickness[groups == "normal"] = np.nan                          # no inner walls
+    jelly = 0.05 + 0.002 * rng.standard_normal((8, 50, 100))        # no difference
     strain = 0.05 + 0.002 * rng.standard_normal((8, 50, 100))
     strain[groups == "banded", 5:15, 10:30] -= 0.03                # 4 % elsewhere
     for key, values in (("area_outer_normalized", area), ("wall_thickness_mm", thickness),
-                        ("strain_energy_outer", strain)):
+                        ("jelly_thickness_mm", jelly), ("strain_energy_outer", strain)):
         compared = group_differences(values, groups)
         maps["comparisons"] = compared.pop("names")
         maps.update({f"{key}_{what}": v for what, v in compared.items()})
-    area_row, thickness_row, strain_row = map_comparison_rows(maps)
+    area_row, thickness_row, jelly_row, strain_row = map_comparison_rows(maps)
     assert area_row["comparison"] == "banded - normal" and area_row["map"] == "area_outer_normalized"
     assert area_row["least_p_pixel"] == area_row["least_p_cluster"] == pytest.approx(2 / 70)
     assert 0.04 <= area_row["share_in_clusters_p<0.05"] < 0.06      # the block and its fringe
     assert thickness_row["least_p_cluster"] is None
+    assert jelly_row["map"] == "jelly_thickness_mm" and jelly_row["least_p_cluster"] > 0.05
     assert strain_row["map"] == "strain_energy_outer"
     assert 0.04 <= strain_row["share_in_clusters_p<0.05"] < 0.06

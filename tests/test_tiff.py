@@ -85,7 +85,8 @@ def test_tiff_images_hold_the_results(run_out, tmp_path, capsys):
     # the run's cohort maps: one slice per embryo, rows position (inlet at the bottom)
     maps = np.load(run_out / "cohort_maps.npz")
     assert sorted(p.stem for p in (out / "cohort_maps").iterdir()) == [
-        "area_outer_mm2", "area_outer_normalized", "strain_energy_outer", "wall_thickness_mm"]
+        "area_outer_mm2", "area_outer_normalized", "jelly_thickness_mm", "strain_energy_outer",
+        "wall_thickness_mm"]
     for name in ("area_outer_normalized", "strain_energy_outer"):   # no comparison: 1 group
         with tifffile.TiffFile(out / "cohort_maps" / f"{name}.tif") as tif:
             image, meta = tif.asarray(), tif.imagej_metadata

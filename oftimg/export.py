@@ -406,11 +406,13 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                                    "nodes smoothed in time by summary.strain_smoothing_ms)"),
         "wall_thickness_mm": ("mm", "myocardial wall thickness: distance from each outer grid "
                                     "node to its inner node (carried towards the row's "
-                                    "centre); smoothed in time by summary.field_smoothing_ms"),
+                                    "centre), negative where the inner wall lies outside the "
+                                    "outer one; smoothed in time by "
+                                    "summary.field_smoothing_ms"),
         "jelly_thickness_mm": ("mm", "cardiac jelly thickness: distance from each inner grid "
                                      "node on along the line from its outer node to the "
-                                     "lumen; smoothed in time by "
-                                     "summary.field_smoothing_ms"),
+                                     "lumen, negative where the lumen lies outside the inner "
+                                     "wall; smoothed in time by summary.field_smoothing_ms"),
         "mean_curvature_lumen_per_mm": ("1/mm", "mean curvature of the lumen (cotangent "
                                                 "Laplacian; rim vertices: mean of neighbours; "
                                                 "smoothed in time by summary.field_smoothing_ms)"),

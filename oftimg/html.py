@@ -121,6 +121,10 @@ def dataset_page(folder: Path, summary: dict) -> Path:
               {"check": "lines from the inner grid nodes that met no lumen and took its "
                         "closest point (0)",
                "value": summary.get("jelly_nodes_at_closest_point")},
+              {"check": "grid nodes of the inner wall outside the outer one, of the lumen "
+                        "outside the inner wall, over the frames (0, 0)",
+               "value": [summary.get("inner_nodes_outside_outer"),
+                         summary.get("lumen_nodes_outside_inner")]},
               {"check": "share of each curvature or thickness field's change over the "
                         "cycle that is frame-to-frame noise (well under 0.25)",
                "value": {name: (noise or {}).get("noise_share") for name, noise in

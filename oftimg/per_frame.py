@@ -12,7 +12,8 @@ import numpy as np
 
 from .io import DatasetError, Frame
 from .mesh.curvature import fill_boundary, taubin_smooth, vertex_mean_curvature
-from .mesh.grid import GridOptions, grid_frame, project_towards_axis, seam_endpoints
+from .mesh.grid import (GridOptions, grid_frame, project_towards_axis, seam_endpoints,
+                        signed_thickness)
 from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
 from .mesh.topology import MeshError, capped_signed_volume
 
@@ -61,7 +62,8 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     G(2/3, v) made non-crossing, each wall's section areas and contours on its
     original mesh, each wall's capped volume, the lumen's mean curvature, the
     cardiac jelly's thickness at each inner grid node (on along the line from the
-    outer node to the lumen).
+    outer node to the lumen; negative where the lumen lies outside the inner wall),
+    how many inner (lumen) nodes lie outside the outer (inner) wall.
     ``out["cpu_s"]`` holds the seconds spent per stage.
     """
     n_c = options.n_u
@@ -85,6 +87,7 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
         with clock("grid"):
             Xi, out["inner_at_closest"] = project_towards_axis(ti.V, ti.F, ti.inlet,
                                                                   ti.outlet, X)
+            out["inner_outside"] = int((signed_thickness(X, Xi, X.mean(axis=0)) < 0).sum())
             walls["inner"] = (ti, Xi, None)
     if "lumen" in frame.surfaces:
         with clock("load"):
@@ -102,7 +105,8 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
             with clock("grid"):   # the cardiac jelly: inner node on along its line to the lumen
                 Xj, out["jelly_at_closest"] = project_towards_axis(
                     tl.V, tl.F, tl.inlet, tl.outlet, walls["inner"][1], centre=X.mean(axis=0))
-                out["jelly_thickness"] = np.linalg.norm(walls["inner"][1] - Xj, axis=-1)
+                out["jelly_thickness"] = signed_thickness(walls["inner"][1], Xj, X.mean(axis=0))
+                out["lumen_outside"] = int((out["jelly_thickness"] < 0).sum())
     for wall, (tube, Xw, gw) in walls.items():
         with clock("sections"):
             area, centroid, contour, from_ring = sections_of_mesh(tube.V, tube.F, origins,

@@ -19,7 +19,7 @@ from .image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smo
                               smoothing_kernel)
 from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
-from .mesh.grid import GridOptions, smooth_endpoints
+from .mesh.grid import GridOptions, signed_thickness, smooth_endpoints
 from .mesh.sections import slab_thickness, volume_from_sections
 from .mesh.curvature import contour_curvature, count_corners
 from .mesh.strain import grid_strain
@@ -298,8 +298,9 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
             arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
     if "inner" in grid:
-        # each outer node to its inner node, carried towards the row's centre
-        thickness = np.linalg.norm(grid["outer"] - grid["inner"], axis=-1)
+        # each outer node to its inner node, carried towards the row's centre (negative
+        thickness = signed_thickness(grid["outer"], grid["inner"],       # where they cross)
+                                     grid["outer"].mean(axis=0))
         thickness, noise["wall_thickness_mm"] = smooth_field(thickness, period_ms, smoothing_ms)
         arrays["wall_thickness_mm"] = thickness.astype(np.float32)
     if jelly_thickness is not None:
@@ -435,6 +436,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     flipped = {w: int(sum(f["flipped"][w] for f in frames)) for w in walls}
     repaired = {w: int(sum(f["repaired"][w] for f in frames)) for w in walls}
     inner_closest = int(sum(f.get("inner_at_closest", 0) for f in frames))
+    outside = {w: int(sum(f.get(f"{w}_outside", 0) for f in frames)) for w in ("inner", "lumen")}
     from_ring = {w: np.stack([f["from_ring"][w] for f in frames], axis=1) for w in walls}
     centroids = {w: np.stack([f["centroid_" + w] for f in frames], axis=1) for w in walls}
     centroid = centroids["outer"]                                       # (n_v, n_t, 3)
@@ -472,6 +474,13 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             warnings.warn(f"{ds.path}: {closest} {what} met no {wall} wall on the way to "
                           "their row's centre and took the closest point (see "
                           f"{'inner' if wall == 'inner' else 'jelly'}_nodes_at_closest_point)",
+                          OftimgWarning, stacklevel=2)
+    for wall, out_wall, field in (("inner", "outer", "wall"), ("lumen", "inner", "jelly")):
+        if outside[wall]:
+            warnings.warn(f"{ds.path}: the {wall} wall lies outside the {out_wall} one at "
+                          f"{outside[wall]} of {grid['outer'][..., 0].size} grid nodes over the "
+                          f"frames, where {field}_thickness_mm is negative: do the "
+                          f"segmentations cross? (see {wall}_nodes_outside_{out_wall})",
                           OftimgWarning, stacklevel=2)
     if sum(flipped.values()):
         warnings.warn(f"{ds.path}: {sum(flipped.values())} flipped triangles in the (u, v) "
@@ -617,6 +626,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "maps_with_clamped_weights": repaired,
         "inner_nodes_at_closest_point": inner_closest,
         "jelly_nodes_at_closest_point": jelly_closest,
+        "inner_nodes_outside_outer": outside["inner"],
+        "lumen_nodes_outside_inner": outside["lumen"],
         "section_plane_fixes": plane_fixes,
         "section_planes_still_crossing": int(crossing.sum()),
         "frame_series_checks": series_checks,

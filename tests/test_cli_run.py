@@ -303,6 +303,16 @@ def test_swapped_walls_are_pointed_out(tmp_path):
     swapped = [str(w.message) for w in caught if "swapped?" in str(w.message)]
     assert swapped == [f"{ds}: the inner wall encloses as much as the outer one or more in "
                        "5 of 5 frames: are inner/ and outer/ swapped?"]   # lumen/ is fine
+    # every "inner" node lies outside its "outer" node: the thickness is negative
+    crossed = [str(w.message) for w in caught if "segmentations cross?" in str(w.message)]
+    assert crossed == [f"{ds}: the inner wall lies outside the outer one at 20000 of 20000 "
+                       "grid nodes over the frames, where wall_thickness_mm is negative: do the "
+                       "segmentations cross? (see inner_nodes_outside_outer)"]
+    summary = json.loads((tmp_path / "out" / "swapped" / "summary.json").read_text())
+    assert summary["inner_nodes_outside_outer"] == 20000
+    assert summary["lumen_nodes_outside_inner"] == summary["inner_nodes_at_closest_point"] == 0
+    thickness = np.load(tmp_path / "out" / "swapped" / "arrays.npz")["wall_thickness_mm"]
+    assert np.all(thickness < 0) and summary["wall_thickness_median_mm"] < 0
 
 
 def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path):

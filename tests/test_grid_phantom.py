@@ -36,6 +36,7 @@ def test_no_twist_no_slide(normal_grids):
     assert np.abs(theta[0]).max() < 0.3  # the seam is on the inside of the bend
     assert summary["flipped_triangles"] == {"outer": 0, "inner": 0, "lumen": 0}
     assert summary["inner_nodes_at_closest_point"] == 0
+    assert summary["inner_nodes_outside_outer"] == summary["lumen_nodes_outside_inner"] == 0
 
 
 def test_even_geodesic_spacing(normal_grids):

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from helpers import tube_mesh
 from oftimg.mesh.geodesic import GeodesicSolver, insert_path, locate_on_edges
 from oftimg.mesh.grid import (GridOptions, grid_frame, project_towards_axis, seam_endpoints,
-                              smooth_endpoints)
+                              signed_thickness, smooth_endpoints)
 from oftimg.mesh.parameterize import (FlatSampler, FlatTube, count_flipped, intrinsic_weights,
                                       seam_sides)
 from oftimg.mesh.strain import grid_strain
@@ -198,6 +198,36 @@ def test_the_inner_grid_goes_on_to_the_lumen_along_the_same_lines():
     towards, went = centre[None, 1:-1] - Xi[:, 1:-1], Xj[:, 1:-1] - Xi[:, 1:-1]
     off_line = np.linalg.norm(np.cross(towards, went), axis=-1) / np.linalg.norm(towards, axis=-1)
     assert off_line.max() < 1e-5 and np.einsum("...k,...k", towards, went).min() > 0
+
+
+def test_where_the_walls_cross_the_node_goes_outwards_and_the_thickness_is_negative():
+    """An inner wall (r = 0.12) bulging out to r = 0.23 through the outer one (0.2) on
+    a patch: its nodes there are on the same lines, 0.03 outside the outer nodes
+    (within the facets' sags): thickness -0.03; elsewhere 0.08 as before."""
+    X = cylinder_grid(radius=0.2)[0].X                          # 40 x 20 nodes, z = j / 19
+    V, F, inlet, outlet = inner_cylinder(0.12, n_theta=73)
+    theta = np.arctan2(V[:, 1], V[:, 0])
+    patch = (np.abs(np.angle(np.exp(1j * (theta - 2.0)))) < 0.6) & (np.abs(V[:, 2] - 0.5) < 0.2)
+    V[patch, :2] *= 0.23 / 0.12
+    Xi, at_closest = project_towards_axis(V, F, inlet, outlet, X)
+    assert at_closest == 0
+    thickness = signed_thickness(X, Xi, X.mean(axis=0))
+    node_theta = np.arctan2(X[..., 1], X[..., 0])
+    inside = (np.abs(np.angle(np.exp(1j * (node_theta - 2.0)))) < 0.4) & (
+        np.abs(X[..., 2] - 0.5) < 0.12)
+    away = (np.abs(np.angle(np.exp(1j * (node_theta - 2.0)))) > 0.9) | (
+        np.abs(X[..., 2] - 0.5) > 0.3)
+    sag = 0.2 * (1 - np.cos(np.pi / 64)) + 0.23 * (1 - np.cos(np.pi / 73)) + 1e-5
+    assert inside.sum() >= 12 and away.sum() > 400
+    assert np.allclose(thickness[inside], -0.03, atol=sag)
+    assert np.allclose(thickness[away], 0.08, atol=sag)
+    angle = np.angle(np.exp(1j * (np.arctan2(Xi[..., 1], Xi[..., 0]) - node_theta)))
+    assert np.abs(angle).max() < 1e-4 and np.allclose(Xi[..., 2], X[..., 2], atol=1e-6)
+    # the distance's sign, on its own: towards the centre positive, away negative
+    centre = np.zeros((1, 3))
+    out, far = np.array([[[1.0, 0, 0]]]), np.array([[[1.5, 0, 0]]])
+    assert signed_thickness(out, far, centre) == pytest.approx(-0.5)
+    assert signed_thickness(far, out, centre) == pytest.approx(0.5)
 
 
 def test_inner_nodes_with_no_wall_on_the_way_take_the_closest_point():

@@ -149,8 +149,12 @@ def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet
     either way the inner grid's strain against t = 0 ran into thousands. The
     line towards the centre meets the facets smoothly and keeps the nodes' order
     around any section that is star-shaped about its centre. A node whose line
-    meets no wall before the centre takes the closest point. Returns the
-    positions ``(n_u, n_v, 3)`` mm and how many nodes took the closest point.
+    meets no wall before the centre goes the other way along it, away from the
+    centre, to the wall within the same distance (the walls cross there: a
+    segmentation's inner wall outside its outer one; :func:`signed_thickness` is
+    then negative); one that meets no wall either way takes the closest point.
+    Returns the positions ``(n_u, n_v, 3)`` mm and how many nodes took the
+    closest point.
     """
     import open3d as o3d
 
@@ -167,6 +171,14 @@ def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet
     t_hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().reshape(reach.shape)
     found = t_hit <= reach
     out = np.where(found[..., None], q + np.where(found, t_hit, 0.0)[..., None] * D, np.nan)
+    if not found.all():                    # the walls cross: the wall is behind the node
+        missed = np.nonzero(~found)
+        back = np.concatenate([q[missed], -D[missed]], axis=-1).astype(np.float32)
+        t_back = scene.cast_rays(o3d.core.Tensor(back))["t_hit"].numpy()
+        behind = t_back <= reach[missed]
+        hit = tuple(i[behind] for i in missed)
+        out[hit] = q[hit] - t_back[behind, None] * D[hit]
+        found[hit] = True
     for row, loop in ((0, inlet), (-1, outlet)):
         out[:, row] = nearest_on_loop_to_rays(V[loop] - mid, q[:, row], D[:, row], reach[:, row])
         found[:, row] = True
@@ -174,6 +186,16 @@ def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet
         near = scene.compute_closest_points(o3d.core.Tensor(q[~found].astype(np.float32)))
         out[~found] = near["points"].numpy()
     return out + mid, int((~found).sum())
+
+
+def signed_thickness(X: np.ndarray, Y: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Distance (mm) from each node of a grid ``X (n_u, n_v, ..., 3)`` to its node of
+    ``Y`` (another wall's, :func:`project_towards_axis`), ``(n_u, n_v, ...)``;
+    negative where ``Y`` lies away from its row's ``centre (n_v, ..., 3)`` mm:
+    where the walls cross."""
+    step = Y - X
+    towards = np.einsum("...k,...k->...", step, centre[None] - X)
+    return np.where(towards < 0, -1.0, 1.0) * np.linalg.norm(step, axis=-1)
 
 
 def nearest_on_loop_to_rays(P: np.ndarray, X: np.ndarray, D: np.ndarray, reach: np.ndarray

@@ -355,14 +355,16 @@ def thickness_by_row(thickness: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     jelly) over the tube's circumference and the cycle, and its thickening over the
     beat: the largest over the smallest of its mean thickness around the tube,
     less 1 (``thickness (n_u, n_v, n_t)``; two ``(n_v,)`` arrays, NaN left out, NaN
-    for a row without a value). Each pixel's own largest over smallest takes its
+    for a row without a value; thickening NaN for a row whose mean thickness around
+    the tube reaches 0 or below, where the walls cross). Each pixel's own largest over smallest takes its
     noise's extremes for thickening: on the phantoms 11 % and 25 % high with 2 and
     5 um of roughness where the rows' means were within 2 %."""
     ring = mean_around_tube(thickness)                               # (n_v, n_t)
     with warnings.catch_warnings():      # rows without a value: NaN, left out
         warnings.simplefilter("ignore", RuntimeWarning)
+        thinnest = np.nanmin(ring, axis=-1)
         return (np.nanmean(ring, axis=-1),
-                np.nanmax(ring, axis=-1) / np.nanmin(ring, axis=-1) - 1.0)
+                np.where(thinnest > 0, np.nanmax(ring, axis=-1) / thinnest - 1.0, np.nan))
 
 
 def thickness_summary(thickness: np.ndarray, layer: str = "wall") -> dict:

@@ -313,6 +313,7 @@ def test_swapped_walls_are_pointed_out(tmp_path):
     assert summary["lumen_nodes_outside_inner"] == summary["inner_nodes_at_closest_point"] == 0
     thickness = np.load(tmp_path / "out" / "swapped" / "arrays.npz")["wall_thickness_mm"]
     assert np.all(thickness < 0) and summary["wall_thickness_median_mm"] < 0
+    assert summary["wall_thickening"] is None              # NaN: no ratio of negatives
 
 
 def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path):

@@ -491,13 +491,16 @@ def test_thickness_summary():
 
 def test_thickness_by_row():
     """Row j beating by +-a_j around b_j: mean b_j, thickening (1 + a_j) / (1 - a_j) - 1;
-    a row without any value NaN."""
+    a row without any value NaN, and the thickening of a row whose walls cross (mean
+    thickness 0 or below at some time)."""
     a, b = np.linspace(0.05, 0.3, 6), np.linspace(0.02, 0.04, 6)
     beat = np.sin(2 * np.pi * np.arange(40) / 40)
     thickness = np.broadcast_to(b[:, None] * (1 + a[:, None] * beat), (16, 6, 40)).copy()
     thickness[:, 4] = np.nan
+    thickness[:, 2] -= 0.03                                       # crosses 0 in the beat
     mean, thickening = thickness_by_row(thickness)
-    keep = np.arange(6) != 4
+    assert mean[2] == pytest.approx(b[2] - 0.03, rel=1e-12) and np.isnan(thickening[2])
+    keep = ~np.isin(np.arange(6), [2, 4])
     assert mean[keep] == pytest.approx(b[keep], rel=1e-12)
     assert thickening[keep] == pytest.approx(2 * a[keep] / (1 - a[keep]), rel=1e-12)
     assert np.isnan(mean[4]) and np.isnan(thickening[4])

@@ -25,7 +25,7 @@ from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_datas
                  natural_key, validate_dataset)
 from .phantom import sample_params, write_phantom
 from .progress import Progress
-from .results import read_summary, result_folders
+from .results import read_summary, result_folders, source_paths
 from .workers import available_memory, closing_executor, make_executor
 
 log = logging.getLogger("oftimg")
@@ -572,8 +572,7 @@ def tiff(sources, out, *, quiet: bool = False) -> Path:
     out = Path(out)
     names, folders = _exported(sources, out, (
         ("arrays.json", "it says which arrays are images"),))
-    runs = [Path(s) for s in ([sources] if isinstance(sources, (str, Path)) else sources)
-            if (Path(s) / "cohort_maps.json").is_file()]
+    runs = [s for s in source_paths(sources) if (s / "cohort_maps.json").is_file()]
     with staged_output(out) as tmp:
         bar = Progress(len(folders) + len(runs), "TIFF images", quiet=quiet, unit="folder")
         for name, folder in zip(names, folders):

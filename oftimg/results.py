@@ -25,12 +25,16 @@ LABELLED_DIMS = {"xyz": ("xyz", ["x", "y", "z"]), "xy": ("xy", ["x", "y"]),
                  "l1,l2": ("stretch", ["l1", "l2"]), "up/down": ("crossing", ["up", "down"])}
 
 
+def source_paths(sources) -> list[Path]:
+    """``sources``, one path or several, as a list of paths."""
+    return [Path(s) for s in ([sources] if isinstance(sources, (str, Path)) else sources)]
+
+
 def result_folders(sources) -> list[Path]:
     """Every dataset results folder (with summary.json) among ``sources``: each one
     such folder, or a folder of them (a run's ``--out``), in natural order."""
     folders = []
-    for src in [sources] if isinstance(sources, (str, Path)) else sources:
-        src = Path(src)
+    for src in source_paths(sources):
         if (src / "summary.json").is_file():
             folders.append(src)
             continue

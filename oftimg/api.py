@@ -176,7 +176,8 @@ def _n_workers(executor) -> int:
 def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: float,
                       quiet: bool = True, executor=None, progress=None) -> dict:
     """One validated dataset end to end: its results into ``folder`` (which
-    exists); returns its summary. ``progress``: see :func:`analyse_dataset`;
+    exists); returns its summary, which records the warnings of the analysis
+    (``warnings``, raised again too). ``progress``: see :func:`analyse_dataset`;
     without it, a bar over the frames that then names the stages still to come."""
     from .pipeline import analyse_dataset
     from .video import EARLY_VIDEOS, start_videos
@@ -195,11 +196,18 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
         if executor is not None:  # the workers render while this process goes on
             early = start_videos(arrays, grids, fps=fps, executor=executor, kinds=EARLY_VIDEOS)
 
+    caught = []
     try:
         with _own_threads_limited(executor):
-            result = analyse_dataset(ds, opts, quiet=True, executor=executor, progress=progress,
-                                     on_aligned=aligned)
+            try:
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    result = analyse_dataset(ds, opts, quiet=True, executor=executor,
+                                             progress=progress, on_aligned=aligned)
+            finally:
+                raised = _raise_again(caught)
             summary = result["summary"]
+            summary["warnings"] = raised
             summary["validation"] = report
             if bar is not None:
                 bar.note("figures, videos")
@@ -209,6 +217,16 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
         if bar is not None:
             bar.close()
     return summary
+
+
+def _raise_again(caught: list) -> list[str]:
+    """Raise the warnings ``caught`` (``warnings.WarningMessage``) again, each text
+    once, where they were first raised; returns the texts of oftimg's own
+    (:class:`OftimgWarning`), in order, for the summary."""
+    once = {(w.category, str(w.message)): w for w in caught}
+    for w in once.values():
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return [text for category, text in once if issubclass(category, OftimgWarning)]
 
 
 def _own_threads_limited(executor):

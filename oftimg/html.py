@@ -98,6 +98,12 @@ def _write_new(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
+def _warnings(summary: dict) -> list[str]:
+    """The warnings of a dataset's analysis, without the dataset's path before each."""
+    path = f"{(summary.get('validation') or {}).get('path')}: "
+    return [text.removeprefix(path) for text in summary.get("warnings") or []]
+
+
 def dataset_page(folder: Path, summary: dict) -> Path:
     """``<name>/index.html``: the numbers, every figure and every video of one dataset."""
     figs = sorted((folder / "figures").glob("*.png"))
@@ -147,9 +153,12 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                "value": {wall: _repaired(s.get("repairs", {})) for wall, s in
                          ((summary.get("validation") or {}).get("surfaces") or {}).items()}}]
     body = [f"<p><a href=\"../index.html\">cohort</a></p><h1>{html.escape(summary['name'])}</h1>",
-            _table(rows, ["quantity", "value", "spread from frame noise"]),
-            "<h2>Quality checks</h2>",
-            _table(checks, ["check", "value"]), "<h2>Figures</h2><div class=\"grid\">"]
+            _table(rows, ["quantity", "value", "spread from frame noise"])]
+    if summary.get("warnings"):
+        body += ["<h2>Warnings</h2><ul>"] + [f"<li>{html.escape(text)}</li>"
+                                             for text in _warnings(summary)] + ["</ul>"]
+    body += ["<h2>Quality checks</h2>", _table(checks, ["check", "value"]),
+             "<h2>Figures</h2><div class=\"grid\">"]
     body += [f'<figure><img src="figures/{f.name}" alt="{f.stem}"><figcaption class="small">'
              f'{f.stem}</figcaption></figure>' for f in figs]
     body.append("</div><h2>Videos</h2><div class=\"grid\">")
@@ -162,6 +171,26 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     path = folder / "index.html"
     _write_new(path, _page(summary["name"], "".join(body)))
     return path
+
+
+def _page_of(name: str) -> str:
+    """The link from the cohort's page to a dataset's."""
+    return f"{urllib.parse.quote(name, safe='')}/index.html"
+
+
+def _cohort_warnings(summaries: list[dict]) -> str:
+    """The cohort page's table of every dataset's warnings (one row each)."""
+    warned = [{"dataset": s["name"], "group": s["group"], "warning": text}
+              for s in summaries for text in _warnings(s)]
+    older = [s["name"] for s in summaries if "warnings" not in s]
+    text = ("what each dataset's analysis warned of (its page's quality checks say more)"
+            if warned else "no dataset's analysis warned of anything")
+    if older:
+        text += (f"; {', '.join(older)} analysed by an older oftimg, which did not record "
+                 "its warnings")
+    return (f"<h2>Warnings</h2><p class=\"small\">{html.escape(text, quote=False)}</p>"
+            + (_table(warned, ["dataset", "group", "warning"],
+                      link=lambda r: _page_of(r["dataset"])) if warned else ""))
 
 
 def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: list[Path],
@@ -178,8 +207,7 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
             + (f" (gathered; the datasets' own runs took {_fmt(run_info['datasets_seconds'])} s)"
                if run_info.get("datasets_seconds") is not None else "") + "</p>",
             "<h2>Cohort (Table 1)</h2>",
-            _table(cohort_rows(summaries), cols,
-                   link=lambda r: f"{urllib.parse.quote(r['name'], safe='')}/index.html")]
+            _table(cohort_rows(summaries), cols, link=lambda r: _page_of(r["name"]))]
     comp = group_comparison(summaries) if comparison is None else comparison
     if comp and len({s["group"] for s in summaries}) >= 2:
         ccols = list(comp[0])
@@ -191,6 +219,7 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                         and r["p_holm"] < 0.05)]
         body += [f"<p class=\"small\">Note: {html.escape(n)}</p>"
                  for n in run_info.get("notes", [])]
+    body.append(_cohort_warnings(summaries))
     if map_rows:
         body += ["<h2>Where the groups differ on the maps</h2><p class=\"small\">"
                  "cohort_maps.npz: each group against the normals on the common (position, "

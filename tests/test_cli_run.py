@@ -1,5 +1,6 @@
 """End to end through the command line on a small phantom: the output contract."""
 import csv
+import html
 import json
 from pathlib import Path
 
@@ -314,6 +315,14 @@ def test_swapped_walls_are_pointed_out(tmp_path):
     thickness = np.load(tmp_path / "out" / "swapped" / "arrays.npz")["wall_thickness_mm"]
     assert np.all(thickness < 0) and summary["wall_thickness_median_mm"] < 0
     assert summary["wall_thickening"] is None              # NaN: no ratio of negatives
+    # the warnings, each raised once, are in the summary and on both pages (the path cut)
+    assert swapped[0] in summary["warnings"] and crossed[0] in summary["warnings"]
+    assert len(set(summary["warnings"])) == len(summary["warnings"])
+    said = crossed[0].removeprefix(f"{ds}: ")
+    assert said.startswith("the inner wall lies outside")
+    for page in (tmp_path / "out" / "swapped" / "index.html", tmp_path / "out" / "index.html"):
+        assert html.escape(said) in page.read_text(), page
+    assert '<a href="swapped/index.html">swapped</a>' in (tmp_path / "out" / "index.html").read_text()
 
 
 def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path):

@@ -119,3 +119,23 @@ def test_paper_figures_script_needs_only_the_results(cohort_out, tmp_path):
         for ext in ("png", "pdf"):
             assert (tmp_path / f"{tag}_normal.{ext}").stat().st_size > 5000
     assert (tmp_path / "groups" / "group_max_area.png").exists()
+
+
+def test_the_cohort_page_lists_each_datasets_warnings():
+    """Each warning a row, without the dataset's path, linked to its page; a cohort
+    without warnings says so, unless a summary from an older oftimg never recorded
+    them."""
+    from oftimg.html import _cohort_warnings
+
+    def summary(name, warnings=None):
+        s = {"name": name, "group": "normal", "validation": {"path": f"/data/{name}"}}
+        return s if warnings is None else {**s, "warnings": warnings}
+
+    text = _cohort_warnings([summary("a b", ["/data/a b: the <inner> wall ..."]),
+                             summary("c", [])])
+    assert '<a href="a%20b/index.html">a b</a>' in text
+    assert "<td>the &lt;inner&gt; wall ...</td>" in text and "/data/" not in text
+    assert "no dataset" not in _cohort_warnings([summary("a", ["x"])])
+    assert "no dataset's analysis warned of anything</p>" in _cohort_warnings([summary("c", [])])
+    older = _cohort_warnings([summary("c", []), summary("old")])
+    assert "no dataset's analysis warned of anything; old analysed by an older oftimg" in older

@@ -362,3 +362,24 @@ def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path)
     assert repairs == {"outer": {"f2.ply": "dropped 1 part apart from the tube (4 faces), filled "
                                            "2 holes in the wall (6 boundary edges)"},
                        "lumen": {"f5.ply": "dropped 1 part apart from the tube (4 faces)"}}
+
+
+def test_the_warnings_of_a_failed_analysis_are_not_lost(monkeypatch, tmp_path):
+    """They are raised again, each text once, before the error goes on."""
+    import warnings
+
+    from oftimg import api, pipeline
+    from oftimg.io import OftimgWarning
+
+    def analyse(ds, opts, **kwargs):
+        for text in ("a: first", "a: second", "a: first"):
+            warnings.warn(text, OftimgWarning, stacklevel=2)
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(pipeline, "analyse_dataset", analyse)
+    with warnings.catch_warnings(record=True) as caught, pytest.raises(RuntimeError,
+                                                                       match="disk full"):
+        warnings.simplefilter("always")
+        api.analyse_and_write(object(), {}, tmp_path, None, fps=30.0, progress=lambda: None)
+    assert [str(w.message) for w in caught] == ["a: first", "a: second"]
+    assert all(w.category is OftimgWarning for w in caught)

@@ -86,14 +86,14 @@ def _parser() -> argparse.ArgumentParser:
                    help="rows of the (v, t) area maps: the grid rows, as in the paper "
                         "(default; they drift along the tube as its shape changes), or fixed "
                         "fractions of the centroid line in every frame (more accurate next to "
-                        "a band: see README, Accuracy)")
+                        "a band: see oftimg's docs/accuracy.md)")
     r.add_argument("--ridge-smoothing-ms", default="auto", metavar="MS",
                    help="Gaussian sigma (ms) with which each row of the outer area map is "
                         "smoothed in time before its maximum (the ridge, hence the wave "
                         "speeds) is found; auto (default): the least of "
                         f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms that "
                         "leaves the local speeds' noise spread under "
-                        f"{100 * AUTO_SPREAD_TARGET:g} %%; 0: none (see README, Accuracy)")
+                        f"{100 * AUTO_SPREAD_TARGET:g} %%; 0: none (see oftimg's docs/accuracy.md)")
     r.add_argument("--field-smoothing-ms", default="auto", metavar="MS",
                    help="Gaussian sigma (ms) with which every pixel of each curvature field "
                         "and of the wall thickness is smoothed in time (each frame's surface "
@@ -116,7 +116,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
                    help="Taubin smoothing steps on each lumen mesh before its mean curvature "
                         "(default 0: none, as the paper); for rough segmentations, whose "
-                        "curvature is otherwise noise (see README, Accuracy)")
+                        "curvature is otherwise noise (see oftimg's docs/accuracy.md)")
 
     results_help = "one dataset's results (a folder with summary.json) or a folder of them " \
                    "(a run's --out)"

@@ -595,7 +595,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                 f"smoothing, {100 * noise['noise_share']:.0f} % of each pixel's variance over "
                 "the cycle is frame-to-frame noise (median pixel; summary.json: field_noise), "
                 "so its per-pixel normalised video and phase maps show noise more than the "
-                f"beat; smoother surfaces, finer meshes or {helps} help (README, Accuracy)",
+                f"beat; smoother surfaces, finer meshes or {helps} help "
+                "(oftimg's docs/accuracy.md)",
                 OftimgWarning, stacklevel=2)
     for name, noise in fields["strain_noise"].items():
         if noise["error_share"] > NOISY_STRAIN_SHARE:
@@ -605,7 +606,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                 f"after {noise['smoothing_ms']:g} ms of smoothing alone changes the energy by "
                 f"{100 * noise['error_share']:.0f} % of its median size (summary.json: "
                 "strain_noise); a square, it is biased up; smoother surfaces, finer meshes "
-                "or a larger --strain-smoothing-ms help (README, Accuracy)",
+                "or a larger --strain-smoothing-ms help (oftimg's docs/accuracy.md)",
                 OftimgWarning, stacklevel=2)
     timings["fields_s"] = time.perf_counter() - tick
     tick = time.perf_counter()

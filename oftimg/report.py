@@ -184,8 +184,9 @@ def smoothing_caveat(summaries: list[dict]) -> str | None:
     return (f"the embryos' ridges were smoothed in time by different sigmas ({ranges}), as "
             "their maps' noise asked: more smoothing puts the ridge later where the beat's "
             "peak is asymmetric, so group differences in ridge times, and in wave speeds where "
-            "the expansion share changes along the tube, may come from it (README, Accuracy); "
-            f"to compare the groups, analyse them all with --ridge-smoothing-ms {largest:g}")
+            "the expansion share changes along the tube, may come from it "
+            "(oftimg's docs/accuracy.md); to compare the groups, analyse them all with "
+            f"--ridge-smoothing-ms {largest:g}")
 
 
 # the fields whose sigma "auto" chooses per dataset: summary key -> (what, run option)
@@ -214,7 +215,7 @@ def field_smoothing_caveat(summaries: list[dict], key: str = "field_smoothing_ms
     return (f"the embryos' {what} were smoothed in time by different sigmas, as "
             f"their noise asked: {', '.join(differing)}; more smoothing lowers and widens "
             "each pixel's peaks over the cycle, so group differences in those fields' size "
-            "and phase maps may come from it (README, Accuracy); to compare the groups, "
+            "and phase maps may come from it (oftimg's docs/accuracy.md); to compare the groups, "
             f"analyse them all with {option} {largest:g}")
 
 

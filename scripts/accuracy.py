@@ -191,7 +191,7 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
     e["speed_proximal_pct"] = _relative_pct(two["speed_proximal_mm_s"], true_two["proximal"])
     e["speed_distal_pct"] = _relative_pct(two["speed_distal_mm_s"], true_two["distal"])
     e["knee_mm"] = two["knee_mm"] - p["speed_knee_mm"]
-    # the errors in units of the spread that the map's own noise gives (README, Accuracy)
+    # the errors in units of the spread that the map's own noise gives (docs/accuracy.md)
     spread = summ["wave_speed_noise_sd_mm_s"]
     e["speed_cycle_spreads"] = _in_spreads(summ["wave_speed_mm_s"]["cycle"],
                                            truth["wave_speed_mm_s"]["cycle"], spread["cycle"])

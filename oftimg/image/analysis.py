@@ -97,7 +97,7 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
         notes.append(f"the outer area map has {colour:.3g} times more power at a quarter of "
                      "the frame rate than near half of it: if that is segmentation noise "
                      "correlated from frame to frame, the speeds' noise spreads and the auto "
-                     "ridge smoothing are too small (see README, Accuracy)")
+                     "ridge smoothing are too small (see oftimg's docs/accuracy.md)")
     summary["ridge_smoothing_ms"] = smoothing
     arrays["ridge_t_ms"] = ridge
     arrays["ridge_t_noise_sd_ms"] = spread["ridge_t_ms"]

@@ -20,12 +20,12 @@ FLAT_REL = 1e-3  # rows whose relative temporal range is below this have no ridg
 # phantoms (195 frames of 1.85 ms, each meshed independently) it takes the ridge's error
 # from 1.2 to 0.2 ms RMS and the worst local speed from 317 % to 5 % off; the cost is a
 # shift of the ridge by ~1.7 ms where the area's peak is asymmetric (the same shift in every
-# row whose peak has the same shape, so speeds keep it out). See README, Accuracy.
+# row whose peak has the same shape, so speeds keep it out). See docs/accuracy.md.
 RIDGE_SMOOTHING_MS = 5.0
 # ridge smoothing "auto": the smallest sigma (ms) of this ladder at which the local speeds'
 # noise spread is at most AUTO_SPREAD_TARGET of them (median over the rows). On the 6 + 6
 # phantoms it picked 5 ms without noise and 14-20 ms with 5 um of roughness, where the
-# local speeds came out 4-10 % off instead of 15-31 % (README, Accuracy)
+# local speeds came out 4-10 % off instead of 15-31 % (docs/accuracy.md)
 RIDGE_SMOOTHING_LADDER_MS = (5.0, 7.0, 10.0, 14.0, 20.0)
 AUTO_SPREAD_TARGET = 0.10
 # copies of a map, each with its own frame-to-frame noise drawn again, from which the
@@ -115,7 +115,7 @@ def noise_colour(area: np.ndarray) -> float:
     that the noise near the beat's own frequencies, which moves the ridge, is more
     than :func:`map_noise_sd` measures: 30 for noise smoothed over one frame, but
     only 1.4 for AR(1) noise with 0.5 from frame to frame, whose spreads come out
-    2.5-4 times too small (README, Accuracy). NaN for under 16 frames or NaN cells.
+    2.5-4 times too small (docs/accuracy.md). NaN for under 16 frames or NaN cells.
     """
     area = _check_map(area)
     n_t = area.shape[1]

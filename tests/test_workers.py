@@ -366,3 +366,27 @@ def test_a_killed_progress_manager_ends_the_bar_not_the_run():
         reports.put(1)                                    # no error: the reports end
         assert reports.queue is None
     assert bar.n == 2
+
+
+def test_a_worker_imports_no_image_figure_or_video_module():
+    """Spawned workers import oftimg.workers and oftimg.per_frame; the package's
+    public names are read on first use, so the analysis and figure modules (and
+    matplotlib, OpenCV, imageio: seconds of start-up per process) stay out."""
+    code = textwrap.dedent("""
+        import sys, oftimg.per_frame, oftimg.workers
+        heavy = ("matplotlib", "cv2", "imageio", "skimage", "xarray")
+        print(sorted(m for m in sys.modules if m.split(".")[0] in heavy
+                     or m in ("oftimg.api", "oftimg.pipeline", "oftimg.figures", "oftimg.video")))
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_every_public_name_resolves_and_others_do_not():
+    import oftimg
+    for name in oftimg.__all__:
+        assert getattr(oftimg, name) is not None
+    assert set(oftimg.__all__) <= set(dir(oftimg))
+    assert oftimg.run is oftimg.api.run
+    with pytest.raises(AttributeError, match="no_such_name"):
+        oftimg.no_such_name

@@ -371,7 +371,7 @@ def test_a_killed_progress_manager_ends_the_bar_not_the_run():
 def test_a_worker_imports_no_image_figure_or_video_module():
     """Spawned workers import oftimg.workers and oftimg.per_frame; the package's
     public names are read on first use, so the analysis and figure modules (and
-    matplotlib, OpenCV, imageio: seconds of start-up per process) stay out."""
+    matplotlib, OpenCV, imageio: 0.3 s of start-up per process) stay out."""
     code = textwrap.dedent("""
         import sys, oftimg.per_frame, oftimg.workers
         heavy = ("matplotlib", "cv2", "imageio", "skimage", "xarray")

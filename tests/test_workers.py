@@ -13,9 +13,15 @@ from oftimg.phantom import sample_params, write_phantom
 pytestmark = pytest.mark.slow
 
 
+# Ctrl-C handled as when Python starts from a terminal: a suite run in the background
+# (`make test &` in a script) starts its processes with SIGINT ignored, their spawned
+# workers too, and a test that interrupts a worker then hangs (seen: a 120 s timeout)
+SIGINT_HANDLED = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+
+
 def run_python(code: str, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run([sys.executable, "-c", SIGINT_HANDLED + textwrap.dedent(code)],
+                          capture_output=True, text=True, timeout=timeout)
 
 
 def test_a_pool_stuck_on_a_dead_worker_is_broken_not_hung():

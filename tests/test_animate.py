@@ -152,15 +152,15 @@ def test_noise_spreads_match_the_scatter_over_remeshings(tmp_path):
     only (a run writes these arrays to arrays.npz), in 2 processes."""
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
+    from functools import partial
     from pathlib import Path
 
     mesh = Path(__file__).parent / "data" / "midgut_8k.ply"
     anim = Animation(speed_mm_s=1.5, amplitude=0.3, period_ms=360.0, n_frames=40)
     seeds = range(11, 17)
     with ProcessPoolExecutor(2, mp_context=mp.get_context("spawn")) as pool:
-        ridges, speeds, spreads = zip(*pool.map(
-            _one_remeshing_analysed, [mesh] * 6, [anim] * 6, seeds,
-            [tmp_path / f"r{seed}" for seed in seeds]))
+        ridges, speeds, spreads = zip(*pool.map(partial(_one_remeshing_analysed, mesh, anim),
+                                                seeds, [tmp_path / f"r{s}" for s in seeds]))
     ridges = np.array(ridges)
     ridges -= anim.period_ms * np.round((ridges - np.median(ridges, axis=0)) / anim.period_ms)
 

@@ -12,8 +12,8 @@ import numpy as np
 
 from .io import DatasetError, Frame
 from .mesh.curvature import fill_boundary, taubin_smooth, vertex_mean_curvature
-from .mesh.grid import (GridOptions, grid_frame, project_towards_axis, seam_endpoints,
-                        signed_thickness)
+from .mesh.grid import (GridOptions, SeamCandidates, grid_frame, project_towards_axis,
+                        seam_candidates, signed_thickness)
 from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
 from .mesh.topology import MeshError, capped_signed_volume
 
@@ -123,8 +123,8 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     return out
 
 
-def frame_seam_end_points(frame: Frame, method: str):
-    """End points (mm) of the frame's shortest inlet-to-outlet geodesic."""
+def frame_seam_candidates(frame: Frame, method: str) -> SeamCandidates:
+    """The ends of the frame's shortest inlet-to-outlet geodesic and the seam
+    lengths from every loop point (:func:`~oftimg.mesh.grid.seam_candidates`)."""
     tb = frame.tube("outer")
-    p_in, p_out, _ = _named(tb, seam_endpoints, tb.V, tb.F, tb.inlet, tb.outlet, method=method)
-    return p_in, p_out
+    return _named(tb, seam_candidates, tb.V, tb.F, tb.inlet, tb.outlet, method=method)

@@ -19,11 +19,11 @@ from .image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smo
                               smoothing_kernel)
 from .image.pca import contour_pca
 from .mesh.clip import clip_grid, clip_positions, plane_at
-from .mesh.grid import GridOptions, signed_thickness, smooth_endpoints
+from .mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
 from .mesh.sections import slab_thickness, volume_from_sections
 from .mesh.curvature import contour_curvature, count_corners
 from .mesh.strain import grid_strain
-from .per_frame import frame_seam_end_points, process_frame, with_warnings
+from .per_frame import frame_seam_candidates, process_frame, with_warnings
 from .progress import Progress
 
 
@@ -159,14 +159,14 @@ def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> l
 
 
 def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=None):
-    """Pass 1: per-frame shortest-seam end points, smoothed in time ``(n_t, 3)`` each."""
-    pts = run_tasks(frame_seam_end_points,
-                    [(ds.frame(t), options.seam_method) for t in range(ds.n_frames)],
-                    executor=executor, progress=progress)
-    p_in = np.array([p[0] for p in pts])
-    p_out = np.array([p[1] for p in pts])
-    return (smooth_endpoints(p_in, options.seam_smoothing_frames),
-            smooth_endpoints(p_out, options.seam_smoothing_frames))
+    """Pass 1: the seam's end points ``(n_t, 3)`` each, continuous and smoothed in
+    time (:func:`~oftimg.mesh.grid.continuous_seam_ends`), and how many frames' seams
+    continue their neighbours' rather than their own shortest."""
+    candidates = run_tasks(frame_seam_candidates,
+                           [(ds.frame(t), options.seam_method) for t in range(ds.n_frames)],
+                           executor=executor, progress=progress)
+    p_in, p_out, chosen = continuous_seam_ends(candidates, options.seam_smoothing_frames)
+    return p_in, p_out, int(chosen.sum())
 
 
 # a shape field whose per-pixel variance over the cycle is more than this share of
@@ -411,7 +411,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     bar = Progress(2 * n_t, f"{ds.meta.name}", quiet=quiet or progress is not None)
     advance = progress or bar.advance
     tick = time.perf_counter()
-    p_in, p_out = seam_end_points(ds, opts, progress=advance, executor=executor)
+    p_in, p_out, seams_continued = seam_end_points(ds, opts, progress=advance,
+                                                   executor=executor)
     timings["seam_end_points_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     frames = run_tasks(process_frame, [(ds.frame(t), p_in[t], p_out[t], opts)
@@ -631,6 +632,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "jelly_nodes_at_closest_point": jelly_closest,
         "inner_nodes_outside_outer": outside["inner"],
         "lumen_nodes_outside_inner": outside["lumen"],
+        "seam_frames_continued": seams_continued,
         "section_plane_fixes": plane_fixes,
         "section_planes_still_crossing": int(crossing.sum()),
         "frame_series_checks": series_checks,

@@ -63,3 +63,34 @@ def square_warning_on_odd(k: int) -> int:
     if k % 2:
         warnings.warn(f"odd {min(k, 3)}", OftimgWarning)
     return k * k
+
+
+def retriangulated_tube(rng, *, radius_in=2.0, radius_out=None, length=10.0,
+                        n_vertices=3000, jitter=0.3):
+    """A straight tube (a cone if ``radius_out`` differs) along +z, meshed anew:
+    a random start angle, vertices jittered along the surface by ``jitter`` of a
+    step (the end rings' z kept), random quad diagonals, vertices and faces in a
+    random order. Independent meshes of one rigid shape: the null test's frames.
+    Returns ``V (n, 3)`` mm, ``F (m, 3)``, outward-oriented."""
+    radius_out = radius_in if radius_out is None else radius_out
+    n_th = max(12, int(round(np.sqrt(n_vertices * 2 * np.pi * radius_in / length))))
+    n_s = max(4, n_vertices // n_th)
+    z = np.linspace(0, length, n_s)[:, None] * np.ones((1, n_th))
+    dz, dth = length / (n_s - 1), 2 * np.pi / n_th
+    th = rng.uniform(0, 2 * np.pi) + dth * np.arange(n_th)[None, :] * np.ones((n_s, 1))
+    jit = rng.uniform(-jitter, jitter, z.shape) * dz
+    jit[[0, -1]] = 0.0
+    z = z + jit
+    th = th + rng.uniform(-jitter, jitter, th.shape) * dth
+    r = radius_in + (radius_out - radius_in) * z / length
+    V = np.stack([r * np.cos(th), r * np.sin(th), z], axis=-1).reshape(-1, 3)
+    idx = np.arange(n_s * n_th).reshape(n_s, n_th)
+    a, b = idx[:-1], np.roll(idx, -1, axis=1)[:-1]
+    c, d = np.roll(idx, -1, axis=1)[1:], idx[1:]
+    diag = rng.random(a.shape) < 0.5
+    t1 = np.where(diag[..., None], np.stack([a, b, c], -1), np.stack([a, b, d], -1))
+    t2 = np.where(diag[..., None], np.stack([a, c, d], -1), np.stack([b, c, d], -1))
+    F = np.concatenate([t1.reshape(-1, 3), t2.reshape(-1, 3)])
+    perm = rng.permutation(len(V))
+    inv = np.argsort(perm)
+    return V[perm], inv[F][rng.permutation(len(F))].astype(np.int64)

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from helpers import tube_mesh
 from oftimg.mesh.geodesic import GeodesicSolver, insert_path, locate_on_edges
 from oftimg.mesh.grid import (GridOptions, grid_frame, project_towards_axis, seam_endpoints,
-                              signed_thickness, smooth_endpoints)
+                              signed_thickness, smooth_angles)
 from oftimg.mesh.parameterize import (FlatSampler, FlatTube, count_flipped, intrinsic_weights,
                                       seam_sides)
 from oftimg.mesh.strain import grid_strain
@@ -360,12 +360,20 @@ def test_band_path_is_the_whole_mesh_path(rings, monkeypatch):
         assert got.shape == expected.shape and np.abs(got - expected).max() < 1e-12
 
 
-def test_smoothing_is_periodic():
-    P = np.zeros((10, 3))
-    P[0] = [1.0, 0, 0]
-    S = smooth_endpoints(P, 1.0)
-    assert S[9, 0] == pytest.approx(S[1, 0]) and S[9, 0] > 0
-    assert S[:, 0].sum() == pytest.approx(1.0)
+def test_seam_angle_smoothing_is_periodic_and_wraps():
+    theta = np.zeros(10)
+    theta[0] = 0.3
+    S = smooth_angles(theta, 1.0)
+    assert S[9] == pytest.approx(S[1]) and S[9] > 0
+    assert S.sum() == pytest.approx(0.3, rel=0.01)      # small angles: as numbers smooth
+    near_pi = np.where(np.arange(10) % 2, np.pi - 0.05, -np.pi + 0.05)   # across +-pi
+    assert np.abs(np.abs(smooth_angles(near_pi, 1.0)) - np.pi).max() < 0.05
+
+
+def test_seam_angle_smoothing_never_crosses_a_jump():
+    theta = np.where(np.arange(20) < 10, 0.0, 2.0)       # two runs, 2 rad apart
+    S = smooth_angles(theta, 2.0)
+    assert np.abs(S - theta).max() < 1e-9
 
 
 # ----------------------------------------------------------- invariance properties

@@ -101,6 +101,12 @@ class GeodesicSolver:
                                         shape=(len(self.V),) * 2)
         return self._graph
 
+    def distance_to_loop(self, loop: np.ndarray, other: np.ndarray) -> np.ndarray:
+        """Edge-path distance (mm) from each vertex of ``loop`` to the nearest vertex
+        of ``other``, ``(len(loop),)``: a few % long, by how the edges line up."""
+        return dijkstra(self.graph, directed=False, indices=np.asarray(other),
+                        min_only=True)[np.asarray(loop)]
+
     def _graph_shortest(self, sources, targets) -> tuple[int, int, float]:
         """Dijkstra candidates on the edge graph, each polished with exact lengths."""
         graph = self.graph

@@ -62,11 +62,161 @@ def seam_endpoints(V, F, inlet, outlet, *, method: str = "graph"
     return V[src].copy(), V[tgt].copy(), length
 
 
-def smooth_endpoints(P: np.ndarray, sigma_frames: float) -> np.ndarray:
-    """Periodic Gaussian smoothing in time of end points ``P (n_t, 3)`` mm."""
-    if sigma_frames <= 0 or len(P) < 3:
-        return P.copy()
-    return gaussian_filter1d(P, sigma_frames, axis=0, mode="wrap")
+# the seam's ends: edge-path lengths around each loop, smoothed over this angle, within
+# this share of the shortest are ties (on independent meshes of a rigid cylinder the
+# smoothed lengths spread by 0.6-1.6 % around the loop)
+SEAM_PROFILE_SIGMA = np.radians(6.0)
+SEAM_TIE_TOLERANCE = 0.02
+# a loop has no one shortest seam end when the longest smoothed length is within this
+# share of the shortest (the phantoms' bends: 18-45 %), or when ties lie apart from the
+# shortest's own arc (two sides equally short): its end continues its neighbours'
+SEAM_FLAT_CONTRAST = 0.05
+# consecutive seam ends farther apart than this are a jump: never smoothed across
+SEAM_JUMP = np.radians(60.0)
+
+
+@dataclass(frozen=True)
+class SeamCandidates:
+    """One frame's choices for the seam's ends, from :func:`seam_candidates`.
+
+    ``best (2, 3)`` mm: the ends of the shortest inlet-to-outlet geodesic;
+    ``loops``: the inlet and outlet loops' points ``(n_k, 3)`` mm in loop order;
+    ``lengths``: each loop point's edge-path distance (mm) to the other loop.
+    """
+
+    best: np.ndarray
+    loops: tuple[np.ndarray, np.ndarray]
+    lengths: tuple[np.ndarray, np.ndarray]
+
+
+def seam_candidates(V, F, inlet, outlet, *, method: str = "graph") -> SeamCandidates:
+    """The shortest seam's ends and how long a seam from every other loop point runs."""
+    solver = GeodesicSolver(V, F, method=method)
+    src, tgt, _ = solver.shortest_between(inlet, outlet)
+    return SeamCandidates(best=np.stack([V[src], V[tgt]]),
+                          loops=(V[inlet].copy(), V[outlet].copy()),
+                          lengths=(solver.distance_to_loop(inlet, outlet),
+                                   solver.distance_to_loop(outlet, inlet)))
+
+
+def _loop_angles(P: np.ndarray, axis: np.ndarray, reference: np.ndarray, extra: np.ndarray):
+    """Angles (rad) of the points ``P (n, 3)`` of a loop and of ``extra (3,)`` about
+    the loop's centroid, in the plane normal to ``axis`` (3,), from ``reference``
+    (3,) projected on it, and a function taking angles back to points on the loop."""
+    centre = P.mean(axis=0)
+    n = axis / np.linalg.norm(axis)
+    e1 = reference - (reference @ n) * n
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    d = np.vstack([P, extra]) - centre
+    phi = np.arctan2(d @ e2, d @ e1)
+    order = np.argsort(phi[:-1])
+
+    def at(theta):
+        return np.array([np.interp(_gap(theta, 0.0), phi[order], P[order, k], period=2 * np.pi)
+                         for k in range(3)])
+    return phi[:-1], phi[-1], at
+
+
+def _tie_angles(phi: np.ndarray, lengths: np.ndarray, n_bins: int = 360):
+    """Angles ``(n_bins,)`` around a loop (symmetric about 0: a mirrored loop gives
+    the same), whether a seam from there ties the shortest
+    (:data:`SEAM_TIE_TOLERANCE`, lengths smoothed over :data:`SEAM_PROFILE_SIGMA`),
+    and whether the loop has no one shortest end (:data:`SEAM_FLAT_CONTRAST`)."""
+    grid = (np.arange(n_bins) + 0.5) * (2 * np.pi / n_bins) - np.pi
+    order = np.argsort(phi)
+    profile = np.interp(grid, phi[order], lengths[order], period=2 * np.pi)
+    profile = gaussian_filter1d(profile, SEAM_PROFILE_SIGMA / (2 * np.pi / n_bins), mode="wrap")
+    near = profile <= profile.min() * (1 + SEAM_TIE_TOLERANCE)
+    if near.all() or profile.max() < profile.min() * (1 + SEAM_FLAT_CONTRAST):
+        return grid, near, True
+    start = int(np.argmin(near))                       # a bin that is no tie: arcs from there
+    arcs = np.cumsum(np.diff(np.roll(near, -start).astype(int), prepend=0) == 1)
+    arcs = np.roll(arcs, start)
+    return grid, near, bool(len(np.unique(arcs[near])) > 1)
+
+
+def _gap(a, b):
+    """Angle (rad) from ``b`` to ``a``, wrapped into [-pi, pi)."""
+    return np.mod(np.asarray(a) - b + np.pi, 2 * np.pi) - np.pi
+
+
+def smooth_angles(theta: np.ndarray, sigma_frames: float) -> np.ndarray:
+    """Periodic Gaussian smoothing in time of angles ``theta (n_t,)`` rad that wrap,
+    never across a jump of more than :data:`SEAM_JUMP` between frames (the runs
+    between jumps are smoothed each on its own)."""
+    n_t = len(theta)
+    if sigma_frames <= 0 or n_t < 3:
+        return theta.copy()
+    step = _gap(np.roll(theta, -1), theta)              # t -> t + 1, the last to the first
+    jumps = np.nonzero(np.abs(step) > SEAM_JUMP)[0]
+    if len(jumps) == 0:
+        z = gaussian_filter1d(np.exp(1j * theta).real, sigma_frames, mode="wrap") + \
+            1j * gaussian_filter1d(np.exp(1j * theta).imag, sigma_frames, mode="wrap")
+        return np.angle(z)
+    out = np.empty(n_t)
+    starts = (jumps + 1) % n_t
+    for a, length in zip(starts, np.diff(np.append(jumps, jumps[0] + n_t))):
+        run = (a + np.arange(length)) % n_t
+        unwrapped = theta[run[0]] + np.concatenate([[0.0], np.cumsum(step[run[:-1]])])
+        out[run] = gaussian_filter1d(unwrapped, sigma_frames, mode="nearest")
+    return _gap(out, 0.0)
+
+
+def continuous_seam_ends(frames: list[SeamCandidates], sigma_frames: float
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The seam's ends for every frame of a cycle, continuous in time.
+
+    Where a loop has one shortest seam end, that is the end. Where seams from a
+    wide arc of the loop tie the shortest within the edge paths' accuracy (a
+    straight or nearly round tube, a bend that flattens), the end is the tie
+    nearest the ends of the closest frames before and after that have one
+    (interpolated between them in time), or, when no frame has one, nearest the
+    end of the frame whose lengths vary most around the loop: on a cylinder
+    every straight line is a shortest seam, and a free choice spun the grid from
+    frame to frame. The rule reads the cycle the same from any start and either
+    way round. The ends' angles about their loops are then smoothed in time
+    (:func:`smooth_angles`).
+
+    Returns ``p_in, p_out (n_t, 3)`` mm on the loops and ``chosen (n_t,)`` bool:
+    frames whose seam continues its neighbours' rather than its own shortest.
+    """
+    n_t = len(frames)
+    contrast = np.zeros(n_t)
+    for t, c in enumerate(frames):                   # a frame's seam: unique by how much?
+        for e in (0, 1):
+            contrast[t] += np.ptp(c.lengths[e]) / c.lengths[e].min()
+    lead = frames[int(np.argmax(contrast))]
+    axis = lead.loops[1].mean(axis=0) - lead.loops[0].mean(axis=0)
+    reference = lead.best[0] - lead.loops[0].mean(axis=0)
+    ends, chosen = [], np.zeros(n_t, dtype=bool)
+    for e in (0, 1):
+        best, ties, back = np.empty(n_t), [], []
+        ambiguous = np.zeros(n_t, dtype=bool)
+        for t, c in enumerate(frames):
+            phi, best[t], at = _loop_angles(c.loops[e], axis, reference, c.best[e])
+            back.append(at)
+            grid, near, ambiguous[t] = _tie_angles(phi, c.lengths[e])
+            ties.append((grid, near))
+        theta = best.copy()
+        anchors = np.nonzero(~ambiguous)[0]
+        lead_theta = best[int(np.argmax(contrast))]
+        for t in np.nonzero(ambiguous)[0]:
+            target = lead_theta
+            if len(anchors):
+                before = anchors[np.argmin((t - anchors) % n_t)]
+                after = anchors[np.argmin((anchors - t) % n_t)]
+                a, b = (t - before) % n_t, (after - t) % n_t
+                target = best[before] + _gap(best[after], best[before]) * a / (a + b)
+            grid, near = ties[t]
+            if not near[int(np.argmin(np.abs(_gap(grid, target))))]:   # else: target itself
+                gap = _gap(grid[near], target)
+                target = target + gap[np.argmin(np.abs(gap))]
+            theta[t] = target
+        chosen |= ambiguous
+        theta = smooth_angles(theta, sigma_frames)
+        ends.append(np.array([back[t](theta[t]) for t in range(n_t)]))
+    return ends[0], ends[1], chosen
 
 
 def grid_frame(V, F, inlet, outlet, p_in, p_out, options: GridOptions,

@@ -85,7 +85,12 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
               for w, k in filled.items() if k]
     expand_rate, contract_rate = area_rates(area["outer"], period_ms / n_t)
     knee, sd = speeds["knee"], spread["speeds"]
-    if np.isfinite(spread["noise_sd"]).any():
+    if spread["synchronous"]:
+        notes.append(f"the ridge's slope along the tube, {spread['ridge_slope_ms_per_mm']:.3g} "
+                     f"+- {spread['ridge_slope_noise_sd_ms_per_mm']:.2g} ms/mm, is consistent "
+                     "with none within the map's noise: the tube contracts at once "
+                     "(synchronous within noise), so no wave speed is given (NaN)")
+    elif np.isfinite(spread["noise_sd"]).any():
         notes += _unresolved_speeds(speeds["summary"] | {"proximal": knee.speed_proximal_mm_s,
                                                          "distal": knee.speed_distal_mm_s}, sd)
     else:
@@ -104,6 +109,9 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     arrays["local_speed_mm_s"] = speeds["local"]
     arrays["local_speed_noise_sd_mm_s"] = spread["local_speed_mm_s"]
     arrays["area_noise_sd_outer_mm2"] = spread["noise_sd"]
+    summary["wave_synchronous_within_noise"] = spread["synchronous"]
+    summary["ridge_slope_ms_per_mm"] = spread["ridge_slope_ms_per_mm"]
+    summary["ridge_slope_noise_sd_ms_per_mm"] = spread["ridge_slope_noise_sd_ms_per_mm"]
     summary["wave_speed_mm_s"] = speeds["summary"]
     summary["wave_speed_noise_sd_mm_s"] = {k: sd[k]
                                            for k in ("min", "max", "mean", "median", "cycle")}

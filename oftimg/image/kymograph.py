@@ -37,6 +37,12 @@ SPREAD_FINITE_SHARE = 0.9
 # a speed is resolved when the spread of its inverse (the ridge's slope) over the draws is
 # under this share of it: within one SD the wave neither stands still nor turns back
 RESOLVED_SLOPE_SHARE = 0.5
+# a ridge whose least-squares slope t(s) along the tube is within this many of its noise
+# SDs of 0, or crosses the whole tube in under SYNCHRONOUS_FRAMES of a frame interval, is a
+# synchronous contraction: no wave, no speeds (a chamber that contracts at once gave
+# -338 +- 190 mm/s before this check)
+SYNCHRONOUS_SDS = 2.0
+SYNCHRONOUS_FRAMES = 0.25
 
 
 def _check_map(area: np.ndarray, s_mm: np.ndarray | None = None) -> np.ndarray:
@@ -281,12 +287,41 @@ def wave_speeds(s_mm: np.ndarray, ridge_t_ms: np.ndarray) -> dict:
             "knee": two_segment_fit(s_mm, ridge_t_ms)}
 
 
+def no_wave(n_v: int) -> dict:
+    """:func:`wave_speeds` of a map without a wave: every speed NaN."""
+    return {"local": np.full(n_v, np.nan),
+            "summary": wave_speed_summary(np.full(n_v, np.nan), float("nan")),
+            "knee": KneeFit(np.nan, np.nan, np.nan, np.nan, np.nan)}
+
+
 def _speed_values(speeds: dict) -> dict:
     """The scalar speeds of :func:`wave_speeds`, by summary key."""
     out = {k: v for k, v in speeds["summary"].items() if k != "std"}
     out["proximal"] = speeds["knee"].speed_proximal_mm_s
     out["distal"] = speeds["knee"].speed_distal_mm_s
     return out
+
+
+def ridge_slope(s_mm: np.ndarray, ridge_t_ms: np.ndarray) -> float:
+    """Least-squares slope (ms/mm) of the ridge's time along the tube over its finite
+    rows; NaN for fewer than 3."""
+    ok = np.isfinite(ridge_t_ms)
+    if ok.sum() < 3:
+        return float("nan")
+    s = np.asarray(s_mm, float)[ok]
+    t = np.asarray(ridge_t_ms, float)[ok]
+    ds = s - s.mean()
+    return float((ds * (t - t.mean())).sum() / (ds * ds).sum())
+
+
+def is_synchronous(slope: float, slope_sd: float, length_mm: float, frame_ms: float) -> bool:
+    """Whether a ridge of ``slope`` (ms/mm) with noise ``slope_sd`` is consistent with
+    no wave at all: within :data:`SYNCHRONOUS_SDS` SDs of 0, or the whole
+    ``length_mm`` crossed in under :data:`SYNCHRONOUS_FRAMES` of ``frame_ms``."""
+    if not np.isfinite(slope):
+        return False
+    return bool(abs(slope) * length_mm < SYNCHRONOUS_FRAMES * frame_ms
+                or (np.isfinite(slope_sd) and abs(slope) < SYNCHRONOUS_SDS * slope_sd))
 
 
 def _spread(draws: np.ndarray) -> np.ndarray:
@@ -327,7 +362,10 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     (min, max, mean, median, cycle, proximal, distal) mm/s. A speed that is
     not resolved (:func:`_resolved_spread`: the noise could stop or reverse the
     wave there) has a spread of NaN. Errors that do not change from frame to
-    frame (a shape the grid follows badly) are not in the spread.
+    frame (a shape the grid follows badly) are not in the spread. ``synchronous``:
+    the ridge's slope along the tube (``ridge_slope_ms_per_mm``, its spread
+    ``ridge_slope_noise_sd_ms_per_mm``) is consistent with no wave
+    (:func:`is_synchronous`); every measured speed is then NaN.
     """
     area = _check_map(area, s_mm)
     if int(draws) != draws or draws < 10:
@@ -335,7 +373,7 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     noise = map_noise_sd(area)
     ridge = ridge_times(area, period_ms, smoothing_ms=smoothing_ms)
     rng = np.random.default_rng(seed)
-    ridges, locals_, values = [], [], []
+    ridges, locals_, values, slopes = [], [], [], []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)   # the map's flat rows: said once
         for _ in range(int(draws)):
@@ -345,9 +383,18 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
             ridges.append(ridge + (r - ridge + period_ms / 2) % period_ms - period_ms / 2)
             locals_.append(speeds["local"])
             values.append(list(_speed_values(speeds).values()))
+            slopes.append(ridge_slope(s_mm, r))
     measured = wave_speeds(s_mm, ridge)
+    slope = ridge_slope(s_mm, ridge)
+    slope_sd = float(_spread(np.array(slopes)[:, None])[0])
+    s = np.asarray(s_mm, float)
+    synchronous = is_synchronous(slope, slope_sd, float(s.max() - s.min()),
+                                 period_ms / area.shape[1])
+    if synchronous:
+        measured = no_wave(len(s))
     scalars = _speed_values(measured)
-    return {"ridge": ridge, "measured": measured,
+    return {"ridge": ridge, "measured": measured, "synchronous": synchronous,
+            "ridge_slope_ms_per_mm": slope, "ridge_slope_noise_sd_ms_per_mm": slope_sd,
             "noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
             "local_speed_mm_s": _resolved_spread(np.array(locals_), measured["local"]),
             "speeds": dict(zip(scalars, _resolved_spread(np.array(values),
@@ -371,6 +418,8 @@ def auto_ridge_smoothing(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *
         spread = speed_spread(area, s_mm, period_ms, smoothing_ms=sigma)
         if not np.isfinite(spread["noise_sd"]).any():
             return float(ladder[0]), spread
+        if spread["synchronous"]:                     # no wave: no speeds to resolve
+            break
         with np.errstate(divide="ignore", invalid="ignore"):
             relative = spread["local_speed_mm_s"] / np.abs(spread["measured"]["local"])
         if np.median(np.where(np.isfinite(relative), relative, np.inf)) <= target:

@@ -6,6 +6,14 @@ length is s (mm). Every vertex moves away from its slab's centroid by the
 factor ``1 + A w(t - s / C)`` with the smooth periodic pulse
 ``w(phi) = sin^4(pi phi)`` (period T), so a section's area peaks when
 ``t = s / C + T / 2``: the wave travels at C (mm/s) from inlet to outlet.
+
+On top of the wave, the tissue may slide within the surface as a beating heart's
+does: a twist about the centre line that grows from 0 at the inlet to
+``twist_deg`` at the outlet, and a longitudinal shortening towards the inlet by
+``shortening`` of each point's arc length, both following ``w(t / T)`` (0 at
+t = 0, full at T / 2). Each written frame's vertices are traced back to the
+static mesh (``truth/``), so how far a grid drifts from the tissue can be
+measured on any real shape.
 """
 from __future__ import annotations
 
@@ -29,6 +37,8 @@ class Animation:
     amplitude: float
     period_ms: float
     n_frames: int
+    twist_deg: float = 0.0
+    shortening: float = 0.0
 
     def __post_init__(self):
         if self.speed_mm_s == 0 or not np.isfinite(self.speed_mm_s):
@@ -37,6 +47,10 @@ class Animation:
             raise InputError(f"amplitude must be in (-0.9, 2), found {self.amplitude}")
         if self.period_ms <= 0 or self.n_frames < 3:
             raise InputError("period_ms must be positive and n_frames at least 3")
+        if not abs(self.twist_deg) <= 180:
+            raise InputError(f"twist_deg must be within +-180 degrees, found {self.twist_deg}")
+        if not 0 <= self.shortening < 0.9:
+            raise InputError(f"shortening must be in [0, 0.9), found {self.shortening}")
 
 
 def pulse(phi):
@@ -76,12 +90,49 @@ def axial_coordinates(V, F, inlet, outlet, *, n_slabs: int = 64):
 
 def animate_frames(V, F, inlet, outlet, anim: Animation):
     """Yield ``(t_ms, V_t)`` for every frame (same connectivity ``F``)."""
-    _, _, _, s_v, c_v = axial_coordinates(V, F, inlet, outlet)
+    _, cent, s, s_v, c_v = axial_coordinates(V, F, inlet, outlet)
+    tangent = np.gradient(cent, s, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    t_v = np.stack([np.interp(s_v, s, tangent[:, d]) for d in range(3)], axis=1)
+    t_v /= np.linalg.norm(t_v, axis=1, keepdims=True)
     for k in range(anim.n_frames):
         t = k * anim.period_ms / anim.n_frames
         phi = (t - 1e3 * s_v / anim.speed_mm_s) / anim.period_ms
-        factor = 1.0 + anim.amplitude * pulse(phi)
-        yield t, c_v + (V - c_v) * factor[:, None]
+        R = (V - c_v) * (1.0 + anim.amplitude * pulse(phi))[:, None]
+        beat = pulse(t / anim.period_ms)
+        if anim.twist_deg:
+            R = _rotated(R, t_v, np.radians(anim.twist_deg) * beat * s_v / s[-1])
+        centre = c_v
+        if anim.shortening:
+            to = s_v * (1.0 - anim.shortening * beat)
+            centre = np.stack([np.interp(to, s, cent[:, d]) for d in range(3)], axis=1)
+        yield t, centre + R
+
+
+def _rotated(R: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Vectors ``R (n, 3)`` turned by ``angle (n,)`` rad about unit ``axis (n, 3)``
+    (Rodrigues)."""
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    along = np.einsum("ij,ij->i", axis, R)[:, None]
+    return R * c + np.cross(axis, R) * s + axis * along * (1 - c)
+
+
+def static_points(Vt: np.ndarray, F: np.ndarray, V_static: np.ndarray, W: np.ndarray):
+    """Where each point ``W (m, 3)`` of an animated frame ``(Vt, F)`` came from on the
+    static mesh ``(V_static, F)``: its closest point on the frame, the triangle
+    ``(m,)`` and barycentric coordinates ``(m, 3)`` there, and that point of the
+    static mesh ``(m, 3)``."""
+    import open3d as o3d
+
+    mid = Vt.mean(axis=0)
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor((Vt - mid).astype(np.float32)),
+                        o3d.core.Tensor(F.astype(np.uint32)))
+    hit = scene.compute_closest_points(o3d.core.Tensor((W - mid).astype(np.float32)))
+    tri = hit["primitive_ids"].numpy().astype(np.int64)
+    uv = hit["primitive_uvs"].numpy().astype(np.float64)
+    bary = np.stack([1.0 - uv.sum(axis=1), uv[:, 0], uv[:, 1]], axis=1)
+    return tri, bary, np.einsum("mk,mkd->md", bary, V_static[F[tri]])
 
 
 def remesh(V, F, rng, *, keep=(0.5, 0.9), tries: int = 5):
@@ -110,10 +161,23 @@ def remesh(V, F, rng, *, keep=(0.5, 0.9), tries: int = 5):
     return V[perm], inv[F][rng.permutation(len(F))]
 
 
+def _own_vertices(F: np.ndarray, n_vert: int) -> np.ndarray:
+    """A triangle ``(n_vert,)`` at each vertex (the last one listed there)."""
+    tri = np.zeros(n_vert, dtype=np.int64)
+    tri[F.ravel()] = np.repeat(np.arange(len(F)), 3)
+    return tri
+
+
 def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0,
                     do_remesh: bool = False, seed: int = 0, progress=None) -> Path:
-    """Write an animated dataset (meta.json, outer/, truth.json) from one static tube;
-    ``out`` appears only when complete."""
+    """Write an animated dataset (meta.json, outer/, truth.json, truth/) from one static
+    tube; ``out`` appears only when complete.
+
+    ``truth/static.ply`` is the static mesh in mm; ``truth/<frame>.npz`` gives, for
+    every vertex of that frame, the point of the static mesh it came from:
+    ``static_point_mm (n, 3)``, on the static triangle ``triangle (n,)`` at the
+    barycentric coordinates ``barycentric (n, 3)`` (for a remeshed frame, of the
+    vertex's closest point on the animated surface before remeshing)."""
     from .export import require_new_folder, staged_output
     from .io import load_tube, write_ply
 
@@ -129,10 +193,19 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
     width = len(str(anim.n_frames - 1))
     with staged_output(out) as tmp:
         (tmp / "outer").mkdir()
+        (tmp / "truth").mkdir()
+        write_ply(tmp / "truth" / "static.ply", V, F)
         for k, (t, Vt) in enumerate(animate_frames(V, F, tube.inlet, tube.outlet, anim)):
             volumes.append(capped_signed_volume(Vt, F, [tube.inlet, tube.outlet]))
             Vw, Fw = remesh(Vt, F, rng) if do_remesh else (Vt, F)
             write_ply(tmp / "outer" / f"f{k:0{width}d}.ply", Vw, Fw)
+            if do_remesh:
+                tri, bary, came_from = static_points(Vt, F, V, Vw)
+            else:                                  # each vertex is its own static vertex
+                tri, came_from = _own_vertices(F, len(V)), V
+                bary = (F[tri] == np.arange(len(V))[:, None]).astype(float)
+            np.savez_compressed(tmp / "truth" / f"f{k:0{width}d}.npz", static_point_mm=came_from,
+                                triangle=tri, barycentric=bary)
             if progress:
                 progress(k + 1)
         meta = {"name": out.name, "group": "animated", "period_ms": anim.period_ms,

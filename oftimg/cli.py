@@ -178,6 +178,11 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--unit", choices=["mm", "um"], default="mm", help="unit after --scale")
     an.add_argument("--scale", type=float, default=1.0,
                     help="multiply the file's coordinates by this (e.g. 0.2619 um per voxel)")
+    an.add_argument("--twist-deg", type=float, default=0.0,
+                    help="twist about the centre line at the outlet at mid-cycle, growing "
+                         "from 0 at the inlet (degrees)")
+    an.add_argument("--shortening", type=float, default=0.0,
+                    help="longitudinal shortening towards the inlet at mid-cycle (0.15: 15 %%)")
     an.add_argument("--remesh", action="store_true", help="remesh every frame independently")
     an.add_argument("--seed", type=int, default=0)
     an.add_argument("--quiet", action="store_true")
@@ -317,7 +322,8 @@ def _command(args) -> int:
         from .animate import Animation, write_animation
         from .progress import Progress
 
-        anim = Animation(args.speed_mm_s, args.amplitude, args.period_ms, args.frames)
+        anim = Animation(args.speed_mm_s, args.amplitude, args.period_ms, args.frames,
+                         twist_deg=args.twist_deg, shortening=args.shortening)
         to_mm = args.scale * (1e-3 if args.unit == "um" else 1.0)
         bar = Progress(args.frames, f"animate {args.out.name}", quiet=args.quiet)
         out = write_animation(args.mesh, args.out, anim, scale_to_mm=to_mm,

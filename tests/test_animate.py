@@ -33,6 +33,52 @@ def test_bad_animation_parameters():
         Animation(0.0, 0.3, 100, 10)
     with pytest.raises(ValueError, match="amplitude"):
         Animation(5.0, 3.0, 100, 10)
+    with pytest.raises(ValueError, match="twist_deg"):
+        Animation(5.0, 0.3, 100, 10, twist_deg=float("nan"))
+    with pytest.raises(ValueError, match="shortening"):
+        Animation(5.0, 0.3, 100, 10, shortening=-0.1)
+
+
+def test_twist_and_shortening_of_a_cylinder():
+    """At mid-cycle a cylinder's outlet ring has turned by the twist about the axis and
+    every point has moved towards the inlet by the shortening of its arc length."""
+    V, F = tube_mesh(0.2, length=1.0, n_theta=32, n_s=30)
+    topo = check_tube(V, F)
+    inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < 0.5 else topo.loops[::-1]
+    anim = Animation(1e9, 0.0, 100.0, 4, twist_deg=20.0, shortening=0.15)   # no wave
+    _, mid = list(animate_frames(V, topo.F, inlet, outlet, anim))[2]         # t = T / 2
+    turned = np.arctan2(mid[outlet, 1], mid[outlet, 0]) - np.arctan2(V[outlet, 1], V[outlet, 0])
+    assert np.degrees(np.angle(np.exp(1j * turned))) == pytest.approx(20.0, abs=0.5)
+    assert np.allclose(np.linalg.norm(mid[:, :2], axis=1), 0.2, atol=1e-3)    # still round
+    assert np.allclose(mid[:, 2], 0.85 * V[:, 2], atol=0.02)
+
+
+@pytest.mark.parametrize("remeshed", [False, True])
+def test_truth_traces_every_written_vertex_to_the_static_mesh(tmp_path, remeshed):
+    from oftimg.io import read_mesh_file
+
+    V, F = tube_mesh(0.2, length=1.0, n_theta=32, n_s=30)
+    write_ply(tmp_path / "tube.ply", V, F)
+    anim = Animation(5.0, 0.3, 100.0, 5, twist_deg=20.0, shortening=0.15)
+    ds = write_animation(tmp_path / "tube.ply", tmp_path / "anim", anim, do_remesh=remeshed,
+                         seed=2)
+    static, static_F = read_mesh_file(ds / "truth" / "static.ply")
+    assert np.allclose(static, V) and np.array_equal(static_F, F)
+    topo = check_tube(V, F)
+    inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < 0.5 else topo.loops[::-1]
+    frames = list(animate_frames(V, topo.F, inlet, outlet, anim))
+    for k, path in enumerate(load_dataset(ds).frames["outer"]):
+        written, _ = read_mesh_file(path)
+        truth = np.load(ds / "truth" / f"{path.stem}.npz")
+        came_from = truth["static_point_mm"]
+        assert came_from.shape == written.shape
+        corners = F[truth["triangle"]]
+        on_static = np.einsum("mk,mkd->md", truth["barycentric"], V[corners])
+        assert np.abs(on_static - came_from).max() < 1e-6
+        carried = np.einsum("mk,mkd->md", truth["barycentric"], frames[k][1][corners])
+        assert np.abs(carried - written).max() < (5e-3 if remeshed else 1e-6)   # PLY: float32
+        if not remeshed:
+            assert np.array_equal(came_from, V)
 
 
 @pytest.mark.parametrize("scale", [0.0, -1.0, float("nan")])

@@ -78,7 +78,7 @@ def test_truth_traces_every_written_vertex_to_the_static_mesh(tmp_path, remeshed
         carried = np.einsum("mk,mkd->md", truth["barycentric"], frames[k][1][corners])
         assert np.abs(carried - written).max() < (5e-3 if remeshed else 1e-6)   # PLY: float32
         if not remeshed:
-            assert np.array_equal(came_from, V)
+            assert np.array_equal(came_from, static)
 
 
 @pytest.mark.parametrize("scale", [0.0, -1.0, float("nan")])

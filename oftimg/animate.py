@@ -10,8 +10,9 @@ factor ``1 + A w(t - s / C)`` with the smooth periodic pulse
 On top of the wave, the tissue may slide within the surface as a beating heart's
 does: a twist about the centre line that grows from 0 at the inlet to
 ``twist_deg`` at the outlet, and a longitudinal shortening towards the inlet by
-``shortening`` of each point's arc length, both following ``w(t / T)`` (0 at
-t = 0, full at T / 2). Each written frame's vertices are traced back to the
+``shortening`` of each point's arc length (each ring slid along the centre line
+and turned with its tangent, so it stays across the tube), both following
+``w(t / T)`` (0 at t = 0, full at T / 2). Each written frame's vertices are traced back to the
 static mesh (``truth/``), so how far a grid drifts from the tissue can be
 measured on any real shape.
 """
@@ -103,9 +104,16 @@ def animate_frames(V, F, inlet, outlet, anim: Animation):
         if anim.twist_deg:
             R = _rotated(R, t_v, np.radians(anim.twist_deg) * beat * s_v / s[-1])
         centre = c_v
-        if anim.shortening:
-            to = s_v * (1.0 - anim.shortening * beat)
+        if anim.shortening:                 # each ring slid along the centre line, turned
+            to = s_v * (1.0 - anim.shortening * beat)        # with its tangent there
             centre = np.stack([np.interp(to, s, cent[:, d]) for d in range(3)], axis=1)
+            t_to = np.stack([np.interp(to, s, tangent[:, d]) for d in range(3)], axis=1)
+            t_to /= np.linalg.norm(t_to, axis=1, keepdims=True)
+            axis = np.cross(t_v, t_to)
+            sin = np.linalg.norm(axis, axis=1)
+            angle = np.arctan2(sin, np.einsum("ij,ij->i", t_v, t_to))
+            axis = np.where(sin[:, None] > 1e-12, axis / np.maximum(sin, 1e-300)[:, None], t_v)
+            R = _rotated(R, axis, angle)
         yield t, centre + R
 
 
@@ -222,3 +230,42 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
                  "volume_mm3": volumes}
         (tmp / "truth.json").write_text(json.dumps(truth, indent=1))
     return out
+
+
+def grid_material_points(dataset, grid: np.ndarray, t0_frame: int) -> np.ndarray:
+    """Where on the static mesh each node of an analysed grid sat: ``(n_u, n_v, n_t, 3)``
+    mm, from an animated ``dataset`` folder's ``truth/`` and its frames.
+
+    ``grid (n_u, n_v, n_t, 3)`` mm in aligned time (frame ``t`` of the grid is file
+    ``(t + t0_frame) % n_t``, as in an unwarped analysis). Each node goes to its
+    closest point on its frame's written mesh, and on through that triangle's
+    vertices' static points."""
+    from .io import load_dataset, read_mesh_file
+
+    ds = load_dataset(dataset)
+    n_t = grid.shape[2]
+    out = np.empty(grid.shape)
+    for t in range(n_t):
+        path = ds.frames["outer"][(t + t0_frame) % n_t]
+        V, F = read_mesh_file(path)
+        V = V * ds.meta.scale_to_mm
+        static = np.load(Path(dataset) / "truth" / f"{path.stem}.npz")["static_point_mm"]
+        X = grid[:, :, t].reshape(-1, 3)
+        out[:, :, t] = static_points(V, F, static, X)[2].reshape(grid.shape[:2] + (3,))
+    return out
+
+
+def tissue_positions(dataset, points: np.ndarray, t0_frame: int) -> np.ndarray:
+    """Where the static mesh's ``points (n, 3)`` mm are in every frame of an animated
+    ``dataset``: ``(n, n_t, 3)`` mm in aligned time (frame t is animation frame
+    ``(t + t0_frame) % n_t``)."""
+    from .io import load_tube
+
+    truth = json.loads((Path(dataset) / "truth.json").read_text())
+    tube = load_tube(Path(dataset) / "truth" / "static.ply")
+    anim = Animation(**truth["animation"])
+    tri, bary, _ = static_points(tube.V, tube.F, tube.V, points)
+    frames = [Vt for _, Vt in animate_frames(tube.V, tube.F, tube.inlet, tube.outlet, anim)]
+    n_t = len(frames)
+    return np.stack([np.einsum("mk,mkd->md", bary, frames[(t + t0_frame) % n_t][tube.F[tri]])
+                     for t in range(n_t)], axis=1)

@@ -82,6 +82,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="keep a full log (progress, warnings, timings) in FILE")
     r.add_argument("--warp", action="store_true",
                    help="resample time in two segments so maximum expansion is at mid-cycle")
+    r.add_argument("--tracking", choices=("material", "none"), default="material",
+                   help="the grid of the per-pixel fields (curvature, thickness, strain, "
+                        "phase maps): material (default), each row turned about the tube "
+                        "with the tissue from frame to frame; none, each frame's own grid, "
+                        "as in the paper")
     r.add_argument("--map-positions", choices=("rows", "fixed"), default="rows",
                    help="rows of the (v, t) area maps: the grid rows, as in the paper "
                         "(default; they drift along the tube as its shape changes), or fixed "
@@ -288,7 +293,8 @@ def _command(args) -> int:
                    "map_positions": args.map_positions,
                    "ridge_smoothing_ms": args.ridge_smoothing_ms,
                    "field_smoothing_ms": args.field_smoothing_ms,
-                   "strain_smoothing_ms": args.strain_smoothing_ms}
+                   "strain_smoothing_ms": args.strain_smoothing_ms,
+                   "tracking": args.tracking}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume,

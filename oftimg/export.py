@@ -509,7 +509,7 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
     ``timings_s.total_s`` then holds the seconds of analysis and writing."""
     import time
 
-    from .figures import dataset_figures
+    from .figures import dataset_figures, field_grid_note
     from .video import LATER_VIDEOS, save_videos, start_videos
 
     timings = result["summary"].setdefault("timings_s", {})
@@ -530,7 +530,8 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
     # the workers render the videos while this process draws the figures
     videos = (early_videos or []) + start_videos(
         arrays, result["grids"], fps=fps, executor=executor,
-        kinds=None if early_videos is None else LATER_VIDEOS)
+        kinds=None if early_videos is None else LATER_VIDEOS,
+        grid_note=field_grid_note(result["summary"]))
     timings["videos_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])

@@ -95,6 +95,12 @@ def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray],
     return _save(fig, path)
 
 
+def field_grid_note(summary: dict) -> str:
+    """Which grid a dataset's per-pixel fields are on, for titles and captions:
+    "tracked grid" (each node the same tissue all cycle) or "per-frame grid"."""
+    return f"{(summary.get('tracking') or {}).get('grid', 'per-frame')} grid"
+
+
 def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> list[Path]:
     """All per-dataset figures into ``folder`` (``figures/``)."""
     name = summary["name"]
@@ -126,7 +132,8 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
                                     folder / f"{layer}_thickness_map.png",
                                     ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
                                     label=f"{layer} thickness, mean around the tube (µm)",
-                                    title=f"{name}: {what} thickness (dots: maximum "
+                                    title=f"{name}: {what} thickness, "
+                                          f"{field_grid_note(summary)} (dots: maximum "
                                           "outer area)"))
     return written
 

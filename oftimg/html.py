@@ -104,6 +104,15 @@ def _warnings(summary: dict) -> list[str]:
     return [text.removeprefix(path) for text in summary.get("warnings") or []]
 
 
+# files that show a per-pixel (u, v, t) field, whose captions name the grid it is on
+PER_PIXEL = ("curvature", "strain", "thickness", "phase")
+
+
+def _on_grid(stem: str, grid_note: str) -> str:
+    """``", on the <grid>"`` for a figure or video of a per-pixel field, else ""."""
+    return f", on the {grid_note}" if any(k in stem for k in PER_PIXEL) else ""
+
+
 def dataset_page(folder: Path, summary: dict) -> Path:
     """``<name>/index.html``: the numbers, every figure and every video of one dataset."""
     figs = sorted((folder / "figures").glob("*.png"))
@@ -112,8 +121,14 @@ def dataset_page(folder: Path, summary: dict) -> Path:
             "expand_ms", "contract_ms", "tube_length_mm", "myocardial_volume_change",
             "jelly_volume_change", "wall_thickness_median_mm", "wall_thickening",
             "jelly_thickness_median_mm", "jelly_thickening", "band_position_mm",
-            "corner_count", "ridge_smoothing_ms", "field_smoothing_ms", "strain_smoothing_ms"]
+            "corner_count", "ridge_smoothing_ms", "field_smoothing_ms", "strain_smoothing_ms",
+            "wave_synchronous_within_noise"]
+    from .figures import field_grid_note
+
     rows = [{"quantity": k, "value": summary.get(k)} for k in keys if k in summary]
+    grid_note = field_grid_note(summary)
+    rows.append({"quantity": "grid of the per-pixel fields (curvature, thickness, strain, "
+                             "phase maps)", "value": grid_note})
     spread = summary.get("wave_speed_noise_sd_mm_s") or {}
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():
         rows.append({"quantity": f"wave speed {k} (mm/s)", "value": v,
@@ -139,6 +154,12 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                         "node noise moves it (well under 0.25)",
                "value": {name: (noise or {}).get("error_share") for name, noise in
                          (summary.get("strain_noise") or {}).items()}},
+              {"check": "frames whose seam continues its neighbours' (a tube without one "
+                        "shortest seam)", "value": summary.get("seam_frames_continued")},
+              {"check": "tracking: how well consecutive frames registered and the closure "
+                        "miss over one cycle before it was spread",
+               "value": {k: v for k, v in (summary.get("tracking") or {}).items()
+                         if k != "grid"} or None},
               {"check": "section planes still crossing (0)",
                "value": summary.get("section_planes_still_crossing")},
               {"check": "sections measured on the projected grid ring (0)",
@@ -160,10 +181,11 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     body += ["<h2>Quality checks</h2>", _table(checks, ["check", "value"]),
              "<h2>Figures</h2><div class=\"grid\">"]
     body += [f'<figure><img src="figures/{f.name}" alt="{f.stem}"><figcaption class="small">'
-             f'{f.stem}</figcaption></figure>' for f in figs]
+             f'{f.stem}{_on_grid(f.stem, grid_note)}</figcaption></figure>' for f in figs]
     body.append("</div><h2>Videos</h2><div class=\"grid\">")
     body += [f'<figure><video src="videos/{v.name}" controls muted loop preload="metadata">'
-             f'</video><figcaption class="small">{v.stem}</figcaption></figure>' for v in vids]
+             f'</video><figcaption class="small">{v.stem}{_on_grid(v.stem, grid_note)}'
+             '</figcaption></figure>' for v in vids]
     body.append("</div><h2>Provenance</h2><pre class=\"small\">"
                 + html.escape(json.dumps({k: summary.get(k) for k in
                                           ("provenance", "timings_s")}, indent=1)[:20000])

@@ -18,6 +18,7 @@ from .image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_f
 from .image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
                               smoothing_kernel)
 from .image.pca import contour_pca
+from .image.tracking import follow, track_grid
 from .mesh.clip import clip_grid, clip_positions, plane_at
 from .mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
 from .mesh.sections import slab_thickness, volume_from_sections
@@ -31,6 +32,9 @@ from .progress import Progress
 # drift along the tube as the surface's shape changes), or at fixed fractions of the
 # centroid line's length in every frame
 MAP_POSITIONS = ("rows", "fixed")
+# how the grid follows the tissue from frame to frame: "none", each frame's own grid
+# (the paper's); "material", each row turned with the tissue (oftimg.image.tracking)
+TRACKING = ("material", "none")
 
 
 @dataclass(frozen=True)
@@ -43,13 +47,18 @@ class PipelineOptions:
     ridge_smoothing_ms: float | str = "auto"
     field_smoothing_ms: float | str = "auto"
     strain_smoothing_ms: float | str = "auto"
+    tracking: str = "material"
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
                  map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
                  field_smoothing_ms: float | str = "auto",
-                 strain_smoothing_ms: float | str = "auto", **grid_kwargs):
+                 strain_smoothing_ms: float | str = "auto", tracking: str = "material",
+                 **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
+        if tracking not in TRACKING:
+            raise InputError(f"tracking must be one of {TRACKING}, found {tracking!r}")
+        object.__setattr__(self, "tracking", tracking)
         if map_positions not in MAP_POSITIONS:
             raise InputError(f"map_positions must be one of {MAP_POSITIONS}, "
                              f"found {map_positions!r}")
@@ -73,7 +82,7 @@ class PipelineOptions:
         return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions,
                 "ridge_smoothing_ms": self.ridge_smoothing_ms,
                 "field_smoothing_ms": self.field_smoothing_ms,
-                "strain_smoothing_ms": self.strain_smoothing_ms}
+                "strain_smoothing_ms": self.strain_smoothing_ms, "tracking": self.tracking}
 
 
 def _sigma_ms(given, must: str) -> float:
@@ -269,7 +278,8 @@ NOISY_STRAIN_SHARE = 0.25
 def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                  smoothing_ms: float | str = "auto", lumen_smoothed_ms: float = 0.0,
                  strain_smoothing_ms: float | str = "auto",
-                 jelly_thickness: np.ndarray | None = None) -> dict:
+                 jelly_thickness: np.ndarray | None = None,
+                 coords: np.ndarray | None = None) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
     Radial curvature of the outer and inner section contours and the myocardial
@@ -285,14 +295,18 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     and the corner count of the outer contours at each row's own maximum
     contraction (curvature averaged over the ``2 CORNER_FRAMES + 1`` frames
     around it). Phase maps are taken on each field smoothed in time by
-    ``RIDGE_SMOOTHING_MS`` in all (or by its own sigma if more).
+    ``RIDGE_SMOOTHING_MS`` in all (or by its own sigma if more). ``coords (n_u, n_v,
+    n_t, 2)``: the tracked grid's pathlines (:func:`~oftimg.image.tracking.track_grid`),
+    along which the section contours' curvature is read before it is smoothed in
+    time (the grids given are already tracked), or None.
     """
     arrays, noise, strain_noise, unsmoothed = {}, {}, {}, {}
     for w in ("outer", "inner"):
         if w in contour:
             name = f"radial_curvature_{w}_per_mm"
             unsmoothed[w] = contour_curvature(contour[w], normals[None])
-            arrays[name], noise[name] = smoothed_curvature(unsmoothed[w], period_ms, smoothing_ms)
+            on_tissue = unsmoothed[w] if coords is None else follow(unsmoothed[w], coords)
+            arrays[name], noise[name] = smoothed_curvature(on_tissue, period_ms, smoothing_ms)
             energy, stretch, strain_noise[f"strain_energy_{w}"] = smoothed_strain(
                 grid[w], period_ms, strain_smoothing_ms)
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
@@ -529,6 +543,15 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     arrays["plane_crossing"] = crossing
     if options.warp and jelly is not None:
         jelly = resample_time(jelly, t_frames, axis=2)
+    coords = None
+    if options.tracking == "material":               # every node the same tissue in every frame
+        tick = time.perf_counter()
+        coords, tracked = track_grid(grid["outer"])
+        for w in walls:
+            grid[w] = follow(grid[w], coords)
+        H = follow(H, coords) if H is not None else None
+        jelly = follow(jelly, coords) if jelly is not None else None
+        timings["tracking_s"] = time.perf_counter() - tick
     if H is not None:
         if options.warp:
             H = resample_time(H, t_frames, axis=2)
@@ -576,7 +599,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                           options.field_smoothing_ms,
                           lumen_smoothed_ms=lumen_noise["smoothing_ms"] if H is not None else 0.0,
                           strain_smoothing_ms=options.strain_smoothing_ms,
-                          jelly_thickness=jelly)
+                          jelly_thickness=jelly, coords=coords)
     arrays.update(fields.pop("arrays"))
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise
@@ -633,6 +656,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "inner_nodes_outside_outer": outside["inner"],
         "lumen_nodes_outside_inner": outside["lumen"],
         "seam_frames_continued": seams_continued,
+        "tracking": ({"grid": "tracked", **tracked}
+                     if coords is not None else {"grid": "per-frame"}),
         "section_plane_fixes": plane_fixes,
         "section_planes_still_crossing": int(crossing.sum()),
         "frame_series_checks": series_checks,

@@ -67,11 +67,13 @@ def _even(img: np.ndarray, multiple: int = 16) -> np.ndarray:
 
 
 def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, cmap="jet",
-                 label="", scale: int = 6, per_frame: bool = False):
+                 label="", scale: int = 6, per_frame: bool = False, grid_note: str = ""):
     """Video frames ``(n_t, rows, cols, 3)`` uint8 of a ``(n_u, n_v, n_t)`` field.
 
     One colour range for the whole cycle (``vmin``/``vmax``, default the
     field's 1st and 99th percentiles), or with ``per_frame`` each frame's own.
+    ``grid_note``: which grid the field is on ("tracked grid"), written under the
+    time stamp.
     """
     finite = field[np.isfinite(field)]
     lo = np.percentile(finite, 1) if vmin is None else vmin
@@ -89,8 +91,10 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
                          interpolation=cv2.INTER_NEAREST)
         bar = fixed_bar if fixed_bar is not None else _colour_bar(height, a, b, cmap, label)
         rgb = np.concatenate([rgb, bar], axis=1)
-        cv2.putText(rgb, f"t = {t_ms[t]:.0f} ms", (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                    (255, 255, 255), 1, cv2.LINE_AA)
+        for line, text in enumerate((f"t = {t_ms[t]:.0f} ms", grid_note)):
+            for colour, weight in (((0, 0, 0), 3), ((255, 255, 255), 1)):   # outlined: any frame
+                cv2.putText(rgb, text, (6, 16 + 16 * line), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
+                            colour, weight, cv2.LINE_AA)
         return _even(rgb)
 
     return _stack(field.shape[2], draw)
@@ -170,12 +174,14 @@ EARLY_VIDEOS = ("area", "lumen_3d")
 LATER_VIDEOS = ("field",)
 
 
-def video_tasks(arrays: dict, grids: dict | None = None, kinds=None) -> list[tuple]:
+def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
+                grid_note: str = "") -> list[tuple]:
     """The videos of one dataset as independent ``(kind, inputs)`` tasks for
     :func:`render_videos`, each holding only the arrays it needs; only those of
-    ``kinds`` (default: all)."""
+    ``kinds`` (default: all). ``grid_note``: which grid the (u, v) fields are on,
+    written on their frames."""
     if kinds is not None:
-        return [t for t in video_tasks(arrays, grids) if t[0] in kinds]
+        return [t for t in video_tasks(arrays, grids, grid_note=grid_note) if t[0] in kinds]
     t_ms = arrays["t_ms"]
     # the slow 3-D renders first, so that workers finish together;
     # the area-map cursor frames are drawn once for both videos that show them
@@ -185,7 +191,7 @@ def video_tasks(arrays: dict, grids: dict | None = None, kinds=None) -> list[tup
     if grids is not None and h is not None and "lumen" in grids:
         tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms)))
     tasks += [("field", dict(name=name, field=arrays[key], normalize=normalize, t_ms=t_ms,
-                             options=opts))
+                             options=dict(opts, grid_note=grid_note)))
               for name, key, normalize, opts in FIELD_VIDEOS if key in arrays]
     return tasks
 
@@ -223,12 +229,13 @@ def render_videos(kind: str, inputs: dict, fps: float = 30.0) -> list[tuple[str,
 
 
 def start_videos(arrays: dict, grids: dict | None = None, *, fps: float = 30.0,
-                 executor=None, kinds=None):
+                 executor=None, kinds=None, grid_note: str = ""):
     """Submit a dataset's video tasks (those of ``kinds``, default all) to
     ``executor`` (without one, render them now); pass the result to
     :func:`save_videos`. In between the caller is free to do other work (the
-    figures) while the workers render."""
-    tasks = [(kind, inputs, fps) for kind, inputs in video_tasks(arrays, grids, kinds)]
+    figures) while the workers render. ``grid_note``: see :func:`video_tasks`."""
+    tasks = [(kind, inputs, fps)
+             for kind, inputs in video_tasks(arrays, grids, kinds, grid_note=grid_note)]
     if executor is None:
         return [render_videos(*args) for args in tasks]
     return [executor.submit(render_videos, *args) for args in tasks]
@@ -245,10 +252,11 @@ def save_videos(folder: Path, pending: list) -> list[Path]:
 
 
 def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
-                   fps: float = 30.0, executor=None) -> list[Path]:
+                   fps: float = 30.0, executor=None, grid_note: str = "") -> list[Path]:
     """All per-dataset videos into ``folder`` (``videos/``), rendered in
     ``executor``'s workers when one is given."""
-    return save_videos(folder, start_videos(arrays, grids, fps=fps, executor=executor))
+    return save_videos(folder, start_videos(arrays, grids, fps=fps, executor=executor,
+                                            grid_note=grid_note))
 
 
 # ------------------------------------------------------------------ 3-D renders

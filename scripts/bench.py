@@ -1,6 +1,7 @@
 """End-to-end benchmark of one embryo: seconds per stage, share, peak memory.
 
     python scripts/bench.py [--frames 195] [--vertices 5500] [--jobs 2] [--json]
+    python scripts/bench.py --tracking none material   # each grid, one after the other
     python scripts/bench.py --sweep          # 49/98/195 frames and 2k/5.5k/20k vertices
                                              # (49 frames), fitted exponents
 
@@ -134,13 +135,14 @@ def cpu_seconds() -> float:
     return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def bench(path: Path, jobs: int) -> dict:
+def bench(path: Path, jobs: int, tracking: str = "material") -> dict:
     read_before = read_only_seconds(path)
     with tempfile.TemporaryDirectory() as tmp:
         cpu_before = cpu_seconds()
         tick = time.perf_counter()
         with TreeMemory() as tree:
-            out = oftimg.run(path, Path(tmp) / "out", quiet=True, jobs=jobs)
+            out = oftimg.run(path, Path(tmp) / "out", quiet=True, jobs=jobs,
+                             options={"tracking": tracking})
         total = time.perf_counter() - tick
         cpu_s = cpu_seconds() - cpu_before
         summary = json.loads(next(out.glob("*/summary.json")).read_text())
@@ -156,13 +158,14 @@ def bench(path: Path, jobs: int) -> dict:
     stages = {"validate (read+check)": summary["validation"]["seconds"],
               "seam end points": tm["seam_end_points_s"]}
     stages.update({f"per-frame: {k}": v * scale for k, v in cpu.items()})
-    stages.update({"fields": tm["fields_s"], "image analysis": tm["image_analysis_s"],
+    stages.update({"tracking": tm.get("tracking_s", 0.0), "fields": tm["fields_s"],
+                   "image analysis": tm["image_analysis_s"],
                    "write arrays": tm["write_arrays_s"], "figures": tm["figures_s"],
                    "videos (beyond the figures)": tm["videos_s"], "PCA": tm["pca_s"]})
     stages["other (start-up, alignment, clipping, reports)"] = total - sum(stages.values())
     per_frame = stages["validate (read+check)"] + stages["seam end points"] + frames_wall
     target = total - stages["PCA"]                  # the issue's targets exclude the PCA
-    return {"frames": summary["n_frames"], "jobs": jobs, "total_s": total,
+    return {"frames": summary["n_frames"], "jobs": jobs, "tracking": tracking, "total_s": total,
             "total_without_pca_s": target, "read_only_s": read_s, "ratio": target / read_s,
             "read_only_before_s": float(np.median(read_before)),
             "read_only_after_s": float(np.median(read_after)),
@@ -173,7 +176,8 @@ def bench(path: Path, jobs: int) -> dict:
 
 
 def print_table(r: dict) -> None:
-    print(f"{r['frames']} frames, jobs {r['jobs']}: total {r['total_s']:.1f} s, "
+    print(f"{r['frames']} frames, jobs {r['jobs']}, tracking {r['tracking']}: total "
+          f"{r['total_s']:.1f} s, "
           f"{r['total_without_pca_s']:.1f} s without PCA (targets: < 60 s and < 25 x read-only), "
           f"read-only {r['read_only_s']:.2f} s (x{r['ratio']:.0f}; {r['read_only_before_s']:.2f} "
           f"before the run, {r['read_only_after_s']:.2f} after; open3d's read "
@@ -197,6 +201,8 @@ def main():
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "oftimg-bench")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--sweep", action="store_true")
+    ap.add_argument("--tracking", nargs="+", default=["material"], choices=("material", "none"),
+                    help="the grid(s) to run with, one run each in this process")
     args = ap.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
     if args.sweep:
@@ -215,10 +221,11 @@ def main():
         if args.json:
             print(json.dumps([{"kind": k, "n": n, **r} for k, n, r in rows], indent=2))
         return
-    r = bench(phantom(args.cache, args.frames, args.vertices), args.jobs)
-    print(json.dumps(r, indent=2) if args.json else "", end="")
-    if not args.json:
-        print_table(r)
+    for tracking in args.tracking:
+        r = bench(phantom(args.cache, args.frames, args.vertices), args.jobs, tracking)
+        print(json.dumps(r, indent=2) if args.json else "", end="")
+        if not args.json:
+            print_table(r)
 
 
 if __name__ == "__main__":

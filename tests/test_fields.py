@@ -452,8 +452,11 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
     path = write_phantom(tmp_path / "rough", sample_params(
         "normal", 0, n_frames=20, vertices_min=2500, vertices_max=3500, noise_mm=0.005))
     ph, truth = read_truth(path)
+    # on the per-frame grid, whose field pixels are the section contours' points, where
+    # the model's curvature is known exactly
     with pytest.warns(OftimgWarning, match="radial_curvature_outer_per_mm is mostly noise"):
-        result = analyse_dataset(load_dataset(path), PipelineOptions(), quiet=True)
+        result = analyse_dataset(load_dataset(path), PipelineOptions(tracking="none"),
+                                 quiet=True)
     assert result["summary"]["corner_count"] == truth["corner_count"] == 4
     assert np.mean(result["arrays"]["corner_count_per_row"] == 4) > 0.8
     t_ms = np.roll(np.asarray(truth["t_ms"]), -result["summary"]["t0_frame"])[None, None, :]
@@ -534,10 +537,12 @@ def test_thickness_is_the_models(analysed_normal, layer):
 @pytest.mark.parametrize("wall", ["outer", "inner"])
 def test_radial_curvature_is_the_models(analysed_normal, wall):
     """Each section contour's curvature against the model's cross-section, the polar
-    curve rho(theta), at each contour point's own angle and time (the model's
+    curve rho(theta), at each pixel's own grid node's angle and time (the model's
     section is across its centreline; ours in the grid's plane, tilted a little)."""
     ph, truth, res = analysed_normal
-    C = res["arrays"][f"contour_{wall}_mm"][:, 2:-2].astype(float)   # (n_c, n_v, n_t, 3)
+    # each field pixel's own point: the tracked grid's node (its contour points are the
+    # per-frame rows')
+    C = res["grids"][wall][:, 2:-2].astype(float)                    # (n_u, n_v, n_t, 3)
     k = res["arrays"][f"radial_curvature_{wall}_per_mm"][:, 2:-2]
     t_ms = np.roll(np.asarray(truth["t_ms"]), -res["summary"]["t0_frame"])[None, None, :]
     s, theta = ph.window_coordinates(C)

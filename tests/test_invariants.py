@@ -174,7 +174,12 @@ def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_number
         else:
             assert error.max(initial=0) <= tol, key
     for key, x in a["pca"].items():         # in each section's own plane: moves with it
-        assert np.allclose(b["pca"][key], x, atol=1e-4 * np.abs(x).max()), key
+        y = b["pca"][key]
+        if key.endswith(("_scores", "_displacement_mm")):
+            # the first mode; the others of 5 contours can have all but equal variances
+            # (0.023 and 0.022 here), whose modes any rounding turns within their plane
+            x, y = (x[:, 0], y[:, 0]) if key.endswith("_scores") else (x[0], y[0])
+        assert np.allclose(y, x, atol=1e-4 * np.abs(x).max()), key
     numbers = ("wave_speed_mm_s", "tube_length_mm", "myocardial_volume_change",
                "expand_fraction", "section_volume_error")
     for key in numbers:

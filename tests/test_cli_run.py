@@ -22,6 +22,9 @@ def test_output_contract(run_out, phantom_normal):
     assert SUMMARY_KEYS <= set(summary)
     assert summary["provenance"]["oftimg_version"]
     assert len(summary["provenance"]["inputs"]["outer"]) == 36
+    assert summary["tracking"]["grid"] == "tracked"               # the default
+    assert summary["tracking"]["ring_rms_mm"] <= summary["tracking"]["ring_rms_unturned_mm"]
+    assert "on the tracked grid" in (folder / "index.html").read_text()
     grids = np.load(folder / "grids.npz")
     for wall in ("outer", "inner", "lumen"):
         assert grids[wall].shape == (80, 50, 36, 3) and grids[wall].dtype == np.float32
@@ -131,7 +134,7 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
                  "--authalic-weight", "0.25", "--seam-method", "heat",
                  "--map-positions", "fixed", "--field-smoothing-ms", "7",
                  "--lumen-smoothing-steps", "3", "--strain-smoothing-ms", "2.5",
-                 "--cluster-alpha", "0.2"]) == 0
+                 "--cluster-alpha", "0.2", "--tracking", "none"]) == 0
     assert json.loads((out / "run.json").read_text())["cluster_alpha"] == 0.2
     assert np.load(out / "cohort_maps.npz")["cluster_alpha"] == 0.2
     assert "uncorrected p &le; 0.2" not in (out / "index.html").read_text()   # one group
@@ -153,6 +156,9 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     assert summary["provenance"]["options"]["grid"]["authalic_weight"] == 0.25
     assert summary["provenance"]["options"]["grid"]["seam_method"] == "heat"
     assert summary["provenance"]["options"]["grid"]["lumen_smoothing_steps"] == 3
+    assert summary["provenance"]["options"]["tracking"] == "none"
+    assert summary["tracking"] == {"grid": "per-frame"}
+    assert "on the per-frame grid" in (out / "tiny" / "index.html").read_text()
     assert np.load(out / "tiny" / "grids.npz")["outer"].shape[:2] == (40, 20)
     text = log.read_text()
     assert "tiny: analysing 5 frames" in text and "tiny: done" in text

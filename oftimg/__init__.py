@@ -1,20 +1,31 @@
 """oftimg: beating tubes (embryonic heart outflow tract, vessels, gut) turned
-into consistent (u, v) grids, images, videos and numbers."""
+into consistent (u, v) grids, images, videos and numbers.
+
+The package is cut in layers (:data:`LAYERS`, lowest first): a module imports only
+from its own layer or lower ones (``tests/test_layers.py`` checks it).
+"""
 __version__ = "0.1.0"
+
+# the layers, lowest first: the leaves (errors, a progress bar), per-frame mesh
+# geometry, the dataset contract and files, maps and fields as images, the stages of
+# one dataset, results written and read back, synthetic data with a known truth, the
+# orchestration of runs (API, worker pools) and the command line on top
+LAYERS = (("errors", "progress"), ("mesh",), ("io",), ("image",), ("analysis",),
+          ("output",), ("synthetic",), ("api", "workers"), ("cli",))
 
 import importlib
 
 # The public names, each read from its module on first use (PEP 562): a worker
-# process that imports only ``oftimg.per_frame`` then skips the image analysis,
+# process that imports only ``oftimg.analysis.per_frame`` then skips the image analysis,
 # figures and video modules (0.83 -> 0.52 s of imports per worker process).
 _WHERE = {
     "cohort": "api", "demo": "api", "make_phantom": "api", "paraview": "api", "run": "api",
     "tiff": "api",
     "InputError": "errors",
-    "Dataset": "io", "DatasetError": "io", "OftimgWarning": "io", "load_dataset": "io",
-    "validate_dataset": "io",
-    "Results": "results", "load_cohort": "results", "load_cohort_maps": "results",
-    "load_results": "results",
+    "Dataset": "io.dataset", "DatasetError": "io.dataset", "OftimgWarning": "io.dataset",
+    "load_dataset": "io.dataset", "validate_dataset": "io.dataset",
+    "Results": "output.results", "load_cohort": "output.results",
+    "load_cohort_maps": "output.results", "load_results": "output.results",
 }
 __all__ = sorted(_WHERE) + ["__version__"]
 

@@ -1,7 +1,7 @@
 """The Python API behind the command line: run, cohort, paraview, demo, make_phantom.
 
-File access happens here and in :mod:`oftimg.io` / :mod:`oftimg.export`; the
-science lives in :mod:`oftimg.pipeline` and the ``mesh``/``image`` modules.
+File access happens here and in :mod:`oftimg.io.dataset` / :mod:`oftimg.output.export`; the
+science lives in :mod:`oftimg.analysis.pipeline` and the ``mesh``/``image`` modules.
 """
 from __future__ import annotations
 
@@ -18,14 +18,14 @@ from pathlib import Path
 
 from . import __version__
 from .errors import InputError
-from .export import (COHORT_OUTPUTS, Finished, check_output_location, check_replaceable,
+from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, check_replaceable,
                      cohort_maps, finished_folder, link_or_copy, require_new_folder,
                      staged_output, write_cohort_maps, write_dataset_results, write_json)
-from .io import (Dataset, DatasetError, OftimgWarning, find_datasets, load_dataset,
+from .io.dataset import (Dataset, DatasetError, OftimgWarning, find_datasets, load_dataset,
                  natural_key, validate_dataset)
-from .phantom import sample_params, write_phantom
+from .synthetic.phantom import sample_params, write_phantom
 from .progress import Progress
-from .results import read_summary, result_folders, source_paths
+from .output.results import read_summary, result_folders, source_paths
 from .workers import available_memory, closing_executor, make_executor
 
 log = logging.getLogger("oftimg")
@@ -58,7 +58,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     ``cluster_alpha``: the cluster-forming threshold of the cohort maps' tests
     (:func:`cohort_maps`). Returns ``out``.
     """
-    from .pipeline import PipelineOptions
+    from .analysis.pipeline import PipelineOptions
 
     if parallel not in ("auto", "frames", "embryos"):
         raise InputError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
@@ -85,7 +85,7 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
                 parallel, overwrite, quiet, fps, started, cluster_alpha) -> Path:
     """:func:`run` once it holds ``finished``: what to reuse, validation, the work,
     the cohort outputs; on failure, the note on what is kept."""
-    from .pipeline import check_enough_frames
+    from .analysis.pipeline import check_enough_frames
 
     names = [d.meta.name for d in datasets]
     fingerprints = {d.meta.name: finished.fingerprint(d, opts, fps) for d in datasets}
@@ -141,8 +141,8 @@ def _validated(ds: Dataset, executor, quiet: bool) -> dict:
 
 
 def _check_cluster_alpha(cluster_alpha) -> None:
-    """:func:`oftimg.stats.check_cluster_alpha` as an :class:`InputError`, before any work."""
-    from .stats import check_cluster_alpha
+    """:func:`oftimg.analysis.stats.check_cluster_alpha` as an :class:`InputError`, before any work."""
+    from .analysis.stats import check_cluster_alpha
 
     try:
         check_cluster_alpha(cluster_alpha)
@@ -179,8 +179,8 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
     exists); returns its summary, which records the warnings of the analysis
     (``warnings``, raised again too). ``progress``: see :func:`analyse_dataset`;
     without it, a bar over the frames that then names the stages still to come."""
-    from .pipeline import analyse_dataset
-    from .video import EARLY_VIDEOS, start_videos
+    from .analysis.pipeline import analyse_dataset
+    from .output.video import EARLY_VIDEOS, start_videos
 
     started = time.perf_counter()
     bar = None
@@ -484,9 +484,9 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
     groups or more), every dataset's page and the cohort's, ``run.json``
     (``run_info`` and ``cluster_alpha``), into ``folder``, which holds each
     dataset's results in ``folder/<name>``."""
-    from .figures import group_figures
-    from .html import cohort_page, dataset_page
-    from .report import (field_smoothing_caveat, group_comparison, map_comparison_rows,
+    from .output.figures import group_figures
+    from .output.html import cohort_page, dataset_page
+    from .output.report import (field_smoothing_caveat, group_comparison, map_comparison_rows,
                          smoothing_caveat, write_cohort_markdown, write_cohort_table,
                          write_groups_table)
 
@@ -558,12 +558,12 @@ def cohort(sources, out, *, overwrite: bool = False, cluster_alpha: float = 0.05
 
 def paraview(sources, out, *, quiet: bool = False, jobs: int | None = None) -> Path:
     """Every dataset's results among ``sources`` (as :func:`cohort` takes them) as
-    ParaView time series in ``out/<name>/`` (:mod:`oftimg.paraview_series`): the
+    ParaView time series in ``out/<name>/`` (:mod:`oftimg.output.paraview`): the
     grids with their node fields, and the section contours; each series in one of
     ``jobs`` worker processes (default: all cores). ``out`` must be new or empty;
     it appears only when complete. Returns ``out``."""
-    from .paraview_series import series_names, write_series
-    from .pipeline import run_tasks
+    from .output.paraview import series_names, write_series
+    from .analysis.pipeline import run_tasks
 
     out = Path(out)
     names, folders = _exported(sources, out, (
@@ -583,9 +583,9 @@ def tiff(sources, out, *, quiet: bool = False) -> Path:
     """Every dataset's maps and fields among ``sources`` (as :func:`cohort` takes
     them) as TIFF images that Fiji / ImageJ open, in ``out/<name>/``, and the cohort
     maps of a run's ``--out`` among them in ``out/cohort_maps/`` (with several runs,
-    ``cohort_maps_<its folder name>/``; :mod:`oftimg.tiff_images`). ``out`` must be new
+    ``cohort_maps_<its folder name>/``; :mod:`oftimg.output.tiff`). ``out`` must be new
     or empty; it appears only when complete. Returns ``out``."""
-    from .tiff_images import write_cohort_map_images, write_tiff_images
+    from .output.tiff import write_cohort_map_images, write_tiff_images
 
     out = Path(out)
     names, folders = _exported(sources, out, (
@@ -660,7 +660,7 @@ def _flat(options: dict, prefix: str = "") -> dict:
 
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,
                  quiet: bool = False, **overrides) -> Path:
-    """Write one phantom dataset (see :mod:`oftimg.phantom`) to ``out``."""
+    """Write one phantom dataset (see :mod:`oftimg.synthetic.phantom`) to ``out``."""
     require_new_folder(Path(out))
     params = sample_params(group, seed, n_frames=frames, **overrides)
     bar = Progress(frames, f"phantom {Path(out).name}", quiet=quiet)

@@ -257,7 +257,7 @@ def _logging_to(path: Path | None, args):
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     from .errors import InputError
-    from .io import OftimgWarning
+    from .io.dataset import OftimgWarning
     from .workers import WorkerLost
 
     warnings.simplefilter("always", OftimgWarning)
@@ -325,7 +325,7 @@ def _command(args) -> int:
                                frames=args.frames, quiet=args.quiet, **extra)
         print(f"phantom dataset: {out}")
     elif args.command == "animate":
-        from .animate import Animation, write_animation
+        from .synthetic.animate import Animation, write_animation
         from .progress import Progress
 
         anim = Animation(args.speed_mm_s, args.amplitude, args.period_ms, args.frames,
@@ -346,7 +346,7 @@ def _validate(path: Path, *, as_json: bool) -> int:
     frames, printed, and the rest are checked; with ``as_json`` a bad dataset's entry
     lists its problems); 2 if any has a problem."""
     from .errors import InputError
-    from .io import find_datasets, load_dataset, validate_dataset
+    from .io.dataset import find_datasets, load_dataset, validate_dataset
     from .progress import Progress
 
     folders = find_datasets(path)

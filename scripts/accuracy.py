@@ -68,8 +68,8 @@ import numpy as np
 import oftimg
 from oftimg.image.normalize import smooth_field_in_time
 from oftimg.mesh.strain import grid_strain
-from oftimg.pipeline import smoothed_strain, thickness_summary
-from oftimg.phantom import read_truth, sample_params, write_phantom
+from oftimg.analysis.pipeline import smoothed_strain, thickness_summary
+from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
 
 WALLS = ("outer", "inner", "lumen")
 # the fields smoothed in time as their noise asks

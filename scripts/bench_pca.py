@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from oftimg.image.pca import contour_pca, ring_to_plane
-from oftimg.phantom import Phantom, PhantomParams
+from oftimg.synthetic.phantom import Phantom, PhantomParams
 
 
 def main():

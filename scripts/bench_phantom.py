@@ -11,7 +11,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from oftimg.phantom import Phantom, sample_params, write_phantom
+from oftimg.synthetic.phantom import Phantom, sample_params, write_phantom
 
 
 def main():

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from oftimg.phantom import Phantom, PhantomParams
+from oftimg.synthetic.phantom import Phantom, PhantomParams
 from oftimg.workers import make_executor
-from oftimg.video import dataset_videos
+from oftimg.output.video import dataset_videos
 
 
 def main():

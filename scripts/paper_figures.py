@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from oftimg import figures  # noqa: E402
+from oftimg.output import figures  # noqa: E402
 from oftimg.image.gradient import gradient_hsv  # noqa: E402
 
 

@@ -23,7 +23,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from oftimg.phantom import Phantom, PhantomParams  # noqa: E402
+from oftimg.synthetic.phantom import Phantom, PhantomParams  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 COLOURS = {"outer": "#c0392b", "inner": "#e59866", "lumen": "#2e86c1"}

@@ -31,11 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from oftimg.animate import Animation, grid_material_points, tissue_positions, write_animation
-from oftimg.io import load_dataset
+from oftimg.synthetic.animate import Animation, grid_material_points, tissue_positions, write_animation
+from oftimg.io.dataset import load_dataset
 from oftimg.mesh.strain import grid_strain
-from oftimg.phantom import read_truth, sample_params, write_phantom
-from oftimg.pipeline import PipelineOptions, analyse_dataset
+from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
+from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
 MIDGUT = Path(__file__).resolve().parent.parent / "tests" / "data" / "midgut_8k.ply"
 

@@ -2,8 +2,8 @@ import warnings
 
 import pytest
 
-from oftimg.io import OftimgWarning
-from oftimg.phantom import sample_params, write_phantom
+from oftimg.io.dataset import OftimgWarning
+from oftimg.synthetic.phantom import sample_params, write_phantom
 
 SMALL = dict(n_frames=36, vertices_min=2500, vertices_max=3500)
 
@@ -31,9 +31,9 @@ def _oftimg_warnings_visible():
 @pytest.fixture(scope="session")
 def analysed_normal(phantom_normal):
     """(model, truth, analyse_dataset result) for the small normal phantom."""
-    from oftimg.io import load_dataset
-    from oftimg.phantom import read_truth
-    from oftimg.pipeline import PipelineOptions, analyse_dataset
+    from oftimg.io.dataset import load_dataset
+    from oftimg.synthetic.phantom import read_truth
+    from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
     ph, truth = read_truth(phantom_normal)
     return ph, truth, analyse_dataset(load_dataset(phantom_normal), PipelineOptions(), quiet=True)
@@ -41,9 +41,9 @@ def analysed_normal(phantom_normal):
 
 @pytest.fixture(scope="session")
 def analysed_banded(phantom_banded):
-    from oftimg.io import load_dataset
-    from oftimg.phantom import read_truth
-    from oftimg.pipeline import PipelineOptions, analyse_dataset
+    from oftimg.io.dataset import load_dataset
+    from oftimg.synthetic.phantom import read_truth
+    from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
     ph, truth = read_truth(phantom_banded)
     return ph, truth, analyse_dataset(load_dataset(phantom_banded), PipelineOptions(), quiet=True)

@@ -123,7 +123,7 @@ def test_shape_pca_on_the_phantom(run_out):
 
 
 def test_log_file_fps_and_options_reach_the_run(tmp_path):
-    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.synthetic.phantom import sample_params, write_phantom
 
     ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
                                                         vertices_min=1500, vertices_max=1800))
@@ -212,8 +212,8 @@ def test_a_full_disk_is_an_error_not_an_internal_one(tmp_path, monkeypatch, caps
     said as such, naming the file; nothing appears in --out."""
     import errno
 
-    from oftimg import export
-    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.output import export
+    from oftimg.synthetic.phantom import sample_params, write_phantom
 
     ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
                                                         vertices_min=1500, vertices_max=1800))
@@ -238,7 +238,7 @@ def test_a_library_failing_is_an_internal_error_not_bad_input(tmp_path, monkeypa
     as if the input were bad; oftimg's own checks still say "error" with 2."""
     import imageio.v2 as imageio
 
-    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.synthetic.phantom import sample_params, write_phantom
 
     ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
                                                         vertices_min=1500, vertices_max=1800))
@@ -259,7 +259,7 @@ def test_too_few_frames_for_a_cycle_stop_the_run_before_any_work(tmp_path, capsy
     """4 frames ran the whole analysis, then failed at the shape modes with "need at
     least 3 planar curves"; now the run stops first, naming the folder."""
     from oftimg import api
-    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.synthetic.phantom import sample_params, write_phantom
 
     ds = write_phantom(tmp_path / "short", sample_params("normal", 2, n_frames=4,
                                                          vertices_min=1500, vertices_max=1800))
@@ -296,7 +296,7 @@ def test_swapped_walls_are_pointed_out(tmp_path):
     without a word."""
     import warnings
 
-    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.synthetic.phantom import sample_params, write_phantom
 
     ds = write_phantom(tmp_path / "swapped", sample_params("normal", 2, n_frames=5,
                                                            vertices_min=1500, vertices_max=1800))
@@ -336,8 +336,8 @@ def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path)
     in the workers as in the validation: the results are those of the clean files."""
     import shutil
 
-    from oftimg.io import read_mesh_file, write_ply
-    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.io.dataset import read_mesh_file, write_ply
+    from oftimg.synthetic.phantom import sample_params, write_phantom
 
     clean = write_phantom(tmp_path / "clean", sample_params("normal", 3, n_frames=6,
                                                             vertices_min=2000, vertices_max=2500))
@@ -374,8 +374,10 @@ def test_the_warnings_of_a_failed_analysis_are_not_lost(monkeypatch, tmp_path):
     """They are raised again, each text once, before the error goes on."""
     import warnings
 
-    from oftimg import api, pipeline
-    from oftimg.io import OftimgWarning
+    from oftimg import api
+
+    from oftimg.analysis import pipeline
+    from oftimg.io.dataset import OftimgWarning
 
     def analyse(ds, opts, **kwargs):
         for text in ("a: first", "a: second", "a: first"):

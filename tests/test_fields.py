@@ -10,7 +10,7 @@ from oftimg.mesh.curvature import (contour_curvature, count_corners, mixed_areas
 from oftimg.mesh.parameterize import corner_terms
 from oftimg.mesh.strain import grid_strain, grid_triangles
 from oftimg.mesh.topology import check_tube
-from oftimg.pipeline import thickness_by_row, thickness_summary
+from oftimg.analysis.pipeline import thickness_by_row, thickness_summary
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -216,7 +216,7 @@ def test_strain_from_a_rough_grid_smoothed_in_time_is_the_walls():
     a square, so the roughness biases it up) came out 59-62 % off unsmoothed and
     8-9 % after 5 ms of smoothing the nodes in time; without the roughness 5 ms
     costs 0.8 % on this beat."""
-    from oftimg.pipeline import smoothed_strain
+    from oftimg.analysis.pipeline import smoothed_strain
 
     n_t, period, r0 = 195, 360.0, 0.2
     radius = r0 * (1 + 0.2 * np.sin(np.pi * np.arange(n_t) / n_t) ** 2)
@@ -241,7 +241,7 @@ def test_strain_noise_is_the_change_the_roughness_makes():
     against the change it makes (rough minus smooth grid's energy, median |.| over the
     median energy; measured 0.85-1.14x of it where it is under 0.35, as on the
     phantoms; 0.45 for 0.78 unsmoothed at 0.5 %: large shares come out low)."""
-    from oftimg.pipeline import NOISY_STRAIN_SHARE, smoothed_strain
+    from oftimg.analysis.pipeline import NOISY_STRAIN_SHARE, smoothed_strain
 
     n_t, period, r0 = 195, 360.0, 0.2
     radius = r0 * (1 + 0.2 * np.sin(np.pi * np.arange(n_t) / n_t) ** 2)
@@ -273,7 +273,7 @@ def test_strain_smoothing_auto_takes_the_least_sigma_its_noise_allows():
     the truth for it."""
     from oftimg.image.kymograph import RIDGE_SMOOTHING_LADDER_MS as LADDER
     from oftimg.image.normalize import STRAIN_NOISE_TARGET
-    from oftimg.pipeline import smoothed_strain
+    from oftimg.analysis.pipeline import smoothed_strain
 
     n_t, period, r0 = 195, 360.0, 0.2
     radius = r0 * (1 + 0.2 * np.sin(np.pi * np.arange(n_t) / n_t) ** 2)
@@ -364,7 +364,7 @@ def test_phase_maps_are_smoothed_in_time_and_sub_frame():
 
 
 def test_surface_render_covers_the_view_and_follows_the_motion():
-    from oftimg.video import SurfaceCamera
+    from oftimg.output.video import SurfaceCamera
 
     n_t = 8
 
@@ -445,9 +445,9 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
     used to come out as 10 for the phantom's 4. The curvature fields are then mostly
     noise (each frame meshed on its own): oftimg measures that noise as the model's
     truth shows it, and says so."""
-    from oftimg.io import OftimgWarning, load_dataset
-    from oftimg.phantom import read_truth, sample_params, write_phantom
-    from oftimg.pipeline import PipelineOptions, analyse_dataset
+    from oftimg.io.dataset import OftimgWarning, load_dataset
+    from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
+    from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
     path = write_phantom(tmp_path / "rough", sample_params(
         "normal", 0, n_frames=20, vertices_min=2500, vertices_max=3500, noise_mm=0.005))

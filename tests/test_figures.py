@@ -12,8 +12,8 @@ import numpy as np
 from scipy import ndimage
 import pytest
 
-from oftimg import figures
-from oftimg.image.analysis import analyse_area_maps
+from oftimg.output import figures
+from oftimg.analysis.maps import analyse_area_maps
 from oftimg.image.gradient import gradient_hsv
 
 GOLDEN = Path(__file__).parent / "golden"
@@ -177,7 +177,7 @@ def test_group_figures_draw_a_layers_thickness_and_its_thickening_along_the_tube
 
 def _compared(maps: np.ndarray, groups, key: str = "area_outer_normalized") -> dict:
     """Cohort maps of one kind with the groups' differences, as cohort_maps makes them."""
-    from oftimg.image.group_maps import group_differences
+    from oftimg.analysis.group_maps import group_differences
 
     compared = group_differences(maps, groups)
     out = {"groups": np.asarray(groups), key: maps, "comparisons": compared.pop("names")}

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from oftimg.image.group_maps import (common_grid, group_mean_maps, on_common_grid,
+from oftimg.analysis.group_maps import (common_grid, group_mean_maps, on_common_grid,
                                      row_normalized)
 
 
@@ -55,7 +55,7 @@ def test_rows_over_their_maximum_and_group_means():
 def test_cohort_maps_of_a_dataset_without_an_inner_wall(tmp_path):
     """Its wall thickness map is NaN throughout (and said by nothing but NaN); the
     other's is its rows' mean around the tube."""
-    from oftimg.export import cohort_maps
+    from oftimg.output.export import cohort_maps
 
     s, t = np.linspace(0.0, 1.2, 50), np.arange(20) * 18.0
     area = wave((s / s[-1])[:, None], (t / 360.0)[None, :])

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from oftimg.cli import main
-from oftimg.export import TESTED_MAPS
+from oftimg.output.export import TESTED_MAPS
 
 pytestmark = pytest.mark.slow
 
@@ -68,7 +68,7 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
 def test_links_to_datasets_with_any_folder_name_resolve(tmp_path):
     """A dataset folder's name goes into the cohort page's links percent-encoded:
     "#" began a fragment and "%20" was read as a space, so both links were dead."""
-    from oftimg.phantom import sample_params, write_phantom
+    from oftimg.synthetic.phantom import sample_params, write_phantom
 
     cohort = tmp_path / "cohort é"
     names = ["embryo A (1) é#2", "b%20x"]
@@ -125,7 +125,7 @@ def test_the_cohort_page_lists_each_datasets_warnings():
     """Each warning a row, without the dataset's path, linked to its page; a cohort
     without warnings says so, unless a summary from an older oftimg never recorded
     them."""
-    from oftimg.html import _cohort_warnings
+    from oftimg.output.html import _cohort_warnings
 
     def summary(name, warnings=None):
         s = {"name": name, "group": "normal", "validation": {"path": f"/data/{name}"}}

@@ -10,7 +10,7 @@ import pytest
 
 from helpers import InPlace, tube_mesh, write_series
 from oftimg.cli import main
-from oftimg.io import (DatasetError, OftimgWarning, check_tube_file, declared_counts,
+from oftimg.io.dataset import (DatasetError, OftimgWarning, check_tube_file, declared_counts,
                        find_datasets, list_frames, load_dataset, load_tube, natural_key,
                        read_mesh_file, validate_dataset, write_ply)
 
@@ -335,7 +335,7 @@ def test_binary_ply_is_read_as_open3d_reads_it(tmp_path):
     """Binary little-endian .ply files of vertices and triangles are read with NumPy
     (``write_ply``'s, double coordinates, more vertex properties, other list types);
     other .ply files go to open3d, whose checks still name a damaged file."""
-    from oftimg.io import _open3d, _read_simple_ply
+    from oftimg.io.dataset import _open3d, _read_simple_ply
 
     V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
     cases = {"written.ply": None,
@@ -663,7 +663,7 @@ def test_overwrite_replaces_only_what_oftimg_wrote(tmp_path, capsys):
 def test_a_file_put_into_out_during_the_run_is_not_replaced(tmp_path):
     """The check is made again when the finished results take the folder's place."""
     from oftimg.errors import InputError
-    from oftimg.export import staged_output
+    from oftimg.output.export import staged_output
 
     out = tmp_path / "out"
     out.mkdir()
@@ -727,7 +727,7 @@ def test_lazy_loading_of_1000_frames_stays_small(tmp_path):
     # growth of the peak after the first frame (the libraries' own ~250 MB vary by version);
     # all 1000 frames held would add ~200 MB
     code = textwrap.dedent(f"""
-        from oftimg.io import load_dataset
+        from oftimg.io.dataset import load_dataset
         def hwm_mb():
             line = [l for l in open("/proc/self/status") if l.startswith("VmHWM")][0]
             return int(line.split()[1]) // 1024
@@ -763,7 +763,7 @@ def test_dataset_names_must_make_distinct_result_folders(tmp_path, capsys):
 def test_a_frame_that_cannot_be_gridded_is_named(dataset, monkeypatch):
     """A mesh problem found only by the gridding (it passed the checks) is reported
     with the file it came from, as the checks' own are."""
-    from oftimg import per_frame
+    from oftimg.analysis import per_frame
     from oftimg.mesh.grid import GridOptions
     from oftimg.mesh.topology import MeshError
 

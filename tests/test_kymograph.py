@@ -5,12 +5,12 @@ import pytest
 from oftimg.image.band import detect_band
 from oftimg.image.gradient import area_rates, colour_wheel, gradient_hsv
 from oftimg.errors import InputError
-from oftimg.image.analysis import analyse_area_maps
+from oftimg.analysis.maps import analyse_area_maps
 from oftimg.image.kymograph import (at_fixed_positions, auto_ridge_smoothing, cycle_speed,
                                     local_speed, map_noise_sd, noise_colour, ridge_times,
                                     smooth_in_time, speed_spread, two_segment_fit,
                                     wave_speed_summary, wave_speeds)
-from oftimg.cycle import periodic_peak
+from oftimg.image.cycle import periodic_peak
 from oftimg.image.masks import expanded_75, expanded_sigma
 
 PERIOD = 100.0  # ms
@@ -476,8 +476,8 @@ def test_fixed_map_positions_on_a_banded_phantom(analysed_banded, phantom_banded
     map_positions="fixed" the area map is twice as close to the truth (95th
     percentile 1.2 % -> 0.6 % on this phantom) and the mean wave speed is right
     (13.6 -> 10.9 mm/s, truth 10.7). The rows' own areas are kept."""
-    from oftimg.io import load_dataset
-    from oftimg.pipeline import PipelineOptions, analyse_dataset
+    from oftimg.io.dataset import load_dataset
+    from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
     ph, truth, by_rows = analysed_banded
     fixed = analyse_dataset(load_dataset(phantom_banded), PipelineOptions(map_positions="fixed"),
@@ -498,7 +498,7 @@ def test_fixed_map_positions_on_a_banded_phantom(analysed_banded, phantom_banded
 
 
 def test_map_positions_are_checked():
-    from oftimg.pipeline import PipelineOptions
+    from oftimg.analysis.pipeline import PipelineOptions
 
     with pytest.raises(InputError, match="map_positions must be one of"):
         PipelineOptions(map_positions="eulerian")
@@ -521,7 +521,7 @@ def test_map_positions_are_checked():
 def test_cells_without_a_contour_are_filled_periodically_in_time_and_rows_along_v():
     """A NaN cell gets its row's value interpolated over the cycle's end (periodic); a
     row with no value at all gets its neighbours' mean, frame by frame."""
-    from oftimg.image.analysis import fill_gaps
+    from oftimg.analysis.maps import fill_gaps
 
     n_v, n_t = 6, 20
     t = np.arange(n_t)

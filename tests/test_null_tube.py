@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from helpers import retriangulated_tube, write_series
-from oftimg.io import load_dataset
+from oftimg.io.dataset import load_dataset
 from oftimg.mesh.grid import SeamCandidates, continuous_seam_ends
-from oftimg.pipeline import PipelineOptions, analyse_dataset
+from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
 N_FRAMES = 40
 

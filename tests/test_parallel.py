@@ -8,9 +8,9 @@ import threadpoolctl
 from helpers import InPlace
 
 from oftimg.workers import make_executor
-from oftimg.io import load_dataset, read_mesh_file, write_ply
-from oftimg.phantom import sample_params, write_phantom
-from oftimg.pipeline import PipelineOptions, analyse_dataset
+from oftimg.io.dataset import load_dataset, read_mesh_file, write_ply
+from oftimg.synthetic.phantom import sample_params, write_phantom
+from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
 pytestmark = pytest.mark.slow
 
@@ -56,8 +56,8 @@ def test_warnings_raised_in_workers_reach_this_process_once():
     import warnings
 
     from helpers import square_warning_on_odd
-    from oftimg.io import OftimgWarning
-    from oftimg.pipeline import run_tasks
+    from oftimg.io.dataset import OftimgWarning
+    from oftimg.analysis.pipeline import run_tasks
     from oftimg.workers import closing_executor
 
     pool = make_executor(2)
@@ -108,7 +108,7 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
     import warnings
 
     from oftimg import api
-    from oftimg.io import OftimgWarning
+    from oftimg.io.dataset import OftimgWarning
 
     cohort = tmp_path / "cohort"
     for group, seed in (("normal", 7), ("banded", 8)):
@@ -165,7 +165,6 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
 
 def test_one_dataset_bar_counts_frames_then_names_the_stages(tmp_path, monkeypatch):
     from oftimg import api
-
     path = write_phantom(tmp_path / "p", sample_params("normal", 3, n_frames=5,
                                                        vertices_min=1500, vertices_max=1800))
     monkeypatch.setattr(api, "Progress", RecordingBar)
@@ -176,8 +175,8 @@ def test_one_dataset_bar_counts_frames_then_names_the_stages(tmp_path, monkeypat
 
 
 def test_this_process_runs_one_blas_thread_while_its_workers_run(tmp_path, monkeypatch):
-    from oftimg import api, pipeline
-
+    from oftimg import api
+    from oftimg.analysis import pipeline
     def blas_threads():
         return {p["num_threads"] for p in threadpoolctl.threadpool_info()   # numpy's, scipy's
                 if p["user_api"] == "blas"}
@@ -199,7 +198,6 @@ def test_this_process_runs_one_blas_thread_while_its_workers_run(tmp_path, monke
 
 def test_parallel_mode_is_checked(tmp_path):
     from oftimg import api
-
     with pytest.raises(ValueError, match="--parallel"):
         api.run(tmp_path, tmp_path / "out", parallel="datasets")
 
@@ -208,7 +206,7 @@ def test_embryos_at_once_fits_the_memory_left(monkeypatch):
     """A worker grows by ~60 MB + 3 MB per frame while it analyses an embryo: with
     1.5 GB free, 2 embryos of 195 frames fit (0.645 GB each, 10 % kept spare)."""
     from oftimg import api
-    from oftimg.io import OftimgWarning
+    from oftimg.io.dataset import OftimgWarning
 
     pool = SimpleNamespace(_max_workers=8)
     datasets = [SimpleNamespace(n_frames=195), SimpleNamespace(n_frames=49)]
@@ -230,7 +228,7 @@ def test_by_embryo_no_more_run_at_once_than_fit(tmp_path, monkeypatch):
     from concurrent.futures import ThreadPoolExecutor
 
     from oftimg import api
-    from oftimg.export import Finished
+    from oftimg.output.export import Finished
 
     running, most = [0], [0]
     lock = threading.Lock()

@@ -11,7 +11,7 @@ from oftimg.mesh.parameterize import (FlatSampler, FlatTube, count_flipped, intr
                                       seam_sides)
 from oftimg.mesh.strain import grid_strain
 from oftimg.mesh.topology import MeshError, check_tube
-from oftimg.phantom import Phantom, PhantomParams
+from oftimg.synthetic.phantom import Phantom, PhantomParams
 
 OPTS = GridOptions(n_u=40, n_v=20)
 

@@ -11,9 +11,9 @@ import pytest
 import oftimg
 from oftimg.cli import main
 from oftimg.errors import InputError
-from oftimg.io import DatasetError
-from oftimg.export import describe_array
-from oftimg.paraview_series import (node_field_names, quad_cells, ring_segments,
+from oftimg.io.dataset import DatasetError
+from oftimg.output.export import describe_array
+from oftimg.output.paraview import (node_field_names, quad_cells, ring_segments,
                                     row_area_name)
 
 

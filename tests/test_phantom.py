@@ -3,10 +3,10 @@ import json
 import numpy as np
 import pytest
 
-from oftimg.io import load_dataset, validate_dataset
+from oftimg.io.dataset import load_dataset, validate_dataset
 from oftimg.mesh.sections import contour_around, plane_contours, polygon_area
 from oftimg.mesh.topology import capped_signed_volume
-from oftimg.phantom import Phantom, PhantomParams, read_truth, sample_params
+from oftimg.synthetic.phantom import Phantom, PhantomParams, read_truth, sample_params
 
 
 def test_every_frame_is_a_tube_and_frames_differ(phantom_normal):

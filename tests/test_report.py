@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from oftimg.report import (cohort_rows, group_comparison, map_comparison_rows, mean_curve,
+from oftimg.output.report import (cohort_rows, group_comparison, map_comparison_rows, mean_curve,
                            write_cohort_markdown)
-from oftimg.stats import holm, permutation_test
+from oftimg.analysis.stats import holm, permutation_test
 
 
 def test_exact_permutation_test():
@@ -98,7 +98,7 @@ def test_markdown_table_keeps_a_name_with_a_bar_in_its_cell(tmp_path):
 
 
 def test_smoothing_caveat_only_where_groups_were_smoothed_differently():
-    from oftimg.report import smoothing_caveat
+    from oftimg.output.report import smoothing_caveat
 
     def cohort(sigmas):
         return [{"name": f"e{k}", "group": g, "ridge_smoothing_ms": s}
@@ -112,7 +112,7 @@ def test_smoothing_caveat_only_where_groups_were_smoothed_differently():
 
 
 def test_field_smoothing_caveat_names_the_fields_smoothed_differently():
-    from oftimg.report import field_smoothing_caveat
+    from oftimg.output.report import field_smoothing_caveat
 
     def cohort(sigmas):
         return [{"name": f"e{k}", "group": g,
@@ -135,7 +135,7 @@ def test_field_smoothing_caveat_names_the_fields_smoothed_differently():
 
 
 def test_map_comparison_rows_sum_up_where_the_groups_differ():
-    from oftimg.image.group_maps import group_differences
+    from oftimg.analysis.group_maps import group_differences
 
     rng = np.random.default_rng(0)
     groups = np.array(["normal", "banded"] * 4)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import oftimg
-from oftimg.io import DatasetError
+from oftimg.io.dataset import DatasetError
 
 
 def _npz(folder, file):

@@ -8,8 +8,8 @@ import pytest
 from helpers import InPlace
 from oftimg import api
 from oftimg.cli import main
-from oftimg.export import Finished, finished_folder
-from oftimg.phantom import sample_params, write_phantom
+from oftimg.output.export import Finished, finished_folder
+from oftimg.synthetic.phantom import sample_params, write_phantom
 
 pytestmark = pytest.mark.slow
 
@@ -107,9 +107,9 @@ def test_by_embryo_the_datasets_running_when_one_fails_are_kept(tmp_path, monkey
 
 def test_fingerprint_changes_with_inputs_options_and_code(tmp_path, monkeypatch):
     from helpers import tube_mesh, write_series
-    from oftimg import export
-    from oftimg.io import load_dataset
-    from oftimg.pipeline import PipelineOptions
+    from oftimg.output import export
+    from oftimg.io.dataset import load_dataset
+    from oftimg.analysis.pipeline import PipelineOptions
 
     folder = write_series(tmp_path / "emb", [tube_mesh(0.2, 0.12, n_theta=16, n_s=6)] * 3)
     (folder / "meta.json").write_text(json.dumps({"period_ms": 3.0}))

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from helpers import tube_mesh
-from oftimg.cycle import (cycle_timing, periodic_peak, resample_time, standout_frames,
+from oftimg.image.cycle import (cycle_timing, periodic_peak, resample_time, standout_frames,
                           two_segment_warp, volume_change, wrap_step_ratio)
 from oftimg.mesh.clip import clip_grid, clip_positions, cumulative_from_outlet
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
@@ -54,7 +54,7 @@ def test_analytic_tube_areas_and_volumes(r_in, r_out, ellipse):
 
 def test_contour_around_picks_the_right_piece_of_a_bent_tube():
     """A plane through a U-shaped tube cuts it twice; keep the section around the centre."""
-    from oftimg.phantom import Phantom, PhantomParams
+    from oftimg.synthetic.phantom import Phantom, PhantomParams
 
     ph = Phantom(PhantomParams(n_frames=3, length_mm=3.0, bend_radius_mm=0.5,
                                radius_inlet_mm=0.15, radius_outlet_mm=0.15, contraction=0))
@@ -196,9 +196,9 @@ def test_a_series_that_is_not_one_cycle_is_told(tmp_path):
     import shutil
     import warnings
 
-    from oftimg.io import OftimgWarning, load_dataset
-    from oftimg.phantom import sample_params, write_phantom
-    from oftimg.pipeline import PipelineOptions, analyse_dataset
+    from oftimg.io.dataset import OftimgWarning, load_dataset
+    from oftimg.synthetic.phantom import sample_params, write_phantom
+    from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
     path = write_phantom(tmp_path / "p", sample_params("normal", 1, n_frames=10,
                                                        vertices_min=1500, vertices_max=1800))
@@ -233,9 +233,9 @@ def test_a_series_with_a_frame_that_stands_out_is_told(tmp_path):
     makes it: it went into every map and number without a word."""
     import warnings
 
-    from oftimg.io import OftimgWarning, load_dataset, read_mesh_file, write_ply
-    from oftimg.phantom import sample_params, write_phantom
-    from oftimg.pipeline import PipelineOptions, analyse_dataset
+    from oftimg.io.dataset import OftimgWarning, load_dataset, read_mesh_file, write_ply
+    from oftimg.synthetic.phantom import sample_params, write_phantom
+    from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
     path = write_phantom(tmp_path / "p", sample_params("normal", 1, n_frames=30,
                                                        vertices_min=1500, vertices_max=1800))
@@ -339,7 +339,7 @@ def test_phantom_timing_length_volume(analysed_normal):
 def test_phantom_clipping_keeps_myocardial_volume(analysed_normal, phantom_normal):
     """Re-cut the original meshes with planes of the clipped grids (not the planes
     clipping used) and integrate the myocardial area: constant within 1 %."""
-    from oftimg.io import load_dataset
+    from oftimg.io.dataset import load_dataset
 
     _, _, res = analysed_normal
     ds = load_dataset(phantom_normal)

@@ -3,8 +3,8 @@ the map (family-wise), exact and with random relabellings."""
 import numpy as np
 import pytest
 
-from oftimg.image.group_maps import group_differences
-from oftimg.stats import _cluster_labels, map_cluster_test, map_permutation_test
+from oftimg.analysis.group_maps import group_differences
+from oftimg.analysis.stats import _cluster_labels, map_cluster_test, map_permutation_test
 
 
 def test_complete_separation_everywhere_gives_the_least_exact_p():

@@ -7,8 +7,8 @@ import pytest
 
 from oftimg.cli import main
 from oftimg.errors import InputError
-from oftimg.image_order import in_image_order
-from oftimg.io import DatasetError
+from oftimg.output.image_order import in_image_order
+from oftimg.io.dataset import DatasetError
 
 
 def test_image_order_puts_the_inlet_at_the_bottom_and_time_in_frames():
@@ -32,7 +32,7 @@ def test_image_order_puts_the_inlet_at_the_bottom_and_time_in_frames():
 
 
 def test_videos_show_the_inlet_at_the_bottom():
-    from oftimg.video import field_frames
+    from oftimg.output.video import field_frames
 
     field = np.zeros((8, 6, 2))
     field[:, 0] = 1.0                                    # the inlet row high

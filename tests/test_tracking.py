@@ -6,10 +6,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from oftimg.animate import Animation, grid_material_points, tissue_positions, write_animation
-from oftimg.image.tracking import follow, ring_turns, row_turns, sample, track_grid
-from oftimg.io import load_dataset
-from oftimg.pipeline import PipelineOptions, analyse_dataset
+from oftimg.synthetic.animate import Animation, grid_material_points, tissue_positions, write_animation
+from oftimg.analysis.tracking import follow, ring_turns, row_turns, sample, track_grid
+from oftimg.io.dataset import load_dataset
+from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
 
 def _bumpy_tube(n_u=80, n_v=30, n_t=12, turns=None):

@@ -8,7 +8,7 @@ import textwrap
 
 import pytest
 
-from oftimg.phantom import sample_params, write_phantom
+from oftimg.synthetic.phantom import sample_params, write_phantom
 
 pytestmark = pytest.mark.slow
 
@@ -83,8 +83,8 @@ def test_run_with_a_killed_worker_says_so_and_writes_nothing(tmp_path):
     out = tmp_path / "out"
     done = run_python(f"""
         import multiprocessing as mp, os, signal, sys
-        from oftimg import cli, pipeline
-
+        from oftimg import cli
+        from oftimg.analysis import pipeline
         def kill_a_worker():  # the pool's, not the progress bar's SyncManager process
             pool = [p for p in mp.active_children() if p.name.startswith("SpawnProcess")]
             os.kill(pool[0].pid, signal.SIGKILL)
@@ -351,7 +351,6 @@ def test_a_killed_progress_manager_ends_the_bar_not_the_run():
     import time
 
     from oftimg import api
-
     class Bar:                                            # a bar on a terminal
         shown, n = True, 0
 
@@ -375,14 +374,14 @@ def test_a_killed_progress_manager_ends_the_bar_not_the_run():
 
 
 def test_a_worker_imports_no_image_figure_or_video_module():
-    """Spawned workers import oftimg.workers and oftimg.per_frame; the package's
+    """Spawned workers import oftimg.workers and oftimg.analysis.per_frame; the package's
     public names are read on first use, so the analysis and figure modules (and
     matplotlib, OpenCV, imageio: 0.3 s of start-up per process) stay out."""
     code = textwrap.dedent("""
-        import sys, oftimg.per_frame, oftimg.workers
+        import sys, oftimg.analysis.per_frame, oftimg.workers
         heavy = ("matplotlib", "cv2", "imageio", "skimage", "xarray")
         print(sorted(m for m in sys.modules if m.split(".")[0] in heavy
-                     or m in ("oftimg.api", "oftimg.pipeline", "oftimg.figures", "oftimg.video")))
+                     or m in ("oftimg.api", "oftimg.analysis.pipeline", "oftimg.output.figures", "oftimg.output.video")))
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

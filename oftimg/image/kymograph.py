@@ -12,7 +12,7 @@ from statistics import median
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from ..cycle import periodic_peak
+from .cycle import periodic_peak
 from ..errors import InputError
 
 FLAT_REL = 1e-3  # rows whose relative temporal range is below this have no ridge

@@ -8,7 +8,7 @@ import warnings
 
 import numpy as np
 
-from ..cycle import periodic_peak
+from .cycle import periodic_peak
 
 
 def threshold_crossings(row: np.ndarray, level: float) -> tuple[float, float]:

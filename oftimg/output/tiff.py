@@ -27,7 +27,7 @@ def tiff_image(values: np.ndarray, info: dict, t_ms: np.ndarray, s_mm: np.ndarra
                ) -> tuple[np.ndarray, dict]:
     """One array on its named axes (``info``: its arrays.json entry) as ``(image,
     ImageJ metadata)``: float32 (bool as uint8 0 / 255) in image order
-    (:func:`oftimg.image_order.in_image_order`), with its axes, the frame interval
+    (:func:`oftimg.output.image_order.in_image_order`), with its axes, the frame interval
     (s) and each frame's time as labels when it has frames, and an Info text saying
     what rows, columns and values are."""
     image, axes = in_image_order(values, info["dims"])

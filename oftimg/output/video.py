@@ -168,7 +168,7 @@ FIELD_VIDEOS = [
 
 
 # the tasks that need only the aligned area maps, grids and lumen mean curvature
-# (:func:`oftimg.pipeline.analyse_dataset`'s ``on_aligned``): the slow 3-D renders;
+# (:func:`oftimg.analysis.pipeline.analyse_dataset`'s ``on_aligned``): the slow 3-D renders;
 # the others need the shape fields
 EARLY_VIDEOS = ("area", "lumen_3d")
 LATER_VIDEOS = ("field",)
@@ -201,7 +201,7 @@ def render_videos(kind: str, inputs: dict, fps: float = 30.0) -> list[tuple[str,
     a worker on another machine need not see the output folder)."""
     import tempfile
 
-    from .image.normalize import per_pixel_normalize
+    from ..image.normalize import per_pixel_normalize
 
     t_ms = inputs["t_ms"]
     if kind == "field":
@@ -283,7 +283,7 @@ class SurfaceCamera:
         self.light = view
         import open3d as o3d
 
-        from .mesh.strain import grid_triangles
+        from ..mesh.strain import grid_triangles
 
         rays = self._all_rays()
         self._window = self.window(pts, rays) if crop else (slice(0, size), slice(0, size))

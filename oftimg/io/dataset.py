@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .mesh.topology import (MeshError, RepairCounts, check_tube, loop_centroid,
+from ..errors import InputError
+from ..mesh.topology import (MeshError, RepairCounts, check_tube, loop_centroid,
                             loop_vector_area, repair)
 
 SURFACES = ("outer", "inner", "lumen")

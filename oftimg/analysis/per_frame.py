@@ -1,6 +1,6 @@
 """The work on one time frame, run in worker processes.
 
-Kept apart from :mod:`oftimg.pipeline` so that a worker imports only the mesh
+Kept apart from :mod:`oftimg.analysis.pipeline` so that a worker imports only the mesh
 modules: the image analysis pulls in scipy.signal, about 1 s of start-up.
 """
 from __future__ import annotations
@@ -10,12 +10,12 @@ import warnings
 
 import numpy as np
 
-from .io import DatasetError, Frame
-from .mesh.curvature import fill_boundary, taubin_smooth, vertex_mean_curvature
-from .mesh.grid import (GridOptions, SeamCandidates, grid_frame, project_towards_axis,
+from ..io.dataset import DatasetError, Frame
+from ..mesh.curvature import fill_boundary, taubin_smooth, vertex_mean_curvature
+from ..mesh.grid import (GridOptions, SeamCandidates, grid_frame, project_towards_axis,
                         seam_candidates, signed_thickness)
-from .mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
-from .mesh.topology import MeshError, capped_signed_volume
+from ..mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
+from ..mesh.topology import MeshError, capped_signed_volume
 
 
 class _Clock:

@@ -1,5 +1,5 @@
 """The stages wired together for one dataset. Reads frames through the
-:class:`~oftimg.io.Dataset` it is given and returns arrays; writes nothing."""
+:class:`~oftimg.io.dataset.Dataset` it is given and returns arrays; writes nothing."""
 from __future__ import annotations
 
 import time
@@ -8,24 +8,24 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from . import __version__
-from .errors import InputError
-from .io import Dataset, OftimgWarning
-from .cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
+from .. import __version__
+from ..errors import InputError
+from ..io.dataset import Dataset, OftimgWarning
+from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                     volume_change, wrap_step_ratio)
-from .image.analysis import analyse_area_maps
-from .image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_fixed_positions
-from .image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
+from .maps import analyse_area_maps
+from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_fixed_positions
+from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
                               smoothing_kernel)
-from .image.pca import contour_pca
-from .image.tracking import follow, track_grid
-from .mesh.clip import clip_grid, clip_positions, plane_at
-from .mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
-from .mesh.sections import slab_thickness, volume_from_sections
-from .mesh.curvature import contour_curvature, count_corners
-from .mesh.strain import grid_strain
+from ..image.pca import contour_pca
+from .tracking import follow, track_grid
+from ..mesh.clip import clip_grid, clip_positions, plane_at
+from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
+from ..mesh.sections import slab_thickness, volume_from_sections
+from ..mesh.curvature import contour_curvature, count_corners
+from ..mesh.strain import grid_strain
 from .per_frame import frame_seam_candidates, process_frame, with_warnings
-from .progress import Progress
+from ..progress import Progress
 
 
 # where the rows of the (v, t) area maps lie: at the grid rows, as in the paper (they
@@ -33,7 +33,7 @@ from .progress import Progress
 # centroid line's length in every frame
 MAP_POSITIONS = ("rows", "fixed")
 # how the grid follows the tissue from frame to frame: "none", each frame's own grid
-# (the paper's); "material", each row turned with the tissue (oftimg.image.tracking)
+# (the paper's); "material", each row turned with the tissue (oftimg.analysis.tracking)
 TRACKING = ("material", "none")
 
 
@@ -296,7 +296,7 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     contraction (curvature averaged over the ``2 CORNER_FRAMES + 1`` frames
     around it). Phase maps are taken on each field smoothed in time by
     ``RIDGE_SMOOTHING_MS`` in all (or by its own sigma if more). ``coords (n_u, n_v,
-    n_t, 2)``: the tracked grid's pathlines (:func:`~oftimg.image.tracking.track_grid`),
+    n_t, 2)``: the tracked grid's pathlines (:func:`~oftimg.analysis.tracking.track_grid`),
     along which the section contours' curvature is read before it is smoothed in
     time (the grids given are already tracked), or None.
     """

@@ -67,11 +67,11 @@ def group_differences(maps: np.ndarray, groups, *, cluster_alpha: float = 0.05,
     ``maps (n, positions, phases)``: ``names`` (``"banded - normal"``), and each
     ``(n_comparisons, positions, phases)``: ``difference`` of the group means,
     ``p_fwer`` each pixel's p corrected over the map
-    (:func:`oftimg.stats.map_permutation_test`) and ``p_cluster`` the p of the
-    cluster each pixel belongs to (:func:`oftimg.stats.map_cluster_test`, clusters
+    (:func:`oftimg.analysis.stats.map_permutation_test`) and ``p_cluster`` the p of the
+    cluster each pixel belongs to (:func:`oftimg.analysis.stats.map_cluster_test`, clusters
     of uncorrected p <= ``cluster_alpha`` joined across the cycle's ends; 1 outside
     clusters)."""
-    from ..stats import map_cluster_test, map_permutation_test
+    from .stats import map_cluster_test, map_permutation_test
 
     groups = np.asarray(groups)
     order = groups_in_order(groups)

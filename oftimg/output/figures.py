@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .image.group_maps import groups_in_order  # noqa: E402
+from ..analysis.group_maps import groups_in_order  # noqa: E402
 
 WALL_COLOURS = {"outer": "#c0392b", "inner": "#e59866", "lumen": "#2e86c1",
                 "myocardium": "#6c3483", "jelly": "#16a085"}
@@ -125,7 +125,7 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
         written += map_figures(folder, name, arrays, summary, summary["period_ms"])
     for layer, what in (("wall", "myocardial wall"), ("jelly", "cardiac jelly")):
         if f"{layer}_thickness_mm" in arrays:
-            from .pipeline import mean_around_tube
+            from ..analysis.pipeline import mean_around_tube
 
             rows_um = 1000 * mean_around_tube(arrays[f"{layer}_thickness_mm"])   # (n_v, n_t)
             written.append(area_map(rows_um, arrays["s_mm"], t_ms,
@@ -208,7 +208,7 @@ def time_expanded(s_mm, shares: dict[str, np.ndarray], path: Path, *, title: str
 def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
                      title: str = "") -> Path:
     """Fig. D: gradient angle as hue, magnitude as intensity, with the colour wheel."""
-    from .image.gradient import colour_wheel
+    from ..image.gradient import colour_wheel
 
     fig = plt.figure(figsize=(6.8, 4.0))
     ax = fig.add_axes([0.1, 0.13, 0.62, 0.77])
@@ -277,7 +277,7 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
 def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms: float
                 ) -> list[Path]:
     """The (v, t) map figures of one dataset."""
-    from .image.gradient import gradient_hsv
+    from ..image.gradient import gradient_hsv
 
     s_mm, t_ms = arrays["s_mm"], arrays["t_ms"]
     area = arrays["area_outer_mm2"]
@@ -316,7 +316,7 @@ def _group_curves(ax, curves: list[tuple], colour: str, x: np.ndarray, *,
     """One group's curves ``[(name, x_k, y_k), ...]`` on ``ax``: each in its own colour
     and named in the legend when there are few; else thin lines in the group's
     colour, the mean on the common ``x`` in bold and a +-1 SD band
-    (:func:`oftimg.report.mean_curve`)."""
+    (:func:`oftimg.output.report.mean_curve`)."""
     from .report import mean_curve
 
     if len(curves) <= NAMED_CURVES_MAX:
@@ -358,7 +358,7 @@ def _group_profiles(path: Path) -> dict:
     ``t_ms``, ``volume_outer_mm3`` and each :data:`GROUP_PROFILES` key along the
     tube (the wall's and the jelly's only with the walls they lie between). Read and
     closed: hundreds of open files would hit the OS limit."""
-    from .pipeline import thickness_by_row
+    from ..analysis.pipeline import thickness_by_row
 
     with np.load(path) as arrays:
         out = {key: arrays[key] for key in ("s_mm", "t_ms", "volume_outer_mm3",
@@ -389,12 +389,12 @@ def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normaliz
                       title: str = "outer area, each row over its maximum", value_range=None,
                       alpha: float = 0.05) -> Path:
     """Each group's mean of map ``key`` on the cohort's common grid (``maps``:
-    :func:`oftimg.export.cohort_maps`; ``value_range`` its colour range, default the
+    :func:`oftimg.output.export.cohort_maps`; ``value_range`` its colour range, default the
     means' own), and each other group's difference from the first (normals first),
     with the clusters (solid) and the single pixels (dashed) where it is significant
     over the whole map (``*_p_cluster``, ``*_p_fwer`` below ``alpha``) outlined.
     Embryos without the map (all NaN) are left out."""
-    from .image.group_maps import group_mean_maps
+    from ..analysis.group_maps import group_mean_maps
 
     present = ~np.all(np.isnan(maps[key]), axis=(1, 2))
     order = groups_in_order(maps["groups"][present])
@@ -451,7 +451,7 @@ def group_figures(results: Path, summaries: list[dict], folder: Path, *,
     ridge time, % time expanded, and the myocardial wall's thickness and thickening
     vs position, and volume over the aligned cycle (groups overlaid). Up to
     :data:`NAMED_CURVES_MAX` embryos of a group are named lines; a larger group shows
-    its mean +- SD over thin lines. With ``maps`` (:func:`oftimg.export.cohort_maps`),
+    its mean +- SD over thin lines. With ``maps`` (:func:`oftimg.output.export.cohort_maps`),
     the groups' mean maps too (:data:`GROUP_MAPS`, :func:`group_maps_figure`).
     Reads each dataset's ``arrays.npz`` from ``results``."""
     groups = groups_in_order([s["group"] for s in summaries])

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .export import COHORT_OUTPUTS
-from .io import DatasetError, natural_key
+from ..io.dataset import DatasetError, natural_key
 
 RESULT_FILES = ("arrays.npz", "grids.npz", "pca.npz")
 

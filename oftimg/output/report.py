@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .stats import holm, permutation_test
+from ..analysis.stats import holm, permutation_test
 
 # (column header with unit, summary key path)
 COHORT_COLUMNS = [
@@ -221,7 +221,7 @@ def field_smoothing_caveat(summaries: list[dict], key: str = "field_smoothing_ms
 
 def map_comparison_rows(maps: dict, alpha: float = 0.05) -> list[dict]:
     """Per comparison of groups and tested map of ``maps``
-    (:func:`oftimg.export.cohort_maps`): the least p pixel by pixel and by cluster,
+    (:func:`oftimg.output.export.cohort_maps`): the least p pixel by pixel and by cluster,
     and the share of the map (of its pixels with a value) in clusters with p below
     ``alpha``."""
     from .export import TESTED_MAPS

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .errors import InputError
-from .image.kymograph import RIDGE_SMOOTHING_MS
+from .. import __version__
+from ..errors import InputError
+from ..image.kymograph import RIDGE_SMOOTHING_MS
 
 
 # what a run writes beside the datasets' folders (report, html, api._write_run)
@@ -312,12 +312,12 @@ def cohort_maps(results: Path, summaries: list[dict], *,
     """Every dataset's outer area map (and each row over its maximum) and the mean
     around the tube of each field of :data:`AROUND_TUBE_MAPS` (NaN where a dataset
     has none) on one grid of position and cycle fractions
-    (:mod:`oftimg.image.group_maps`), read from ``results/<name>/arrays.npz``, and
+    (:mod:`oftimg.analysis.group_maps`), read from ``results/<name>/arrays.npz``, and
     where the groups differ in the maps of :data:`TESTED_MAPS`: the arrays of
     :data:`COHORT_MAPS`, clusters formed at uncorrected p <= ``cluster_alpha``."""
-    from .image.group_maps import (common_grid, group_differences, on_common_grid,
+    from ..analysis.group_maps import (common_grid, group_differences, on_common_grid,
                                    row_normalized)
-    from .pipeline import mean_around_tube
+    from ..analysis.pipeline import mean_around_tube
 
     position, phase = common_grid()
     missing = np.full((len(position), len(phase)), np.nan)
@@ -504,7 +504,7 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
                           started: float | None = None) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/
     (rendered in ``executor``'s workers when one is given). ``early_videos``: the
-    :data:`~oftimg.video.EARLY_VIDEOS` already started (:func:`oftimg.video.start_videos`).
+    :data:`~oftimg.output.video.EARLY_VIDEOS` already started (:func:`oftimg.output.video.start_videos`).
     ``started``: the ``time.perf_counter()`` at which the analysis began; the summary's
     ``timings_s.total_s`` then holds the seconds of analysis and writing."""
     import time

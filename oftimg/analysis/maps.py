@@ -5,10 +5,10 @@ import warnings
 
 import numpy as np
 
-from .band import detect_band, neck_depth
-from .gradient import area_rates
-from .kymograph import auto_ridge_smoothing, noise_colour, speed_spread
-from .masks import expanded_75, expanded_sigma
+from ..image.band import detect_band, neck_depth
+from ..image.gradient import area_rates
+from ..image.kymograph import auto_ridge_smoothing, noise_colour, speed_spread
+from ..image.masks import expanded_75, expanded_sigma
 
 
 def fill_gaps(area: np.ndarray) -> tuple[np.ndarray, int]:

@@ -91,7 +91,7 @@ def _page(title: str, body: str) -> str:
 
 def _write_new(path: Path, text: str) -> None:
     """Write ``path`` as a new file (then renamed over any old one): a page that is a
-    hard link into another results folder (:func:`oftimg.export.link_or_copy`) is
+    hard link into another results folder (:func:`oftimg.output.export.link_or_copy`) is
     replaced, not written through."""
     tmp = path.with_name(path.name + ".new")
     tmp.write_text(text)
@@ -219,8 +219,8 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                 comparison: list[dict] | None = None, map_rows: list[dict] | None = None
                 ) -> Path:
     """``index.html``: cohort table, group comparison and figures, provenance;
-    ``comparison``: :func:`~oftimg.report.group_comparison` if already made;
-    ``map_rows``: :func:`~oftimg.report.map_comparison_rows`."""
+    ``comparison``: :func:`~oftimg.output.report.group_comparison` if already made;
+    ``map_rows``: :func:`~oftimg.output.report.map_comparison_rows`."""
     cols = [c for c, _ in COHORT_COLUMNS]
     body = ["<h1>oftimg results</h1>",
             f"<p class=\"small\">{len(summaries)} datasets; oftimg "

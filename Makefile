@@ -1,4 +1,5 @@
-# Two entry points for a fresh machine: `make demo` and `make test`.
+# Two entry points for a fresh machine: `make demo` and `make test` (and `make docs`,
+# the documentation site, which CI builds too).
 # Both create .venv, install oftimg with its test extras, and install the
 # system library open3d needs (libusb-1.0-0) when `import open3d` fails;
 # `make test` also installs Debian's chromium for the HTML report test.
@@ -11,7 +12,7 @@ DEMO_OUT ?= oftimg-demo
 # fixtures built once): on 2 cores ~1010 s -> 718 s (2026-12-02, a slow day)
 TEST_WORKERS ?= 2
 
-.PHONY: demo test test-lowest setup clean
+.PHONY: demo test test-lowest setup clean docs
 setup: $(STAMP)
 
 $(STAMP): pyproject.toml
@@ -46,3 +47,9 @@ test-lowest: $(STAMP)
 
 clean:
 	rm -rf $(VENV) .venv-lowest $(DEMO_OUT)
+
+# The documentation site (Sphinx, its gallery executed) into docs/_build/html; warnings
+# are errors
+docs: $(STAMP)
+	$(PY) -m pip install --quiet -e '.[docs]'
+	$(PY) -m sphinx -W --keep-going -b html docs docs/_build/html

@@ -229,8 +229,8 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
     over ``RIDGE_SMOOTHING_MS`` (or a frame, if longer), scaled to the white noise
     that leaves it, its frames shuffled in time (white noise with each frame's pattern
     over the grid kept), smoothed by the sigma and added once more to the
-    smoothed grid. Its ``error_share`` is the median |energy with it - without| over
-    the median |energy| (every ``STRAIN_NOISE_EVERY``-th frame): the share by which
+    smoothed grid. Its ``error_share`` is the median absolute change of the energy with it over
+    the median absolute energy (every ``STRAIN_NOISE_EVERY``-th frame): the share by which
     the noise alone moves the field, a square that noise biases up. On the phantoms
     and a jittered cylinder it came out 0.85-1.2x the change the roughness made where
     that was under 0.4, and low above (about 0.5x for changes of 0.6-1.5). ``node_noise_mm`` is the

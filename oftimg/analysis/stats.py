@@ -104,7 +104,7 @@ def map_permutation_test(a: np.ndarray, b: np.ndarray, *, n_random: int = 10000,
     """Where two groups' maps differ: the difference of the group means of maps
     ``a (n, ...)`` and ``b (m, ...)``, and each pixel's two-sided p-value corrected
     for the whole map (family-wise), by the max-statistic permutation test (Nichols &
-    Holmes 2002): the share of relabellings whose largest |difference of means| over
+    Holmes 2002): the share of relabellings whose largest absolute difference of means over
     the map reaches the pixel's own. Exact (every relabelling) while there are at most
     ``exact_max``, else ``n_random`` random ones.
 
@@ -135,11 +135,11 @@ def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.0
                      exact_max: int = 20000) -> np.ndarray:
     """Where two groups' 2-D maps ``a (n, rows, cols)``, ``b (m, rows, cols)`` differ
     over a connected region: the cluster-mass permutation test (Maris & Oostenveld
-    2007), corrected for the whole map. A pixel joins a cluster where its |difference
-    of group means| is among the ``cluster_alpha`` largest of its own over every
+    2007), corrected for the whole map. A pixel joins a cluster where its absolute
+    difference of group means is among the ``cluster_alpha`` largest of its own over every
     relabelling (uncorrected p <= ``cluster_alpha``); a cluster (4-connected, joined
     across the ends of ``periodic_axis``: the cycle) weighs the sum of its
-    |differences|; its p is the share of relabellings whose heaviest cluster reaches
+    absolute differences; its p is the share of relabellings whose heaviest cluster reaches
     its weight. Exact up to ``exact_max`` relabellings, else ``n_random`` random ones
     (the same ones in both passes).
 

@@ -22,7 +22,7 @@ _WHERE = {
     "cohort": "api", "demo": "api", "make_phantom": "api", "paraview": "api", "run": "api",
     "tiff": "api",
     "InputError": "errors",
-    "Dataset": "io.dataset", "DatasetError": "io.dataset", "OftimgWarning": "io.dataset",
+    "Dataset": "io.dataset", "DatasetError": "errors", "OftimgWarning": "errors",
     "load_dataset": "io.dataset", "validate_dataset": "io.dataset",
     "Results": "output.results", "load_cohort": "output.results",
     "load_cohort_maps": "output.results", "load_results": "output.results",

@@ -17,12 +17,11 @@ import warnings
 from pathlib import Path
 
 from . import __version__
-from .errors import InputError
+from .errors import DatasetError, InputError, OftimgWarning
 from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, check_replaceable,
-                     cohort_maps, finished_folder, link_or_copy, require_new_folder,
-                     staged_output, write_cohort_maps, write_dataset_results, write_json)
-from .io.dataset import (Dataset, DatasetError, OftimgWarning, find_datasets, load_dataset,
-                 natural_key, validate_dataset)
+                            cohort_maps, finished_folder, link_or_copy, require_new_folder,
+                            staged_output, write_cohort_maps, write_dataset_results, write_json)
+from .io.dataset import Dataset, find_datasets, load_dataset, natural_key, validate_dataset
 from .synthetic.phantom import sample_params, write_phantom
 from .progress import Progress
 from .output.results import read_summary, result_folders, source_paths
@@ -487,8 +486,8 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
     from .output.figures import group_figures
     from .output.html import cohort_page, dataset_page
     from .output.report import (field_smoothing_caveat, group_comparison, map_comparison_rows,
-                         smoothing_caveat, write_cohort_markdown, write_cohort_table,
-                         write_groups_table)
+                                smoothing_caveat, write_cohort_markdown, write_cohort_table,
+                                write_groups_table)
 
     caveats = [c for c in (smoothing_caveat(summaries), field_smoothing_caveat(summaries),
                            field_smoothing_caveat(summaries, "strain_smoothing_ms")) if c]

@@ -256,8 +256,7 @@ def _logging_to(path: Path | None, args):
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    from .errors import InputError
-    from .io.dataset import OftimgWarning
+    from .errors import InputError, OftimgWarning
     from .workers import WorkerLost
 
     warnings.simplefilter("always", OftimgWarning)

@@ -9,3 +9,11 @@ failure (exit status 1, "internal error"), not bad input.
 class InputError(ValueError):
     """Bad input or a bad option: the message names it, what was expected and
     what was found."""
+
+
+class DatasetError(InputError):
+    """Bad input data: the message names the file and the problem."""
+
+
+class OftimgWarning(UserWarning):
+    """Something oftimg repaired or assumed; the run goes on."""

@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 import oftimg
-from oftimg.io.dataset import load_dataset, read_mesh_file
+from oftimg.io.dataset import load_dataset
+from oftimg.io.meshfile import read_mesh_file
 from oftimg.synthetic.phantom import sample_params, write_phantom
 
 
@@ -68,7 +69,7 @@ def read_only_seconds(path: Path, repeats: int = 3, read=read_mesh_file) -> list
 def open3d_read(path) -> None:
     """A mesh read as oftimg read every .ply up to session 21 (open3d: ~1.4 ms for
     5.5k vertices against ~0.2 ms with NumPy), for the ratio as it was first measured."""
-    from oftimg.io.dataset import _open3d
+    from oftimg.io.meshfile import _open3d
 
     _open3d().io.read_triangle_mesh(str(path), enable_post_processing=False)
 

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from oftimg.io.dataset import load_dataset, load_tube
+from oftimg.io.dataset import load_dataset
+from oftimg.io.tube import load_tube
 from oftimg.mesh.geodesic import GeodesicSolver, insert_boundary_point, insert_path, locate_on_edges
 from oftimg.mesh.grid import GridOptions, seam_endpoints
 from oftimg.mesh.parameterize import FlatSampler, cut_and_map, even_grid

@@ -2,7 +2,7 @@ import warnings
 
 import pytest
 
-from oftimg.io.dataset import OftimgWarning
+from oftimg.errors import OftimgWarning
 from oftimg.synthetic.phantom import sample_params, write_phantom
 
 SMALL = dict(n_frames=36, vertices_min=2500, vertices_max=3500)

@@ -6,7 +6,7 @@ import concurrent.futures
 
 import numpy as np
 
-from oftimg.io.dataset import write_ply
+from oftimg.io.meshfile import write_ply
 
 
 def tube_mesh(radius_in=0.2, radius_out=None, length=1.0, n_theta=48, n_s=30,
@@ -58,7 +58,7 @@ def square_warning_on_odd(k: int) -> int:
     """k^2, with a warning for odd k (the same text for k = 1 and 3): for worker tests."""
     import warnings
 
-    from oftimg.io.dataset import OftimgWarning
+    from oftimg.errors import OftimgWarning
 
     if k % 2:
         warnings.warn(f"odd {min(k, 3)}", OftimgWarning)

@@ -6,7 +6,8 @@ import pytest
 
 from helpers import tube_mesh
 from oftimg.synthetic.animate import Animation, animate_frames, axial_coordinates, pulse, write_animation
-from oftimg.io.dataset import load_dataset, write_ply
+from oftimg.io.dataset import load_dataset
+from oftimg.io.meshfile import write_ply
 from oftimg.mesh.topology import check_tube
 from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
@@ -55,7 +56,7 @@ def test_twist_and_shortening_of_a_cylinder():
 
 @pytest.mark.parametrize("remeshed", [False, True])
 def test_truth_traces_every_written_vertex_to_the_static_mesh(tmp_path, remeshed):
-    from oftimg.io.dataset import read_mesh_file
+    from oftimg.io.meshfile import read_mesh_file
 
     V, F = tube_mesh(0.2, length=1.0, n_theta=32, n_s=30)
     write_ply(tmp_path / "tube.ply", V, F)
@@ -165,7 +166,7 @@ def test_animated_midgut_holds_up(animated_midgut):
     assert summ["wave_speed_mm_s"]["cycle"] == pytest.approx(1.5, rel=0.10)
     # arrival times against the animation's own arc length (its centre line is
     # ~8 % longer on this chambered tube: slab centroids zig-zag)
-    from oftimg.io.dataset import load_tube
+    from oftimg.io.tube import load_tube
 
     tube = load_tube(mesh)
     _, cent, s, _, _ = axial_coordinates(tube.V, tube.F, tube.inlet, tube.outlet)

@@ -336,7 +336,7 @@ def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path)
     in the workers as in the validation: the results are those of the clean files."""
     import shutil
 
-    from oftimg.io.dataset import read_mesh_file, write_ply
+    from oftimg.io.meshfile import read_mesh_file, write_ply
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
     clean = write_phantom(tmp_path / "clean", sample_params("normal", 3, n_frames=6,
@@ -377,7 +377,7 @@ def test_the_warnings_of_a_failed_analysis_are_not_lost(monkeypatch, tmp_path):
     from oftimg import api
 
     from oftimg.analysis import pipeline
-    from oftimg.io.dataset import OftimgWarning
+    from oftimg.errors import OftimgWarning
 
     def analyse(ds, opts, **kwargs):
         for text in ("a: first", "a: second", "a: first"):

@@ -10,7 +10,7 @@ import pytest
 from oftimg import api
 from oftimg.cli import main
 from oftimg.output.export import AROUND_TUBE_MAPS, TESTED_MAPS
-from oftimg.io.dataset import DatasetError
+from oftimg.errors import DatasetError
 from oftimg.synthetic.phantom import sample_params, write_phantom
 
 pytestmark = pytest.mark.slow
@@ -151,7 +151,7 @@ def test_cohort_refuses_what_cannot_be_compared(runs, tmp_path):
 def test_cohort_warns_of_runs_that_did_not_finish_beside_it(runs, tmp_path, capsys):
     """A job array where one job was killed: `oftimg cohort results/*` gathers the
     others and says which run is missing."""
-    from oftimg.io.dataset import OftimgWarning
+    from oftimg.errors import OftimgWarning
 
     results = tmp_path / "results"
     shutil.copytree(runs / "alone" / "n0", results / "n0")
@@ -163,7 +163,7 @@ def test_cohort_warns_of_runs_that_did_not_finish_beside_it(runs, tmp_path, caps
 
 
 def test_cohort_of_several_oftimg_versions_warns(runs, tmp_path):
-    from oftimg.io.dataset import OftimgWarning
+    from oftimg.errors import OftimgWarning
 
     old = tmp_path / "old"
     shutil.copytree(runs / "together", old)
@@ -179,7 +179,7 @@ def test_groups_smoothed_differently_are_said_to_be(runs, tmp_path):
     """auto smoothing took another sigma for one embryo: the gathered cohort says so
     (warning, run.json, the cohort page) and names the sigma that compares like with
     like; the same sigmas say nothing."""
-    from oftimg.io.dataset import OftimgWarning
+    from oftimg.errors import OftimgWarning
 
     mixed = tmp_path / "mixed"
     shutil.copytree(runs / "together", mixed)

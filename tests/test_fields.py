@@ -445,7 +445,8 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
     used to come out as 10 for the phantom's 4. The curvature fields are then mostly
     noise (each frame meshed on its own): oftimg measures that noise as the model's
     truth shows it, and says so."""
-    from oftimg.io.dataset import OftimgWarning, load_dataset
+    from oftimg.errors import OftimgWarning
+    from oftimg.io.dataset import load_dataset
     from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
     from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from oftimg.analysis.group_maps import (common_grid, group_mean_maps, on_common_grid,
-                                     row_normalized)
+                                        row_normalized)
 
 
 def wave(fraction, phase):

@@ -17,7 +17,8 @@ from scipy.spatial.transform import Rotation
 
 from oftimg.image.kymograph import ridge_times, wave_speeds
 from oftimg.image.masks import expanded_75, expanded_sigma
-from oftimg.io.dataset import list_frames, load_dataset, read_mesh_file, write_ply
+from oftimg.io.dataset import list_frames, load_dataset
+from oftimg.io.meshfile import read_mesh_file, write_ply
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
 from oftimg.mesh.sections import section_planes, sections_of_mesh
 from oftimg.mesh.topology import capped_signed_volume, check_tube

@@ -10,9 +10,11 @@ import pytest
 
 from helpers import InPlace, tube_mesh, write_series
 from oftimg.cli import main
-from oftimg.io.dataset import (DatasetError, OftimgWarning, check_tube_file, declared_counts,
-                       find_datasets, list_frames, load_dataset, load_tube, natural_key,
-                       read_mesh_file, validate_dataset, write_ply)
+from oftimg.errors import DatasetError, OftimgWarning
+from oftimg.io.tube import check_tube_file, load_tube
+from oftimg.io.meshfile import declared_counts, read_mesh_file, write_ply
+from oftimg.io.dataset import (find_datasets, list_frames, load_dataset, natural_key,
+                               validate_dataset)
 
 
 def cone_frames(n=3, flip=False, **kw):
@@ -335,7 +337,7 @@ def test_binary_ply_is_read_as_open3d_reads_it(tmp_path):
     """Binary little-endian .ply files of vertices and triangles are read with NumPy
     (``write_ply``'s, double coordinates, more vertex properties, other list types);
     other .ply files go to open3d, whose checks still name a damaged file."""
-    from oftimg.io.dataset import _open3d, _read_simple_ply
+    from oftimg.io.meshfile import _open3d, _read_simple_ply
 
     V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
     cases = {"written.ply": None,

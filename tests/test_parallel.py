@@ -8,7 +8,8 @@ import threadpoolctl
 from helpers import InPlace
 
 from oftimg.workers import make_executor
-from oftimg.io.dataset import load_dataset, read_mesh_file, write_ply
+from oftimg.io.dataset import load_dataset
+from oftimg.io.meshfile import read_mesh_file, write_ply
 from oftimg.synthetic.phantom import sample_params, write_phantom
 from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
@@ -56,7 +57,7 @@ def test_warnings_raised_in_workers_reach_this_process_once():
     import warnings
 
     from helpers import square_warning_on_odd
-    from oftimg.io.dataset import OftimgWarning
+    from oftimg.errors import OftimgWarning
     from oftimg.analysis.pipeline import run_tasks
     from oftimg.workers import closing_executor
 
@@ -108,7 +109,7 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
     import warnings
 
     from oftimg import api
-    from oftimg.io.dataset import OftimgWarning
+    from oftimg.errors import OftimgWarning
 
     cohort = tmp_path / "cohort"
     for group, seed in (("normal", 7), ("banded", 8)):
@@ -206,7 +207,7 @@ def test_embryos_at_once_fits_the_memory_left(monkeypatch):
     """A worker grows by ~60 MB + 3 MB per frame while it analyses an embryo: with
     1.5 GB free, 2 embryos of 195 frames fit (0.645 GB each, 10 % kept spare)."""
     from oftimg import api
-    from oftimg.io.dataset import OftimgWarning
+    from oftimg.errors import OftimgWarning
 
     pool = SimpleNamespace(_max_workers=8)
     datasets = [SimpleNamespace(n_frames=195), SimpleNamespace(n_frames=49)]

@@ -10,8 +10,7 @@ import pytest
 
 import oftimg
 from oftimg.cli import main
-from oftimg.errors import InputError
-from oftimg.io.dataset import DatasetError
+from oftimg.errors import DatasetError, InputError
 from oftimg.output.export import describe_array
 from oftimg.output.paraview import (node_field_names, quad_cells, ring_segments,
                                     row_area_name)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from oftimg.output.report import (cohort_rows, group_comparison, map_comparison_rows, mean_curve,
-                           write_cohort_markdown)
+                                  write_cohort_markdown)
 from oftimg.analysis.stats import holm, permutation_test
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import oftimg
-from oftimg.io.dataset import DatasetError
+from oftimg.errors import DatasetError
 
 
 def _npz(folder, file):

@@ -6,7 +6,7 @@ import pytest
 
 from helpers import tube_mesh
 from oftimg.image.cycle import (cycle_timing, periodic_peak, resample_time, standout_frames,
-                          two_segment_warp, volume_change, wrap_step_ratio)
+                                two_segment_warp, volume_change, wrap_step_ratio)
 from oftimg.mesh.clip import clip_grid, clip_positions, cumulative_from_outlet
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
 from oftimg.mesh.sections import (contour_around, crossing_planes, fix_crossing_planes,
@@ -196,7 +196,8 @@ def test_a_series_that_is_not_one_cycle_is_told(tmp_path):
     import shutil
     import warnings
 
-    from oftimg.io.dataset import OftimgWarning, load_dataset
+    from oftimg.errors import OftimgWarning
+    from oftimg.io.dataset import load_dataset
     from oftimg.synthetic.phantom import sample_params, write_phantom
     from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
@@ -233,7 +234,9 @@ def test_a_series_with_a_frame_that_stands_out_is_told(tmp_path):
     makes it: it went into every map and number without a word."""
     import warnings
 
-    from oftimg.io.dataset import OftimgWarning, load_dataset, read_mesh_file, write_ply
+    from oftimg.errors import OftimgWarning
+    from oftimg.io.dataset import load_dataset
+    from oftimg.io.meshfile import read_mesh_file, write_ply
     from oftimg.synthetic.phantom import sample_params, write_phantom
     from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 

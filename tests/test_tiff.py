@@ -8,7 +8,7 @@ import pytest
 from oftimg.cli import main
 from oftimg.errors import InputError
 from oftimg.output.image_order import in_image_order
-from oftimg.io.dataset import DatasetError
+from oftimg.errors import DatasetError
 
 
 def test_image_order_puts_the_inlet_at_the_bottom_and_time_in_frames():

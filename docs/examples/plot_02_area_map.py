@@ -8,7 +8,6 @@ gives the wave speeds; the masks mark where each section is expanded: above 75 %
 its range, and within one sigma of a Gaussian fitted to its peak.
 """
 import matplotlib.pyplot as plt
-import numpy as np
 
 from gallery_data import embryo_results
 

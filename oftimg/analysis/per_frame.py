@@ -10,10 +10,11 @@ import warnings
 
 import numpy as np
 
-from ..io.dataset import DatasetError, Frame
+from ..errors import DatasetError
+from ..io.dataset import Frame
 from ..mesh.curvature import fill_boundary, taubin_smooth, vertex_mean_curvature
 from ..mesh.grid import (GridOptions, SeamCandidates, grid_frame, project_towards_axis,
-                        seam_candidates, signed_thickness)
+                         seam_candidates, signed_thickness)
 from ..mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
 from ..mesh.topology import MeshError, capped_signed_volume
 

@@ -9,14 +9,14 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .. import __version__
-from ..errors import InputError
-from ..io.dataset import Dataset, OftimgWarning
+from ..errors import InputError, OftimgWarning
+from ..io.dataset import Dataset
 from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
-                    volume_change, wrap_step_ratio)
+                           volume_change, wrap_step_ratio)
 from .maps import analyse_area_maps
 from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_fixed_positions
 from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
-                              smoothing_kernel)
+                               smoothing_kernel)
 from ..image.pca import contour_pca
 from .tracking import follow, track_grid
 from ..mesh.clip import clip_grid, clip_positions, plane_at

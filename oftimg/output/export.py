@@ -316,7 +316,7 @@ def cohort_maps(results: Path, summaries: list[dict], *,
     where the groups differ in the maps of :data:`TESTED_MAPS`: the arrays of
     :data:`COHORT_MAPS`, clusters formed at uncorrected p <= ``cluster_alpha``."""
     from ..analysis.group_maps import (common_grid, group_differences, on_common_grid,
-                                   row_normalized)
+                                       row_normalized)
     from ..analysis.pipeline import mean_around_tube
 
     position, phase = common_grid()

@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from .export import COHORT_OUTPUTS
-from ..io.dataset import DatasetError, natural_key
+from ..errors import DatasetError
+from ..io.dataset import natural_key
 
 RESULT_FILES = ("arrays.npz", "grids.npz", "pca.npz")
 

@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import InputError
 from ..mesh.parameterize import harmonic_map, intrinsic_weights
 from ..mesh.topology import (MeshError, capped_signed_volume, check_tube, face_areas,
-                            loop_centroid)
+                             loop_centroid)
 
 
 @dataclass(frozen=True)
@@ -187,7 +187,8 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
     barycentric coordinates ``barycentric (n, 3)`` (for a remeshed frame, of the
     vertex's closest point on the animated surface before remeshing)."""
     from ..output.export import require_new_folder, staged_output
-    from ..io.dataset import load_tube, write_ply
+    from ..io.tube import load_tube
+    from ..io.meshfile import write_ply
 
     if not (np.isfinite(scale_to_mm) and scale_to_mm > 0):
         raise InputError(f"the scale to mm must be positive, found {scale_to_mm}")
@@ -240,7 +241,8 @@ def grid_material_points(dataset, grid: np.ndarray, t0_frame: int) -> np.ndarray
     ``(t + t0_frame) % n_t``, as in an unwarped analysis). Each node goes to its
     closest point on its frame's written mesh, and on through that triangle's
     vertices' static points."""
-    from ..io.dataset import load_dataset, read_mesh_file
+    from ..io.dataset import load_dataset
+    from ..io.meshfile import read_mesh_file
 
     ds = load_dataset(dataset)
     n_t = grid.shape[2]
@@ -259,7 +261,7 @@ def tissue_positions(dataset, points: np.ndarray, t0_frame: int) -> np.ndarray:
     """Where the static mesh's ``points (n, 3)`` mm are in every frame of an animated
     ``dataset``: ``(n, n_t, 3)`` mm in aligned time (frame t is animation frame
     ``(t + t0_frame) % n_t``)."""
-    from ..io.dataset import load_tube
+    from ..io.tube import load_tube
 
     truth = json.loads((Path(dataset) / "truth.json").read_text())
     tube = load_tube(Path(dataset) / "truth" / "static.ply")

@@ -469,7 +469,7 @@ def write_phantom(out: str | Path, params: PhantomParams, *, name: str | None = 
     ``out`` must not exist or be empty; ``name`` defaults to its folder name.
     ``progress`` is called with the number of frames done. Returns the folder.
     """
-    from ..io.dataset import write_ply
+    from ..io.meshfile import write_ply
 
     out = Path(out)
     if out.exists() and any(out.iterdir()):

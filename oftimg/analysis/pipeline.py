@@ -406,12 +406,12 @@ def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
 
 def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = False,
                     executor=None, on_aligned=None, progress=None) -> dict:
-    """All stages for one dataset. Returns ``summary``, ``arrays``, ``grids``.
+    """All stages for one dataset. Returns ``summary``, ``arrays``, ``grids``, ``pca``.
 
     Every time axis of the result starts at the frame of minimum outer volume
     (``summary["t0_frame"]`` is its input index). The per-frame work runs in
     ``executor``'s workers when one is given; the temporally coupled steps
-    (seam end-point smoothing, alignment, clipping) run here.
+    (seam end-point smoothing, alignment, tracking, clipping) run here.
     ``on_aligned(arrays, grids)``, if given, is called as soon as the aligned
     times, area maps, grids and lumen mean curvature exist (before clipping,
     fields, image analysis and PCA), e.g. to start rendering videos; it must
@@ -419,8 +419,86 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     each of the two per-frame passes (``2 n_t`` calls) instead of drawing a bar.
     """
     check_enough_frames(ds)
-    opts = options.grid
     timings = {}
+    # 1. each frame on its own: seam, (u, v) map, grid, sections, curvature
+    frames, seams_continued = _per_frame_passes(ds, options.grid, quiet=quiet,
+                                                executor=executor, progress=progress,
+                                                timings=timings)
+    # 2. the cycle: t = 0 at minimum outer volume, every series stacked in that order
+    volume_in_order = {w: np.array([f["volume"][w] for f in frames]) for w in frames[0]["grid"]}
+    series_checks = check_series(ds, volume_in_order)
+    timing = cycle_timing(volume_in_order["outer"], ds.meta.period_ms)
+    t0 = timing["t0_frame"]
+    st = _stack_frames(frames[t0:] + frames[:t0])
+    del frames  # each frame's arrays, stacked: ~120 MB for 195 frames
+    _warn_about_frames(ds, st)
+    from_ring = {w: int(st["rows"][f"from_ring_{w}"].sum()) for w in st["walls"]}
+    # 3. the time axis (warped or not) and the per-row series on it
+    t_frames, st = _time_axis(ds, options, st, timing, t0)
+    arrays, maps, thickness = _section_arrays(ds, options, st, t_frames)
+    grid, H, jelly = st["grid"], st["H"], st["jelly"]
+    if H is not None and options.warp:
+        H = resample_time(H, t_frames, axis=2)
+    # 4. the grid follows the tissue
+    coords = None
+    if options.tracking == "material":
+        tick = time.perf_counter()
+        coords, tracked = track_grid(grid["outer"])
+        grid = {w: follow(g, coords) for w, g in grid.items()}
+        H = follow(H, coords) if H is not None else None
+        jelly = follow(jelly, coords) if jelly is not None else None
+        timings["tracking_s"] = time.perf_counter() - tick
+    lumen_noise = None
+    if H is not None:
+        H, lumen_noise = smoothed_curvature(H, ds.meta.period_ms, options.field_smoothing_ms)
+        arrays["mean_curvature_lumen_per_mm"] = H
+    if on_aligned is not None:
+        on_aligned(arrays, grid)
+    summary = _cycle_summary(ds, timing, t0, arrays["s_mm"], options.warp)
+    # 5. the myocardium's volume, and every grid clipped to its constant volume
+    summary.update(_myocardium(ds, st, arrays, grid, thickness))
+    # 6. curvature, thickness and strain fields on the (u, v, t) grid
+    tick = time.perf_counter()
+    summary.update(_field_stage(ds, options, grid, st, H, lumen_noise, jelly, coords, arrays))
+    timings["fields_s"] = time.perf_counter() - tick
+    # 7. the (v, t) area maps as images: derivatives, ridges, wave speeds, masks
+    tick = time.perf_counter()
+    map_arrays, map_summary = analyse_area_maps(
+        maps, arrays["s_mm"], ds.meta.period_ms, ridge_smoothing_ms=options.ridge_smoothing_ms)
+    timings["image_analysis_s"] = time.perf_counter() - tick
+    for note in map_summary["image_analysis_notes"]:
+        warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
+    arrays.update(map_arrays)
+    summary.update(map_summary)
+    # 8. the cross-sections' shape modes at maximum expansion
+    tick = time.perf_counter()
+    n_t = ds.n_frames
+    t_max = int(round((timing["t_max_frame"] - t0) % n_t)) if not options.warp else n_t // 2
+    source = grid.get("outer_clipped", grid["outer"])
+    pca = contour_pca(source, min(max(t_max, 2), n_t - 3))
+    pca["summary"]["grid"] = "outer_clipped" if "outer_clipped" in grid else "outer"
+    summary["pca"] = pca["summary"]
+    timings["pca_s"] = time.perf_counter() - tick
+    # 9. what was repaired, assumed and checked on the way
+    summary.update(_quality_summary(st, seams_continued, series_checks, from_ring,
+                                    tracked if coords is not None else None))
+    summary["section_volume_error"] = {
+        w: float(np.median(np.abs(arrays[f"volume_from_sections_{w}_mm3"]
+                                  / arrays[f"volume_{w}_mm3"] - 1))) for w in st["walls"]}
+    summary["provenance"] = {
+        "oftimg_version": __version__, "options": options.as_dict(),
+        "length_unit": ds.meta.length_unit, "voxel_size": ds.meta.voxel_size,
+        "inputs": {s: [{"file": str(p), "bytes": p.stat().st_size} for p in files]
+                   for s, files in ds.frames.items()}}
+    summary["timings_s"] = timings
+    return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"]}
+
+
+def _per_frame_passes(ds: Dataset, opts: GridOptions, *, quiet, executor, progress,
+                      timings: dict) -> tuple[list[dict], int]:
+    """The two per-frame passes (seam end points, then everything else of a frame),
+    in input order, and the number of frames whose seam was continued from their
+    neighbours'. Adds their wall and CPU seconds to ``timings``."""
     n_t = ds.n_frames
     bar = Progress(2 * n_t, f"{ds.meta.name}", quiet=quiet or progress is not None)
     advance = progress or bar.advance
@@ -439,90 +517,117 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         for k, v in f["cpu_s"].items():
             cpu[k] = cpu.get(k, 0.0) + v
     timings["frames_cpu_s"] = cpu
+    return frames, seams_continued
+
+
+def _stack_frames(frames: list[dict]) -> dict:
+    """The per-frame results stacked along a time axis (grids ``(n_u, n_v, n_t, 3)``,
+    areas and per-row series ``(n_v, n_t, ...)``, volumes ``(n_t,)``) and the
+    per-frame counts summed."""
     walls = list(frames[0]["grid"])
-    # time alignment: t = 0 at minimum outer volume; every series is stacked in that order
-    volume_in_order = {w: np.array([f["volume"][w] for f in frames]) for w in walls}
-    series_checks = check_series(ds, volume_in_order)
-    timing = cycle_timing(volume_in_order["outer"], ds.meta.period_ms)
-    t0 = timing["t0_frame"]
-    frames = frames[t0:] + frames[:t0]
-    grid = {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls}
-    area = {w: np.stack([f["area"][w] for f in frames], axis=1) for w in walls}
-    contour = {w: np.stack([f["contour"][w] for f in frames], axis=2) for w in walls}
-    volume = {w: np.array([f["volume"][w] for f in frames]) for w in walls}
-    flipped = {w: int(sum(f["flipped"][w] for f in frames)) for w in walls}
-    repaired = {w: int(sum(f["repaired"][w] for f in frames)) for w in walls}
-    inner_closest = int(sum(f.get("inner_at_closest", 0) for f in frames))
-    outside = {w: int(sum(f.get(f"{w}_outside", 0) for f in frames)) for w in ("inner", "lumen")}
-    from_ring = {w: np.stack([f["from_ring"][w] for f in frames], axis=1) for w in walls}
-    centroids = {w: np.stack([f["centroid_" + w] for f in frames], axis=1) for w in walls}
-    centroid = centroids["outer"]                                       # (n_v, n_t, 3)
-    origins = np.stack([f["origins"] for f in frames], axis=1)
-    normals = np.stack([f["normals"] for f in frames], axis=1)
-    plane_fixes = int(sum(f["plane_fixes"] for f in frames))
-    crossing = np.stack([f["crossing"] for f in frames], axis=1)       # (n_v, n_t)
-    H = (np.stack([f["mean_curvature_lumen"] for f in frames], axis=2)
-         if "mean_curvature_lumen" in frames[0] else None)
-    jelly = (np.stack([f["jelly_thickness"] for f in frames], axis=2)
-             if "jelly_thickness" in frames[0] else None)                # (n_u, n_v, n_t)
-    jelly_closest = int(sum(f.get("jelly_at_closest", 0) for f in frames))
-    del frames  # each frame's arrays, stacked above: ~120 MB for 195 frames
+
+    def optional(key):
+        return np.stack([f[key] for f in frames], axis=2) if key in frames[0] else None
+
+    return {
+        "walls": walls, "n_t": len(frames),
+        "grid": {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls},
+        "area": {w: np.stack([f["area"][w] for f in frames], axis=1) for w in walls},
+        "contour": {w: np.stack([f["contour"][w] for f in frames], axis=2) for w in walls},
+        "volume": {w: np.array([f["volume"][w] for f in frames]) for w in walls},
+        "rows": {"origin": np.stack([f["origins"] for f in frames], axis=1),
+                 "normal": np.stack([f["normals"] for f in frames], axis=1),
+                 "crossing": np.stack([f["crossing"] for f in frames], axis=1).astype(float),
+                 **{f"centroid_{w}": np.stack([f["centroid_" + w] for f in frames], axis=1)
+                    for w in walls},
+                 **{f"from_ring_{w}": np.stack([f["from_ring"][w] for f in frames],
+                                               axis=1).astype(float) for w in walls}},
+        "H": optional("mean_curvature_lumen"),                  # (n_u, n_v, n_t)
+        "jelly": optional("jelly_thickness"),                   # (n_u, n_v, n_t)
+        "flipped": {w: int(sum(f["flipped"][w] for f in frames)) for w in walls},
+        "repaired": {w: int(sum(f["repaired"][w] for f in frames)) for w in walls},
+        "inner_closest": int(sum(f.get("inner_at_closest", 0) for f in frames)),
+        "jelly_closest": int(sum(f.get("jelly_at_closest", 0) for f in frames)),
+        "outside": {w: int(sum(f.get(f"{w}_outside", 0) for f in frames))
+                    for w in ("inner", "lumen")},
+        "plane_fixes": int(sum(f["plane_fixes"] for f in frames)),
+    }
+
+
+def _warn_about_frames(ds: Dataset, st: dict) -> None:
+    """One warning per kind of trouble the per-frame work met, each naming the
+    summary.json entry or array that counts it."""
+    walls, n_t, volume = st["walls"], st["n_t"], st["volume"]
+    crossing = st["rows"]["crossing"] > 0
     if crossing.any():
         warnings.warn(f"{ds.path}: {int(crossing.sum())} section planes still cross another "
                       "inside the tube after blending (see plane_crossing)", OftimgWarning,
-                      stacklevel=2)
+                      stacklevel=3)
     nested = [w for w in ("outer", "inner", "lumen") if w in walls]
     for out_w, in_w in zip(nested, nested[1:]):       # each wall inside the one before
         n_bad = int((volume[in_w] >= volume[out_w]).sum())
         if n_bad:
             warnings.warn(f"{ds.path}: the {in_w} wall encloses as much as the {out_w} one or "
                           f"more in {n_bad} of {n_t} frames: are {in_w}/ and {out_w}/ swapped?",
-                          OftimgWarning, stacklevel=2)
-    n_from_ring = {w: int(r.sum()) for w, r in from_ring.items()}
-    for w, k in n_from_ring.items():
-        if k:
-            warnings.warn(f"{ds.path}: {k} of {from_ring[w].size} {w} sections had no clean "
-                          "closed contour (none, or one merged with another part of the tube) "
-                          "and were measured on the grid ring projected onto the plane "
-                          f"(see section_from_ring_{w})", OftimgWarning, stacklevel=2)
-    for closest, wall, what in ((inner_closest, "inner", "inner grid nodes"),
-                                (jelly_closest, "lumen", "lines from the inner grid nodes")):
+                          OftimgWarning, stacklevel=3)
+    for w in walls:
+        from_ring = st["rows"][f"from_ring_{w}"]
+        if from_ring.any():
+            warnings.warn(f"{ds.path}: {int(from_ring.sum())} of {from_ring.size} {w} sections "
+                          "had no clean closed contour (none, or one merged with another part "
+                          "of the tube) and were measured on the grid ring projected onto the "
+                          f"plane (see section_from_ring_{w})", OftimgWarning, stacklevel=3)
+    for closest, wall, what in ((st["inner_closest"], "inner", "inner grid nodes"),
+                                (st["jelly_closest"], "lumen", "lines from the inner grid nodes")):
         if closest:
             warnings.warn(f"{ds.path}: {closest} {what} met no {wall} wall on the way to "
                           "their row's centre and took the closest point (see "
                           f"{'inner' if wall == 'inner' else 'jelly'}_nodes_at_closest_point)",
-                          OftimgWarning, stacklevel=2)
-    for wall, out_wall, field in (("inner", "outer", "wall"), ("lumen", "inner", "jelly")):
-        if outside[wall]:
+                          OftimgWarning, stacklevel=3)
+    n_nodes = st["grid"]["outer"][..., 0].size
+    for wall, out_wall, layer in (("inner", "outer", "wall"), ("lumen", "inner", "jelly")):
+        if st["outside"][wall]:
             warnings.warn(f"{ds.path}: the {wall} wall lies outside the {out_wall} one at "
-                          f"{outside[wall]} of {grid['outer'][..., 0].size} grid nodes over the "
-                          f"frames, where {field}_thickness_mm is negative: do the "
+                          f"{st['outside'][wall]} of {n_nodes} grid nodes over the "
+                          f"frames, where {layer}_thickness_mm is negative: do the "
                           f"segmentations cross? (see {wall}_nodes_outside_{out_wall})",
-                          OftimgWarning, stacklevel=2)
-    if sum(flipped.values()):
-        warnings.warn(f"{ds.path}: {sum(flipped.values())} flipped triangles in the (u, v) "
-                      "maps (the map is not one-to-one there)", OftimgWarning, stacklevel=2)
+                          OftimgWarning, stacklevel=3)
+    if sum(st["flipped"].values()):
+        warnings.warn(f"{ds.path}: {sum(st['flipped'].values())} flipped triangles in the "
+                      "(u, v) maps (the map is not one-to-one there)", OftimgWarning,
+                      stacklevel=3)
 
-    rows = {"origin": origins, "normal": normals, "crossing": crossing.astype(float)}
-    rows.update({f"centroid_{w}": c for w, c in centroids.items()})
-    rows.update({f"from_ring_{w}": r.astype(float) for w, r in from_ring.items()})
-    t_frames = np.arange(n_t, dtype=float)
-    if options.warp:
-        # two segments: minimum volume at 0, maximum expansion at half the cycle
-        t_frames = two_segment_warp(n_t, (timing["t_max_frame"] - t0) % n_t)
-        grid, area, contour, volume, rows = _retime(
-            lambda a, axis: resample_time(a, t_frames, axis=axis), grid, area, contour, volume,
-            rows)
-        rows["normal"] /= np.linalg.norm(rows["normal"], axis=-1, keepdims=True)
-    origins, normals, centroid = rows["origin"], rows["normal"], rows["centroid_outer"]
-    crossing = rows["crossing"] > 0  # after a warp: any of the blended frames crossed
+
+def _time_axis(ds: Dataset, options: PipelineOptions, st: dict, timing: dict, t0: int
+               ) -> tuple[np.ndarray, dict]:
+    """The frames' times (in frames from t0) and the stacked series on them: with
+    ``options.warp``, two segments (minimum volume at 0, maximum expansion at half
+    the cycle) and every series resampled; else each frame where it was taken."""
+    n_t = st["n_t"]
+    if not options.warp:
+        return np.arange(n_t, dtype=float), st
+    t_frames = two_segment_warp(n_t, (timing["t_max_frame"] - t0) % n_t)
+    grid, area, contour, volume, rows = _retime(
+        lambda a, axis: resample_time(a, t_frames, axis=axis), st["grid"], st["area"],
+        st["contour"], st["volume"], st["rows"])
+    rows["normal"] /= np.linalg.norm(rows["normal"], axis=-1, keepdims=True)
+    jelly = resample_time(st["jelly"], t_frames, axis=2) if st["jelly"] is not None else None
+    return t_frames, {**st, "grid": grid, "area": area, "contour": contour, "volume": volume,
+                      "rows": rows, "jelly": jelly}
+
+
+def _section_arrays(ds: Dataset, options: PipelineOptions, st: dict, t_frames: np.ndarray
+                    ) -> tuple[dict, dict, dict]:
+    """The cross-sections' series as result arrays (positions, times, area maps,
+    volumes, contours, planes), the area maps by wall (at the rows or at fixed
+    positions) and each wall's slab thickness per section ``(n_v, n_t)`` mm."""
+    walls, rows, area, volume = st["walls"], st["rows"], st["area"], st["volume"]
+    normals = rows["normal"]
     thickness = {w: slab_thickness(rows[f"centroid_{w}"], normals) for w in walls}
-    volume_sections = {w: volume_from_sections(area[w], thickness[w]) for w in walls}
-    s_rows = centroid_arc_length(centroid)                              # (n_v, n_t)
+    s_rows = centroid_arc_length(rows["centroid_outer"])               # (n_v, n_t)
     s_mm = s_rows.mean(axis=1)
-    t_ms = t_frames * ds.meta.period_ms / n_t
-
-    arrays = {"s_mm": s_mm, "t_ms": t_ms, "s_rows_mm": s_rows}
+    arrays = {"s_mm": s_mm, "t_ms": t_frames * ds.meta.period_ms / st["n_t"],
+              "s_rows_mm": s_rows}
     maps = area
     if options.map_positions == "fixed":
         maps = {w: at_fixed_positions(area[w], s_rows, s_mm) for w in walls}
@@ -531,39 +636,27 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         if options.map_positions == "fixed":
             arrays[f"area_rows_{w}_mm2"] = area[w]
         arrays[f"volume_{w}_mm3"] = volume[w]
-        arrays[f"contour_{w}_mm"] = contour[w].astype(np.float32)
-        arrays[f"volume_from_sections_{w}_mm3"] = volume_sections[w]
+        arrays[f"contour_{w}_mm"] = st["contour"][w].astype(np.float32)
+        arrays[f"volume_from_sections_{w}_mm3"] = volume_from_sections(area[w], thickness[w])
         arrays[f"section_from_ring_{w}"] = rows[f"from_ring_{w}"] > 0
     if "inner" in walls and "lumen" in walls:       # the cardiac jelly between them
         arrays["area_jelly_mm2"] = maps["inner"] - maps["lumen"]
         arrays["volume_jelly_mm3"] = volume["inner"] - volume["lumen"]
-    arrays["centroid_outer_mm"] = centroid
-    arrays["plane_origin_mm"] = origins
+    arrays["centroid_outer_mm"] = rows["centroid_outer"]
+    arrays["plane_origin_mm"] = rows["origin"]
     arrays["plane_normal"] = normals
-    arrays["plane_crossing"] = crossing
-    if options.warp and jelly is not None:
-        jelly = resample_time(jelly, t_frames, axis=2)
-    coords = None
-    if options.tracking == "material":               # every node the same tissue in every frame
-        tick = time.perf_counter()
-        coords, tracked = track_grid(grid["outer"])
-        for w in walls:
-            grid[w] = follow(grid[w], coords)
-        H = follow(H, coords) if H is not None else None
-        jelly = follow(jelly, coords) if jelly is not None else None
-        timings["tracking_s"] = time.perf_counter() - tick
-    if H is not None:
-        if options.warp:
-            H = resample_time(H, t_frames, axis=2)
-        H, lumen_noise = smoothed_curvature(H, ds.meta.period_ms, options.field_smoothing_ms)
-        arrays["mean_curvature_lumen_per_mm"] = H
-    if on_aligned is not None:
-        on_aligned(arrays, grid)
-    summary = {
+    arrays["plane_crossing"] = rows["crossing"] > 0  # after a warp: any blended frame crossed
+    return arrays, maps, thickness
+
+
+def _cycle_summary(ds: Dataset, timing: dict, t0: int, s_mm: np.ndarray, warp: bool) -> dict:
+    """The dataset's name and group and the cycle's timing (summary.json)."""
+    n_t = ds.n_frames
+    return {
         "name": ds.meta.name, "group": ds.meta.group, "n_frames": n_t,
         "period_ms": ds.meta.period_ms,
         "t0_frame": t0,
-        "time_warp": options.warp,
+        "time_warp": warp,
         "expand_fraction": timing["expand_fraction"],
         "contract_fraction": timing["contract_fraction"],
         "expand_contract_ratio": timing["expand_contract_ratio"],
@@ -571,45 +664,64 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "tube_length_mm": float(s_mm[-1]),
         "t_max_volume_ms": ((timing["t_max_frame"] - t0) % n_t) * ds.meta.period_ms / n_t,
     }
+
+
+def _myocardium(ds: Dataset, st: dict, arrays: dict, grid: dict, thickness: dict) -> dict:
+    """The jelly's and the myocardium's volume change over the cycle; with an inner
+    wall, the clip position of constant myocardial volume in every frame and each
+    wall's grid clipped there (``grid["<wall>_clipped"]``). Adds to ``arrays`` and
+    ``grid``; returns the summary's entries."""
+    summary = {}
+    n_t, walls, volume, area = st["n_t"], st["walls"], st["volume"], st["area"]
     if "volume_jelly_mm3" in arrays:
         summary["jelly_volume_change"] = volume_change(arrays["volume_jelly_mm3"])
         crossed = int(np.count_nonzero(arrays["volume_jelly_mm3"] <= 0))
         if crossed:
             warnings.warn(f"{ds.path}: the lumen holds as much as the inner wall or more in "
                           f"{crossed} of {n_t} frames (walls crossing?): jelly_volume_change "
-                          "is NaN", OftimgWarning, stacklevel=2)
-    if "inner" in walls:
-        myo = volume["outer"] - volume["inner"]
-        arrays["volume_myocardium_mm3"] = myo
-        summary["myocardial_volume_change"] = volume_change(myo)
-        clip_v, target = clip_positions(area["outer"] - area["inner"], thickness["outer"])
-        arrays["clip_v"] = clip_v
-        arrays["trim_percent"] = 100.0 * np.array(
-            [np.interp(v * (len(s_mm) - 1), np.arange(len(s_mm)), s_rows[:, t]) / s_rows[-1, t]
-             for t, v in enumerate(clip_v)])
-        summary["clipped_myocardial_volume_mm3"] = target
-        planes = [plane_at(origins[:, t], normals[:, t], clip_v[t]) for t in range(n_t)]
-        plane_origin = np.array([o for o, _ in planes])                     # (n_t, 3)
-        plane_normal = np.array([n for _, n in planes])
-        for w in walls:  # u-lines of all frames at once: (n_u, n_t, n_v, 3)
-            lines = clip_grid(grid[w].transpose(0, 2, 1, 3), plane_origin, plane_normal)
-            grid[f"{w}_clipped"] = lines.transpose(0, 2, 1, 3)
-    tick = time.perf_counter()
-    fields = shape_fields(grid, contour, normals, area, H, ds.meta.period_ms,
-                          options.field_smoothing_ms,
+                          "is NaN", OftimgWarning, stacklevel=3)
+    if "inner" not in walls:
+        return summary
+    myo = volume["outer"] - volume["inner"]
+    arrays["volume_myocardium_mm3"] = myo
+    summary["myocardial_volume_change"] = volume_change(myo)
+    clip_v, target = clip_positions(area["outer"] - area["inner"], thickness["outer"])
+    s_rows = arrays["s_rows_mm"]
+    n_v = len(arrays["s_mm"])
+    arrays["clip_v"] = clip_v
+    arrays["trim_percent"] = 100.0 * np.array(
+        [np.interp(v * (n_v - 1), np.arange(n_v), s_rows[:, t]) / s_rows[-1, t]
+         for t, v in enumerate(clip_v)])
+    summary["clipped_myocardial_volume_mm3"] = target
+    origins, normals = st["rows"]["origin"], st["rows"]["normal"]
+    planes = [plane_at(origins[:, t], normals[:, t], clip_v[t]) for t in range(n_t)]
+    plane_origin = np.array([o for o, _ in planes])                     # (n_t, 3)
+    plane_normal = np.array([n for _, n in planes])
+    for w in walls:  # u-lines of all frames at once: (n_u, n_t, n_v, 3)
+        lines = clip_grid(grid[w].transpose(0, 2, 1, 3), plane_origin, plane_normal)
+        grid[f"{w}_clipped"] = lines.transpose(0, 2, 1, 3)
+    return summary
+
+
+def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H, lumen_noise,
+                 jelly, coords, arrays: dict) -> dict:
+    """:func:`shape_fields` on the (tracked) grids, its arrays added to ``arrays``;
+    returns its summary entries with the smoothing taken for each field, and warns
+    of each field that is mostly noise."""
+    fields = shape_fields(grid, st["contour"], st["rows"]["normal"], st["area"], H,
+                          ds.meta.period_ms, options.field_smoothing_ms,
                           lumen_smoothed_ms=lumen_noise["smoothing_ms"] if H is not None else 0.0,
                           strain_smoothing_ms=options.strain_smoothing_ms,
                           jelly_thickness=jelly, coords=coords)
     arrays.update(fields.pop("arrays"))
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise
-    summary.update(fields)
     # the sigma taken for each curvature and thickness field ("auto": as much as its noise asks)
-    summary["field_smoothing_ms"] = {name: noise["smoothing_ms"]
-                                     for name, noise in fields["field_noise"].items()}
+    fields["field_smoothing_ms"] = {name: noise["smoothing_ms"]
+                                    for name, noise in fields["field_noise"].items()}
     # and for each strain field ("auto": as much as its nodes' noise asks)
-    summary["strain_smoothing_ms"] = {name: noise["smoothing_ms"]
-                                      for name, noise in fields["strain_noise"].items()}
+    fields["strain_smoothing_ms"] = {name: noise["smoothing_ms"]
+                                     for name, noise in fields["strain_noise"].items()}
     for name, noise in fields["field_noise"].items():
         if noise["noise_share"] > NOISY_FIELD_SHARE:
             helps = ("--lumen-smoothing-steps 20" if name.startswith("mean_curvature_lumen")
@@ -621,7 +733,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                 "so its per-pixel normalised video and phase maps show noise more than the "
                 f"beat; smoother surfaces, finer meshes or {helps} help "
                 "(oftimg's docs/accuracy.md)",
-                OftimgWarning, stacklevel=2)
+                OftimgWarning, stacklevel=3)
     for name, noise in fields["strain_noise"].items():
         if noise["error_share"] > NOISY_STRAIN_SHARE:
             warnings.warn(
@@ -631,45 +743,25 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                 f"{100 * noise['error_share']:.0f} % of its median size (summary.json: "
                 "strain_noise); a square, it is biased up; smoother surfaces, finer meshes "
                 "or a larger --strain-smoothing-ms help (oftimg's docs/accuracy.md)",
-                OftimgWarning, stacklevel=2)
-    timings["fields_s"] = time.perf_counter() - tick
-    tick = time.perf_counter()
-    map_arrays, map_summary = analyse_area_maps(
-        maps, s_mm, ds.meta.period_ms, ridge_smoothing_ms=options.ridge_smoothing_ms)
-    timings["image_analysis_s"] = time.perf_counter() - tick
-    for note in map_summary["image_analysis_notes"]:
-        warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
-    arrays.update(map_arrays)
-    summary.update(map_summary)
-    tick = time.perf_counter()
-    t_max = int(round((timing["t_max_frame"] - t0) % n_t)) if not options.warp else n_t // 2
-    source = grid.get("outer_clipped", grid["outer"])
-    pca = contour_pca(source, min(max(t_max, 2), n_t - 3))
-    pca["summary"]["grid"] = "outer_clipped" if "outer_clipped" in grid else "outer"
-    summary["pca"] = pca["summary"]
-    timings["pca_s"] = time.perf_counter() - tick
-    summary.update({
-        "flipped_triangles": flipped,
-        "maps_with_clamped_weights": repaired,
-        "inner_nodes_at_closest_point": inner_closest,
-        "jelly_nodes_at_closest_point": jelly_closest,
-        "inner_nodes_outside_outer": outside["inner"],
-        "lumen_nodes_outside_inner": outside["lumen"],
+                OftimgWarning, stacklevel=3)
+    return fields
+
+
+def _quality_summary(st: dict, seams_continued: int, series_checks: dict, from_ring: dict,
+                     tracked: dict | None) -> dict:
+    """The summary's counts of what was repaired, assumed or could not be done."""
+    return {
+        "flipped_triangles": st["flipped"],
+        "maps_with_clamped_weights": st["repaired"],
+        "inner_nodes_at_closest_point": st["inner_closest"],
+        "jelly_nodes_at_closest_point": st["jelly_closest"],
+        "inner_nodes_outside_outer": st["outside"]["inner"],
+        "lumen_nodes_outside_inner": st["outside"]["lumen"],
         "seam_frames_continued": seams_continued,
-        "tracking": ({"grid": "tracked", **tracked}
-                     if coords is not None else {"grid": "per-frame"}),
-        "section_plane_fixes": plane_fixes,
-        "section_planes_still_crossing": int(crossing.sum()),
+        "tracking": {"grid": "tracked", **tracked} if tracked is not None
+                    else {"grid": "per-frame"},
+        "section_plane_fixes": st["plane_fixes"],
+        "section_planes_still_crossing": int((st["rows"]["crossing"] > 0).sum()),
         "frame_series_checks": series_checks,
-        "sections_from_ring": n_from_ring,
-        "section_volume_error": {
-            w: float(np.median(np.abs(volume_sections[w] / volume[w] - 1))) for w in walls},
-        "provenance": {
-            "oftimg_version": __version__, "options": options.as_dict(),
-            "length_unit": ds.meta.length_unit, "voxel_size": ds.meta.voxel_size,
-            "inputs": {s: [{"file": str(p), "bytes": p.stat().st_size} for p in files]
-                       for s, files in ds.frames.items()},
-        },
-        "timings_s": timings,
-    })
-    return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"]}
+        "sections_from_ring": from_ring,
+    }

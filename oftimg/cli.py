@@ -47,6 +47,8 @@ def _sigterm_unwinds():
 
 
 def _parser() -> argparse.ArgumentParser:
+    # long, and kept whole: the command line read top to bottom as --help prints it
+    # (docs/cli.rst renders the same parser)
     p = argparse.ArgumentParser(
         prog="oftimg",
         description="Turn a beating tube (time series of triangle surfaces) into a "

@@ -356,6 +356,8 @@ def write_cohort_maps(folder: Path, maps: dict[str, np.ndarray]) -> None:
 def describe_array(name: str, *, map_positions: str = "rows") -> dict:
     """Dims (u, v, t order) and unit of an array in ``arrays.npz`` / ``grids.npz``;
     ``map_positions`` as in the run's options."""
+    # long, and kept whole: a table of every array (the data dictionary of the npz
+    # files), not logic
     fixed = {
         "s_mm": (["v"], "mm", "arc length from the inlet along the outer contours' centroid line, "
                               "time average"),

@@ -53,3 +53,4 @@ clean:
 docs: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[docs]'
 	$(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
+	$(PY) scripts/check_api_reference.py docs/_build/html

@@ -2,6 +2,8 @@
 frames, 2-2.5k vertices a wall) analysed once per documentation build."""
 from __future__ import annotations
 
+import atexit
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -15,6 +17,7 @@ def cohort_results() -> Path:
     global _RESULTS
     if _RESULTS is None:
         root = Path(tempfile.mkdtemp(prefix="oftimg-gallery-"))
+        atexit.register(shutil.rmtree, root, ignore_errors=True)   # once the build ends
         for group in ("normal", "banded"):
             for seed in (0, 1):
                 oftimg.make_phantom(root / "data" / f"{group}_{seed}", group=group, seed=seed,

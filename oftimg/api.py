@@ -486,8 +486,8 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
     from .output.figures import group_figures
     from .output.html import cohort_page, dataset_page
     from .output.report import (field_smoothing_caveat, group_comparison, map_comparison_rows,
-                                smoothing_caveat, write_cohort_markdown, write_cohort_table,
-                                write_groups_table)
+                                smoothing_caveat, write_cohort_tables, write_groups_table,
+                                write_table1_markdown)
 
     caveats = [c for c in (smoothing_caveat(summaries), field_smoothing_caveat(summaries),
                            field_smoothing_caveat(summaries, "strain_smoothing_ms")) if c]
@@ -496,9 +496,9 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
     run_info = {**run_info, "cluster_alpha": cluster_alpha}
     if caveats:
         run_info["notes"] = caveats
-    write_cohort_table(folder, summaries)
-    write_cohort_markdown(folder, summaries)
+    write_cohort_tables(folder, summaries)
     comparison = group_comparison(summaries)
+    write_table1_markdown(folder, summaries, comparison)
     write_groups_table(folder, summaries, comparison)
     maps = cohort_maps(folder, summaries, cluster_alpha=cluster_alpha)
     write_cohort_maps(folder, maps)

@@ -40,7 +40,7 @@ def test_separate_runs_gathered_equal_one_run(runs, tmp_path):
                  "--out", str(out), "--cluster-alpha", "0.1"]) == 0
     assert np.load(out / "cohort_maps.npz")["cluster_alpha"] == 0.1
     assert np.load(runs / "joint" / "cohort_maps.npz")["cluster_alpha"] == 0.05
-    for table in ("cohort.csv", "cohort.md", "groups.csv"):
+    for table in ("table1.csv", "table1.md", "cohort.csv", "qc.csv", "columns.csv", "groups.csv"):
         assert (out / table).read_text() == (runs / "joint" / table).read_text(), table
     for name in ("b0", "n0", "n1"):
         a, b = np.load(out / name / "arrays.npz"), np.load(runs / "joint" / name / "arrays.npz")

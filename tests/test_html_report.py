@@ -49,8 +49,9 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
     # area, wall and jelly thickness, strain energy
     assert text.count("<td>banded - normal</td>") == len(TESTED_MAPS) == 4
     for figure in sorted((cohort_out / "figures").glob("*.png")):   # each named below it
-        assert (f'<img src="figures/{figure.name}" alt="{figure.stem}"><figcaption '
-                f'class="small">{figure.stem}</figcaption>') in text
+        assert (f'<a href="figures/{figure.name}"><img src="figures/{figure.name}" '
+                f'alt="{figure.stem}"></a><figcaption class="small">{figure.stem}</figcaption>'
+                ) in text                                         # opens full size on click
     pages = [index] + sorted(cohort_out.glob("*/index.html"))
     assert len(pages) == 3
     for page in pages[1:]:
@@ -61,7 +62,8 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
     for page in pages:
         for link in local_links(page):
             assert (page.parent / link).exists(), f"{page}: {link}"
-    assert (cohort_out / "cohort.md").read_text().count("\n") == 4
+    # header, rule, 2 embryos, 2 group rows, a p row; a blank line and the note
+    assert (cohort_out / "table1.md").read_text().count("\n") == 2 + 2 + 2 + 1 + 2
     assert (cohort_out / "groups.csv").exists()
 
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from oftimg.output.report import (cohort_rows, group_comparison, map_comparison_rows, mean_curve,
-                                  write_cohort_markdown)
+                                  table1_markdown, write_cohort_tables, write_table1_markdown)
 from oftimg.analysis.stats import holm, permutation_test
 
 
@@ -42,17 +42,62 @@ def test_random_permutation_test_for_large_groups():
 
 
 def test_group_comparison_rows():
+    """Table 1 quantities are tested, Holm-corrected over all of them; the other
+    measurements and the quality checks are shown (n, mean, sd), not tested."""
     summaries = [{"name": f"n{k}", "group": "normal", "period_ms": 350.0 + k,
-                  "max_area_neck_depth": 0.0} for k in range(4)]
+                  "expand_fraction": 0.40 + 0.01 * k, "max_area_neck_depth": 0.0,
+                  "flipped_triangles": {"outer": 0}} for k in range(4)]
     summaries += [{"name": f"b{k}", "group": "banded", "period_ms": 351.0 + k,
-                   "max_area_neck_depth": 0.3 + 0.01 * k} for k in range(4)]
+                   "expand_fraction": 0.30 + 0.01 * k, "max_area_neck_depth": 0.3 + 0.01 * k,
+                   "flipped_triangles": {"outer": 1}} for k in range(4)]
     rows = {r["metric"]: r for r in group_comparison(summaries)}
-    assert rows["max_area_neck_depth"]["p_value"] == pytest.approx(2 / 70)
+    assert rows["expand_percent"]["p_value"] == pytest.approx(2 / 70)
+    assert rows["expand_percent"]["normal_mean"] == pytest.approx(41.5)     # in %, as Table 1
     assert rows["period_ms"]["p_value"] > 0.3
     assert rows["period_ms"]["normal_mean"] == pytest.approx(351.5)
     assert len(cohort_rows(summaries)) == 8
-    assert rows["max_area_neck_depth"]["p_holm"] == rows["max_area_neck_depth"]["p_value"]
+    # corrected over the two Table 1 quantities present: the smaller p twice
+    assert rows["expand_percent"]["p_holm"] == pytest.approx(4 / 70)
     assert rows["period_ms"]["groups"] == "banded vs normal"
+    for untested in ("max_area_neck_depth", "flipped_triangles_outer"):
+        assert np.isnan(rows[untested]["p_value"]) and np.isnan(rows[untested]["p_holm"])
+    assert rows["max_area_neck_depth"]["banded_mean"] == pytest.approx(0.315)
+    assert rows["flipped_triangles_outer"]["table"] == "qc.csv"
+
+
+def test_table1_in_the_papers_units_and_rounding(tmp_path):
+    """The paper's Table 1: % with 2 decimals, ms whole, speeds to 5 significant digits;
+    a group row mean ± SD (n) and a corrected p row; columns.csv describes every
+    column of every table."""
+    import csv
+
+    summary = {"name": "Normal A", "group": "normal", "expand_fraction": 0.382712,
+               "contract_fraction": 0.617288, "expand_contract_ratio": 0.61998,
+               "period_ms": 372.2, "expand_ms": 142.46, "contract_ms": 229.74,
+               "wave_speed_mm_s": {"min": 3.360123, "max": 18.49876, "mean": 8.961934,
+                                   "std": 3.424517, "cycle": 6.814912},
+               "myocardial_volume_change": 0.16750693, "clipped_myocardial_volume_mm3": 0.0241060}
+    summaries = [summary, {**summary, "name": "Normal B", "expand_fraction": 0.3418},
+                 {**summary, "name": "Banded A", "group": "banded", "expand_fraction": 0.3622},
+                 {**summary, "name": "Banded B", "group": "banded", "expand_fraction": 0.4439}]
+    write_cohort_tables(tmp_path, summaries)
+    row = next(csv.DictReader(open(tmp_path / "table1.csv")))
+    assert row["expand_percent"] == "38.27" and row["contract_percent"] == "61.73"
+    assert row["expand_contract_ratio"] == "0.62" and row["period_ms"] == "372.0"
+    assert row["speed_min_mm_s"] == "3.3601" and row["speed_max_mm_s"] == "18.499"
+    assert row["myocardial_volume_change_percent"] == "16.8"
+    assert row["clipped_myocardial_volume_mm3"] == "0.02411"
+    dictionary = list(csv.DictReader(open(tmp_path / "columns.csv")))
+    for table in ("table1.csv", "cohort.csv", "qc.csv"):
+        header = next(csv.reader(open(tmp_path / table)))
+        described = [d["column"] for d in dictionary if d["table"] == table]
+        assert header == described
+    assert all(d["description"] and d["summary_json"] for d in dictionary)
+    text = table1_markdown(summaries)
+    assert "| Normal A | normal | 38.27 | 61.73 | 0.62 | 372 | 142 | 230 | 3.3601 |" in text
+    assert "| mean ± SD | banded | 40.30 ± 5.78 (n=2) |" in text
+    assert "| p (Holm) | banded vs normal | 1 | 1 |" in text    # 2 vs 2, 13 tests
+    assert "Holm-corrected over the 13 quantities tested" in text
 
 
 def test_holm_adjusted_p_values():
@@ -91,7 +136,7 @@ def test_mean_curve_of_a_group_on_a_common_axis():
 def test_markdown_table_keeps_a_name_with_a_bar_in_its_cell(tmp_path):
     summaries = [{"name": "WT|3", "group": "a|b", "period_ms": 350.0},
                  {"name": "KO", "group": "c", "period_ms": 351.0}]
-    lines = write_cohort_markdown(tmp_path, summaries).read_text().splitlines()
+    lines = write_table1_markdown(tmp_path, summaries).read_text().splitlines()
     cells = lambda line: len(line.replace(r"\|", "").split("|"))  # noqa: E731
     assert cells(lines[2]) == cells(lines[0]) == cells(lines[3])
     assert lines[2].startswith(r"| WT\|3 | a\|b | ")

@@ -19,8 +19,10 @@ from ..image.kymograph import RIDGE_SMOOTHING_MS
 
 
 # what a run writes beside the datasets' folders (report, html, api._write_run)
-COHORT_OUTPUTS = ("cohort.csv", "cohort.md", "groups.csv", "cohort_maps.npz", "cohort_maps.json",
-                  "figures", "index.html", "run.json")
+COHORT_OUTPUTS = ("table1.csv", "table1.md", "cohort.csv", "qc.csv", "columns.csv", "groups.csv",
+                  "cohort_maps.npz", "cohort_maps.json", "figures", "index.html", "run.json")
+# what older versions wrote there, which --overwrite replaces too
+OLDER_COHORT_OUTPUTS = ("cohort.md",)
 # what a file browser leaves in any folder it shows
 BROWSER_FILES = (".DS_Store", "Thumbs.db", "desktop.ini")
 
@@ -31,7 +33,7 @@ def not_written_by_oftimg(folder: Path, kind: str = "results") -> list[str]:
     one folder per dataset with its summary.json); "demo data": the demo's
     phantom datasets (folders with a truth.json)."""
     marker = {"results": "summary.json", "demo data": "truth.json"}[kind]
-    own = COHORT_OUTPUTS if kind == "results" else ()
+    own = COHORT_OUTPUTS + OLDER_COHORT_OUTPUTS if kind == "results" else ()
     return sorted(p.name for p in folder.iterdir()
                   if p.name not in own + BROWSER_FILES
                   and not (p.is_dir() and not p.is_symlink() and (p / marker).is_file()))

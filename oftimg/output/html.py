@@ -7,7 +7,8 @@ import os
 import urllib.parse
 from pathlib import Path
 
-from .report import COHORT_COLUMNS, cohort_rows, group_comparison
+from .report import (CORRECTION, MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparison, table1_layout,
+                     table_rows)
 
 STYLE = """
 body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1200px;color:#222}
@@ -18,6 +19,7 @@ img{max-width:100%;border:1px solid #eee;margin:4px 0}
 video{max-width:100%;margin:4px 0;background:#000}
 .grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(480px,1fr));gap:10px}
 .small{color:#666;font-size:0.85em} .sig{background:#fde2e2}
+table.table1 th{font-weight:600} details{margin:0.6em 0} summary{cursor:pointer;font-weight:600}
 """
 
 # Checks, once the page has loaded, that every picture and video could be read;
@@ -81,6 +83,30 @@ def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None) -> s
         body.append(f"<tr{cls}>{''.join(cells)}</tr>")
     return (f"<div style=\"overflow-x:auto\"><table><tr>{head}</tr>{''.join(body)}</table>"
             "</div>")
+
+
+TABLE_COLUMNS_SHOWN = 10   # a wider table is cut into parts of this many, its first column in each
+
+
+def _wide_table(rows: list[dict], cols: list[str], **kwargs) -> str:
+    """:func:`_table` cut into parts of at most :data:`TABLE_COLUMNS_SHOWN` columns,
+    each beginning with the first column (the row's name): readable on a laptop
+    without scrolling sideways."""
+    first, rest = cols[0], cols[1:]
+    step = TABLE_COLUMNS_SHOWN - 1
+    return "".join(_table(rows, [first] + rest[k:k + step], **kwargs)
+                   for k in range(0, len(rest), step))
+
+
+def _text_table(header: list[str], body: list[list[str]], *, strong_from: int) -> str:
+    """A table of ready-made text cells; the rows from ``strong_from`` on in bold
+    (the group rows under the embryos)."""
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in header)
+    rows = []
+    for k, row in enumerate(body):
+        tag = "th" if k >= strong_from else "td"
+        rows.append("<tr>" + "".join(f"<{tag}>{html.escape(c)}</{tag}>" for c in row) + "</tr>")
+    return f"<table class=\"table1\"><tr>{head}</tr>{''.join(rows)}</table>"
 
 
 def _page(title: str, body: str) -> str:
@@ -180,8 +206,9 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                                              for text in _warnings(summary)] + ["</ul>"]
     body += ["<h2>Quality checks</h2>", _table(checks, ["check", "value"]),
              "<h2>Figures</h2><div class=\"grid\">"]
-    body += [f'<figure><img src="figures/{f.name}" alt="{f.stem}"><figcaption class="small">'
-             f'{f.stem}{_on_grid(f.stem, grid_note)}</figcaption></figure>' for f in figs]
+    body += [f'<figure><a href="figures/{f.name}"><img src="figures/{f.name}" alt="{f.stem}">'
+             f'</a><figcaption class="small">{f.stem}{_on_grid(f.stem, grid_note)}'
+             '</figcaption></figure>' for f in figs]
     body.append("</div><h2>Videos</h2><div class=\"grid\">")
     body += [f'<figure><video src="videos/{v.name}" controls muted loop preload="metadata">'
              f'</video><figcaption class="small">{v.stem}{_on_grid(v.stem, grid_note)}'
@@ -221,26 +248,37 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
     """``index.html``: cohort table, group comparison and figures, provenance;
     ``comparison``: :func:`~oftimg.output.report.group_comparison` if already made;
     ``map_rows``: :func:`~oftimg.output.report.map_comparison_rows`."""
-    cols = [c for c, _ in COHORT_COLUMNS]
     body = ["<h1>oftimg results</h1>",
             f"<p class=\"small\">{len(summaries)} datasets; oftimg "
             f"{html.escape(str(run_info.get('oftimg_version')))}, "
             f"{_fmt(run_info.get('seconds'))} s"
             + (f" (gathered; the datasets' own runs took {_fmt(run_info['datasets_seconds'])} s)"
                if run_info.get("datasets_seconds") is not None else "") + "</p>",
-            "<h2>Cohort (Table 1)</h2>",
-            _table(cohort_rows(summaries), cols, link=lambda r: _page_of(r["name"]))]
+    ]
     comp = group_comparison(summaries) if comparison is None else comparison
+    header, rows, note = table1_layout(summaries, comp)
+    body += ["<h2>Table 1</h2><p class=\"small\">table1.csv, table1.md; the paper's "
+             "quantities in its units and rounding; each column is described in columns.csv"
+             "</p>", _text_table(header, rows, strong_from=len(summaries))]
+    if note:
+        body.append(f"<p class=\"small\">{html.escape(note)}</p>")
+    body += [f"<p class=\"small\">Note: {html.escape(n)}</p>" for n in run_info.get("notes", [])]
+    link = {"link": lambda r: _page_of(r["name"])}
+    body += ["<details><summary>Other measurements (cohort.csv)</summary>",
+             _wide_table(table_rows(summaries, MEASUREMENT_COLUMNS),
+                         [c.name for c in MEASUREMENT_COLUMNS], **link),
+             "</details><details><summary>Quality checks and noise (qc.csv)</summary>",
+             _wide_table(table_rows(summaries, QC_COLUMNS), [c.name for c in QC_COLUMNS],
+                         **link), "</details>"]
     if comp and len({s["group"] for s in summaries}) >= 2:
-        ccols = list(comp[0])
-        body += ["<h2>Groups</h2><p class=\"small\">two-sided permutation test of the "
-                 "difference of means (exact for up to 10 per group), for each pair of groups; "
-                 "p_holm: Holm-adjusted over a metric's pairs (the same as p with two "
-                 "groups); p_holm &lt; 0.05 shaded</p>",
-                 _table(comp, ccols, highlight=lambda r: r["p_holm"] == r["p_holm"]
-                        and r["p_holm"] < 0.05)]
-        body += [f"<p class=\"small\">Note: {html.escape(n)}</p>"
-                 for n in run_info.get("notes", [])]
+        ccols = [c for c in comp[0] if c not in ("table", "unit")]
+        body += ["<details><summary>Groups, every measurement (groups.csv)</summary>"
+                 "<p class=\"small\">n, mean and SD per group; p only for the Table 1 "
+                 f"quantities (p_holm: {CORRECTION}-corrected over them and the pairs of "
+                 "groups; below 0.05 shaded); the other measurements and the checks are "
+                 "shown, not tested</p>",
+                 _wide_table(comp, ccols, highlight=lambda r: r["p_holm"] == r["p_holm"]
+                             and r["p_holm"] < 0.05), "</details>"]
     body.append(_cohort_warnings(summaries))
     if map_rows:
         body += ["<h2>Where the groups differ on the maps</h2><p class=\"small\">"
@@ -254,7 +292,8 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                         is not None and r["least_p_cluster"] < 0.05)]
     if group_figs:
         body.append("<div class=\"grid\">")
-        body += [f'<figure><img src="{p.relative_to(out).as_posix()}" alt="{p.stem}">'
+        body += [f'<figure><a href="{p.relative_to(out).as_posix()}"><img '
+                 f'src="{p.relative_to(out).as_posix()}" alt="{p.stem}"></a>'
                  f'<figcaption class="small">{p.stem}</figcaption></figure>' for p in group_figs]
         body.append("</div>")
     body.append("<h2>Run</h2><pre class=\"small\">"

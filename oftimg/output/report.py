@@ -1,81 +1,193 @@
-"""Cohort tables: one row per dataset (the paper's Table 1 and more)."""
+"""Cohort tables, one row per dataset: Table 1 (the paper's quantities in the paper's
+units and rounding), the other measurements, the quality checks, a data dictionary
+of all their columns, and the group comparison."""
 from __future__ import annotations
 
 import csv
+import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..analysis.stats import holm, permutation_test
 
-# (column header with unit, summary key path)
-COHORT_COLUMNS = [
-    ("name", ("name",)),
-    ("group", ("group",)),
-    ("n_frames", ("n_frames",)),
-    ("period_ms", ("period_ms",)),
-    ("expand_fraction", ("expand_fraction",)),
-    ("contract_fraction", ("contract_fraction",)),
-    ("expand_contract_ratio", ("expand_contract_ratio",)),
-    ("expand_ms", ("expand_ms",)),
-    ("contract_ms", ("contract_ms",)),
-    ("speed_min_mm_s", ("wave_speed_mm_s", "min")),
-    ("speed_max_mm_s", ("wave_speed_mm_s", "max")),
-    ("speed_avg_mm_s", ("wave_speed_mm_s", "mean")),
-    ("speed_std_mm_s", ("wave_speed_mm_s", "std")),
-    ("speed_median_mm_s", ("wave_speed_mm_s", "median")),   # not in the paper: robust
-    ("speed_cycle_mm_s", ("wave_speed_mm_s", "cycle")),
-    ("speed_proximal_mm_s", ("wave_two_segment", "speed_proximal_mm_s")),
-    ("speed_distal_mm_s", ("wave_two_segment", "speed_distal_mm_s")),
-    ("knee_mm", ("wave_two_segment", "knee_mm")),
-    ("ridge_smoothing_ms", ("ridge_smoothing_ms",)),       # the sigma used (auto: per dataset)
-    # not in the paper: the speeds' spread from the area map's own frame-to-frame noise
-    ("speed_min_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "min")),
-    ("speed_max_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "max")),
-    ("speed_avg_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "mean")),
-    ("speed_median_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "median")),
-    ("speed_cycle_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "cycle")),
-    ("speed_proximal_noise_sd_mm_s", ("wave_two_segment", "speed_proximal_noise_sd_mm_s")),
-    ("speed_distal_noise_sd_mm_s", ("wave_two_segment", "speed_distal_noise_sd_mm_s")),
-    ("max_expansion_rate_mm2_ms", ("max_expansion_rate_mm2_ms",)),
-    ("max_contraction_rate_mm2_ms", ("max_contraction_rate_mm2_ms",)),
-    ("band_position_mm", ("band_position_mm",)),
-    ("max_area_neck_depth", ("max_area_neck_depth",)),
-    ("corner_count", ("corner_count",)),
-    ("tube_length_mm", ("tube_length_mm",)),
-    ("myocardial_volume_change", ("myocardial_volume_change",)),
-    ("jelly_volume_change", ("jelly_volume_change",)),   # inner - lumen (not in the paper)
-    ("wall_thickness_median_mm", ("wall_thickness_median_mm",)),
-    ("wall_thickening", ("wall_thickening",)),   # rows' mean thickness, max / min - 1
-    ("jelly_thickness_median_mm", ("jelly_thickness_median_mm",)),   # inner wall to lumen
-    ("jelly_thickening", ("jelly_thickening",)),
-    # quality checks: 0, 0 and about 0 on good data
-    ("flipped_triangles_outer", ("flipped_triangles", "outer")),
-    ("sections_from_ring_outer", ("sections_from_ring", "outer")),
-    ("section_volume_error_outer", ("section_volume_error", "outer")),
-    ("standout_frames", ("frame_series_checks", "standout_frame_count")),
-    ("wrap_step_ratio", ("frame_series_checks", "wrap_step_ratio")),     # <= 1: one cycle
-    # share of a shape field's change over the cycle that is noise (well under 0.25)
-    ("radial_curvature_outer_noise_share",
-     ("field_noise", "radial_curvature_outer_per_mm", "noise_share")),
-    ("mean_curvature_lumen_noise_share",
-     ("field_noise", "mean_curvature_lumen_per_mm", "noise_share")),
-    ("wall_thickness_noise_share", ("field_noise", "wall_thickness_mm", "noise_share")),
-    ("jelly_thickness_noise_share", ("field_noise", "jelly_thickness_mm", "noise_share")),
-    # the sigma (ms) each was smoothed by in time (auto: as much as its noise asks)
-    ("radial_curvature_outer_smoothing_ms",
-     ("field_noise", "radial_curvature_outer_per_mm", "smoothing_ms")),
-    ("mean_curvature_lumen_smoothing_ms",
-     ("field_noise", "mean_curvature_lumen_per_mm", "smoothing_ms")),
-    ("wall_thickness_smoothing_ms", ("field_noise", "wall_thickness_mm", "smoothing_ms")),
-    ("jelly_thickness_smoothing_ms", ("field_noise", "jelly_thickness_mm", "smoothing_ms")),
-    # share of each strain energy field's size by which its grid's node noise moves it
-    ("strain_energy_outer_error_share", ("strain_noise", "strain_energy_outer", "error_share")),
-    ("strain_energy_inner_error_share", ("strain_noise", "strain_energy_inner", "error_share")),
-    # the sigma its grid nodes were smoothed by ("auto": as much as that noise asks)
-    ("strain_energy_outer_smoothing_ms", ("strain_noise", "strain_energy_outer", "smoothing_ms")),
-    ("strain_energy_inner_smoothing_ms", ("strain_noise", "strain_energy_inner", "smoothing_ms")),
+
+@dataclass(frozen=True)
+class Column:
+    """One column of a cohort table: its header, where its value is in summary.json
+    (keys), unit, what it is and how it is made; ``scale`` turns summary.json's
+    value into the column's unit (100: a fraction as %); ``decimals`` or
+    ``significant`` round it as the paper does (Table 1 only; None: as is)."""
+
+    name: str
+    path: tuple
+    unit: str
+    what: str
+    scale: float = 1.0
+    decimals: int | None = None
+    significant: int | None = None
+
+
+_SPEED = ("wave speed along the tube from the ridge of the outer area map (time of maximum "
+          "area at each position): {} over the rows of its slope ds/dt")
+_NOISE_SD = ("spread (SD) of {} from the area map's own frame-to-frame noise, by "
+             "resampling that noise (not in the paper)")
+_NOISE_SHARE = ("share of {} field's change over the cycle that is frame-to-frame noise, "
+                "median pixel (well under 0.25 on good data)")
+_SIGMA = "sigma (ms) of the Gaussian in time that smoothed the {} field ('auto': as its noise asked)"
+
+ID_COLUMNS = [
+    Column("name", ("name",), "", "the dataset (meta.json: name, else its folder's name)"),
+    Column("group", ("group",), "", "its group (meta.json: group)"),
 ]
+
+# the paper's Table 1, in its units and rounding, and the myocardium's volumes
+TABLE1_COLUMNS = ID_COLUMNS + [
+    Column("expand_percent", ("expand_fraction",), "%", "share of the cycle during which the "
+           "outer wall's capped volume grows (from its minimum at t = 0 to its maximum)",
+           scale=100.0, decimals=2),
+    Column("contract_percent", ("contract_fraction",), "%", "share of the cycle during which "
+           "it shrinks: 100 - expand_percent", scale=100.0, decimals=2),
+    Column("expand_contract_ratio", ("expand_contract_ratio",), "1",
+           "expansion time over contraction time", decimals=2),
+    Column("period_ms", ("period_ms",), "ms", "the cardiac cycle's length (meta.json)",
+           decimals=0),
+    Column("expand_ms", ("expand_ms",), "ms", "time of expansion: expand_percent of the period",
+           decimals=0),
+    Column("contract_ms", ("contract_ms",), "ms", "time of contraction", decimals=0),
+    Column("speed_min_mm_s", ("wave_speed_mm_s", "min"), "mm/s", _SPEED.format("minimum"),
+           significant=5),
+    Column("speed_max_mm_s", ("wave_speed_mm_s", "max"), "mm/s", _SPEED.format("maximum"),
+           significant=5),
+    Column("speed_avg_mm_s", ("wave_speed_mm_s", "mean"), "mm/s", _SPEED.format("mean"),
+           significant=5),
+    Column("speed_std_mm_s", ("wave_speed_mm_s", "std"), "mm/s", _SPEED.format("SD"),
+           significant=5),
+    Column("speed_cycle_mm_s", ("wave_speed_mm_s", "cycle"), "mm/s", "the ridge's tube length "
+           "over the time it takes from the inlet to the outlet (the paper's 'cycle')",
+           significant=5),
+    Column("myocardial_volume_change_percent", ("myocardial_volume_change",), "%",
+           "the myocardium's (outer minus inner capped) volume change over the cycle, "
+           "(largest - smallest) / smallest", scale=100.0, decimals=1),
+    Column("clipped_myocardial_volume_mm3", ("clipped_myocardial_volume_mm3",), "mm^3",
+           "the constant myocardial volume the Lagrangian clipping plane keeps in every frame",
+           significant=4),
+]
+
+# Table 1's headers as the paper words them (with the unit in brackets)
+TABLE1_LABELS = {
+    "expand_percent": "Expand", "contract_percent": "Contract", "expand_contract_ratio": "Ratio",
+    "period_ms": "Period", "expand_ms": "Expand", "contract_ms": "Contract",
+    "speed_min_mm_s": "Speed min", "speed_max_mm_s": "Speed max", "speed_avg_mm_s": "Speed avg",
+    "speed_std_mm_s": "Speed std", "speed_cycle_mm_s": "Speed cycle",
+    "myocardial_volume_change_percent": "Myocardial volume change",
+    "clipped_myocardial_volume_mm3": "Clipped myocardial volume"}
+
+# every other measurement, in summary.json's units at full precision
+MEASUREMENT_COLUMNS = ID_COLUMNS + [
+    Column("n_frames", ("n_frames",), "1", "frames in the dataset"),
+    Column("speed_median_mm_s", ("wave_speed_mm_s", "median"), "mm/s",
+           _SPEED.format("median") + " (not in the paper: robust to a flat ridge)"),
+    Column("speed_proximal_mm_s", ("wave_two_segment", "speed_proximal_mm_s"), "mm/s",
+           "wave speed of the ridge's first straight segment (two-segment fit, not in the paper)"),
+    Column("speed_distal_mm_s", ("wave_two_segment", "speed_distal_mm_s"), "mm/s",
+           "wave speed of its second segment"),
+    Column("knee_mm", ("wave_two_segment", "knee_mm"), "mm",
+           "where along the tube the two segments meet"),
+    Column("max_expansion_rate_mm2_ms", ("max_expansion_rate_mm2_ms",), "mm^2/ms",
+           "largest growth rate of a section's area (the area map's time derivative)"),
+    Column("max_contraction_rate_mm2_ms", ("max_contraction_rate_mm2_ms",), "mm^2/ms",
+           "largest shrink rate of a section's area"),
+    Column("band_position_mm", ("band_position_mm",), "mm",
+           "position of the narrowest section of the maximum-area profile (a band); empty: none"),
+    Column("max_area_neck_depth", ("max_area_neck_depth",), "1",
+           "depth of that narrowing relative to its neighbours' areas"),
+    Column("corner_count", ("corner_count",), "1",
+           "corners of the outer section contour at maximum expansion (curvature peaks)"),
+    Column("tube_length_mm", ("tube_length_mm",), "mm",
+           "length of the outer contours' centroid line, time average"),
+    Column("jelly_volume_change", ("jelly_volume_change",), "1",
+           "the cardiac jelly's (inner minus lumen) volume change, (largest - smallest) / "
+           "smallest"),
+    Column("wall_thickness_median_mm", ("wall_thickness_median_mm",), "mm",
+           "myocardial wall thickness (outer to inner wall), median over pixels and cycle"),
+    Column("wall_thickening", ("wall_thickening",), "1",
+           "rows' mean wall thickness, largest over smallest in the cycle, minus 1; median row"),
+    Column("jelly_thickness_median_mm", ("jelly_thickness_median_mm",), "mm",
+           "cardiac jelly thickness (inner wall to lumen), median"),
+    Column("jelly_thickening", ("jelly_thickening",), "1", "its thickening, as wall_thickening"),
+]
+
+# quality checks and noise spreads: 0, 0 and about 0 on good data
+QC_COLUMNS = ID_COLUMNS + [
+    Column("flipped_triangles_outer", ("flipped_triangles", "outer"), "1",
+           "triangles of the outer wall's (u, v) maps that flipped, over all frames (0)"),
+    Column("sections_from_ring_outer", ("sections_from_ring", "outer"), "1",
+           "outer sections measured on the grid ring for want of a clean contour (0)"),
+    Column("section_volume_error_outer", ("section_volume_error", "outer"), "1",
+           "median |volume from sections / capped volume - 1| of the outer wall (about 0)"),
+    Column("standout_frames", ("frame_series_checks", "standout_frame_count"), "1",
+           "frames whose volume stands out from their neighbours' (0)"),
+    Column("wrap_step_ratio", ("frame_series_checks", "wrap_step_ratio"), "1",
+           "last-to-first frame's volume step over the largest step between frames "
+           "(at most 1 when the frames are one cycle)"),
+    Column("ridge_smoothing_ms", ("ridge_smoothing_ms",), "ms",
+           "sigma of the ridge's smoothing in time ('auto': per dataset, as its noise asked)"),
+    Column("speed_min_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "min"), "mm/s",
+           _NOISE_SD.format("speed_min_mm_s")),
+    Column("speed_max_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "max"), "mm/s",
+           _NOISE_SD.format("speed_max_mm_s")),
+    Column("speed_avg_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "mean"), "mm/s",
+           _NOISE_SD.format("speed_avg_mm_s")),
+    Column("speed_median_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "median"), "mm/s",
+           _NOISE_SD.format("speed_median_mm_s")),
+    Column("speed_cycle_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "cycle"), "mm/s",
+           _NOISE_SD.format("speed_cycle_mm_s")),
+    Column("speed_proximal_noise_sd_mm_s", ("wave_two_segment", "speed_proximal_noise_sd_mm_s"),
+           "mm/s", _NOISE_SD.format("speed_proximal_mm_s")),
+    Column("speed_distal_noise_sd_mm_s", ("wave_two_segment", "speed_distal_noise_sd_mm_s"),
+           "mm/s", _NOISE_SD.format("speed_distal_mm_s")),
+    Column("radial_curvature_outer_noise_share",
+           ("field_noise", "radial_curvature_outer_per_mm", "noise_share"), "1",
+           _NOISE_SHARE.format("the outer radial curvature")),
+    Column("mean_curvature_lumen_noise_share",
+           ("field_noise", "mean_curvature_lumen_per_mm", "noise_share"), "1",
+           _NOISE_SHARE.format("the lumen's mean curvature")),
+    Column("wall_thickness_noise_share", ("field_noise", "wall_thickness_mm", "noise_share"),
+           "1", _NOISE_SHARE.format("the wall thickness")),
+    Column("jelly_thickness_noise_share", ("field_noise", "jelly_thickness_mm", "noise_share"),
+           "1", _NOISE_SHARE.format("the jelly thickness")),
+    Column("radial_curvature_outer_smoothing_ms",
+           ("field_noise", "radial_curvature_outer_per_mm", "smoothing_ms"), "ms",
+           _SIGMA.format("outer radial curvature")),
+    Column("mean_curvature_lumen_smoothing_ms",
+           ("field_noise", "mean_curvature_lumen_per_mm", "smoothing_ms"), "ms",
+           _SIGMA.format("lumen mean curvature")),
+    Column("wall_thickness_smoothing_ms", ("field_noise", "wall_thickness_mm", "smoothing_ms"),
+           "ms", _SIGMA.format("wall thickness")),
+    Column("jelly_thickness_smoothing_ms", ("field_noise", "jelly_thickness_mm", "smoothing_ms"),
+           "ms", _SIGMA.format("jelly thickness")),
+    Column("strain_energy_outer_error_share",
+           ("strain_noise", "strain_energy_outer", "error_share"), "1",
+           "share of the outer strain energy's median size by which its grid nodes' noise "
+           "moves it (well under 0.5)"),
+    Column("strain_energy_inner_error_share",
+           ("strain_noise", "strain_energy_inner", "error_share"), "1",
+           "the same for the inner wall"),
+    Column("strain_energy_outer_smoothing_ms",
+           ("strain_noise", "strain_energy_outer", "smoothing_ms"), "ms",
+           "sigma (ms) by which the outer grid's nodes were smoothed in time for the strain"),
+    Column("strain_energy_inner_smoothing_ms",
+           ("strain_noise", "strain_energy_inner", "smoothing_ms"), "ms",
+           "the same for the inner grid"),
+]
+
+# file name -> its columns (what a cohort run writes, and the data dictionary covers)
+TABLES = {"table1.csv": TABLE1_COLUMNS, "cohort.csv": MEASUREMENT_COLUMNS,
+          "qc.csv": QC_COLUMNS}
+# how the p-values of the Table 1 quantities are corrected (stated where they are shown)
+CORRECTION = "Holm"
 
 
 def _get(d: dict, path: tuple):
@@ -90,72 +202,190 @@ def _get(d: dict, path: tuple):
     return d
 
 
+def rounded(x: float, column: Column) -> float:
+    """``x`` (in summary.json's unit) in the column's unit, rounded as it says."""
+    return round_as(float(x) * column.scale, column)
+
+
+def round_as(x: float, column: Column) -> float:
+    """``x`` (in the column's unit) rounded as the column says."""
+    if not np.isfinite(x):
+        return x
+    if column.decimals is not None:
+        return round(x, column.decimals) if column.decimals else float(round(x))
+    if column.significant is not None and x != 0:
+        return round(x, column.significant - 1 - math.floor(math.log10(abs(x))))
+    return x
+
+
+def table_rows(summaries: list[dict], columns: list[Column]) -> list[dict]:
+    """One row per summary: column name -> its value in the column's unit and
+    rounding ("" where there is none)."""
+    rows = []
+    for s in summaries:
+        row = {}
+        for c in columns:
+            v = _get(s, c.path)
+            numeric = isinstance(v, (int, float)) and not isinstance(v, bool)
+            row[c.name] = rounded(v, c) if numeric and (c.scale != 1.0 or c.decimals is not None
+                                                        or c.significant is not None) else v
+        rows.append(row)
+    return rows
+
+
 def cohort_rows(summaries: list[dict]) -> list[dict]:
-    return [{col: _get(s, path) for col, path in COHORT_COLUMNS} for s in summaries]
+    """Rows of ``cohort.csv`` (:data:`MEASUREMENT_COLUMNS`)."""
+    return table_rows(summaries, MEASUREMENT_COLUMNS)
 
 
-def write_cohort_table(folder: Path, summaries: list[dict]) -> Path:
-    """``cohort.csv`` in ``folder``: one row per dataset, units in the headers."""
-    path = Path(folder) / "cohort.csv"
+def _write_csv(path: Path, header: list[str], rows: list[dict]) -> Path:
     with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=[c for c, _ in COHORT_COLUMNS])
+        writer = csv.DictWriter(fh, fieldnames=header)
         writer.writeheader()
-        writer.writerows(cohort_rows(summaries))
+        writer.writerows(rows)
     return path
 
 
-def write_cohort_markdown(folder: Path, summaries: list[dict]) -> Path:
-    """``cohort.md``: the cohort table as Markdown (3 significant digits)."""
-    rows = cohort_rows(summaries)
-    cols = [c for c, _ in COHORT_COLUMNS]
+def write_cohort_tables(folder: Path, summaries: list[dict]) -> list[Path]:
+    """``table1.csv``, ``cohort.csv`` and ``qc.csv`` (one row per dataset, see
+    :data:`TABLES`) and ``columns.csv``, the data dictionary of all three: table,
+    column, unit, rounding, what it is and how it is made, summary.json key."""
+    written = [_write_csv(Path(folder) / file, [c.name for c in columns],
+                          table_rows(summaries, columns))
+               for file, columns in TABLES.items()]
+    dictionary = []
+    for file, columns in TABLES.items():
+        for c in columns:
+            rounding = (f"{c.decimals} decimals" if c.decimals is not None else
+                        f"{c.significant} significant digits" if c.significant is not None
+                        else "as computed")
+            dictionary.append({"table": file, "column": c.name, "unit": c.unit,
+                               "rounding": rounding, "description": c.what,
+                               "summary_json": ".".join(c.path)
+                               + (f" x {c.scale:g}" if c.scale != 1.0 else "")})
+    written.append(_write_csv(Path(folder) / "columns.csv", list(dictionary[0]), dictionary))
+    return written
 
-    def fmt(x):
-        if isinstance(x, float):
-            return f"{x:.3g}"
-        return "" if x is None else str(x).replace("|", r"\|")   # a name's "|": no new cell
 
-    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    lines += ["| " + " | ".join(fmt(r[c]) for c in cols) + " |" for r in rows]
-    path = Path(folder) / "cohort.md"
-    path.write_text("\n".join(lines) + "\n")
-    return path
+def _group_values(summaries: list[dict], column: Column, groups: list[str]) -> dict:
+    """Each group's finite values of a column, in the column's unit (unrounded)."""
+    values = {}
+    for g in groups:
+        vals = [_get(s, column.path) for s in summaries if s["group"] == g]
+        vals = [float(v) * column.scale for v in vals
+                if isinstance(v, (int, float)) and not isinstance(v, bool)]
+        values[g] = np.asarray([v for v in vals if np.isfinite(v)], float)
+    return values
 
 
 def group_comparison(summaries: list[dict]) -> list[dict]:
-    """Per numeric cohort metric and pair of groups (in name order): each group's n,
-    mean and sd, the two-sided permutation p-value of the pair, and that p-value
-    Holm-adjusted over the metric's pairs (``p_holm``; the same with two groups).
+    """Per cohort metric and pair of groups (in name order): the table it is in, each
+    group's n, mean and sd (in the column's unit), and for the Table 1 quantities
+    alone the two-sided permutation p-value (``p_value``) and that p-value corrected
+    by Holm's method over all Table 1 quantities and pairs of groups (``p_holm``);
+    the other measurements and the quality checks are shown, not tested (NaN).
     With one group: its n, mean and sd, no p-values."""
     from itertools import combinations
 
-    rows = cohort_rows(summaries)
-    groups = sorted({r["group"] for r in rows})
+    groups = sorted({s["group"] for s in summaries})
+    pairs = list(combinations(groups, 2))
     out = []
-    for col, _ in COHORT_COLUMNS:
-        if col in ("name", "group", "n_frames"):
-            continue
-        values = {}
-        for g in groups:
-            vals = [r[col] for r in rows if r["group"] == g]
-            vals = [float(v) if isinstance(v, (int, float)) and v is not None else float("nan")
-                    for v in vals]
-            values[g] = np.asarray(vals, float)
-        if all(np.isnan(v).all() for v in values.values()):
-            continue
-        stats = {"metric": col}
-        for g in groups:
-            v = values[g][np.isfinite(values[g])]
-            stats[f"{g}_n"] = len(v)
-            stats[f"{g}_mean"] = float(v.mean()) if len(v) else float("nan")
-            stats[f"{g}_sd"] = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
-        pairs = list(combinations(groups, 2))
-        if not pairs:                                    # one group: its statistics alone
-            out.append({**stats, "p_value": float("nan"), "p_holm": float("nan"),
-                        "groups": groups[0]})
-        p = [permutation_test(values[a], values[b]) for a, b in pairs]
-        for (a, b), p_pair, p_adj in zip(pairs, p, holm(p)):
-            out.append({**stats, "p_value": p_pair, "p_holm": p_adj, "groups": f"{a} vs {b}"})
+    for file, columns in TABLES.items():
+        for column in columns:
+            if column in ID_COLUMNS or column.name == "n_frames":
+                continue
+            values = _group_values(summaries, column, groups)
+            if not any(len(v) for v in values.values()):
+                continue
+            stats = {"metric": column.name, "table": file, "unit": column.unit}
+            for g in groups:
+                v = values[g]
+                stats[f"{g}_n"] = len(v)
+                stats[f"{g}_mean"] = float(v.mean()) if len(v) else float("nan")
+                stats[f"{g}_sd"] = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
+            tested = file == "table1.csv"
+            for a, b in pairs or [(groups[0], None)]:
+                p = permutation_test(values[a], values[b]) if tested and b else float("nan")
+                out.append({**stats, "groups": a if b is None else f"{a} vs {b}",
+                            "p_value": p, "p_holm": float("nan")})
+    tested_rows = [r for r in out if np.isfinite(r["p_value"])]
+    for row, p_adjusted in zip(tested_rows, holm([r["p_value"] for r in tested_rows])):
+        row["p_holm"] = p_adjusted
     return out
+
+
+def _cell(x, column: Column | None = None) -> str:
+    """A table cell's text: a number rounded as its column is (3 significant digits
+    without a rounding), "" for none."""
+    if isinstance(x, float):
+        if not np.isfinite(x):
+            return ""
+        if column is not None and column.decimals is not None:
+            return f"{round_as(x, column):.{column.decimals}f}"
+        if column is not None and column.significant is not None:
+            return f"{round_as(x, column):.{column.significant}g}"
+        return f"{x:.3g}"
+    return "" if x is None else str(x)
+
+
+def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
+                  ) -> tuple[list[str], list[list[str]], str]:
+    """Table 1 as the paper lays it out, as text: the header (quantity and unit), one
+    row per embryo (the paper's rounding), each group's mean ± SD (n), each pair
+    of groups' corrected p-value; and the note that says how p was made ("" with
+    one group)."""
+    data_cols = TABLE1_COLUMNS[2:]
+    header = ["Embryo", "Group"] + [TABLE1_LABELS[c.name] + (f" ({c.unit})" if c.unit != "1"
+                                                              else "") for c in data_cols]
+    body = [[_cell(row["name"]), _cell(row["group"])] + [_cell(row[c.name], c) for c in data_cols]
+            for row in table_rows(summaries, TABLE1_COLUMNS)]
+    comparison = group_comparison(summaries) if comparison is None else comparison
+    by_metric = {}
+    for r in comparison:
+        if r["table"] == "table1.csv":
+            by_metric.setdefault(r["metric"], []).append(r)
+    groups = sorted({s["group"] for s in summaries})
+    for g in groups:
+        cells = []
+        for c in data_cols:
+            r = by_metric.get(c.name, [{}])[0]
+            mean, sd, n = r.get(f"{g}_mean"), r.get(f"{g}_sd"), r.get(f"{g}_n", 0)
+            cells.append("" if not n else _cell(mean, c) + (f" ± {_cell(sd, c)}"
+                                                             if np.isfinite(sd) else "")
+                         + f" (n={n})")
+        body.append(["mean ± SD", _cell(g)] + cells)
+    pairs = [] if len(groups) < 2 else sorted({r["groups"] for r in comparison
+                                               if " vs " in r["groups"]})
+    for pair in pairs:
+        cells = []
+        for c in data_cols:
+            r = next((r for r in by_metric.get(c.name, []) if r["groups"] == pair), None)
+            cells.append("" if r is None or not np.isfinite(r["p_holm"]) else
+                         f"{r['p_holm']:.2g}" + (" *" if r["p_holm"] < 0.05 else ""))
+        body.append([f"p ({CORRECTION})", _cell(pair)] + cells)
+    n_tested = len({r["metric"] for rows in by_metric.values() for r in rows
+                    if np.isfinite(r["p_value"])})
+    note = (f"p: two-sided permutation test of the difference of means (exact for up to 10 "
+            f"per group), {CORRECTION}-corrected over the {n_tested} quantities tested"
+            + (" and the pairs of groups" if len(pairs) > 1 else "")
+            + "; * p < 0.05. Each column is described in columns.csv." if pairs else "")
+    return header, body, note
+
+
+def table1_markdown(summaries: list[dict], comparison: list[dict] | None = None) -> str:
+    """:func:`table1_layout` as a Markdown table and its note."""
+    header, body, note = table1_layout(summaries, comparison)
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cell.replace("|", r"\|") for cell in row) + " |" for row in body]
+    return "\n".join(lines) + "\n" + (f"\n{note}\n" if note else "")
+
+
+def write_table1_markdown(folder: Path, summaries: list[dict],
+                          comparison: list[dict] | None = None) -> Path:
+    """``table1.md``: :func:`table1_markdown`."""
+    path = Path(folder) / "table1.md"
+    path.write_text(table1_markdown(summaries, comparison))
+    return path
 
 
 def _sigmas_by_group(summaries: list[dict], sigma_of) -> tuple[str, float] | None:
@@ -242,18 +472,12 @@ def map_comparison_rows(maps: dict, alpha: float = 0.05) -> list[dict]:
 
 def write_groups_table(folder: Path, summaries: list[dict],
                        comparison: list[dict] | None = None) -> Path | None:
-    """``groups.csv``: group means, sds and permutation p-values (two groups or more);
+    """``groups.csv``: :func:`group_comparison`'s rows (two groups or more);
     ``comparison``: :func:`group_comparison` of ``summaries`` if already made."""
     rows = group_comparison(summaries) if comparison is None else comparison
     if not rows or len({s["group"] for s in summaries}) < 2:
         return None
-    path = Path(folder) / "groups.csv"
-    fields = list(rows[0])
-    with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=fields)
-        writer.writeheader()
-        writer.writerows(rows)
-    return path
+    return _write_csv(Path(folder) / "groups.csv", list(rows[0]), rows)
 
 
 def mean_curve(curves: list[tuple], x: np.ndarray, *, period: float | None = None,

@@ -62,8 +62,8 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
     for page in pages:
         for link in local_links(page):
             assert (page.parent / link).exists(), f"{page}: {link}"
-    # header, rule, 2 embryos, 2 group rows, a p row; a blank line and the note
-    assert (cohort_out / "table1.md").read_text().count("\n") == 2 + 2 + 2 + 1 + 2
+    # header, rule, 2 embryos, 2 group rows, p and corrected p; a blank line and the note
+    assert (cohort_out / "table1.md").read_text().count("\n") == 2 + 2 + 2 + 2 + 2
     assert (cohort_out / "groups.csv").exists()
 
 

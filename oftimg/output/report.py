@@ -332,7 +332,7 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
                   ) -> tuple[list[str], list[list[str]], str]:
     """Table 1 as the paper lays it out, as text: the header (quantity and unit), one
     row per embryo (the paper's rounding), each group's mean ± SD (n), each pair
-    of groups' corrected p-value; and the note that says how p was made ("" with
+    of groups' p-value and its correction; and the note that says how p was made ("" with
     one group)."""
     data_cols = TABLE1_COLUMNS[2:]
     header = ["Embryo", "Group"] + [TABLE1_LABELS[c.name] + (f" ({c.unit})" if c.unit != "1"
@@ -357,18 +357,21 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
     pairs = [] if len(groups) < 2 else sorted({r["groups"] for r in comparison
                                                if " vs " in r["groups"]})
     for pair in pairs:
-        cells = []
-        for c in data_cols:
-            r = next((r for r in by_metric.get(c.name, []) if r["groups"] == pair), None)
-            cells.append("" if r is None or not np.isfinite(r["p_holm"]) else
-                         f"{r['p_holm']:.2g}" + (" *" if r["p_holm"] < 0.05 else ""))
-        body.append([f"p ({CORRECTION})", _cell(pair)] + cells)
+        for key, label in (("p_value", "p"), ("p_holm", f"p ({CORRECTION})")):
+            cells = []
+            for c in data_cols:
+                r = next((r for r in by_metric.get(c.name, []) if r["groups"] == pair), None)
+                cells.append("" if r is None or not np.isfinite(r[key]) else
+                             f"{r[key]:.2g}" + (" *" if key == "p_holm" and r[key] < 0.05
+                                                else ""))
+            body.append([label, _cell(pair)] + cells)
     n_tested = len({r["metric"] for rows in by_metric.values() for r in rows
                     if np.isfinite(r["p_value"])})
     note = (f"p: two-sided permutation test of the difference of means (exact for up to 10 "
             f"per group), {CORRECTION}-corrected over the {n_tested} quantities tested"
             + (" and the pairs of groups" if len(pairs) > 1 else "")
-            + "; * p < 0.05. Each column is described in columns.csv." if pairs else "")
+            + f"; * {CORRECTION}-corrected p < 0.05. Each column is described in columns.csv."
+            if pairs else "")
     return header, body, note
 
 

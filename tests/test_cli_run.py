@@ -47,9 +47,13 @@ def test_output_contract(run_out, phantom_normal):
     for fig in ("volume_over_cycle.png", "trim_over_cycle.png", "frame_t0_contours.png",
                 "wall_thickness_map.png", "jelly_thickness_map.png"):
         assert (folder / "figures" / fig).stat().st_size > 10_000
-    rows = list(csv.DictReader(open(run_out / "cohort.csv")))
+    rows = list(csv.DictReader(open(run_out / "table1.csv")))
     assert len(rows) == 1 and rows[0]["name"] == "normal"
-    assert float(rows[0]["expand_fraction"]) == pytest.approx(summary["expand_fraction"])
+    assert float(rows[0]["expand_percent"]) == pytest.approx(100 * summary["expand_fraction"],
+                                                             abs=0.005)   # 2 decimals
+    for fig in ("volume_over_cycle", "area_map_outer"):      # vector beside the PNG
+        for suffix in (".pdf", ".svg"):
+            assert (folder / "figures" / (fig + suffix)).stat().st_size > 5_000
 
 
 def test_rerun_needs_overwrite_and_keeps_results(run_out, phantom_normal, capsys):
@@ -200,7 +204,7 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys):
     for name in ("normal_0", "banded_0"):
         summary = json.loads((out / "results" / name / "summary.json").read_text())
         files = [f["file"] for f in summary["provenance"]["inputs"]["outer"]]
-        assert len(files) == 40
+        assert len(files) == 30
         assert all(Path(f).parent.samefile(out / "data" / name / "outer") for f in files)
     assert not [p for p in out.iterdir() if p.name.startswith(".")]   # no staging left
     assert main(["demo", "--out", str(out), "--quiet"]) == 2

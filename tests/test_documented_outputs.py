@@ -19,6 +19,8 @@ def _pattern(path: str, names: set[str]) -> str:
     parts = path.split("/")
     parts = ["<name>" if p in names else p for p in parts]
     parts[-1] = re.sub(r"^f\d+\.ply$", "f<frame>.ply", parts[-1])
+    if "figures" in parts[:-1]:      # each figure's PDF and SVG, documented with its PNG
+        parts[-1] = re.sub(r"\.(pdf|svg)$", ".png", parts[-1])
     return "/".join(parts)
 
 

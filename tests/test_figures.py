@@ -162,7 +162,7 @@ def test_group_figures_draw_a_layers_thickness_and_its_thickening_along_the_tube
         np.savez(path, **arrays)
         expected[summ["name"]] = (1000 * base, 100 * (2 * amp / (1 - amp)))
     drawn = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault(path.name, fig)
+    monkeypatch.setattr(figures, "save", lambda fig, path: drawn.setdefault(path.name, fig)
                         and path)
     paths = figures.group_figures(tmp_path, summaries, tmp_path)
     files = (f"group_{layer}_thickness.png", f"group_{layer}_thickening.png")
@@ -188,7 +188,7 @@ def _compared(maps: np.ndarray, groups, key: str = "area_outer_normalized") -> d
 def test_group_area_maps_show_each_groups_mean_and_its_difference_from_normal(
         tmp_path, monkeypatch):
     drawn = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig)
+    monkeypatch.setattr(figures, "save", lambda fig, path: drawn.setdefault("fig", fig)
                         and path)
     groups = np.array(["KO", "normal", "banded", "normal"])
     level = {"normal": 0.5, "banded": 0.8, "KO": 0.2}
@@ -210,7 +210,7 @@ def test_group_area_maps_outline_where_the_groups_differ(tmp_path, monkeypatch):
     """4 + 4 embryos, the banded ones fuller in a block of rows and phases: that block
     outlined, as a cluster and as pixels (p = 2/70 there), the rest not."""
     drawn = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig)
+    monkeypatch.setattr(figures, "save", lambda fig, path: drawn.setdefault("fig", fig)
                         and path)
     rng = np.random.default_rng(0)
     groups = np.array(["normal", "banded"] * 4)
@@ -244,7 +244,7 @@ def test_group_maps_leave_out_embryos_without_the_map(tmp_path, monkeypatch):
     """Wall thickness maps: an embryo without an inner wall (all NaN) is not counted,
     and a group with none has no difference panel."""
     drawn = []
-    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.append(fig) or path)
+    monkeypatch.setattr(figures, "save", lambda fig, path: drawn.append(fig) or path)
     groups = np.array(["normal", "normal", "banded", "banded", "KO"])
     thickness = np.stack([np.full((50, 100), 0.03 + 0.01 * k) for k in range(5)])
     thickness[[3, 4]] = np.nan
@@ -287,7 +287,7 @@ def test_ridge_plot_draws_the_noise_spread_and_keeps_unresolved_rows_off_its_sca
     """A row whose speed the noise does not resolve (NaN spread, 900 mm/s) must not
     squash the resolved ones (about 10 mm/s) to the bottom of the axis."""
     drawn = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig) and path)
+    monkeypatch.setattr(figures, "save", lambda fig, path: drawn.setdefault("fig", fig) and path)
     s = np.linspace(0, 1.2, 20)
     speed = np.full(20, 10.0)
     speed[7] = 900.0

@@ -113,14 +113,19 @@ def test_paper_figures_script_needs_only_the_results(cohort_out, tmp_path):
     import sys
 
     script = Path(__file__).resolve().parent.parent / "scripts" / "paper_figures.py"
-    res = subprocess.run([sys.executable, str(script), str(cohort_out), "--to", str(tmp_path)],
+    res = subprocess.run([sys.executable, str(script), str(cohort_out), "--out", str(tmp_path)],
                          capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     for tag in ("fig04A_area_to_line", "fig05_radial_curvature", "fig08_volume_normalization",
                 "fig10_ridge_time", "fig12_derivative", "fig13_lumen_mean_curvature"):
-        for ext in ("png", "pdf"):
+        for ext in ("png", "pdf", "svg"):
             assert (tmp_path / f"{tag}_normal.{ext}").stat().st_size > 5000
     assert (tmp_path / "groups" / "group_max_area.png").exists()
+    # never inside the results, which --overwrite would then refuse to replace
+    inside = subprocess.run([sys.executable, str(script), str(cohort_out), "--out",
+                             str(cohort_out / "paper_figures")], capture_output=True, text=True)
+    assert inside.returncode != 0 and "inside the results folder" in inside.stderr
+    assert not (cohort_out / "paper_figures").exists()
 
 
 def test_the_cohort_page_lists_each_datasets_warnings():

@@ -1,6 +1,7 @@
-"""Figures of one dataset's results (matplotlib, no display needed).
+"""Figures of one dataset's results and of a cohort (matplotlib, no display needed).
 
-Each function takes the arrays it draws and a path, and writes one PNG.
+Each function takes the arrays it draws and a path, and writes one figure in the
+house style (:mod:`oftimg.output.style`): a PNG at that path, a PDF and an SVG beside it.
 """
 from __future__ import annotations
 
@@ -13,9 +14,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..analysis.group_maps import groups_in_order  # noqa: E402
+from .style import (COLUMN_MM, DIVERGING, LINE_COLOURS, MM, PAGE_MM, SEQUENTIAL,  # noqa: E402
+                    colour_bar, house_style, new_figure, save, wrapped)
 
-WALL_COLOURS = {"outer": "#c0392b", "inner": "#e59866", "lumen": "#2e86c1",
-                "myocardium": "#6c3483", "jelly": "#16a085"}
+# Okabe-Ito colours (style.LINE_COLOURS), one per wall and layer
+WALL_COLOURS = {"outer": "#D55E00", "inner": "#E69F00", "lumen": "#0072B2",
+                "myocardium": "#CC79A7", "jelly": "#009E73"}
 LAYERS = {"myocardium": "myocardium (outer - inner)", "jelly": "cardiac jelly (inner - lumen)"}
 
 
@@ -25,18 +29,12 @@ def plain_text(text: str) -> str:
     return str(text).replace("$", r"\$")
 
 
-def _save(fig, path: Path) -> Path:
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
+@house_style
 def volume_over_cycle(t_ms: np.ndarray, volumes_mm3: dict[str, np.ndarray], path: Path,
                       *, title: str = "") -> Path:
     """Volumes of each wall, and of the layers between them (``myocardium``: outer -
     inner, ``jelly``: inner - lumen), over the aligned cycle."""
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
+    fig, axes = new_figure(PAGE_MM, 62, ncols=2)
     for name, v in volumes_mm3.items():
         ax = axes[1] if name in LAYERS else axes[0]
         ax.plot(t_ms, v, color=WALL_COLOURS.get(name, "k"), label=LAYERS.get(name, name), lw=1.6)
@@ -47,14 +45,15 @@ def volume_over_cycle(t_ms: np.ndarray, volumes_mm3: dict[str, np.ndarray], path
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
-    fig.suptitle(plain_text(title), fontsize=10)
-    return _save(fig, path)
+    fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
+    return save(fig, path)
 
 
+@house_style
 def trim_over_cycle(t_ms: np.ndarray, trim_percent: np.ndarray, myocardial_mm3: np.ndarray,
                     path: Path, *, title: str = "") -> Path:
     """The paper's volume-normalisation figure: myocardial volume and trim distance."""
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
+    fig, axes = new_figure(PAGE_MM, 62, ncols=2)
     axes[0].plot(t_ms, myocardial_mm3, color=WALL_COLOURS["myocardium"])
     axes[0].set_ylabel("myocardial volume (mm$^3$)")
     axes[0].set_title("between outer and inner myocardium", fontsize=9)
@@ -64,18 +63,19 @@ def trim_over_cycle(t_ms: np.ndarray, trim_percent: np.ndarray, myocardial_mm3: 
     for ax in axes:
         ax.set_xlabel("time since minimum volume (ms)")
         ax.grid(alpha=0.3)
-    fig.suptitle(plain_text(title), fontsize=10)
-    return _save(fig, path)
+    fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
+    return save(fig, path)
 
 
+@house_style
 def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray], path: Path,
                         *, rows=(0.1, 0.5, 0.9), title: str = "") -> Path:
     """3-D view of one frame's outer grid with a few section contours of each wall.
 
     ``grid_mm (n_u, n_v, 3)``, ``contours_mm[wall] (n_c, n_v, 3)``.
     """
-    fig = plt.figure(figsize=(6, 4.5))
-    ax = fig.add_subplot(projection="3d")
+    fig = plt.figure(figsize=(COLUMN_MM * MM, 80 * MM))
+    ax = fig.add_axes((0.04, 0.06, 0.92, 0.8), projection="3d")
     n_u, n_v, _ = grid_mm.shape
     for i in range(0, n_u, 4):
         ax.plot(*grid_mm[i].T, color="#bbb", lw=0.5)
@@ -86,13 +86,25 @@ def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray],
             ring = np.concatenate([C[:, j], C[:1, j]])
             ax.plot(*ring.T, color=WALL_COLOURS[wall], lw=1.5,
                     label=wall if frac == rows[0] else None)
-    ax.set_box_aspect(np.ptp(grid_mm.reshape(-1, 3), axis=0))  # true proportions
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
-    ax.set_zlabel("z (mm)")
-    ax.legend(fontsize=8, loc="upper left")
-    ax.set_title(plain_text(title), fontsize=9)
-    return _save(fig, path)
+    ax.set_box_aspect(np.ptp(grid_mm.reshape(-1, 3), axis=0), zoom=0.62)  # true proportions
+    from matplotlib.ticker import MaxNLocator
+
+    for axis, name, ticks in ((ax.xaxis, "x", 2), (ax.yaxis, "y", 2), (ax.zaxis, "z", 3)):
+        axis.set_major_locator(MaxNLocator(ticks))  # few: a thin tube's axes are short
+        axis.set_label_text(f"{name} (mm)")
+    # x's last tick and y's first meet at the near corner: each leaves that one out
+    for axis, keep in ((ax.xaxis, slice(None, -1)), (ax.yaxis, slice(1, None))):
+        lo, hi = sorted(axis.get_view_interval())
+        ticks = [x for x in axis.get_major_locator().tick_values(lo, hi) if lo <= x <= hi]
+        if len(ticks) > 2:
+            axis.set_ticks(ticks[keep])
+    ax.tick_params(pad=0)
+    ax.xaxis.labelpad = ax.yaxis.labelpad = 2
+    ax.zaxis.labelpad = 6
+    ax.view_init(elev=18, azim=-40)    # the x and y tick labels apart at the near corner
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, 1.0))
+    fig.suptitle(wrapped(plain_text(title), COLUMN_MM, 9))
+    return save(fig, path)
 
 
 def field_grid_note(summary: dict) -> str:
@@ -144,17 +156,19 @@ def _map_extent(s_mm, t_ms):
     return [t_ms[0] - dt / 2, t_ms[-1] + dt / 2, s_mm[0], s_mm[-1]]
 
 
+@house_style
 def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Path, *,
              ridge_t_ms=None, crossings_75_ms=None, sigma_ms=None, title: str = "",
-             label: str = "cross-sectional area (mm$^2$)", cmap: str = "jet") -> Path:
+             label: str = "cross-sectional area (mm$^2$)", cmap: str = SEQUENTIAL) -> Path:
     """The paper's Fig. 'area to line' A: area (or another (v, t) map, ``label``) as
     colour, v up (inlet at the bottom), t to the right, with the ridge (line), 75 %
-    crossings (x) and one-sigma times (*)."""
+    crossings (x) and one-sigma times (*); a sequential colour map (``cmap``) with its
+    bar labelled ``label`` (quantity and unit)."""
     period = t_ms[-1] + (t_ms[1] - t_ms[0])
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    fig, ax = new_figure(COLUMN_MM, 78)
     im = ax.imshow(area_mm2, origin="lower", aspect="auto", cmap=cmap,
                    extent=_map_extent(s_mm, t_ms), interpolation="nearest")
-    fig.colorbar(im, ax=ax, label=label)
+    colour_bar(fig, im, ax, label)
     if ridge_t_ms is not None:
         ax.plot(np.mod(ridge_t_ms, period), s_mm, "k.", ms=3, label="maximum area")
     if crossings_75_ms is not None:
@@ -168,72 +182,79 @@ def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Pat
     ax.set_xlabel("time since minimum volume (ms)")
     ax.set_ylabel("position along the tube s (mm)")
     ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
-    ax.set_title(plain_text(title), fontsize=9)
+    ax.set_title(wrapped(plain_text(title), COLUMN_MM))
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="upper right", framealpha=0.6)
-    return _save(fig, path)
+        fig.legend(loc="outside lower center", ncol=2, fontsize=7)
+    return save(fig, path)
 
 
+@house_style
 def max_area_profile(s_mm, max_area: dict, path: Path, *, sigma_area: dict | None = None,
                      title: str = "") -> Path:
     """Fig. B: maximum area vs position, with the 75 % and one-sigma areas."""
-    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    fig, ax = new_figure(COLUMN_MM, 75)
     for wall, a in max_area.items():
         c = WALL_COLOURS[wall]
-        ax.plot(s_mm, a, color=c, lw=1.8, label=f"{wall} maximum")
-        ax.plot(s_mm, 0.75 * a, color=c, lw=1, ls="--", label=f"{wall} 75 %")
+        ax.plot(s_mm, a, color=c, lw=1.5)
+        ax.plot(s_mm, 0.75 * a, color=c, lw=0.9, ls="--")
         if sigma_area and wall in sigma_area:
-            ax.plot(s_mm, sigma_area[wall], color=c, lw=1, ls=":", label=f"{wall} one sigma")
+            ax.plot(s_mm, sigma_area[wall], color=c, lw=0.9, ls=":")
+    # the key: a colour per wall, a line style per level
+    for wall in max_area:
+        ax.plot([], [], color=WALL_COLOURS[wall], lw=1.5, label=wall)
+    for style_, what in (("-", "maximum"), ("--", "75 %"), (":", "one sigma")):
+        if style_ != ":" or sigma_area:
+            ax.plot([], [], color="0.3", ls=style_, lw=1, label=what)
     ax.set_xlabel("position along the tube s (mm)")
     ax.set_ylabel("cross-sectional area (mm$^2$)")
-    ax.legend(fontsize=6, ncol=3)
+    fig.legend(loc="outside lower center", ncol=3, fontsize=7)
     ax.grid(alpha=0.3)
-    ax.set_title(plain_text(title), fontsize=9)
-    return _save(fig, path)
+    ax.set_title(wrapped(plain_text(title), COLUMN_MM))
+    return save(fig, path)
 
 
+@house_style
 def time_expanded(s_mm, shares: dict[str, np.ndarray], path: Path, *, title: str = "") -> Path:
     """Fig. C: % of the cycle each section is expanded."""
-    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    fig, ax = new_figure(COLUMN_MM, 75)
     for label, share in shares.items():
         ax.plot(s_mm, 100 * share, lw=1.6, label=label)
     ax.set_xlabel("position along the tube s (mm)")
     ax.set_ylabel("time expanded (% of cycle)")
-    ax.legend(fontsize=7)
+    fig.legend(loc="outside lower center", ncol=2, fontsize=7)
     ax.grid(alpha=0.3)
-    ax.set_title(plain_text(title), fontsize=9)
-    return _save(fig, path)
+    ax.set_title(wrapped(plain_text(title), COLUMN_MM))
+    return save(fig, path)
 
 
+@house_style
 def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
                      title: str = "") -> Path:
     """Fig. D: gradient angle as hue, magnitude as intensity, with the colour wheel."""
     from ..image.gradient import colour_wheel
 
-    fig = plt.figure(figsize=(6.8, 4.0))
-    ax = fig.add_axes([0.1, 0.13, 0.62, 0.77])
+    fig, (ax, wax) = new_figure(PAGE_MM, 80, ncols=2, width_ratios=(3.2, 1))
     ax.imshow(rgb, origin="lower", aspect="auto", extent=_map_extent(s_mm, t_ms),
               interpolation="nearest")
     ax.set_xlabel("time since minimum volume (ms)")
     ax.set_ylabel("position along the tube s (mm)")
-    ax.set_title(plain_text(title), fontsize=9)
-    wax = fig.add_axes([0.76, 0.45, 0.22, 0.4])
+    ax.set_title(wrapped(plain_text(title), PAGE_MM * 0.7))
     wax.imshow(colour_wheel(), origin="upper")
     wax.set_axis_off()
-    wax.set_title("d/dt right, d/ds up", fontsize=7)
+    wax.set_title("key: hue = direction\n(d/dt right, d/ds up),\nbrightness = size",
+                  fontsize=7)
     if rates is not None:
-        fig.text(0.76, 0.3, "max expansion\n%.2e mm$^2$/ms\nmax contraction\n%.2e mm$^2$/ms"
-                 % rates, fontsize=7)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+        wax.text(0.5, -0.08, "max expansion\n%.2e mm$^2$/ms\nmax contraction\n%.2e mm$^2$/ms"
+                 % rates, fontsize=7, ha="center", va="top", transform=wax.transAxes)
+    return save(fig, path)
 
 
+@house_style
 def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_ms=None,
                speed_sd=None, title: str = "") -> Path:
     """Time of maximum expansion vs position, with the two-segment fit and local speed;
     ``ridge_sd_ms`` / ``speed_sd`` (``(n_v,)``, optional) as +- 1 SD bars / band."""
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
+    fig, axes = new_figure(PAGE_MM, 65, ncols=2)
     if ridge_sd_ms is not None:
         axes[0].errorbar(s_mm, ridge_t_ms, yerr=ridge_sd_ms, fmt="k.", ms=4, elinewidth=0.6,
                          label="ridge +- 1 SD (frame noise)")
@@ -270,8 +291,8 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
     axes[1].set_ylabel("local wave speed (mm/s)")
     for ax in axes:
         ax.grid(alpha=0.3)
-    fig.suptitle(plain_text(title), fontsize=10)
-    return _save(fig, path)
+    fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
+    return save(fig, path)
 
 
 def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms: float
@@ -306,8 +327,33 @@ def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms:
     return written
 
 
+@house_style
+def field_pair(field: np.ndarray, area_mm2: np.ndarray, path: Path, *, label: str,
+               title: str = "") -> Path:
+    """Two (u, v) frames of a field ``(n_u, n_v, n_t)``, at maximum contraction (t = 0)
+    and at the frame of largest total area ``area_mm2 (n_v, n_t)`` (the paper's
+    Figs. 5, 6 and 13): a diverging colour map centred on 0 for a signed field,
+    sequential for a one-signed one, one shared bar labelled ``label`` (quantity
+    and unit); u across from the seam, v up from the inlet."""
+    from .style import colour_scale
+
+    t_exp = int(np.argmax(np.nansum(area_mm2, axis=0)))
+    scale = colour_scale(field)
+    signed = scale["cmap"] == DIVERGING
+    fig, axes = new_figure(PAGE_MM, 70, ncols=2, sharey=True)
+    for ax, t, when in zip(axes, (0, t_exp), ("maximum contraction", "maximum expansion")):
+        image = ax.imshow(field[:, :, t].T, origin="lower", aspect="auto", extent=[0, 1, 0, 1],
+                          interpolation="nearest", **scale)
+        ax.set_xlabel("u, around the tube from the seam")
+        ax.set_title(f"{when} (frame {t})")
+    axes[0].set_ylabel("v, along the tube (inlet 0)")
+    colour_bar(fig, image, list(axes), label, signed=signed)
+    fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
+    return save(fig, path)
+
+
 # ------------------------------------------------------------------ cohort figures
-GROUP_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
+GROUP_COLOURS = LINE_COLOURS
 NAMED_CURVES_MAX = 8  # a group with more embryos is drawn as thin lines with mean and SD
 
 
@@ -372,27 +418,30 @@ def _group_profiles(path: Path) -> dict:
     return out
 
 
-# the cohort maps drawn per group: key of cohort_maps.npz, title, file, range of the means
+# the cohort maps drawn per group: key of cohort_maps.npz, title, file, range of the means,
+# the colour bar's quantity and unit
 GROUP_MAPS = [
     ("area_outer_normalized", "outer area, each row over its maximum", "group_area_maps.png",
-     (0.0, 1.0)),
-    ("wall_thickness_mm", "myocardial wall thickness, mean around the tube (mm)",
-     "group_wall_thickness_maps.png", None),
-    ("jelly_thickness_mm", "cardiac jelly thickness, mean around the tube (mm)",
-     "group_jelly_thickness_maps.png", None),
+     (0.0, 1.0), "area / row maximum (1)"),
+    ("wall_thickness_mm", "myocardial wall thickness, mean around the tube",
+     "group_wall_thickness_maps.png", None, "wall thickness (mm)"),
+    ("jelly_thickness_mm", "cardiac jelly thickness, mean around the tube",
+     "group_jelly_thickness_maps.png", None, "jelly thickness (mm)"),
     ("strain_energy_outer", "outer wall's strain energy against t = 0, mean around the tube",
-     "group_strain_energy_maps.png", None),
+     "group_strain_energy_maps.png", None, "strain energy (1)"),
 ]
 
 
+@house_style
 def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normalized",
                       title: str = "outer area, each row over its maximum", value_range=None,
-                      alpha: float = 0.05) -> Path:
+                      alpha: float = 0.05, unit_label: str = "area / row maximum (1)") -> Path:
     """Each group's mean of map ``key`` on the cohort's common grid (``maps``:
     :func:`oftimg.output.export.cohort_maps`; ``value_range`` its colour range, default the
     means' own), and each other group's difference from the first (normals first),
     with the clusters (solid) and the single pixels (dashed) where it is significant
-    over the whole map (``*_p_cluster``, ``*_p_fwer`` below ``alpha``) outlined.
+    over the whole map (``*_p_cluster``, ``*_p_fwer`` below ``alpha``) outlined;
+    ``unit_label`` names the colour bars' quantity and unit.
     Embryos without the map (all NaN) are left out."""
     from ..analysis.group_maps import group_mean_maps
 
@@ -402,7 +451,7 @@ def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normaliz
     lo, hi = value_range or (np.nanmin([means[g][0] for g in order]),
                              np.nanmax([means[g][0] for g in order]))
     extent = [0, 1, 0, 1]
-    panels = [(f"{g} mean (n = {means[g][2]})", means[g][0], "jet", lo, hi, None)
+    panels = [(f"{g} mean (n = {means[g][2]})", means[g][0], SEQUENTIAL, lo, hi, None)
               for g in order]
     differences = maps[f"{key}_difference"]
     lim = (float(np.nanmax(np.abs(differences)))
@@ -412,9 +461,8 @@ def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normaliz
         if np.all(np.isnan(difference)):
             continue                                  # a group without this map
         panels.append((f"{name}\n{_significance_note(p_cluster, p_fwer, alpha)}", difference,
-                       "RdBu_r", -lim, lim, (p_cluster, p_fwer)))
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.6), sharey=True,
-                             squeeze=False)
+                       DIVERGING, -lim, lim, (p_cluster, p_fwer)))
+    fig, axes = new_figure(PAGE_MM, 72, ncols=len(panels), sharey=True, squeeze=False)
     for ax, (panel_title, image, cmap, vmin, vmax, p) in zip(axes[0], panels):
         im = ax.imshow(image, origin="lower", aspect="auto", cmap=cmap, vmin=vmin, vmax=vmax,
                        extent=extent, interpolation="nearest")
@@ -424,12 +472,13 @@ def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normaliz
                 ax.contour((np.arange(cols) + 0.5) / cols, (np.arange(rows) + 0.5) / rows,
                            np.nan_to_num(p_map, nan=1.0) < alpha, levels=[0.5], colors="k",
                            linewidths=1.0, linestyles=style)
-        fig.colorbar(im, ax=ax, fraction=0.05)
-        ax.set_title(plain_text(panel_title), fontsize=9)
-        ax.set_xlabel("fraction of the cycle since minimum volume")
+        colour_bar(fig, im, ax, unit_label if p is None else f"difference, {unit_label}",
+                   signed=p is not None)
+        ax.set_title(plain_text(panel_title), fontsize=7)
+        ax.set_xlabel("cycle since minimum volume")
     axes[0][0].set_ylabel("position, fraction of the tube")
-    fig.suptitle(title, fontsize=10)
-    return _save(fig, path)
+    fig.suptitle(title)
+    return save(fig, path)
 
 
 def _significance_note(p_cluster: np.ndarray, p_fwer: np.ndarray, alpha: float) -> str:
@@ -445,6 +494,7 @@ def _significance_note(p_cluster: np.ndarray, p_fwer: np.ndarray, alpha: float) 
     return note
 
 
+@house_style
 def group_figures(results: Path, summaries: list[dict], folder: Path, *,
                   maps: dict | None = None) -> list[Path]:
     """Groups side by side (normals left, banded right, as the paper): maximum area,
@@ -463,20 +513,19 @@ def group_figures(results: Path, summaries: list[dict], folder: Path, *,
     for key, ylabel, fname in GROUP_PROFILES:
         if not any(key in d for d in data.values()):      # no embryo with an inner wall
             continue
-        fig, axes = plt.subplots(1, len(groups), figsize=(4.5 * len(groups), 3.6), sharey=True,
-                                 squeeze=False)
+        fig, axes = new_figure(PAGE_MM, 70, ncols=len(groups), sharey=True, squeeze=False)
         for ax, g in zip(axes[0], groups):
             curves = [(s["name"], data[s["name"]]["s_mm"], data[s["name"]][key])
                       for s in members[g] if key in data[s["name"]]]
             if curves:
                 _group_curves(ax, curves, colours[g], _common_position(curves))
                 ax.legend(fontsize=7)
-            ax.set_title(plain_text(g), fontsize=10)
+            ax.set_title(plain_text(g), fontsize=9)
             ax.set_xlabel("position along the tube s (mm)")
             ax.grid(alpha=0.3)
         axes[0][0].set_ylabel(ylabel)
-        written.append(_save(fig, folder / fname))
-    fig, ax = plt.subplots(figsize=(6, 3.6))
+        written.append(save(fig, folder / fname))
+    fig, ax = new_figure(COLUMN_MM, 65)
     cycle = np.linspace(0.0, 1.0, 101)
     for g in groups:
         curves = []
@@ -492,11 +541,11 @@ def group_figures(results: Path, summaries: list[dict], folder: Path, *,
     ax.set_xlabel("fraction of the cycle since minimum volume")
     ax.set_ylabel("outer volume / its mean")
     ax.grid(alpha=0.3)
-    written.append(_save(fig, folder / "group_volume.png"))
-    for key, title, fname, value_range in GROUP_MAPS if maps is not None else []:
+    written.append(save(fig, folder / "group_volume.png"))
+    for key, title, fname, value_range, unit_label in GROUP_MAPS if maps is not None else []:
         if np.isfinite(maps[key]).any():
             written.append(group_maps_figure(maps, folder / fname, key=key, title=title,
-                                             value_range=value_range))
+                                             value_range=value_range, unit_label=unit_label))
     for phase in ("expansion", "contraction"):
         p = pca_groups_figure(results, summaries, folder / f"group_pca_{phase}.png", phase=phase)
         if p is not None:
@@ -512,8 +561,8 @@ def _mode_arrows(ax, mean, disp, title):
     size = np.ptp(mean, axis=0).max()
     longest = np.linalg.norm(disp, axis=1).max()
     ax.quiver(mean[::step, 0], mean[::step, 1], disp[::step, 0], disp[::step, 1],
-              np.linalg.norm(disp[::step], axis=1), cmap="viridis", angles="xy",
-              scale_units="xy", scale=longest / (0.15 * size), width=0.012)
+              color=LINE_COLOURS[0], angles="xy", scale_units="xy",
+              scale=longest / (0.15 * size), width=0.012)
     pad = 0.18 * size                       # the longest arrow is 0.15 size: inside the axes
     ax.set_xlim(mean[:, 0].min() - pad, mean[:, 0].max() + pad)
     ax.set_ylim(mean[:, 1].min() - pad, mean[:, 1].max() + pad)
@@ -523,6 +572,7 @@ def _mode_arrows(ax, mean, disp, title):
     ax.set_title(plain_text(title), fontsize=7)
 
 
+@house_style
 def pca_groups_figure(results: Path, summaries: list[dict], path: Path, *,
                       phase: str = "expansion") -> Path | None:
     """Paper Fig. 14: modes 1 and 2 at the three rows, one embryo per group side by side."""
@@ -534,8 +584,7 @@ def pca_groups_figure(results: Path, summaries: list[dict], path: Path, *,
         return None
     groups = groups_in_order(list(firsts))
     n_rows = len(firsts[groups[0]]["pca"]["rows"])
-    fig, axes = plt.subplots(2, n_rows * len(groups), figsize=(2.3 * n_rows * len(groups), 5.8),
-                             squeeze=False)
+    fig, axes = new_figure(PAGE_MM, 110, nrows=2, ncols=n_rows * len(groups), squeeze=False)
     for gi, g in enumerate(groups):
         summ = firsts[g]
         pca = np.load(Path(results) / summ["name"] / "pca.npz")
@@ -544,21 +593,22 @@ def pca_groups_figure(results: Path, summaries: list[dict], path: Path, *,
             for m in (0, 1):
                 _mode_arrows(axes[m][gi * n_rows + k], pca[f"{key}_mean_mm"],
                              pca[f"{key}_displacement_mm"][m],
-                             f"{g} ({summ['name']}) v={row['v']:.1f}\nmode {m + 1}: "
+                             f"{g} ({summ['name']})\nv {row['v']:.1f}, mode {m + 1}: "
                              f"{100 * pca[f'{key}_explained'][m]:.0f} %")
-    fig.suptitle(f"cross-section shape modes, {phase} phase", fontsize=10)
-    return _save(fig, path)
+    fig.suptitle(wrapped(f"cross-section shape modes, {phase} phase (arrows: each mode's "
+                         "shape change, the longest 15 % of the contour's size)", PAGE_MM, 9))
+    return save(fig, path)
 
 
+@house_style
 def pca_figure(pca: dict, pca_summary: dict, path: Path, *, title: str = "",
                modes=(0, 1)) -> Path:
     """Arrows of modes 1 and 2 on each row's mean contour, expansion and contraction,
     and the displacement magnitude along the contour (paper Figs. 7 and 14)."""
     rows = pca_summary["rows"]
     phases = ("expansion", "contraction")
-    fig, axes = plt.subplots(len(modes) + 1, len(rows) * 2,
-                             figsize=(2.6 * len(rows) * 2, 2.5 * (len(modes) + 1)),
-                             squeeze=False)
+    fig, axes = new_figure(PAGE_MM, 40 * (len(modes) + 1), nrows=len(modes) + 1,
+                           ncols=len(rows) * 2, squeeze=False)
     for k, row in enumerate(rows):
         for p, phase in enumerate(phases):
             col = 2 * k + p
@@ -569,13 +619,19 @@ def pca_figure(pca: dict, pca_summary: dict, path: Path, *, title: str = "",
             for m_i, m in enumerate(modes):
                 # longest arrow: 15 % of the contour's size (each mode scaled on its own)
                 _mode_arrows(axes[m_i][col], mean, disp[m],
-                             f"v={row['v']:.1f} {phase}\nmode {m + 1}: {100 * expl[m]:.0f} %")
+                             f"v {row['v']:.1f}, {phase}\nmode {m + 1}: "
+                             f"{100 * expl[m]:.0f} %")
             ax = axes[-1][col]
             for m in modes:
-                ax.plot(np.linalg.norm(disp[m], axis=1) * 1e3, label=f"mode {m + 1}")
-            ax.set_xlabel("point around the contour (from the seam)", fontsize=7)
-            ax.set_ylabel("|displacement| (um)", fontsize=7)
-            ax.tick_params(labelsize=6)
-            ax.legend(fontsize=6)
-    fig.suptitle(plain_text(title), fontsize=10)
-    return _save(fig, path)
+                ax.plot(np.linalg.norm(disp[m], axis=1) * 1e3,
+                        label=f"mode {m + 1}" if col == 0 else None)
+            ax.set_xlabel("point")
+            if col:
+                ax.sharey(axes[-1][0])
+                ax.tick_params(labelleft=False)
+    axes[-1][0].set_ylabel("|displacement| (µm)")
+    fig.legend(loc="outside lower center", ncol=len(modes), fontsize=7)
+    fig.suptitle(wrapped(plain_text(title) + " (arrows: each mode's shape change, the "
+                         "longest 15 % of the contour's size; points counted around the "
+                         "contour from the seam)", PAGE_MM, 9))
+    return save(fig, path)

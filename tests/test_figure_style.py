@@ -1,0 +1,185 @@
+"""Every figure type in the house style (issue 52): each axes with labelled x and y
+axes, each colour bar labelled with a unit, no text over other text or outside the
+figure, fonts of 7-9 pt at a journal's column or page width, and a vector PDF and SVG
+beside the PNG with the text kept as text."""
+import re
+
+import matplotlib
+import numpy as np
+import pytest
+
+from oftimg.output import figures, style
+from test_figures import cohort_results, figure_cases
+
+UNIT = re.compile(r"\(([^()]+)\)")          # "quantity (unit)"
+
+
+def _axes_drawn(ax) -> bool:
+    """Whether ``ax`` draws its axes (a 3-D axes draws its own, with ``axison`` off)."""
+    return ax.axison or getattr(ax, "_axis3don", False)
+
+
+def _undrawn_tick_labels(fig) -> set:
+    """Tick labels matplotlib keeps but does not draw (their ticks lie outside the view),
+    and a 3-D axes' tick labels, whose boxes after drawing are not where they were
+    drawn (each is moved and drawn in turn): those are looked at in the PNG instead."""
+    undrawn = set()
+    for ax in fig.axes:
+        if ax.name == "3d":
+            undrawn |= {id(lab) for axis in ax._axis_map.values()
+                        for tick in axis.get_major_ticks() + axis.get_minor_ticks()
+                        for lab in (tick.label1, tick.label2)}
+            continue
+        for axis in ax._axis_map.values():
+            drawn = {id(lab) for tick in axis._update_ticks() for lab in (tick.label1, tick.label2)
+                     if _axes_drawn(ax)}
+            for tick in axis.get_major_ticks() + axis.get_minor_ticks():
+                undrawn |= {id(lab) for lab in (tick.label1, tick.label2) if id(lab) not in drawn}
+    return undrawn
+
+
+def _texts(fig):
+    """Every text ``fig`` draws, with its box in pixels."""
+    renderer = fig.canvas.get_renderer()
+    undrawn = _undrawn_tick_labels(fig)
+    found = []
+    for text in fig.findobj(matplotlib.text.Text):
+        if not text.get_visible() or not text.get_text().strip() or id(text) in undrawn:
+            continue
+        if text.axes is not None and not text.axes.get_visible():
+            continue
+        found.append((text, text.get_window_extent(renderer)))
+    return found
+
+
+def layout_problems(fig) -> list[str]:
+    """What a reader would call a layout fault: text overlapping text, text leaving the
+    figure, an axis without its label, a colour bar without a unit, type outside 7-9 pt."""
+    fig.canvas.draw()
+    problems = []
+    texts = _texts(fig)
+    width, height = fig.bbox.width, fig.bbox.height
+    for text, box in texts:
+        if box.x0 < -1 or box.y0 < -1 or box.x1 > width + 1 or box.y1 > height + 1:
+            problems.append(f"text {text.get_text()!r} leaves the figure")
+        if not 7 <= text.get_fontsize() <= 9:
+            problems.append(f"text {text.get_text()!r} at {text.get_fontsize()} pt")
+    for i, (a, box_a) in enumerate(texts):
+        for b, box_b in texts[i + 1:]:
+            shrunk = box_a.padded(-1)          # touching edges are not an overlap
+            if shrunk.width > 0 and shrunk.height > 0 and shrunk.overlaps(box_b.padded(-1)):
+                problems.append(f"{a.get_text()!r} overlaps {b.get_text()!r}")
+    for ax in fig.axes:
+        bar = getattr(ax, "_colorbar", None)
+        if bar is not None:
+            label = ax.get_ylabel() or ax.get_xlabel()
+            if not UNIT.search(label):
+                problems.append(f"colour bar {label!r} has no unit")
+            continue
+        if not _axes_drawn(ax):
+            continue
+        for axis, shared, get in (("x", ax.get_shared_x_axes(), "get_xlabel"),
+                                  ("y", ax.get_shared_y_axes(), "get_ylabel")):
+            ticks = getattr(ax, f"get_{axis}ticklabels")()
+            if not any(t.get_text() for t in ticks) and not getattr(ax, get)():
+                continue                       # no ticks shown: a picture, not an axis
+            if not any(getattr(sib, get)() for sib in shared.get_siblings(ax)):
+                problems.append(f"axes {ax.get_title()!r}: no {axis} label")
+    return problems
+
+
+def _checked_save(seen):
+    real_save = style.save
+
+    def save(fig, path):
+        seen.append((path, layout_problems(fig), fig.get_size_inches() / style.MM))
+        return real_save(fig, path)
+    return save
+
+
+def _group_maps():
+    rng = np.random.default_rng(0)
+    groups = np.array(["normal"] * 3 + ["banded"] * 3)
+    area = rng.random((6, 20, 30))
+    p = np.full((1, 20, 30), 0.5)
+    p[0, 5:9, 10:15] = 0.01
+    return {"groups": groups, "comparisons": np.array(["banded - normal"]),
+            "area_outer_normalized": area,
+            "area_outer_normalized_difference": area[3:].mean(0, keepdims=True)
+            - area[:3].mean(0, keepdims=True),
+            "area_outer_normalized_p_fwer": p, "area_outer_normalized_p_cluster": p}
+
+
+def _pca():
+    from oftimg.image.pca import contour_pca
+
+    u = np.linspace(0, 2 * np.pi, 40, endpoint=False)[:, None, None]
+    v = np.linspace(0, 1, 12)[None, :, None]
+    t = np.arange(16)[None, None, :]
+    r = 0.2 * (1 + 0.2 * np.sin(np.pi * t / 15)) * (1 + 0.1 * np.cos(2 * u) * np.sin(np.pi * t / 15))
+    grid = np.stack(np.broadcast_arrays(r * np.cos(u), r * np.sin(u), v + 0 * u * t), axis=-1)
+    return contour_pca(grid, 8), grid
+
+
+def drawn_figures(tmp_path, monkeypatch) -> list:
+    """Every figure type drawn once; (path, problems, size in mm) of each."""
+    seen = []
+    monkeypatch.setattr(figures, "save", _checked_save(seen))
+    for name, draw in figure_cases(tmp_path).items():
+        draw(tmp_path / f"{name}.png")
+    pca, grid = _pca()
+    figures.pca_figure(pca["arrays"], pca["summary"], tmp_path / "shape_pca.png",
+                       title="an embryo: cross-section shape modes")
+    contours = {"outer": grid[:, :, 0]}
+    figures.frame_with_contours(grid[:, :, 0], contours, tmp_path / "frame.png",
+                                title="an embryo: t = 0 (minimum volume)")
+    figures.group_maps_figure(_group_maps(), tmp_path / "group_area_maps.png")
+    field = grid[..., 0] * 5                                    # signed: a diverging scale
+    figures.field_pair(field, np.ones((12, 16)), tmp_path / "field_pair.png",
+                       label="radial curvature (1/mm)", title="an embryo: radial curvature")
+    (tmp_path / "cohort").mkdir()
+    summaries = cohort_results(tmp_path / "cohort", {"normal": 3, "banded": 3})
+    figures.group_figures(tmp_path / "cohort", summaries, tmp_path)
+    return seen
+
+
+def test_every_figure_is_laid_out_for_a_journal(tmp_path, monkeypatch):
+    seen = drawn_figures(tmp_path, monkeypatch)
+    assert len(seen) >= 14
+    faults = {path.name: problems for path, problems, _ in seen if problems}
+    assert faults == {}
+    for path, _, (width_mm, _) in seen:      # a column or the page, at print size
+        assert width_mm <= style.PAGE_MM + 0.5, path.name
+        assert width_mm >= style.COLUMN_MM - 0.5, path.name
+
+
+def test_each_figure_has_a_vector_pdf_and_svg_with_text_as_text(tmp_path, monkeypatch):
+    seen = drawn_figures(tmp_path, monkeypatch)
+    for path, _, _ in seen:
+        pdf = path.with_suffix(".pdf").read_bytes()
+        assert b"/FontFile2" in pdf, f"{path.name}: the PDF's text is not embedded as a font"
+        svg = path.with_suffix(".svg").read_text()
+        assert "<text" in svg, f"{path.name}: the SVG's text is drawn as paths"
+    line_plot = (tmp_path / "volume_over_cycle.pdf").read_bytes()
+    assert b"/Subtype /Image" not in line_plot                 # lines drawn as lines
+
+
+def test_the_layout_check_finds_the_faults_it_looks_for():
+    """The check above fails a figure with overlapping titles, a label off the edge,
+    a colour bar without a unit, and an axis without a label."""
+    import matplotlib.pyplot as plt
+
+    with matplotlib.rc_context(style.RC):
+        fig, ax = style.new_figure(style.COLUMN_MM, 60)
+        ax.set_xlabel("time (ms)")
+        image = ax.imshow(np.zeros((3, 3)))
+        fig.colorbar(image, ax=ax, label="area")
+        fig.text(0.5, 0.5, "one", fontsize=8)
+        fig.text(0.5, 0.5, "two", fontsize=8)
+        fig.text(0.99, 0.5, "off the edge", fontsize=8)
+        problems = "\n".join(layout_problems(fig))
+        plt.close(fig)
+    assert "'one' overlaps 'two'" in problems
+    assert "'off the edge' leaves the figure" in problems
+    assert "colour bar 'area' has no unit" in problems
+    assert "no y label" in problems

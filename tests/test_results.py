@@ -121,3 +121,29 @@ def test_cohort_maps_as_xarray(run_out, tmp_path):
     assert ds["area_outer_normalized"].dims == ("embryo", "position", "phase")
     with pytest.raises(DatasetError, match="has no cohort_maps.npz"):
         oftimg.load_cohort_maps(tmp_path)
+
+
+def test_results_are_stored_compressed_to_a_stated_precision(tmp_path):
+    """float32 arrays are bit-rounded to 15 mantissa bits (relative error at most
+    2^-16), NaN and infinities kept, other dtypes untouched; the npz is deflated."""
+    import zipfile
+
+    from oftimg.output.export import MANTISSA_BITS_KEPT, bit_round, write_npz
+
+    rng = np.random.default_rng(0)
+    x = (rng.normal(0, 3, 10000) * 10.0 ** rng.integers(-6, 6, 10000)).astype(np.float32)
+    x[:3] = [np.nan, np.inf, -np.inf]
+    stored = bit_round(x)
+    finite = np.isfinite(x)
+    assert np.nanmax(np.abs(stored[finite] / x[finite] - 1)) <= 2.0 ** -(MANTISSA_BITS_KEPT + 1)
+    assert np.isnan(stored[0]) and stored[1] == np.inf and stored[2] == -np.inf
+    assert (stored.view(np.uint32) & ((1 << (23 - MANTISSA_BITS_KEPT)) - 1) == 0).all()
+    assert bit_round(np.arange(5.0)).dtype == np.float64            # float64 as it is
+    grid = np.cumsum(rng.normal(0, 1e-3, (80, 50, 40, 3)), axis=2).astype(np.float32)
+    write_npz(tmp_path / "a.npz", {"grid": bit_round(grid), "t": np.arange(40.0)})
+    with np.load(tmp_path / "a.npz") as back:
+        assert np.array_equal(back["grid"], bit_round(grid))
+        assert np.array_equal(back["t"], np.arange(40.0))
+    with zipfile.ZipFile(tmp_path / "a.npz") as zf:
+        assert {i.compress_type for i in zf.infolist()} == {zipfile.ZIP_DEFLATED}
+    assert (tmp_path / "a.npz").stat().st_size < 0.8 * grid.nbytes

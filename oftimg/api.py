@@ -38,7 +38,7 @@ def _as_dataset_paths(source) -> list[Path]:
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         options: dict | None = None, jobs: int | None = None,
-        scheduler: str | None = None, fps: float = 30.0, parallel: str = "auto",
+        scheduler: str | None = None, fps: float | None = None, parallel: str = "auto",
         resume: bool = False, cluster_alpha: float = 0.05) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
@@ -61,7 +61,8 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
 
     if parallel not in ("auto", "frames", "embryos"):
         raise InputError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
-    if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
+    if fps is not None and not (isinstance(fps, (int, float)) and math.isfinite(fps)
+                                and fps > 0):
         raise InputError(f"--fps must be a positive number of frames per second, found {fps!r}")
     _check_cluster_alpha(cluster_alpha)
     out = Path(out)

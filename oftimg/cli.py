@@ -79,7 +79,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--seam-method", default="graph", metavar="METHOD",
                    help="seed of the shortest-seam search: graph (Dijkstra, default), heat "
                         "(heat method), exact (MMP distances, 5x slower; a cross-check)")
-    r.add_argument("--fps", type=float, default=30.0, help="frames per second of the videos")
+    r.add_argument("--fps", type=float, default=None,
+                   help="frames per second of the videos (default: one beat in 4 s)")
     r.add_argument("--log", type=Path, default=None, metavar="FILE",
                    help="keep a full log (progress, warnings, timings) in FILE")
     r.add_argument("--warp", action="store_true",

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from oftimg.image.gradient import gradient_hsv
-from oftimg.output import figures
+from oftimg.output import figures, style
 
 
 def inside(path: Path, folder: Path) -> bool:
@@ -39,14 +39,22 @@ def main():
         raise SystemExit(f"--out {out}: inside the results folder {args.results}; choose a "
                          "folder of its own (oftimg run --overwrite replaces only its own files)")
     out.mkdir(parents=True, exist_ok=True)
-    summaries = [json.loads(p.read_text()) for p in sorted(args.results.glob("*/summary.json"))]
+    with style.vector_formats((".pdf", ".svg")):      # for a journal: both vector formats
+        written = draw_all(args.results, out)
+    print(f"{len(written)} figures in {out}")
+
+
+def draw_all(results: Path, out: Path) -> list[Path]:
+    """Every paper figure of every embryo in ``results`` (and the group figures) into
+    ``out``; the PNGs written."""
+    summaries = [json.loads(p.read_text()) for p in sorted(results.glob("*/summary.json"))]
     if not summaries:
-        raise SystemExit(f"{args.results}: no */summary.json (not an oftimg results folder)")
+        raise SystemExit(f"{results}: no */summary.json (not an oftimg results folder)")
     written = []
     for summ in summaries:
         name = summ["name"]
-        a = dict(np.load(args.results / name / "arrays.npz"))
-        g = dict(np.load(args.results / name / "grids.npz"))
+        a = dict(np.load(results / name / "arrays.npz"))
+        g = dict(np.load(results / name / "grids.npz"))
         s, t = a["s_mm"], a["t_ms"]
         f = lambda tag: out / f"{tag}_{name}.png"  # noqa: E731  (PDF and SVG beside)
         contours = {w: a[f"contour_{w}_mm"][:, :, 0] for w in ("outer", "inner", "lumen")
@@ -89,7 +97,7 @@ def main():
         written.append(figures.time_expanded(
             s, {"one sigma": a["expanded_fraction_sigma_outer"]}, f("fig11_time_expanded"),
             title=name))
-        pca_file = args.results / name / "pca.npz"
+        pca_file = results / name / "pca.npz"
         if pca_file.exists():
             pca = dict(np.load(pca_file))
             for tag in ("fig07_pca_example", "fig14_pca_modes"):
@@ -103,8 +111,8 @@ def main():
     if len({s["group"] for s in summaries}) >= 2:
         tmp = out / "groups"
         tmp.mkdir(exist_ok=True)
-        written += figures.group_figures(args.results, summaries, tmp)
-    print(f"{len(written)} figures in {out}")
+        written += figures.group_figures(results, summaries, tmp)
+    return written
 
 
 if __name__ == "__main__":

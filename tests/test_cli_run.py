@@ -52,8 +52,8 @@ def test_output_contract(run_out, phantom_normal):
     assert float(rows[0]["expand_percent"]) == pytest.approx(100 * summary["expand_fraction"],
                                                              abs=0.005)   # 2 decimals
     for fig in ("volume_over_cycle", "area_map_outer"):      # vector beside the PNG
-        for suffix in (".pdf", ".svg"):
-            assert (folder / "figures" / (fig + suffix)).stat().st_size > 5_000
+        assert (folder / "figures" / (fig + ".pdf")).stat().st_size > 5_000
+        assert not (folder / "figures" / (fig + ".svg")).exists()   # the paper script's
 
 
 def test_rerun_needs_overwrite_and_keeps_results(run_out, phantom_normal, capsys):

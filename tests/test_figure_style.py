@@ -6,7 +6,6 @@ import re
 
 import matplotlib
 import numpy as np
-import pytest
 
 from oftimg.output import figures, style
 from test_figures import cohort_results, figure_cases
@@ -125,6 +124,12 @@ def drawn_figures(tmp_path, monkeypatch) -> list:
     """Every figure type drawn once; (path, problems, size in mm) of each."""
     seen = []
     monkeypatch.setattr(figures, "save", _checked_save(seen))
+    with style.vector_formats((".pdf", ".svg")):
+        _draw_every_figure(tmp_path)
+    return seen
+
+
+def _draw_every_figure(tmp_path) -> None:
     for name, draw in figure_cases(tmp_path).items():
         draw(tmp_path / f"{name}.png")
     pca, grid = _pca()
@@ -140,7 +145,6 @@ def drawn_figures(tmp_path, monkeypatch) -> list:
     (tmp_path / "cohort").mkdir()
     summaries = cohort_results(tmp_path / "cohort", {"normal": 3, "banded": 3})
     figures.group_figures(tmp_path / "cohort", summaries, tmp_path)
-    return seen
 
 
 def test_every_figure_is_laid_out_for_a_journal(tmp_path, monkeypatch):

@@ -534,7 +534,7 @@ def describe_pca(name: str) -> dict:
     raise KeyError(f"no description for array {name!r}")
 
 
-def write_dataset_results(folder: Path, result: dict, *, fps: float = 30.0,
+def write_dataset_results(folder: Path, result: dict, *, fps: float | None = None,
                           executor=None, early_videos: list | None = None,
                           started: float | None = None) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/

@@ -35,16 +35,16 @@ def to_rgb(values: np.ndarray, vmin: float, vmax: float, cmap: str = "jet") -> n
     return rgb
 
 
-def _colour_bar(height: int, vmin: float, vmax: float, cmap: str, label: str) -> np.ndarray:
-    bar = to_rgb(np.linspace(vmax, vmin, height)[:, None] * np.ones((1, 16)), vmin, vmax, cmap)
-    panel = np.full((height, 112, 3), 255, np.uint8)
-    panel[:, 4:20] = bar
-    for text, y in ((f"{vmax:.3g}", 12), (f"{vmin:.3g}", height - 4)):
-        cv2.putText(panel, text, (24, y), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA)
-    for k, word in enumerate(label.split()[:4]):
-        cv2.putText(panel, word, (24, height // 2 - 10 + 13 * k), cv2.FONT_HERSHEY_SIMPLEX, 0.36,
-                    (0, 0, 0), 1, cv2.LINE_AA)
-    return panel
+# the frame around a (u, v) field: margins for the axes, a banner above, the colour bar
+MARGIN_LEFT, MARGIN_BOTTOM, BANNER, BAR_PANEL = 96, 64, 74, 170
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+BEAT_SECONDS = 4.0       # a beat plays in this long at the default frame rate
+
+
+def beat_fps(n_frames: int) -> float:
+    """Frames per second that play one beat of ``n_frames`` in :data:`BEAT_SECONDS`
+    (at least 2, at most 60)."""
+    return float(np.clip(n_frames / BEAT_SECONDS, 2.0, 60.0))
 
 
 def _stack(n: int, draw) -> np.ndarray:
@@ -66,20 +66,115 @@ def _even(img: np.ndarray, multiple: int = 16) -> np.ndarray:
     return out
 
 
-def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, cmap="jet",
-                 label="", scale: int = 6, per_frame: bool = False, grid_note: str = ""):
+def _text(img, text: str, org, *, scale: float = 0.5, colour=(0, 0, 0), thickness: int = 1,
+          align: str = "left") -> None:
+    """``text`` on ``img`` at ``org`` (its baseline's left, centre or right end)."""
+    (w, _), _ = cv2.getTextSize(text, FONT, scale, thickness)
+    x = org[0] - {"left": 0, "centre": w // 2, "right": w}[align]
+    cv2.putText(img, text, (int(x), int(org[1])), FONT, scale, colour, thickness, cv2.LINE_AA)
+
+
+def _ticks(lo: float, hi: float, n: int = 5) -> list[float]:
+    return list(np.linspace(lo, hi, n))
+
+
+def _colour_bar_panel(height: int, vmin: float, vmax: float, cmap: str, label: str
+                      ) -> np.ndarray:
+    """A white panel ``(height, BAR_PANEL, 3)``: the colour bar with five ticks and
+    their values, its label (quantity and unit) written above it in up to two lines."""
+    panel = np.full((height, BAR_PANEL, 3), 255, np.uint8)
+    top, bottom = 40, height - 8
+    bar = to_rgb(np.linspace(vmax, vmin, bottom - top)[:, None] * np.ones((1, 18)), vmin, vmax,
+                 cmap)
+    panel[top:bottom, 12:30] = bar
+    words, lines = label.split(), ["", ""]
+    for word in words:                                  # two lines of about 22 characters
+        k = 0 if len(lines[0]) + len(word) < 22 or not lines[0] else 1
+        lines[k] = (lines[k] + " " + word).strip()
+    for k, line in enumerate(lines):
+        _text(panel, line, (8, 13 + 15 * k), scale=0.42)
+    for value in _ticks(vmin, vmax):
+        y = int(round(bottom - 1 - (value - vmin) / ((vmax - vmin) or 1.0) * (bottom - top - 1)))
+        panel[y, 30:36] = 0
+        _text(panel, f"{value:.3g}", (40, y + 5), scale=0.42)
+    return panel
+
+
+def field_canvas(n_u: int, n_v: int, scale: int, *, vmin: float, vmax: float, cmap: str,
+                 label: str, title: str, length_mm: float | None = None) -> np.ndarray:
+    """The still part of every frame of a (u, v) field video, white, the field's
+    place ``(n_v * scale, n_u * scale)`` at rows ``BANNER:``, columns
+    ``MARGIN_LEFT:`` left for it: the title, the v axis (inlet at the bottom,
+    outlet at the top), the u axis (around the tube from the seam, the seam
+    marked at both edges), the tube's length as the scale along v, and the
+    labelled colour bar."""
+    h, w = n_v * scale, n_u * scale
+    img = np.full((BANNER + h + MARGIN_BOTTOM, MARGIN_LEFT + w + BAR_PANEL, 3), 255, np.uint8)
+    _text(img, title, (8, 20), scale=0.55)
+    x0, y0 = MARGIN_LEFT, BANNER
+    cv2.rectangle(img, (x0 - 1, y0 - 1), (x0 + w, y0 + h), (0, 0, 0), 1)
+    for v in (0.0, 0.25, 0.5, 0.75, 1.0):                      # v up: inlet at the bottom
+        y = int(round(y0 + h - 1 - v * (h - 1)))
+        img[y, x0 - 6:x0 - 1] = 0
+        _text(img, f"{v:g}", (x0 - 9, y + 5), scale=0.42, align="right")
+    _text(img, "outlet", (x0 - 9, y0 + 22), scale=0.4, align="right")
+    _text(img, "inlet", (x0 - 9, y0 + h - 14), scale=0.4, align="right")
+    _text(img, "v along", (4, y0 + 3 * h // 8 - 4), scale=0.42)   # between two ticks
+    if length_mm is not None:
+        _text(img, f"(0-1: {length_mm:.2g} mm)", (4, y0 + 3 * h // 8 + 12), scale=0.36)
+    for u in (0.0, 0.25, 0.5, 0.75, 1.0):
+        x = int(round(x0 + u * (w - 1)))
+        img[y0 + h:y0 + h + 6, x] = 0
+        _text(img, f"{u:g}", (x, y0 + h + 20), scale=0.42, align="centre")
+    for x in (x0, x0 + w - 1):                                  # the seam: u = 0 and u = 1
+        _text(img, "seam", (x, y0 + h + 36), scale=0.38, colour=(180, 0, 0), align="centre")
+    _text(img, "u around the tube, from the seam", (x0 + w // 2, y0 + h + 54), scale=0.45,
+          align="centre")
+    img[y0 - 40:y0 + h, x0 + w + 4:x0 + w + BAR_PANEL] = \
+        _colour_bar_panel(h + 40, vmin, vmax, cmap, label)[:, :BAR_PANEL - 4]
+    return img
+
+
+def _stamp(img: np.ndarray, t_ms: float, phase: float, right: int, note: str = "") -> None:
+    """The time, a phase bar (where in the beat this frame is) and ``note`` in the
+    banner of ``img``, above the picture: black on white, readable on any frame."""
+    _text(img, f"t = {t_ms:.0f} ms ({100 * phase:.0f} % of the beat)", (8, 44), scale=0.5)
+    x0, x1, y = 300, max(320, right), 38
+    cv2.rectangle(img, (x0, y - 5), (x1, y + 5), (0, 0, 0), 1)
+    cv2.rectangle(img, (x0, y - 5), (int(x0 + phase * (x1 - x0)), y + 5), (0, 0, 0), -1)
+    if note:
+        _text(img, note, (8, 64), scale=0.45, colour=(0, 0, 160))
+
+
+def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, cmap=None,
+                 label="", scale: int = 8, per_frame: bool = False, grid_note: str = "",
+                 title: str = "", period_ms: float | None = None,
+                 length_mm: float | None = None, reference_frame: int | None = None,
+                 annotate: bool = True):
     """Video frames ``(n_t, rows, cols, 3)`` uint8 of a ``(n_u, n_v, n_t)`` field.
 
-    One colour range for the whole cycle (``vmin``/``vmax``, default the
-    field's 1st and 99th percentiles), or with ``per_frame`` each frame's own.
-    ``grid_note``: which grid the field is on ("tracked grid"), written under the
-    time stamp.
+    One colour range for the whole cycle (``vmin``/``vmax``, default
+    :func:`oftimg.output.style.colour_scale`'s: symmetric about 0 on a diverging
+    map for a signed field, the 1st to 99th percentile on a sequential one), or
+    with ``per_frame`` each frame's own. Around the field (``annotate``): the
+    ``title`` with ``grid_note`` (which grid the field is on), the u and v axes,
+    the seam and the ends, the tube's length ``length_mm``, the colour bar with
+    ``label`` (quantity and unit), and on each frame its time, its phase in the
+    beat (``period_ms``) and, at ``reference_frame``, that the field is 0 there
+    by definition (strain against t = 0).
     """
-    finite = field[np.isfinite(field)]
-    lo = np.percentile(finite, 1) if vmin is None else vmin
-    hi = np.percentile(finite, 99) if vmax is None else vmax
-    height = field.shape[1] * scale
-    fixed_bar = None if per_frame else _colour_bar(height, lo, hi, cmap, label)
+    from .style import colour_scale
+
+    scale_ = colour_scale(field)
+    cmap = cmap or scale_["cmap"]
+    lo = scale_.get("vmin", 0.0) if vmin is None else vmin
+    hi = scale_.get("vmax", 1.0) if vmax is None else vmax
+    n_u, n_v, n_t = field.shape
+    period = period_ms or (t_ms[-1] + (t_ms[1] - t_ms[0]) if len(t_ms) > 1 else 1.0)
+    heading = ", ".join(x for x in (title or label, grid_note) if x)
+    canvas = None if per_frame or not annotate else field_canvas(
+        n_u, n_v, scale, vmin=lo, vmax=hi, cmap=cmap, label=label, title=heading,
+        length_mm=length_mm)
 
     def draw(t):
         img, _ = in_image_order(field[:, :, t], ["u", "v"])  # rows: v, inlet at the bottom
@@ -89,40 +184,71 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
             a, b = (f.min(), f.max()) if f.size else (0.0, 1.0)
         rgb = cv2.resize(to_rgb(img, a, b, cmap), None, fx=scale, fy=scale,
                          interpolation=cv2.INTER_NEAREST)
-        bar = fixed_bar if fixed_bar is not None else _colour_bar(height, a, b, cmap, label)
-        rgb = np.concatenate([rgb, bar], axis=1)
-        for line, text in enumerate((f"t = {t_ms[t]:.0f} ms", grid_note)):
-            for colour, weight in (((0, 0, 0), 3), ((255, 255, 255), 1)):   # outlined: any frame
-                cv2.putText(rgb, text, (6, 16 + 16 * line), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                            colour, weight, cv2.LINE_AA)
-        return _even(rgb)
+        if not annotate:
+            return _even(rgb)
+        frame = (canvas if canvas is not None else field_canvas(
+            n_u, n_v, scale, vmin=a, vmax=b, cmap=cmap, label=label,
+            title=heading + " (each frame its own colour range)", length_mm=length_mm)).copy()
+        frame[BANNER:BANNER + rgb.shape[0], MARGIN_LEFT:MARGIN_LEFT + rgb.shape[1]] = rgb
+        note = ("reference frame: 0 by definition (strain against t = 0)"
+                if t == reference_frame else "")
+        _stamp(frame, t_ms[t], (t_ms[t] % period) / period, MARGIN_LEFT + rgb.shape[1], note)
+        return _even(frame)
 
-    return _stack(field.shape[2], draw)
+    return _stack(n_t, draw)
 
 
-def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, width: int = 400,
-                      height: int = 300, cmap="jet"):
+def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | None = None,
+                      width: int = 720, height: int = 420, cmap=None,
+                      label: str = "cross-sectional area (mm^2)"):
     """Frames of a ``(n_v, n_t)`` map (about ``width`` x ``height`` pixels) with a
-    moving time cursor."""
-    sx = max(1, round(width / area.shape[1]))
-    sy = max(1, round(height / area.shape[0]))
+    moving time cursor, its axes (time in ms, position along the tube in mm, inlet
+    at the bottom), its colour bar and the time in the banner."""
+    from .style import SEQUENTIAL
+
+    cmap = cmap or SEQUENTIAL
+    n_v, n_t = area.shape
+    sx, sy = max(1, round(width / n_t)), max(1, round(height / n_v))
     image, _ = in_image_order(area, ["v", "t"])
-    base = cv2.resize(to_rgb(image, np.nanmin(area), np.nanmax(area), cmap), None,
-                      fx=sx, fy=sy, interpolation=cv2.INTER_NEAREST)
-    base = np.concatenate([base, _colour_bar(base.shape[0], np.nanmin(area), np.nanmax(area),
-                                             cmap, "area mm^2")], axis=1)
+    lo, hi = float(np.nanmin(area)), float(np.nanmax(area))
+    picture = cv2.resize(to_rgb(image, lo, hi, cmap), None, fx=sx, fy=sy,
+                         interpolation=cv2.INTER_NEAREST)
+    h, w = picture.shape[:2]
+    base = np.full((BANNER + h + MARGIN_BOTTOM, MARGIN_LEFT + w + BAR_PANEL, 3), 255, np.uint8)
+    x0, y0 = MARGIN_LEFT, BANNER
+    base[y0:y0 + h, x0:x0 + w] = picture
+    _text(base, "the outer area map; cursor: this frame", (8, 20), scale=0.55)
+    s_end = float(s_mm[-1]) if s_mm is not None else None
+    for v in (0.0, 0.5, 1.0):
+        y = int(round(y0 + h - 1 - v * (h - 1)))
+        base[y, x0 - 6:x0 - 1] = 0
+        _text(base, f"{v * s_end:.2g}" if s_end else f"{v:g}", (x0 - 9, y + 5), scale=0.42,
+              align="right")
+    _text(base, "s (mm)" if s_end else "v", (4, y0 + h // 2), scale=0.42)
+    _text(base, "inlet", (x0 - 9, y0 + h - 14), scale=0.4, align="right")
+    period = t_ms[-1] + (t_ms[1] - t_ms[0]) if n_t > 1 else 1.0
+    for k in range(5):
+        tick = k * period / 4
+        x = int(round(x0 + tick / period * w))
+        base[y0 + h:y0 + h + 6, min(x, x0 + w - 1)] = 0
+        _text(base, f"{tick:.0f}", (x, y0 + h + 20), scale=0.42, align="centre")
+    _text(base, "time since minimum volume (ms)", (x0 + w // 2, y0 + h + 44), scale=0.45,
+          align="centre")
+    base[y0 - 40:y0 + h, x0 + w + 4:x0 + w + BAR_PANEL] = \
+        _colour_bar_panel(h + 40, lo, hi, cmap, label)[:, :BAR_PANEL - 4]
+
     def draw(t):
         img = base.copy()
-        x = int((t + 0.5) * sx)
-        img[:, max(0, x - 1):x + 1] = 255
-        cv2.putText(img, f"t = {t_ms[t]:.0f} ms", (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                    (255, 255, 255), 1, cv2.LINE_AA)
+        x = x0 + int((t + 0.5) * sx)
+        img[y0:y0 + h, max(x0, x - 1):x + 2] = 255
+        img[y0:y0 + h, x:x + 1] = 0
+        _stamp(img, t_ms[t], (t_ms[t] % period) / period, x0 + w)
         return _even(img)
 
-    return _stack(area.shape[1], draw)
+    return _stack(n_t, draw)
 
 
-def write_mp4(path: Path, frames, *, fps: float = 30.0) -> Path:
+def write_mp4(path: Path, frames, *, fps: float) -> Path:
     """Encode ``frames`` (``(n, rows, cols, 3)`` uint8, or an iterable of
     ``(rows, cols, 3)`` frames) as H.264/yuv420p MP4.
 
@@ -144,26 +270,31 @@ def write_mp4(path: Path, frames, *, fps: float = 30.0) -> Path:
     return path
 
 
-# (file, array, per-pixel normalized?, field_frames options): the (u, v) field videos
+# (file, array, per-pixel normalized?, field_frames options): the (u, v) field videos;
+# signed fields get a diverging colour map centred on 0, one-signed ones a sequential one
+_STRAIN = dict(cmap="magma", reference_frame=0)
 FIELD_VIDEOS = [
     ("radial_curvature_outer", "radial_curvature_outer_per_mm", False,
-     dict(cmap="coolwarm", label="curvature 1/mm")),
+     dict(label="radial curvature (1/mm)", title="outer wall: radial curvature")),
     ("radial_curvature_outer_normalized", "radial_curvature_outer_per_mm", True,
-     dict(vmin=0, vmax=1, cmap="gray", label="per-pixel normalized")),
+     dict(vmin=0, vmax=1, cmap="gray", label="per-pixel normalised (1)",
+          title="outer wall: radial curvature, PER-PIXEL NORMALISED (each pixel's cycle "
+                "from its min 0 to its max 1)")),
     ("strain_energy_outer", "strain_energy_outer", False,
-     dict(cmap="RdYlGn_r", label="strain energy")),
+     dict(_STRAIN, label="strain energy (1)", title="outer wall: strain energy against t = 0")),
     ("strain_energy_outer_per_frame", "strain_energy_outer", False,
-     dict(cmap="RdYlGn_r", per_frame=True, label="strain energy (frame)")),
+     dict(_STRAIN, per_frame=True, label="strain energy (1)",
+          title="outer wall: strain energy against t = 0")),
     ("radial_curvature_inner", "radial_curvature_inner_per_mm", False,
-     dict(cmap="coolwarm", label="curvature 1/mm")),
+     dict(label="radial curvature (1/mm)", title="inner wall: radial curvature")),
     ("strain_energy_inner", "strain_energy_inner", False,
-     dict(cmap="RdYlGn_r", label="strain energy")),
+     dict(_STRAIN, label="strain energy (1)", title="inner wall: strain energy against t = 0")),
     ("wall_thickness", "wall_thickness_mm", False,
-     dict(cmap="viridis", label="wall thickness mm")),
+     dict(cmap="viridis", label="wall thickness (mm)", title="myocardial wall thickness")),
     ("jelly_thickness", "jelly_thickness_mm", False,
-     dict(cmap="viridis", label="jelly thickness mm")),
+     dict(cmap="viridis", label="jelly thickness (mm)", title="cardiac jelly thickness")),
     ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", False,
-     dict(cmap="coolwarm", label="mean curv. 1/mm")),
+     dict(label="mean curvature (1/mm)", title="lumen: mean curvature")),
 ]
 
 
@@ -185,39 +316,47 @@ def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
     t_ms = arrays["t_ms"]
     # the slow 3-D renders first, so that workers finish together;
     # the area-map cursor frames are drawn once for both videos that show them
-    tasks = [("area", dict(area=arrays["area_outer_mm2"], t_ms=t_ms,
+    length_mm = float(arrays["s_mm"][-1]) if "s_mm" in arrays else None
+    tasks = [("area", dict(area=arrays["area_outer_mm2"], t_ms=t_ms, s_mm=arrays.get("s_mm"),
                            grid=None if grids is None else grids["outer"]))]
     h = arrays.get("mean_curvature_lumen_per_mm")
     if grids is not None and h is not None and "lumen" in grids:
-        tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms)))
+        tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms,
+                                       length_mm=length_mm)))
     tasks += [("field", dict(name=name, field=arrays[key], normalize=normalize, t_ms=t_ms,
-                             options=dict(opts, grid_note=grid_note)))
+                             options=dict(opts, grid_note=grid_note, length_mm=length_mm)))
               for name, key, normalize, opts in FIELD_VIDEOS if key in arrays]
     return tasks
 
 
-def render_videos(kind: str, inputs: dict, fps: float = 30.0) -> list[tuple[str, bytes]]:
-    """Encode one task's videos; returns ``(file name, MP4 bytes)`` pairs (so that
-    a worker on another machine need not see the output folder)."""
+def render_videos(kind: str, inputs: dict, fps: float | None = None
+                  ) -> list[tuple[str, bytes]]:
+    """Encode one task's videos at ``fps`` (default :func:`beat_fps`: a beat in
+    :data:`BEAT_SECONDS`); returns ``(file name, MP4 bytes)`` pairs (so that a
+    worker on another machine need not see the output folder)."""
     import tempfile
 
     from ..image.normalize import per_pixel_normalize
 
     t_ms = inputs["t_ms"]
+    fps = fps or beat_fps(len(t_ms))
     if kind == "field":
         field = per_pixel_normalize(inputs["field"]) if inputs["normalize"] else inputs["field"]
         movies = {inputs["name"]: field_frames(field, t_ms, **inputs["options"])}
     elif kind == "area":
-        cursor = map_cursor_frames(inputs["area"], t_ms)
+        cursor = map_cursor_frames(inputs["area"], t_ms, s_mm=inputs.get("s_mm"))
         movies = {"area_map_cursor": cursor}
         G = inputs["grid"]
         if G is not None:
             area_field = np.broadcast_to(inputs["area"][None], G.shape[:3])
             movies["outer_wall_3d_area_map"] = surface_and_map_frames(
-                G, area_field, t_ms, cmap="jet", flat=cursor)
+                G, area_field, t_ms, cmap="viridis", flat=cursor,
+                title="the outer wall coloured by its cross-sectional area (mm^2)")
     elif kind == "lumen_3d":
         movies = {"lumen_mean_curvature_3d": surface_and_map_frames(
-            inputs["grid"], inputs["h"], t_ms, label="mean curv. 1/mm")}
+            inputs["grid"], inputs["h"], t_ms, label="mean curvature (1/mm)",
+            title="the lumen coloured by its mean curvature (1/mm)",
+            length_mm=inputs.get("length_mm"))}
     else:
         raise ValueError(f"unknown video task {kind!r}")
     out = []
@@ -228,7 +367,7 @@ def render_videos(kind: str, inputs: dict, fps: float = 30.0) -> list[tuple[str,
     return out
 
 
-def start_videos(arrays: dict, grids: dict | None = None, *, fps: float = 30.0,
+def start_videos(arrays: dict, grids: dict | None = None, *, fps: float | None = None,
                  executor=None, kinds=None, grid_note: str = ""):
     """Submit a dataset's video tasks (those of ``kinds``, default all) to
     ``executor`` (without one, render them now); pass the result to
@@ -252,7 +391,7 @@ def save_videos(folder: Path, pending: list) -> list[Path]:
 
 
 def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
-                   fps: float = 30.0, executor=None, grid_note: str = "") -> list[Path]:
+                   fps: float | None = None, executor=None, grid_note: str = "") -> list[Path]:
     """All per-dataset videos into ``folder`` (``videos/``), rendered in
     ``executor``'s workers when one is given."""
     return save_videos(folder, start_videos(arrays, grids, fps=fps, executor=executor,
@@ -278,6 +417,7 @@ class SurfaceCamera:
         view = axes[2]                        # normal of the plane the tube bends in
         radius = np.linalg.norm(pts - center, axis=1).max()
         dist = 1.15 * radius / np.sin(np.radians(fov_deg) / 2)
+        self.distance = dist                  # mm from the eye to the centre
         self.eye = center + dist * view
         self.center, self.up, self.size, self.fov = center, axes[0], size, fov_deg
         self.light = view
@@ -352,18 +492,39 @@ def _fit_height(img: np.ndarray, height: int) -> np.ndarray:
 
 
 def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, *,
-                           flat: np.ndarray | None = None, cmap: str = "coolwarm",
-                           label: str = "", size: int = 320):
+                           flat: np.ndarray | None = None, cmap: str | None = None,
+                           label: str = "", title: str = "", size: int = 480,
+                           length_mm: float | None = None):
     """Frames ``(rows, cols, 3)`` uint8, one at a time (a 195-frame video would hold
-    ~190 MB): the 3-D grid surface coloured by ``values (n_u, n_v, n_t)`` next to a
-    flat picture (default the unfolded (u, v) map of the same values)."""
-    finite = values[np.isfinite(values)]
-    lo, hi = np.percentile(finite, [1, 99])
+    ~190 MB), at least 1280 pixels wide: the 3-D grid surface coloured by ``values
+    (n_u, n_v, n_t)``, with a scale bar, next to a flat picture (default the
+    unfolded (u, v) map of the same values with its axes and colour bar), under a
+    banner with ``title``, the time and the phase in the beat."""
+    from .style import colour_scale
+
+    scale_ = colour_scale(values)
+    cmap = cmap or scale_["cmap"]
+    lo, hi = scale_.get("vmin", 0.0), scale_.get("vmax", 1.0)
     camera = SurfaceCamera(G, size=size)
     if flat is None:
-        flat = field_frames(values, t_ms, vmin=lo, vmax=hi, cmap=cmap, label=label, scale=4)
+        flat = field_frames(values, t_ms, vmin=lo, vmax=hi, cmap=cmap, label=label, scale=8,
+                            title=label, length_mm=length_mm)
+    period = t_ms[-1] + (t_ms[1] - t_ms[0]) if len(t_ms) > 1 else 1.0
+    px_per_mm = size / (2 * camera.distance * np.tan(np.radians(camera.fov) / 2))  # at its centre
+    # the longest round length whose bar fits in a third of the picture
+    bar_mm = next((x for x in (2.0, 1.0, 0.5, 0.2, 0.1, 0.05) if x * px_per_mm < size / 3), 0.05)
+    bar_text = f"{bar_mm:g} mm" if bar_mm >= 1 else f"{1000 * bar_mm:g} um"
+
     def draw(t):
         view = camera.render(G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap)
-        return _even(np.concatenate([view, _fit_height(flat[t], size)], axis=1))
+        cv2.line(view, (16, size - 20), (16 + int(round(bar_mm * px_per_mm)), size - 20),
+                 (0, 0, 0), 3)
+        _text(view, f"{bar_text} (at the tube's centre)", (16, size - 30), scale=0.45)
+        side = np.concatenate([view, _fit_height(flat[t], size)], axis=1)
+        frame = np.full((BANNER + size, max(side.shape[1], 1280), 3), 255, np.uint8)
+        frame[BANNER:, :side.shape[1]] = side
+        _text(frame, title or label, (8, 20), scale=0.55)
+        _stamp(frame, t_ms[t], (t_ms[t] % period) / period, size - 16)
+        return _even(frame)
 
     return (draw(t) for t in range(G.shape[2]))

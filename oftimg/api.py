@@ -670,6 +670,11 @@ def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195
     return Path(out)
 
 
+# the demo cohorts: embryos per group, and each phantom's frames and vertices
+DEMO_SMALL = (3, {"frames": 30, "vertices_min": 2000, "vertices_max": 2500})
+DEMO_FULL = (4, {"frames": 195})
+
+
 def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = False,
          jobs: int | None = None) -> Path:
     """Generate the built-in phantom cohort and run the whole pipeline on it.
@@ -685,12 +690,8 @@ def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = Fals
     for sub, kind in (("data", "demo data"), ("results", "results")):
         if overwrite and (out / sub).is_dir():
             check_replaceable(out / sub, kind)
-    if full:
-        specs = [("normal", s) for s in range(4)] + [("banded", s) for s in range(4)]
-        kwargs = {"frames": 195}
-    else:
-        specs = [("normal", s) for s in range(3)] + [("banded", s) for s in range(3)]
-        kwargs = {"frames": 30, "vertices_min": 2000, "vertices_max": 2500}
+    per_group, kwargs = DEMO_FULL if full else DEMO_SMALL
+    specs = [("normal", s) for s in range(per_group)] + [("banded", s) for s in range(per_group)]
     # data first, then results, each staged: the results (their provenance and
     # warnings) name the data where they stay, not a temporary folder
     with staged_output(out / "data", overwrite=overwrite, kind="demo data") as data:

@@ -193,10 +193,14 @@ def test_a_log_where_it_would_be_lost_or_cannot_be_is_refused(tmp_path, capsys):
         assert not log.exists() and not out.exists()
 
 
-def test_demo_names_its_data_where_they_stay(tmp_path, capsys):
+def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     """`oftimg demo`: results whose provenance points at the demo's own data folder
     (not the temporary folder it was made in), and a second demo refused without
-    --overwrite."""
+    --overwrite. (A smaller demo: tests/test_documented_outputs.py runs the real one.)"""
+    from oftimg import api
+
+    monkeypatch.setattr(api, "DEMO_SMALL", (1, {"frames": 12, "vertices_min": 1500,
+                                                "vertices_max": 1800}))
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out), "--quiet"]) == 0
     run_info = json.loads((out / "results" / "run.json").read_text())
@@ -204,7 +208,7 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys):
     for name in ("normal_0", "banded_0"):
         summary = json.loads((out / "results" / name / "summary.json").read_text())
         files = [f["file"] for f in summary["provenance"]["inputs"]["outer"]]
-        assert len(files) == 30
+        assert len(files) == 12
         assert all(Path(f).parent.samefile(out / "data" / name / "outer") for f in files)
     assert not [p for p in out.iterdir() if p.name.startswith(".")]   # no staging left
     assert main(["demo", "--out", str(out), "--quiet"]) == 2

@@ -6,6 +6,7 @@ import re
 
 import matplotlib
 import numpy as np
+import pytest
 
 from oftimg.output import figures, style
 from test_figures import cohort_results, figure_cases
@@ -120,13 +121,16 @@ def _pca():
     return contour_pca(grid, 8), grid
 
 
-def drawn_figures(tmp_path, monkeypatch) -> list:
-    """Every figure type drawn once; (path, problems, size in mm) of each."""
+@pytest.fixture(scope="module")
+def drawn(tmp_path_factory) -> tuple:
+    """Every figure type drawn once (with the SVG too): its folder, and (path,
+    problems, size in mm) of each."""
+    tmp_path = tmp_path_factory.mktemp("figures")
     seen = []
-    monkeypatch.setattr(figures, "save", _checked_save(seen))
-    with style.vector_formats((".pdf", ".svg")):
+    with pytest.MonkeyPatch.context() as patch, style.vector_formats((".pdf", ".svg")):
+        patch.setattr(figures, "save", _checked_save(seen))
         _draw_every_figure(tmp_path)
-    return seen
+    return tmp_path, seen
 
 
 def _draw_every_figure(tmp_path) -> None:
@@ -147,8 +151,8 @@ def _draw_every_figure(tmp_path) -> None:
     figures.group_figures(tmp_path / "cohort", summaries, tmp_path)
 
 
-def test_every_figure_is_laid_out_for_a_journal(tmp_path, monkeypatch):
-    seen = drawn_figures(tmp_path, monkeypatch)
+def test_every_figure_is_laid_out_for_a_journal(drawn):
+    _, seen = drawn
     assert len(seen) >= 14
     faults = {path.name: problems for path, problems, _ in seen if problems}
     assert faults == {}
@@ -157,8 +161,8 @@ def test_every_figure_is_laid_out_for_a_journal(tmp_path, monkeypatch):
         assert width_mm >= style.COLUMN_MM - 0.5, path.name
 
 
-def test_each_figure_has_a_vector_pdf_and_svg_with_text_as_text(tmp_path, monkeypatch):
-    seen = drawn_figures(tmp_path, monkeypatch)
+def test_each_figure_has_a_vector_pdf_and_svg_with_text_as_text(drawn):
+    tmp_path, seen = drawn
     for path, _, _ in seen:
         pdf = path.with_suffix(".pdf").read_bytes()
         assert b"/FontFile2" in pdf, f"{path.name}: the PDF's text is not embedded as a font"

@@ -78,8 +78,9 @@ def save(fig, path: Path) -> Path:
     :func:`vector_formats`); closed. Returns the PNG's path."""
     path = Path(path)
     fig.savefig(path, dpi=PNG_DPI)
-    for suffix in _VECTOR_FORMATS.get():
-        fig.savefig(path.with_suffix(suffix))
+    for suffix in _VECTOR_FORMATS.get():   # no date inside: the same figure, the same bytes
+        fig.savefig(path.with_suffix(suffix),
+                    metadata={".pdf": {"CreationDate": None}, ".svg": {"Date": None}}[suffix])
     plt.close(fig)
     return path
 

@@ -671,7 +671,7 @@ def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195
 
 
 # the demo cohorts: embryos per group, and each phantom's frames and vertices
-DEMO_SMALL = (3, {"frames": 30, "vertices_min": 2000, "vertices_max": 2500})
+DEMO_SMALL = (3, {"frames": 24, "vertices_min": 2000, "vertices_max": 2500})
 DEMO_FULL = (4, {"frames": 195})
 
 
@@ -680,8 +680,8 @@ def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = Fals
     """Generate the built-in phantom cohort and run the whole pipeline on it.
 
     Small (default): three normal and three banded embryos, enough for the
-    report's group comparison to have p-values, of 30 frames and smaller meshes
-    (about a minute on 2 cores). ``full``: 4 normal + 4 banded, 195 frames, the
+    report's group comparison to have p-values, of 24 frames and smaller meshes
+    (about two minutes on 2 cores). ``full``: 4 normal + 4 banded, 195 frames, the
     paper's size.
     Returns ``out``; the generated data are in ``out/data``.
     """

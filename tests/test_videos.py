@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from oftimg.output import video
-from oftimg.output.video import BANNER, MARGIN_LEFT, beat_fps, field_frames
+from oftimg.output.video import BANNER, FIELD_SCALE, MARGIN_LEFT, beat_fps, field_frames
 
 
 def _field(n_u=80, n_v=50, n_t=30, level=0.0):
@@ -26,7 +26,7 @@ def test_the_overlay_labels_the_axes_around_the_field_and_leaves_the_field_alone
     bare = field_frames(field, t_ms, label="radial curvature (1/mm)", annotate=False)
     framed = field_frames(field, t_ms, label="radial curvature (1/mm)", title="outer wall",
                           grid_note="tracked grid", length_mm=1.2)
-    h, w = 50 * 8, 80 * 8
+    h, w = 50 * FIELD_SCALE, 80 * FIELD_SCALE
     picture = framed[3, BANNER:BANNER + h, MARGIN_LEFT:MARGIN_LEFT + w]
     assert np.array_equal(picture, bare[3, :h, :w])                 # the data untouched
     assert _ink(framed[3, BANNER:BANNER + h, :MARGIN_LEFT]) > 0.02   # v ticks and names

@@ -39,6 +39,7 @@ def to_rgb(values: np.ndarray, vmin: float, vmax: float, cmap: str = "jet") -> n
 MARGIN_LEFT, MARGIN_BOTTOM, BANNER, BAR_PANEL = 96, 64, 74, 170
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 BEAT_SECONDS = 4.0       # a beat plays in this long at the default frame rate
+FIELD_SCALE = 6          # pixels a (u, v) node: 80 x 50 nodes, a 480 x 300 picture
 
 
 def beat_fps(n_frames: int) -> float:
@@ -147,7 +148,7 @@ def _stamp(img: np.ndarray, t_ms: float, phase: float, right: int, note: str = "
 
 
 def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, cmap=None,
-                 label="", scale: int = 8, per_frame: bool = False, grid_note: str = "",
+                 label="", scale: int = FIELD_SCALE, per_frame: bool = False, grid_note: str = "",
                  title: str = "", period_ms: float | None = None,
                  length_mm: float | None = None, reference_frame: int | None = None,
                  annotate: bool = True):

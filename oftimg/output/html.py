@@ -20,6 +20,7 @@ video{max-width:100%;margin:4px 0;background:#000}
 .grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(480px,1fr));gap:10px}
 .small{color:#666;font-size:0.85em} .sig{background:#fde2e2}
 table.table1 th{font-weight:600} details{margin:0.6em 0} summary{cursor:pointer;font-weight:600}
+pre{white-space:pre-wrap;overflow-wrap:anywhere}
 """
 
 # Checks, once the page has loaded, that every picture and video could be read;

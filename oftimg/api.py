@@ -22,6 +22,9 @@ from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, che
                             cohort_maps, finished_folder, link_or_copy, require_new_folder,
                             staged_output, write_cohort_maps, write_dataset_results, write_json)
 from .io.dataset import Dataset, find_datasets, load_dataset, natural_key, validate_dataset
+from .io.label_dataset import (LabelDataset, is_label_dataset, load_label_dataset,
+                               mesh_label_dataset)
+from .synthetic.labels import write_label_phantom
 from .synthetic.phantom import sample_params, write_phantom
 from .progress import Progress
 from .output.results import read_summary, result_folders, source_paths
@@ -31,9 +34,14 @@ log = logging.getLogger("oftimg")
 
 
 def _as_dataset_paths(source) -> list[Path]:
-    if isinstance(source, Dataset):
+    if isinstance(source, (Dataset, LabelDataset)):
         return [source.path]
     return find_datasets(source)
+
+
+def _load(path: Path) -> Dataset | LabelDataset:
+    """A dataset folder opened as what it holds: label volumes or meshes."""
+    return load_label_dataset(path) if is_label_dataset(path) else load_dataset(path)
 
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
@@ -69,7 +77,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     paths = _as_dataset_paths(source)
     check_output_location(out, paths, overwrite=overwrite)
     opts = PipelineOptions(**(options or {}))
-    datasets = [load_dataset(p) for p in paths]
+    datasets = [_load(p) for p in paths]
     _check_names([(d.meta.name, d.path) for d in datasets],
                  'set another "name" in its meta.json')
     started = time.time()
@@ -103,6 +111,8 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
             check_enough_frames(ds)
         executor = make_executor(jobs, scheduler) if todo else None
         with closing_executor(executor):
+            todo = [_meshed(ds, finished.root / f"{ds.meta.name}.meshes", opts.meshing, executor,
+                            quiet) if isinstance(ds, LabelDataset) else ds for ds in todo]
             reports = {ds.meta.name: _validated(ds, executor, quiet) for ds in todo}
             if parallel == "auto":
                 parallel = ("embryos" if executor is not None
@@ -125,6 +135,25 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
         raise
     finished.remove()
     return out
+
+
+def _meshed(lds: LabelDataset, folder: Path, options, executor, quiet: bool) -> Dataset:
+    """A label dataset meshed frame by frame in the workers into ``folder`` (beside
+    the kept results, removed with them), opened as the mesh dataset it becomes;
+    its ``labels`` record the label files and the meshing."""
+    shutil.rmtree(folder, ignore_errors=True)
+    folder.mkdir(parents=True)
+    bar = Progress(lds.n_frames, f"{lds.meta.name}: meshing labels", quiet=quiet, unit="frame")
+    try:
+        record = mesh_label_dataset(lds, folder, options, executor=executor,
+                                    progress=bar.advance)
+    finally:
+        bar.close()
+    with warnings.catch_warnings():             # said of the label dataset already
+        warnings.simplefilter("ignore", OftimgWarning)
+        ds = load_dataset(folder)
+    ds.path, ds.labels = lds.path, record
+    return ds
 
 
 def _validated(ds: Dataset, executor, quiet: bool) -> dict:
@@ -659,15 +688,57 @@ def _flat(options: dict, prefix: str = "") -> dict:
 
 
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,
-                 quiet: bool = False, **overrides) -> Path:
-    """Write one phantom dataset (see :mod:`oftimg.synthetic.phantom`) to ``out``."""
+                 quiet: bool = False, labels: bool = False,
+                 voxel_size_um: tuple[float, float, float] = (4.0, 4.0, 8.0),
+                 segmentation_noise: float = 0.05, **overrides) -> Path:
+    """Write one phantom dataset (see :mod:`oftimg.synthetic.phantom`) to ``out``:
+    meshes, or with ``labels`` label volumes of ``voxel_size_um`` (dx, dy, dz) with
+    ``segmentation_noise`` (:mod:`oftimg.synthetic.labels`)."""
     require_new_folder(Path(out))
     params = sample_params(group, seed, n_frames=frames, **overrides)
     bar = Progress(frames, f"phantom {Path(out).name}", quiet=quiet)
     with staged_output(out) as tmp:
-        write_phantom(tmp, params, name=Path(out).name, progress=bar.update)
+        if labels:
+            write_label_phantom(tmp, params, voxel_size_um, noise=segmentation_noise,
+                                name=Path(out).name, progress=bar.update)
+        else:
+            write_phantom(tmp, params, name=Path(out).name, progress=bar.update)
     bar.close()
     return Path(out)
+
+
+def mesh(source, out, *, options: dict | None = None, jobs: int | None = None,
+         quiet: bool = False) -> Path:
+    """Mesh a label dataset (or each of a cohort's) into a mesh dataset in ``out``
+    (``out/<name>`` for a cohort): ``outer/``, ``inner/``, ``lumen/`` PLY files in
+    the volumes' length unit and meta.json carried over, to look at in ParaView or
+    MeshLab. ``options``: :class:`~oftimg.mesh.labels.MeshOptions` fields. Nothing
+    is written when a frame cannot be meshed."""
+    from .mesh.labels import MeshOptions
+
+    options = MeshOptions(**(options or {}))
+    out = Path(out)
+    paths = [p for p in _as_dataset_paths(source) if is_label_dataset(p)]
+    if not paths:
+        raise DatasetError(f"{source}: no label dataset (a folder with labels/) to mesh")
+    check_output_location(out, paths, overwrite=False)
+    datasets = [load_label_dataset(p) for p in paths]
+    _check_names([(d.meta.name, d.path) for d in datasets], 'set another "name" in its meta.json')
+    single = len(paths) == 1 and paths[0] == Path(source)
+    executor = make_executor(jobs, None)
+    with closing_executor(executor), staged_output(out) as tmp:
+        for lds in datasets:
+            folder = tmp if single else tmp / lds.meta.name
+            folder.mkdir(parents=True, exist_ok=True)
+            bar = Progress(lds.n_frames, f"{lds.meta.name}: meshing labels", quiet=quiet,
+                           unit="frame")
+            try:
+                record = mesh_label_dataset(lds, folder, options, executor=executor,
+                                            progress=bar.advance)
+            finally:
+                bar.close()
+            write_json(folder / "meshing.json", record)
+    return out
 
 
 # the demo cohorts: embryos per group, and each phantom's frames and vertices

@@ -57,7 +57,8 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="process a dataset or a cohort folder")
-    r.add_argument("source", type=Path, help="dataset folder (with outer/) or cohort folder")
+    r.add_argument("source", type=Path, help="dataset folder (with outer/, or labels/ to mesh "
+                                             "frame by frame) or cohort folder")
     r.add_argument("--out", type=Path, required=True, help="results folder (created)")
     r.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
     r.add_argument("--resume", action="store_true",
@@ -121,6 +122,7 @@ def _parser() -> argparse.ArgumentParser:
                         f"{100 * STRAIN_NOISE_TARGET:g} %% of its median; 0: none. "
                         "summary.json: strain_noise says how much that noise still moves "
                         "each field and the sigma taken")
+    _mesh_arguments(r)
     r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
                    help="Taubin smoothing steps on each lumen mesh before its mean curvature "
                         "(default 0: none, as the paper); for rough segmentations, whose "
@@ -174,7 +176,27 @@ def _parser() -> argparse.ArgumentParser:
     ph.add_argument("--expand-change", type=float, default=0.0,
                     help="growth of the expansion share of the cycle from inlet to outlet "
                          "(0.2: 20 percentage points); the ridge then runs at a speed of its own")
+    ph.add_argument("--labels", action="store_true",
+                    help="write label volumes (labels/, one TIFF per frame) instead of meshes: "
+                         "the tube bent to a quarter circle, leaving the volume through two "
+                         "faces")
+    ph.add_argument("--voxel-size", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
+                    default=(4.0, 4.0, 8.0), help="with --labels: voxel size in um "
+                                                  "(default 4 4 8)")
+    ph.add_argument("--segmentation-noise", type=float, default=0.05, metavar="SHARE",
+                    help="with --labels: share of boundary voxels given a neighbour's label, "
+                         "with specks of wrong labels (default 0.05; 0: none)")
     ph.add_argument("--quiet", action="store_true")
+
+    me = sub.add_parser("mesh", help="mesh a label dataset (labels/) into a mesh dataset "
+                                     "(outer/ inner/ lumen/ PLY files) to inspect")
+    me.add_argument("source", type=Path, help="label dataset folder (with labels/) or a "
+                                              "folder of them")
+    me.add_argument("out", type=Path, help="mesh dataset folder to create")
+    _mesh_arguments(me)
+    me.add_argument("--jobs", type=int, default=None,
+                    help="worker processes (default: all cores this job may use)")
+    me.add_argument("--quiet", action="store_true", help="no progress bar")
 
     an = sub.add_parser("animate", help="turn a static open tube into a dataset with a known wave")
     an.add_argument("mesh", type=Path, help="a mesh file of one open tube")
@@ -284,6 +306,23 @@ def main(argv: list[str] | None = None) -> int:
         return 1
 
 
+def _mesh_arguments(parser) -> None:
+    """How label volumes are meshed (``run`` and ``mesh``)."""
+    from .mesh.labels import MeshOptions
+
+    default = MeshOptions()
+    parser.add_argument("--mesh-vertices", type=int, default=default.target_vertices,
+                        metavar="N", help="label datasets: about this many vertices per wall "
+                                          f"and frame (default {default.target_vertices})")
+    parser.add_argument("--mesh-smoothing", type=float, default=default.smoothing,
+                        metavar="VOXELS", help="label datasets: Gaussian sigma on each wall's "
+                        f"mask, in voxels (default {default.smoothing:g})")
+
+
+def _mesh_options(args) -> dict:
+    return {"target_vertices": args.mesh_vertices, "smoothing": args.mesh_smoothing}
+
+
 def _command(args) -> int:
     """Carry out the parsed command; errors go up to :func:`main`."""
     from . import api
@@ -296,7 +335,7 @@ def _command(args) -> int:
                    "ridge_smoothing_ms": args.ridge_smoothing_ms,
                    "field_smoothing_ms": args.field_smoothing_ms,
                    "strain_smoothing_ms": args.strain_smoothing_ms,
-                   "tracking": args.tracking}
+                   "tracking": args.tracking, "meshing": _mesh_options(args)}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume,
@@ -324,8 +363,14 @@ def _command(args) -> int:
         if args.vertices:
             extra.update(vertices_min=args.vertices[0], vertices_max=args.vertices[1])
         out = api.make_phantom(args.out, group=args.group, seed=args.seed,
-                               frames=args.frames, quiet=args.quiet, **extra)
-        print(f"phantom dataset: {out}")
+                               frames=args.frames, quiet=args.quiet, labels=args.labels,
+                               voxel_size_um=tuple(args.voxel_size),
+                               segmentation_noise=args.segmentation_noise, **extra)
+        print(f"phantom {'label ' if args.labels else ''}dataset: {out}")
+    elif args.command == "mesh":
+        out = api.mesh(args.source, args.out, options=_mesh_options(args), jobs=args.jobs,
+                       quiet=args.quiet)
+        print(f"mesh dataset: {out} (open its PLY files in ParaView or MeshLab)")
     elif args.command == "animate":
         from .synthetic.animate import Animation, write_animation
         from .progress import Progress

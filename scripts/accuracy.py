@@ -69,6 +69,7 @@ import oftimg
 from oftimg.image.normalize import smooth_field_in_time
 from oftimg.mesh.strain import grid_strain
 from oftimg.analysis.pipeline import smoothed_strain, thickness_summary
+from oftimg.synthetic.labels import label_params, volume_frame, write_label_phantom
 from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
 
 WALLS = ("outer", "inner", "lumen")
@@ -141,18 +142,39 @@ METRICS = [
 
 
 def make_cohort(folder: Path, seeds: int, frames: int, noise_mm: float,
-                expand_change: float = 0.0, vertices: int | None = None) -> Path:
+                expand_change: float = 0.0, vertices: int | None = None, *,
+                labels=None, segmentation_noise: float = 0.05, bent: bool = False) -> Path:
     """Normal and banded phantoms ``<group>_<seed>`` in ``folder`` (kept if there),
-    meshed with 0.75 to 1.25 ``vertices`` (default: the phantoms' own range)."""
+    meshed with 0.75 to 1.25 ``vertices`` (default: the phantoms' own range); with
+    ``labels`` (voxel size, um), as label volumes with ``segmentation_noise``; with
+    ``bent``, meshes of the phantoms that labels make (bent to a quarter circle)."""
     sizes = ({} if vertices is None
              else dict(vertices_min=round(0.75 * vertices), vertices_max=round(1.25 * vertices)))
     for group in ("normal", "banded"):
         for seed in range(seeds):
             path = folder / f"{group}_{seed}"
-            if not (path / "truth.json").exists():
-                write_phantom(path, sample_params(group, seed, n_frames=frames, noise_mm=noise_mm,
-                                                  expand_change=expand_change, **sizes))
+            if (path / "truth.json").exists():
+                continue
+            params = sample_params(group, seed, n_frames=frames, noise_mm=noise_mm,
+                                   expand_change=expand_change, **sizes)
+            if labels is not None:
+                write_label_phantom(path, params, labels, noise=segmentation_noise)
+            else:
+                write_phantom(path, label_params(params) if bent else params)
     return folder
+
+
+def in_phantom_frame(dataset: Path, grids) -> dict:
+    """The grids (mm) in the phantom's own frame: a label phantom's volume is turned
+    and shifted (:func:`oftimg.synthetic.labels.volume_frame`)."""
+    grids = {k: grids[k] for k in grids.files}
+    meta = json.loads((dataset / "meta.json").read_text())
+    if not (dataset / "labels").is_dir():
+        return grids
+    ph, _ = read_truth(dataset)
+    turn, shift = volume_frame(ph, meta["voxel_size"])
+    return {k: ((g.astype(float) - shift) @ turn.T if g.shape[-1:] == (3,) else g)
+            for k, g in grids.items()}
 
 
 def _relative_pct(measured, true) -> float:
@@ -236,7 +258,8 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
         found = summ["band_position_mm"]
         e["band_mm"] = np.nan if found is None else found - truth["band_position_mm"]
     e["corners_wrong"] = float(summ["corner_count"] != truth["corner_count"])
-    e.update(field_errors(ph, arr, np.load(results / "grids.npz"), t_ms, summ, period))
+    e.update(field_errors(ph, arr, in_phantom_frame(dataset, np.load(results / "grids.npz")),
+                          t_ms, summ, period))
     return {k: float(v) for k, v in e.items()}
 
 
@@ -397,6 +420,11 @@ def main() -> None:
                     help="oftimg run --field-smoothing-ms")
     ap.add_argument("--strain-smoothing-ms", default="auto",
                     help="oftimg run --strain-smoothing-ms")
+    ap.add_argument("--labels", type=float, nargs=3, metavar=("DX", "DY", "DZ"), default=None,
+                    help="label phantoms of this voxel size (um), meshed by oftimg run, and "
+                         "beside them the same phantoms as meshes")
+    ap.add_argument("--segmentation-noise", type=float, default=0.05,
+                    help="with --labels: share of boundary voxels flipped")
     ap.add_argument("--jobs", type=int, default=None)
     ap.add_argument("--cache", type=Path, default=None,
                     help="keep the phantoms here (default: a temporary folder)")
@@ -415,11 +443,21 @@ def main() -> None:
         for noise in sorted(args.noise_mm):
             changing = f"_expand{args.expand_change:+g}" if args.expand_change else ""
             sized = f"_{args.vertices}v" if args.vertices else ""
-            cohort = make_cohort(cache / f"accuracy_{args.frames}f_noise{noise:g}mm{changing}{sized}",
-                                 args.seeds, args.frames, noise, args.expand_change,
-                                 args.vertices)
-            for positions in args.map_positions:
-                results = Path(tmp) / f"results_{noise:g}_{positions}"
+            name = f"accuracy_{args.frames}f_noise{noise:g}mm{changing}{sized}"
+            kinds = [(name, {})]
+            if args.labels:
+                voxel = "x".join(f"{d:g}" for d in args.labels)
+                kinds = [(f"{name}_labels{voxel}um_seg{args.segmentation_noise:g}",
+                          {"labels": args.labels,
+                           "segmentation_noise": args.segmentation_noise}),
+                         (f"{name}_bent", {"bent": True})]
+            for (cohort_name, how), positions in ((k, p) for k in kinds
+                                                  for p in args.map_positions):
+                cohort = make_cohort(cache / cohort_name, args.seeds, args.frames, noise,
+                                     args.expand_change, args.vertices, **how)
+                kind = ("labels" if "labels" in how else "meshes, bent as labels"
+                        if how else "meshes")
+                results = Path(tmp) / f"results_{cohort_name}_{positions}"
                 oftimg.run(cohort, results, quiet=args.json, jobs=args.jobs,
                            options={"map_positions": positions,
                                     "ridge_smoothing_ms": smoothing,
@@ -438,10 +476,12 @@ def main() -> None:
                     tables[group] = summarise({k: e for k, e in errors.items()
                                                if k.startswith(group)})
                     if not args.json:
-                        print_table(f"{group}, noise {noise * 1000:g} um, map rows: {positions}"
+                        print_table(f"{group} ({kind}), noise {noise * 1000:g} um, "
+                                    f"map rows: {positions}"
                                     f"{changing and f', expansion share {args.expand_change:+g} along'}",
                                     tables[group], args.seeds, args.frames)
-                report[f"{noise:g}_{positions}"] = {"noise_mm": noise, "map_positions": positions,
+                report[f"{cohort_name}_{positions}"] = {"noise_mm": noise, "input": kind,
+                                                        "map_positions": positions,
                                                     "summary": tables, "embryos": errors}
     if args.json:
         print(json.dumps(_finite_or_none({"frames": args.frames, "seeds": args.seeds,

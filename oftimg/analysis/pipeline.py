@@ -21,6 +21,7 @@ from ..image.pca import contour_pca
 from .tracking import follow, track_grid
 from ..mesh.clip import clip_grid, clip_positions, plane_at
 from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
+from ..mesh.labels import MeshOptions
 from ..mesh.sections import slab_thickness, volume_from_sections
 from ..mesh.curvature import contour_curvature, count_corners
 from ..mesh.strain import grid_strain
@@ -48,14 +49,18 @@ class PipelineOptions:
     field_smoothing_ms: float | str = "auto"
     strain_smoothing_ms: float | str = "auto"
     tracking: str = "material"
+    meshing: MeshOptions = field(default_factory=MeshOptions)    # of label datasets
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
                  map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
                  field_smoothing_ms: float | str = "auto",
                  strain_smoothing_ms: float | str = "auto", tracking: str = "material",
-                 **grid_kwargs):
+                 meshing: MeshOptions | dict | None = None, **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
+        if isinstance(meshing, dict):
+            meshing = MeshOptions(**meshing)
+        object.__setattr__(self, "meshing", meshing or MeshOptions())
         if tracking not in TRACKING:
             raise InputError(f"tracking must be one of {TRACKING}, found {tracking!r}")
         object.__setattr__(self, "tracking", tracking)
@@ -82,7 +87,8 @@ class PipelineOptions:
         return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions,
                 "ridge_smoothing_ms": self.ridge_smoothing_ms,
                 "field_smoothing_ms": self.field_smoothing_ms,
-                "strain_smoothing_ms": self.strain_smoothing_ms, "tracking": self.tracking}
+                "strain_smoothing_ms": self.strain_smoothing_ms, "tracking": self.tracking,
+                "meshing": self.meshing.as_dict()}
 
 
 def _sigma_ms(given, must: str) -> float:
@@ -490,6 +496,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "length_unit": ds.meta.length_unit, "voxel_size": ds.meta.voxel_size,
         "inputs": {s: [{"file": str(p), "bytes": p.stat().st_size} for p in files]
                    for s, files in ds.frames.items()}}
+    if ds.labels is not None:           # meshed from label volumes: those are the inputs
+        summary["provenance"].update(inputs={"labels": ds.labels["files"]},
+                                     meshing=ds.labels["meshing"])
     summary["timings_s"] = timings
     return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"]}
 

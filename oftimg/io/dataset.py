@@ -75,8 +75,9 @@ def _scale_to_mm(unit: str, voxel_size) -> float | tuple[float, float, float]:
     return to_mm if voxel_size is None else tuple(to_mm * d for d in voxel_size)
 
 
-def read_meta(folder: Path, n_frames: int) -> Meta:
-    """Parse ``meta.json`` (optional) and fill in the documented defaults."""
+def read_meta_json(folder: Path, keys: dict = META_KEYS) -> dict:
+    """``meta.json`` as a dict ({} when there is none), each key one of ``keys``
+    (name -> allowed type) with a value of its type."""
     path = folder / "meta.json"
     raw: dict = {}
     if path.exists():
@@ -87,12 +88,19 @@ def read_meta(folder: Path, n_frames: int) -> Meta:
         if not isinstance(raw, dict):
             raise DatasetError(f"{path}: expected a JSON object, found {type(raw).__name__}")
         for key, value in raw.items():
-            if key not in META_KEYS:
+            if key not in keys:
                 raise DatasetError(f"{path}: unknown key {key!r}; "
-                                   f"allowed: {', '.join(META_KEYS)}")
-            if not isinstance(value, META_KEYS[key]) or isinstance(value, bool):
+                                   f"allowed: {', '.join(keys)}")
+            if not isinstance(value, keys[key]) or isinstance(value, bool):
                 raise DatasetError(f"{path}: {key!r} has the wrong type "
                                    f"({type(value).__name__})")
+    return raw
+
+
+def read_meta(folder: Path, n_frames: int, keys: dict = META_KEYS) -> Meta:
+    """Parse ``meta.json`` (optional) and fill in the documented defaults."""
+    path = folder / "meta.json"
+    raw = read_meta_json(folder, keys)
     unit = raw.get("length_unit", "mm")
     if unit not in UNIT_TO_MM:
         raise DatasetError(f"{path}: length_unit must be 'mm' or 'um', found {unit!r}")
@@ -158,6 +166,13 @@ class Dataset:
     inlet_mm: np.ndarray = field(repr=False)
     checked: dict = field(default_factory=dict, repr=False)  # (surface, t) -> Checked
     validated: bool = False                 # set by validate_dataset
+    labels: dict | None = None              # meshed from label volumes: their files, how
+
+    def input_files(self) -> list[Path]:
+        """The files the dataset is made of, meta.json with them."""
+        files = ([Path(f["file"]) for f in self.labels["files"]] if self.labels
+                 else [p for surface in self.frames.values() for p in surface])
+        return files + [p for p in [self.path / "meta.json"] if p.is_file()]
 
     @property
     def n_frames(self) -> int:
@@ -231,7 +246,8 @@ def _reference_inlet(frames: list[Path], unit_scale, n_probe: int = 5) -> np.nda
 
 
 def is_dataset(path: Path) -> bool:
-    return (path / "outer").is_dir()
+    """A mesh dataset (outer/) or a label dataset (labels/)."""
+    return (path / "outer").is_dir() or (path / "labels").is_dir()
 
 
 def load_dataset(path: str | Path) -> Dataset:
@@ -250,7 +266,7 @@ def load_dataset(path: str | Path) -> Dataset:
     if misnamed:
         raise DatasetError(f"{misnamed[0]}: surface folders are named in lower case "
                            f"({', '.join(SURFACES)}); rename it {misnamed[0].name.lower()}/")
-    if not is_dataset(path):
+    if not (path / "outer").is_dir():
         raise DatasetError(f"{path}: no outer/ folder; a dataset has outer/ "
                            "(and optionally inner/, lumen/) with one mesh file per frame")
     frames = {}
@@ -293,8 +309,8 @@ def find_datasets(path: str | Path) -> list[Path]:
     subs = sorted((p for p in path.iterdir() if p.is_dir() and is_dataset(p)),
                   key=lambda p: natural_key(p.name))
     if not subs:
-        raise DatasetError(f"{path}: neither a dataset (no outer/ folder) nor a cohort "
-                           "(no sub-folder has outer/)")
+        raise DatasetError(f"{path}: neither a dataset (no outer/ or labels/ folder) nor a "
+                           "cohort (no sub-folder has outer/ or labels/)")
     return subs
 
 

@@ -1,5 +1,5 @@
-"""From a label volume to the walls' surfaces: one frame's masks cleaned and meshed by
-marching cubes, open where the tube leaves the volume (issue 53, first part).
+"""From a label volume to the walls' surfaces: one frame's masks cleaned, smoothed and
+meshed by marching cubes, open where the tube leaves the volume or cut at two planes.
 
 Volumes are arrays ``(z, y, x)`` as TIFF readers and scikit-image give them; a voxel
 ``(k, j, i)`` sits at ``x = i * dx, y = j * dy, z = k * dz``. Surfaces come out as
@@ -7,12 +7,13 @@ Volumes are arrays ``(z, y, x)`` as TIFF readers and scikit-image give them; a v
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from ..errors import InputError
-from .topology import boundary_loops, capped_signed_volume
+from .curvature import taubin_smooth
+from .topology import MeshError, boundary_loops, check_tube, repair
 
 # which labels each wall encloses: outer all three, inner the jelly and the lumen
 WALL_LAYERS = {"outer": ("myocardium", "jelly", "lumen"), "inner": ("jelly", "lumen"),
@@ -36,45 +37,219 @@ def wall_masks(labels: np.ndarray, label_ids: dict[str, int]) -> dict[str, np.nd
 
 @dataclass(frozen=True)
 class Cleaned:
-    """What :func:`clean_mask` removed: voxels of islands apart from the largest
-    piece, and voxels of pinholes filled."""
+    """What the clean-up dropped: pieces of surface apart from the wall (a
+    segmentation's specks outside it and its pinholes' cavities inside it) and
+    their vertices."""
 
-    island_voxels: int
-    hole_voxels: int
+    pieces: int
+    vertices: int
 
 
-def clean_mask(mask: np.ndarray, *, max_hole_voxels: int = 64) -> tuple[np.ndarray, Cleaned]:
-    """The largest connected piece of ``mask`` (face-connected) with its enclosed
-    holes of at most ``max_hole_voxels`` filled: a segmentation's specks and
-    pinholes would each become a handle or an island of the surface."""
+ANTI_ALIAS = 0.5        # the blur's sigma as a share of the sampling step, at least
+
+
+@dataclass(frozen=True)
+class MeshOptions:
+    """How a wall's mask becomes a mesh.
+
+    ``target_vertices``: about how many vertices each wall gets (the level set is
+    sampled at the spacing that gives it); ``smoothing``: the Gaussian sigma applied
+    to the mask before its level set is taken, in voxels along each axis (a
+    binary mask's level set is a staircase of the voxels' size along each axis;
+    a blur also moves a curved surface inwards by sigma^2 times its curvature
+    over 2, so it stays small and Taubin steps do the rest; one-voxel specks and
+    pinholes fall below the level); ``taubin_steps``: Taubin steps on the mesh with
+    its boundary loops held.
+    """
+
+    target_vertices: int = 6000
+    smoothing: float = 0.5
+    taubin_steps: int = 10
+
+    def __post_init__(self):
+        if not (isinstance(self.target_vertices, int) and self.target_vertices >= 200):
+            raise InputError(f"target vertices must be a whole number >= 200, "
+                             f"found {self.target_vertices!r}")
+        if not (np.isfinite(self.smoothing) and self.smoothing >= 0):
+            raise InputError(f"mesh smoothing must be >= 0 voxels, found {self.smoothing!r}")
+        if not (isinstance(self.taubin_steps, int) and self.taubin_steps >= 0):
+            raise InputError(f"taubin steps must be a whole number >= 0, "
+                             f"found {self.taubin_steps!r}")
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def sample_step(mask: np.ndarray, voxel_size_xyz, target_vertices: int) -> float:
+    """The spacing at which marching cubes gives a mask's surface about
+    ``target_vertices`` vertices: the voxel faces between inside and outside add up
+    to about 1.5 times the surface's area, and a level set sampled at spacing h has
+    about 1.5 area / h^2 vertices. Never finer than the smallest voxel side."""
+    dx, dy, dz = voxel_size_xyz
+    faces = (np.count_nonzero(mask[1:] != mask[:-1]) * dx * dy
+             + np.count_nonzero(mask[:, 1:] != mask[:, :-1]) * dx * dz
+             + np.count_nonzero(mask[:, :, 1:] != mask[:, :, :-1]) * dy * dz)
+    return max(float(np.sqrt(faces / target_vertices)), min(voxel_size_xyz))
+
+
+def level_set_field(mask: np.ndarray, voxel_size_xyz, sigma_voxels: float, step: float):
+    """The mask smoothed by a Gaussian of ``sigma_voxels`` and resampled at
+    about ``step`` along each axis, cropped to the mask's box (plus the blur's
+    reach), with the sampling kept on the volume's first and last planes: ``(field
+    (z, y, x) float32, its origin (x, y, z), its spacing (dx, dy, dz))``. Outside
+    the volume the mask is taken as its border plane continued, so the surface
+    meets the volume's faces square."""
     from scipy import ndimage
 
-    pieces, n = ndimage.label(mask)
-    if n == 0:
-        return mask.copy(), Cleaned(0, 0)
-    sizes = np.bincount(pieces.ravel())
-    sizes[0] = 0
-    kept = pieces == int(np.argmax(sizes))
-    holes, n_holes = ndimage.label(~kept)
-    hole_sizes = np.bincount(holes.ravel())
-    border = np.unique(np.concatenate([holes[[0, -1]].ravel(), holes[:, [0, -1]].ravel(),
-                                       holes[:, :, [0, -1]].ravel()]))
-    small = np.flatnonzero(hole_sizes <= max_hole_voxels)
-    small = np.setdiff1d(small, np.append(border, 0))
-    filled = kept | np.isin(holes, small)
-    return filled, Cleaned(int(mask.sum() - kept.sum()), int(filled.sum() - kept.sum()))
+    size_zyx = np.asarray(voxel_size_xyz[::-1], float)
+    reach = int(np.ceil(3 * max(sigma_voxels, ANTI_ALIAS * step / min(size_zyx)))) + 1
+    where = np.nonzero(mask.any(axis=(1, 2)))[0], np.nonzero(mask.any(axis=(0, 2)))[0], \
+        np.nonzero(mask.any(axis=(0, 1)))[0]
+    lo = [max(int(w[0]) - reach, 0) for w in where]
+    hi = [min(int(w[-1]) + reach, n - 1) for w, n in zip(where, mask.shape)]
+    box = tuple(slice(a, b + 1) for a, b in zip(lo, hi))
+    field = mask[box].astype(np.float32)
+    # sampled coarser than the voxels, the blur grows to keep the staircase from aliasing
+    sigma = np.maximum(sigma_voxels, ANTI_ALIAS * step / size_zyx)
+    if np.any(sigma > 0):
+        field = ndimage.gaussian_filter(field, sigma, mode="nearest", truncate=3.0)
+    n_in = np.array(field.shape)
+    n_out = np.maximum(np.round((n_in - 1) * size_zyx / step).astype(int) + 1, 2)
+    if np.any(n_out != n_in):
+        field = ndimage.zoom(field, n_out / n_in, order=1, mode="nearest", grid_mode=False)
+    spacing_zyx = (n_in - 1) * size_zyx / np.maximum(np.array(field.shape) - 1, 1)
+    return field, tuple(np.array(lo)[::-1] * size_zyx[::-1]), tuple(spacing_zyx[::-1])
 
 
-def mesh_mask(mask: np.ndarray, voxel_size_xyz) -> tuple[np.ndarray, np.ndarray]:
-    """The surface of ``mask (z, y, x)`` by marching cubes at level 0.5, in (x, y, z)
-    with ``voxel_size_xyz`` (dx, dy, dz), faces outward. The volume is not padded, so
-    the surface stays open where the mask meets the volume's border."""
+def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal) -> tuple[np.ndarray, np.ndarray]:
+    """The part of a mesh on the side of the plane ``(point, normal)`` that the
+    normal points to, its triangles split where they cross the plane (new vertices
+    on the plane, shared by neighbouring triangles), so the cut leaves a boundary
+    loop lying in the plane."""
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    d = (V - np.asarray(point, float)) @ normal
+    d[np.abs(d) < 1e-12 * max(np.ptp(V), 1.0)] = 0.0
+    inside = d >= 0
+    n_in = inside[F].sum(axis=1)
+    keep = F[n_in == 3]
+    crossing = F[(n_in > 0) & (n_in < 3)]
+    # each crossing edge gets one new vertex, found by its (low, high) vertex pair
+    edges = np.concatenate([crossing[:, [0, 1]], crossing[:, [1, 2]], crossing[:, [2, 0]]])
+    edges = np.sort(edges, axis=1)
+    cut = inside[edges[:, 0]] != inside[edges[:, 1]]
+    pairs, index = np.unique(edges[cut], axis=0, return_inverse=True)
+    a, b = pairs[:, 0], pairs[:, 1]
+    w = (d[a] / (d[a] - d[b]))[:, None]
+    new_V = np.concatenate([V, V[a] + w * (V[b] - V[a])])
+    key = {tuple(p): len(V) + k for k, p in enumerate(pairs.tolist())}
+
+    def on_plane(i, j):
+        return key[(min(i, j), max(i, j))]
+
+    faces = [keep]
+    extra = []
+    for tri in crossing.tolist():
+        ins = [inside[v] for v in tri]
+        # rotate so that the lone vertex (the one on its side alone) comes first
+        lone = ins.index(True) if sum(ins) == 1 else ins.index(False)
+        p, q, r = tri[lone:] + tri[:lone]
+        pq, pr = on_plane(p, q), on_plane(p, r)
+        if sum(ins) == 1:
+            extra.append((p, pq, pr))
+        else:
+            extra += [(pq, q, r), (pq, r, pr)]
+    if extra:
+        faces.append(np.asarray(extra, dtype=np.int64))
+    F_out = np.concatenate(faces) if faces else np.empty((0, 3), np.int64)
+    used = np.zeros(len(new_V), bool)
+    used[F_out.ravel()] = True
+    remap = np.cumsum(used) - 1
+    return new_V[used], remap[F_out]
+
+
+def _largest_piece(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, Cleaned]:
+    """The connected part of the mesh with the most faces, and what was dropped."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(V)
+    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
+    n_comp, label = connected_components(sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n)),
+                                         directed=False)
+    if n_comp == 1:
+        return V, F, Cleaned(0, 0)
+    face_label = label[F[:, 0]]
+    F = F[face_label == np.argmax(np.bincount(face_label))]
+    used = np.zeros(n, bool)
+    used[F.ravel()] = True
+    dropped = Cleaned(len(np.unique(label[~used])), int((~used).sum()))
+    return V[used], (np.cumsum(used) - 1)[F], dropped
+
+
+@dataclass(frozen=True)
+class WallMesh:
+    """One wall of one frame: ``V (n, 3)`` in (x, y, z) length units, ``F (m, 3)``
+    outward, what the clean-up removed, and the level set's sampling step."""
+
+    V: np.ndarray
+    F: np.ndarray
+    cleaned: Cleaned
+    step: float
+
+
+def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptions(),
+              ends=None) -> WallMesh:
+    """One wall's surface from its mask ``(z, y, x)``: the mask smoothed and
+    resampled (:func:`level_set_field`), its level 0.5 by marching cubes (not
+    padded: open where the tube leaves the volume), cut at the ``ends`` planes (two
+    ``(point, normal)``, normals into the tube's part to keep) when given, the
+    largest piece kept (a speck's surface or a pinhole's cavity is a piece of its
+    own: cheaper dropped from a mesh of thousands of vertices than labelled in a
+    volume of millions of voxels), Taubin-smoothed with its boundary loops held,
+    faces outward. Raises :class:`MeshError` when the
+    result is not an open tube (one message, no file name)."""
     from skimage.measure import marching_cubes
 
-    dx, dy, dz = (float(d) for d in voxel_size_xyz)
-    verts, faces, _, _ = marching_cubes(mask.astype(np.float32), 0.5, spacing=(dz, dy, dx))
-    V = np.ascontiguousarray(verts[:, ::-1], dtype=np.float64)         # (z, y, x) -> (x, y, z)
-    F = np.ascontiguousarray(faces[:, ::-1], dtype=np.int64)           # the swap mirrors: re-turn
-    if capped_signed_volume(V, F, boundary_loops(F)) < 0:
-        F = F[:, ::-1].copy()
-    return V, F
+    step = sample_step(mask, voxel_size_xyz, options.target_vertices)
+    field, origin, spacing = level_set_field(mask, voxel_size_xyz, options.smoothing, step)
+    if field.max() <= 0.5:
+        raise MeshError("is too thin to mesh: after smoothing no voxel is inside")
+    verts, faces, _, _ = marching_cubes(field, 0.5, spacing=spacing[::-1])
+    V = verts[:, ::-1] + np.asarray(origin)                  # (z, y, x) -> (x, y, z)
+    F = np.ascontiguousarray(faces[:, ::-1], dtype=np.int64)
+    V, F, _ = repair(V, F)
+    for point, normal in ends or ():
+        V, F = cut_by_plane(V, F, point, normal)
+    V, F, cleaned = _largest_piece(V, F)
+    loops = boundary_loops(F)
+    if len(loops) == 1:
+        raise MeshError("leaves the volume at one end only (one open end): a tube that "
+                        "ends inside the volume needs two cutting planes, meta.json "
+                        "\"ends\"")
+    topo = check_tube(V, F)
+    rim = np.concatenate(topo.loops)
+    V = taubin_smooth(V, topo.F, options.taubin_steps, fixed=rim)
+    return WallMesh(V, topo.F, cleaned, float(step))
+
+
+def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
+               options: MeshOptions = MeshOptions(), ends=None) -> dict[str, WallMesh]:
+    """Every wall of one frame's label volume ``(z, y, x)`` (:func:`wall_masks`,
+    :func:`mesh_wall`). Raises :class:`InputError` naming the problem (no file) for
+    an all-zero volume or a layer's label absent, :class:`MeshError` (naming the
+    wall) for a wall that is not an open tube."""
+    present = np.zeros(max(label_ids.values()) + 1, bool)
+    values = np.unique(labels)
+    present[values[(values >= 0) & (values < len(present))]] = True
+    if not values.any():
+        raise InputError("holds no labelled voxel (all zero)")
+    absent = [f"{layer} ({v})" for layer, v in label_ids.items() if not present[v]]
+    if absent:
+        raise InputError(f"has no voxel labelled {', '.join(absent)}")
+    walls = {}
+    for wall, mask in wall_masks(labels, label_ids).items():
+        try:
+            walls[wall] = mesh_wall(mask, voxel_size_xyz, options, ends)
+        except MeshError as exc:
+            raise MeshError(f"the {wall} wall {exc}") from None
+    return walls

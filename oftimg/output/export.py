@@ -152,9 +152,7 @@ class Finished:
         """What a dataset's results are made from: its input files (sizes and
         modification times), the options, fps, and oftimg's version and source
         (so that a development install's changed code is not taken for the same)."""
-        files = [p for surface in ds.frames.values() for p in surface]
-        files += [p for p in [ds.path / "meta.json"] if p.is_file()]
-        stats = [(str(p), p.stat()) for p in files]
+        stats = [(str(p), p.stat()) for p in ds.input_files()]
         return {"oftimg_version": __version__, "oftimg_source": _source_digest(),
                 "options": opts.as_dict(), "fps": fps,
                 "inputs": [[p, st.st_size, st.st_mtime_ns] for p, st in stats]}

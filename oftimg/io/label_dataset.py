@@ -1,0 +1,227 @@
+"""Label datasets: one folder per embryo holding a label volume per frame, checked
+from the files' headers before any frame is meshed; and one frame meshed into its
+walls' mesh files (the work of one worker, one volume in memory).
+
+Layout::
+
+    DATASET/
+      meta.json   {"length_unit": "um", "voxel_size": [dx, dy, dz], "period_ms": ...,
+                   "labels": {"myocardium": 1, "jelly": 2, "lumen": 3},
+                   "ends": [{"point": [x, y, z], "normal": [x, y, z]}, {...}]}
+      labels/     one 3-D volume per frame (.tif/.tiff, .nii/.nii.gz, .npy), or one
+                  4-D labels.tif / labels.zarr with axes (t, z, y, x)
+
+A voxel ``(k, j, i)`` sits at ``x = i dx, y = j dy, z = k dz`` in ``length_unit``;
+``ends`` and ``inlet`` are points in those coordinates.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DatasetError, InputError
+from ..mesh.labels import MeshOptions, mesh_walls
+from ..mesh.topology import MeshError
+from .dataset import (META_KEYS, UNIT_TO_MM, Meta, natural_key, read_meta, read_meta_json)
+from .labelfile import (LabelSource, label_suffix, list_label_sources, read_header, read_volume,
+                        series_file)
+from .meshfile import write_ply
+
+LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list}
+LAYER_NAMES = ("myocardium", "jelly", "lumen")
+DEFAULT_LABEL_IDS = {"myocardium": 1, "jelly": 2, "lumen": 3}
+SPACING_TOLERANCE = 1e-3        # relative: a file's voxel size and meta.json's agree
+CARRIED_META = ("name", "group", "period_ms", "length_unit", "inlet")
+
+
+@dataclass(frozen=True)
+class LabelDataset:
+    """A label dataset folder: its metadata, its frames' sources, and what every
+    frame shares: ``shape (z, y, x)``, ``voxel_size (dx, dy, dz)`` in the meta's
+    length unit, the layers' label values, the ``ends`` planes (two ``(point,
+    normal)``, or None)."""
+
+    path: Path
+    meta: Meta
+    raw_meta: dict
+    sources: tuple[LabelSource, ...]
+    shape: tuple[int, int, int]
+    voxel_size: tuple[float, float, float]
+    label_ids: dict
+    ends: tuple | None
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.sources)
+
+    def input_files(self) -> list[Path]:
+        """The files the dataset is made of (each once), meta.json with them."""
+        files = list(dict.fromkeys(Path(s.path) for s in self.sources))
+        return files + [p for p in [self.path / "meta.json"] if p.is_file()]
+
+    def mesh_names(self) -> list[str]:
+        """Each frame's mesh file name: its label file's stem, or ``t000.ply``."""
+        if self.sources[0].index is not None:
+            width = len(str(self.n_frames - 1))
+            return [f"t{s.index:0{width}d}.ply" for s in self.sources]
+        return [Path(s.path).name[:-len(label_suffix(Path(s.path)))] + ".ply"
+                for s in self.sources]
+
+
+def is_label_dataset(path: Path) -> bool:
+    return (Path(path) / "labels").is_dir()
+
+
+def load_label_dataset(path: str | Path) -> LabelDataset:
+    """Open a label dataset: its meta.json, and every frame's header (shape, whole-
+    number labels, the file's own voxel size against meta.json's). Reads the first
+    frame's voxels only when meta.json names no labels (one label value: the outer
+    wall alone; else myocardium 1, jelly 2, lumen 3)."""
+    path = Path(path)
+    sources = list_label_sources(path / "labels", natural_key)
+    raw = read_meta_json(path, LABEL_META_KEYS)
+    meta = read_meta(path, len(sources), LABEL_META_KEYS)
+    headers = [read_header(s) for s in sources]
+    first = headers[0]
+    for source, header in zip(sources, headers):
+        if header.shape != first.shape:
+            raise DatasetError(f"{source}: a volume of shape (z, y, x) {header.shape}, but the "
+                               f"first frame's is {first.shape}; every frame has one shape")
+        if not (np.issubdtype(header.dtype, np.integer) or header.dtype == bool):
+            raise DatasetError(f"{source}: {header.dtype} labels; a label volume holds whole "
+                               "numbers (0 background), as segmentation tools export it")
+    voxel = _voxel_size(path, meta, raw, sources, headers)
+    label_ids = _label_ids(path, raw, sources[0])
+    ends = _ends(path, raw)
+    return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends)
+
+
+def _voxel_size(path: Path, meta: Meta, raw: dict, sources, headers) -> tuple:
+    """The voxel size in the meta's length unit: meta.json's, which each file that
+    carries one must agree with, or the files' own."""
+    to_unit = 1.0 / UNIT_TO_MM[meta.length_unit]
+    given = meta.voxel_size
+    if series_file(path / "labels") is not None:
+        sources, headers = sources[:1], headers[:1]
+    for source, header in zip(sources, headers):
+        if header.voxel_size_mm is None:
+            continue
+        own = tuple(d * to_unit for d in header.voxel_size_mm)
+        if given is None:
+            given = own
+        elif not np.allclose(own, given, rtol=SPACING_TOLERANCE, atol=0):
+            ref = ("meta.json's voxel_size" if meta.voxel_size is not None
+                   else f"the first frame's ({sources[0]})")
+            raise DatasetError(
+                f"{source}: its voxel size {_fmt(own)} {meta.length_unit} disagrees with "
+                f"{ref} {_fmt(given)}; correct one of them")
+    if given is None:
+        raise DatasetError(f"{path / 'meta.json'}: no voxel_size, and {sources[0]} carries "
+                           f"none; give \"voxel_size\": [dx, dy, dz] in length_unit "
+                           f"({meta.length_unit})")
+    return tuple(float(d) for d in given)
+
+
+def _fmt(size) -> str:
+    return "[" + ", ".join(f"{d:.6g}" for d in size) + "]"
+
+
+def _label_ids(path: Path, raw: dict, first: LabelSource) -> dict:
+    """The layers' label values from meta.json, or read off the first frame."""
+    meta_file = path / "meta.json"
+    if "labels" not in raw:
+        values = np.unique(read_volume(first))
+        return {"myocardium": 1} if set(values.tolist()) <= {0, 1} else dict(DEFAULT_LABEL_IDS)
+    ids = raw["labels"]
+    unknown = sorted(set(ids) - set(LAYER_NAMES))
+    if unknown or "myocardium" not in ids:
+        raise DatasetError(f"{meta_file}: labels names the layers {', '.join(LAYER_NAMES)} "
+                           f"(myocardium at least), found {sorted(ids)}")
+    values = list(ids.values())
+    if (not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in values)
+            or len(set(values)) != len(values)):
+        raise DatasetError(f"{meta_file}: each layer's label is a distinct whole number "
+                           f"above 0 (0 is the background), found {ids}")
+    return {layer: ids[layer] for layer in LAYER_NAMES if layer in ids}
+
+
+def _ends(path: Path, raw: dict):
+    """meta.json's two cutting planes as ``((point, normal), (point, normal))``."""
+    if "ends" not in raw:
+        return None
+    ends = raw["ends"]
+    ok = (len(ends) == 2 and all(isinstance(e, dict) and set(e) == {"point", "normal"}
+                                 and all(isinstance(e[k], list) and len(e[k]) == 3
+                                         and all(isinstance(x, (int, float)) for x in e[k])
+                                         for k in ("point", "normal")) for e in ends))
+    if not ok or any(np.linalg.norm(e["normal"]) == 0 for e in ends):
+        raise DatasetError(f"{path / 'meta.json'}: ends is two planes, each "
+                           '{"point": [x, y, z], "normal": [x, y, z]} with the normal '
+                           "pointing into the tube's part to keep")
+    return tuple((tuple(map(float, e["point"])), tuple(map(float, e["normal"]))) for e in ends)
+
+
+def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, voxel_size,
+               options: MeshOptions, ends=None) -> dict | DatasetError:
+    """Mesh one frame's volume into ``out/<wall>/<mesh_name>`` (binary PLY, in the
+    volume's length unit): its walls' vertex counts and clean-up counts, or the
+    :class:`DatasetError` naming the frame's file (returned, so that one pass over
+    the frames finds every bad one)."""
+    try:
+        walls = mesh_walls(read_volume(source), label_ids, voxel_size, options, ends)
+    except (InputError, MeshError) as exc:
+        return DatasetError(f"{source}: {exc}")
+    for wall, mesh in walls.items():
+        (Path(out) / wall).mkdir(parents=True, exist_ok=True)
+        write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F)
+    return {"vertices": {w: len(m.V) for w, m in walls.items()},
+            "pieces_dropped": {w: m.cleaned.pieces for w, m in walls.items()},
+            "step": {w: round(m.step, 6) for w, m in walls.items()}}
+
+
+def write_meshed_meta(lds: LabelDataset, out: Path) -> None:
+    """The meshed dataset's meta.json: what meta.json says of the embryo, carried
+    over (the meshes are in the volume's length unit, so no voxel_size)."""
+    meta = {k: lds.raw_meta[k] for k in CARRIED_META if k in lds.raw_meta}
+    meta.setdefault("name", lds.meta.name)
+    (out / "meta.json").write_text(json.dumps(meta, indent=2))
+
+
+def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, executor=None,
+                       progress=None) -> dict:
+    """Mesh every frame of ``lds`` into ``out`` (``outer/``, ``inner/``, ``lumen/`` and a
+    meta.json: a mesh dataset) in ``executor``'s workers, each holding one volume;
+    ``progress()`` after each frame. Returns what the results' provenance records:
+    the label files, the meshing options, and per wall each frame's vertex count and
+    the pieces its clean-up dropped. Raises one :class:`DatasetError` for every frame
+    that cannot be meshed (the first one's message, the others named in a note)."""
+    out = Path(out)
+    n = lds.n_frames
+    args = (lds.sources, [str(out)] * n, lds.mesh_names(), [lds.label_ids] * n,
+            [lds.voxel_size] * n, [options] * n, [lds.ends] * n)
+    results = []
+    for result in (map(mesh_frame, *args) if executor is None else executor.map(mesh_frame, *args)):
+        results.append(result)
+        if progress:
+            progress()
+    bad = [r for r in results if isinstance(r, DatasetError)]
+    if bad:
+        if len(bad) > 1:
+            bad[0].add_note(f"and {len(bad) - 1} more of the {n} frames cannot be meshed: "
+                            + "; ".join(str(e) for e in bad[1:4])
+                            + ("; ..." if len(bad) > 4 else ""))
+        raise bad[0]
+    write_meshed_meta(lds, out)
+    walls = list(results[0]["vertices"])
+    return {
+        "files": [{"file": str(p), "bytes": p.stat().st_size} for p in lds.input_files()
+                  if p.name != "meta.json"],
+        "meshing": {"options": options.as_dict(), "voxel_size": list(lds.voxel_size),
+                    "length_unit": lds.meta.length_unit, "shape_zyx": list(lds.shape),
+                    "labels": lds.label_ids,
+                    "ends": None if lds.ends is None else [list(map(list, e)) for e in lds.ends],
+                    **{key: {w: [r[key][w] for r in results] for w in walls}
+                       for key in ("vertices", "pieces_dropped", "step")}}}

@@ -1,0 +1,215 @@
+"""Label volume files: one frame's volume read as an array ``(z, y, x)``, and the
+voxel size the file itself carries.
+
+Formats: one 3-D file per frame (TIFF, NIfTI through nibabel, ``.npy``), or one
+4-D file for the whole series (``labels.tif`` with axes (t, z, y, x), as ImageJ
+writes a hyperstack, or a ``labels.zarr`` array). Headers are read without the
+voxels, so that a whole series is checked before any frame is meshed; a frame's
+voxels are read when it is meshed (a TIFF page range, a memory map, a zarr chunk),
+so a worker holds one volume at a time.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DatasetError
+
+PER_FRAME_SUFFIXES = (".tif", ".tiff", ".nii", ".nii.gz", ".npy")
+SERIES_NAMES = ("labels.tif", "labels.tiff", "labels.zarr")
+# length units as TIFF (ImageJ) and NIfTI headers spell them, in mm
+HEADER_UNITS_MM = {"mm": 1.0, "millimeter": 1.0, "um": 1e-3, "micron": 1e-3, "µm": 1e-3,
+                   "\u00b5m": 1e-3, "microns": 1e-3, "meter": 1e3, "m": 1e3}
+
+
+@dataclass(frozen=True)
+class LabelSource:
+    """Where one frame's volume lies: a file, or frame ``index`` of a 4-D file."""
+
+    path: str
+    index: int | None = None
+
+    def __str__(self) -> str:
+        return self.path if self.index is None else f"{self.path} (frame {self.index})"
+
+
+@dataclass(frozen=True)
+class VolumeHeader:
+    """What a file says about a frame without its voxels: ``shape (z, y, x)``, the
+    stored dtype, and its own voxel size ``(dx, dy, dz)`` in mm (None: it gives none)."""
+
+    shape: tuple[int, int, int]
+    dtype: np.dtype
+    voxel_size_mm: tuple[float, float, float] | None
+
+
+def label_suffix(path: Path) -> str:
+    """The file's format suffix, ``.nii.gz`` as one."""
+    name = path.name.lower()
+    return ".nii.gz" if name.endswith(".nii.gz") else path.suffix.lower()
+
+
+def series_file(folder: Path) -> Path | None:
+    """The 4-D file of a ``labels/`` folder, or None for one file per frame."""
+    found = [folder / n for n in SERIES_NAMES if (folder / n).exists()]
+    return found[0] if found else None
+
+
+def list_label_sources(folder: Path, natural_key) -> list[LabelSource]:
+    """The frames of a ``labels/`` folder in time order: each frame of its 4-D file,
+    or its per-frame files in natural order (one format only)."""
+    series = series_file(folder)
+    if series is not None:
+        n_t = _series_shape(series)[0]
+        return [LabelSource(str(series), t) for t in range(n_t)]
+    files = sorted((p for p in folder.iterdir() if not p.name.startswith(".")
+                    and label_suffix(p) in PER_FRAME_SUFFIXES),
+                   key=lambda p: natural_key(p.name))
+    if not files:
+        raise DatasetError(f"{folder}: no label volumes (one file per frame: "
+                           f"{', '.join(PER_FRAME_SUFFIXES)}; or one 4-D "
+                           f"{' or '.join(SERIES_NAMES)})")
+    kinds = sorted({label_suffix(p).replace(".tiff", ".tif") for p in files})
+    if len(kinds) > 1:
+        raise DatasetError(f"{folder}: mixes {' and '.join(kinds)} files; a series is one "
+                           "format, so that the frames' order is plain")
+    return [LabelSource(str(p)) for p in files]
+
+
+def read_header(source: LabelSource) -> VolumeHeader:
+    """The frame's shape, dtype and voxel size from its file's header."""
+    path = Path(source.path)
+    try:
+        if source.index is not None:
+            shape = _series_shape(path)
+            return VolumeHeader(tuple(shape[1:]), _series_dtype(path), _series_voxel(path))
+        kind = label_suffix(path)
+        if kind == ".npy":
+            arr = np.load(path, mmap_mode="r")
+            return VolumeHeader(_three_d(arr.shape, path), arr.dtype, None)
+        if kind in (".nii", ".nii.gz"):
+            img = _nifti(path)
+            shape = _three_d(img.shape, path)[::-1]                   # (x, y, z) -> (z, y, x)
+            return VolumeHeader(shape, img.header.get_data_dtype(), _nifti_voxel(img))
+        import tifffile
+        with tifffile.TiffFile(path) as tif:
+            series = tif.series[0]
+            return VolumeHeader(_three_d(series.shape, path), series.dtype, _tiff_voxel(tif))
+    except DatasetError:
+        raise
+    except Exception as exc:             # a truncated or foreign file: its reader's words
+        raise DatasetError(f"{source}: cannot be read as a label volume "
+                           f"({type(exc).__name__}: {exc})") from None
+
+
+def read_volume(source: LabelSource) -> np.ndarray:
+    """The frame's labels ``(z, y, x)`` as stored (one frame read, not the series)."""
+    path = Path(source.path)
+    try:
+        if source.index is not None:
+            if label_suffix(path) == ".zarr":
+                import zarr
+                return np.asarray(zarr.open(str(path), mode="r")[source.index])
+            import tifffile
+            with tifffile.TiffFile(path) as tif:
+                n_z = tif.series[0].shape[1]
+                first = source.index * n_z
+                return tif.asarray(key=range(first, first + n_z)).reshape(
+                    tif.series[0].shape[1:])
+        kind = label_suffix(path)
+        if kind == ".npy":
+            return np.asarray(np.load(path, mmap_mode="r")).reshape(read_header(source).shape)
+        if kind in (".nii", ".nii.gz"):
+            data = np.asanyarray(_nifti(path).dataobj)
+            return np.ascontiguousarray(data.reshape(data.shape[:3]).transpose(2, 1, 0))
+        import tifffile
+        return tifffile.imread(path).reshape(read_header(source).shape)
+    except Exception as exc:
+        raise DatasetError(f"{source}: cannot be read ({type(exc).__name__}: {exc})") from None
+
+
+def _three_d(shape, path: Path) -> tuple[int, int, int]:
+    """``shape`` without axes of length 1 beyond three, or the error for a file
+    that is not one 3-D volume."""
+    dims = tuple(int(n) for n in shape)
+    while len(dims) > 3 and 1 in dims:
+        dims = tuple(np.delete(dims, dims.index(1)))
+    if len(dims) != 3:
+        raise DatasetError(f"{path}: a {len(dims)}-D array of shape {dims}; a frame is one 3-D "
+                           "label volume (z, y, x)")
+    return dims
+
+
+def _series_shape(path: Path) -> tuple[int, int, int, int]:
+    """``(t, z, y, x)`` of a 4-D file."""
+    if label_suffix(path) == ".zarr":
+        import zarr
+        shape = zarr.open(str(path), mode="r").shape
+    else:
+        import tifffile
+        with tifffile.TiffFile(path) as tif:
+            series = tif.series[0]
+            shape, axes = series.shape, series.axes
+            if "C" in axes:
+                raise DatasetError(f"{path}: has channels (axes {axes}); a label series has "
+                                   "axes (t, z, y, x)")
+            if len(shape) == 3 and tif.is_imagej:        # a single frame's hyperstack
+                shape = (1, *shape)
+    if len(shape) != 4:
+        raise DatasetError(f"{path}: a {len(shape)}-D array of shape {tuple(shape)}; "
+                           "the series file is 4-D, axes (t, z, y, x)")
+    return tuple(int(n) for n in shape)
+
+
+def _series_dtype(path: Path) -> np.dtype:
+    if label_suffix(path) == ".zarr":
+        import zarr
+        return np.dtype(zarr.open(str(path), mode="r").dtype)
+    import tifffile
+    with tifffile.TiffFile(path) as tif:
+        return tif.series[0].dtype
+
+
+def _series_voxel(path: Path):
+    if label_suffix(path) == ".zarr":
+        return None
+    import tifffile
+    with tifffile.TiffFile(path) as tif:
+        return _tiff_voxel(tif)
+
+
+def _tiff_voxel(tif) -> tuple[float, float, float] | None:
+    """An ImageJ TIFF's voxel size in mm (x and y from the resolution tags, z from
+    its ``spacing``), or None for another TIFF (its resolution is a print setting)."""
+    meta = tif.imagej_metadata
+    if not meta or "spacing" not in meta:
+        return None
+    unit = HEADER_UNITS_MM.get(str(meta.get("unit", "")).strip().lower())
+    if unit is None:
+        raise DatasetError(f"{tif.filehandle.path}: ImageJ unit {meta.get('unit')!r} is not a "
+                           f"length oftimg knows ({', '.join(HEADER_UNITS_MM)})")
+    tags = tif.pages[0].tags
+    dx, dy = (tags[name].value[1] / tags[name].value[0] for name in ("XResolution", "YResolution"))
+    return (dx * unit, dy * unit, float(meta["spacing"]) * unit)
+
+
+def _nifti(path: Path):
+    try:
+        import nibabel
+    except ImportError:
+        raise DatasetError(f"{path}: reading NIfTI needs nibabel: pip install "
+                           "'oftimg[nifti]'") from None
+    return nibabel.load(str(path))
+
+
+def _nifti_voxel(img) -> tuple[float, float, float] | None:
+    """A NIfTI file's voxel size in mm from its ``pixdim`` and ``xyzt_units``
+    (a file without a unit says mm, as the NIfTI standard reads it)."""
+    unit = img.header.get_xyzt_units()[0]
+    scale = 1.0 if unit in ("unknown", None) else HEADER_UNITS_MM.get(unit)
+    if scale is None:
+        raise DatasetError(f"{img.get_filename()}: NIfTI unit {unit!r} is not a length")
+    zooms = img.header.get_zooms()[:3]
+    return tuple(float(d) * scale for d in zooms)

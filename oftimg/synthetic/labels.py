@@ -1,0 +1,157 @@
+"""The phantom as a label dataset: its three walls rasterized into one label volume
+per frame, as a segmentation of a 4-D scan gives them, with segmentation noise.
+
+The phantom's arc is bent to a quarter circle (bend radius ``2 L / pi``) and turned
+so that its inlet plane is the volume's face ``y = 0`` and its outlet plane the face
+``x = 0``: the tube leaves the volume through its border at both ends, as an OCT
+field of view cuts the outflow tract, and the window between the faces is the
+phantom's window, so its ``truth.json`` holds unchanged. Voxel ``(k, j, i)`` sits at
+``x = i dx, y = j dy, z = k dz`` (um); labels: myocardium 1, jelly 2, lumen 3.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .phantom import Phantom, PhantomParams
+
+LABEL_VALUES = {"myocardium": 1, "jelly": 2, "lumen": 3}
+MARGIN_VOXELS = 3                   # background between the tube and the volume's faces
+ISLANDS = 30                        # specks of the wrong label per frame, with noise
+OUTER_REACH = 1.25                  # the outer wall never lies further out than this x R0
+
+
+def label_params(params: PhantomParams) -> PhantomParams:
+    """The phantom bent to a quarter circle, so its window planes are two faces of a box."""
+    return replace(params, bend_radius_mm=2 * params.length_mm / np.pi)
+
+
+def volume_frame(phantom: Phantom, voxel_size_um) -> tuple[np.ndarray, np.ndarray]:
+    """The label volume's frame: ``(turn (3, 3), shift (3,) mm)`` with
+    ``X_volume = X_phantom @ turn + shift``: turned about z so that the phantom's
+    inlet (its angle alpha0 about the bend's centre) lies along the volume's x axis,
+    and raised so that the tube clears the face z = 0 by a few voxels."""
+    p = phantom.p
+    a = phantom.alpha0
+    turn = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0],
+                     [0.0, 0.0, 1.0]])
+    reach = OUTER_REACH * max(p.radius_inlet_mm, p.radius_outlet_mm)
+    z0 = reach + MARGIN_VOXELS * float(voxel_size_um[2]) * 1e-3
+    return turn, np.array([0.0, 0.0, z0])
+
+
+class LabelGrid:
+    """The voxel grid of a label phantom: each voxel centre's window coordinates
+    ``(s, theta)`` and distance from the centre line (mm), for the voxels that can
+    lie inside the outer wall; computed once, used for every frame."""
+
+    def __init__(self, phantom: Phantom, voxel_size_um):
+        p = phantom.p
+        self.phantom = phantom
+        self.voxel_mm = np.asarray(voxel_size_um, float) * 1e-3          # dx, dy, dz
+        self.turn, self.shift = volume_frame(phantom, voxel_size_um)
+        reach = OUTER_REACH * max(p.radius_inlet_mm, p.radius_outlet_mm)
+        R = p.bend_radius_mm
+        margin = MARGIN_VOXELS * self.voxel_mm
+        extent = np.array([R + reach + margin[0], R + reach + margin[1], 2 * self.shift[2]])
+        self.shape = tuple(int(n) for n in (np.ceil(extent / self.voxel_mm).astype(int)
+                                            + 1)[::-1])               # (z, y, x)
+        nz, ny, nx = self.shape
+        x = np.arange(nx) * self.voxel_mm[0]
+        y = np.arange(ny) * self.voxel_mm[1]
+        z = np.arange(nz) * self.voxel_mm[2] - self.shift[2]
+        rho_xy = np.hypot(x[None, :], y[:, None])                      # (y, x)
+        ring = (np.abs(rho_xy - R) < reach)
+        near = ring[None, :, :] & (np.abs(z) < reach)[:, None, None]
+        self.index = np.flatnonzero(near)
+        k, j, i = np.unravel_index(self.index, self.shape)
+        X = np.stack([x[i], y[j], z[k]], axis=-1) @ self.turn.T         # the phantom's frame
+        self.s, self.theta = phantom.window_coordinates(X)
+        self.s = np.clip(self.s, 0.0, p.length_mm)
+        c, _, _ = phantom.frame_axes(self.s)
+        self.distance = np.linalg.norm(X - c, axis=-1)
+
+    def labels(self, t_ms: float) -> np.ndarray:
+        """The frame's label volume ``(z, y, x)`` uint8 at time ``t_ms``."""
+        out = np.zeros(self.shape, np.uint8)
+        flat = out.reshape(-1)
+        inside = self.distance <= self.phantom.radius("outer", self.s, self.theta, t_ms)
+        for wall, value in (("outer", 1), ("inner", 2), ("lumen", 3)):
+            if wall != "outer":
+                inside &= self.distance <= self.phantom.radius(wall, self.s, self.theta, t_ms)
+            flat[self.index[inside]] = value
+        return out
+
+
+def segmentation_noise(labels: np.ndarray, flip: float, rng: np.random.Generator,
+                       islands: int = ISLANDS) -> np.ndarray:
+    """``labels`` as a segmentation would give them: a share ``flip`` of the voxels
+    on a boundary between two labels takes a neighbour's label (the boundary
+    roughened by one voxel), and ``islands`` specks of 1-8 voxels of a wrong label
+    appear in the background and inside the tissue (islands and pinholes)."""
+    out = labels.copy()
+    boundary = np.zeros(labels.shape, bool)
+    for axis in range(3):
+        a = [slice(None)] * 3
+        b = [slice(None)] * 3
+        a[axis], b[axis] = slice(1, None), slice(None, -1)
+        differs = labels[tuple(a)] != labels[tuple(b)]
+        boundary[tuple(a)] |= differs
+        boundary[tuple(b)] |= differs
+    where = np.flatnonzero(boundary)
+    chosen = where[rng.random(len(where)) < flip]
+    idx = np.array(np.unravel_index(chosen, labels.shape))
+    axis = rng.integers(0, 3, len(chosen))
+    idx[axis, np.arange(len(chosen))] += rng.choice([-1, 1], len(chosen))
+    for a in range(3):
+        np.clip(idx[a], 0, labels.shape[a] - 1, out=idx[a])
+    out.reshape(-1)[chosen] = labels[tuple(idx)]
+    for _ in range(islands):
+        size = rng.integers(1, 3, 3)
+        corner = [int(rng.integers(0, n - s)) for n, s in zip(labels.shape, size)]
+        box = tuple(slice(c, c + s) for c, s in zip(corner, size))
+        out[box] = 0 if out[box].any() else rng.integers(1, 4)
+    return out
+
+
+def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
+                        *, noise: float = 0.05, name: str | None = None,
+                        progress=None) -> Path:
+    """Write a label phantom dataset: ``meta.json``, ``labels/f000.tif ...`` (one
+    zlib-compressed uint8 TIFF per frame, (z, y, x)) and ``truth.json``. ``noise``:
+    the share of boundary voxels flipped (with specks, :func:`segmentation_noise`;
+    0 for none). ``params`` are bent by :func:`label_params`. Returns the folder."""
+    import tifffile
+
+    voxel = tuple(float(d) for d in voxel_size_um)
+    if len(voxel) != 3 or not all(np.isfinite(d) and d > 0 for d in voxel):
+        raise InputError(f"--voxel-size must be three positive lengths in um, found {voxel}")
+    if not 0 <= noise < 1:
+        raise InputError(f"--segmentation-noise must be a share in [0, 1), found {noise}")
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        raise FileExistsError(f"{out}: exists and is not empty")
+    params = label_params(params)
+    ph = Phantom(params)
+    grid = LabelGrid(ph, voxel)
+    rng = np.random.default_rng([params.seed, 53])
+    (out / "labels").mkdir(parents=True, exist_ok=True)
+    width = len(str(params.n_frames - 1))
+    for k, t in enumerate(ph.frame_times_ms()):
+        labels = grid.labels(t)
+        if noise > 0:
+            labels = segmentation_noise(labels, noise, rng)
+        tifffile.imwrite(out / "labels" / f"f{k:0{width}d}.tif", labels, compression="zlib")
+        if progress is not None:
+            progress(k + 1)
+    inlet_um = (ph.frame_axes(0.0)[0] @ grid.turn + grid.shift) * 1e3
+    meta = {"name": name or out.name, "group": params.group, "period_ms": params.period_ms,
+            "length_unit": "um", "voxel_size": list(voxel), "labels": LABEL_VALUES,
+            "inlet": [round(float(x), 6) for x in inlet_um]}
+    (out / "meta.json").write_text(json.dumps(meta, indent=2))
+    (out / "truth.json").write_text(json.dumps(ph.truth(), indent=1))
+    return out

@@ -1,0 +1,238 @@
+"""Label datasets (issue 53): the formats read back, the label phantom through
+`oftimg run` and `oftimg mesh`, anisotropic voxels, ends planes, and bad input."""
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from oftimg.cli import main
+from oftimg.io.dataset import load_dataset, validate_dataset
+from oftimg.io.label_dataset import load_label_dataset, mesh_frame
+from oftimg.io.labelfile import read_volume
+from oftimg.mesh.labels import MeshOptions, mesh_wall, mesh_walls
+from oftimg.mesh.topology import boundary_loops, capped_signed_volume, check_tube, face_areas
+from oftimg.synthetic.labels import LABEL_VALUES, LabelGrid, label_params, write_label_phantom
+from oftimg.synthetic.phantom import Phantom, sample_params
+
+COARSE_UM = (8.0, 8.0, 16.0)          # fast: about half a million voxels a frame
+
+
+@pytest.fixture(scope="module")
+def label_phantom(tmp_path_factory):
+    """A small label phantom: 8 frames of 8 x 8 x 16 um voxels, with segmentation noise."""
+    path = tmp_path_factory.mktemp("labels") / "lp"
+    write_label_phantom(path, sample_params("normal", 0, n_frames=8), COARSE_UM, noise=0.05)
+    return path
+
+
+def copy_with(src, dst, meta=None, frames=None):
+    """A copy of a label dataset with meta.json entries replaced and frames (index ->
+    volume, written as .tif) replaced."""
+    import tifffile
+
+    shutil.copytree(src, dst)
+    if meta is not None:
+        raw = json.loads((dst / "meta.json").read_text())
+        raw.update(meta)
+        (dst / "meta.json").write_text(json.dumps(raw))
+    files = sorted((dst / "labels").iterdir())
+    for t, volume in (frames or {}).items():
+        tifffile.imwrite(files[t], volume)
+    return dst
+
+
+def run_fails(capsys, args, out):
+    """Run the CLI expecting exit 2: the one error line, and no ``out`` left."""
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert not out.exists()
+    return err[0]
+
+
+def test_formats_read_back(label_phantom, tmp_path):
+    """The same frames as per-frame TIFF, one 4-D ImageJ TIFF with its spacing,
+    per-frame NIfTI (spacing in its header, axes (x, y, z)), .npy, and zarr: each
+    read back voxel for voxel, with its voxel size."""
+    import nibabel
+    import tifffile
+    import zarr
+
+    lds = load_label_dataset(label_phantom)
+    volumes = [read_volume(s) for s in lds.sources[:3]]
+    assert lds.voxel_size == COARSE_UM and volumes[0].shape == lds.shape
+    assert lds.label_ids == LABEL_VALUES
+    meta = {k: v for k, v in json.loads((label_phantom / "meta.json").read_text()).items()
+            if k != "voxel_size"}
+
+    def dataset(name):
+        folder = tmp_path / name
+        (folder / "labels").mkdir(parents=True)
+        (folder / "meta.json").write_text(json.dumps(meta))
+        return folder
+
+    dx, dy, dz = COARSE_UM
+    stack = dataset("imagej")
+    tifffile.imwrite(stack / "labels" / "labels.tif", np.stack(volumes), imagej=True,
+                     resolution=(1 / dx, 1 / dy), metadata={"spacing": dz, "unit": "um",
+                                                            "axes": "TZYX"})
+    nifti = dataset("nifti")
+    for t, v in enumerate(volumes):
+        img = nibabel.Nifti1Image(v.transpose(2, 1, 0), np.diag([dx, dy, dz, 1.0]))
+        img.header.set_xyzt_units("micron")
+        nibabel.save(img, nifti / "labels" / f"t{t}.nii.gz")
+    npy = dataset("npy")
+    for t, v in enumerate(volumes):
+        np.save(npy / "labels" / f"t{t}.npy", v)
+    (npy / "meta.json").write_text(json.dumps({**meta, "voxel_size": list(COARSE_UM)}))
+    store = dataset("zarr")
+    zarr.save_array(str(store / "labels" / "labels.zarr"), np.stack(volumes))
+    (store / "meta.json").write_text(json.dumps({**meta, "voxel_size": list(COARSE_UM)}))
+    for folder in (stack, nifti, npy, store):
+        read = load_label_dataset(folder)
+        assert read.n_frames == 3 and read.shape == lds.shape, folder.name
+        assert read.voxel_size == pytest.approx(COARSE_UM), folder.name
+        for source, volume in zip(read.sources, volumes):
+            assert np.array_equal(read_volume(source), volume), folder.name
+
+
+def test_the_label_phantom_through_run(label_phantom, tmp_path):
+    """`oftimg run` meshes each frame in its workers; the results record the label
+    files and the meshing; the section areas follow the truth (coarse voxels here:
+    within 6 %; the accuracy run at 4 x 4 x 8 um is in docs/accuracy.md)."""
+    out = tmp_path / "res"
+    assert main(["run", str(label_phantom), "--out", str(out), "--quiet", "--jobs", "2"]) == 0
+    summary = json.loads((out / "lp" / "summary.json").read_text())
+    prov = summary["provenance"]
+    assert [f["file"] for f in prov["inputs"]["labels"]] == [
+        str(p) for p in sorted((label_phantom / "labels").iterdir())]
+    meshing = prov["meshing"]
+    assert meshing["voxel_size"] == list(COARSE_UM) and meshing["labels"] == LABEL_VALUES
+    assert set(meshing["vertices"]) == {"outer", "inner", "lumen"}
+    assert all(len(v) == 8 and min(v) > 1000 for v in meshing["vertices"].values())
+    assert prov["options"]["meshing"] == MeshOptions().as_dict()
+    arr = np.load(out / "lp" / "arrays.npz")
+    truth = json.loads((label_phantom / "truth.json").read_text())
+    ph = Phantom(label_params(sample_params("normal", 0, n_frames=8)))
+    t_ms = np.roll(np.array(truth["t_ms"]), -summary["t0_frame"])
+    for wall in ("outer", "inner", "lumen"):
+        true = ph.area_mm2(wall, arr["s_mm"][:, None], t_ms[None, :])
+        assert np.median(np.abs(arr[f"area_{wall}_mm2"] / true - 1)) < 0.06, wall
+    assert not list(tmp_path.rglob("*.meshes"))                   # the meshes went with the run
+
+
+def test_mesh_command_writes_a_mesh_dataset(label_phantom, tmp_path):
+    out = tmp_path / "meshed"
+    assert main(["mesh", str(label_phantom), str(out), "--quiet", "--jobs", "1",
+                 "--mesh-vertices", "3000"]) == 0
+    for wall in ("outer", "inner", "lumen"):
+        assert len(list((out / wall).glob("*.ply"))) == 8
+    meta = json.loads((out / "meta.json").read_text())
+    source = json.loads((label_phantom / "meta.json").read_text())
+    assert meta == {k: source[k] for k in ("name", "group", "period_ms", "length_unit", "inlet")}
+    record = json.loads((out / "meshing.json").read_text())
+    assert all(2000 < n < 4000 for n in record["meshing"]["vertices"]["outer"])
+    report = validate_dataset(load_dataset(out))
+    assert set(report["surfaces"]) == {"outer", "inner", "lumen"}
+
+
+def test_anisotropic_voxels_agree_and_the_order_matters():
+    """One frame of the phantom at 4 x 4 x 4 and 4 x 4 x 12 um: each wall's volume
+    and area within 2 %, the volume within 3 % of the model's; the voxel size given
+    in the wrong order is another tube."""
+    ph = Phantom(label_params(sample_params("banded", 1, n_frames=4)))
+
+    def measured(voxel, given=None):
+        """Each wall's capped volume (mm^3) and surface area (mm^2)."""
+        walls = mesh_walls(LabelGrid(ph, voxel).labels(100.0), LABEL_VALUES, given or voxel)
+        return {w: (capped_signed_volume(m.V, m.F, boundary_loops(m.F)) * 1e-9,
+                    face_areas(m.V, m.F).sum() * 1e-6) for w, m in walls.items()}
+
+    fine, coarse = measured((4.0, 4.0, 4.0)), measured((4.0, 4.0, 12.0))
+    for wall, (volume, area) in fine.items():
+        assert coarse[wall][0] == pytest.approx(volume, rel=0.02), wall
+        assert coarse[wall][1] == pytest.approx(area, rel=0.02), wall
+        assert volume == pytest.approx(ph.volume_mm3(wall, 100.0)[0], rel=0.03), wall
+    # x and z swapped keep dx dy dz, so the volume; the tube's shape changes
+    wrong = measured((4.0, 4.0, 12.0), given=(12.0, 4.0, 4.0))
+    assert abs(wrong["outer"][1] / fine["outer"][1] - 1) > 0.2
+
+
+def closed_cylinder(shape=(60, 40, 40), radius=12, ends=(10, 50)):
+    """A solid cylinder along z that ends inside the volume at both ``ends``
+    (voxel planes): (z, y, x) labels 1."""
+    z, y, x = np.indices(shape)
+    inside = (np.hypot(x - shape[2] / 2, y - shape[1] / 2) <= radius) & (z >= ends[0]) \
+        & (z < ends[1])
+    return inside.astype(np.uint8)
+
+
+def test_ends_planes_cut_a_tube_inside_the_volume():
+    """A tube that ends inside the volume is cut at the two ``ends`` planes: two
+    boundary loops, each lying in its plane; without them it is refused."""
+    labels = closed_cylinder()
+    ends = (((0, 0, 80.0), (0, 0, 1.0)), ((0, 0, 320.0), (0, 0, -1.0)))
+    wall = mesh_wall(labels.astype(bool), (8.0, 8.0, 8.0), ends=ends)
+    loops = boundary_loops(wall.F)
+    check_tube(wall.V, wall.F)
+    assert sorted(float(wall.V[lp, 2].mean()) for lp in loops) == pytest.approx([80.0, 320.0])
+    assert all(np.ptp(wall.V[lp, 2]) < 1e-6 for lp in loops)
+    volume = capped_signed_volume(wall.V, wall.F, loops)
+    assert volume == pytest.approx(np.pi * (12 * 8.0) ** 2 * 240.0, rel=0.03)
+    from oftimg.mesh.topology import MeshError
+    with pytest.raises(MeshError, match="closed surface"):
+        mesh_wall(labels.astype(bool), (8.0, 8.0, 8.0))
+
+
+def test_a_frame_that_cannot_be_meshed_is_named(tmp_path):
+    """The worker returns the error naming the frame's file (one pass finds every bad frame)."""
+    import tifffile
+
+    path = tmp_path / "f0.tif"
+    tifffile.imwrite(path, closed_cylinder(ends=(0, 30)))          # leaves through z = 0 only
+    from oftimg.io.labelfile import LabelSource
+    error = mesh_frame(LabelSource(str(path)), str(tmp_path / "out"), "f0.ply",
+                       {"myocardium": 1}, (8.0, 8.0, 8.0), MeshOptions())
+    assert str(error).startswith(f"{path}: the outer wall leaves the volume at one end only")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("problem", ["shape", "float", "absent", "zero", "one_face", "nifti"])
+def test_bad_label_input_one_line_exit_2_nothing_written(label_phantom, tmp_path, capsys,
+                                                         problem):
+    lds = load_label_dataset(label_phantom)
+    first = read_volume(lds.sources[0])
+    bad = tmp_path / "bad"
+    if problem == "shape":
+        copy_with(label_phantom, bad, frames={3: first[:, :-1]})
+        expect = ["f3.tif", "shape", str(first.shape)]
+    elif problem == "float":
+        copy_with(label_phantom, bad, frames={2: first.astype(np.float32)})
+        expect = ["f2.tif", "float32 labels"]
+    elif problem == "absent":
+        copy_with(label_phantom, bad, frames={4: np.where(first == 3, 2, first).astype(np.uint8)})
+        expect = ["f4.tif", "no voxel labelled lumen (3)"]
+    elif problem == "zero":
+        copy_with(label_phantom, bad, frames={5: np.zeros_like(first)})
+        expect = ["f5.tif", "no labelled voxel (all zero)"]
+    elif problem == "one_face":
+        cut = first.copy()
+        cut[:, :, : cut.shape[2] // 3] = 0                 # the outlet end now inside the box
+        copy_with(label_phantom, bad, frames={1: cut})
+        expect = ["f1.tif", "one end only", '"ends"']
+    else:
+        import nibabel
+
+        copy_with(label_phantom, bad)
+        shutil.rmtree(bad / "labels")
+        (bad / "labels").mkdir()
+        for t in range(6):
+            img = nibabel.Nifti1Image(first.transpose(2, 1, 0), np.diag([8.0, 8.0, 8.0, 1.0]))
+            img.header.set_xyzt_units("micron")
+            nibabel.save(img, bad / "labels" / f"t{t}.nii")
+        expect = ["t0.nii", "voxel size [8, 8, 8] um disagrees with meta.json's voxel_size "
+                  "[8, 8, 16]"]
+    out = tmp_path / "out"
+    line = run_fails(capsys, ["run", str(bad), "--out", str(out), "--quiet", "--jobs", "1"], out)
+    assert line.startswith("oftimg: error: ") and all(e in line for e in expect), line
+    assert not list(tmp_path.glob("*.meshes")) and not list(tmp_path.glob(".out*"))

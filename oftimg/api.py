@@ -156,6 +156,24 @@ def _meshed(lds: LabelDataset, folder: Path, options, executor, quiet: bool) -> 
     return ds
 
 
+def validate_labels(path, *, quiet: bool = False) -> dict:
+    """Check a label dataset as a run would: its headers, then every frame meshed
+    (here, into a temporary folder) and the meshes validated. Returns the
+    validation report of the meshes (:func:`validate_dataset`) for ``path``, with
+    the volumes' shape, voxel size and labels."""
+    import tempfile
+
+    from .mesh.labels import MeshOptions
+
+    lds = load_label_dataset(path)
+    with tempfile.TemporaryDirectory(prefix="oftimg-validate-") as tmp:
+        ds = _meshed(lds, Path(tmp) / "meshes", MeshOptions(), None, quiet)
+        report = validate_dataset(ds)
+    report["labels"] = {k: ds.labels["meshing"][k]
+                        for k in ("shape_zyx", "voxel_size", "length_unit", "labels")}
+    return report
+
+
 def _validated(ds: Dataset, executor, quiet: bool) -> dict:
     """:func:`validate_dataset` with a progress bar; the report records its seconds."""
     tick = time.time()

@@ -219,7 +219,8 @@ def _parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="check a dataset, or every dataset of a cohort, and "
                                         "print a per-surface report")
-    v.add_argument("dataset", type=Path, help="dataset folder (with outer/) or cohort folder")
+    v.add_argument("dataset", type=Path, help="dataset folder (with outer/, or labels/: meshed "
+                                              "as a run would) or cohort folder")
     v.add_argument("--json", action="store_true", help="print the report as JSON")
     return p
 
@@ -227,6 +228,11 @@ def _parser() -> argparse.ArgumentParser:
 def _print_report(report: dict) -> None:
     print(f"dataset {report['name']} ({report['path']}): {report['n_frames']} frames, "
           f"inlet at {report['inlet_mm']} mm ({report['inlet_from']})")
+    if "labels" in report:
+        lab = report["labels"]
+        print(f"  label volumes (z, y, x) {tuple(lab['shape_zyx'])}, voxel "
+              f"{' x '.join(f'{d:g}' for d in lab['voxel_size'])} {lab['length_unit']}, "
+              f"labels {lab['labels']}: meshed as a run meshes them")
     print(f"  {'surface':8} {'frames':>6} {'vertices':>13} {'faces':>13} {'loops':>5} "
           f"{'inlet mm2':>10} {'outlet mm2':>10}")
     for name, s in report["surfaces"].items():
@@ -393,13 +399,20 @@ def _validate(path: Path, *, as_json: bool) -> int:
     frames, printed, and the rest are checked; with ``as_json`` a bad dataset's entry
     lists its problems); 2 if any has a problem."""
     from .errors import InputError
+    from .api import validate_labels
     from .io.dataset import find_datasets, load_dataset, validate_dataset
+    from .io.label_dataset import is_label_dataset
     from .progress import Progress
 
     folders = find_datasets(path)
     reports, problems = [], 0
     for folder in folders:
         try:
+            if is_label_dataset(folder):            # meshed as a run would, then checked
+                reports.append(validate_labels(folder))
+                if not as_json:
+                    _print_report(reports[-1])
+                continue
             ds = load_dataset(folder)
             bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
                            unit="mesh")

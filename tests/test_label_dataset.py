@@ -136,6 +136,14 @@ def test_mesh_command_writes_a_mesh_dataset(label_phantom, tmp_path):
     assert set(report["surfaces"]) == {"outer", "inner", "lumen"}
 
 
+def test_validate_meshes_a_label_dataset_as_a_run_would(label_phantom, capsys):
+    assert main(["validate", str(label_phantom)]) == 0
+    out = capsys.readouterr().out
+    assert "label volumes (z, y, x) (36, 133, 133), voxel 8 x 8 x 16 um" in out
+    assert all(f"  {wall} " in out for wall in ("outer", "inner", "lumen"))
+    assert "problems: none" in out
+
+
 def test_anisotropic_voxels_agree_and_the_order_matters():
     """One frame of the phantom at 4 x 4 x 4 and 4 x 4 x 12 um: each wall's volume
     and area within 2 %, the volume within 3 % of the model's; the voxel size given

@@ -17,6 +17,7 @@ A voxel ``(k, j, i)`` sits at ``x = i dx, y = j dy, z = k dz`` in ``length_unit`
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -198,6 +199,7 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     the label files, the meshing options, and per wall each frame's vertex count and
     the pieces its clean-up dropped. Raises one :class:`DatasetError` for every frame
     that cannot be meshed (the first one's message, the others named in a note)."""
+    tick = time.perf_counter()
     out = Path(out)
     n = lds.n_frames
     args = (lds.sources, [str(out)] * n, lds.mesh_names(), [lds.label_ids] * n,
@@ -224,4 +226,5 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
                     "labels": lds.label_ids,
                     "ends": None if lds.ends is None else [list(map(list, e)) for e in lds.ends],
                     **{key: {w: [r[key][w] for r in results] for w in walls}
-                       for key in ("vertices", "pieces_dropped", "step")}}}
+                       for key in ("vertices", "pieces_dropped", "step")},
+                    "seconds": round(time.perf_counter() - tick, 2)}}

@@ -74,16 +74,19 @@ class LabelGrid:
         self.s = np.clip(self.s, 0.0, p.length_mm)
         c, _, _ = phantom.frame_axes(self.s)
         self.distance = np.linalg.norm(X - c, axis=-1)
+        near = self.distance <= OUTER_REACH * phantom.base_radius(self.s)
+        self.index, self.s, self.theta, self.distance = (
+            a[near] for a in (self.index, self.s, self.theta, self.distance))
 
     def labels(self, t_ms: float) -> np.ndarray:
         """The frame's label volume ``(z, y, x)`` uint8 at time ``t_ms``."""
         out = np.zeros(self.shape, np.uint8)
         flat = out.reshape(-1)
-        inside = self.distance <= self.phantom.radius("outer", self.s, self.theta, t_ms)
+        at = np.arange(len(self.index))              # the voxels inside the walls so far
         for wall, value in (("outer", 1), ("inner", 2), ("lumen", 3)):
-            if wall != "outer":
-                inside &= self.distance <= self.phantom.radius(wall, self.s, self.theta, t_ms)
-            flat[self.index[inside]] = value
+            radius = self.phantom.radius(wall, self.s[at], self.theta[at], t_ms)
+            at = at[self.distance[at] <= radius]
+            flat[self.index[at]] = value
         return out
 
 

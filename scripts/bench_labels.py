@@ -1,0 +1,115 @@
+"""What starting from label volumes costs: meshing time and memory (issue 53).
+
+    python scripts/bench_labels.py [--frames 195] [--jobs 2] [--cache DIR] [--big]
+
+1. The bench embryo (the normal phantom, seed 0, 195 frames) as label volumes of
+   4 x 4 x 8 um with segmentation noise, and the same phantom as meshes (5.5k
+   vertices a wall): `oftimg.run` on each, back to back in this process; prints the
+   wall seconds of each, the meshing's own seconds and what the labels add (the
+   target: at most +50 %), and the peak memory of all processes together.
+2. With --big: 195 frames of 256 x 256 x 256 uint8 volumes (the phantom at 4.1 um
+   isotropic, padded to 256 along z), run as labels; prints the peak memory of all
+   processes together (target: under 2.5 GB) and the seconds.
+Peak memory is the sum of every process's proportional set size (scripts/bench.py).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import oftimg
+from oftimg.synthetic.labels import LABEL_VALUES, LabelGrid, label_params, write_label_phantom
+from oftimg.synthetic.phantom import Phantom, sample_params, write_phantom
+
+sys.path.insert(0, str(Path(__file__).parent))
+from bench import TreeMemory  # noqa: E402
+
+BIG = 256
+
+
+def bench_embryo(cache: Path, frames: int) -> tuple[Path, Path]:
+    """The bench embryo as labels (4 x 4 x 8 um) and as meshes, the same phantom."""
+    params = sample_params("normal", 0, n_frames=frames, vertices_min=5000, vertices_max=6000)
+    labels, meshes = cache / f"labels_{frames}f", cache / f"meshes_{frames}f"
+    if not (labels / "truth.json").exists():
+        write_label_phantom(labels, params, (4.0, 4.0, 8.0), noise=0.05)
+    if not (meshes / "truth.json").exists():
+        write_phantom(meshes, label_params(params))
+    return labels, meshes
+
+
+def big_series(cache: Path, frames: int) -> Path:
+    """``frames`` volumes of 256^3 uint8 (zlib TIFF), the phantom at 4.1 um."""
+    import tifffile
+
+    path = cache / f"big_{frames}f"
+    if (path / "meta.json").exists():
+        return path
+    ph = Phantom(label_params(sample_params("normal", 0, n_frames=frames)))
+    grid = LabelGrid(ph, (4.1, 4.1, 4.1))
+    nz, ny, nx = grid.shape
+    if ny > BIG or nx > BIG or nz > BIG:
+        raise SystemExit(f"the phantom's volume {grid.shape} does not fit {BIG}^3")
+    below = (BIG - nz) // 2
+    (path / "labels").mkdir(parents=True, exist_ok=True)
+    for k, t in enumerate(ph.frame_times_ms()):
+        volume = np.zeros((BIG, BIG, BIG), np.uint8)
+        volume[below:below + nz, :ny, :nx] = grid.labels(t)
+        tifffile.imwrite(path / "labels" / f"f{k:03d}.tif", volume, compression="zlib")
+    inlet = (ph.frame_axes(0.0)[0] @ grid.turn + grid.shift) * 1e3 + [0, 0, below * 4.1]
+    (path / "meta.json").write_text(json.dumps({
+        "period_ms": ph.p.period_ms, "length_unit": "um", "voxel_size": [4.1] * 3,
+        "labels": LABEL_VALUES, "inlet": inlet.tolist()}))
+    return path
+
+
+def timed_run(path: Path, jobs: int) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        tick = time.perf_counter()
+        with TreeMemory() as tree:
+            out = oftimg.run(path, Path(tmp) / "out", quiet=True, jobs=jobs)
+        total = time.perf_counter() - tick
+        summary = json.loads(next(out.glob("*/summary.json")).read_text())
+    meshing = summary["provenance"].get("meshing")
+    return {"total_s": total, "peak_all_processes_mb": tree.peak_mb,
+            "meshing_s": meshing["seconds"] if meshing else 0.0,
+            "vertices_median": ({w: int(np.median(v)) for w, v in meshing["vertices"].items()}
+                                if meshing else None)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--frames", type=int, default=195)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--cache", type=Path, default=None)
+    ap.add_argument("--big", action="store_true", help="also the 256^3 x 195 series")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = args.cache or Path(tmp)
+        cache.mkdir(parents=True, exist_ok=True)
+        labels, meshes = bench_embryo(cache, args.frames)
+        as_meshes = timed_run(meshes, args.jobs)
+        as_labels = timed_run(labels, args.jobs)
+        print(f"bench embryo, {args.frames} frames, {args.jobs} jobs:")
+        print(f"  as meshes: {as_meshes['total_s']:.1f} s, peak {as_meshes['peak_all_processes_mb']:.0f} MB"
+              " (all processes)")
+        print(f"  as labels (4 x 4 x 8 um): {as_labels['total_s']:.1f} s, of which meshing "
+              f"{as_labels['meshing_s']:.1f} s; peak {as_labels['peak_all_processes_mb']:.0f} MB; "
+              f"vertices per wall (median) {as_labels['vertices_median']}")
+        print(f"  labels add {100 * (as_labels['total_s'] / as_meshes['total_s'] - 1):+.0f} % "
+              "(target: at most +50 %)")
+        if args.big:
+            big = timed_run(big_series(cache, args.frames), args.jobs)
+            print(f"{args.frames} frames of {BIG}^3 uint8: {big['total_s']:.1f} s, of which meshing "
+                  f"{big['meshing_s']:.1f} s; peak {big['peak_all_processes_mb']:.0f} MB, all "
+                  "processes together (target: under 2500 MB)")
+
+
+if __name__ == "__main__":
+    main()

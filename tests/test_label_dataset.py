@@ -192,6 +192,30 @@ def test_ends_planes_cut_a_tube_inside_the_volume():
         mesh_wall(labels.astype(bool), (8.0, 8.0, 8.0))
 
 
+def test_ends_in_meta_json_cut_a_tube_that_ends_inside_the_volume(label_phantom, tmp_path):
+    """The phantom's outlet end moved inside the volume (the voxels beyond x = 200 um
+    cleared in every frame): with meta.json "ends" (the inlet face, and a plane at
+    x = 240 um), every wall of every frame is an open tube whose outlet loop lies in
+    that plane."""
+    lds = load_label_dataset(label_phantom)
+    cleared = {}
+    for t, source in enumerate(lds.sources):
+        volume = read_volume(source)
+        volume[:, :, : int(200 / COARSE_UM[0])] = 0
+        cleared[t] = volume
+    ends = [{"point": [0, 0, 0], "normal": [0, 1, 0]},
+            {"point": [240.0, 0, 0], "normal": [1, 0, 0]}]
+    data = copy_with(label_phantom, tmp_path / "inside", meta={"ends": ends}, frames=cleared)
+    out = tmp_path / "meshed"
+    assert main(["mesh", str(data), str(out), "--quiet", "--jobs", "1"]) == 0
+    ds = load_dataset(out)
+    for wall in ds.surfaces:
+        for tube in ds.iter_tubes(wall):
+            outlet_x = tube.V[tube.outlet, 0] * 1e3                     # mm -> um
+            assert np.allclose(outlet_x, 240.0, atol=1e-6), wall
+            assert np.allclose(tube.V[tube.inlet, 1], 0.0, atol=1e-9), wall
+
+
 def test_a_frame_that_cannot_be_meshed_is_named(tmp_path):
     """The worker returns the error naming the frame's file (one pass finds every bad frame)."""
     import tifffile

@@ -1,5 +1,6 @@
-"""From a label volume to the walls' surfaces: one frame's masks cleaned, smoothed and
-meshed by marching cubes, open where the tube leaves the volume or cut at two planes.
+"""From a label volume to the walls' surfaces: one frame's masks smoothed, meshed by
+marching cubes at a chosen size, cut at two planes or left open where the tube leaves
+the volume, cleaned of specks and cavities, Taubin-smoothed with the rims held.
 
 Volumes are arrays ``(z, y, x)`` as TIFF readers and scikit-image give them; a voxel
 ``(k, j, i)`` sits at ``x = i * dx, y = j * dy, z = k * dz``. Surfaces come out as
@@ -45,7 +46,8 @@ class Cleaned:
     vertices: int
 
 
-ANTI_ALIAS = 0.5        # the blur's sigma as a share of the sampling step, at least
+LEVEL = 0.5             # the smoothed mask's level that is the wall
+ANTI_ALIAS = 0.4        # the blur's sigma as a share of the sampling step, at least
 
 
 @dataclass(frozen=True)
@@ -62,9 +64,9 @@ class MeshOptions:
     its boundary loops held.
     """
 
-    target_vertices: int = 6000
+    target_vertices: int = 8000
     smoothing: float = 0.5
-    taubin_steps: int = 10
+    taubin_steps: int = 30
 
     def __post_init__(self):
         if not (isinstance(self.target_vertices, int) and self.target_vertices >= 200):
@@ -117,6 +119,9 @@ def level_set_field(mask: np.ndarray, voxel_size_xyz, sigma_voxels: float, step:
     n_out = np.maximum(np.round((n_in - 1) * size_zyx / step).astype(int) + 1, 2)
     if np.any(n_out != n_in):
         field = ndimage.zoom(field, n_out / n_in, order=1, mode="nearest", grid_mode=False)
+    # a sample exactly at the level puts a vertex on a grid point, and marching cubes
+    # then gives triangles of no area, whose removal would leave pinholes
+    field[field == LEVEL] = np.nextafter(np.float32(LEVEL), np.float32(1))
     spacing_zyx = (n_in - 1) * size_zyx / np.maximum(np.array(field.shape) - 1, 1)
     return field, tuple(np.array(lo)[::-1] * size_zyx[::-1]), tuple(spacing_zyx[::-1])
 
@@ -212,9 +217,9 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
 
     step = sample_step(mask, voxel_size_xyz, options.target_vertices)
     field, origin, spacing = level_set_field(mask, voxel_size_xyz, options.smoothing, step)
-    if field.max() <= 0.5:
+    if field.max() <= LEVEL:
         raise MeshError("is too thin to mesh: after smoothing no voxel is inside")
-    verts, faces, _, _ = marching_cubes(field, 0.5, spacing=spacing[::-1])
+    verts, faces, _, _ = marching_cubes(field, LEVEL, spacing=spacing[::-1])
     V = verts[:, ::-1] + np.asarray(origin)                  # (z, y, x) -> (x, y, z)
     F = np.ascontiguousarray(faces[:, ::-1], dtype=np.int64)
     V, F, _ = repair(V, F)
@@ -226,7 +231,8 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
         raise MeshError("leaves the volume at one end only (one open end): a tube that "
                         "ends inside the volume needs two cutting planes, meta.json "
                         "\"ends\"")
-    topo = check_tube(V, F)
+    topo = check_tube(V, F, mend=True)            # a pinhole left by marching cubes: filled
+    V = V if topo.V is None else topo.V
     rim = np.concatenate(topo.loops)
     V = taubin_smooth(V, topo.F, options.taubin_steps, fixed=rim)
     return WallMesh(V, topo.F, cleaned, float(step))

@@ -164,17 +164,18 @@ def make_cohort(folder: Path, seeds: int, frames: int, noise_mm: float,
     return folder
 
 
-def in_phantom_frame(dataset: Path, grids) -> dict:
-    """The grids (mm) in the phantom's own frame: a label phantom's volume is turned
-    and shifted (:func:`oftimg.synthetic.labels.volume_frame`)."""
-    grids = {k: grids[k] for k in grids.files}
-    meta = json.loads((dataset / "meta.json").read_text())
+def in_phantom_frame(dataset: Path, npz, points=lambda key: True) -> dict:
+    """The arrays of ``npz`` whose key ``points`` accepts, points (mm) along their
+    last axis, in the phantom's own frame: a label phantom's volume is turned and
+    shifted (:func:`oftimg.synthetic.labels.volume_frame`)."""
+    arrays = {k: npz[k] for k in npz.files}
     if not (dataset / "labels").is_dir():
-        return grids
+        return arrays
     ph, _ = read_truth(dataset)
+    meta = json.loads((dataset / "meta.json").read_text())
     turn, shift = volume_frame(ph, meta["voxel_size"])
-    return {k: ((g.astype(float) - shift) @ turn.T if g.shape[-1:] == (3,) else g)
-            for k, g in grids.items()}
+    return {k: ((a.astype(float) - shift) @ turn.T if points(k) and a.shape[-1:] == (3,) else a)
+            for k, a in arrays.items()}
 
 
 def _relative_pct(measured, true) -> float:
@@ -191,7 +192,8 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
     ph, truth = read_truth(dataset)
     p = truth["params"]
     summ = json.loads((results / "summary.json").read_text())
-    arr = np.load(results / "arrays.npz")
+    arr = in_phantom_frame(dataset, np.load(results / "arrays.npz"),
+                           lambda key: key.startswith(("contour_", "centroid_")))
     period = p["period_ms"]
     t0 = summ["t0_frame"]
     t_ms = np.roll(np.array(truth["t_ms"]), -t0)     # phantom time of each aligned frame

@@ -499,6 +499,10 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     if ds.labels is not None:           # meshed from label volumes: those are the inputs
         summary["provenance"].update(inputs={"labels": ds.labels["files"]},
                                      meshing=ds.labels["meshing"])
+        warnings.warn(f"{ds.path}: curvature fields from label volumes are less exact than "
+                      "their areas, speeds and volumes: the voxels leave an error fixed in "
+                      "space, which the fields' noise share does not see (oftimg's "
+                      "docs/accuracy.md, from label volumes)", OftimgWarning, stacklevel=2)
     summary["timings_s"] = timings
     return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"]}
 

@@ -21,6 +21,19 @@ def phantom_banded(tmp_path_factory):
     return write_phantom(path, sample_params("banded", 1, **SMALL))
 
 
+@pytest.fixture(scope="module")
+def png_figures_only():
+    """Runs write each figure as PNG only, without the PDF beside it, for the rest of
+    the module: for files that test runs for their numbers, files and pages, not their
+    PDFs (a PDF costs about 0.5 s, 45 % of a 6-frame cohort's run). The output contract,
+    tests/test_figure_style.py and tests/test_parallel.py keep the PDFs; runs in spawned
+    workers (--parallel embryos) write them still."""
+    from oftimg.output.style import vector_formats
+
+    with vector_formats(()):
+        yield
+
+
 @pytest.fixture(autouse=True)
 def _oftimg_warnings_visible():
     with warnings.catch_warnings():

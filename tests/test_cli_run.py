@@ -8,12 +8,20 @@ import numpy as np
 import pytest
 
 from oftimg.cli import main
+from oftimg.output.style import vector_formats
 
 pytestmark = pytest.mark.slow
 
 SUMMARY_KEYS = {"name", "group", "n_frames", "period_ms", "t0_frame", "expand_fraction",
                 "contract_fraction", "expand_contract_ratio", "expand_ms", "contract_ms",
                 "tube_length_mm", "myocardial_volume_change", "jelly_volume_change", "provenance"}
+
+
+@pytest.fixture
+def png_figures():
+    """conftest's png_figures_only for one test: the output contract's run keeps its PDFs."""
+    with vector_formats(()):
+        yield
 
 
 def test_output_contract(run_out, phantom_normal):
@@ -126,6 +134,7 @@ def test_shape_pca_on_the_phantom(run_out):
     assert (run_out / "normal" / "figures" / "shape_pca.png").stat().st_size > 20_000
 
 
+@pytest.mark.usefixtures("png_figures")
 def test_log_file_fps_and_options_reach_the_run(tmp_path):
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
@@ -193,6 +202,7 @@ def test_a_log_where_it_would_be_lost_or_cannot_be_is_refused(tmp_path, capsys):
         assert not log.exists() and not out.exists()
 
 
+@pytest.mark.usefixtures("png_figures")
 def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     """`oftimg demo`: results whose provenance points at the demo's own data folder
     (not the temporary folder it was made in), and a second demo refused without
@@ -215,6 +225,7 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     assert "--overwrite" in capsys.readouterr().err
 
 
+@pytest.mark.usefixtures("png_figures")
 def test_a_full_disk_is_an_error_not_an_internal_one(tmp_path, monkeypatch, capsys):
     """The system refusing a write (no space, no permission, a read-only disk) is
     said as such, naming the file; nothing appears in --out."""
@@ -240,6 +251,7 @@ def test_a_full_disk_is_an_error_not_an_internal_one(tmp_path, monkeypatch, caps
     assert "internal error" not in err and not out.exists()
 
 
+@pytest.mark.usefixtures("png_figures")
 def test_a_library_failing_is_an_internal_error_not_bad_input(tmp_path, monkeypatch, capsys):
     """A TypeError or ValueError out of a library (say a plugin imageio could not
     load) is oftimg's failure: exit status 1, "internal error", not 2 and "error"
@@ -299,6 +311,7 @@ def test_a_cluster_forming_threshold_must_be_a_p_value(tmp_path, capsys, command
     assert not out.exists()
 
 
+@pytest.mark.usefixtures("png_figures")
 def test_swapped_walls_are_pointed_out(tmp_path):
     """inner/ and outer/ swapped gave negative myocardial volumes and a 100 % trim
     without a word."""
@@ -339,6 +352,7 @@ def test_swapped_walls_are_pointed_out(tmp_path):
     assert '<a href="swapped/index.html">swapped</a>' in (tmp_path / "out" / "index.html").read_text()
 
 
+@pytest.mark.usefixtures("png_figures")
 def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path):
     """Debris beside the tube and one-face holes, in one frame of each wall, are mended
     in the workers as in the validation: the results are those of the clean files."""

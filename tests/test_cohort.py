@@ -13,11 +13,11 @@ from oftimg.output.export import AROUND_TUBE_MAPS, TESTED_MAPS
 from oftimg.errors import DatasetError
 from oftimg.synthetic.phantom import sample_params, write_phantom
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def runs(tmp_path_factory, png_figures_only):
     """A joint run of n0, n1 (normal) and b0 (banded); n0 alone; n1 and b0 together."""
     root = tmp_path_factory.mktemp("cohort")
     for name, group, seed in (("n0", "normal", 0), ("n1", "normal", 1), ("b0", "banded", 2)):

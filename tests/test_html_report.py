@@ -12,7 +12,7 @@ import pytest
 from oftimg.cli import main
 from oftimg.output.export import TESTED_MAPS
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -21,7 +21,7 @@ FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-
 
 
 @pytest.fixture(scope="module")
-def cohort_out(phantom_normal, phantom_banded, tmp_path_factory):
+def cohort_out(phantom_normal, phantom_banded, tmp_path_factory, png_figures_only):
     cohort = tmp_path_factory.mktemp("cohort")
     for p in (phantom_normal, phantom_banded):
         (cohort / p.name).symlink_to(p, target_is_directory=True)

@@ -16,6 +16,8 @@ from oftimg.io.meshfile import declared_counts, read_mesh_file, write_ply
 from oftimg.io.dataset import (find_datasets, list_frames, load_dataset, natural_key,
                                validate_dataset)
 
+pytestmark = pytest.mark.usefixtures("png_figures_only")
+
 
 def cone_frames(n=3, flip=False, **kw):
     out = []

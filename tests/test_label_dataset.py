@@ -16,6 +16,8 @@ from oftimg.mesh.topology import boundary_loops, capped_signed_volume, check_tub
 from oftimg.synthetic.labels import LABEL_VALUES, LabelGrid, label_params, write_label_phantom
 from oftimg.synthetic.phantom import Phantom, sample_params
 
+pytestmark = pytest.mark.usefixtures("png_figures_only")
+
 COARSE_UM = (8.0, 8.0, 16.0)          # fast: about half a million voxels a frame
 
 

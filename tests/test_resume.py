@@ -11,7 +11,7 @@ from oftimg.cli import main
 from oftimg.output.export import Finished, finished_folder
 from oftimg.synthetic.phantom import sample_params, write_phantom
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 
 def _files(folder):

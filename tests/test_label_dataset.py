@@ -140,6 +140,35 @@ def test_mesh_command_writes_a_mesh_dataset(label_phantom, tmp_path):
     assert set(report["surfaces"]) == {"outer", "inner", "lumen"}
 
 
+def test_a_dask_cluster_meshes_the_frames_as_this_process_does(label_phantom, tmp_path):
+    """--scheduler: each worker reads its own frame's volume and writes its meshes."""
+    distributed = pytest.importorskip("distributed")
+    from oftimg.io.label_dataset import mesh_label_dataset
+    from oftimg.io.meshfile import read_mesh_file
+    from oftimg.workers import make_executor
+
+    lds = load_label_dataset(label_phantom)
+    options = MeshOptions(target_vertices=3000)
+    serial = mesh_label_dataset(lds, tmp_path / "serial", options)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        executor = make_executor(None, scheduler=cluster.scheduler_address)
+        try:
+            remote = mesh_label_dataset(lds, tmp_path / "dask", options, executor=executor)
+        finally:
+            executor.shutdown()
+            executor._client.close()
+    assert remote["meshing"]["vertices"] == serial["meshing"]["vertices"]
+    for wall in ("outer", "inner", "lumen"):
+        frames = sorted((tmp_path / "serial" / wall).iterdir())
+        remote_frames = sorted((tmp_path / "dask" / wall).iterdir())
+        assert [f.name for f in frames] == [f.name for f in remote_frames]
+        for frame in frames:
+            (V, F), (V_remote, F_remote) = (read_mesh_file(frame),
+                                            read_mesh_file(tmp_path / "dask" / wall / frame.name))
+            assert np.array_equal(V, V_remote) and np.array_equal(F, F_remote), frame
+
+
 def test_validate_meshes_a_label_dataset_as_a_run_would(label_phantom, capsys):
     assert main(["validate", str(label_phantom)]) == 0
     out = capsys.readouterr().out

@@ -298,7 +298,8 @@ def _tail_frames(n_frames: int) -> int:
     return round(TAIL_PASSES * n_frames)
 
 
-def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
+def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
+                vector_suffixes=None):
     """:func:`analyse_and_write` in a worker, into a folder of its own.
 
     Returns the summary, the files ``{path relative to the dataset's folder:
@@ -306,10 +307,19 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None):
     warnings raised, each once, for the caller to raise again. ``frames_done``:
     a queue that gets a 1 for each frame of each per-frame pass and, once the
     files are made, :data:`TAIL_PASSES` x the frames for them; or None.
+    ``vector_suffixes``: the figures' vector formats, the caller's
+    :func:`~oftimg.output.style.vector_formats` (a worker does not share it), or
+    None for the default.
     """
+    import contextlib
     import tempfile
 
-    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings(record=True) as caught:
+    from .output.style import vector_formats
+
+    formats = (contextlib.nullcontext() if vector_suffixes is None
+               else vector_formats(vector_suffixes))
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings(record=True) as caught, \
+            formats:
         warnings.simplefilter("always")
         folder = Path(tmp) / ds.meta.name
         folder.mkdir()
@@ -334,6 +344,8 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
     """
     from concurrent.futures import FIRST_COMPLETED, wait
 
+    from .output.style import vector_suffixes
+
     bar = Progress(sum(2 * ds.n_frames + _tail_frames(ds.n_frames) for ds in datasets),
                    f"{len(datasets)} datasets",
                    quiet=quiet)
@@ -348,7 +360,7 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
         while waiting and len(running) < at_once and error is None:
             ds = waiting.pop(0)
             running.add(executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps,
-                                        frames_done))
+                                        frames_done, vector_suffixes()))
 
     try:
         with _frame_counter(executor, bar) as frames_done:

@@ -26,8 +26,7 @@ def png_figures_only():
     """Runs write each figure as PNG only, without the PDF beside it, for the rest of
     the module: for files that test runs for their numbers, files and pages, not their
     PDFs (a PDF costs about 0.5 s, 45 % of a 6-frame cohort's run). The output contract,
-    tests/test_figure_style.py and tests/test_parallel.py keep the PDFs; runs in spawned
-    workers (--parallel embryos) write them still."""
+    tests/test_figure_style.py and the documented demo keep the PDFs."""
     from oftimg.output.style import vector_formats
 
     with vector_formats(()):

@@ -13,7 +13,7 @@ from oftimg.io.meshfile import read_mesh_file, write_ply
 from oftimg.synthetic.phantom import sample_params, write_phantom
 from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 
 def test_two_workers_equal_serial(tmp_path):
@@ -103,8 +103,9 @@ class RecordingBar:
 
 def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
     """--parallel embryos: each dataset analysed whole in a worker (a local pool,
-    then a Dask cluster) gives the serial run's arrays, summaries and files, its
-    warnings reach the caller, and the bar counts the frames done in the workers."""
+    then a Dask cluster) gives the serial run's arrays, summaries and files (its
+    figures in the caller's formats: PNG only here), its warnings reach the caller,
+    and the bar counts the frames done in the workers."""
     import json
     import warnings
 
@@ -234,7 +235,7 @@ def test_by_embryo_no_more_run_at_once_than_fit(tmp_path, monkeypatch):
     running, most = [0], [0]
     lock = threading.Lock()
 
-    def task(ds, report, opts, fps, frames_done):
+    def task(ds, report, opts, fps, frames_done, vector_suffixes):
         with lock:
             running[0] += 1
             most[0] = max(most[0], running[0])

@@ -73,6 +73,12 @@ def vector_formats(suffixes=(".pdf", ".svg")):
         _VECTOR_FORMATS.reset(token)
 
 
+def vector_suffixes() -> tuple[str, ...]:
+    """The vector formats :func:`save` writes here and now (``(".pdf",)`` outside any
+    :func:`vector_formats`): for work sent to other processes, which do not share it."""
+    return _VECTOR_FORMATS.get()
+
+
 def save(fig, path: Path) -> Path:
     """``fig`` as ``path`` (PNG, 300 dpi) and as PDF beside it (and SVG, see
     :func:`vector_formats`); closed. Returns the PNG's path."""

@@ -120,12 +120,14 @@ def read_volume(source: LabelSource) -> np.ndarray:
                     tif.series[0].shape[1:])
         kind = label_suffix(path)
         if kind == ".npy":
-            return np.asarray(np.load(path, mmap_mode="r")).reshape(read_header(source).shape)
+            data = np.load(path, mmap_mode="r")
+            return np.asarray(data).reshape(_three_d(data.shape, path))
         if kind in (".nii", ".nii.gz"):
             data = np.asanyarray(_nifti(path).dataobj)
             return np.ascontiguousarray(data.reshape(data.shape[:3]).transpose(2, 1, 0))
         import tifffile
-        return tifffile.imread(path).reshape(read_header(source).shape)
+        data = tifffile.imread(path)
+        return data.reshape(_three_d(data.shape, path))
     except Exception as exc:
         raise DatasetError(f"{source}: cannot be read ({type(exc).__name__}: {exc})") from None
 

@@ -143,17 +143,21 @@ def _meshed(lds: LabelDataset, folder: Path, options, executor, quiet: bool) -> 
     its ``labels`` record the label files and the meshing."""
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir(parents=True)
-    bar = Progress(lds.n_frames, f"{lds.meta.name}: meshing labels", quiet=quiet, unit="frame")
-    try:
-        record = mesh_label_dataset(lds, folder, options, executor=executor,
-                                    progress=bar.advance)
-    finally:
-        bar.close()
+    record = _mesh_with_bar(lds, folder, options, executor, quiet)
     with warnings.catch_warnings():             # said of the label dataset already
         warnings.simplefilter("ignore", OftimgWarning)
         ds = load_dataset(folder)
     ds.path, ds.labels = lds.path, record
     return ds
+
+
+def _mesh_with_bar(lds: LabelDataset, folder: Path, options, executor, quiet: bool) -> dict:
+    """:func:`mesh_label_dataset` into ``folder`` with a progress bar over the frames."""
+    bar = Progress(lds.n_frames, f"{lds.meta.name}: meshing labels", quiet=quiet, unit="frame")
+    try:
+        return mesh_label_dataset(lds, folder, options, executor=executor, progress=bar.advance)
+    finally:
+        bar.close()
 
 
 def validate_labels(path, *, quiet: bool = False) -> dict:
@@ -760,14 +764,8 @@ def mesh(source, out, *, options: dict | None = None, jobs: int | None = None,
         for lds in datasets:
             folder = tmp if single else tmp / lds.meta.name
             folder.mkdir(parents=True, exist_ok=True)
-            bar = Progress(lds.n_frames, f"{lds.meta.name}: meshing labels", quiet=quiet,
-                           unit="frame")
-            try:
-                record = mesh_label_dataset(lds, folder, options, executor=executor,
-                                            progress=bar.advance)
-            finally:
-                bar.close()
-            write_json(folder / "meshing.json", record)
+            write_json(folder / "meshing.json",
+                       _mesh_with_bar(lds, folder, options, executor, quiet))
     return out
 
 

@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..io.label_dataset import DEFAULT_LABEL_IDS as LABEL_VALUES
 from .phantom import Phantom, PhantomParams
 
-LABEL_VALUES = {"myocardium": 1, "jelly": 2, "lumen": 3}
 MARGIN_VOXELS = 3                   # background between the tube and the volume's faces
 ISLANDS = 30                        # specks of the wrong label per frame, with noise
 OUTER_REACH = 1.25                  # the outer wall never lies further out than this x R0
@@ -83,10 +83,10 @@ class LabelGrid:
         out = np.zeros(self.shape, np.uint8)
         flat = out.reshape(-1)
         at = np.arange(len(self.index))              # the voxels inside the walls so far
-        for wall, value in (("outer", 1), ("inner", 2), ("lumen", 3)):
+        for wall, layer in (("outer", "myocardium"), ("inner", "jelly"), ("lumen", "lumen")):
             radius = self.phantom.radius(wall, self.s[at], self.theta[at], t_ms)
             at = at[self.distance[at] <= radius]
-            flat[self.index[at]] = value
+            flat[self.index[at]] = LABEL_VALUES[layer]
         return out
 
 

@@ -21,7 +21,8 @@ from .errors import DatasetError, InputError, OftimgWarning
 from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, check_replaceable,
                             cohort_maps, finished_folder, link_or_copy, require_new_folder,
                             staged_output, write_cohort_maps, write_dataset_results, write_json)
-from .io.dataset import Dataset, find_datasets, load_dataset, natural_key, validate_dataset
+from .io.dataset import (Dataset, check_enough_frames, find_datasets, load_dataset, natural_key,
+                         validate_dataset)
 from .io.label_dataset import (LabelDataset, is_label_dataset, load_label_dataset,
                                mesh_label_dataset)
 from .synthetic.labels import write_label_phantom
@@ -93,8 +94,6 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
                 parallel, overwrite, quiet, fps, started, cluster_alpha) -> Path:
     """:func:`run` once it holds ``finished``: what to reuse, validation, the work,
     the cohort outputs; on failure, the note on what is kept."""
-    from .analysis.pipeline import check_enough_frames
-
     names = [d.meta.name for d in datasets]
     fingerprints = {d.meta.name: finished.fingerprint(d, opts, fps) for d in datasets}
     reused = {}
@@ -170,6 +169,7 @@ def validate_labels(path, *, quiet: bool = False) -> dict:
     from .mesh.labels import MeshOptions
 
     lds = load_label_dataset(path)
+    check_enough_frames(lds)
     with tempfile.TemporaryDirectory(prefix="oftimg-validate-") as tmp:
         ds = _meshed(lds, Path(tmp) / "meshes", MeshOptions(), None, quiet)
         report = validate_dataset(ds)

@@ -12,7 +12,7 @@ from helpers import InPlace, tube_mesh, write_series
 from oftimg.cli import main
 from oftimg.errors import DatasetError, OftimgWarning
 from oftimg.io.tube import check_tube_file, load_tube
-from oftimg.io.meshfile import declared_counts, read_mesh_file, write_ply
+from oftimg.io.meshfile import read_mesh_file, write_ply
 from oftimg.io.dataset import (find_datasets, list_frames, load_dataset, natural_key,
                                validate_dataset)
 
@@ -249,8 +249,6 @@ def _damaged(tmp_path, kind):
     elif kind in ("ply_quads", "obj_quads", "off_quads"):
         wrap = [[23, 0, 24, 47]]
         _write_faces(path, V, quads + wrap + rest.tolist(), kind.split("_")[0])
-    elif kind == "obj_indented":
-        _write_faces(path, V, F.tolist(), "obj", indent=" ")
     elif kind == "obj_cut":
         _write_faces(path, V, F.tolist(), "obj")
         text = path.read_text().rstrip()
@@ -270,46 +268,45 @@ def _write_binary_stl(path, V, F):
                      + np.uint32(len(F)).tobytes() + rec.tobytes())
 
 
-CUT = "the file is truncated: it ends among its "
+CUT = r"the file is truncated \(or a count in its header is wrong\): it ends among its "
+NOT_TRIANGLES = "24 faces are not triangles"
 DAMAGED = {"ply_cut_faces": CUT + "faces, with 427 of the 432",                     # (regexes)
-           # open3d read all vertices (the rest zeros) and no faces: "0 triangles" was all
-           # that could be said
+           # open3d read all vertices (the rest zeros) and no faces
            "ply_cut_vertices": CUT + "vertices, with 18 of the 240 ",
-           "ply_quads": "lists 408 faces but 432 triangles",  # open3d split the quads
-           # open3d 0.20 leaves the quads out, 0.18 the whole mesh
-           "obj_quads": "lists 408 faces but (384|0) triangles",
-           "off_quads": "lists 408 faces but",
+           "ply_quads": NOT_TRIANGLES,  # open3d split the quads
+           "obj_quads": NOT_TRIANGLES,  # open3d 0.20 left the quads out, 0.18 the whole mesh
+           "off_quads": NOT_TRIANGLES,
            # open3d 0.18 completed the last face, cut to two corners, with an index from
            # nowhere: out of range, or (in 1 of ~10 runs) in range, and the file passed
            "obj_cut": "1 face lines with fewer than 3 corners",
-           "obj_indented": "lists 432 faces but 0 triangles",
-           "stl_cut": "lists 432 faces but 0 triangles",
-           "stl_ascii_cut": "lists 432 faces but",
-           "vtk_cut": r"cannot be read as \.vtk \(truncated or damaged\)"}  # meshio: sys.exit(1)
+           "stl_cut": r"a binary STL of 432 triangles is 21684 bytes long, this file 21619",
+           "stl_ascii_cut": "the file is truncated .*: it ends inside its facets",
+           "vtk_cut": "the file is truncated .*: it ends among its cell types"}  # meshio: sys.exit
 
 
 @pytest.mark.parametrize("kind", sorted(DAMAGED))
 def test_a_file_read_only_in_part_is_refused_by_name(tmp_path, kind):
-    """open3d only prints a warning for a truncated file, skips .obj faces that are not
-    triangles and stops at the first polygon it cannot split: a truncated file whose
-    last faces lay at the outlet passed every check, a shorter tube. meshio ended the
-    whole run with sys.exit(1) on a truncated .vtk."""
+    """open3d only printed a warning for a truncated file, skipped .obj faces that are
+    not triangles and stopped at the first polygon it could not split: a truncated
+    file whose last faces lay at the outlet passed every check, a shorter tube.
+    meshio ended the whole run with sys.exit(1) on a truncated .vtk."""
     path = _damaged(tmp_path, kind)
     with pytest.raises(DatasetError, match=re.escape(f"{path}: ") + DAMAGED[kind]):
         read_mesh_file(path)
 
 
-@pytest.mark.parametrize("kind", ["ply", "obj", "off", "stl"])
-def test_whole_files_with_their_counts_are_read(tmp_path, kind):
-    """The counting itself: whole files (ascii, .obj face lines with a tab after the f,
-    a binary .stl whose header begins with 'solid') are read in full."""
+@pytest.mark.parametrize("kind", ["ply", "obj", "off", "stl", "obj_indented"])
+def test_whole_files_are_read_in_full(tmp_path, kind):
+    """Whole files (ascii, .obj face lines with a tab after the f or a blank before
+    it, which open3d left out, a binary .stl whose header begins with 'solid') are
+    read in full."""
     V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
-    path = tmp_path / f"f.{kind}"
+    path = tmp_path / f"f.{kind.split('_')[0]}"
     if kind == "stl":
         _write_binary_stl(path, V, F)
     else:
-        _write_faces(path, V, F.tolist(), kind)
-    assert declared_counts(path)[1] == len(F)
+        _write_faces(path, V, F.tolist(), kind.split("_")[0],
+                     indent=" " if kind == "obj_indented" else "")
     assert len(load_tube(path).F) == len(F)
 
 
@@ -335,44 +332,118 @@ def _write_binary_ply(path, V, faces, *, vertex_type="float", extra=(), count="u
     path.write_bytes(b"".join(data))
 
 
-def test_binary_ply_is_read_as_open3d_reads_it(tmp_path):
-    """Binary little-endian .ply files of vertices and triangles are read with NumPy
-    (``write_ply``'s, double coordinates, more vertex properties, other list types);
-    other .ply files go to open3d, whose checks still name a damaged file."""
-    from oftimg.io.meshfile import _open3d, _read_simple_ply
+def test_ply_is_read_as_open3d_reads_it(tmp_path):
+    """oftimg's own PLY reader gives what open3d gives for whole files (write_ply's,
+    double coordinates, more vertex properties, other list types, big endian,
+    ascii), and refuses damaged ones by name where open3d crashed or read short."""
+    import open3d
 
     V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
     cases = {"written.ply": None,
              "double.ply": dict(vertex_type="double", extra=("red", "green", "blue"),
                                 count="uint", index="uint"),
              "short_list.ply": dict(count="ushort", index="int"),
-             "big_endian.ply": dict(order="big")}
+             "big_endian.ply": dict(order="big"), "ascii.ply": "ascii"}
     for name, kw in cases.items():
         path = tmp_path / name
         if kw is None:
             write_ply(path, V, F)
+        elif kw == "ascii":
+            _write_faces(path, V, F.tolist(), "ply")
         else:
             _write_binary_ply(path, V, F.tolist(), **kw)
-        mesh = _open3d().io.read_triangle_mesh(str(path))
+        mesh = open3d.io.read_triangle_mesh(str(path))
         read = read_mesh_file(path)
         assert np.array_equal(read[0], np.asarray(mesh.vertices))
         assert np.array_equal(read[1], np.asarray(mesh.triangles))
         assert read[0].dtype == np.float64 and read[1].dtype == np.int64
-        assert (_read_simple_ply(path) is None) == (name == "big_endian.ply")
     quads = [[k, k + 1, k + 25, k + 24] for k in range(23)]
     rest = F[~np.isin(F, np.arange(24)).any(axis=1)].tolist()
     _write_binary_ply(tmp_path / "quads.ply", V, quads + [[23, 0, 24, 47]] + rest)
-    assert _read_simple_ply(tmp_path / "quads.ply") is None
-    with pytest.raises(DatasetError, match=r"quads\.ply: lists 408 faces but"):
+    with pytest.raises(DatasetError, match=r"quads\.ply: 24 faces are not triangles"):
         read_mesh_file(tmp_path / "quads.ply")
     _write_binary_ply(tmp_path / "cut.ply", V, F.tolist())
     (tmp_path / "cut.ply").write_bytes((tmp_path / "cut.ply").read_bytes()[:-13 * 5])
-    assert _read_simple_ply(tmp_path / "cut.ply") is None
     with pytest.raises(DatasetError, match=r"cut\.ply: the file is truncated"):
         read_mesh_file(tmp_path / "cut.ply")
     _write_binary_ply(tmp_path / "range.ply", V, F.tolist() + [[0, 1, len(V)]])
     with pytest.raises(DatasetError, match=r"range\.ply: face indices out of range"):
         read_mesh_file(tmp_path / "range.ply")
+
+
+def _lying_ply(tmp_path, case):
+    """A binary .ply damaged as a fuzzer damaged those that crashed open3d (SIGSEGV)
+    or were read short."""
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    path = tmp_path / f"{case}.ply"
+    write_ply(path, V, F)
+    data = path.read_bytes()
+    if case == "vertex_count_halved":
+        data = data.replace(b"vertex 240", b"vertex 120")
+    elif case == "no_z":
+        data = data.replace(b"property float z\n", b"")
+    elif case == "face_of_5":
+        at = data.index(b"end_header\n") + 11 + 240 * 12
+        data = data[:at] + b"\x05" + data[at + 1:]
+    elif case == "one_face_fewer_listed":
+        data = data.replace(b"face 432", b"face 431")
+    elif case == "hex_float":
+        _write_faces(path, V, F.tolist(), "ply")
+        head, body = path.read_bytes().split(b"end_header\n")
+        data = head + b"end_header\n0x1p-3" + body[body.index(b" "):]
+    elif case == "bad_property_line":
+        data = data.replace(b"property float z", b"property\xfffloat z")
+    path.write_bytes(data)
+    return path
+
+
+DAMAGED_FACES = r"its faces do not fit the file \(\d+ are not a triangle before it ends\)"
+LYING = {"vertex_count_halved": DAMAGED_FACES,                                      # (regexes)
+         "no_z": "its vertices need scalar properties x, y and z",
+         "face_of_5": DAMAGED_FACES,
+         "one_face_fewer_listed": "it holds 13 bytes more than its header declares",
+         "hex_float": "its vertex lines hold something that is not a decimal number",
+         "bad_property_line": "its header holds bytes that are not text"}
+
+
+@pytest.mark.parametrize("case", sorted(LYING))
+def test_a_ply_whose_header_lies_is_refused_in_words(tmp_path, case):
+    """Each crashed open3d (SIGSEGV, no message) or was read short ("filled 1 hole");
+    now one line names the file and what is wrong, and quotes none of its bytes."""
+    path = _lying_ply(tmp_path, case)
+    with pytest.raises(DatasetError, match=re.escape(f"{path}: ") + LYING[case]) as err:
+        read_mesh_file(path)
+    assert str(err.value).isprintable()
+
+
+@pytest.mark.parametrize("version", [42, 51])
+@pytest.mark.parametrize("binary", [False, True])
+def test_legacy_vtk_polydata_is_read_without_vtk(tmp_path, version, binary):
+    """VTK's own writer makes legacy POLYDATA (classic cells in 4.2, OFFSETS and
+    CONNECTIVITY in 5.1), which meshio could not read: oftimg's reader reads it."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+    from vtkmodules.vtkCommonCore import vtkPoints
+    from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+    from vtkmodules.vtkIOLegacy import vtkPolyDataWriter
+
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
+    pts = vtkPoints()
+    pts.SetData(numpy_to_vtk(V, deep=True))
+    cells = vtkCellArray()
+    cells.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 3 * len(F) + 1, 3), deep=True),
+                  numpy_to_vtkIdTypeArray(F.ravel().astype(np.int64), deep=True))
+    poly = vtkPolyData()
+    poly.SetPoints(pts)
+    poly.SetPolys(cells)
+    writer = vtkPolyDataWriter()
+    writer.SetFileName(str(tmp_path / "f.vtk"))
+    writer.SetFileVersion(version)
+    if binary:
+        writer.SetFileTypeToBinary()
+    writer.SetInputData(poly)
+    writer.Write()
+    read = read_mesh_file(tmp_path / "f.vtk")
+    assert np.allclose(read[0], V, atol=1e-6 * (not binary)) and np.array_equal(read[1], F)
 
 
 def test_repairs_are_counted(tmp_path):
@@ -535,7 +606,7 @@ def _bad(tmp_path, kind):
     return ds, target
 
 
-BAD = {"empty": "empty", "garbage": "no triangles",
+BAD = {"empty": "empty", "garbage": "not a PLY file",
        "one_loop": "1 boundary loops; a tube has 2 (one end closed: cut the cap off)",
        "three_loops": "3 boundary loops; a tube has 2, and 1 of the 1 beyond its ends is too large",
        "non_manifold": "non-manifold edge",
@@ -703,7 +774,8 @@ def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
     reports = json.loads(capfd.readouterr().out)
     assert [r["path"] for r in reports] == [str(tmp_path / "cohort" / n) for n in "abc"]
     assert reports[1]["problems"] == [{"file": str(bad), "problem": str(bad) + ": the file is "
-                                       "truncated: it ends among its vertices, with 18 of the "
+                                       "truncated (or a count in its header is wrong): it ends among its "
+                                       "vertices, with 18 of the "
                                        "250 vertices its header lists whole"}]
     assert "surfaces" in reports[0] and "problems" not in reports[0]
     assert main(["validate", str(tmp_path / "cohort" / "a"), "--json"]) == 0

@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError, OftimgWarning
-from ..io.dataset import Dataset
+from ..io.dataset import Dataset, check_enough_frames
 from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                            volume_change, wrap_step_ratio)
 from .maps import analyse_area_maps
@@ -102,9 +102,6 @@ def _sigma_ms(given, must: str) -> float:
     return sigma
 
 
-# frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion
-# and contraction (the phases share the frame of maximum volume)
-MIN_FRAMES = 5
 # the last-to-first step of the outer volume, over the largest step between frames,
 # above which the frames may not be one whole cycle (one cycle: at most 1)
 WRAP_STEP_WARN = 2.0
@@ -135,15 +132,6 @@ def check_series(ds: Dataset, volume: dict) -> dict:
     return {"wrap_step_ratio": round(ratio, 3), "one_cycle_warning": ratio > WRAP_STEP_WARN,
             "standout_frames": standout,
             "standout_frame_count": sum(len(names) for names in standout.values())}
-
-
-def check_enough_frames(ds: Dataset) -> None:
-    """Raise :class:`~oftimg.errors.InputError` naming ``ds`` if it has fewer than
-    :data:`MIN_FRAMES` frames (before any work, not at the shape modes)."""
-    if ds.n_frames < MIN_FRAMES:
-        raise InputError(f"{ds.path / 'outer'}: {ds.n_frames} frames; an analysis needs at "
-                         f"least {MIN_FRAMES} over the cycle (the shape modes take 3 in each "
-                         "of expansion and contraction)")
 
 
 def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> list:

@@ -15,7 +15,6 @@ dataset folder is ever written to.
 """
 from __future__ import annotations
 
-import json
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -26,14 +25,33 @@ import numpy as np
 from ..errors import DatasetError, OftimgWarning
 from ..mesh.topology import loop_centroid, loop_vector_area
 from .meshfile import MESH_SUFFIXES
+from .safefile import read_json_file
 from .tube import Checked, Tube, check_tube_file, load_tube
 
 SURFACES = ("outer", "inner", "lumen")
 UNIT_TO_MM = {"mm": 1.0, "um": 1e-3}
-DEFAULT_FRAME_MS = 2.0
+PERIOD_MS_RANGE = (1.0, 1e7)     # a beat of 1 ms to about three hours
+VOXEL_MM_RANGE = (1e-5, 10.0)
 FILES_NAMED = 6     # bad files an error names of a kind (the rest counted)
 META_KEYS = {"name": str, "group": str, "period_ms": (int, float),
              "length_unit": str, "voxel_size": list, "inlet": list}
+
+
+# frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion
+# and contraction (the phases share the frame of maximum volume)
+MIN_FRAMES = 5
+
+
+def check_enough_frames(ds) -> None:
+    """Raise :class:`DatasetError` naming the frames' folder of ``ds`` (a mesh or a
+    label dataset) if it has fewer than :data:`MIN_FRAMES` frames: before any work,
+    in ``validate`` as in ``run``."""
+    if ds.n_frames < MIN_FRAMES:
+        folder = ds.path / ("labels" if (ds.path / "labels").is_dir() and
+                            not (ds.path / "outer").is_dir() else "outer")
+        raise DatasetError(f"{folder}: {ds.n_frames} frames; an analysis needs at least "
+                           f"{MIN_FRAMES} over the cycle (the shape modes take 3 in each of "
+                           "expansion and contraction)")
 
 
 def natural_key(name: str):
@@ -42,11 +60,11 @@ def natural_key(name: str):
 
 
 def list_frames(folder: Path) -> list[Path]:
-    """Mesh files of one surface folder in natural order (a broken link too: reading
-    it says so, where leaving it out would drop a frame from the time series)."""
-    files = [p for p in folder.iterdir()
-             if (p.is_file() or p.is_symlink()) and p.suffix.lower() in MESH_SUFFIXES
-             and not p.name.startswith(".")]
+    """Mesh files of one surface folder in natural order (a broken link, a FIFO or a
+    folder named like one too: reading it says what it is, where leaving it out
+    would drop a frame from the time series)."""
+    files = [p for p in folder.iterdir()     # a FIFO or folder too: reading refuses it
+             if p.suffix.lower() in MESH_SUFFIXES and not p.name.startswith(".")]
     return sorted(files, key=lambda p: natural_key(p.name))
 
 
@@ -77,59 +95,84 @@ def _scale_to_mm(unit: str, voxel_size) -> float | tuple[float, float, float]:
 
 def read_meta_json(folder: Path, keys: dict = META_KEYS) -> dict:
     """``meta.json`` as a dict ({} when there is none), each key one of ``keys``
-    (name -> allowed type) with a value of its type."""
+    (name -> allowed type) with a value of its type (never a bool for a number)."""
     path = folder / "meta.json"
-    raw: dict = {}
-    if path.exists():
-        try:
-            raw = json.loads(path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise DatasetError(f"{path}: not valid JSON ({exc})") from None
-        if not isinstance(raw, dict):
-            raise DatasetError(f"{path}: expected a JSON object, found {type(raw).__name__}")
-        for key, value in raw.items():
-            if key not in keys:
-                raise DatasetError(f"{path}: unknown key {key!r}; "
-                                   f"allowed: {', '.join(keys)}")
-            if not isinstance(value, keys[key]) or isinstance(value, bool):
-                raise DatasetError(f"{path}: {key!r} has the wrong type "
-                                   f"({type(value).__name__})")
+    raw = read_json_file(path, optional=True)
+    if raw is None:
+        return {}
+    if not isinstance(raw, dict):
+        raise DatasetError(f"{path}: expected a JSON object, found {type(raw).__name__}")
+    for key, value in raw.items():
+        if key not in keys:
+            raise DatasetError(f"{path}: unknown key {key[:40]!r}; allowed: {', '.join(keys)}")
+        if not isinstance(value, keys[key]) or isinstance(value, bool):
+            want = {str: "text", list: "a list", dict: "an object"}.get(keys[key], "a number")
+            raise DatasetError(f"{path}: {key!r} must be {want}, found "
+                               f"{_JSON_KINDS.get(type(value), type(value).__name__)}")
     return raw
 
 
+_JSON_KINDS = {str: "text", list: "a list", dict: "an object", bool: "true/false",
+               int: "a number", float: "a number", type(None): "null"}
+
+
+def is_number(x) -> bool:
+    """A JSON number (not a bool) that is finite."""
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and bool(np.isfinite(x))
+
+
 def read_meta(folder: Path, n_frames: int, keys: dict = META_KEYS) -> Meta:
-    """Parse ``meta.json`` (optional) and fill in the documented defaults."""
+    """Parse ``meta.json`` (optional) and fill in the documented defaults. Without
+    a ``period_ms``, the period is unknown: ``period_ms`` is one "ms" a frame and
+    ``period_assumed`` is set, so that every time is in frames and every speed in
+    mm/frame (see :attr:`Meta.time_unit`)."""
     path = folder / "meta.json"
     raw = read_meta_json(folder, keys)
     unit = raw.get("length_unit", "mm")
     if unit not in UNIT_TO_MM:
-        raise DatasetError(f"{path}: length_unit must be 'mm' or 'um', found {unit!r}")
+        raise DatasetError(f"{path}: length_unit must be 'mm' or 'um', found {unit[:20]!r}")
     period_assumed = "period_ms" not in raw
-    period = float(raw.get("period_ms", n_frames * DEFAULT_FRAME_MS))
-    if not np.isfinite(period) or period <= 0:
-        raise DatasetError(f"{path}: period_ms must be a positive number, found {period}")
+    period = float(n_frames) if period_assumed else raw["period_ms"]
+    if not is_number(period) or not PERIOD_MS_RANGE[0] <= period <= PERIOD_MS_RANGE[1]:
+        raise DatasetError(f"{path}: period_ms is the beat's length in ms, a number from "
+                           f"{PERIOD_MS_RANGE[0]:g} to {PERIOD_MS_RANGE[1]:g}; found {period!r}")
     voxel = raw.get("voxel_size")
     if voxel is not None:
-        if (len(voxel) != 3 or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                                       for x in voxel)
-                or not all(np.isfinite(x) and x > 0 for x in voxel)):
-            raise DatasetError(f"{path}: voxel_size must be three positive numbers [dx, dy, dz] "
-                               f"in length_unit (the files' coordinates are voxel indices), "
-                               f"found {voxel!r}")
-        voxel = tuple(float(x) for x in voxel)
+        voxel = check_voxel_size(path, voxel, UNIT_TO_MM[unit])
     inlet = raw.get("inlet")
     if inlet is not None:
-        if len(inlet) != 3 or not all(isinstance(x, (int, float)) for x in inlet):
-            raise DatasetError(f"{path}: inlet must be [x, y, z], found {inlet!r}")
+        if len(inlet) != 3 or not all(is_number(x) and abs(x) < 1e9 for x in inlet):
+            raise DatasetError(f"{path}: inlet must be a point [x, y, z] of three finite "
+                               f"numbers in the files' coordinates, found {str(inlet)[:60]}")
         scale = np.broadcast_to(_scale_to_mm(unit, voxel), 3)   # in the files' coordinates
         inlet = tuple(float(x) * float(k) for x, k in zip(inlet, scale))
     name = str(raw.get("name", folder.name))
-    if name in ("", ".", "..") or any(c in name for c in "/\\\0"):
-        raise DatasetError(f"{path}: name {name!r} cannot be a folder name (the dataset's "
+    if name in ("", ".", "..") or any(c in name for c in "/\\\0") or len(name) > 200:
+        raise DatasetError(f"{path}: name {name[:60]!r} cannot be a folder name (the dataset's "
                            "results are written to a folder of that name)")
-    return Meta(name=name, group=str(raw.get("group", "unknown")),
-                period_ms=period, length_unit=unit, inlet_mm=inlet,
-                period_assumed=period_assumed, voxel_size=voxel)
+    group = str(raw.get("group", "unknown"))
+    if len(group) > 200 or not group.isprintable():
+        raise DatasetError(f"{path}: group must be a short line of text, found {group[:60]!r}")
+    return Meta(name=name, group=group, period_ms=float(period), length_unit=unit,
+                inlet_mm=inlet, period_assumed=period_assumed, voxel_size=voxel)
+
+
+def check_voxel_size(path, voxel: list, to_mm: float) -> tuple[float, float, float]:
+    """A voxel size (meta.json's, or a file's own, named by ``path``), checked: three
+    numbers in a unit of ``to_mm`` mm, each side from 10 nm to 10 mm, the longest at
+    most 100 times the shortest."""
+    ok = len(voxel) == 3 and all(is_number(x) and x > 0 for x in voxel)
+    if not ok:
+        raise DatasetError(f"{path}: voxel_size must be three positive numbers [dx, dy, dz] "
+                           f"in length_unit (the files' coordinates are voxel indices), "
+                           f"found {str(voxel)[:60]}")
+    mm = [float(x) * to_mm for x in voxel]
+    if min(mm) < VOXEL_MM_RANGE[0] or max(mm) > VOXEL_MM_RANGE[1] or max(mm) > 100 * min(mm):
+        raise DatasetError(f"{path}: voxel_size {[float(x) for x in voxel]} is "
+                           f"{', '.join(f'{d:.3g}' for d in mm)} mm: each side must lie between "
+                           f"{VOXEL_MM_RANGE[0]:g} and {VOXEL_MM_RANGE[1]:g} mm, the longest at "
+                           "most 100 times the shortest (is length_unit right?)")
+    return tuple(float(x) for x in voxel)
 
 
 @dataclass(frozen=True)
@@ -289,9 +332,6 @@ def load_dataset(path: str | Path) -> Dataset:
         if len(files) != n:
             raise DatasetError(f"{path / surface}: {len(files)} frames, but outer/ has {n}")
     meta = read_meta(path, n)
-    if meta.period_assumed:
-        warnings.warn(f"{path / 'meta.json'}: no period_ms; assuming {DEFAULT_FRAME_MS} ms "
-                      f"per frame ({meta.period_ms:g} ms)", OftimgWarning, stacklevel=2)
     if meta.inlet_mm is not None:
         inlet = np.asarray(meta.inlet_mm)
     else:
@@ -377,6 +417,7 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
     warning per surface; reading the frames again does not repeat them.
     ``progress()`` is called after each mesh.
     """
+    check_enough_frames(ds)
     report = {"name": ds.meta.name, "path": str(ds.path), "n_frames": ds.n_frames,
               "inlet_mm": [round(float(x), 6) for x in ds.inlet_mm],
               "inlet_from": "meta.json" if ds.meta.inlet_mm is not None else "larger end loop",

@@ -26,7 +26,8 @@ import numpy as np
 from ..errors import DatasetError, InputError
 from ..mesh.labels import MeshOptions, mesh_walls
 from ..mesh.topology import MeshError
-from .dataset import (META_KEYS, UNIT_TO_MM, Meta, natural_key, read_meta, read_meta_json)
+from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
+                      read_meta, read_meta_json)
 from .labelfile import (LabelSource, label_suffix, list_label_sources, read_header, read_volume,
                         series_file)
 from .meshfile import write_ply
@@ -35,6 +36,7 @@ LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list}
 LAYER_NAMES = ("myocardium", "jelly", "lumen")
 DEFAULT_LABEL_IDS = {"myocardium": 1, "jelly": 2, "lumen": 3}
 SPACING_TOLERANCE = 1e-3        # relative: a file's voxel size and meta.json's agree
+MAX_VOXELS = 2 ** 30            # a frame of over a billion voxels is a damaged header
 CARRIED_META = ("name", "group", "period_ms", "length_unit", "inlet")
 
 
@@ -88,6 +90,10 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     headers = [read_header(s) for s in sources]
     first = headers[0]
     for source, header in zip(sources, headers):
+        if min(header.shape) < 2 or np.prod(header.shape, dtype=float) > MAX_VOXELS:
+            raise DatasetError(f"{source}: a volume of shape (z, y, x) {header.shape}; a frame "
+                               f"has at least 2 voxels along each axis and at most "
+                               f"{MAX_VOXELS:,} in all (is its header damaged?)")
         if header.shape != first.shape:
             raise DatasetError(f"{source}: a volume of shape (z, y, x) {header.shape}, but the "
                                f"first frame's is {first.shape}; every frame has one shape")
@@ -95,8 +101,8 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
             raise DatasetError(f"{source}: {header.dtype} labels; a label volume holds whole "
                                "numbers (0 background), as segmentation tools export it")
     voxel = _voxel_size(path, meta, raw, sources, headers)
-    label_ids = _label_ids(path, raw, sources[0])
-    ends = _ends(path, raw)
+    label_ids = _label_ids(path, raw, sources[0], first.dtype)
+    ends = _ends(path, raw, first.shape, voxel)
     return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends)
 
 
@@ -123,6 +129,8 @@ def _voxel_size(path: Path, meta: Meta, raw: dict, sources, headers) -> tuple:
         raise DatasetError(f"{path / 'meta.json'}: no voxel_size, and {sources[0]} carries "
                            f"none; give \"voxel_size\": [dx, dy, dz] in length_unit "
                            f"({meta.length_unit})")
+    if meta.voxel_size is None:                   # the file's own, checked as meta.json's
+        check_voxel_size(sources[0], list(given), UNIT_TO_MM[meta.length_unit])
     return tuple(float(d) for d in given)
 
 
@@ -130,8 +138,9 @@ def _fmt(size) -> str:
     return "[" + ", ".join(f"{d:.6g}" for d in size) + "]"
 
 
-def _label_ids(path: Path, raw: dict, first: LabelSource) -> dict:
-    """The layers' label values from meta.json, or read off the first frame."""
+def _label_ids(path: Path, raw: dict, first: LabelSource, dtype: np.dtype) -> dict:
+    """The layers' label values from meta.json (each one the volumes' ``dtype`` can
+    hold), or read off the first frame."""
     meta_file = path / "meta.json"
     if "labels" not in raw:
         values = np.unique(read_volume(first))
@@ -146,22 +155,46 @@ def _label_ids(path: Path, raw: dict, first: LabelSource) -> dict:
             or len(set(values)) != len(values)):
         raise DatasetError(f"{meta_file}: each layer's label is a distinct whole number "
                            f"above 0 (0 is the background), found {ids}")
+    top = 1 if dtype == bool else int(np.iinfo(dtype).max)
+    if max(values) > top:
+        raise DatasetError(f"{meta_file}: label {max(values)} cannot occur in {first}'s "
+                           f"{np.dtype(dtype)} voxels (at most {top}); is labels right?")
     return {layer: ids[layer] for layer in LAYER_NAMES if layer in ids}
 
 
-def _ends(path: Path, raw: dict):
-    """meta.json's two cutting planes as ``((point, normal), (point, normal))``."""
+def _ends(path: Path, raw: dict, shape_zyx, voxel_size) -> tuple | None:
+    """meta.json's two cutting planes as ``((point, normal), (point, normal))``: points
+    inside the volume's box, normals of finite non-zero length, each plane's point on
+    the kept side of the other plane (a tube's part between them)."""
     if "ends" not in raw:
         return None
     ends = raw["ends"]
+    shape = ("two planes, each {\"point\": [x, y, z], \"normal\": [x, y, z]} in "
+             "length_unit, the normal pointing into the tube's part to keep")
     ok = (len(ends) == 2 and all(isinstance(e, dict) and set(e) == {"point", "normal"}
                                  and all(isinstance(e[k], list) and len(e[k]) == 3
-                                         and all(isinstance(x, (int, float)) for x in e[k])
+                                         and all(is_number(x) for x in e[k])
                                          for k in ("point", "normal")) for e in ends))
-    if not ok or any(np.linalg.norm(e["normal"]) == 0 for e in ends):
-        raise DatasetError(f"{path / 'meta.json'}: ends is two planes, each "
-                           '{"point": [x, y, z], "normal": [x, y, z]} with the normal '
-                           "pointing into the tube's part to keep")
+    if not ok:
+        raise DatasetError(f"{path / 'meta.json'}: ends must be {shape}")
+    points = np.array([e["point"] for e in ends], float)
+    normals = np.array([e["normal"] for e in ends], float)
+    lengths = np.linalg.norm(normals, axis=1)
+    if not np.all(np.isfinite(lengths) & (lengths > 0)):
+        raise DatasetError(f"{path / 'meta.json'}: an ends normal has no direction (zero "
+                           f"length); ends must be {shape}")
+    box = (np.asarray(shape_zyx[::-1], float) - 1) * np.asarray(voxel_size)
+    outside = [k for k in range(2) if np.any(points[k] < -1e-9 * box.max())
+               or np.any(points[k] > box * (1 + 1e-9))]
+    if outside:
+        raise DatasetError(f"{path / 'meta.json'}: ends point {points[outside[0]].tolist()} "
+                           f"lies outside the volume (0 to {box.tolist()} in length_unit)")
+    normals /= lengths[:, None]
+    if not (np.dot(points[1] - points[0], normals[0]) > 0
+            and np.dot(points[0] - points[1], normals[1]) > 0):
+        raise DatasetError(f"{path / 'meta.json'}: the ends planes keep nothing between them: "
+                           "each point must lie on the kept side of the other plane (the "
+                           "normals point towards each other, into the tube's part to keep)")
     return tuple((tuple(map(float, e["point"])), tuple(map(float, e["normal"]))) for e in ends)
 
 
@@ -173,6 +206,8 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
     the frames finds every bad one)."""
     try:
         walls = mesh_walls(read_volume(source), label_ids, voxel_size, options, ends)
+    except DatasetError as exc:                  # names its file already
+        return exc
     except (InputError, MeshError) as exc:
         return DatasetError(f"{source}: {exc}")
     for wall, mesh in walls.items():

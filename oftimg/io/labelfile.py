@@ -10,12 +10,15 @@ so a worker holds one volume at a time.
 """
 from __future__ import annotations
 
+import contextlib
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import DatasetError
+from .safefile import file_status
 
 PER_FRAME_SUFFIXES = (".tif", ".tiff", ".nii", ".nii.gz", ".npy")
 SERIES_NAMES = ("labels.tif", "labels.tiff", "labels.zarr")
@@ -81,55 +84,106 @@ def list_label_sources(folder: Path, natural_key) -> list[LabelSource]:
 def read_header(source: LabelSource) -> VolumeHeader:
     """The frame's shape, dtype and voxel size from its file's header."""
     path = Path(source.path)
+    _check_kind(path)
     try:
-        if source.index is not None:
-            shape = _series_shape(path)
-            return VolumeHeader(tuple(shape[1:]), _series_dtype(path), _series_voxel(path))
-        kind = label_suffix(path)
-        if kind == ".npy":
-            arr = np.load(path, mmap_mode="r")
-            return VolumeHeader(_three_d(arr.shape, path), arr.dtype, None)
-        if kind in (".nii", ".nii.gz"):
-            img = _nifti(path)
-            shape = _three_d(img.shape, path)[::-1]                   # (x, y, z) -> (z, y, x)
-            return VolumeHeader(shape, img.header.get_data_dtype(), _nifti_voxel(img))
-        import tifffile
-        with tifffile.TiffFile(path) as tif:
-            series = tif.series[0]
-            return VolumeHeader(_three_d(series.shape, path), series.dtype, _tiff_voxel(tif))
+        with _quiet_readers():
+            return _read_header(source, path)
     except DatasetError:
         raise
     except Exception as exc:             # a truncated or foreign file: its reader's words
-        raise DatasetError(f"{source}: cannot be read as a label volume "
-                           f"({type(exc).__name__}: {exc})") from None
+        raise DatasetError(f"{source}: cannot be read as a label volume: damaged, or not "
+                           f"what its name says ({_reader_says(exc)})") from None
+
+
+def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
+    """:func:`read_header` by the file's own reader (its errors unwrapped)."""
+    if source.index is not None:
+        shape = _series_shape(path)
+        return VolumeHeader(tuple(shape[1:]), _series_dtype(path), _series_voxel(path))
+    kind = label_suffix(path)
+    if kind == ".npy":
+        arr = np.load(path, mmap_mode="r")
+        return VolumeHeader(_three_d(arr.shape, path), arr.dtype, None)
+    if kind in (".nii", ".nii.gz"):
+        img = _nifti(path)
+        shape = _three_d(img.shape, path)[::-1]                   # (x, y, z) -> (z, y, x)
+        return VolumeHeader(shape, img.header.get_data_dtype(), _nifti_voxel(img))
+    import tifffile
+    with tifffile.TiffFile(path) as tif:
+        series = tif.series[0]
+        return VolumeHeader(_three_d(series.shape, path), series.dtype, _tiff_voxel(tif))
+
+
+def _check_kind(path: Path) -> None:
+    """A zarr store is a folder; every other label file a regular file."""
+    if label_suffix(path) == ".zarr":
+        if not path.is_dir():
+            raise DatasetError(f"{path}: a zarr store is a folder; this is not one")
+    else:
+        file_status(path)
+
+
+@contextlib.contextmanager
+def _quiet_readers():
+    """tifffile logs what it finds odd in a damaged file (kilobytes of it); the
+    error oftimg raises says it in one line."""
+    logger = logging.getLogger("tifffile")
+    disabled, logger.disabled = logger.disabled, True
+    try:
+        yield
+    finally:
+        logger.disabled = disabled
+
+
+def _reader_says(exc: BaseException) -> str:
+    """What a reader's exception says, as ``"tifffile says: ..."``."""
+    reader = {"tifffile": "tifffile", "nibabel": "nibabel", "zarr": "zarr",
+              "numcodecs": "zarr"}.get(type(exc).__module__.split(".")[0], "the reader")
+    return f"{reader} says: {printable(exc) or type(exc).__name__}"
+
+
+def printable(exc: BaseException, limit: int = 120) -> str:
+    """An exception's text as one short line of printable characters (a reader's
+    message may quote the file's own bytes)."""
+    text = "".join(c if c.isprintable() and ord(c) < 0x250 else "?" for c in str(exc))
+    return " ".join(text.split())[:limit]
 
 
 def read_volume(source: LabelSource) -> np.ndarray:
     """The frame's labels ``(z, y, x)`` as stored (one frame read, not the series)."""
     path = Path(source.path)
+    _check_kind(path)
     try:
-        if source.index is not None:
-            if label_suffix(path) == ".zarr":
-                import zarr
-                return np.asarray(zarr.open(str(path), mode="r")[source.index])
-            import tifffile
-            with tifffile.TiffFile(path) as tif:
-                n_z = tif.series[0].shape[1]
-                first = source.index * n_z
-                return tif.asarray(key=range(first, first + n_z)).reshape(
-                    tif.series[0].shape[1:])
-        kind = label_suffix(path)
-        if kind == ".npy":
-            data = np.load(path, mmap_mode="r")
-            return np.asarray(data).reshape(_three_d(data.shape, path))
-        if kind in (".nii", ".nii.gz"):
-            data = np.asanyarray(_nifti(path).dataobj)
-            return np.ascontiguousarray(data.reshape(data.shape[:3]).transpose(2, 1, 0))
-        import tifffile
-        data = tifffile.imread(path)
-        return data.reshape(_three_d(data.shape, path))
+        with _quiet_readers():
+            return _read_volume(source, path)
+    except DatasetError:
+        raise
     except Exception as exc:
-        raise DatasetError(f"{source}: cannot be read ({type(exc).__name__}: {exc})") from None
+        raise DatasetError(f"{source}: cannot be read: damaged, or not what its name says "
+                           f"({_reader_says(exc)})") from None
+
+
+def _read_volume(source: LabelSource, path: Path) -> np.ndarray:
+    """:func:`read_volume` by the file's own reader (its errors unwrapped)."""
+    if source.index is not None:
+        if label_suffix(path) == ".zarr":
+            return np.asarray(_zarr(path)[source.index])
+        import tifffile
+        with tifffile.TiffFile(path) as tif:
+            n_z = tif.series[0].shape[1]
+            first = source.index * n_z
+            return tif.asarray(key=range(first, first + n_z)).reshape(
+                tif.series[0].shape[1:])
+    kind = label_suffix(path)
+    if kind == ".npy":
+        data = np.load(path, mmap_mode="r")
+        return np.asarray(data).reshape(_three_d(data.shape, path))
+    if kind in (".nii", ".nii.gz"):
+        data = np.asanyarray(_nifti(path).dataobj)
+        return np.ascontiguousarray(data.reshape(data.shape[:3]).transpose(2, 1, 0))
+    import tifffile
+    data = tifffile.imread(path)
+    return data.reshape(_three_d(data.shape, path))
 
 
 def _three_d(shape, path: Path) -> tuple[int, int, int]:
@@ -147,8 +201,7 @@ def _three_d(shape, path: Path) -> tuple[int, int, int]:
 def _series_shape(path: Path) -> tuple[int, int, int, int]:
     """``(t, z, y, x)`` of a 4-D file."""
     if label_suffix(path) == ".zarr":
-        import zarr
-        shape = zarr.open(str(path), mode="r").shape
+        shape = _zarr(path).shape
     else:
         import tifffile
         with tifffile.TiffFile(path) as tif:
@@ -167,8 +220,7 @@ def _series_shape(path: Path) -> tuple[int, int, int, int]:
 
 def _series_dtype(path: Path) -> np.dtype:
     if label_suffix(path) == ".zarr":
-        import zarr
-        return np.dtype(zarr.open(str(path), mode="r").dtype)
+        return np.dtype(_zarr(path).dtype)
     import tifffile
     with tifffile.TiffFile(path) as tif:
         return tif.series[0].dtype
@@ -195,6 +247,16 @@ def _tiff_voxel(tif) -> tuple[float, float, float] | None:
     tags = tif.pages[0].tags
     dx, dy = (tags[name].value[1] / tags[name].value[0] for name in ("XResolution", "YResolution"))
     return (dx * unit, dy * unit, float(meta["spacing"]) * unit)
+
+
+def _zarr(path: Path):
+    """The zarr array at ``path``, opened read-only."""
+    try:
+        import zarr
+    except ImportError:
+        raise DatasetError(f"{path}: reading a zarr store needs zarr: pip install "
+                           "'oftimg[zarr]'") from None
+    return zarr.open(str(path), mode="r")
 
 
 def _nifti(path: Path):

@@ -252,6 +252,9 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
     field, origin, spacing = level_set_field(mask, voxel_size_xyz, options.smoothing, step)
     if field.max() <= LEVEL:
         raise MeshError("is too thin to mesh: after smoothing no voxel is inside")
+    if field.min() >= LEVEL:
+        raise MeshError("fills the whole volume: it has no surface inside it (are the "
+                        "labels right?)")
     verts, faces, _, _ = marching_cubes(field, LEVEL, spacing=spacing[::-1])
     V = verts[:, ::-1] + np.asarray(origin)                  # (z, y, x) -> (x, y, z)
     F = np.ascontiguousarray(faces[:, ::-1], dtype=np.int64)
@@ -277,12 +280,10 @@ def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
     :func:`mesh_wall`). Raises :class:`InputError` naming the problem (no file) for
     an all-zero volume or a layer's label absent, :class:`MeshError` (naming the
     wall) for a wall that is not an open tube."""
-    present = np.zeros(max(label_ids.values()) + 1, bool)
     values = _values(labels)
-    present[values[(values >= 0) & (values < len(present))]] = True
     if not values.any():
         raise InputError("holds no labelled voxel (all zero)")
-    absent = [f"{layer} ({v})" for layer, v in label_ids.items() if not present[v]]
+    absent = [f"{layer} ({v})" for layer, v in label_ids.items() if v not in values]
     if absent:
         raise InputError(f"has no voxel labelled {', '.join(absent)}")
     walls = {}

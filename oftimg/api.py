@@ -6,6 +6,7 @@ science lives in :mod:`oftimg.analysis.pipeline` and the ``mesh``/``image`` modu
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import platform
@@ -22,7 +23,7 @@ from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, che
                             cohort_maps, finished_folder, link_or_copy, require_new_folder,
                             staged_output, write_cohort_maps, write_dataset_results, write_json)
 from .io.dataset import (Dataset, check_enough_frames, find_datasets, load_dataset, natural_key,
-                         validate_dataset)
+                         validate_dataset, with_period)
 from .io.label_dataset import (LabelDataset, is_label_dataset, load_label_dataset,
                                mesh_label_dataset)
 from .synthetic.labels import write_label_phantom
@@ -48,7 +49,8 @@ def _load(path: Path) -> Dataset | LabelDataset:
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         options: dict | None = None, jobs: int | None = None,
         scheduler: str | None = None, fps: float | None = None, parallel: str = "auto",
-        resume: bool = False, cluster_alpha: float = 0.05) -> Path:
+        resume: bool = False, cluster_alpha: float = 0.05,
+        period_ms: float | None = None) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
     Every frame of every dataset is validated before any work. The work runs
@@ -64,7 +66,9 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     the run succeeds; with ``resume``, those whose inputs, options and oftimg
     code are unchanged are reused (neither validated nor analysed again).
     ``cluster_alpha``: the cluster-forming threshold of the cohort maps' tests
-    (:func:`cohort_maps`). Returns ``out``.
+    (:func:`cohort_maps`). ``period_ms``: the beat's length of every dataset whose
+    meta.json gives none (without it, such a dataset is refused: its times and speeds
+    would be a guess). Returns ``out``.
     """
     from .analysis.pipeline import PipelineOptions
 
@@ -78,7 +82,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     paths = _as_dataset_paths(source)
     check_output_location(out, paths, overwrite=overwrite)
     opts = PipelineOptions(**(options or {}))
-    datasets = [_load(p) for p in paths]
+    datasets = with_period([_load(p) for p in paths], period_ms)
     _check_names([(d.meta.name, d.path) for d in datasets],
                  'set another "name" in its meta.json')
     started = time.time()
@@ -147,6 +151,9 @@ def _meshed(lds: LabelDataset, folder: Path, options, executor, quiet: bool) -> 
         warnings.simplefilter("ignore", OftimgWarning)
         ds = load_dataset(folder)
     ds.path, ds.labels = lds.path, record
+    ds.meta = dataclasses.replace(ds.meta, period_ms=lds.meta.period_ms,   # --period-ms too
+                                  period_assumed=lds.meta.period_assumed,
+                                  period_from=lds.meta.period_from)
     return ds
 
 

@@ -60,6 +60,10 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("source", type=Path, help="dataset folder (with outer/, or labels/ to mesh "
                                              "frame by frame) or cohort folder")
     r.add_argument("--out", type=Path, required=True, help="results folder (created)")
+    r.add_argument("--period-ms", type=float, default=None, metavar="MS",
+                   help="the beat's length in ms for datasets whose meta.json gives no "
+                        "period_ms (without either, such a dataset is refused: its times and "
+                        "speeds would be a guess)")
     r.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
     r.add_argument("--resume", action="store_true",
                    help="reuse the datasets a failed or interrupted run into the same --out "
@@ -242,7 +246,14 @@ def _print_report(report: dict) -> None:
     for name, s in report["surfaces"].items():
         for file, what in s["repairs"].items():
             print(f"  repaired {name}/{file}: {what}")
-    print("  problems: none")
+    if report.get("period_ms") is None:
+        print("  period: none (meta.json has no period_ms): times in ms and speeds in mm/s "
+              "need it; oftimg run refuses this dataset unless meta.json gives period_ms or "
+              "the run --period-ms MS")
+    else:
+        print(f"  period: {report['period_ms']:g} ms ({report['period_from']})")
+    print("  problems: none" if report.get("period_ms") is not None else
+          "  problems: none in the meshes; the period is missing (above)")
 
 
 @contextmanager
@@ -345,7 +356,7 @@ def _command(args) -> int:
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume,
-                      cluster_alpha=args.cluster_alpha)
+                      cluster_alpha=args.cluster_alpha, period_ms=args.period_ms)
         print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
     elif args.command == "cohort":
         out = api.cohort(args.results, args.out, overwrite=args.overwrite,
@@ -400,7 +411,7 @@ def _validate(path: Path, *, as_json: bool) -> int:
     lists its problems); 2 if any has a problem."""
     from .errors import InputError
     from .api import validate_labels
-    from .io.dataset import find_datasets, load_dataset, validate_dataset
+    from .io.dataset import check_enough_frames, find_datasets, load_dataset, validate_dataset
     from .io.label_dataset import is_label_dataset
     from .progress import Progress
 
@@ -414,6 +425,7 @@ def _validate(path: Path, *, as_json: bool) -> int:
                     _print_report(reports[-1])
                 continue
             ds = load_dataset(folder)
+            check_enough_frames(ds)
             bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
                            unit="mesh")
             try:

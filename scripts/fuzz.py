@@ -16,6 +16,7 @@ import sys
 import tempfile
 import time
 
+from oftimg.cli import main as oftimg_main
 from oftimg.synthetic.damage import fuzz
 
 
@@ -28,7 +29,8 @@ def main() -> int:
     args = parser.parse_args()
     tick = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="oftimg-fuzz-", dir=args.work) as work:
-        outcomes = fuzz(args.cases, work, seed=args.seed, run_every=args.run_every)
+        outcomes = fuzz(args.cases, work, oftimg_main, seed=args.seed,
+                        run_every=args.run_every)
     seconds = time.perf_counter() - tick
     by_mutation = collections.defaultdict(collections.Counter)
     for o in outcomes:

@@ -140,10 +140,15 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
 
     ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
                                                         vertices_min=1500, vertices_max=1800))
+    meta = json.loads((ds / "meta.json").read_text())
+    del meta["period_ms"]                               # the period comes from the command
+    (ds / "meta.json").write_text(json.dumps(meta))
     log = tmp_path / "run.log"
     out = tmp_path / "out"
+    assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tiny"]   # no out, nothing kept
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1", "--fps", "10",
-                 "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
+                 "--period-ms", "400", "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
                  "--authalic-weight", "0.25", "--seam-method", "heat",
                  "--map-positions", "fixed", "--field-smoothing-ms", "7",
                  "--lumen-smoothing-steps", "3", "--strain-smoothing-ms", "2.5",
@@ -152,6 +157,7 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     assert np.load(out / "cohort_maps.npz")["cluster_alpha"] == 0.2
     assert "uncorrected p &le; 0.2" not in (out / "index.html").read_text()   # one group
     summary = json.loads((out / "tiny" / "summary.json").read_text())
+    assert (summary["period_ms"], summary["period_from"]) == (400, "--period-ms")
     assert summary["time_warp"] is True
     assert summary["provenance"]["options"]["map_positions"] == "fixed"
     assert summary["provenance"]["options"]["field_smoothing_ms"] == 7
@@ -289,6 +295,39 @@ def test_too_few_frames_for_a_cycle_stop_the_run_before_any_work(tmp_path, capsy
     err = capsys.readouterr().err
     assert f"oftimg: error: {ds / 'outer'}: 4 frames; an analysis needs at least 5" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["short"]   # no out, nothing kept
+
+
+def test_without_a_period_a_run_refuses_and_says_how_to_give_one(tmp_path, capsys):
+    """A dataset without period_ms was timed at 2 ms a frame: a 24-frame series became a
+    48 ms beat and its wave 7x too fast, with a warning naming a meta.json that did not
+    exist. Now validate says the period is missing and what it changes, and a run
+    refuses it (naming every such dataset) until meta.json or --period-ms gives one."""
+    import shutil
+
+    from oftimg.synthetic.phantom import sample_params, write_phantom
+
+    cohort = tmp_path / "cohort"
+    for name in ("a", "b"):
+        ds = write_phantom(cohort / name, sample_params("normal", 2, n_frames=5,
+                                                        vertices_min=500, vertices_max=600),
+                           walls=("outer",))
+        (ds / "meta.json").unlink()
+    shutil.copytree(cohort / "a", cohort / "c")
+    (cohort / "c" / "meta.json").write_text(json.dumps({"period_ms": 300}))
+    assert main(["validate", str(cohort / "a")]) == 0
+    said = capsys.readouterr().out
+    assert "period: none (meta.json has no period_ms)" in said and "oftimg run refuses" in said
+    out = tmp_path / "out"
+    assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == [f"oftimg: error: {cohort / 'a' / 'meta.json'}: no period_ms (and 1 more of "
+                   "the 3 datasets: b): oftimg gives times in ms and speeds in mm/s, which "
+                   "need the beat's length; add \"period_ms\" to meta.json or run with "
+                   "--period-ms MS (the frame interval times the 5 frames of one beat)"]
+    assert not out.exists()
+    for bad in ("0", "nan", "1e9"):
+        assert main(["run", str(cohort), "--out", str(out), "--period-ms", bad]) == 2
+        assert "--period-ms: period_ms is the beat's length in ms" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("fps", ["0", "-5", "nan", "inf"])

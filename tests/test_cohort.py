@@ -9,7 +9,7 @@ import pytest
 
 from oftimg import api
 from oftimg.cli import main
-from oftimg.output.export import AROUND_TUBE_MAPS, TESTED_MAPS
+from oftimg.analysis.group_maps import AROUND_TUBE_MAPS, TESTED_MAPS
 from oftimg.errors import DatasetError
 from oftimg.synthetic.phantom import sample_params, write_phantom
 

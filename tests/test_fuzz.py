@@ -6,13 +6,14 @@ import collections
 
 import pytest
 
-from oftimg.synthetic.damage import (LABEL_MUTATIONS, MESH_MUTATIONS, _call_cli, base_datasets,
+from oftimg.cli import main
+from oftimg.synthetic.damage import (LABEL_MUTATIONS, MESH_MUTATIONS, base_datasets, call_cli,
                                      fuzz, judge)
 
 
 @pytest.mark.slow
 def test_damaged_datasets_get_one_clear_line_and_leave_the_input_alone(tmp_path):
-    outcomes = fuzz(300, tmp_path, seed=0, run_every=60)
+    outcomes = fuzz(300, tmp_path, main, seed=0, run_every=60)
     faults = [f"case {o.case} {o.base} {o.mutation} ({o.command}, exit {o.exit_code}): "
               f"{'; '.join(o.faults)} | {o.first_line}" for o in outcomes if o.faults]
     assert not faults, "\n".join(faults)
@@ -29,7 +30,7 @@ def test_damaged_datasets_get_one_clear_line_and_leave_the_input_alone(tmp_path)
 def test_the_undamaged_bases_are_valid(tmp_path):
     """What the fuzz damages is valid to begin with (else every refusal is the base's)."""
     for path in base_datasets(tmp_path).values():
-        code, stderr, _ = _call_cli(["validate", str(path)], 120)
+        code, stderr, _ = call_cli(main, ["validate", str(path)], 120)
         assert code == 0, stderr
 
 

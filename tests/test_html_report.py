@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from oftimg.cli import main
-from oftimg.output.export import TESTED_MAPS
+from oftimg.analysis.group_maps import TESTED_MAPS
 
 pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 

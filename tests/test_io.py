@@ -87,10 +87,9 @@ def test_natural_sort(tmp_path):
 
 def test_load_dataset_defaults(tmp_path):
     ds_path = write_series(tmp_path / "emb", cone_frames())
-    with pytest.warns(OftimgWarning, match="no period_ms"):
-        ds = load_dataset(ds_path)
+    ds = load_dataset(ds_path)
     assert ds.meta.name == "emb" and ds.meta.group == "unknown"
-    assert ds.meta.period_ms == pytest.approx(3 * 2.0)
+    assert ds.meta.period_assumed and np.isnan(ds.meta.period_ms)   # no guess
     assert ds.surfaces == ("outer",)
     tube = ds.tube("outer", 1)
     assert tube.V.dtype == np.float64 and tube.F.dtype == np.int64

@@ -9,6 +9,9 @@ import numpy as np
 
 N_POSITIONS = 50      # rows of the common grid, inlet (0) to outlet (1)
 N_PHASES = 100        # columns, from the minimum outer volume (0) round the cycle
+# fields (n_u, n_v, n_t) of arrays.npz whose mean around the tube is a cohort map
+AROUND_TUBE_MAPS = ("wall_thickness_mm", "jelly_thickness_mm", "strain_energy_outer")
+TESTED_MAPS = ("area_outer_normalized", *AROUND_TUBE_MAPS)   # compared between groups
 
 
 def common_grid(n_positions: int = N_POSITIONS, n_phases: int = N_PHASES):

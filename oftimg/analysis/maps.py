@@ -7,7 +7,8 @@ import numpy as np
 
 from ..image.band import detect_band, neck_depth
 from ..image.gradient import area_rates
-from ..image.kymograph import auto_ridge_smoothing, noise_colour, speed_spread
+from ..image.kymograph import (RESOLVED_ROW_SHARE, auto_ridge_smoothing, noise_colour,
+                               speed_spread)
 from ..image.masks import expanded_75, expanded_sigma
 
 
@@ -96,6 +97,13 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     else:
         notes.append(f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
                      "the wave speeds have no noise spread (NaN)")
+    with_speed = int(np.count_nonzero(np.isfinite(speeds["local"])))
+    used = speeds["summary"]["rows_used"]
+    if used < with_speed:
+        notes.append(f"the local wave speeds' min, max, mean and SD are over the {used} of "
+                     f"{with_speed} rows whose speed the map's noise resolves (spread under "
+                     f"{RESOLVED_ROW_SHARE:.0%} of it); the others, where the ridge is nearly "
+                     "flat or turns within the noise, are left out (local_speed_noise_sd_mm_s)")
     colour = noise_colour(area["outer"])
     summary["area_noise_colour"] = colour
     if colour > COLOURED_NOISE:

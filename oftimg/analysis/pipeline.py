@@ -655,7 +655,7 @@ def _cycle_summary(ds: Dataset, timing: dict, t0: int, s_mm: np.ndarray, warp: b
     n_t = ds.n_frames
     return {
         "name": ds.meta.name, "group": ds.meta.group, "n_frames": n_t,
-        "period_ms": ds.meta.period_ms,
+        "period_ms": ds.meta.period_ms, "period_from": ds.meta.period_from,
         "t0_frame": t0,
         "time_warp": warp,
         "expand_fraction": timing["expand_fraction"],

@@ -37,6 +37,10 @@ SPREAD_FINITE_SHARE = 0.9
 # a speed is resolved when the spread of its inverse (the ridge's slope) over the draws is
 # under this share of it: within one SD the wave neither stands still nor turns back
 RESOLVED_SLOPE_SHARE = 0.5
+# a row's local speed enters the speed statistics (Table 1's min, max, mean, std and the
+# median) when its noise spread is finite and under this share of it: at a band's neck,
+# where the ridge is not resolved, a row gave -29508 mm/s and the mean -584 mm/s
+RESOLVED_ROW_SHARE = 0.5
 # a ridge whose least-squares slope t(s) along the tube is within this many of its noise
 # SDs of 0, or crosses the whole tube in under SYNCHRONOUS_FRAMES of a frame interval, is a
 # synchronous contraction: no wave, no speeds (a chamber that contracts at once gave
@@ -264,22 +268,34 @@ def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int =
                    speed_distal_mm_s=to_speed(b + c), rms_ms=float(np.sqrt(sse / len(s))))
 
 
-def wave_speed_summary(speed_mm_s: np.ndarray, cycle_mm_s: float) -> dict:
-    """``min, max, mean, std`` (the paper's Table 1), ``median`` (robust to the few
-    rows where the ridge is nearly flat along the tube and the speed shoots up) of the
-    local speeds, and ``cycle`` (mm/s), NaN-aware."""
+def wave_speed_summary(speed_mm_s: np.ndarray, cycle_mm_s: float, *,
+                       rows: np.ndarray | None = None) -> dict:
+    """``min, max, mean, std`` (the paper's Table 1) and ``median`` of the local
+    speeds ``(n_v,)`` mm/s over ``rows`` (a boolean mask ``(n_v,)``, default every
+    finite one: :func:`resolved_rows` keeps those the map's noise resolves),
+    ``rows_used`` (how many), and ``cycle`` (mm/s)."""
     v = np.asarray(speed_mm_s, float)
-    v = v[np.isfinite(v)]
+    keep = np.isfinite(v) if rows is None else np.asarray(rows, bool) & np.isfinite(v)
+    v = v[keep]
     if len(v) == 0:
         return {"min": np.nan, "max": np.nan, "mean": np.nan, "std": np.nan,
-                "median": np.nan, "cycle": cycle_mm_s}
+                "median": np.nan, "rows_used": 0, "cycle": float(cycle_mm_s)}
     return {"min": float(v.min()), "max": float(v.max()), "mean": float(v.mean()),
-            "std": float(v.std()), "median": float(np.median(v)), "cycle": float(cycle_mm_s)}
+            "std": float(v.std()), "median": float(np.median(v)), "rows_used": int(len(v)),
+            "cycle": float(cycle_mm_s)}
+
+
+def resolved_rows(local_mm_s: np.ndarray, local_sd_mm_s: np.ndarray) -> np.ndarray:
+    """Rows ``(n_v,)`` bool whose local speed is resolved: its noise spread finite and
+    under :data:`RESOLVED_ROW_SHARE` of it."""
+    local, sd = np.asarray(local_mm_s, float), np.asarray(local_sd_mm_s, float)
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(local) & np.isfinite(sd) & (sd < RESOLVED_ROW_SHARE * np.abs(local))
 
 
 def wave_speeds(s_mm: np.ndarray, ridge_t_ms: np.ndarray) -> dict:
     """Every wave speed (mm/s) from one ridge: ``local (n_v,)``, the
-    :func:`wave_speed_summary` of the rows and the cycle, and the
+    :func:`wave_speed_summary` of every row with a speed and the cycle, and the
     :func:`two_segment_fit`."""
     local = local_speed(s_mm, ridge_t_ms)
     return {"local": local,
@@ -294,9 +310,11 @@ def no_wave(n_v: int) -> dict:
             "knee": KneeFit(np.nan, np.nan, np.nan, np.nan, np.nan)}
 
 
-def _speed_values(speeds: dict) -> dict:
-    """The scalar speeds of :func:`wave_speeds`, by summary key."""
-    out = {k: v for k, v in speeds["summary"].items() if k != "std"}
+def _speed_values(speeds: dict, rows: np.ndarray | None = None) -> dict:
+    """The scalar speeds of :func:`wave_speeds`, by summary key, the statistics of the
+    local speeds over ``rows`` (default: all)."""
+    summary = wave_speed_summary(speeds["local"], speeds["summary"]["cycle"], rows=rows)
+    out = {k: v for k, v in summary.items() if k not in ("std", "rows_used")}
     out["proximal"] = speeds["knee"].speed_proximal_mm_s
     out["distal"] = speeds["knee"].speed_distal_mm_s
     return out
@@ -365,7 +383,10 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     frame (a shape the grid follows badly) are not in the spread. ``synchronous``:
     the ridge's slope along the tube (``ridge_slope_ms_per_mm``, its spread
     ``ridge_slope_noise_sd_ms_per_mm``) is consistent with no wave
-    (:func:`is_synchronous`); every measured speed is then NaN.
+    (:func:`is_synchronous`); every measured speed is then NaN. ``resolved_rows
+    (n_v,)`` bool: the rows whose local speed the noise resolves
+    (:func:`resolved_rows`; every row with a speed when the noise cannot be
+    measured), over which the measured summary and every draw's are taken.
     """
     area = _check_map(area, s_mm)
     if int(draws) != draws or draws < 10:
@@ -373,16 +394,14 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     noise = map_noise_sd(area)
     ridge = ridge_times(area, period_ms, smoothing_ms=smoothing_ms)
     rng = np.random.default_rng(seed)
-    ridges, locals_, values, slopes = [], [], [], []
+    ridges, draws_speeds, slopes = [], [], []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)   # the map's flat rows: said once
         for _ in range(int(draws)):
             noisy = area + rng.standard_normal(area.shape) * noise[:, None]
             r = ridge_times(noisy, period_ms, smoothing_ms=smoothing_ms)
-            speeds = wave_speeds(s_mm, r)
             ridges.append(ridge + (r - ridge + period_ms / 2) % period_ms - period_ms / 2)
-            locals_.append(speeds["local"])
-            values.append(list(_speed_values(speeds).values()))
+            draws_speeds.append(wave_speeds(s_mm, r))
             slopes.append(ridge_slope(s_mm, r))
     measured = wave_speeds(s_mm, ridge)
     slope = ridge_slope(s_mm, ridge)
@@ -392,13 +411,21 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
                                  period_ms / area.shape[1])
     if synchronous:
         measured = no_wave(len(s))
-    scalars = _speed_values(measured)
+    local_sd = _resolved_spread(np.array([d["local"] for d in draws_speeds]), measured["local"])
+    # the statistics over the rows the noise resolves (all with a speed when the noise
+    # cannot be measured), in the measured map and in every draw alike
+    rows = (resolved_rows(measured["local"], local_sd) if np.isfinite(noise).any()
+            else np.isfinite(measured["local"]))
+    measured["summary"] = wave_speed_summary(measured["local"], measured["summary"]["cycle"],
+                                             rows=rows)
+    scalars = _speed_values(measured, rows)
+    values = np.array([list(_speed_values(d, rows).values()) for d in draws_speeds])
     return {"ridge": ridge, "measured": measured, "synchronous": synchronous,
             "ridge_slope_ms_per_mm": slope, "ridge_slope_noise_sd_ms_per_mm": slope_sd,
             "noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
-            "local_speed_mm_s": _resolved_spread(np.array(locals_), measured["local"]),
-            "speeds": dict(zip(scalars, _resolved_spread(np.array(values),
-                                                      np.array(list(scalars.values()))).tolist()))}
+            "local_speed_mm_s": local_sd, "resolved_rows": rows,
+            "speeds": dict(zip(scalars, _resolved_spread(
+                values, np.array(list(scalars.values()))).tolist()))}
 
 
 def auto_ridge_smoothing(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import re
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -77,8 +77,9 @@ class Meta:
     period_ms: float
     length_unit: str
     inlet_mm: tuple[float, float, float] | None
-    period_assumed: bool = False
+    period_assumed: bool = False          # no period_ms: period_ms is NaN, a run refuses
     voxel_size: tuple[float, float, float] | None = None   # in length_unit, x y z
+    period_from: str = "meta.json"        # or "--period-ms"
 
     @property
     def scale_to_mm(self) -> float | tuple[float, float, float]:
@@ -123,19 +124,17 @@ def is_number(x) -> bool:
 
 def read_meta(folder: Path, n_frames: int, keys: dict = META_KEYS) -> Meta:
     """Parse ``meta.json`` (optional) and fill in the documented defaults. Without
-    a ``period_ms``, the period is unknown: ``period_ms`` is one "ms" a frame and
-    ``period_assumed`` is set, so that every time is in frames and every speed in
-    mm/frame (see :attr:`Meta.time_unit`)."""
+    a ``period_ms`` the period is unknown: ``period_ms`` is NaN and ``period_assumed``
+    set (nothing is timed by a guess: a run needs :func:`with_period`)."""
     path = folder / "meta.json"
     raw = read_meta_json(folder, keys)
     unit = raw.get("length_unit", "mm")
     if unit not in UNIT_TO_MM:
         raise DatasetError(f"{path}: length_unit must be 'mm' or 'um', found {unit[:20]!r}")
     period_assumed = "period_ms" not in raw
-    period = float(n_frames) if period_assumed else raw["period_ms"]
-    if not is_number(period) or not PERIOD_MS_RANGE[0] <= period <= PERIOD_MS_RANGE[1]:
-        raise DatasetError(f"{path}: period_ms is the beat's length in ms, a number from "
-                           f"{PERIOD_MS_RANGE[0]:g} to {PERIOD_MS_RANGE[1]:g}; found {period!r}")
+    period = float("nan") if period_assumed else raw["period_ms"]
+    if not period_assumed:
+        check_period(path, period)
     voxel = raw.get("voxel_size")
     if voxel is not None:
         voxel = check_voxel_size(path, voxel, UNIT_TO_MM[unit])
@@ -155,6 +154,39 @@ def read_meta(folder: Path, n_frames: int, keys: dict = META_KEYS) -> Meta:
         raise DatasetError(f"{path}: group must be a short line of text, found {group[:60]!r}")
     return Meta(name=name, group=group, period_ms=float(period), length_unit=unit,
                 inlet_mm=inlet, period_assumed=period_assumed, voxel_size=voxel)
+
+
+def check_period(path, period_ms) -> None:
+    """Refuse a period that is not a number of ms in :data:`PERIOD_MS_RANGE`, naming
+    ``path`` (meta.json, or the option that gave it)."""
+    if not is_number(period_ms) or not PERIOD_MS_RANGE[0] <= period_ms <= PERIOD_MS_RANGE[1]:
+        raise DatasetError(f"{path}: period_ms is the beat's length in ms, a number from "
+                           f"{PERIOD_MS_RANGE[0]:g} to {PERIOD_MS_RANGE[1]:g}; found "
+                           f"{str(period_ms)[:30]}")
+
+
+def with_period(datasets: list, period_ms: float | None) -> list:
+    """``datasets`` (mesh or label datasets) each with a known period: its meta.json's,
+    else ``period_ms`` (``--period-ms``). Raises one :class:`DatasetError` naming the
+    datasets whose period is unknown when ``period_ms`` is None: their times in ms and
+    speeds in mm/s would be a guess."""
+    if period_ms is not None:
+        check_period("--period-ms", period_ms)
+    missing = [d for d in datasets if d.meta.period_assumed]
+    if missing and period_ms is None:
+        first = missing[0]
+        more = (f" (and {len(missing) - 1} more of the {len(datasets)} datasets: "
+                f"{', '.join(d.meta.name for d in missing[1:FILES_NAMED + 1])}"
+                f"{', ...' if len(missing) > FILES_NAMED + 1 else ''})" if len(missing) > 1
+                else "")
+        raise DatasetError(
+            f"{first.path / 'meta.json'}: no period_ms{more}: oftimg gives times in ms and "
+            f"speeds in mm/s, which need the beat's length; add \"period_ms\" to meta.json "
+            f"or run with --period-ms MS (the frame interval times the {first.n_frames} "
+            "frames of one beat)")
+    return [replace(d, meta=replace(d.meta, period_ms=float(period_ms), period_assumed=False,
+                                    period_from="--period-ms"))
+            if d.meta.period_assumed else d for d in datasets]
 
 
 def check_voxel_size(path, voxel: list, to_mm: float) -> tuple[float, float, float]:
@@ -417,10 +449,11 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
     warning per surface; reading the frames again does not repeat them.
     ``progress()`` is called after each mesh.
     """
-    check_enough_frames(ds)
     report = {"name": ds.meta.name, "path": str(ds.path), "n_frames": ds.n_frames,
               "inlet_mm": [round(float(x), 6) for x in ds.inlet_mm],
               "inlet_from": "meta.json" if ds.meta.inlet_mm is not None else "larger end loop",
+              "period_ms": None if ds.meta.period_assumed else ds.meta.period_ms,
+              "period_from": None if ds.meta.period_assumed else ds.meta.period_from,
               "surfaces": {}}
     problems = []
     for surface in ds.surfaces:

@@ -190,11 +190,12 @@ def _ends(path: Path, raw: dict, shape_zyx, voxel_size) -> tuple | None:
         raise DatasetError(f"{path / 'meta.json'}: ends point {points[outside[0]].tolist()} "
                            f"lies outside the volume (0 to {box.tolist()} in length_unit)")
     normals /= lengths[:, None]
-    if not (np.dot(points[1] - points[0], normals[0]) > 0
-            and np.dot(points[0] - points[1], normals[1]) > 0):
+    apart = points[1] - points[0]
+    if not (np.linalg.norm(apart) > 1e-6 * box.max() and np.dot(apart, normals[0]) >= 0
+            and np.dot(-apart, normals[1]) >= 0):
         raise DatasetError(f"{path / 'meta.json'}: the ends planes keep nothing between them: "
-                           "each point must lie on the kept side of the other plane (the "
-                           "normals point towards each other, into the tube's part to keep)")
+                           "their points must differ, each on the kept side of the other "
+                           "plane (the normals point into the tube's part to keep)")
     return tuple((tuple(map(float, e["point"])), tuple(map(float, e["normal"]))) for e in ends)
 
 

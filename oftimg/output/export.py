@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError
+from ..analysis.group_maps import AROUND_TUBE_MAPS, TESTED_MAPS
 from ..image.kymograph import RIDGE_SMOOTHING_MS
 
 
@@ -154,7 +155,7 @@ class Finished:
         (so that a development install's changed code is not taken for the same)."""
         stats = [(str(p), p.stat()) for p in ds.input_files()]
         return {"oftimg_version": __version__, "oftimg_source": _source_digest(),
-                "options": opts.as_dict(), "fps": fps,
+                "options": opts.as_dict(), "fps": fps, "period_ms": ds.meta.period_ms,
                 "inputs": [[p, st.st_size, st.st_mtime_ns] for p, st in stats]}
 
     def summary_if_current(self, name: str, fingerprint: dict) -> dict | None:
@@ -316,9 +317,6 @@ COHORT_MAPS = {
     "comparisons": (["comparison"], "", "each other group against the first (normals "
                                         "first): 'banded - normal'"),
 }
-# fields (n_u, n_v, n_t) of arrays.npz whose mean around the tube is a cohort map
-AROUND_TUBE_MAPS = ("wall_thickness_mm", "jelly_thickness_mm", "strain_energy_outer")
-TESTED_MAPS = ("area_outer_normalized", *AROUND_TUBE_MAPS)   # compared between groups
 for _key in TESTED_MAPS:
     _unit = COHORT_MAPS[_key][1]
     COHORT_MAPS[f"{_key}_difference"] = (

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analysis.group_maps import TESTED_MAPS
 from ..analysis.stats import holm, permutation_test
 
 
@@ -30,7 +31,8 @@ class Column:
 
 
 _SPEED = ("wave speed along the tube from the ridge of the outer area map (time of maximum "
-          "area at each position): {} over the rows of its slope ds/dt")
+          "area at each position): {} over the rows of its slope ds/dt that the map's noise "
+          "resolves (qc.csv speed_rows_used); empty when none does")
 _NOISE_SD = ("spread (SD) of {} from the area map's own frame-to-frame noise, by "
              "resampling that noise (not in the paper)")
 _NOISE_SHARE = ("share of {} field's change over the cycle that is frame-to-frame noise, "
@@ -134,6 +136,9 @@ QC_COLUMNS = ID_COLUMNS + [
            "(at most 1 when the frames are one cycle)"),
     Column("ridge_smoothing_ms", ("ridge_smoothing_ms",), "ms",
            "sigma of the ridge's smoothing in time ('auto': per dataset, as its noise asked)"),
+    Column("speed_rows_used", ("wave_speed_mm_s", "rows_used"), "1",
+           "rows of the outer map whose local wave speed is resolved (noise spread finite and "
+           "under half of it), over which Table 1's speed min, max, avg and std are taken"),
     Column("speed_min_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "min"), "mm/s",
            _NOISE_SD.format("speed_min_mm_s")),
     Column("speed_max_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "max"), "mm/s",
@@ -186,6 +191,10 @@ QC_COLUMNS = ID_COLUMNS + [
 # file name -> its columns (what a cohort run writes, and the data dictionary covers)
 TABLES = {"table1.csv": TABLE1_COLUMNS, "cohort.csv": MEASUREMENT_COLUMNS,
           "qc.csv": QC_COLUMNS}
+# an embryo's Table 1 cell without a value, and what it means
+NO_VALUE = "–"
+NO_VALUE_NOTE = ("–: no value: not resolved within the map's noise (a wave speed), or not "
+                 "measurable on this embryo (see its summary.json notes).")
 # how the p-values of the Table 1 quantities are corrected (stated where they are shown)
 CORRECTION = "Holm"
 
@@ -337,8 +346,10 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
     data_cols = TABLE1_COLUMNS[2:]
     header = ["Embryo", "Group"] + [TABLE1_LABELS[c.name] + (f" ({c.unit})" if c.unit != "1"
                                                               else "") for c in data_cols]
-    body = [[_cell(row["name"]), _cell(row["group"])] + [_cell(row[c.name], c) for c in data_cols]
+    body = [[_cell(row["name"]), _cell(row["group"])]
+            + [_cell(row[c.name], c) or NO_VALUE for c in data_cols]
             for row in table_rows(summaries, TABLE1_COLUMNS)]
+    blank = any(NO_VALUE in row for row in body)
     comparison = group_comparison(summaries) if comparison is None else comparison
     by_metric = {}
     for r in comparison:
@@ -372,6 +383,8 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
             + (" and the pairs of groups" if len(pairs) > 1 else "")
             + f"; * {CORRECTION}-corrected p < 0.05. Each column is described in columns.csv."
             if pairs else "")
+    if blank:
+        note += (" " if note else "") + NO_VALUE_NOTE
     return header, body, note
 
 
@@ -454,11 +467,9 @@ def field_smoothing_caveat(summaries: list[dict], key: str = "field_smoothing_ms
 
 def map_comparison_rows(maps: dict, alpha: float = 0.05) -> list[dict]:
     """Per comparison of groups and tested map of ``maps``
-    (:func:`oftimg.output.export.cohort_maps`): the least p pixel by pixel and by cluster,
+    (:func:`oftimg.output.export.cohort_maps`, its maps :data:`~oftimg.analysis.group_maps.TESTED_MAPS`): the least p pixel by pixel and by cluster,
     and the share of the map (of its pixels with a value) in clusters with p below
     ``alpha``."""
-    from .export import TESTED_MAPS
-
     rows = []
     for k, name in enumerate(maps["comparisons"]):
         for key in TESTED_MAPS:

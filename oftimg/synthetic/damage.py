@@ -55,6 +55,7 @@ def _a_frame(folder: Path, rng) -> Path:
 
 
 def flip_bytes(folder, rng):
+    """Up to 19 bytes of a frame's file (after a PLY's header) set at random."""
     path = _a_frame(folder, rng)
     data = bytearray(path.read_bytes())
     head = data.find(b"end_header") + 11 if path.suffix == ".ply" else 0
@@ -66,6 +67,7 @@ def flip_bytes(folder, rng):
 
 
 def cut_short(folder, rng):
+    """A frame's file cut at a random byte."""
     path = _a_frame(folder, rng)
     data = path.read_bytes()
     path.write_bytes(data[:int(rng.integers(len(data)))])
@@ -73,6 +75,8 @@ def cut_short(folder, rng):
 
 
 def header_lies(folder, rng):
+    """A line of a PLY header changed: a count, a line dropped, a byte made non-ASCII,
+    a type changed, a line added."""
     path = _pick(folder, rng, "*/*.ply")
     data = path.read_bytes()
     head, _, body = data.partition(b"end_header\n")
@@ -310,9 +314,10 @@ def _tree_digest(folder: Path) -> str:
     return digest.hexdigest()
 
 
-def _call_cli(argv: list[str], timeout_s: float) -> tuple[int | None, str, float]:
-    """``oftimg ARGV`` in this process: exit status (None: it hung), stderr, seconds."""
-    from ..cli import main
+def call_cli(main, argv: list[str], timeout_s: float) -> tuple[int | None, str, float]:
+    """``main(argv)`` (:func:`oftimg.cli.main`, passed in: the command line is a layer
+    above this one) in this process: exit status (None: it hung past ``timeout_s``),
+    what it wrote to stderr, seconds."""
 
     def hung(*_):
         raise _Hung
@@ -358,11 +363,12 @@ def judge(code: int | None, stderr: str, *, unchanged: bool, out: Path | None) -
     return faults
 
 
-def fuzz(cases: int, work: str | Path, *, seed: int = 0, run_every: int = 25,
+def fuzz(cases: int, work: str | Path, cli_main, *, seed: int = 0, run_every: int = 25,
          timeout_s: float = 60.0, progress=None) -> list[Outcome]:
     """Damage the two base datasets ``cases`` times in all (alternately; one seeded
     mutation a case) and give each to ``oftimg validate``, every ``run_every``-th of
-    each base to ``oftimg run`` as well; return every case's :class:`Outcome`."""
+    each base to ``oftimg run`` as well, through ``cli_main`` (:func:`oftimg.cli.main`);
+    return every case's :class:`Outcome`."""
     work = Path(work)
     bases = base_datasets(work / "bases")
     outcomes = []
@@ -381,7 +387,7 @@ def fuzz(cases: int, work: str | Path, *, seed: int = 0, run_every: int = 25,
             commands.append(["run", str(folder), "--out", str(root / "out"), "--quiet",
                              "--jobs", "1"])
         for argv in commands:
-            code, stderr, seconds = _call_cli(argv, timeout_s)
+            code, stderr, seconds = call_cli(cli_main, argv, timeout_s)
             out = root / "out" if argv[0] == "run" else None
             faults = judge(code, stderr, unchanged=_tree_digest(folder) == before, out=out)
             outcomes.append(Outcome(case, base, what, argv[0], code,

@@ -851,3 +851,55 @@ def test_a_frame_that_cannot_be_gridded_is_named(dataset, monkeypatch):
     with pytest.raises(DatasetError, match=re.escape(f"{ds.frames['outer'][2]}: the seam does "
                                                      "not reach the outlet loop")):
         per_frame.process_frame(ds.frame(2), p, p, GridOptions(n_u=12, n_v=6))
+
+
+META_PROBLEMS = {   # meta.json content or kind -> what the one line says (found by a fuzzer)
+    "fifo": ("fifo", "is a named pipe (FIFO), not a file"),            # blocked until killed
+    "dev_zero": ("/dev/zero", "is a character device, not a file"),    # read without end
+    "broken_link": ("nowhere", "a broken link"),                       # taken as missing
+    "link_loop": ("meta.json", "a loop of symbolic links"),            # taken as missing
+    "folder": ("folder", "is a folder, not a file"),                   # [Errno 21]
+    "deep": ('{"name": ' + "[" * 100_000 + "]" * 100_000 + "}", "nested 100001 deep"),
+    "huge_int": ('{"voxel_size": [1' + "0" * 400 + ", 1, 1]}", "a whole number of 401 digits"),
+    "infinite_inlet": ('{"inlet": [1e999, 0, 0]}', "inlet must be a point [x, y, z] of three"),
+    "bool_inlet": ('{"inlet": [true, 0, 0]}', "inlet must be a point [x, y, z] of three"),
+    "nan": ('{"period_ms": NaN}', "NaN, which JSON does not have"),
+    "period_text": ('{"period_ms": "360"}', "'period_ms' must be a number, found text"),
+    "period_zero": ('{"period_ms": 0}', "period_ms is the beat's length in ms"),
+}
+
+
+@pytest.mark.parametrize("problem", sorted(META_PROBLEMS))
+def test_a_meta_json_that_is_not_one_is_named_in_one_line(tmp_path, capsys, problem):
+    import os
+
+    ds = write_series(tmp_path / "emb", cone_frames(5))
+    what, expect = META_PROBLEMS[problem]
+    meta = ds / "meta.json"
+    if problem == "fifo":
+        os.mkfifo(meta)
+    elif problem == "folder":
+        meta.mkdir()
+    elif problem in ("dev_zero", "broken_link", "link_loop"):
+        meta.symlink_to(what if what.startswith("/") else ds / what)
+    else:
+        meta.write_text(what)
+    assert main(["validate", str(ds)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"oftimg: error: {meta}: "), err
+    assert expect in err[0], err[0]
+
+
+@pytest.mark.parametrize("kind", ["fifo", "folder"])
+def test_a_frame_that_is_not_a_file_is_named_not_skipped(tmp_path, capsys, kind):
+    """A FIFO named f2.ply was left out of the series (a frame short) or, read, blocked."""
+    import os
+
+    ds = write_series(tmp_path / "emb", cone_frames(5))
+    (ds / "meta.json").write_text('{"period_ms": 300}')
+    frame = ds / "outer" / "f2.ply"
+    frame.unlink()
+    os.mkfifo(frame) if kind == "fifo" else frame.mkdir()
+    assert main(["validate", str(ds)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith(f"oftimg: error: {frame}: is a "), err

@@ -301,3 +301,68 @@ def test_bad_label_input_one_line_exit_2_nothing_written(label_phantom, tmp_path
     line = run_fails(capsys, ["run", str(bad), "--out", str(out), "--quiet", "--jobs", "1"], out)
     assert line.startswith("oftimg: error: ") and all(e in line for e in expect), line
     assert not list(tmp_path.glob("*.meshes")) and not list(tmp_path.glob(".out*"))
+
+
+LABEL_HEADER_PROBLEMS = {    # meta.json entry -> what the one line says (all found by a fuzzer)
+    "label_beyond_dtype": ({"labels": {"myocardium": 1, "jelly": 2, "lumen": 300}},
+                           "label 300 cannot occur in"),
+    "label_10_400": ('{"labels": {"myocardium": 1' + "0" * 400 + "}}",
+                     "a whole number of 401 digits"),
+    "ends_one_point": ({"ends": [{"point": [100, 100, 100], "normal": [1, 0, 0]},
+                                 {"point": [100, 100, 100], "normal": [-1, 0, 0]}]},
+                       "the ends planes keep nothing between them"),
+    "ends_far": ({"ends": [{"point": [0, 0, 0], "normal": [1, 0, 0]},
+                           {"point": [1e9, 0, 0], "normal": [-1, 0, 0]}]},
+                 "ends point [1000000000.0, 0.0, 0.0] lies outside the volume"),
+    "ends_no_normal": ({"ends": [{"point": [0, 0, 0], "normal": [0, 0, 0]},
+                                 {"point": [200, 0, 0], "normal": [-1, 0, 0]}]},
+                       "an ends normal has no direction"),
+    "tiny_voxel": ({"voxel_size": [10, 1e-12, 20]}, "each side must lie between 1e-05 and 10 mm"),
+}
+
+
+@pytest.mark.parametrize("problem", sorted(LABEL_HEADER_PROBLEMS))
+def test_absurd_label_headers_are_refused_before_any_meshing(label_phantom, tmp_path, capsys,
+                                                             problem):
+    """Each gave an exception's text (ValueError, TypeError, MemoryError for 128 TiB)."""
+    bad = copy_with(label_phantom, tmp_path / "bad")
+    entry, expect = LABEL_HEADER_PROBLEMS[problem]
+    if isinstance(entry, str):
+        (bad / "meta.json").write_text(entry)
+    else:
+        raw = json.loads((bad / "meta.json").read_text())
+        (bad / "meta.json").write_text(json.dumps({**raw, **entry}))
+    assert main(["validate", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"oftimg: error: {bad / 'meta.json'}: ")
+    assert expect in err[0], err[0]
+
+
+@pytest.mark.parametrize("problem", ["random_labels", "four_frames", "folder", "fifo"])
+def test_odd_label_frames_are_named_in_one_line(label_phantom, tmp_path, capsys, problem):
+    """Random labels gave marching cubes' "Surface level must be within volume data range";
+    4 frames passed validate and failed the run; a folder or FIFO named as a frame gave
+    "[Errno 21]" or blocked."""
+    import os
+
+    lds = load_label_dataset(label_phantom)
+    shape = read_volume(lds.sources[0]).shape
+    rng = np.random.default_rng(0)
+    bad = copy_with(label_phantom, tmp_path / "bad",
+                    frames={2: rng.integers(1, 4, shape).astype(np.uint8)}
+                    if problem == "random_labels" else None)
+    frames = sorted((bad / "labels").iterdir())
+    if problem == "four_frames":
+        for f in frames[4:]:
+            f.unlink()
+    elif problem in ("folder", "fifo"):
+        frames[3].unlink()
+        frames[3].mkdir() if problem == "folder" else os.mkfifo(frames[3])
+    expect = {"random_labels": (frames[2], "fills the whole volume"),
+              "four_frames": (bad / "labels", "4 frames; an analysis needs at least 5"),
+              "folder": (frames[3], "is a folder, not a file"),
+              "fifo": (frames[3], "is a named pipe (FIFO), not a file")}[problem]
+    assert main(["validate", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"oftimg: error: {expect[0]}"), err
+    assert expect[1] in err[0], err[0]

@@ -32,8 +32,8 @@ def cone_frames(n=3, flip=False, **kw):
 @pytest.fixture
 def dataset(tmp_path):
     ds = tmp_path / "emb"
-    write_series(ds, cone_frames())
-    (ds / "meta.json").write_text(json.dumps({"period_ms": 6.0}))
+    write_series(ds, cone_frames(5))
+    (ds / "meta.json").write_text(json.dumps({"period_ms": 10.0}))
     return ds
 
 
@@ -642,6 +642,7 @@ def test_every_bad_frame_is_named_in_one_pass(tmp_path, capsys):
     of problem, where it named one a run; nothing is written."""
     ds = write_series(tmp_path / "emb", cone_frames(12))
     write_series(ds, cone_frames(12), surface="inner")
+    (ds / "meta.json").write_text(json.dumps({"period_ms": 300}))
     truncated = [ds / "outer" / f"f{t}.ply" for t in (2, 3, 4, 5, 6, 7, 8, 10)]
     for f in truncated:
         f.write_bytes(f.read_bytes()[:400])
@@ -752,7 +753,8 @@ def test_a_file_put_into_out_during_the_run_is_not_replaced(tmp_path):
 def test_validate_cli_prints_report(dataset, capsys):
     assert main(["validate", str(dataset)]) == 0
     text = capsys.readouterr().out
-    assert "outer" in text and "3" in text and "problems: none" in text
+    assert "outer" in text and "5" in text and "problems: none" in text
+    assert "period: 10 ms (meta.json)" in text
 
 
 def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
@@ -761,7 +763,7 @@ def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
     dataset's entry giving its problems (open3d printed its own warnings about a
     broken file into stdout)."""
     for name in ("a", "b", "c"):
-        write_series(tmp_path / "cohort" / name, cone_frames(2))
+        write_series(tmp_path / "cohort" / name, cone_frames(5))
     bad = tmp_path / "cohort" / "b" / "outer" / "f1.ply"
     bad.write_bytes(bad.read_bytes()[:400])
     assert main(["validate", str(tmp_path / "cohort")]) == 2
@@ -778,7 +780,7 @@ def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
                                        "250 vertices its header lists whole"}]
     assert "surfaces" in reports[0] and "problems" not in reports[0]
     assert main(["validate", str(tmp_path / "cohort" / "a"), "--json"]) == 0
-    assert json.loads(capfd.readouterr().out)["surfaces"]["outer"]["frames"] == 2
+    assert json.loads(capfd.readouterr().out)["surfaces"]["outer"]["frames"] == 5
 
 
 def test_cohort_folder_lists_datasets(tmp_path):

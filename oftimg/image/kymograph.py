@@ -41,6 +41,11 @@ RESOLVED_SLOPE_SHARE = 0.5
 # median) when its noise spread is finite and under this share of it: at a band's neck,
 # where the ridge is not resolved, a row gave -29508 mm/s and the mean -584 mm/s
 RESOLVED_ROW_SHARE = 0.5
+# a row whose area swings over the cycle by under this share of the median row's swing
+# (relative to its mean) barely moves: its time of maximum area is not the wave's
+# (a band's neck: up to 15 ms off on the banded phantoms, error the noise spread cannot
+# see); the speeds bridge it with the ridge's line between the nearest moving rows
+STILL_ROW_SHARE = 0.7
 # a ridge whose least-squares slope t(s) along the tube is within this many of its noise
 # SDs of 0, or crosses the whole tube in under SYNCHRONOUS_FRAMES of a frame interval, is a
 # synchronous contraction: no wave, no speeds (a chamber that contracts at once gave
@@ -165,6 +170,38 @@ def ridge_times(area: np.ndarray, period_ms: float, *,
         t[ok] = unwrap_robust(t[ok], period_ms)
         # start the unwrapped ridge in [0, period)
         t[ok] -= period_ms * np.floor(t[ok][0] / period_ms)
+    return t
+
+
+def still_rows(area: np.ndarray) -> np.ndarray:
+    """Rows ``(n_v,)`` bool of ``area (n_v, n_t)`` that barely move: their swing over
+    the cycle, relative to their mean, under :data:`STILL_ROW_SHARE` of the median
+    row's."""
+    area = _check_map(area)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        swing = np.ptp(area, axis=1) / np.abs(np.mean(area, axis=1))
+    ok = np.isfinite(swing)
+    if not ok.any():
+        return np.zeros(area.shape[0], bool)
+    return ok & (swing < STILL_ROW_SHARE * np.median(swing[ok]))
+
+
+def bridged_ridge(ridge_t_ms: np.ndarray, s_mm: np.ndarray, still: np.ndarray) -> np.ndarray:
+    """The ridge ``(n_v,)`` ms with its ``still`` rows (and rows without a ridge)
+    between moving rows replaced by the straight line between the nearest moving rows
+    on either side (the wave taken to cross a neck at its neighbours' pace); still
+    rows at an end of the tube, with no moving row beyond them, NaN."""
+    t = np.asarray(ridge_t_ms, float).copy()
+    s = np.asarray(s_mm, float)
+    moving = np.isfinite(t) & ~np.asarray(still, bool)
+    if moving.sum() < 2:
+        return np.where(moving, t, np.nan)
+    first, last = np.flatnonzero(moving)[[0, -1]]
+    inside = np.zeros(len(t), bool)
+    inside[first:last + 1] = True
+    gap = ~moving & inside
+    t[gap] = np.interp(s[gap], s[moving], t[moving])
+    t[~moving & ~inside] = np.nan
     return t
 
 
@@ -383,7 +420,10 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     frame (a shape the grid follows badly) are not in the spread. ``synchronous``:
     the ridge's slope along the tube (``ridge_slope_ms_per_mm``, its spread
     ``ridge_slope_noise_sd_ms_per_mm``) is consistent with no wave
-    (:func:`is_synchronous`); every measured speed is then NaN. ``resolved_rows
+    (:func:`is_synchronous`); every measured speed is then NaN. The speeds are
+    measured on the ridge with its ``still_rows (n_v,)`` (:func:`still_rows`: a neck
+    that barely moves) bridged (:func:`bridged_ridge`); ``ridge`` is the map's own.
+    ``resolved_rows
     (n_v,)`` bool: the rows whose local speed the noise resolves
     (:func:`resolved_rows`; every row with a speed when the noise cannot be
     measured), over which the measured summary and every draw's are taken.
@@ -393,6 +433,7 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
         raise InputError(f"draws must be an integer >= 10, found {draws}")
     noise = map_noise_sd(area)
     ridge = ridge_times(area, period_ms, smoothing_ms=smoothing_ms)
+    still = still_rows(area)
     rng = np.random.default_rng(seed)
     ridges, draws_speeds, slopes = [], [], []
     with warnings.catch_warnings():
@@ -401,9 +442,9 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
             noisy = area + rng.standard_normal(area.shape) * noise[:, None]
             r = ridge_times(noisy, period_ms, smoothing_ms=smoothing_ms)
             ridges.append(ridge + (r - ridge + period_ms / 2) % period_ms - period_ms / 2)
-            draws_speeds.append(wave_speeds(s_mm, r))
+            draws_speeds.append(wave_speeds(s_mm, bridged_ridge(r, s_mm, still)))
             slopes.append(ridge_slope(s_mm, r))
-    measured = wave_speeds(s_mm, ridge)
+    measured = wave_speeds(s_mm, bridged_ridge(ridge, s_mm, still))
     slope = ridge_slope(s_mm, ridge)
     slope_sd = float(_spread(np.array(slopes)[:, None])[0])
     s = np.asarray(s_mm, float)
@@ -423,7 +464,7 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     return {"ridge": ridge, "measured": measured, "synchronous": synchronous,
             "ridge_slope_ms_per_mm": slope, "ridge_slope_noise_sd_ms_per_mm": slope_sd,
             "noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
-            "local_speed_mm_s": local_sd, "resolved_rows": rows,
+            "local_speed_mm_s": local_sd, "resolved_rows": rows, "still_rows": still,
             "speeds": dict(zip(scalars, _resolved_spread(
                 values, np.array(list(scalars.values()))).tolist()))}
 

@@ -7,8 +7,8 @@ import numpy as np
 
 from ..image.band import detect_band, neck_depth
 from ..image.gradient import area_rates
-from ..image.kymograph import (RESOLVED_ROW_SHARE, auto_ridge_smoothing, noise_colour,
-                               speed_spread)
+from ..image.kymograph import (RESOLVED_ROW_SHARE, STILL_ROW_SHARE, auto_ridge_smoothing,
+                               noise_colour, speed_spread)
 from ..image.masks import expanded_75, expanded_sigma
 
 
@@ -97,6 +97,13 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     else:
         notes.append(f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
                      "the wave speeds have no noise spread (NaN)")
+    still = int(np.count_nonzero(spread["still_rows"]))
+    summary["ridge_rows_bridged"] = still
+    if still:
+        notes.append(f"{still} rows of the outer map barely move (area swing under "
+                     f"{STILL_ROW_SHARE:.0%} of the median row's, as at a band's neck): their "
+                     "time of maximum area is not the wave's, so the wave speeds bridge them "
+                     "with the ridge's line between the nearest moving rows")
     with_speed = int(np.count_nonzero(np.isfinite(speeds["local"])))
     used = speeds["summary"]["rows_used"]
     if used < with_speed:

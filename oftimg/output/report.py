@@ -139,6 +139,9 @@ QC_COLUMNS = ID_COLUMNS + [
     Column("speed_rows_used", ("wave_speed_mm_s", "rows_used"), "1",
            "rows of the outer map whose local wave speed is resolved (noise spread finite and "
            "under half of it), over which Table 1's speed min, max, avg and std are taken"),
+    Column("ridge_rows_bridged", ("ridge_rows_bridged",), "1",
+           "rows of the outer map that barely move (a neck: area swing under 0.7 of the "
+           "median row's), bridged by the ridge's line for the wave speeds (0 without a band)"),
     Column("speed_min_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "min"), "mm/s",
            _NOISE_SD.format("speed_min_mm_s")),
     Column("speed_max_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "max"), "mm/s",

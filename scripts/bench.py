@@ -69,9 +69,9 @@ def read_only_seconds(path: Path, repeats: int = 3, read=read_mesh_file) -> list
 def open3d_read(path) -> None:
     """A mesh read as oftimg read every .ply up to session 21 (open3d: ~1.4 ms for
     5.5k vertices against ~0.2 ms with NumPy), for the ratio as it was first measured."""
-    from oftimg.io.meshfile import _open3d
+    import open3d
 
-    _open3d().io.read_triangle_mesh(str(path), enable_post_processing=False)
+    open3d.io.read_triangle_mesh(str(path), enable_post_processing=False)
 
 
 def peak_mb() -> float:

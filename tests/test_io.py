@@ -905,3 +905,20 @@ def test_a_frame_that_is_not_a_file_is_named_not_skipped(tmp_path, capsys, kind)
     assert main(["validate", str(ds)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[0].startswith(f"oftimg: error: {frame}: is a "), err
+
+
+def test_stl_frames_validated_are_read_again_merged(tmp_path):
+    """validate kept a record that an .stl frame needed no repair (merging its corners,
+    stored apart, is none), so the run read it again without merging them: "boundary
+    edge ... is not in exactly one face" after validate had passed it (a fuzzer found)."""
+    frames = cone_frames(5)
+    ds_path = tmp_path / "emb" / "outer"
+    ds_path.mkdir(parents=True)
+    for k, (V, F) in enumerate(frames):
+        _write_binary_stl(ds_path / f"f{k}.stl", V, F)
+    (tmp_path / "emb" / "meta.json").write_text(json.dumps({"period_ms": 300}))
+    ds = load_dataset(tmp_path / "emb")
+    validate_dataset(ds)
+    for k, (V, F) in enumerate(frames):
+        tube = ds.tube("outer", k)
+        assert len(tube.V) == len(V) and len(tube.F) == len(F)

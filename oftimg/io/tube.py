@@ -91,8 +91,8 @@ def check_tube_file(path: str | Path, *, unit_scale: float | tuple = 1.0,
         topo = check_tube(V, F, mend=True)
     except MeshError as exc:
         raise DatasetError(f"{path}: {exc}") from None
-    if Path(path).suffix.lower() == ".stl":  # STL stores every triangle's corners apart
-        counts = replace(counts, merged_vertices=0)
+    if Path(path).suffix.lower() == ".stl":  # STL stores every triangle's corners apart:
+        counts = replace(counts, merged_vertices=0)      # merging them is no repair
     # faces against the rest (all of them reversed is no repair: the reading order)
     kept = len(F) - topo.island_faces
     against = min(topo.flipped_faces, kept - topo.flipped_faces)
@@ -109,7 +109,8 @@ def check_tube_file(path: str | Path, *, unit_scale: float | tuple = 1.0,
     inlet, outlet = (a, b) if inlet_first else (b, a)
     tube = Tube(V=V, F=topo.F, inlet=inlet, outlet=outlet, source=str(path))
     record = None
-    if not counts and st is not None:
+    stored_apart = Path(path).suffix.lower() == ".stl"    # needs its corners merged each read
+    if not counts and st is not None and not stored_apart:
         record = Checked(st.st_size, st.st_mtime_ns, topo.flipped_faces == len(F),
                          inlet.astype(np.int32), outlet.astype(np.int32))
     return tube, record, counts

@@ -386,10 +386,15 @@ def fuzz(cases: int, work: str | Path, cli_main, *, seed: int = 0, run_every: in
         if run_every and (case // 2) % run_every == run_every - 1:    # each base in turn
             commands.append(["run", str(folder), "--out", str(root / "out"), "--quiet",
                              "--jobs", "1"])
+        validated = None
         for argv in commands:
             code, stderr, seconds = call_cli(cli_main, argv, timeout_s)
             out = root / "out" if argv[0] == "run" else None
             faults = judge(code, stderr, unchanged=_tree_digest(folder) == before, out=out)
+            if argv[0] == "validate":
+                validated = code
+            elif validated == 0 and code == 2 and "no period_ms" not in stderr:
+                faults.append("validate passed what run refused")   # (a run needs a period)
             outcomes.append(Outcome(case, base, what, argv[0], code,
                                     (stderr.strip().splitlines() or [""])[0][:300],
                                     round(seconds, 3), faults))

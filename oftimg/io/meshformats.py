@@ -17,8 +17,8 @@ import re
 
 import numpy as np
 
-__all__ = ["MeshFormatError", "PARSERS", "parse_ply", "parse_obj", "parse_stl", "parse_off",
-           "parse_vtk"]
+__all__ = ["MeshFormatError", "PARSERS", "not_triangles", "parse_ply", "parse_obj", "parse_stl",
+           "parse_off", "parse_vtk"]
 
 HEADER_MAX_BYTES = 65536
 MAX_COUNT = 2 ** 31 - 1          # int32 indices: a count beyond is a damaged header
@@ -42,6 +42,8 @@ class MeshFormatError(ValueError):
 
 
 def not_triangles(count: int) -> MeshFormatError:
+    """The error for ``count`` faces of more than three corners (never split: a
+    triangulation oftimg chose would change the tube's shape unseen)."""
     return MeshFormatError(f"{count} faces are not triangles (quads or polygons); oftimg reads "
                            "triangle meshes: triangulate it first")
 

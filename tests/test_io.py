@@ -392,6 +392,8 @@ def _lying_ply(tmp_path, case):
         data = head + b"end_header\n0x1p-3" + body[body.index(b" "):]
     elif case == "bad_property_line":
         data = data.replace(b"property float z", b"property\xfffloat z")
+    elif case == "count_1e3":
+        data = data.replace(b"vertex 240", b"vertex 1e3")
     path.write_bytes(data)
     return path
 
@@ -402,7 +404,9 @@ LYING = {"vertex_count_halved": DAMAGED_FACES,                                  
          "face_of_5": DAMAGED_FACES,
          "one_face_fewer_listed": "it holds 13 bytes more than its header declares",
          "hex_float": "its vertex lines hold something that is not a decimal number",
-         "bad_property_line": "its header holds bytes that are not text"}
+         "bad_property_line": "its header holds bytes that are not text",
+         # was taken for a boundary-loop problem
+         "count_1e3": "its header gives element 'vertex' a count that is not a whole number"}
 
 
 @pytest.mark.parametrize("case", sorted(LYING))

@@ -366,3 +366,18 @@ def test_odd_label_frames_are_named_in_one_line(label_phantom, tmp_path, capsys,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"oftimg: error: {expect[0]}"), err
     assert expect[1] in err[0], err[0]
+
+
+def test_a_zarr_store_without_zarr_installed_says_how_to_get_it(tmp_path, capsys, monkeypatch):
+    """An empty labels.zarr without zarr installed gave ModuleNotFoundError's text."""
+    import sys
+
+    data = tmp_path / "emb"
+    (data / "labels" / "labels.zarr").mkdir(parents=True)
+    (data / "meta.json").write_text(json.dumps({"period_ms": 300, "voxel_size": [8, 8, 16],
+                                                "length_unit": "um"}))
+    monkeypatch.setitem(sys.modules, "zarr", None)             # import zarr: ImportError
+    assert main(["validate", str(data)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"oftimg: error: {data / 'labels' / 'labels.zarr'}: reading a zarr store "
+                   "needs zarr: pip install 'oftimg[zarr]'"]

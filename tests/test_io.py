@@ -926,3 +926,18 @@ def test_stl_frames_validated_are_read_again_merged(tmp_path):
     for k, (V, F) in enumerate(frames):
         tube = ds.tube("outer", k)
         assert len(tube.V) == len(V) and len(tube.F) == len(F)
+
+
+def test_a_vtk_metadata_block_is_passed_over():
+    """VTK 9 writes a METADATA block after an array (its range): the cells after it are
+    read, not taken for missing."""
+    from oftimg.io.meshformats import parse_vtk
+
+    text = b"\n".join([
+        b"# vtk DataFile Version 5.1", b"vtk output", b"ASCII", b"DATASET POLYDATA",
+        b"POINTS 4 float", b"0 0 0 1 0 0 0 1 0", b"1 1 0", b"METADATA", b"INFORMATION 1",
+        b"NAME L2_NORM_RANGE LOCATION vtkDataArray", b"DATA 2 0 1.41421", b"",
+        b"POLYGONS 3 6", b"OFFSETS vtktypeint64", b"0 3 6", b"CONNECTIVITY vtktypeint64",
+        b"0 1 2 1 3 2", b""])
+    V, F = parse_vtk(text)
+    assert V.shape == (4, 3) and F.tolist() == [[0, 1, 2], [1, 3, 2]]

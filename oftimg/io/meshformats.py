@@ -412,6 +412,15 @@ class _Cursor:
             return _floats(b" ".join(tokens), count, what)
         return _ints(tokens, what)
 
+    def skip_block(self) -> None:
+        """Past the lines up to the next empty one (a METADATA block's end)."""
+        while self.at < len(self.data):
+            end = self.data.find(b"\n", self.at)
+            end = len(self.data) if end < 0 else end
+            raw, self.at = self.data[self.at:end], end + 1
+            if not raw.strip():
+                return
+
     def line_bytes(self) -> list[bytes] | None:
         while self.at < len(self.data):
             end = self.data.find(b"\n", self.at)
@@ -466,7 +475,9 @@ def parse_vtk(data: bytes) -> tuple[np.ndarray, np.ndarray]:
             n = _count(words[1], "CELL_TYPES")
             _fits(data, cur.at, n, "CELL_TYPES")
             types = cur.array(n, "int", "cell types")
-        elif key in ("METADATA", "FIELD"):
+        elif key == "METADATA":                 # VTK 9 writes one after an array
+            cur.skip_block()
+        elif key == "FIELD":
             break                                   # nothing oftimg reads follows
         else:
             raise MeshFormatError(f"its section {key[:20]!r} is not one of legacy VTK's")

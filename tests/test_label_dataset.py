@@ -310,7 +310,7 @@ LABEL_HEADER_PROBLEMS = {    # meta.json entry -> what the one line says (all fo
                      "a whole number of 401 digits"),
     "ends_one_point": ({"ends": [{"point": [100, 100, 100], "normal": [1, 0, 0]},
                                  {"point": [100, 100, 100], "normal": [-1, 0, 0]}]},
-                       "the ends planes keep nothing between them"),
+                       "the ends planes keep nothing of the volume between them"),
     "ends_far": ({"ends": [{"point": [0, 0, 0], "normal": [1, 0, 0]},
                            {"point": [1e9, 0, 0], "normal": [-1, 0, 0]}]},
                  "ends point [1000000000.0, 0.0, 0.0] lies outside the volume"),

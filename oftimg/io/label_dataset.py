@@ -164,8 +164,8 @@ def _label_ids(path: Path, raw: dict, first: LabelSource, dtype: np.dtype) -> di
 
 def _ends(path: Path, raw: dict, shape_zyx, voxel_size) -> tuple | None:
     """meta.json's two cutting planes as ``((point, normal), (point, normal))``: points
-    inside the volume's box, normals of finite non-zero length, each plane's point on
-    the kept side of the other plane (a tube's part between them)."""
+    inside the volume's box, normals of finite non-zero length, and some of the volume
+    on the kept side of both (checked on a 17^3 lattice over the box)."""
     if "ends" not in raw:
         return None
     ends = raw["ends"]
@@ -190,12 +190,14 @@ def _ends(path: Path, raw: dict, shape_zyx, voxel_size) -> tuple | None:
         raise DatasetError(f"{path / 'meta.json'}: ends point {points[outside[0]].tolist()} "
                            f"lies outside the volume (0 to {box.tolist()} in length_unit)")
     normals /= lengths[:, None]
-    apart = points[1] - points[0]
-    if not (np.linalg.norm(apart) > 1e-6 * box.max() and np.dot(apart, normals[0]) >= 0
-            and np.dot(-apart, normals[1]) >= 0):
-        raise DatasetError(f"{path / 'meta.json'}: the ends planes keep nothing between them: "
-                           "their points must differ, each on the kept side of the other "
-                           "plane (the normals point into the tube's part to keep)")
+    # a coarse lattice over the volume: some of it must lie on the kept side of both
+    lattice = np.stack(np.meshgrid(*[np.linspace(0, b, 17) for b in box], indexing="ij"),
+                       axis=-1).reshape(-1, 3)
+    side = np.einsum("pkd,kd->pk", lattice[:, None, :] - points[None], normals)
+    kept = np.all(side > 1e-9 * box.max(), axis=1)
+    if not kept.any():
+        raise DatasetError(f"{path / 'meta.json'}: the ends planes keep nothing of the volume "
+                           "between them (each normal points into the tube's part to keep)")
     return tuple((tuple(map(float, e["point"])), tuple(map(float, e["normal"]))) for e in ends)
 
 

@@ -300,3 +300,33 @@ def test_ridge_plot_draws_the_noise_spread_and_keeps_unresolved_rows_off_its_sca
     assert low <= 0 and 11.0 <= high < 20.0
     assert "1 rows not resolved" in speed_axes.get_title()
     assert len(speed_axes.collections) >= 1                  # the +- 1 SD band
+
+
+def test_ridge_plot_rings_the_rows_bridged_for_the_speeds(tmp_path):
+    """The rows that barely move (a neck) are ringed and named in the legend, so that a
+    reader sees which ridge times the speeds did not take."""
+    import matplotlib.pyplot as plt
+
+    s = np.linspace(0, 1.2, 50)
+    ridge = 1e3 * s / 10.0
+    ridge[22:28] -= 12.0
+    bridged = np.zeros(50, bool)
+    bridged[22:28] = True
+    captured = {}
+    original = plt.Figure.savefig
+
+    def keep(fig, *args, **kwargs):
+        captured.setdefault("fig", fig)
+        return original(fig, *args, **kwargs)
+
+    plt.Figure.savefig = keep
+    try:
+        figures.ridge_plot(s, ridge, tmp_path / "r.png", speed=np.full(50, 10.0),
+                           bridged=bridged)
+    finally:
+        plt.Figure.savefig = original
+    ax = captured["fig"].axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "barely moves: bridged (dashed) for the speeds" in labels
+    rings = [line for line in ax.get_lines() if line.get_marker() == "o"]
+    assert len(rings) == 1 and np.allclose(rings[0].get_xdata(), s[bridged])

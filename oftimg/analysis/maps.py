@@ -123,6 +123,7 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     arrays["ridge_t_noise_sd_ms"] = spread["ridge_t_ms"]
     arrays["local_speed_mm_s"] = speeds["local"]
     arrays["local_speed_noise_sd_mm_s"] = spread["local_speed_mm_s"]
+    arrays["ridge_bridged"] = spread["still_rows"].astype(np.uint8)
     arrays["area_noise_sd_outer_mm2"] = spread["noise_sd"]
     summary["wave_synchronous_within_noise"] = spread["synchronous"]
     summary["ridge_slope_ms_per_mm"] = spread["ridge_slope_ms_per_mm"]

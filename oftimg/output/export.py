@@ -419,6 +419,10 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                                 "frame to frame are not in it"),
         "local_speed_noise_sd_mm_s": (["v"], "mm/s", "spread (SD) of local_speed_mm_s over the "
                                       "same draws; NaN: not finite in 10 % of them"),
+        "ridge_bridged": (["v"], "1", "1 where the row barely moves (area swing under 0.7 of "
+                          "the median row's, a neck): its ridge time is not the wave's, and "
+                          "the speeds bridge it with the ridge's line between the nearest "
+                          "moving rows; else 0"),
         "area_noise_sd_outer_mm2": (["v"], "mm^2", "SD of each row's frame-to-frame noise in the "
                                     "outer area map (mean power of its high harmonics in time)"),
     })

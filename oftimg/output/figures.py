@@ -251,10 +251,20 @@ def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
 
 @house_style
 def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_ms=None,
-               speed_sd=None, title: str = "") -> Path:
+               speed_sd=None, bridged=None, title: str = "") -> Path:
     """Time of maximum expansion vs position, with the two-segment fit and local speed;
-    ``ridge_sd_ms`` / ``speed_sd`` (``(n_v,)``, optional) as +- 1 SD bars / band."""
+    ``ridge_sd_ms`` / ``speed_sd`` (``(n_v,)``, optional) as +- 1 SD bars / band;
+    ``bridged`` (``(n_v,)`` bool, optional): rows that barely move, ringed, the line the
+    speeds took across them dashed."""
     fig, axes = new_figure(PAGE_MM, 65, ncols=2)
+    if bridged is not None and np.any(bridged):
+        bridged = np.asarray(bridged, bool)
+        moving = ~bridged & np.isfinite(ridge_t_ms)
+        inside = (s_mm >= s_mm[moving][0]) & (s_mm <= s_mm[moving][-1])
+        axes[0].plot(s_mm[inside], np.interp(s_mm[inside], s_mm[moving], ridge_t_ms[moving]),
+                     color="0.5", ls="--", lw=0.8, zorder=1)
+        axes[0].plot(s_mm[bridged], ridge_t_ms[bridged], "o", mfc="none", mec="0.5", ms=7,
+                     label="barely moves: bridged (dashed) for the speeds")
     if ridge_sd_ms is not None:
         axes[0].errorbar(s_mm, ridge_t_ms, yerr=ridge_sd_ms, fmt="k.", ms=4, elinewidth=0.6,
                          label="ridge +- 1 SD (frame noise)")
@@ -323,7 +333,8 @@ def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms:
     written.append(ridge_plot(s_mm, arrays["ridge_t_ms"], folder / "ridge_speed.png",
                               knee=summary["wave_two_segment"], speed=arrays["local_speed_mm_s"],
                               ridge_sd_ms=arrays.get("ridge_t_noise_sd_ms"),
-                              speed_sd=arrays.get("local_speed_noise_sd_mm_s"), title=name))
+                              speed_sd=arrays.get("local_speed_noise_sd_mm_s"),
+                              bridged=arrays.get("ridge_bridged"), title=name))
     return written
 
 

@@ -313,14 +313,19 @@ def main(argv: list[str] | None = None) -> int:
         _print_error(f"error: {exc}", exc)
         return 1
     except KeyboardInterrupt as exc:
-        _print_error("interrupted; no results were written to --out", exc)
+        _print_error("interrupted" + _nothing_written(args), exc)
         return 130
     except Terminated as exc:
-        _print_error("terminated (SIGTERM); no results were written to --out", exc)
+        _print_error("terminated (SIGTERM)" + _nothing_written(args), exc)
         return 143
     except Exception as exc:  # the CLI's one catch-all: a clear line, not a traceback
         _print_error(f"internal error: {type(exc).__name__}: {exc}", exc)
         return 1
+
+
+def _nothing_written(args) -> str:
+    """What an interrupted command leaves: said of --out only by commands that have one."""
+    return "; no results were written to --out" if getattr(args, "out", None) else ""
 
 
 def _mesh_arguments(parser) -> None:

@@ -381,3 +381,31 @@ def test_a_zarr_store_without_zarr_installed_says_how_to_get_it(tmp_path, capsys
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"oftimg: error: {data / 'labels' / 'labels.zarr'}: reading a zarr store "
                    "needs zarr: pip install 'oftimg[zarr]'"]
+
+
+def test_a_bridge_across_the_lumen_in_one_frame_is_mended_and_said(label_phantom, tmp_path,
+                                                                   capsys):
+    """A strand of jelly across the lumen in one frame (Euler characteristic -2 on the
+    mesh) refused the whole dataset; now that frame's lumen mask is closed by a ball of
+    one voxel, the frame meshes as an open tube, and the repair is named in a warning
+    and recorded at its frame and wall."""
+    lds = load_label_dataset(label_phantom)
+    volume = read_volume(lds.sources[2]).copy()
+    lumen = volume == LABEL_VALUES["lumen"]
+    k = int(np.median(np.nonzero(lumen)[0]))
+    j = int(np.median(np.nonzero(lumen[k])[0]))
+    across = np.nonzero(lumen[k, j])[0]
+    strand = (slice(k, k + 2), slice(j, j + 2), slice(across.min() - 1, across.max() + 2))
+    volume[strand] = np.where(volume[strand] == LABEL_VALUES["lumen"], LABEL_VALUES["jelly"],
+                              volume[strand])
+    data = copy_with(label_phantom, tmp_path / "bridged", frames={2: volume})
+    out = tmp_path / "meshed"
+    with pytest.warns(OftimgWarning, match=r"mended the topology of 1 wall mask .*: "
+                                           r"f2\.tif lumen \(closing"):
+        assert main(["mesh", str(data), str(out), "--quiet", "--jobs", "1"]) == 0
+    meshing = json.loads((out / "meshing.json").read_text())
+    repairs = meshing["meshing"]["label_repairs"]
+    assert [(r["frame"], r["wall"]) for r in repairs] == [(2, "lumen")]
+    assert repairs[0]["what"].startswith("closing, radius ") and repairs[0]["voxels"] > 0
+    for tube in load_dataset(out).iter_tubes("lumen"):       # every frame an open tube
+        assert len(tube.inlet) and len(tube.outlet)

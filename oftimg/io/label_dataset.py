@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import json
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import DatasetError, InputError
+from ..errors import DatasetError, InputError, OftimgWarning
 from ..mesh.labels import MeshOptions, mesh_walls
 from ..mesh.topology import MeshError
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
@@ -218,7 +219,10 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
         write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F)
     return {"vertices": {w: len(m.V) for w, m in walls.items()},
             "pieces_dropped": {w: m.cleaned.pieces for w, m in walls.items()},
-            "step": {w: round(m.step, 6) for w, m in walls.items()}}
+            "step": {w: round(m.step, 6) for w, m in walls.items()},
+            "repairs": [{"wall": w, "what": m.repair.what, "voxels": m.repair.voxels,
+                         "euler_before": m.repair.euler_before}
+                        for w, m in walls.items() if m.repair is not None]}
 
 
 def write_meshed_meta(lds: LabelDataset, out: Path) -> None:
@@ -256,6 +260,16 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
         raise bad[0]
     write_meshed_meta(lds, out)
     walls = list(results[0]["vertices"])
+    repairs = [{"frame": t, "file": str(lds.sources[t]), **r}
+               for t, result in enumerate(results) for r in result["repairs"]]
+    if repairs:
+        named = "; ".join(f"{Path(r['file']).name} {r['wall']} ({r['what']}, {r['voxels']} "
+                          "voxels)" for r in repairs[:4])
+        warnings.warn(f"{lds.path / 'labels'}: mended the topology of {len(repairs)} wall "
+                      f"mask{'s' * (len(repairs) > 1)} (a handle, tunnel or bridge the "
+                      f"segmentation left): {named}{'; ...' if len(repairs) > 4 else ''}; "
+                      "all in summary.json provenance.meshing.label_repairs",
+                      OftimgWarning, stacklevel=2)
     return {
         "files": [{"file": str(p), "bytes": p.stat().st_size} for p in lds.input_files()
                   if p.name != "meta.json"],
@@ -265,4 +279,5 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
                     "ends": None if lds.ends is None else [list(map(list, e)) for e in lds.ends],
                     **{key: {w: [r[key][w] for r in results] for w in walls}
                        for key in ("vertices", "pieces_dropped", "step")},
+                    "label_repairs": repairs,
                     "seconds": round(time.perf_counter() - tick, 2)}}

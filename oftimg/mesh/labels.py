@@ -8,12 +8,13 @@ Volumes are arrays ``(z, y, x)`` as TIFF readers and scikit-image give them; a v
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from ..errors import InputError
 from .curvature import taubin_smooth
+from .mask_topology import MaskRepair, solid_tube_mask
 from .topology import MeshError, boundary_loops, check_tube, repair
 
 # which labels each wall encloses: outer all three, inner the jelly and the lumen
@@ -233,6 +234,7 @@ class WallMesh:
     F: np.ndarray
     cleaned: Cleaned
     step: float
+    repair: MaskRepair | None = None     # the mask's topology mended first (or not)
 
 
 def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptions(),
@@ -279,7 +281,9 @@ def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
     """Every wall of one frame's label volume ``(z, y, x)`` (:func:`wall_masks`,
     :func:`mesh_wall`). Raises :class:`InputError` naming the problem (no file) for
     an all-zero volume or a layer's label absent, :class:`MeshError` (naming the
-    wall) for a wall that is not an open tube."""
+    wall) for a wall that is not an open tube even after its mask is mended
+    (:func:`~oftimg.mesh.mask_topology.solid_tube_mask`: a handle, a tunnel or a
+    bridge opened or closed away, recorded in the wall's ``repair``)."""
     values = _values(labels)
     if not values.any():
         raise InputError("holds no labelled voxel (all zero)")
@@ -290,6 +294,14 @@ def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
     for wall, mask in wall_masks(labels, label_ids).items():
         try:
             walls[wall] = mesh_wall(mask, voxel_size_xyz, options, ends)
-        except MeshError as exc:
-            raise MeshError(f"the {wall} wall {exc}") from None
+        except MeshError as exc:        # a handle, a tunnel, a bridge: mend the mask, once
+            solid, repair = solid_tube_mask(mask)
+            if repair is None:
+                raise MeshError(f"the {wall} wall {exc}") from None
+            try:
+                walls[wall] = replace(mesh_wall(solid, voxel_size_xyz, options, ends),
+                                      repair=repair)
+            except MeshError as again:
+                raise MeshError(f"the {wall} wall {again} (after its mask's "
+                                f"{repair.what})") from None
     return walls

@@ -24,8 +24,8 @@ from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, che
                             staged_output, write_cohort_maps, write_dataset_results, write_json)
 from .io.dataset import (Dataset, check_enough_frames, find_datasets, load_dataset, natural_key,
                          validate_dataset, with_period)
-from .io.label_dataset import (LabelDataset, is_label_dataset, load_label_dataset,
-                               mesh_label_dataset)
+from .io.label_dataset import (LabelDataset, is_label_dataset, label_repairs_note,
+                               load_label_dataset, mesh_label_dataset)
 from .synthetic.labels import write_label_phantom
 from .synthetic.phantom import sample_params, write_phantom
 from .progress import Progress
@@ -771,8 +771,11 @@ def mesh(source, out, *, options: dict | None = None, jobs: int | None = None,
         for lds in datasets:
             folder = tmp if single else tmp / lds.meta.name
             folder.mkdir(parents=True, exist_ok=True)
-            write_json(folder / "meshing.json",
-                       _mesh_with_bar(lds, folder, options, executor, quiet))
+            record = _mesh_with_bar(lds, folder, options, executor, quiet)
+            write_json(folder / "meshing.json", record)
+            mended = label_repairs_note(lds.path, record["meshing"]["label_repairs"])
+            if mended:
+                warnings.warn(mended, OftimgWarning, stacklevel=2)
     return out
 
 

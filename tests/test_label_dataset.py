@@ -409,3 +409,10 @@ def test_a_bridge_across_the_lumen_in_one_frame_is_mended_and_said(label_phantom
     assert repairs[0]["what"].startswith("closing, radius ") and repairs[0]["voxels"] > 0
     for tube in load_dataset(out).iter_tubes("lumen"):       # every frame an open tube
         assert len(tube.inlet) and len(tube.outlet)
+    results = tmp_path / "results"                     # a run says it on the pages too
+    assert main(["run", str(data), "--out", str(results), "--quiet", "--jobs", "1"]) == 0
+    page = next(results.glob("*/summary.json")).parent        # named as in its meta.json
+    summary = json.loads((page / "summary.json").read_text())
+    assert [(r["frame"], r["wall"]) for r in summary["provenance"]["meshing"]["label_repairs"]
+            ] == [(2, "lumen")]
+    assert "mended the topology of 1 wall mask" in (page / "index.html").read_text()

@@ -11,6 +11,7 @@ import numpy as np
 from .. import __version__
 from ..errors import InputError, OftimgWarning
 from ..io.dataset import Dataset, check_enough_frames
+from ..io.label_dataset import label_repairs_note
 from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                            volume_change, wrap_step_ratio)
 from .maps import analyse_area_maps
@@ -487,6 +488,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     if ds.labels is not None:           # meshed from label volumes: those are the inputs
         summary["provenance"].update(inputs={"labels": ds.labels["files"]},
                                      meshing=ds.labels["meshing"])
+        mended = label_repairs_note(ds.path, ds.labels["meshing"].get("label_repairs", []))
+        if mended:
+            warnings.warn(mended, OftimgWarning, stacklevel=2)
         warnings.warn(f"{ds.path}: curvature fields from label volumes are less exact than "
                       "their areas, speeds and volumes: the voxels leave an error fixed in "
                       "space, which the fields' noise share does not see (oftimg's "

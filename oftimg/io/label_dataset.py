@@ -18,13 +18,12 @@ from __future__ import annotations
 
 import json
 import time
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import DatasetError, InputError, OftimgWarning
+from ..errors import DatasetError, InputError
 from ..mesh.labels import MeshOptions, mesh_walls
 from ..mesh.topology import MeshError
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
@@ -225,6 +224,19 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
                         for w, m in walls.items() if m.repair is not None]}
 
 
+def label_repairs_note(path: Path, repairs: list[dict]) -> str | None:
+    """The warning that names the wall masks mended in a label dataset at ``path``
+    (``repairs``: :func:`mesh_label_dataset`'s ``label_repairs``); None for none."""
+    if not repairs:
+        return None
+    named = "; ".join(f"{Path(r['file']).name} {r['wall']} ({r['what']}, {r['voxels']} voxels)"
+                      for r in repairs[:4])
+    return (f"{Path(path) / 'labels'}: mended the topology of {len(repairs)} wall "
+            f"mask{'s' * (len(repairs) > 1)} (a handle, tunnel or bridge the segmentation "
+            f"left): {named}{'; ...' if len(repairs) > 4 else ''}; all in summary.json "
+            "provenance.meshing.label_repairs")
+
+
 def write_meshed_meta(lds: LabelDataset, out: Path) -> None:
     """The meshed dataset's meta.json: what meta.json says of the embryo, carried
     over (the meshes are in the volume's length unit, so no voxel_size)."""
@@ -262,14 +274,6 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     walls = list(results[0]["vertices"])
     repairs = [{"frame": t, "file": str(lds.sources[t]), **r}
                for t, result in enumerate(results) for r in result["repairs"]]
-    if repairs:
-        named = "; ".join(f"{Path(r['file']).name} {r['wall']} ({r['what']}, {r['voxels']} "
-                          "voxels)" for r in repairs[:4])
-        warnings.warn(f"{lds.path / 'labels'}: mended the topology of {len(repairs)} wall "
-                      f"mask{'s' * (len(repairs) > 1)} (a handle, tunnel or bridge the "
-                      f"segmentation left): {named}{'; ...' if len(repairs) > 4 else ''}; "
-                      "all in summary.json provenance.meshing.label_repairs",
-                      OftimgWarning, stacklevel=2)
     return {
         "files": [{"file": str(p), "bytes": p.stat().st_size} for p in lds.input_files()
                   if p.name != "meta.json"],

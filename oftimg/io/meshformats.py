@@ -102,7 +102,7 @@ def _split_header(data: bytes, end_marker: bytes, what: str) -> tuple[list[list[
     start = len(data) if newline < 0 else newline + 1
     head = data[:end]
     if any(b < 9 or b > 126 for b in head.translate(None, b"\r\n\t")):
-        raise MeshFormatError(f"its header holds bytes that are not text: damaged")
+        raise MeshFormatError("its header holds bytes that are not text: damaged")
     return [line.split() for line in head.decode("ascii").splitlines()], start
 
 
@@ -126,7 +126,7 @@ def parse_ply(data: bytes) -> tuple[np.ndarray, np.ndarray]:
             if len(words) != 3:
                 raise MeshFormatError(f"header line {k + 1}: an element line is "
                                       "'element NAME COUNT'")
-            elements.append((words[1], _count(words[2], f"element {words[1]!r}"), []))
+            elements.append((words[1], _count(words[2], f"element {words[1][:20]!r}"), []))
         elif words[:1] == ["property"]:
             ok = ((len(words) == 3 and words[1] in PLY_TYPES)
                   or (len(words) == 5 and words[1] == "list" and words[2] in PLY_TYPES
@@ -164,13 +164,13 @@ def _ply_binary(data: bytes, start: int, elements, order: str):
             F, used = _ply_binary_faces(body, offset, count, props, order)
         else:
             if len(scalars) != len(props):
-                raise MeshFormatError(f"element {name!r} has list properties; oftimg reads "
+                raise MeshFormatError(f"element {name[:20]!r} has list properties; oftimg reads "
                                       "lists in faces only")
             dtype = np.dtype([(f"p{k}", order + PLY_TYPES[p[0]]) for k, p in enumerate(props)])
             used = count * dtype.itemsize
             if len(body) - offset < used:
                 whole = max(0, len(body) - offset) // max(dtype.itemsize, 1)
-                what = "vertices" if name == "vertex" else f"{name!r} elements"
+                what = "vertices" if name == "vertex" else f"{name[:20]!r} elements"
                 raise _truncated(f"among its {what}, with {whole} of the {count} {what} its "
                                  "header lists whole")
             if name == "vertex":
@@ -219,7 +219,7 @@ def _ply_binary_faces(body, offset: int, count: int, props, order: str):
         others += n != 3
     if others:
         raise not_triangles(others)
-    raise _truncated(f"among its faces")  # not reached: all triangles fit the fast path
+    raise _truncated("among its faces")  # not reached: all triangles fit the fast path
 
 
 def _ply_ascii(body: bytes, elements):
@@ -229,7 +229,7 @@ def _ply_ascii(body: bytes, elements):
     for name, count, props in elements:
         if count > len(lines) - at:
             what = "vertices" if name == "vertex" else ("faces" if name == "face"
-                                                        else f"{name!r} elements")
+                                                        else f"{name[:20]!r} elements")
             raise _truncated(f"among its {what}, with {max(0, len(lines) - at)} of the "
                              f"{count} {what} its header lists")
         rows = lines[at:at + count]

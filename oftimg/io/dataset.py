@@ -47,8 +47,7 @@ def check_enough_frames(ds) -> None:
     label dataset) if it has fewer than :data:`MIN_FRAMES` frames: before any work,
     in ``validate`` as in ``run``."""
     if ds.n_frames < MIN_FRAMES:
-        folder = ds.path / ("labels" if (ds.path / "labels").is_dir() and
-                            not (ds.path / "outer").is_dir() else "outer")
+        folder = ds.path / ("labels" if hasattr(ds, "sources") else "outer")  # label dataset
         raise DatasetError(f"{folder}: {ds.n_frames} frames; an analysis needs at least "
                            f"{MIN_FRAMES} over the cycle (the shape modes take 3 in each of "
                            "expansion and contraction)")
@@ -122,7 +121,7 @@ def is_number(x) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and bool(np.isfinite(x))
 
 
-def read_meta(folder: Path, n_frames: int, keys: dict = META_KEYS) -> Meta:
+def read_meta(folder: Path, keys: dict = META_KEYS) -> Meta:
     """Parse ``meta.json`` (optional) and fill in the documented defaults. Without
     a ``period_ms`` the period is unknown: ``period_ms`` is NaN and ``period_assumed``
     set (nothing is timed by a guess: a run needs :func:`with_period`)."""
@@ -363,7 +362,7 @@ def load_dataset(path: str | Path) -> Dataset:
     for surface, files in frames.items():
         if len(files) != n:
             raise DatasetError(f"{path / surface}: {len(files)} frames, but outer/ has {n}")
-    meta = read_meta(path, n)
+    meta = read_meta(path)
     if meta.inlet_mm is not None:
         inlet = np.asarray(meta.inlet_mm)
     else:

@@ -86,7 +86,7 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     path = Path(path)
     sources = list_label_sources(path / "labels", natural_key)
     raw = read_meta_json(path, LABEL_META_KEYS)
-    meta = read_meta(path, len(sources), LABEL_META_KEYS)
+    meta = read_meta(path, LABEL_META_KEYS)
     headers = [read_header(s) for s in sources]
     first = headers[0]
     for source, header in zip(sources, headers):

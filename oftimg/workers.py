@@ -172,6 +172,8 @@ class closing_executor:
                 self.executor.shutdown()
                 self.executor._client.close()  # the connection run() opened
             except OSError as shutdown_error:  # CPython's race on a dead worker's pipes
+                if isinstance(exc, KeyboardInterrupt):
+                    return   # Ctrl-C ended a worker too: the interrupt is the news
                 lost = lost or _worker_lost(shutdown_error, workers, killed)
                 if lost is None:
                     raise

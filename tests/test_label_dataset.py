@@ -249,17 +249,24 @@ def test_ends_in_meta_json_cut_a_tube_that_ends_inside_the_volume(label_phantom,
             assert np.allclose(tube.V[tube.inlet, 1], 0.0, atol=1e-9), wall
 
 
-def test_a_frame_that_cannot_be_meshed_is_named(tmp_path):
-    """The worker returns the error naming the frame's file (one pass finds every bad frame)."""
+def test_a_wall_that_cannot_be_meshed_is_left_out_with_its_reason(tmp_path):
+    """The worker returns why a wall cannot be meshed (the dataset then fills it from
+    the frames around, or names every such frame) and writes nothing for it; a
+    file that is no label volume comes back as the error naming it."""
     import tifffile
 
+    from oftimg.io.labelfile import LabelSource
     path = tmp_path / "f0.tif"
     tifffile.imwrite(path, closed_cylinder(ends=(0, 30)))          # leaves through z = 0 only
-    from oftimg.io.labelfile import LabelSource
+    record = mesh_frame(LabelSource(str(path)), str(tmp_path / "out"), "f0.ply",
+                        {"myocardium": 1}, (8.0, 8.0, 8.0), MeshOptions())
+    assert record["left_out"]["outer"].startswith("the outer wall leaves the volume at one "
+                                                  "end only")
+    assert record["vertices"] == {} and not (tmp_path / "out").exists()
+    tifffile.imwrite(path, closed_cylinder().astype(np.float32))
     error = mesh_frame(LabelSource(str(path)), str(tmp_path / "out"), "f0.ply",
                        {"myocardium": 1}, (8.0, 8.0, 8.0), MeshOptions())
-    assert str(error).startswith(f"{path}: the outer wall leaves the volume at one end only")
-    assert not (tmp_path / "out").exists()
+    assert str(error).startswith(f"{path}: labels are float32, not integers")
 
 
 @pytest.mark.parametrize("problem", ["shape", "float", "absent", "zero", "one_face", "nifti"])
@@ -358,7 +365,7 @@ def test_odd_label_frames_are_named_in_one_line(label_phantom, tmp_path, capsys,
     elif problem in ("folder", "fifo"):
         frames[3].unlink()
         frames[3].mkdir() if problem == "folder" else os.mkfifo(frames[3])
-    expect = {"random_labels": (frames[2], "fills the whole volume"),
+    expect = {"random_labels": (bad / "labels", "f2.tif: the outer wall fills the whole volume"),
               "four_frames": (bad / "labels", "4 frames; an analysis needs at least 5"),
               "folder": (frames[3], "is a folder, not a file"),
               "fifo": (frames[3], "is a named pipe (FIFO), not a file")}[problem]

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DatasetError, InputError
-from ..mesh.labels import MeshOptions, mesh_walls
+from ..mesh.labels import MeshOptions, WallMesh, mesh_wall, mesh_walls, wall_masks
 from ..mesh.topology import MeshError
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
                       read_meta, read_meta_json)
@@ -38,6 +38,7 @@ DEFAULT_LABEL_IDS = {"myocardium": 1, "jelly": 2, "lumen": 3}
 SPACING_TOLERANCE = 1e-3        # relative: a file's voxel size and meta.json's agree
 MAX_VOXELS = 2 ** 30            # a frame of over a billion voxels is a damaged header
 CARRIED_META = ("name", "group", "period_ms", "length_unit", "inlet")
+FILLED_SHARE = 0.05     # of the frames: at most so many may have a wall filled from others
 
 
 @dataclass(frozen=True)
@@ -204,36 +205,115 @@ def _ends(path: Path, raw: dict, shape_zyx, voxel_size) -> tuple | None:
 def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, voxel_size,
                options: MeshOptions, ends=None) -> dict | DatasetError:
     """Mesh one frame's volume into ``out/<wall>/<mesh_name>`` (binary PLY, in the
-    volume's length unit): its walls' vertex counts and clean-up counts, or the
-    :class:`DatasetError` naming the frame's file (returned, so that one pass over
-    the frames finds every bad one)."""
+    volume's length unit): per wall meshed its vertex count, clean-up count,
+    sampling step and mask repairs, and ``left_out`` (wall -> why) for the walls
+    that cannot be meshed (:func:`~oftimg.mesh.labels.mesh_walls`); or the
+    :class:`DatasetError` naming the frame's file when the file itself is bad
+    (returned, so that one pass over the frames finds every bad one)."""
     try:
         walls = mesh_walls(read_volume(source), label_ids, voxel_size, options, ends)
     except DatasetError as exc:                  # names its file already
         return exc
     except (InputError, MeshError) as exc:
         return DatasetError(f"{source}: {exc}")
-    for wall, mesh in walls.items():
+    meshes = {w: m for w, m in walls.items() if isinstance(m, WallMesh)}
+    for wall, mesh in meshes.items():
         (Path(out) / wall).mkdir(parents=True, exist_ok=True)
         write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F)
-    return {"vertices": {w: len(m.V) for w, m in walls.items()},
-            "pieces_dropped": {w: m.cleaned.pieces for w, m in walls.items()},
-            "step": {w: round(m.step, 6) for w, m in walls.items()},
-            "repairs": [{"wall": w, "what": m.repair.what, "voxels": m.repair.voxels,
-                         "euler_before": m.repair.euler_before}
-                        for w, m in walls.items() if m.repair is not None]}
+    repairs = [{"wall": w, "what": m.repair.what, "voxels": m.repair.voxels,
+                "euler_before": m.repair.euler_before}
+               for w, m in meshes.items() if m.repair is not None]
+    repairs += [{"wall": w, "what": "kept inside the mended wall around it",
+                 "voxels": m.nested, "euler_before": None}
+                for w, m in meshes.items() if m.nested is not None]
+    return {"vertices": {w: len(m.V) for w, m in meshes.items()},
+            "pieces_dropped": {w: m.cleaned.pieces for w, m in meshes.items()},
+            "step": {w: round(m.step, 6) for w, m in meshes.items()},
+            "repairs": repairs,
+            "left_out": {w: why for w, why in walls.items() if isinstance(why, str)}}
+
+
+def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, left: tuple,
+              out: str, mesh_name: str, label_ids: dict, voxel_size, options: MeshOptions,
+              ends=None) -> dict | DatasetError:
+    """The ``wall`` of frame ``t``, left out there, meshed from the frames around it:
+    ``between = (t_before, t_after, weight)``, their masks (``mended``: whether each
+    had its topology mended, redone here) blended by
+    :func:`~oftimg.mesh.mask_blend.blended_occupancy`, kept between frame ``t``'s
+    own walls around and inside it where those are whole (not in ``left``, the
+    frame's walls left out). Written as
+    :func:`mesh_frame` writes; returns the wall's record, or the error naming frame
+    ``t``'s file when the blend cannot be meshed either."""
+    from ..mesh.mask_blend import blended_occupancy
+    from ..mesh.mask_topology import core, solid_tube_mask
+
+    t_before, t_after, weight = between
+    masks = []
+    for frame, was_mended in zip((t_before, t_after), mended):
+        mask = wall_masks(read_volume(sources[frame]), label_ids)[wall]
+        masks.append(solid_tube_mask(mask)[0] if was_mended else core(mask))
+    own = wall_masks(read_volume(sources[t]), label_ids)
+    order = list(own)
+    k = order.index(wall)
+    whole = [w for w in order if w not in left]
+    try:
+        occupancy = blended_occupancy(
+            *masks, weight, voxel_size,
+            within=own[order[k - 1]].astype(np.float32) if k > 0 and order[k - 1] in whole
+            else None,
+            around=own[order[k + 1]].astype(np.float32) if k + 1 < len(order)
+            and order[k + 1] in whole else None)
+        mesh = mesh_wall(occupancy, voxel_size, options, ends)
+    except MeshError as exc:
+        return DatasetError(f"{sources[t]}: the {wall} wall, left out, filled from frames "
+                            f"{t_before} and {t_after}, {exc}")
+    (Path(out) / wall).mkdir(parents=True, exist_ok=True)
+    write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F)
+    return {"vertices": len(mesh.V), "pieces_dropped": mesh.cleaned.pieces,
+            "step": round(mesh.step, 6),
+            "voxels": int(np.count_nonzero((occupancy > 0.5) != own[wall]))}
+
+
+def _frame_name(lds: LabelDataset, t: int) -> str:
+    """Frame ``t``'s file name within labels/ (``labels.tif (frame 4)`` in a 4-D file)."""
+    source = lds.sources[t]
+    name = Path(source.path).name
+    return name if source.index is None else f"{name} (frame {source.index})"
+
+
+def neighbours_to_fill_from(good: np.ndarray, t: int) -> tuple[int, int, float]:
+    """The nearest frames before and after ``t`` (a cycle: counted round its end) whose
+    wall is ``good`` (``(n_t,)`` bool), and the share of the way from the one before
+    to the one after that ``t`` lies."""
+    n = len(good)
+    back = next(d for d in range(1, n) if good[(t - d) % n])
+    ahead = next(d for d in range(1, n) if good[(t + d) % n])
+    return (t - back) % n, (t + ahead) % n, back / (back + ahead)
 
 
 def label_repairs_note(path: Path, repairs: list[dict]) -> str | None:
-    """The warning that names the wall masks mended in a label dataset at ``path``
-    (``repairs``: :func:`mesh_label_dataset`'s ``label_repairs``); None for none."""
+    """The warning that names the wall masks mended, and the walls left out and filled
+    from the frames around them, in a label dataset at ``path`` (``repairs``:
+    :func:`mesh_label_dataset`'s ``label_repairs``); None for none."""
     if not repairs:
         return None
-    named = "; ".join(f"{Path(r['file']).name} {r['wall']} ({r['what']}, {r['voxels']} voxels)"
-                      for r in repairs[:4])
-    return (f"{Path(path) / 'labels'}: mended the topology of {len(repairs)} wall "
-            f"mask{'s' * (len(repairs) > 1)} (a handle, tunnel or bridge the segmentation "
-            f"left): {named}{'; ...' if len(repairs) > 4 else ''}; all in summary.json "
+    mended = [r for r in repairs if "filled_from" not in r]
+    filled = [r for r in repairs if "filled_from" in r]
+    parts = []
+    if mended:
+        named = "; ".join(f"{Path(r['file']).name} {r['wall']} ({r['what']}, {r['voxels']} "
+                          "voxels)" for r in mended[:4])
+        parts.append(f"mended the topology of {len(mended)} wall mask{'s' * (len(mended) > 1)} "
+                     f"(a handle, tunnel or bridge the segmentation left): {named}"
+                     f"{'; ...' if len(mended) > 4 else ''}")
+    if filled:
+        named = "; ".join(f"{Path(r['file']).name} {r['wall']} (from frames "
+                          f"{r['filled_from'][0]} and {r['filled_from'][1]}: {r['why']})"
+                          for r in filled[:4])
+        parts.append(f"left out {len(filled)} wall{'s' * (len(filled) > 1)} that could not be "
+                     f"meshed and filled {'them' if len(filled) > 1 else 'it'} from the frames "
+                     f"around: {named}{'; ...' if len(filled) > 4 else ''}")
+    return (f"{Path(path) / 'labels'}: {'; and '.join(parts)}; all in summary.json "
             "provenance.meshing.label_repairs")
 
 
@@ -249,10 +329,13 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
                        progress=None) -> dict:
     """Mesh every frame of ``lds`` into ``out`` (``outer/``, ``inner/``, ``lumen/`` and a
     meta.json: a mesh dataset) in ``executor``'s workers, each holding one volume;
-    ``progress()`` after each frame. Returns what the results' provenance records:
-    the label files, the meshing options, and per wall each frame's vertex count and
-    the pieces its clean-up dropped. Raises one :class:`DatasetError` for every frame
-    that cannot be meshed (the first one's message, the others named in a note)."""
+    ``progress()`` after each frame. A wall left out in a frame (its label absent,
+    its mask not mendable) is filled from the frames around it (:func:`fill_wall`)
+    when at most :data:`FILLED_SHARE` of the frames have one. Returns what the
+    results' provenance records: the label files, the meshing options, per wall
+    each frame's vertex count and the pieces its clean-up dropped, and every mask
+    repair and fill (``label_repairs``). Raises one :class:`DatasetError` naming
+    every frame that cannot be meshed."""
     tick = time.perf_counter()
     out = Path(out)
     n = lds.n_frames
@@ -263,17 +346,12 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
         results.append(result)
         if progress:
             progress()
-    bad = [r for r in results if isinstance(r, DatasetError)]
-    if bad:
-        if len(bad) > 1:
-            bad[0].add_note(f"and {len(bad) - 1} more of the {n} frames cannot be meshed: "
-                            + "; ".join(str(e) for e in bad[1:4])
-                            + ("; ..." if len(bad) > 4 else ""))
-        raise bad[0]
-    write_meshed_meta(lds, out)
-    walls = list(results[0]["vertices"])
+    _raise_for_bad_files(results, n)
     repairs = [{"frame": t, "file": str(lds.sources[t]), **r}
                for t, result in enumerate(results) for r in result["repairs"]]
+    repairs += _fill_left_out(lds, out, options, results, executor)
+    write_meshed_meta(lds, out)
+    walls = [w for w in ("outer", "inner", "lumen") if w in results[0]["vertices"]]
     return {
         "files": [{"file": str(p), "bytes": p.stat().st_size} for p in lds.input_files()
                   if p.name != "meta.json"],
@@ -285,3 +363,60 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
                        for key in ("vertices", "pieces_dropped", "step")},
                     "label_repairs": repairs,
                     "seconds": round(time.perf_counter() - tick, 2)}}
+
+
+def _raise_for_bad_files(results: list, n: int) -> None:
+    """One :class:`DatasetError` for the frames whose file is bad: the first one's
+    message, the others named in a note."""
+    bad = [r for r in results if isinstance(r, DatasetError)]
+    if bad:
+        if len(bad) > 1:
+            bad[0].add_note(f"and {len(bad) - 1} more of the {n} frames cannot be meshed: "
+                            + "; ".join(str(e) for e in bad[1:4])
+                            + ("; ..." if len(bad) > 4 else ""))
+        raise bad[0]
+
+
+def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: list,
+                   executor) -> list[dict]:
+    """Fill every wall left out in a frame from the frames around it, into ``out`` and
+    each frame's record in ``results``; the fills as ``label_repairs`` entries.
+    Raises one :class:`DatasetError` naming every frame with a wall left out when
+    they are more than :data:`FILLED_SHARE` of the frames (or a fill fails)."""
+    n = lds.n_frames
+    left = {t: r["left_out"] for t, r in enumerate(results) if r["left_out"]}
+    if not left:
+        return []
+    allowed = int(FILLED_SHARE * n)
+    if len(left) > allowed:
+        named = "; ".join(f"{_frame_name(lds, t)}: {', '.join(dict.fromkeys(walls.values()))}"
+                          for t, walls in left.items())
+        raise DatasetError(f"{lds.path / 'labels'}: {len(left)} of {n} frames have a wall that "
+                           f"cannot be meshed, more than the {allowed} ({FILLED_SHARE:.0%}) "
+                           f"that can be filled from the frames around them: {named}")
+    tasks = []
+    for t, walls in left.items():
+        for wall in walls:
+            good = np.array([wall not in r["left_out"] for r in results])
+            before, after, weight = neighbours_to_fill_from(good, t)
+            mended = tuple(any(r["wall"] == wall and r["euler_before"] is not None
+                               for r in results[f]["repairs"]) for f in (before, after))
+            tasks.append((t, wall, (before, after, round(weight, 6)), mended))
+    names = lds.mesh_names()
+    m = len(tasks)
+    args = ([lds.sources] * m, *zip(*[(t, w, b, md, tuple(left[t])) for t, w, b, md in tasks]),
+            [str(out)] * m, [names[t] for t, *_ in tasks], [lds.label_ids] * m,
+            [lds.voxel_size] * m, [options] * m, [lds.ends] * m)
+    filled = list(map(fill_wall, *args) if executor is None else executor.map(fill_wall, *args))
+    failed = [f for f in filled if isinstance(f, DatasetError)]
+    if failed:
+        raise DatasetError("; ".join(str(e) for e in failed))
+    entries = []
+    for (t, wall, (before, after, _), _), record in zip(tasks, filled):
+        for key in ("vertices", "pieces_dropped", "step"):
+            results[t][key][wall] = record[key]
+        entries.append({"frame": t, "file": str(lds.sources[t]), "wall": wall,
+                        "what": f"left out, filled from frames {before} and {after}",
+                        "why": left[t][wall], "voxels": record["voxels"],
+                        "euler_before": None, "filled_from": [before, after]})
+    return entries

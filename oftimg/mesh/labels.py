@@ -103,7 +103,10 @@ def sample_step(mask: np.ndarray, voxel_size_xyz, target_vertices: int) -> float
     """The spacing at which marching cubes gives a mask's surface about
     ``target_vertices`` vertices: the voxel faces between inside and outside add up
     to about 1.5 times the surface's area, and a level set sampled at spacing h has
-    about 1.5 area / h^2 vertices. Never finer than the smallest voxel side."""
+    about 1.5 area / h^2 vertices. Never finer than the smallest voxel side. A soft
+    mask (occupancy in [0, 1]) counts as its voxels above 0.5."""
+    if mask.dtype != bool:
+        mask = mask > LEVEL
     dx, dy, dz = voxel_size_xyz
     faces = (np.count_nonzero(mask[1:] != mask[:-1]) * dx * dy
              + np.count_nonzero(mask[:, 1:] != mask[:, :-1]) * dx * dz
@@ -235,11 +238,13 @@ class WallMesh:
     cleaned: Cleaned
     step: float
     repair: MaskRepair | None = None     # the mask's topology mended first (or not)
+    nested: int | None = None            # voxels cut to keep it inside a mended wall
 
 
 def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptions(),
               ends=None) -> WallMesh:
-    """One wall's surface from its mask ``(z, y, x)``: the mask smoothed and
+    """One wall's surface from its mask ``(z, y, x)``, bool or an occupancy in [0,
+    1] (float32: a blend of masks or a probability map): the mask smoothed and
     resampled (:func:`level_set_field`), its level 0.5 by marching cubes (not
     padded: open where the tube leaves the volume), cut at the ``ends`` planes (two
     ``(point, normal)``, normals into the tube's part to keep) when given, the
@@ -277,31 +282,67 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
 
 
 def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
-               options: MeshOptions = MeshOptions(), ends=None) -> dict[str, WallMesh]:
+               options: MeshOptions = MeshOptions(), ends=None) -> dict[str, WallMesh | str]:
     """Every wall of one frame's label volume ``(z, y, x)`` (:func:`wall_masks`,
-    :func:`mesh_wall`). Raises :class:`InputError` naming the problem (no file) for
-    an all-zero volume or a layer's label absent, :class:`MeshError` (naming the
-    wall) for a wall that is not an open tube even after its mask is mended
-    (:func:`~oftimg.mesh.mask_topology.solid_tube_mask`: a handle, a tunnel or a
-    bridge opened or closed away, recorded in the wall's ``repair``)."""
+    :func:`mesh_wall`), outer first. A wall that is not an open tube has its mask
+    mended (:func:`~oftimg.mesh.mask_topology.solid_tube_mask`: a handle, a tunnel or
+    a bridge opened or closed away, recorded in the wall's ``repair``), and the walls
+    inside it are kept inside its mended mask (:func:`keep_inside`, the voxels cut
+    in ``nested``). A wall that cannot
+    be meshed even so, or whose layer's label is absent, comes back as the reason
+    (a str: "the lumen wall has no voxel labelled lumen (3)"), to be filled from the
+    neighbouring frames. Raises :class:`InputError` for float labels."""
+    masks = wall_masks(labels, label_ids)
     values = _values(labels)
-    if not values.any():
-        raise InputError("holds no labelled voxel (all zero)")
-    absent = [f"{layer} ({v})" for layer, v in label_ids.items() if v not in values]
-    if absent:
-        raise InputError(f"has no voxel labelled {', '.join(absent)}")
-    walls = {}
-    for wall, mask in wall_masks(labels, label_ids).items():
-        try:
-            walls[wall] = mesh_wall(mask, voxel_size_xyz, options, ends)
-        except MeshError as exc:        # a handle, a tunnel, a bridge: mend the mask, once
-            solid, repair = solid_tube_mask(mask)
-            if repair is None:
-                raise MeshError(f"the {wall} wall {exc}") from None
-            try:
-                walls[wall] = replace(mesh_wall(solid, voxel_size_xyz, options, ends),
-                                      repair=repair)
-            except MeshError as again:
-                raise MeshError(f"the {wall} wall {again} (after its mask's "
-                                f"{repair.what})") from None
+    walls: dict[str, WallMesh | str] = {}
+    enclosing = None                 # the mended mask of the wall around this one, if any
+    for wall, mask in masks.items():
+        # a wall's surface is its outermost layer's (one named layer: the outer wall's)
+        layer = next(la for la in WALL_LAYERS[wall] if la in label_ids)
+        if not values.any():
+            walls[wall] = "holds no labelled voxel (all zero)"
+            continue
+        if label_ids[layer] not in values:
+            walls[wall] = f"the {wall} wall: no voxel labelled {layer} ({label_ids[layer]})"
+            continue
+        nested = None
+        if enclosing is not None:       # nested by the labels' design, unless one was mended
+            mask, nested = keep_inside(mask, enclosing)
+        walls[wall], enclosing = _mesh_or_mend(wall, mask, voxel_size_xyz, options, ends)
+        if nested is not None and isinstance(walls[wall], WallMesh):
+            walls[wall] = replace(walls[wall], nested=nested)
     return walls
+
+
+def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOptions, ends
+                  ) -> tuple[WallMesh | str, np.ndarray | None]:
+    """The wall meshed from ``mask``, or from the mended mask when that fails, with
+    the mended mask (None when not mended); or the reason it cannot be."""
+    try:
+        return mesh_wall(mask, voxel_size_xyz, options, ends), None
+    except MeshError as exc:        # a handle, a tunnel, a bridge: mend the mask, once
+        solid, repair = solid_tube_mask(mask)
+        if repair is None:
+            return f"the {wall} wall {exc}", None
+        try:
+            return replace(mesh_wall(solid, voxel_size_xyz, options, ends), repair=repair), solid
+        except MeshError as again:
+            return f"the {wall} wall {again} (after its mask's {repair.what})", None
+
+
+def keep_inside(mask: np.ndarray, enclosing: np.ndarray) -> tuple[np.ndarray, int | None]:
+    """``mask`` cut to ``enclosing`` (the mask of the wall around it; after that wall's
+    mask was mended, an opening say, the two could cross). Returns the mask and the
+    voxels this cut from the wall's body (None for none; specks of a layer alone in
+    the background, which the meshing drops anyway, are not counted). Walls that
+    touch (no voxel of the layer between them) are left touching: a layer can thin
+    to nothing, and a forced gap of a voxel pierced thin layers."""
+    from scipy import ndimage
+
+    cut = mask & ~enclosing
+    if not cut.any():
+        return mask, None
+    kept = mask & enclosing
+    six = ndimage.generate_binary_structure(3, 1)
+    moved = int(np.count_nonzero(cut & ndimage.binary_dilation(kept, six)))
+    return kept, moved or None

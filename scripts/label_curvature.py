@@ -1,0 +1,130 @@
+"""How close the lumen's mean curvature from a label volume comes to the truth, by the
+way the surface and its curvature are made (issue 60, the choice of method).
+
+    python scripts/label_curvature.py [--group normal] [--frames 5] [--voxel 4 4 8]
+
+One frame in every 195/--frames of the bench phantom, rasterized as the label phantom
+is (with its segmentation noise, and without), and as partial-volume fractions (the
+phantom rasterized at half the voxel size and averaged: a noise-free probability map).
+For each way, at every vertex of the lumen's surface away from the window's ends:
+median |H - H_true| / median |H_true| and the correlation with the truth, per frame
+(no smoothing in time, unlike the run's fields), and the seconds it takes. The
+phantom's own mesh gives the floor of this measure (a mesh's curvature is noisier
+than the smooth model). Prints one row per way.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from oftimg.io.label_dataset import DEFAULT_LABEL_IDS as LABELS
+from oftimg.mesh.curvature import fill_boundary, vertex_mean_curvature
+from oftimg.mesh.labels import MeshOptions, mesh_wall, wall_masks
+from oftimg.mesh.topology import boundary_loops
+from oftimg.synthetic.labels import LabelGrid, label_params, segmentation_noise
+from oftimg.synthetic.phantom import Phantom, sample_params
+
+
+def mesh_curvature(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Vertex mean curvature (1/length unit), as the run takes it from a lumen mesh."""
+    rim = np.concatenate(boundary_loops(F))
+    return fill_boundary(vertex_mean_curvature(V, F, rim), F, rim)
+
+
+def level_set_curvature(field: np.ndarray, voxel_xyz, points: np.ndarray,
+                        sigma: float) -> np.ndarray:
+    """Mean curvature of the level sets of ``field (z, y, x)`` blurred by a Gaussian of
+    ``sigma`` (length units), at ``points (n, 3)`` (x, y, z): -div(grad f / |grad f|) / 2
+    from Gaussian derivatives, sign as the mesh's for a field that is 1 inside."""
+    from scipy import ndimage
+
+    size = np.asarray(voxel_xyz[::-1], float)
+    at = (points[:, ::-1] / size).T
+    orders = {"z": (1, 0, 0), "y": (0, 1, 0), "x": (0, 0, 1), "zz": (2, 0, 0), "yy": (0, 2, 0),
+              "xx": (0, 0, 2), "zy": (1, 1, 0), "zx": (1, 0, 1), "yx": (0, 1, 1)}
+    d = {k: ndimage.map_coordinates(
+        ndimage.gaussian_filter(field.astype(np.float32), sigma / size, order=o, mode="nearest")
+        / np.prod(size ** np.array(o)), at, order=1, mode="nearest") for k, o in orders.items()}
+    gx, gy, gz = d["x"], d["y"], d["z"]
+    num = (d["xx"] * (gy ** 2 + gz ** 2) + d["yy"] * (gx ** 2 + gz ** 2) + d["zz"] * (gx ** 2 + gy ** 2)
+           - 2 * (gx * gy * d["yx"] + gx * gz * d["zx"] + gy * gz * d["zy"]))
+    return num / (2 * (gx ** 2 + gy ** 2 + gz ** 2) ** 1.5)
+
+
+def partial_volume(phantom: Phantom, voxel_xyz, t_ms: float) -> tuple[np.ndarray, LabelGrid]:
+    """The lumen's share of each voxel (2 x 2 x 2 samples), and the fine grid whose
+    frame its voxel centres are in (offset by half a fine voxel, handled by the caller)."""
+    fine = LabelGrid(phantom, tuple(d / 2 for d in voxel_xyz))
+    lumen = (fine.labels(t_ms) == LABELS["lumen"]).astype(np.float32)
+    n = np.array(lumen.shape) // 2
+    blocks = lumen[:2 * n[0], :2 * n[1], :2 * n[2]].reshape(n[0], 2, n[1], 2, n[2], 2)
+    return blocks.mean(axis=(1, 3, 5)), fine
+
+
+def errors(phantom: Phantom, grid: LabelGrid, points_um: np.ndarray, H_per_um: np.ndarray,
+           t_ms: float) -> tuple[float, float]:
+    """(median |error| / median |truth|, correlation) at points (x, y, z) um of ``grid``."""
+    X = (points_um * 1e-3 - grid.shift) @ grid.turn.T
+    s, theta = phantom.window_coordinates(X)
+    true = phantom.mean_curvature("lumen", s, theta, t_ms)
+    keep = (s > 0.05 * phantom.p.length_mm) & (s < 0.95 * phantom.p.length_mm)
+    H = H_per_um[keep] * 1e3
+    r = np.corrcoef(H, true[keep])[0, 1]
+    H = np.sign(r) * H                       # the mesh's normals: outward; the model's sign
+    return (float(np.median(np.abs(H - true[keep])) / np.median(np.abs(true[keep]))),
+            float(abs(r)))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--group", default="normal", choices=["normal", "banded"])
+    ap.add_argument("--frames", type=int, default=5)
+    ap.add_argument("--voxel", type=float, nargs=3, default=(4.0, 4.0, 8.0))
+    args = ap.parse_args()
+    voxel = tuple(args.voxel)
+    phantom = Phantom(label_params(sample_params(args.group, 0, n_frames=195)))
+    grid = LabelGrid(phantom, voxel)
+    rng = np.random.default_rng(0)
+    rows: dict[str, list] = {}
+
+    def add(name, grid_, points, H, seconds):
+        rows.setdefault(name, []).append((*errors(phantom, grid_, points, H, t), seconds))
+
+    for t in phantom.frame_times_ms()[::max(195 // args.frames, 1)][:args.frames]:
+        V_mm, F = phantom.mesh("lumen", t, rng)
+        add("the phantom's own mesh (floor)", grid, (V_mm @ grid.turn + grid.shift) * 1e3,
+            mesh_curvature(V_mm, F) * 1e-3, 0.0)
+        clean = grid.labels(t) == LABELS["lumen"]
+        noisy = wall_masks(segmentation_noise(grid.labels(t), 0.05, rng), LABELS)["lumen"]
+        for name, mask in (("labels, noise-free", clean), ("labels, noisy", noisy)):
+            for how, options in (("mesh (today)", MeshOptions()),
+                                 ("mesh, 16000 vertices", MeshOptions(target_vertices=16000)),
+                                 ("mesh, blur 1 voxel", MeshOptions(smoothing=1.0))):
+                tick = time.perf_counter()
+                wall = mesh_wall(mask, voxel, options)
+                add(f"{name}: {how}", grid, wall.V, mesh_curvature(wall.V, wall.F),
+                    time.perf_counter() - tick)
+            wall = mesh_wall(mask, voxel)
+            for sigma in (5.0, 8.0, 10.0):
+                tick = time.perf_counter()
+                H = level_set_curvature(mask, voxel, wall.V, sigma)
+                add(f"{name}: level sets, sigma {sigma:g} um", grid, wall.V, H,
+                    time.perf_counter() - tick)
+        share, fine = partial_volume(phantom, voxel, t)
+        offset = np.array(voxel) / 4                    # a block's centre, in the fine frame
+        wall = mesh_wall(share, voxel)
+        add("partial volume: mesh", fine, wall.V + offset, mesh_curvature(wall.V, wall.F), 0.0)
+        for sigma in (5.0, 8.0):
+            add(f"partial volume: level sets, sigma {sigma:g} um", fine, wall.V + offset,
+                level_set_curvature(share, voxel, wall.V, sigma), 0.0)
+    print(f"lumen mean curvature, {args.group} phantom, {voxel} um voxels, "
+          f"{args.frames} frames: median |error| / median |truth|, correlation, seconds")
+    for name, values in rows.items():
+        v = np.mean(values, axis=0)
+        print(f"  {name:45s} {100 * v[0]:5.1f} %  r {v[1]:.2f}  {v[2]:.2f} s")
+
+
+if __name__ == "__main__":
+    main()

@@ -181,7 +181,8 @@ def validate_labels(path, *, quiet: bool = False) -> dict:
         ds = _meshed(lds, Path(tmp) / "meshes", MeshOptions(), None, quiet)
         report = validate_dataset(ds)
     report["labels"] = {k: ds.labels["meshing"][k]
-                        for k in ("shape_zyx", "voxel_size", "length_unit", "labels")}
+                        for k in ("shape_zyx", "voxel_size", "length_unit", "labels",
+                                  "label_repairs")}
     return report
 
 

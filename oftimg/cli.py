@@ -237,6 +237,13 @@ def _print_report(report: dict) -> None:
         print(f"  label volumes (z, y, x) {tuple(lab['shape_zyx'])}, voxel "
               f"{' x '.join(f'{d:g}' for d in lab['voxel_size'])} {lab['length_unit']}, "
               f"labels {lab['labels']}: meshed as a run meshes them")
+        for r in lab["label_repairs"]:
+            name = f"labels/{Path(r['file']).name} {r['wall']}"
+            if "filled_from" in r:
+                print(f"  filled {name} from frames {r['filled_from'][0]} and "
+                      f"{r['filled_from'][1]} ({r['why']})")
+            else:
+                print(f"  mended {name}: {r['what']}, {r['voxels']} voxels changed")
     print(f"  {'surface':8} {'frames':>6} {'vertices':>13} {'faces':>13} {'loops':>5} "
           f"{'inlet mm2':>10} {'outlet mm2':>10}")
     for name, s in report["surfaces"].items():

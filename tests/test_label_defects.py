@@ -55,8 +55,14 @@ def test_each_defect_damages_the_walls_it_names(phantom):
     assert not (inject(labels, "no_lumen") == LABEL_VALUES["lumen"]).any()
 
 
-def test_a_defective_segmentation_runs_with_every_repair_said_where_it_was(phantom, tmp_path):
+def test_a_defective_segmentation_runs_with_every_repair_said_where_it_was(phantom, tmp_path,
+                                                                          capsys):
     data = with_defects(phantom, tmp_path / "damaged", AT)
+    assert main(["validate", str(data)]) == 0               # validate lists them first
+    listed = capsys.readouterr().out
+    assert "  mended labels/f02.tif outer: opening, radius 1 voxel, " in listed
+    assert ("  filled labels/f14.tif lumen from frames 13 and 15 (the lumen wall: no voxel "
+            "labelled lumen (3))") in listed
     out = tmp_path / "res"
     with pytest.warns(Warning) as caught:
         assert main(["run", str(data), "--out", str(out), "--quiet", "--jobs", "2"]) == 0

@@ -22,6 +22,7 @@ import numpy as np
 from oftimg.io.label_dataset import DEFAULT_LABEL_IDS as LABELS
 from oftimg.mesh.curvature import fill_boundary, vertex_mean_curvature
 from oftimg.mesh.labels import MeshOptions, mesh_wall, wall_masks
+from oftimg.mesh.level_set import level_set_mean_curvature
 from oftimg.mesh.topology import boundary_loops
 from oftimg.synthetic.labels import LabelGrid, label_params, segmentation_noise
 from oftimg.synthetic.phantom import Phantom, sample_params
@@ -31,26 +32,6 @@ def mesh_curvature(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Vertex mean curvature (1/length unit), as the run takes it from a lumen mesh."""
     rim = np.concatenate(boundary_loops(F))
     return fill_boundary(vertex_mean_curvature(V, F, rim), F, rim)
-
-
-def level_set_curvature(field: np.ndarray, voxel_xyz, points: np.ndarray,
-                        sigma: float) -> np.ndarray:
-    """Mean curvature of the level sets of ``field (z, y, x)`` blurred by a Gaussian of
-    ``sigma`` (length units), at ``points (n, 3)`` (x, y, z): -div(grad f / |grad f|) / 2
-    from Gaussian derivatives, sign as the mesh's for a field that is 1 inside."""
-    from scipy import ndimage
-
-    size = np.asarray(voxel_xyz[::-1], float)
-    at = (points[:, ::-1] / size).T
-    orders = {"z": (1, 0, 0), "y": (0, 1, 0), "x": (0, 0, 1), "zz": (2, 0, 0), "yy": (0, 2, 0),
-              "xx": (0, 0, 2), "zy": (1, 1, 0), "zx": (1, 0, 1), "yx": (0, 1, 1)}
-    d = {k: ndimage.map_coordinates(
-        ndimage.gaussian_filter(field.astype(np.float32), sigma / size, order=o, mode="nearest")
-        / np.prod(size ** np.array(o)), at, order=1, mode="nearest") for k, o in orders.items()}
-    gx, gy, gz = d["x"], d["y"], d["z"]
-    num = (d["xx"] * (gy ** 2 + gz ** 2) + d["yy"] * (gx ** 2 + gz ** 2) + d["zz"] * (gx ** 2 + gy ** 2)
-           - 2 * (gx * gy * d["yx"] + gx * gz * d["zx"] + gy * gz * d["zy"]))
-    return num / (2 * (gx ** 2 + gy ** 2 + gz ** 2) ** 1.5)
 
 
 def partial_volume(phantom: Phantom, voxel_xyz, t_ms: float) -> tuple[np.ndarray, LabelGrid]:
@@ -106,19 +87,19 @@ def main() -> None:
                 wall = mesh_wall(mask, voxel, options)
                 add(f"{name}: {how}", grid, wall.V, mesh_curvature(wall.V, wall.F),
                     time.perf_counter() - tick)
-            wall = mesh_wall(mask, voxel)
-            for sigma in (5.0, 8.0, 10.0):
+            wall = mesh_wall(mask, voxel, MeshOptions(lumen_curvature_blur=0.0))
+            for sigma in (5.0, 8.0, 10.0, 12.0, 16.0):
                 tick = time.perf_counter()
-                H = level_set_curvature(mask, voxel, wall.V, sigma)
+                H = level_set_mean_curvature(mask, voxel, wall.V, sigma)
                 add(f"{name}: level sets, sigma {sigma:g} um", grid, wall.V, H,
                     time.perf_counter() - tick)
         share, fine = partial_volume(phantom, voxel, t)
         offset = np.array(voxel) / 4                    # a block's centre, in the fine frame
-        wall = mesh_wall(share, voxel)
+        wall = mesh_wall(share, voxel, MeshOptions(lumen_curvature_blur=0.0))
         add("partial volume: mesh", fine, wall.V + offset, mesh_curvature(wall.V, wall.F), 0.0)
-        for sigma in (5.0, 8.0):
+        for sigma in (5.0, 8.0, 12.0):
             add(f"partial volume: level sets, sigma {sigma:g} um", fine, wall.V + offset,
-                level_set_curvature(share, voxel, wall.V, sigma), 0.0)
+                level_set_mean_curvature(share, voxel, wall.V, sigma), 0.0)
     print(f"lumen mean curvature, {args.group} phantom, {voxel} um voxels, "
           f"{args.frames} frames: median |error| / median |truth|, correlation, seconds")
     for name, values in rows.items():

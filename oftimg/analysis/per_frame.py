@@ -94,9 +94,11 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
         with clock("load"):
             tl = frame.tube("lumen")
         with clock("fields"):
-            rim = np.concatenate([tl.inlet, tl.outlet])
-            V = taubin_smooth(tl.V, tl.F, options.lumen_smoothing_steps, fixed=rim)
-            H = fill_boundary(vertex_mean_curvature(V, tl.F, rim), tl.F, rim)
+            H = frame.stored_mean_curvature("lumen", tl)    # from a label volume's level sets
+            if H is None:
+                rim = np.concatenate([tl.inlet, tl.outlet])
+                V = taubin_smooth(tl.V, tl.F, options.lumen_smoothing_steps, fixed=rim)
+                H = fill_boundary(vertex_mean_curvature(V, tl.F, rim), tl.F, rim)
         with clock("grid"):
             gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
                         options, values=H)

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import DatasetError, OftimgWarning
 from ..mesh.topology import loop_centroid, loop_vector_area
-from .meshfile import MESH_SUFFIXES
+from .meshfile import MESH_SUFFIXES, read_mesh_file, read_vertex_values
 from .safefile import read_json_file
 from .tube import Checked, Tube, check_tube_file, load_tube
 
@@ -225,6 +225,22 @@ class Frame:
         return load_tube(self.files[surface], unit_scale=self.unit_scale,
                          inlet_point=np.asarray(self.inlet_mm),
                          checked=self.checked.get(surface), warn=not self.validated)
+
+    def stored_mean_curvature(self, surface: str, tube: Tube) -> np.ndarray | None:
+        """The mean curvature stored with each vertex of ``surface``'s file (1/mm, at
+        ``tube``'s vertices, found by position: the reading may merge some), as the
+        meshing of a label dataset stores the lumen's from its level sets; None when
+        the file has none (or its coordinates are scaled per axis)."""
+        from scipy.spatial import cKDTree
+
+        from ..mesh.labels import CURVATURE_PROPERTY
+
+        values = read_vertex_values(self.files[surface], CURVATURE_PROPERTY)
+        if values is None or not np.isscalar(self.unit_scale):
+            return None
+        V, _ = read_mesh_file(self.files[surface])
+        _, nearest = cKDTree(V * self.unit_scale).query(tube.V)
+        return values[nearest] / self.unit_scale
 
 
 @dataclass

@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DatasetError, InputError
-from ..mesh.labels import MeshOptions, WallMesh, mesh_wall, mesh_walls, wall_masks
+from ..mesh.labels import (CURVATURE_PROPERTY, MeshOptions, WallMesh, mesh_wall, mesh_walls,
+                           wall_masks)
 from ..mesh.topology import MeshError
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
                       read_meta, read_meta_json)
@@ -218,8 +219,7 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
         return DatasetError(f"{source}: {exc}")
     meshes = {w: m for w, m in walls.items() if isinstance(m, WallMesh)}
     for wall, mesh in meshes.items():
-        (Path(out) / wall).mkdir(parents=True, exist_ok=True)
-        write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F)
+        _write_wall(out, wall, mesh_name, mesh)
     repairs = [{"wall": w, "what": m.repair.what, "voxels": m.repair.voxels,
                 "euler_before": m.repair.euler_before}
                for w, m in meshes.items() if m.repair is not None]
@@ -263,12 +263,11 @@ def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, 
             else None,
             around=own[order[k + 1]].astype(np.float32) if k + 1 < len(order)
             and order[k + 1] in whole else None)
-        mesh = mesh_wall(occupancy, voxel_size, options, ends)
+        mesh = mesh_wall(occupancy, voxel_size, options, ends, curvature=wall == "lumen")
     except MeshError as exc:
         return DatasetError(f"{sources[t]}: the {wall} wall, left out, filled from frames "
                             f"{t_before} and {t_after}, {exc}")
-    (Path(out) / wall).mkdir(parents=True, exist_ok=True)
-    write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F)
+    _write_wall(out, wall, mesh_name, mesh)
     return {"vertices": len(mesh.V), "pieces_dropped": mesh.cleaned.pieces,
             "step": round(mesh.step, 6),
             "voxels": int(np.count_nonzero((occupancy > 0.5) != own[wall]))}
@@ -279,6 +278,14 @@ def _frame_name(lds: LabelDataset, t: int) -> str:
     source = lds.sources[t]
     name = Path(source.path).name
     return name if source.index is None else f"{name} (frame {source.index})"
+
+
+def _write_wall(out: str, wall: str, mesh_name: str, mesh: WallMesh) -> None:
+    """``out/<wall>/<mesh_name>`` as binary PLY, with the level sets' mean curvature
+    as a vertex property when there is one."""
+    (Path(out) / wall).mkdir(parents=True, exist_ok=True)
+    values = None if mesh.mean_curvature is None else {CURVATURE_PROPERTY: mesh.mean_curvature}
+    write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F, values)
 
 
 def neighbours_to_fill_from(good: np.ndarray, t: int) -> tuple[int, int, float]:

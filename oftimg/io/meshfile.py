@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DatasetError
-from .meshformats import PARSERS, MeshFormatError, not_triangles
+from .meshformats import PARSERS, MeshFormatError, not_triangles, ply_vertex_property
 from .safefile import read_regular_file
 
 MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off", ".vtk", ".vtp")
@@ -82,16 +82,37 @@ def _read_vtp(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return V, conn.reshape(-1, 3)
 
 
-def write_ply(path: str | Path, V: np.ndarray, F: np.ndarray) -> None:
-    """Write a binary little-endian PLY (float32 vertices, int32 faces)."""
-    V = np.ascontiguousarray(V, dtype="<f4")
+def write_ply(path: str | Path, V: np.ndarray, F: np.ndarray,
+              vertex_values: dict[str, np.ndarray] | None = None) -> None:
+    """Write a binary little-endian PLY (float32 vertices, int32 faces), with
+    ``vertex_values`` (name -> ``(n_vert,)``) as float vertex properties after x, y, z
+    (ParaView shows them; :func:`read_vertex_values` reads one back)."""
+    names = list(vertex_values or {})
+    rec_v = np.empty(len(V), dtype=[(c, "<f4") for c in ["x", "y", "z"] + names])
+    for k, c in enumerate("xyz"):
+        rec_v[c] = V[:, k]
+    for name in names:
+        rec_v[name] = vertex_values[name]
     rec = np.empty(len(F), dtype=[("n", "u1"), ("idx", "<i4", (3,))])
     rec["n"] = 3
     rec["idx"] = F
     header = ("ply\nformat binary_little_endian 1.0\n"
-              f"element vertex {len(V)}\nproperty float x\nproperty float y\nproperty float z\n"
-              f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n")
+              f"element vertex {len(V)}\n"
+              + "".join(f"property float {c}\n" for c in ["x", "y", "z"] + names)
+              + f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n")
     with open(path, "wb") as fh:
         fh.write(header.encode("ascii"))
-        fh.write(V.tobytes())
+        fh.write(rec_v.tobytes())
         fh.write(rec.tobytes())
+
+
+def read_vertex_values(path: str | Path, name: str) -> np.ndarray | None:
+    """The vertex property ``name`` of a .ply mesh file (one per vertex, in the file's
+    order), or None for another format or a PLY without it."""
+    path = Path(path)
+    if path.suffix.lower() != ".ply":
+        return None
+    try:
+        return ply_vertex_property(read_regular_file(path, max_bytes=MAX_MESH_BYTES), name)
+    except MeshFormatError as exc:
+        raise DatasetError(f"{path}: {exc}") from None

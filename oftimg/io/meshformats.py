@@ -112,6 +112,37 @@ def parse_ply(data: bytes) -> tuple[np.ndarray, np.ndarray]:
     """A .ply file: ASCII or binary (little or big endian); vertex x, y, z among
     scalar properties, faces as one list of indices (triangles), other elements of
     scalar properties skipped."""
+    fmt, elements, start = _ply_header(data)
+    if fmt == "ascii":
+        return _ply_ascii(data[start:], elements)
+    return _ply_binary(data, start, elements, "<" if fmt == "binary_little_endian" else ">")
+
+
+def ply_vertex_property(data: bytes, name: str) -> np.ndarray | None:
+    """The scalar vertex property ``name`` of a .ply file (float64, one per vertex in
+    the file's order), or None when its vertices have none (or other elements
+    come before them, which oftimg does not write)."""
+    fmt, elements, start = _ply_header(data)
+    if elements[0][0] != "vertex":
+        return None
+    _, count, props = elements[0]
+    column = next((k for k, p in enumerate(props) if p[-1] == name), None)
+    if column is None:
+        return None
+    if fmt == "ascii":
+        rows = [line for line in data[start:].splitlines() if line.strip()][:count]
+        values = _floats(b" ".join(rows), count * len(props), "vertex lines")
+        return values.reshape(count, len(props))[:, column]
+    order = "<" if fmt == "binary_little_endian" else ">"
+    dtype = np.dtype([(f"p{k}", order + PLY_TYPES[p[0]]) for k, p in enumerate(props)])
+    if len(data) - start < count * dtype.itemsize:
+        raise _truncated("among its vertices")
+    return np.frombuffer(data, dtype, count, start)[f"p{column}"].astype(np.float64)
+
+
+def _ply_header(data: bytes) -> tuple[str, list, int]:
+    """A .ply header checked: its format, its elements ``(name, count, properties)``
+    and where its body starts."""
     if not data.startswith(b"ply"):
         raise MeshFormatError("does not begin with 'ply': not a PLY file")
     lines, start = _split_header(data, b"end_header", "PLY")
@@ -149,9 +180,7 @@ def parse_ply(data: bytes) -> tuple[np.ndarray, np.ndarray]:
     if sum(p[0] == "list" for p in face_props) != 1 or any(
             PLY_TYPES[t][0] == "f" for p in face_props if p[0] == "list" for t in p[1:3]):
         raise MeshFormatError("its faces need one list property of whole-number indices")
-    if fmt[1] == "ascii":
-        return _ply_ascii(data[start:], elements)
-    return _ply_binary(data, start, elements, "<" if fmt[1] == "binary_little_endian" else ">")
+    return fmt[1], elements, start
 
 
 def _ply_binary(data: bytes, start: int, elements, order: str):

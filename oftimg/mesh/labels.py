@@ -64,6 +64,7 @@ class Cleaned:
 
 
 LEVEL = 0.5             # the smoothed mask's level that is the wall
+CURVATURE_PROPERTY = "oftimg_mean_curvature"   # a lumen PLY's stored curvature, per unit
 ANTI_ALIAS = 0.4        # the blur's sigma as a share of the sampling step, at least
 
 
@@ -78,12 +79,17 @@ class MeshOptions:
     a blur also moves a curved surface inwards by sigma^2 times its curvature
     over 2, so it stays small and Taubin steps do the rest; one-voxel specks and
     pinholes fall below the level); ``taubin_steps``: Taubin steps on the mesh with
-    its boundary loops held.
+    its boundary loops held; ``lumen_curvature_blur``: the lumen's mean curvature
+    is read from its mask's level sets blurred by a Gaussian of this many voxels
+    (of the smallest side; :func:`~oftimg.mesh.level_set.level_set_mean_curvature`)
+    and stored with each vertex, instead of being taken from the mesh (0: from the
+    mesh, as for a mesh dataset).
     """
 
     target_vertices: int = 8000
     smoothing: float = 0.5
     taubin_steps: int = 30
+    lumen_curvature_blur: float = 2.0
 
     def __post_init__(self):
         if not (isinstance(self.target_vertices, int) and self.target_vertices >= 200):
@@ -94,6 +100,9 @@ class MeshOptions:
         if not (isinstance(self.taubin_steps, int) and self.taubin_steps >= 0):
             raise InputError(f"taubin steps must be a whole number >= 0, "
                              f"found {self.taubin_steps!r}")
+        if not (np.isfinite(self.lumen_curvature_blur) and 0 <= self.lumen_curvature_blur <= 20):
+            raise InputError(f"the lumen curvature's blur must lie in 0..20 voxels, found "
+                             f"{self.lumen_curvature_blur!r}")
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -238,11 +247,12 @@ class WallMesh:
     cleaned: Cleaned
     step: float
     repair: MaskRepair | None = None     # the mask's topology mended first (or not)
+    mean_curvature: np.ndarray | None = None   # (n,) per length unit, from the level sets
     nested: int | None = None            # voxels cut to keep it inside a mended wall
 
 
 def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptions(),
-              ends=None) -> WallMesh:
+              ends=None, *, curvature: bool = False) -> WallMesh:
     """One wall's surface from its mask ``(z, y, x)``, bool or an occupancy in [0,
     1] (float32: a blend of masks or a probability map): the mask smoothed and
     resampled (:func:`level_set_field`), its level 0.5 by marching cubes (not
@@ -251,8 +261,9 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
     largest piece kept (a speck's surface or a pinhole's cavity is a piece of its
     own: cheaper dropped from a mesh of thousands of vertices than labelled in a
     volume of millions of voxels), Taubin-smoothed with its boundary loops held,
-    faces outward. Raises :class:`MeshError` when the
-    result is not an open tube (one message, no file name)."""
+    faces outward; with ``curvature`` (and ``options.lumen_curvature_blur``), the mean
+    curvature of the mask's level sets at each vertex. Raises :class:`MeshError`
+    when the result is not an open tube (one message, no file name)."""
     from skimage.measure import marching_cubes
 
     step = sample_step(mask, voxel_size_xyz, options.target_vertices)
@@ -278,7 +289,13 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
     V = V if topo.V is None else topo.V
     rim = np.concatenate(topo.loops)
     V = taubin_smooth(V, topo.F, options.taubin_steps, fixed=rim)
-    return WallMesh(V, topo.F, cleaned, float(step))
+    H = None
+    if curvature and options.lumen_curvature_blur > 0:
+        from .level_set import level_set_mean_curvature
+
+        H = level_set_mean_curvature(mask, voxel_size_xyz, V,
+                                     options.lumen_curvature_blur * min(voxel_size_xyz))
+    return WallMesh(V, topo.F, cleaned, float(step), mean_curvature=H)
 
 
 def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
@@ -308,24 +325,26 @@ def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
         nested = None
         if enclosing is not None:       # nested by the labels' design, unless one was mended
             mask, nested = keep_inside(mask, enclosing)
-        walls[wall], enclosing = _mesh_or_mend(wall, mask, voxel_size_xyz, options, ends)
+        walls[wall], enclosing = _mesh_or_mend(wall, mask, voxel_size_xyz, options, ends,
+                                               curvature=wall == "lumen")
         if nested is not None and isinstance(walls[wall], WallMesh):
             walls[wall] = replace(walls[wall], nested=nested)
     return walls
 
 
-def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOptions, ends
-                  ) -> tuple[WallMesh | str, np.ndarray | None]:
+def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOptions, ends,
+                  *, curvature: bool = False) -> tuple[WallMesh | str, np.ndarray | None]:
     """The wall meshed from ``mask``, or from the mended mask when that fails, with
     the mended mask (None when not mended); or the reason it cannot be."""
     try:
-        return mesh_wall(mask, voxel_size_xyz, options, ends), None
+        return mesh_wall(mask, voxel_size_xyz, options, ends, curvature=curvature), None
     except MeshError as exc:        # a handle, a tunnel, a bridge: mend the mask, once
         solid, repair = solid_tube_mask(mask)
         if repair is None:
             return f"the {wall} wall {exc}", None
         try:
-            return replace(mesh_wall(solid, voxel_size_xyz, options, ends), repair=repair), solid
+            return replace(mesh_wall(solid, voxel_size_xyz, options, ends, curvature=curvature),
+                           repair=repair), solid
         except MeshError as again:
             return f"the {wall} wall {again} (after its mask's {repair.what})", None
 

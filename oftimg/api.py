@@ -182,7 +182,7 @@ def validate_labels(path, *, quiet: bool = False) -> dict:
         report = validate_dataset(ds)
     report["labels"] = {k: ds.labels["meshing"][k]
                         for k in ("shape_zyx", "voxel_size", "length_unit", "labels",
-                                  "label_repairs")}
+                                  "label_repairs", "kind")}
     return report
 
 
@@ -732,17 +732,21 @@ def _flat(options: dict, prefix: str = "") -> dict:
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,
                  quiet: bool = False, labels: bool = False,
                  voxel_size_um: tuple[float, float, float] = (4.0, 4.0, 8.0),
-                 segmentation_noise: float = 0.05, **overrides) -> Path:
+                 segmentation_noise: float = 0.05, probabilities: bool = False,
+                 **overrides) -> Path:
     """Write one phantom dataset (see :mod:`oftimg.synthetic.phantom`) to ``out``:
     meshes, or with ``labels`` label volumes of ``voxel_size_um`` (dx, dy, dz) with
-    ``segmentation_noise`` (:mod:`oftimg.synthetic.labels`)."""
+    ``segmentation_noise`` (:mod:`oftimg.synthetic.labels`); with ``probabilities``
+    too, each layer's probability map instead (``segmentation_noise``: the maps'
+    noise SD)."""
     require_new_folder(Path(out))
     params = sample_params(group, seed, n_frames=frames, **overrides)
     bar = Progress(frames, f"phantom {Path(out).name}", quiet=quiet)
     with staged_output(out) as tmp:
         if labels:
             write_label_phantom(tmp, params, voxel_size_um, noise=segmentation_noise,
-                                name=Path(out).name, progress=bar.update)
+                                name=Path(out).name, progress=bar.update,
+                                probabilities=probabilities)
         else:
             write_phantom(tmp, params, name=Path(out).name, progress=bar.update)
     bar.close()

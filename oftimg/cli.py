@@ -189,7 +189,12 @@ def _parser() -> argparse.ArgumentParser:
                                                   "(default 4 4 8)")
     ph.add_argument("--segmentation-noise", type=float, default=0.05, metavar="SHARE",
                     help="with --labels: share of boundary voxels given a neighbour's label, "
-                         "with specks of wrong labels (default 0.05; 0: none)")
+                         "with specks of wrong labels (default 0.05; 0: none); with "
+                         "--probabilities, the maps' noise SD")
+    ph.add_argument("--probabilities", action="store_true",
+                    help="write each layer's probability map "
+                         "(probabilities/<layer>/, uint8 TIFF per frame: its share of each "
+                         "voxel, blurred by half a voxel, with noise) instead of labels")
     ph.add_argument("--quiet", action="store_true")
 
     me = sub.add_parser("mesh", help="mesh a label dataset (labels/) into a mesh dataset "
@@ -234,11 +239,13 @@ def _print_report(report: dict) -> None:
           f"inlet at {report['inlet_mm']} mm ({report['inlet_from']})")
     if "labels" in report:
         lab = report["labels"]
-        print(f"  label volumes (z, y, x) {tuple(lab['shape_zyx'])}, voxel "
+        soft = lab["kind"] == "probabilities"
+        print(f"  {'probability maps' if soft else 'label volumes'} (z, y, x) "
+              f"{tuple(lab['shape_zyx'])}, voxel "
               f"{' x '.join(f'{d:g}' for d in lab['voxel_size'])} {lab['length_unit']}, "
-              f"labels {lab['labels']}: meshed as a run meshes them")
+              f"{'layers' if soft else 'labels'} {lab['labels']}: meshed as a run meshes them")
         for r in lab["label_repairs"]:
-            name = f"labels/{Path(r['file']).name} {r['wall']}"
+            name = f"{'probabilities/*' if soft else 'labels'}/{Path(r['file']).name} {r['wall']}"
             if "filled_from" in r:
                 print(f"  filled {name} from frames {r['filled_from'][0]} and "
                       f"{r['filled_from'][1]} ({r['why']})")
@@ -392,10 +399,13 @@ def _command(args) -> int:
         if args.vertices:
             extra.update(vertices_min=args.vertices[0], vertices_max=args.vertices[1])
         out = api.make_phantom(args.out, group=args.group, seed=args.seed,
-                               frames=args.frames, quiet=args.quiet, labels=args.labels,
+                               frames=args.frames, quiet=args.quiet,
+                               labels=args.labels or args.probabilities,
                                voxel_size_um=tuple(args.voxel_size),
-                               segmentation_noise=args.segmentation_noise, **extra)
-        print(f"phantom {'label ' if args.labels else ''}dataset: {out}")
+                               segmentation_noise=args.segmentation_noise,
+                               probabilities=args.probabilities, **extra)
+        kind = "probability " if args.probabilities else "label " if args.labels else ""
+        print(f"phantom {kind}dataset: {out}")
     elif args.command == "mesh":
         out = api.mesh(args.source, args.out, options=_mesh_options(args), jobs=args.jobs,
                        quiet=args.quiet)

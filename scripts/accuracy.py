@@ -143,11 +143,14 @@ METRICS = [
 
 def make_cohort(folder: Path, seeds: int, frames: int, noise_mm: float,
                 expand_change: float = 0.0, vertices: int | None = None, *,
-                labels=None, segmentation_noise: float = 0.05, bent: bool = False) -> Path:
+                labels=None, segmentation_noise: float = 0.05, bent: bool = False,
+                probabilities: bool = False) -> Path:
     """Normal and banded phantoms ``<group>_<seed>`` in ``folder`` (kept if there),
     meshed with 0.75 to 1.25 ``vertices`` (default: the phantoms' own range); with
     ``labels`` (voxel size, um), as label volumes with ``segmentation_noise``; with
-    ``bent``, meshes of the phantoms that labels make (bent to a quarter circle)."""
+    ``bent``, meshes of the phantoms that labels make (bent to a quarter circle); with
+    ``probabilities`` (and ``labels``), probability maps with noise of SD
+    ``segmentation_noise`` instead of label volumes."""
     sizes = ({} if vertices is None
              else dict(vertices_min=round(0.75 * vertices), vertices_max=round(1.25 * vertices)))
     for group in ("normal", "banded"):
@@ -158,7 +161,8 @@ def make_cohort(folder: Path, seeds: int, frames: int, noise_mm: float,
             params = sample_params(group, seed, n_frames=frames, noise_mm=noise_mm,
                                    expand_change=expand_change, **sizes)
             if labels is not None:
-                write_label_phantom(path, params, labels, noise=segmentation_noise)
+                write_label_phantom(path, params, labels, noise=segmentation_noise,
+                                    probabilities=probabilities)
             else:
                 write_phantom(path, label_params(params) if bent else params)
     return folder
@@ -169,7 +173,7 @@ def in_phantom_frame(dataset: Path, npz, points=lambda key: True) -> dict:
     last axis, in the phantom's own frame: a label phantom's volume is turned and
     shifted (:func:`oftimg.synthetic.labels.volume_frame`)."""
     arrays = {k: npz[k] for k in npz.files}
-    if not (dataset / "labels").is_dir():
+    if not ((dataset / "labels").is_dir() or (dataset / "probabilities").is_dir()):
         return arrays
     ph, _ = read_truth(dataset)
     meta = json.loads((dataset / "meta.json").read_text())
@@ -426,7 +430,10 @@ def main() -> None:
                     help="label phantoms of this voxel size (um), meshed by oftimg run, and "
                          "beside them the same phantoms as meshes")
     ap.add_argument("--segmentation-noise", type=float, default=0.05,
-                    help="with --labels: share of boundary voxels flipped")
+                    help="with --labels: share of boundary voxels flipped (with "
+                         "--probabilities: the maps' noise SD)")
+    ap.add_argument("--probabilities", action="store_true",
+                    help="with --labels: probability maps of that voxel size instead, alone")
     ap.add_argument("--jobs", type=int, default=None)
     ap.add_argument("--cache", type=Path, default=None,
                     help="keep the phantoms here (default: a temporary folder)")
@@ -453,12 +460,16 @@ def main() -> None:
                           {"labels": args.labels,
                            "segmentation_noise": args.segmentation_noise}),
                          (f"{name}_bent", {"bent": True})]
+                if args.probabilities:      # the maps alone: the rest is measured above
+                    kinds = [(f"{name}_probabilities{voxel}um_sd{args.segmentation_noise:g}",
+                              {"labels": args.labels, "probabilities": True,
+                               "segmentation_noise": args.segmentation_noise})]
             for (cohort_name, how), positions in ((k, p) for k in kinds
                                                   for p in args.map_positions):
                 cohort = make_cohort(cache / cohort_name, args.seeds, args.frames, noise,
                                      args.expand_change, args.vertices, **how)
-                kind = ("labels" if "labels" in how else "meshes, bent as labels"
-                        if how else "meshes")
+                kind = ("probabilities" if how.get("probabilities") else "labels"
+                        if "labels" in how else "meshes, bent as labels" if how else "meshes")
                 results = Path(tmp) / f"results_{cohort_name}_{positions}"
                 oftimg.run(cohort, results, quiet=args.json, jobs=args.jobs,
                            options={"map_positions": positions,

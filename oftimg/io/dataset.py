@@ -47,7 +47,7 @@ def check_enough_frames(ds) -> None:
     label dataset) if it has fewer than :data:`MIN_FRAMES` frames: before any work,
     in ``validate`` as in ``run``."""
     if ds.n_frames < MIN_FRAMES:
-        folder = ds.path / ("labels" if hasattr(ds, "sources") else "outer")  # label dataset
+        folder = ds.folder if hasattr(ds, "sources") else ds.path / "outer"  # label dataset
         raise DatasetError(f"{folder}: {ds.n_frames} frames; an analysis needs at least "
                            f"{MIN_FRAMES} over the cycle (the shape modes take 3 in each of "
                            "expansion and contraction)")
@@ -336,8 +336,8 @@ def _reference_inlet(frames: list[Path], unit_scale, n_probe: int = 5) -> np.nda
 
 
 def is_dataset(path: Path) -> bool:
-    """A mesh dataset (outer/) or a label dataset (labels/)."""
-    return (path / "outer").is_dir() or (path / "labels").is_dir()
+    """A mesh dataset (outer/) or a label dataset (labels/ or probabilities/)."""
+    return any((path / name).is_dir() for name in ("outer", "labels", "probabilities"))
 
 
 def load_dataset(path: str | Path) -> Dataset:

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DatasetError, InputError
-from ..mesh.labels import (CURVATURE_PROPERTY, MeshOptions, WallMesh, mesh_wall, mesh_walls,
-                           wall_masks)
+from ..mesh.labels import (CURVATURE_PROPERTY, MeshOptions, WallMesh, frame_masks, mesh_wall,
+                           mesh_walls)
 from ..mesh.topology import MeshError
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
                       read_meta, read_meta_json)
@@ -34,12 +34,58 @@ from .labelfile import (LabelSource, label_suffix, list_label_sources, read_head
 from .meshfile import write_ply
 
 LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list}
+# a probability map's stored types, and the value that means 1
+PROBABILITY_SCALE = {"float16": 1.0, "float32": 1.0, "float64": 1.0, "uint8": 255.0,
+                     "uint16": 65535.0}
 LAYER_NAMES = ("myocardium", "jelly", "lumen")
 DEFAULT_LABEL_IDS = {"myocardium": 1, "jelly": 2, "lumen": 3}
 SPACING_TOLERANCE = 1e-3        # relative: a file's voxel size and meta.json's agree
 MAX_VOXELS = 2 ** 30            # a frame of over a billion voxels is a damaged header
 CARRIED_META = ("name", "group", "period_ms", "length_unit", "inlet")
 FILLED_SHARE = 0.05     # of the frames: at most so many may have a wall filled from others
+
+
+@dataclass(frozen=True)
+class ProbabilitySource:
+    """One frame of a probabilities dataset: each layer's volume, ``(layer,
+    source)`` in the layers' order; ``path`` and ``index`` are the first layer's."""
+
+    layers: tuple[tuple[str, LabelSource], ...]
+
+    @property
+    def path(self) -> str:
+        return self.layers[0][1].path
+
+    @property
+    def index(self) -> int | None:
+        return self.layers[0][1].index
+
+    def __str__(self) -> str:                     # probabilities/*/f003.tif
+        path = Path(self.path)
+        at = "" if self.index is None else f" (frame {self.index})"
+        return f"{path.parent.parent / '*' / path.name}{at}"
+
+
+def read_frame(source: LabelSource | ProbabilitySource) -> np.ndarray | dict:
+    """One frame's volume: labels ``(z, y, x)`` as stored, or for a probabilities
+    frame each layer's probability ``(z, y, x)`` float32 in [0, 1] (layer -> array).
+    Raises :class:`DatasetError` naming the file for values outside [0, 1]."""
+    if not isinstance(source, ProbabilitySource):
+        return read_volume(source)
+    out = {}
+    for layer, part in source.layers:
+        raw = read_volume(part)
+        values = raw.astype(np.float32) / np.float32(PROBABILITY_SCALE[raw.dtype.name])
+        if raw.dtype.kind == "f":
+            low, high = float(np.min(values)), float(np.max(values))
+            if not (np.isfinite(low) and np.isfinite(high) and low >= -1e-3
+                    and high <= 1 + 1e-3):
+                raise DatasetError(f"{part}: probabilities from {low:.6g} to {high:.6g}; a "
+                                   "probability map holds values in [0, 1] (uint8 or uint16 "
+                                   "scaled to their largest value)")
+            values = np.clip(values, 0.0, 1.0)
+        out[layer] = values
+    return out
 
 
 @dataclass(frozen=True)
@@ -57,14 +103,22 @@ class LabelDataset:
     voxel_size: tuple[float, float, float]
     label_ids: dict
     ends: tuple | None
+    kind: str = "labels"            # or "probabilities": a folder per layer
 
     @property
     def n_frames(self) -> int:
         return len(self.sources)
 
+    @property
+    def folder(self) -> Path:
+        """``labels/`` or ``probabilities/``."""
+        return self.path / self.kind
+
     def input_files(self) -> list[Path]:
         """The files the dataset is made of (each once), meta.json with them."""
-        files = list(dict.fromkeys(Path(s.path) for s in self.sources))
+        parts = [part for s in self.sources
+                 for _, part in (s.layers if isinstance(s, ProbabilitySource) else [("", s)])]
+        files = list(dict.fromkeys(Path(s.path) for s in parts))
         return files + [p for p in [self.path / "meta.json"] if p.is_file()]
 
     def mesh_names(self) -> list[str]:
@@ -77,7 +131,8 @@ class LabelDataset:
 
 
 def is_label_dataset(path: Path) -> bool:
-    return (Path(path) / "labels").is_dir()
+    """A folder with ``labels/`` or ``probabilities/``: meshed before the analysis."""
+    return (Path(path) / "labels").is_dir() or (Path(path) / "probabilities").is_dir()
 
 
 def load_label_dataset(path: str | Path) -> LabelDataset:
@@ -86,10 +141,66 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     frame's voxels only when meta.json names no labels (one label value: the outer
     wall alone; else myocardium 1, jelly 2, lumen 3)."""
     path = Path(path)
+    if (path / "probabilities").is_dir():
+        return _load_probabilities(path)
     sources = list_label_sources(path / "labels", natural_key)
     raw = read_meta_json(path, LABEL_META_KEYS)
     meta = read_meta(path, LABEL_META_KEYS)
     headers = [read_header(s) for s in sources]
+    first = _check_headers(sources, headers)
+    for source, header in zip(sources, headers):
+        if not (np.issubdtype(header.dtype, np.integer) or header.dtype == bool):
+            raise DatasetError(f"{source}: {header.dtype} labels; a label volume holds whole "
+                               "numbers (0 background), as segmentation tools export it")
+    voxel = _voxel_size(path / "labels", meta, raw, sources, headers)
+    label_ids = _label_ids(path, raw, sources[0], first.dtype)
+    ends = _ends(path, raw, first.shape, voxel)
+    return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends)
+
+
+def _load_probabilities(path: Path) -> LabelDataset:
+    """:func:`load_label_dataset` for ``probabilities/``: a folder per layer
+    (myocardium/ at least, jelly/, lumen/), each with a volume per frame as labels/
+    has them, every frame the same shape; float in [0, 1], or uint8 / uint16."""
+    folder = path / "probabilities"
+    if (path / "labels").is_dir():
+        raise DatasetError(f"{path}: holds both labels/ and probabilities/; keep the one to "
+                           "mesh")
+    layers = [layer for layer in LAYER_NAMES if (folder / layer).is_dir()]
+    if "myocardium" not in layers:
+        raise DatasetError(f"{folder}: no myocardium/ folder; probabilities/ holds a folder "
+                           f"per layer ({', '.join(f'{n}/' for n in LAYER_NAMES)}; myocardium/ "
+                           "at least), each with one volume per frame")
+    raw = read_meta_json(path, LABEL_META_KEYS)
+    if "labels" in raw:
+        raise DatasetError(f"{path / 'meta.json'}: \"labels\" gives label values; a "
+                           "probabilities dataset names its layers by its folders (remove it)")
+    meta = read_meta(path, LABEL_META_KEYS)
+    per_layer = {layer: list_label_sources(folder / layer, natural_key) for layer in layers}
+    counts = {layer: len(s) for layer, s in per_layer.items()}
+    if len(set(counts.values())) > 1:
+        raise DatasetError(f"{folder}: its layers have different numbers of frames ("
+                           + ", ".join(f"{layer}/ {n}" for layer, n in counts.items()) + ")")
+    flat = [s for layer in layers for s in per_layer[layer]]
+    headers = [read_header(s) for s in flat]
+    first = _check_headers(flat, headers)
+    for source, header in zip(flat, headers):
+        if header.dtype.name not in PROBABILITY_SCALE:
+            raise DatasetError(f"{source}: {header.dtype} voxels; a probability map is float "
+                               "(values in [0, 1]), uint8 or uint16 (scaled to its largest "
+                               "value)")
+    n = counts["myocardium"]
+    voxel = _voxel_size(folder / "myocardium", meta, raw, flat[:n], headers[:n])
+    sources = tuple(ProbabilitySource(tuple((layer, per_layer[layer][t]) for layer in layers))
+                    for t in range(n))
+    ends = _ends(path, raw, first.shape, voxel)
+    return LabelDataset(path, meta, raw, sources, first.shape, voxel,
+                        {layer: DEFAULT_LABEL_IDS[layer] for layer in layers}, ends,
+                        kind="probabilities")
+
+
+def _check_headers(sources, headers):
+    """The first header, once every frame's shape is sane and the same as it."""
     first = headers[0]
     for source, header in zip(sources, headers):
         if min(header.shape) < 2 or np.prod(header.shape, dtype=float) > MAX_VOXELS:
@@ -99,21 +210,16 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
         if header.shape != first.shape:
             raise DatasetError(f"{source}: a volume of shape (z, y, x) {header.shape}, but the "
                                f"first frame's is {first.shape}; every frame has one shape")
-        if not (np.issubdtype(header.dtype, np.integer) or header.dtype == bool):
-            raise DatasetError(f"{source}: {header.dtype} labels; a label volume holds whole "
-                               "numbers (0 background), as segmentation tools export it")
-    voxel = _voxel_size(path, meta, raw, sources, headers)
-    label_ids = _label_ids(path, raw, sources[0], first.dtype)
-    ends = _ends(path, raw, first.shape, voxel)
-    return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends)
+    return first
 
 
-def _voxel_size(path: Path, meta: Meta, raw: dict, sources, headers) -> tuple:
-    """The voxel size in the meta's length unit: meta.json's, which each file that
-    carries one must agree with, or the files' own."""
+def _voxel_size(folder: Path, meta: Meta, raw: dict, sources, headers) -> tuple:
+    """The voxel size in the meta's length unit: meta.json's, which each file in
+    ``folder`` that carries one must agree with, or the files' own."""
+    path = folder.parent if folder.name == "labels" else folder.parent.parent
     to_unit = 1.0 / UNIT_TO_MM[meta.length_unit]
     given = meta.voxel_size
-    if series_file(path / "labels") is not None:
+    if series_file(folder) is not None:
         sources, headers = sources[:1], headers[:1]
     for source, header in zip(sources, headers):
         if header.voxel_size_mm is None:
@@ -212,7 +318,7 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
     :class:`DatasetError` naming the frame's file when the file itself is bad
     (returned, so that one pass over the frames finds every bad one)."""
     try:
-        walls = mesh_walls(read_volume(source), label_ids, voxel_size, options, ends)
+        walls = mesh_walls(read_frame(source), label_ids, voxel_size, options, ends)
     except DatasetError as exc:                  # names its file already
         return exc
     except (InputError, MeshError) as exc:
@@ -250,9 +356,9 @@ def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, 
     t_before, t_after, weight = between
     masks = []
     for frame, was_mended in zip((t_before, t_after), mended):
-        mask = wall_masks(read_volume(sources[frame]), label_ids)[wall]
+        mask = frame_masks(read_frame(sources[frame]), label_ids)[wall]
         masks.append(solid_tube_mask(mask)[0] if was_mended else core(mask))
-    own = wall_masks(read_volume(sources[t]), label_ids)
+    own = frame_masks(read_frame(sources[t]), label_ids)
     order = list(own)
     k = order.index(wall)
     whole = [w for w in order if w not in left]
@@ -320,7 +426,8 @@ def label_repairs_note(path: Path, repairs: list[dict]) -> str | None:
         parts.append(f"left out {len(filled)} wall{'s' * (len(filled) > 1)} that could not be "
                      f"meshed and filled {'them' if len(filled) > 1 else 'it'} from the frames "
                      f"around: {named}{'; ...' if len(filled) > 4 else ''}")
-    return (f"{Path(path) / 'labels'}: {'; and '.join(parts)}; all in summary.json "
+    folder = "probabilities" if (Path(path) / "probabilities").is_dir() else "labels"
+    return (f"{Path(path) / folder}: {'; and '.join(parts)}; all in summary.json "
             "provenance.meshing.label_repairs")
 
 
@@ -364,7 +471,7 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
                   if p.name != "meta.json"],
         "meshing": {"options": options.as_dict(), "voxel_size": list(lds.voxel_size),
                     "length_unit": lds.meta.length_unit, "shape_zyx": list(lds.shape),
-                    "labels": lds.label_ids,
+                    "labels": lds.label_ids, "kind": lds.kind,
                     "ends": None if lds.ends is None else [list(map(list, e)) for e in lds.ends],
                     **{key: {w: [r[key][w] for r in results] for w in walls}
                        for key in ("vertices", "pieces_dropped", "step")},
@@ -398,7 +505,7 @@ def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: 
     if len(left) > allowed:
         named = "; ".join(f"{_frame_name(lds, t)}: {', '.join(dict.fromkeys(walls.values()))}"
                           for t, walls in left.items())
-        raise DatasetError(f"{lds.path / 'labels'}: {len(left)} of {n} frames have a wall that "
+        raise DatasetError(f"{lds.folder}: {len(left)} of {n} frames have a wall that "
                            f"cannot be meshed, more than the {allowed} ({FILLED_SHARE:.0%}) "
                            f"that can be filled from the frames around them: {named}")
     tasks = []

@@ -37,6 +37,26 @@ def wall_masks(labels: np.ndarray, label_ids: dict[str, int]) -> dict[str, np.nd
     return masks
 
 
+def wall_occupancy(probabilities: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Each wall's occupancy ``(z, y, x)`` float32 in [0, 1] from its layers'
+    probabilities (layer -> ``(z, y, x)``): their sum, clipped; for the walls whose
+    layers are all given (the outer wall: whatever layers are)."""
+    occupancy = {}
+    for wall, layers in WALL_LAYERS.items():
+        present = [probabilities[layer] for layer in layers if layer in probabilities]
+        if len(present) == len(layers) or (wall == "outer" and present):
+            occupancy[wall] = np.clip(np.sum(present, axis=0), 0.0, 1.0).astype(np.float32)
+    return occupancy
+
+
+def frame_masks(volume: np.ndarray | dict, label_ids: dict[str, int]) -> dict[str, np.ndarray]:
+    """Each wall's mask ``(z, y, x)`` bool from one frame's labels or probabilities
+    (:func:`wall_masks`; an occupancy above 0.5 for probabilities)."""
+    if isinstance(volume, dict):
+        return {w: occ > LEVEL for w, occ in wall_occupancy(volume).items()}
+    return wall_masks(volume, label_ids)
+
+
 def _member(labels: np.ndarray, values: list[int]) -> np.ndarray:
     """``np.isin(labels, values)``; for 8- and 16-bit labels by a lookup table (10x faster)."""
     if labels.dtype.kind in "ub" and labels.dtype.itemsize <= 2:
@@ -298,10 +318,11 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
     return WallMesh(V, topo.F, cleaned, float(step), mean_curvature=H)
 
 
-def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
+def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_xyz,
                options: MeshOptions = MeshOptions(), ends=None) -> dict[str, WallMesh | str]:
-    """Every wall of one frame's label volume ``(z, y, x)`` (:func:`wall_masks`,
-    :func:`mesh_wall`), outer first. A wall that is not an open tube has its mask
+    """Every wall of one frame's label volume ``(z, y, x)`` (:func:`wall_masks`), or of
+    its probabilities (layer -> ``(z, y, x)`` in [0, 1]: :func:`wall_occupancy`), by
+    :func:`mesh_wall`, outer first. A wall that is not an open tube has its mask
     mended (:func:`~oftimg.mesh.mask_topology.solid_tube_mask`: a handle, a tunnel or
     a bridge opened or closed away, recorded in the wall's ``repair``), and the walls
     inside it are kept inside its mended mask (:func:`keep_inside`, the voxels cut
@@ -309,18 +330,26 @@ def mesh_walls(labels: np.ndarray, label_ids: dict[str, int], voxel_size_xyz,
     be meshed even so, or whose layer's label is absent, comes back as the reason
     (a str: "the lumen wall has no voxel labelled lumen (3)"), to be filled from the
     neighbouring frames. Raises :class:`InputError` for float labels."""
-    masks = wall_masks(labels, label_ids)
-    values = _values(labels)
+    if isinstance(labels, dict):                        # probabilities, layer -> (z, y, x)
+        masks = wall_occupancy(labels)
+        present = {layer: bool(np.max(p) > LEVEL) for layer, p in labels.items()}
+        nothing, missing = "no voxel has a probability above 0.5", "no voxel above 0.5 in {}"
+    else:
+        masks = wall_masks(labels, label_ids)
+        values = _values(labels)
+        present = {layer: v in values for layer, v in label_ids.items()}
+        nothing = "holds no labelled voxel (all zero)"
+        missing = "no voxel labelled {} (" + "{})"
     walls: dict[str, WallMesh | str] = {}
     enclosing = None                 # the mended mask of the wall around this one, if any
     for wall, mask in masks.items():
         # a wall's surface is its outermost layer's (one named layer: the outer wall's)
         layer = next(la for la in WALL_LAYERS[wall] if la in label_ids)
-        if not values.any():
-            walls[wall] = "holds no labelled voxel (all zero)"
+        if not any(present.values()):
+            walls[wall] = nothing
             continue
-        if label_ids[layer] not in values:
-            walls[wall] = f"the {wall} wall: no voxel labelled {layer} ({label_ids[layer]})"
+        if not present[layer]:
+            walls[wall] = f"the {wall} wall: {missing.format(layer, label_ids[layer])}"
             continue
         nested = None
         if enclosing is not None:       # nested by the labels' design, unless one was mended
@@ -339,11 +368,15 @@ def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOpti
     try:
         return mesh_wall(mask, voxel_size_xyz, options, ends, curvature=curvature), None
     except MeshError as exc:        # a handle, a tunnel, a bridge: mend the mask, once
-        solid, repair = solid_tube_mask(mask)
+        inside = mask if mask.dtype == bool else mask > LEVEL
+        solid, repair = solid_tube_mask(inside)
         if repair is None:
             return f"the {wall} wall {exc}", None
+        # an occupancy keeps its values where the mending left the voxel as it was
+        mended = solid if mask.dtype == bool else np.where(solid == inside, mask, solid
+                                                            ).astype(np.float32)
         try:
-            return replace(mesh_wall(solid, voxel_size_xyz, options, ends, curvature=curvature),
+            return replace(mesh_wall(mended, voxel_size_xyz, options, ends, curvature=curvature),
                            repair=repair), solid
         except MeshError as again:
             return f"the {wall} wall {again} (after its mask's {repair.what})", None
@@ -358,10 +391,12 @@ def keep_inside(mask: np.ndarray, enclosing: np.ndarray) -> tuple[np.ndarray, in
     to nothing, and a forced gap of a voxel pierced thin layers."""
     from scipy import ndimage
 
-    cut = mask & ~enclosing
+    inside = mask if mask.dtype == bool else mask > LEVEL        # an occupancy: above 0.5
+    cut = inside & ~enclosing
     if not cut.any():
         return mask, None
-    kept = mask & enclosing
     six = ndimage.generate_binary_structure(3, 1)
-    moved = int(np.count_nonzero(cut & ndimage.binary_dilation(kept, six)))
+    moved = int(np.count_nonzero(cut & ndimage.binary_dilation(inside & enclosing, six)))
+    kept = mask & enclosing if mask.dtype == bool else np.where(enclosing, mask, 0).astype(
+        np.float32)
     return kept, moved or None

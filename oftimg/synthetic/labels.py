@@ -47,9 +47,11 @@ def volume_frame(phantom: Phantom, voxel_size_um) -> tuple[np.ndarray, np.ndarra
 class LabelGrid:
     """The voxel grid of a label phantom: each voxel centre's window coordinates
     ``(s, theta)`` and distance from the centre line (mm), for the voxels that can
-    lie inside the outer wall; computed once, used for every frame."""
+    lie inside the outer wall; computed once, used for every frame. With
+    ``offset_voxels`` (dx, dy, dz shares of a voxel), at points that far off the
+    centres, in the same volume."""
 
-    def __init__(self, phantom: Phantom, voxel_size_um):
+    def __init__(self, phantom: Phantom, voxel_size_um, offset_voxels=(0.0, 0.0, 0.0)):
         p = phantom.p
         self.phantom = phantom
         self.voxel_mm = np.asarray(voxel_size_um, float) * 1e-3          # dx, dy, dz
@@ -61,9 +63,11 @@ class LabelGrid:
         self.shape = tuple(int(n) for n in (np.ceil(extent / self.voxel_mm).astype(int)
                                             + 1)[::-1])               # (z, y, x)
         nz, ny, nx = self.shape
-        x = np.arange(nx) * self.voxel_mm[0]
-        y = np.arange(ny) * self.voxel_mm[1]
-        z = np.arange(nz) * self.voxel_mm[2] - self.shift[2]
+        # sampled at each voxel's centre, or off it by offset_voxels (partial volumes)
+        ox, oy, oz = offset_voxels
+        x = (np.arange(nx) + ox) * self.voxel_mm[0]
+        y = (np.arange(ny) + oy) * self.voxel_mm[1]
+        z = (np.arange(nz) + oz) * self.voxel_mm[2] - self.shift[2]
         rho_xy = np.hypot(x[None, :], y[:, None])                      # (y, x)
         ring = (np.abs(rho_xy - R) < reach)
         near = ring[None, :, :] & (np.abs(z) < reach)[:, None, None]
@@ -121,13 +125,43 @@ def segmentation_noise(labels: np.ndarray, flip: float, rng: np.random.Generator
     return out
 
 
+PSF_VOXELS = 0.5                    # a probability map's blur (Gaussian sigma, voxels)
+
+
+def partial_volumes(grids: list[LabelGrid], t_ms: float) -> dict[str, np.ndarray]:
+    """Each layer's share of each voxel ``(z, y, x)`` float32 at ``t_ms``: the labels
+    sampled on ``grids`` (one volume sampled at points spread over each voxel)."""
+    counts = {layer: None for layer in LABEL_VALUES}
+    for grid in grids:
+        labels = grid.labels(t_ms)
+        for layer, value in LABEL_VALUES.items():
+            hit = (labels == value).astype(np.float32)
+            counts[layer] = hit if counts[layer] is None else counts[layer] + hit
+    return {layer: c / len(grids) for layer, c in counts.items()}
+
+
+def probability_map(share: np.ndarray, noise: float, rng: np.random.Generator) -> np.ndarray:
+    """A layer's share of each voxel as a segmenter's probability map gives it:
+    blurred by a point spread (:data:`PSF_VOXELS`), with Gaussian noise of SD
+    ``noise``, in [0, 1] as uint8 (255 = 1)."""
+    from scipy import ndimage
+
+    p = ndimage.gaussian_filter(share, PSF_VOXELS, mode="nearest")
+    if noise > 0:
+        p = p + rng.normal(0.0, noise, p.shape).astype(np.float32)
+    return np.round(np.clip(p, 0.0, 1.0) * 255).astype(np.uint8)
+
+
 def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
                         *, noise: float = 0.05, name: str | None = None,
-                        progress=None) -> Path:
+                        progress=None, probabilities: bool = False) -> Path:
     """Write a label phantom dataset: ``meta.json``, ``labels/f000.tif ...`` (one
     zlib-compressed uint8 TIFF per frame, (z, y, x)) and ``truth.json``. ``noise``:
     the share of boundary voxels flipped (with specks, :func:`segmentation_noise`;
-    0 for none). ``params`` are bent by :func:`label_params`. Returns the folder."""
+    0 for none). With ``probabilities``, ``probabilities/<layer>/f000.tif ...``
+    instead: each layer's partial volume (2 x 2 x 2 samples a voxel), blurred and
+    with noise of SD ``noise`` (:func:`probability_map`). ``params`` are bent by
+    :func:`label_params`. Returns the folder."""
     import tifffile
 
     voxel = tuple(float(d) for d in voxel_size_um)
@@ -142,18 +176,31 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
     ph = Phantom(params)
     grid = LabelGrid(ph, voxel)
     rng = np.random.default_rng([params.seed, 53])
-    (out / "labels").mkdir(parents=True, exist_ok=True)
     width = len(str(params.n_frames - 1))
+    if probabilities:
+        grids = [LabelGrid(ph, voxel, (ox, oy, oz)) for ox in (-0.25, 0.25)
+                 for oy in (-0.25, 0.25) for oz in (-0.25, 0.25)]
+        for layer in LABEL_VALUES:
+            (out / "probabilities" / layer).mkdir(parents=True, exist_ok=True)
+    else:
+        (out / "labels").mkdir(parents=True, exist_ok=True)
     for k, t in enumerate(ph.frame_times_ms()):
-        labels = grid.labels(t)
-        if noise > 0:
-            labels = segmentation_noise(labels, noise, rng)
-        tifffile.imwrite(out / "labels" / f"f{k:0{width}d}.tif", labels, compression="zlib")
+        frame = f"f{k:0{width}d}.tif"
+        if probabilities:
+            for layer, share in partial_volumes(grids, t).items():
+                tifffile.imwrite(out / "probabilities" / layer / frame,
+                                 probability_map(share, noise, rng), compression="zlib")
+        else:
+            labels = grid.labels(t)
+            if noise > 0:
+                labels = segmentation_noise(labels, noise, rng)
+            tifffile.imwrite(out / "labels" / frame, labels, compression="zlib")
         if progress is not None:
             progress(k + 1)
     inlet_um = (ph.frame_axes(0.0)[0] @ grid.turn + grid.shift) * 1e3
     meta = {"name": name or out.name, "group": params.group, "period_ms": params.period_ms,
-            "length_unit": "um", "voxel_size": list(voxel), "labels": LABEL_VALUES,
+            "length_unit": "um", "voxel_size": list(voxel),
+            **({} if probabilities else {"labels": LABEL_VALUES}),
             "inlet": [round(float(x), 6) for x in inlet_um]}
     (out / "meta.json").write_text(json.dumps(meta, indent=2))
     (out / "truth.json").write_text(json.dumps(ph.truth(), indent=1))

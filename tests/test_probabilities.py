@@ -1,0 +1,104 @@
+"""Probability maps in (issue 60): ``probabilities/<layer>/`` meshed at 0.5 as label
+volumes are, the phantom's own maps through `oftimg run`, and bad maps refused in
+one line."""
+import json
+import shutil
+
+import numpy as np
+import pytest
+import tifffile
+
+from oftimg.cli import main
+from oftimg.io.label_dataset import load_label_dataset, read_frame
+from oftimg.mesh.labels import wall_occupancy
+from oftimg.synthetic.labels import (LabelGrid, label_params, partial_volumes,
+                                    write_label_phantom)
+from oftimg.synthetic.phantom import Phantom, sample_params
+
+pytestmark = pytest.mark.usefixtures("png_figures_only")
+
+COARSE_UM = (8.0, 8.0, 16.0)
+
+
+@pytest.fixture(scope="module")
+def maps(tmp_path_factory):
+    path = tmp_path_factory.mktemp("probabilities") / "pm"
+    write_label_phantom(path, sample_params("normal", 0, n_frames=8), COARSE_UM, noise=0.05,
+                        probabilities=True)
+    return path
+
+
+def test_the_phantoms_maps_are_its_partial_volumes(maps):
+    """Each layer's map is its share of each voxel, with noise: in [0, 1], adding up
+    to about one at most; without the noise and blur, the outer wall's occupancy
+    summed over the voxels is its volume (within 1 %)."""
+    lds = load_label_dataset(maps)
+    assert lds.kind == "probabilities" and lds.folder == maps / "probabilities"
+    assert [layer for layer, _ in lds.sources[0].layers] == ["myocardium", "jelly", "lumen"]
+    assert str(lds.sources[3]) == str(maps / "probabilities" / "*" / "f3.tif")
+    frame = read_frame(lds.sources[0])
+    assert all(p.dtype == np.float32 and 0 <= p.min() and p.max() <= 1 for p in frame.values())
+    assert np.percentile(sum(frame.values()), 99.9) <= 1.0 + 0.2      # plus the maps' noise
+    ph = Phantom(label_params(sample_params("normal", 0, n_frames=8)))
+    grids = [LabelGrid(ph, COARSE_UM, (ox, oy, oz)) for ox in (-0.25, 0.25)
+             for oy in (-0.25, 0.25) for oz in (-0.25, 0.25)]
+    t = float(ph.frame_times_ms()[0])
+    occupancy = wall_occupancy(partial_volumes(grids, t))["outer"]
+    volume_mm3 = occupancy.sum() * np.prod(COARSE_UM) * 1e-9
+    assert abs(volume_mm3 / ph.volume_mm3("outer", np.array([t]))[0] - 1) < 0.01, volume_mm3
+
+
+def test_probability_maps_through_run(maps, tmp_path, capsys):
+    assert main(["validate", str(maps)]) == 0
+    assert "probability maps (z, y, x)" in capsys.readouterr().out
+    out = tmp_path / "res"
+    assert main(["run", str(maps), "--out", str(out), "--quiet", "--jobs", "2"]) == 0
+    summary = json.loads((out / "pm" / "summary.json").read_text())
+    meshing = summary["provenance"]["meshing"]
+    assert meshing["kind"] == "probabilities" and meshing["label_repairs"] == []
+    files = {f["file"] for f in summary["provenance"]["inputs"]["labels"]}
+    assert len(files) == 3 * 8 and all("/probabilities/" in f for f in files)
+    arr = np.load(out / "pm" / "arrays.npz")
+    truth = json.loads((maps / "truth.json").read_text())
+    ph = Phantom(label_params(sample_params("normal", 0, n_frames=8)))
+    t_ms = np.roll(np.array(truth["t_ms"]), -summary["t0_frame"])
+    for wall in ("outer", "inner", "lumen"):
+        true = ph.area_mm2(wall, arr["s_mm"][:, None], t_ms[None, :])
+        assert np.median(np.abs(arr[f"area_{wall}_mm2"] / true - 1)) < 0.05, wall
+
+
+def damaged(maps, dst, problem):
+    shutil.copytree(maps, dst)
+    layer = dst / "probabilities" / "lumen"
+    first = tifffile.imread(layer / "f2.tif")
+    if problem == "beyond_one":
+        tifffile.imwrite(layer / "f2.tif", first.astype(np.float32) / 100)  # up to 2.55
+        return layer / "f2.tif", "probabilities from 0 to 2.55; a probability map holds values"
+    if problem == "int32":
+        tifffile.imwrite(layer / "f2.tif", first.astype(np.int32))
+        return layer / "f2.tif", "int32 voxels; a probability map is float"
+    if problem == "fewer_frames":
+        (layer / "f7.tif").unlink()
+        return dst / "probabilities", "different numbers of frames (myocardium/ 8, jelly/ 8, " \
+                                      "lumen/ 7)"
+    if problem == "both":
+        (dst / "labels").mkdir()
+        return dst, "holds both labels/ and probabilities/"
+    if problem == "no_myocardium":
+        shutil.rmtree(dst / "probabilities" / "myocardium")
+        return dst / "probabilities", "no myocardium/ folder"
+    raw = json.loads((dst / "meta.json").read_text())
+    (dst / "meta.json").write_text(json.dumps({**raw, "labels": {"myocardium": 1}}))
+    return dst / "meta.json", "a probabilities dataset names its layers by its folders"
+
+
+@pytest.mark.parametrize("problem", ["beyond_one", "int32", "fewer_frames", "both",
+                                     "no_myocardium", "labels_in_meta"])
+def test_bad_maps_are_one_line_naming_the_file(maps, tmp_path, capsys, problem):
+    where, what = damaged(maps, tmp_path / "bad", problem)
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "bad"), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"oftimg: error: {where}"), err
+    assert what in err[0], err[0]
+    assert not out.exists()

@@ -94,3 +94,23 @@ def retriangulated_tube(rng, *, radius_in=2.0, radius_out=None, length=10.0,
     perm = rng.permutation(len(V))
     inv = np.argsort(perm)
     return V[perm], inv[F][rng.permutation(len(F))].astype(np.int64)
+
+
+def label_phantom_area_errors(page, phantom_folder, n_frames: int, group: str = "normal",
+                              seed: int = 0) -> dict:
+    """|area / truth - 1| ``(n_v, n_t)`` per wall of a run's results ``page`` (its
+    summary.json and arrays.npz) of a label phantom written with ``sample_params(group,
+    seed, n_frames=n_frames)``, in the results' time order."""
+    import json
+
+    from oftimg.synthetic.labels import label_params
+    from oftimg.synthetic.phantom import Phantom, sample_params
+
+    summary = json.loads((page / "summary.json").read_text())
+    arrays = np.load(page / "arrays.npz")
+    truth = json.loads((phantom_folder / "truth.json").read_text())
+    ph = Phantom(label_params(sample_params(group, seed, n_frames=n_frames)))
+    t_ms = np.roll(np.array(truth["t_ms"]), -summary["t0_frame"])
+    return {wall: np.abs(arrays[f"area_{wall}_mm2"]
+                         / ph.area_mm2(wall, arrays["s_mm"][:, None], t_ms[None, :]) - 1)
+            for wall in ("outer", "inner", "lumen")}

@@ -16,6 +16,8 @@ from oftimg.mesh.topology import boundary_loops, capped_signed_volume, check_tub
 from oftimg.synthetic.labels import LABEL_VALUES, LabelGrid, label_params, write_label_phantom
 from oftimg.synthetic.phantom import Phantom, sample_params
 
+from helpers import label_phantom_area_errors
+
 pytestmark = pytest.mark.usefixtures("png_figures_only")
 
 COARSE_UM = (8.0, 8.0, 16.0)          # fast: about half a million voxels a frame
@@ -115,13 +117,8 @@ def test_the_label_phantom_through_run(label_phantom, tmp_path):
     assert set(meshing["vertices"]) == {"outer", "inner", "lumen"}
     assert all(len(v) == 8 and min(v) > 1000 for v in meshing["vertices"].values())
     assert prov["options"]["meshing"] == MeshOptions().as_dict()
-    arr = np.load(out / "lp" / "arrays.npz")
-    truth = json.loads((label_phantom / "truth.json").read_text())
-    ph = Phantom(label_params(sample_params("normal", 0, n_frames=8)))
-    t_ms = np.roll(np.array(truth["t_ms"]), -summary["t0_frame"])
-    for wall in ("outer", "inner", "lumen"):
-        true = ph.area_mm2(wall, arr["s_mm"][:, None], t_ms[None, :])
-        assert np.median(np.abs(arr[f"area_{wall}_mm2"] / true - 1)) < 0.06, wall
+    for wall, error in label_phantom_area_errors(out / "lp", label_phantom, 8).items():
+        assert np.median(error) < 0.06, wall
     assert not list(tmp_path.rglob("*.meshes"))                   # the meshes went with the run
 
 

@@ -15,8 +15,10 @@ from oftimg.mesh.mask_blend import blended_occupancy
 from oftimg.mesh.mask_topology import core, euler
 from oftimg.mesh.labels import wall_masks
 from oftimg.synthetic.label_defects import DEFECTS, inject
-from oftimg.synthetic.labels import LABEL_VALUES, label_params, write_label_phantom
-from oftimg.synthetic.phantom import Phantom, sample_params
+from oftimg.synthetic.labels import LABEL_VALUES, write_label_phantom
+from oftimg.synthetic.phantom import sample_params
+
+from helpers import label_phantom_area_errors
 
 pytestmark = pytest.mark.usefixtures("png_figures_only")
 
@@ -85,13 +87,8 @@ def test_a_defective_segmentation_runs_with_every_repair_said_where_it_was(phant
     assert "mended the topology of 5 wall masks" in said
     assert "filled it from the frames around: f14.tif lumen (from frames 13 and 15" in said
     # the areas as close to the truth as a clean segmentation's (coarse voxels: 6 %)
-    arrays = np.load(next(out.glob("*/arrays.npz")))
-    truth = json.loads((phantom / "truth.json").read_text())
-    ph = Phantom(label_params(sample_params("normal", 0, n_frames=FRAMES)))
-    t_ms = np.roll(np.array(truth["t_ms"]), -summary["t0_frame"])
-    for wall in ("outer", "inner", "lumen"):
-        true = ph.area_mm2(wall, arrays["s_mm"][:, None], t_ms[None, :])
-        error = np.abs(arrays[f"area_{wall}_mm2"] / true - 1)
+    page = next(out.glob("*/summary.json")).parent
+    for wall, error in label_phantom_area_errors(page, phantom, FRAMES).items():
         assert np.median(error) < 0.06, wall
         frame = (AT["no_lumen"] - summary["t0_frame"]) % FRAMES       # the filled frame
         assert np.median(error[:, frame]) < 0.06, wall

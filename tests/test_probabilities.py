@@ -15,6 +15,8 @@ from oftimg.synthetic.labels import (LabelGrid, label_params, partial_volumes,
                                     write_label_phantom)
 from oftimg.synthetic.phantom import Phantom, sample_params
 
+from helpers import label_phantom_area_errors
+
 pytestmark = pytest.mark.usefixtures("png_figures_only")
 
 COARSE_UM = (8.0, 8.0, 16.0)
@@ -58,13 +60,8 @@ def test_probability_maps_through_run(maps, tmp_path, capsys):
     assert meshing["kind"] == "probabilities" and meshing["label_repairs"] == []
     files = {f["file"] for f in summary["provenance"]["inputs"]["labels"]}
     assert len(files) == 3 * 8 and all("/probabilities/" in f for f in files)
-    arr = np.load(out / "pm" / "arrays.npz")
-    truth = json.loads((maps / "truth.json").read_text())
-    ph = Phantom(label_params(sample_params("normal", 0, n_frames=8)))
-    t_ms = np.roll(np.array(truth["t_ms"]), -summary["t0_frame"])
-    for wall in ("outer", "inner", "lumen"):
-        true = ph.area_mm2(wall, arr["s_mm"][:, None], t_ms[None, :])
-        assert np.median(np.abs(arr[f"area_{wall}_mm2"] / true - 1)) < 0.05, wall
+    for wall, error in label_phantom_area_errors(out / "pm", maps, 8).items():
+        assert np.median(error) < 0.05, wall
 
 
 def damaged(maps, dst, problem):

@@ -7,7 +7,9 @@
    vertices a wall; the labels meshed to as many): `oftimg.run` on each, back to back
    in this process; prints the
    wall seconds of each, the meshing's own seconds and what the labels add (the
-   target: at most +50 %), and the peak memory of all processes together.
+   target: at most +50 %), and the peak memory of all processes together; and the
+   labels again with the lumen's curvature taken from its mesh (``lumen_curvature_blur``
+   0), to say what reading it from the level sets costs (target: at most +30 %).
 2. With --big: 195 frames of 256 x 256 x 256 uint8 volumes (the phantom at 4.1 um
    isotropic, padded to 256 along z), run as labels; prints the peak memory of all
    processes together (target: under 2.5 GB) and the seconds.
@@ -100,6 +102,9 @@ def main() -> None:
         as_meshes = timed_run(meshes, args.jobs)
         # meshed to the meshes' size, so that the difference is the meshing's
         as_labels = timed_run(labels, args.jobs, {"meshing": {"target_vertices": VERTICES}})
+        # the lumen's curvature from its mesh, as before the level sets (issue 60)
+        from_mesh = timed_run(labels, args.jobs, {"meshing": {"target_vertices": VERTICES,
+                                                              "lumen_curvature_blur": 0.0}})
         print(f"bench embryo, {args.frames} frames, {args.jobs} jobs:")
         print(f"  as meshes: {as_meshes['total_s']:.1f} s, peak {as_meshes['peak_all_processes_mb']:.0f} MB"
               " (all processes)")
@@ -108,6 +113,10 @@ def main() -> None:
               f"vertices per wall (median) {as_labels['vertices_median']}")
         print(f"  labels add {100 * (as_labels['total_s'] / as_meshes['total_s'] - 1):+.0f} % "
               "(target: at most +50 %)")
+        print(f"  as labels, the lumen's curvature from its mesh: {from_mesh['total_s']:.1f} s "
+              f"(meshing {from_mesh['meshing_s']:.1f} s); the level sets add "
+              f"{100 * (as_labels['total_s'] / from_mesh['total_s'] - 1):+.0f} % "
+              "(target: at most +30 %)")
         if args.big:
             big = timed_run(big_series(cache, args.frames), args.jobs)
             print(f"{args.frames} frames of {BIG}^3 uint8: {big['total_s']:.1f} s, of which meshing "

@@ -130,7 +130,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
                    help="Taubin smoothing steps on each lumen mesh before its mean curvature "
                         "(default 0: none, as the paper); for rough segmentations, whose "
-                        "curvature is otherwise noise (see oftimg's docs/accuracy.md)")
+                        "curvature is otherwise noise (see oftimg's docs/accuracy.md); label "
+                        "datasets read it from the volume instead (--lumen-curvature-blur)")
 
     results_help = "one dataset's results (a folder with summary.json) or a folder of them " \
                    "(a run's --out)"
@@ -353,10 +354,16 @@ def _mesh_arguments(parser) -> None:
     parser.add_argument("--mesh-smoothing", type=float, default=default.smoothing,
                         metavar="VOXELS", help="label datasets: Gaussian sigma on each wall's "
                         f"mask, in voxels (default {default.smoothing:g})")
+    parser.add_argument("--lumen-curvature-blur", type=float,
+                        default=default.lumen_curvature_blur, metavar="VOXELS",
+                        help="label datasets: the lumen's mean curvature from its mask's level "
+                             "sets blurred by this Gaussian sigma, in voxels of the smallest "
+                             f"side (default {default.lumen_curvature_blur:g}; 0: from the mesh)")
 
 
 def _mesh_options(args) -> dict:
-    return {"target_vertices": args.mesh_vertices, "smoothing": args.mesh_smoothing}
+    return {"target_vertices": args.mesh_vertices, "smoothing": args.mesh_smoothing,
+            "lumen_curvature_blur": args.lumen_curvature_blur}
 
 
 def _command(args) -> int:

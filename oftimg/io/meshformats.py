@@ -18,7 +18,7 @@ import re
 import numpy as np
 
 __all__ = ["MeshFormatError", "PARSERS", "not_triangles", "parse_ply", "parse_obj", "parse_stl",
-           "parse_off", "parse_vtk"]
+           "parse_off", "parse_vtk", "ply_vertex_property"]
 
 HEADER_MAX_BYTES = 65536
 MAX_COUNT = 2 ** 31 - 1          # int32 indices: a count beyond is a damaged header

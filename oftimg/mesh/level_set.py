@@ -23,7 +23,7 @@ def level_set_mean_curvature(field: np.ndarray, voxel_size_xyz, points: np.ndarr
     """Mean curvature ``(n,)`` (1 / length unit) of the level sets of ``field`` (``(z, y,
     x)``, larger inside: a mask or an occupancy) blurred by a Gaussian of ``sigma``
     (length units), at ``points (n, 3)``: div(n) / 2 of the outward unit normal n =
-    -grad f / |grad f|, from Gaussian derivatives interpolated trilinearly. Positive
+    -grad f over its length, from Gaussian derivatives interpolated trilinearly. Positive
     where the surface is convex (a cylinder of radius R: 1 / 2R), as
     :func:`~oftimg.mesh.curvature.vertex_mean_curvature` on an outward mesh.
     Voxel ``(k, j, i)`` of ``field`` sits at ``origin + (i dx, j dy, k dz)``; only the

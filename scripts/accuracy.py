@@ -182,6 +182,22 @@ def in_phantom_frame(dataset: Path, npz, points=lambda key: True) -> dict:
             for k, a in arrays.items()}
 
 
+PIXEL_FIELDS = ("radial_curvature_outer_per_mm", "radial_curvature_inner_per_mm",
+                "mean_curvature_lumen_per_mm", "strain_energy_outer", "strain_energy_inner")
+
+
+def pixel_differences(labels: Path, meshes: Path) -> dict[str, float]:
+    """Each (u, v, t) field of a label run against the same phantom's mesh run, node by
+    node: median |labels - meshes| over median |meshes|, in %. Both runs start their
+    time axis at the minimum outer volume and grid the tube alike, so that node (i, j,
+    k) is about the same place and time in both."""
+    a, b = np.load(labels / "arrays.npz"), np.load(meshes / "arrays.npz")
+    return {name: float(100 * np.nanmedian(np.abs(a[name] - b[name]))
+                        / np.nanmedian(np.abs(b[name])))
+            for name in PIXEL_FIELDS if name in a.files and name in b.files
+            and a[name].shape == b[name].shape}
+
+
 def _relative_pct(measured, true) -> float:
     return float(100.0 * (measured / true - 1.0))
 
@@ -496,6 +512,18 @@ def main() -> None:
                 report[f"{cohort_name}_{positions}"] = {"noise_mm": noise, "input": kind,
                                                         "map_positions": positions,
                                                     "summary": tables, "embryos": errors}
+            if args.labels and not args.probabilities:     # labels against the meshes
+                for positions in args.map_positions:
+                    runs = [Path(tmp) / f"results_{c}_{positions}" for c, _ in kinds]
+                    against = {d.name: pixel_differences(runs[0] / d.name, runs[1] / d.name)
+                               for d in sorted(runs[0].iterdir()) if (d / "arrays.npz").exists()}
+                    report[f"labels_against_meshes_{positions}"] = against
+                    if not args.json:
+                        print("\nlabels against the same phantom as meshes, pixel by pixel: "
+                              "median |labels - meshes| / median |meshes|, %")
+                        for name, diffs in against.items():
+                            print(f"  {name}: " + ", ".join(f"{k} {v:.1f}"
+                                                             for k, v in diffs.items()))
     if args.json:
         print(json.dumps(_finite_or_none({"frames": args.frames, "seeds": args.seeds,
                                            "vertices": args.vertices,

@@ -732,13 +732,13 @@ def _flat(options: dict, prefix: str = "") -> dict:
 def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,
                  quiet: bool = False, labels: bool = False,
                  voxel_size_um: tuple[float, float, float] = (4.0, 4.0, 8.0),
-                 segmentation_noise: float = 0.05, probabilities: bool = False,
+                 segmentation_noise: float | None = None, probabilities: bool = False,
                  **overrides) -> Path:
     """Write one phantom dataset (see :mod:`oftimg.synthetic.phantom`) to ``out``:
     meshes, or with ``labels`` label volumes of ``voxel_size_um`` (dx, dy, dz) with
     ``segmentation_noise`` (:mod:`oftimg.synthetic.labels`); with ``probabilities``
-    too, each layer's probability map instead (``segmentation_noise``: the maps'
-    noise SD)."""
+    too, each layer's probability map instead (``segmentation_noise``: the SD of
+    the noise on their log-probabilities; None: each kind's default)."""
     require_new_folder(Path(out))
     params = sample_params(group, seed, n_frames=frames, **overrides)
     bar = Progress(frames, f"phantom {Path(out).name}", quiet=quiet)

@@ -188,14 +188,16 @@ def _parser() -> argparse.ArgumentParser:
     ph.add_argument("--voxel-size", type=float, nargs=3, metavar=("DX", "DY", "DZ"),
                     default=(4.0, 4.0, 8.0), help="with --labels: voxel size in um "
                                                   "(default 4 4 8)")
-    ph.add_argument("--segmentation-noise", type=float, default=0.05, metavar="SHARE",
+    ph.add_argument("--segmentation-noise", type=float, default=None, metavar="SHARE",
                     help="with --labels: share of boundary voxels given a neighbour's label, "
                          "with specks of wrong labels (default 0.05; 0: none); with "
-                         "--probabilities, the maps' noise SD")
+                         "--probabilities, the SD of the noise on each class's "
+                         "log-probability (default 0.3)")
     ph.add_argument("--probabilities", action="store_true",
                     help="write each layer's probability map "
                          "(probabilities/<layer>/, uint8 TIFF per frame: its share of each "
-                         "voxel, blurred by half a voxel, with noise) instead of labels")
+                         "voxel, blurred by half a voxel, with noise on its log-probability) "
+                         "instead of labels")
     ph.add_argument("--quiet", action="store_true")
 
     me = sub.add_parser("mesh", help="mesh a label dataset (labels/) into a mesh dataset "

@@ -69,7 +69,7 @@ import oftimg
 from oftimg.image.normalize import smooth_field_in_time
 from oftimg.mesh.strain import grid_strain
 from oftimg.analysis.pipeline import smoothed_strain, thickness_summary
-from oftimg.synthetic.labels import label_params, volume_frame, write_label_phantom
+from oftimg.synthetic.labels import NOISE, label_params, volume_frame, write_label_phantom
 from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
 
 WALLS = ("outer", "inner", "lumen")
@@ -143,7 +143,7 @@ METRICS = [
 
 def make_cohort(folder: Path, seeds: int, frames: int, noise_mm: float,
                 expand_change: float = 0.0, vertices: int | None = None, *,
-                labels=None, segmentation_noise: float = 0.05, bent: bool = False,
+                labels=None, segmentation_noise: float | None = None, bent: bool = False,
                 probabilities: bool = False) -> Path:
     """Normal and banded phantoms ``<group>_<seed>`` in ``folder`` (kept if there),
     meshed with 0.75 to 1.25 ``vertices`` (default: the phantoms' own range); with
@@ -445,9 +445,10 @@ def main() -> None:
     ap.add_argument("--labels", type=float, nargs=3, metavar=("DX", "DY", "DZ"), default=None,
                     help="label phantoms of this voxel size (um), meshed by oftimg run, and "
                          "beside them the same phantoms as meshes")
-    ap.add_argument("--segmentation-noise", type=float, default=0.05,
-                    help="with --labels: share of boundary voxels flipped (with "
-                         "--probabilities: the maps' noise SD)")
+    ap.add_argument("--segmentation-noise", type=float, default=None,
+                    help="with --labels: share of boundary voxels flipped (default 0.05; with "
+                         "--probabilities: the SD of the noise on the log-probabilities, "
+                         "default 0.3)")
     ap.add_argument("--probabilities", action="store_true",
                     help="with --labels: probability maps of that voxel size instead, alone")
     ap.add_argument("--jobs", type=int, default=None)
@@ -472,14 +473,15 @@ def main() -> None:
             kinds = [(name, {})]
             if args.labels:
                 voxel = "x".join(f"{d:g}" for d in args.labels)
-                kinds = [(f"{name}_labels{voxel}um_seg{args.segmentation_noise:g}",
-                          {"labels": args.labels,
-                           "segmentation_noise": args.segmentation_noise}),
+                seg = (args.segmentation_noise if args.segmentation_noise is not None
+                       else NOISE["probabilities" if args.probabilities else "labels"])
+                kinds = [(f"{name}_labels{voxel}um_seg{seg:g}",
+                          {"labels": args.labels, "segmentation_noise": seg}),
                          (f"{name}_bent", {"bent": True})]
                 if args.probabilities:      # the maps alone: the rest is measured above
-                    kinds = [(f"{name}_probabilities{voxel}um_sd{args.segmentation_noise:g}",
+                    kinds = [(f"{name}_probabilities{voxel}um_logsd{seg:g}",
                               {"labels": args.labels, "probabilities": True,
-                               "segmentation_noise": args.segmentation_noise})]
+                               "segmentation_noise": seg})]
             for (cohort_name, how), positions in ((k, p) for k in kinds
                                                   for p in args.map_positions):
                 cohort = make_cohort(cache / cohort_name, args.seeds, args.frames, noise,

@@ -25,22 +25,25 @@ COARSE_UM = (8.0, 8.0, 16.0)
 @pytest.fixture(scope="module")
 def maps(tmp_path_factory):
     path = tmp_path_factory.mktemp("probabilities") / "pm"
-    write_label_phantom(path, sample_params("normal", 0, n_frames=8), COARSE_UM, noise=0.05,
+    write_label_phantom(path, sample_params("normal", 0, n_frames=8), COARSE_UM,
                         probabilities=True)
     return path
 
 
 def test_the_phantoms_maps_are_its_partial_volumes(maps):
-    """Each layer's map is its share of each voxel, with noise: in [0, 1], adding up
-    to about one at most; without the noise and blur, the outer wall's occupancy
-    summed over the voxels is its volume (within 1 %)."""
+    """Each layer's map is its share of each voxel, with noise: in [0, 1], the layers
+    adding up to one at most (the background takes the rest, noise and all); without
+    the noise and blur, the outer wall's occupancy summed over the voxels is its volume
+    (within 1 %)."""
     lds = load_label_dataset(maps)
     assert lds.kind == "probabilities" and lds.folder == maps / "probabilities"
     assert [layer for layer, _ in lds.sources[0].layers] == ["myocardium", "jelly", "lumen"]
     assert str(lds.sources[3]) == str(maps / "probabilities" / "*" / "f3.tif")
     frame = read_frame(lds.sources[0])
     assert all(p.dtype == np.float32 and 0 <= p.min() and p.max() <= 1 for p in frame.values())
-    assert np.percentile(sum(frame.values()), 99.9) <= 1.0 + 0.2      # plus the maps' noise
+    assert sum(frame.values()).max() <= 1.0 + 2 / 255                   # rounded to uint8
+    far = frame["myocardium"][:, :3, :3]         # background only: the bend's centre
+    assert far.max() < 0.01
     ph = Phantom(label_params(sample_params("normal", 0, n_frames=8)))
     grids = [LabelGrid(ph, COARSE_UM, (ox, oy, oz)) for ox in (-0.25, 0.25)
              for oy in (-0.25, 0.25) for oz in (-0.25, 0.25)]

@@ -126,6 +126,8 @@ def segmentation_noise(labels: np.ndarray, flip: float, rng: np.random.Generator
 
 
 PSF_VOXELS = 0.5                    # a probability map's blur (Gaussian sigma, voxels)
+NOISE = {"labels": 0.05,            # share of boundary voxels flipped
+         "probabilities": 0.3}      # SD of the noise on each class's log-probability
 
 
 def partial_volumes(grids: list[LabelGrid], t_ms: float) -> dict[str, np.ndarray]:
@@ -140,35 +142,47 @@ def partial_volumes(grids: list[LabelGrid], t_ms: float) -> dict[str, np.ndarray
     return {layer: c / len(grids) for layer, c in counts.items()}
 
 
-def probability_map(share: np.ndarray, noise: float, rng: np.random.Generator) -> np.ndarray:
-    """A layer's share of each voxel as a segmenter's probability map gives it:
-    blurred by a point spread (:data:`PSF_VOXELS`), with Gaussian noise of SD
-    ``noise``, in [0, 1] as uint8 (255 = 1)."""
+def probability_maps(shares: dict[str, np.ndarray], noise: float,
+                     rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """The layers' shares of each voxel as a segmenter's softmax gives them: blurred by
+    a point spread (:data:`PSF_VOXELS`), Gaussian noise of SD ``noise`` on each class's
+    log-probability (the background's too), the classes normalised to add up to one;
+    each layer's map as uint8 (255 = 1). Noise on the logits, not on the
+    probabilities: a confident background stays near 0 in every layer, as a
+    segmenter's does, instead of gaining the clipped noise of three maps."""
     from scipy import ndimage
 
-    p = ndimage.gaussian_filter(share, PSF_VOXELS, mode="nearest")
-    if noise > 0:
-        p = p + rng.normal(0.0, noise, p.shape).astype(np.float32)
-    return np.round(np.clip(p, 0.0, 1.0) * 255).astype(np.uint8)
+    blurred = {k: ndimage.gaussian_filter(v, PSF_VOXELS, mode="nearest")
+               for k, v in shares.items()}
+    blurred["background"] = np.clip(1.0 - sum(blurred.values()), 0.0, 1.0)
+    weights = {k: np.maximum(v, 1e-4) * (np.exp(rng.normal(0.0, noise, v.shape))
+                                         if noise > 0 else 1.0)
+               for k, v in blurred.items()}
+    total = sum(weights.values())
+    return {k: np.round(w / total * 255).astype(np.uint8) for k, w in weights.items()
+            if k != "background"}
 
 
 def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
-                        *, noise: float = 0.05, name: str | None = None,
+                        *, noise: float | None = None, name: str | None = None,
                         progress=None, probabilities: bool = False) -> Path:
     """Write a label phantom dataset: ``meta.json``, ``labels/f000.tif ...`` (one
     zlib-compressed uint8 TIFF per frame, (z, y, x)) and ``truth.json``. ``noise``:
     the share of boundary voxels flipped (with specks, :func:`segmentation_noise`;
-    0 for none). With ``probabilities``, ``probabilities/<layer>/f000.tif ...``
+    0 for none; None: :data:`NOISE`). With ``probabilities``, ``probabilities/<layer>/f000.tif ...``
     instead: each layer's partial volume (2 x 2 x 2 samples a voxel), blurred and
-    with noise of SD ``noise`` (:func:`probability_map`). ``params`` are bent by
+    with noise of SD ``noise`` on the log-probabilities (:func:`probability_maps`). ``params`` are bent by
     :func:`label_params`. Returns the folder."""
     import tifffile
 
+    if noise is None:
+        noise = NOISE["probabilities" if probabilities else "labels"]
     voxel = tuple(float(d) for d in voxel_size_um)
     if len(voxel) != 3 or not all(np.isfinite(d) and d > 0 for d in voxel):
         raise InputError(f"--voxel-size must be three positive lengths in um, found {voxel}")
-    if not 0 <= noise < 1:
-        raise InputError(f"--segmentation-noise must be a share in [0, 1), found {noise}")
+    if not (0 <= noise < 1 or (probabilities and 0 <= noise <= 5)):
+        raise InputError(f"--segmentation-noise must be a share in [0, 1) (for probability "
+                         f"maps: a log-probability SD in [0, 5]), found {noise}")
     out = Path(out)
     if out.exists() and any(out.iterdir()):
         raise FileExistsError(f"{out}: exists and is not empty")
@@ -187,9 +201,8 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
     for k, t in enumerate(ph.frame_times_ms()):
         frame = f"f{k:0{width}d}.tif"
         if probabilities:
-            for layer, share in partial_volumes(grids, t).items():
-                tifffile.imwrite(out / "probabilities" / layer / frame,
-                                 probability_map(share, noise, rng), compression="zlib")
+            for layer, p in probability_maps(partial_volumes(grids, t), noise, rng).items():
+                tifffile.imwrite(out / "probabilities" / layer / frame, p, compression="zlib")
         else:
             labels = grid.labels(t)
             if noise > 0:

@@ -38,19 +38,25 @@ def level_set_mean_curvature(field: np.ndarray, voxel_size_xyz, points: np.ndarr
     box = field[tuple(slice(a, b) for a, b in zip(lo, hi))].astype(np.float32)
     coords = (at - lo).T
     sig = sigma / size
-    # separable: each pass's results reused by the next (18 one-axis passes, not 27)
-    along_x = {o: ndimage.gaussian_filter1d(box, sig[2], axis=2, order=o, mode="nearest",
-                                            truncate=TRUNCATE) for o in range(3)}
-    along_xy = {(ox, oy): ndimage.gaussian_filter1d(along_x[ox], sig[1], axis=1, order=oy,
-                                                    mode="nearest", truncate=TRUNCATE)
-                for ox in range(3) for oy in range(3 - ox)}
     d = {}
-    for name, order in _ORDERS.items():
-        oz, oy, ox = order
-        smooth = ndimage.gaussian_filter1d(along_xy[(ox, oy)], sig[0], axis=0, order=oz,
-                                           mode="nearest", truncate=TRUNCATE)
-        d[name] = ndimage.map_coordinates(smooth, coords, order=1, mode="nearest") \
-            / np.prod(size ** np.array(order))
+    # separable, one axis after another, each pass's result used by the next and let go
+    # (18 one-axis passes, not 27; at most four volumes held: the 256^3 series' memory)
+    for ox in range(3):
+        along_x = ndimage.gaussian_filter1d(box, sig[2], axis=2, order=ox, mode="nearest",
+                                            truncate=TRUNCATE)
+        for oy in range(3 - ox):
+            along_xy = ndimage.gaussian_filter1d(along_x, sig[1], axis=1, order=oy,
+                                                 mode="nearest", truncate=TRUNCATE)
+            for name, order in _ORDERS.items():
+                if order[1:] != (oy, ox):
+                    continue
+                smooth = ndimage.gaussian_filter1d(along_xy, sig[0], axis=0, order=order[0],
+                                                   mode="nearest", truncate=TRUNCATE)
+                d[name] = ndimage.map_coordinates(smooth, coords, order=1, mode="nearest") \
+                    / np.prod(size ** np.array(order))
+                del smooth
+            del along_xy
+        del along_x
     gx, gy, gz = d["x"], d["y"], d["z"]
     div = (d["xx"] * (gy ** 2 + gz ** 2) + d["yy"] * (gx ** 2 + gz ** 2)
            + d["zz"] * (gx ** 2 + gy ** 2)

@@ -51,14 +51,16 @@ def _parser() -> argparse.ArgumentParser:
     # (docs/cli.rst renders the same parser)
     p = argparse.ArgumentParser(
         prog="oftimg",
-        description="Turn a beating tube (time series of triangle surfaces) into a "
-                    "consistent (u, v) grid, images, videos and numbers.")
+        description="Turn a beating tube (a time series of triangle surfaces, or the label "
+                    "volumes or probability maps of a 4-D segmentation) into a consistent "
+                    "(u, v) grid, images, videos and numbers.")
     p.add_argument("--version", action="version", version=f"oftimg {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="process a dataset or a cohort folder")
-    r.add_argument("source", type=Path, help="dataset folder (with outer/, or labels/ to mesh "
-                                             "frame by frame) or cohort folder")
+    r.add_argument("source", type=Path, help="dataset folder (with outer/, or labels/ or "
+                                             "probabilities/ to mesh frame by frame) or "
+                                             "cohort folder")
     r.add_argument("--out", type=Path, required=True, help="results folder (created)")
     r.add_argument("--period-ms", type=float, default=None, metavar="MS",
                    help="the beat's length in ms for datasets whose meta.json gives no "
@@ -171,9 +173,13 @@ def _parser() -> argparse.ArgumentParser:
 
     ph = sub.add_parser("phantom", help="write a synthetic beating OFT dataset with truth.json")
     ph.add_argument("out", type=Path, help="dataset folder to create")
-    ph.add_argument("--group", choices=["normal", "banded"], default="normal")
-    ph.add_argument("--seed", type=int, default=0)
-    ph.add_argument("--frames", type=int, default=195)
+    ph.add_argument("--group", choices=["normal", "banded"], default="normal",
+                    help="normal, or banded (a band narrows the tube at 40-65 %% of its "
+                         "length and blocks most of its motion there) (default normal)")
+    ph.add_argument("--seed", type=int, default=0,
+                    help="which phantom of the group: its shape, timing and wave (default 0)")
+    ph.add_argument("--frames", type=int, default=195,
+                    help="frames over one cardiac cycle (default 195)")
     ph.add_argument("--vertices", "--resolution", type=int, nargs=2, metavar=("MIN", "MAX"),
                     help="vertex count range of each frame's mesh (default 4000 8000)")
     ph.add_argument("--noise-mm", type=float, default=0.0,
@@ -198,11 +204,12 @@ def _parser() -> argparse.ArgumentParser:
                          "(probabilities/<layer>/, uint8 TIFF per frame: its share of each "
                          "voxel, blurred by half a voxel, with noise on its log-probability) "
                          "instead of labels")
-    ph.add_argument("--quiet", action="store_true")
+    ph.add_argument("--quiet", action="store_true", help="no progress bar")
 
     me = sub.add_parser("mesh", help="mesh a label dataset (labels/) into a mesh dataset "
                                      "(outer/ inner/ lumen/ PLY files) to inspect")
-    me.add_argument("source", type=Path, help="label dataset folder (with labels/) or a "
+    me.add_argument("source", type=Path, help="label dataset folder (with labels/ or "
+                                              "probabilities/) or a "
                                               "folder of them")
     me.add_argument("out", type=Path, help="mesh dataset folder to create")
     _mesh_arguments(me)

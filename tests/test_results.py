@@ -65,8 +65,11 @@ def test_load_cohort_reads_every_dataset_in_name_order(run_out, tmp_path):
         shutil.copytree(run_out / "normal", tmp_path / name)
         summary = json.loads((tmp_path / name / "summary.json").read_text())
         (tmp_path / name / "summary.json").write_text(json.dumps(dict(summary, name=name)))
-    assert [r.name for r in oftimg.load_cohort([tmp_path])] == ["b2", "b10"]
-    assert [r.name for r in oftimg.load_cohort(run_out)] == ["normal"]
+    cohort = oftimg.load_cohort([tmp_path])
+    assert list(cohort) == ["b2", "b10"] and cohort["b10"].name == "b10"
+    assert list(oftimg.load_cohort(run_out)) == ["normal"]
+    with pytest.raises(DatasetError, match="named 'normal', as .* is"):
+        oftimg.load_cohort([run_out, tmp_path / "b2", run_out / "normal"])
 
 
 def test_xarray_dataset_on_labelled_axes(run_out):

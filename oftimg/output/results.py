@@ -210,11 +210,18 @@ def load_results(folder) -> Results:
     return Results(folder)
 
 
-def load_cohort(sources) -> list[Results]:
+def load_cohort(sources) -> dict[str, Results]:
     """Every dataset's results among ``sources`` (each a dataset's results folder or
-    a folder of them, as ``oftimg cohort`` takes them), ordered by name."""
-    results = [Results(f) for f in result_folders(sources)]
-    return sorted(results, key=lambda r: natural_key(r.name))
+    a folder of them, as ``oftimg cohort`` takes them), by name in natural order:
+    ``cohort["normal_0"]``, ``for name, res in cohort.items()``."""
+    results = sorted((Results(f) for f in result_folders(sources)),
+                     key=lambda r: natural_key(r.name))
+    for a, b in zip(results, results[1:]):
+        if a.name == b.name:
+            raise DatasetError(f"{b.folder}: its dataset is named {b.name!r}, as "
+                               f"{a.folder}'s is; load them apart, or rename one (its "
+                               "meta.json's name)")
+    return {r.name: r for r in results}
 
 
 def load_cohort_maps(out):

@@ -23,40 +23,39 @@ def level_set_mean_curvature(field: np.ndarray, voxel_size_xyz, points: np.ndarr
     """Mean curvature ``(n,)`` (1 / length unit) of the level sets of ``field`` (``(z, y,
     x)``, larger inside: a mask or an occupancy) blurred by a Gaussian of ``sigma``
     (length units), at ``points (n, 3)``: div(n) / 2 of the outward unit normal n =
-    -grad f over its length, from Gaussian derivatives interpolated trilinearly. Positive
-    where the surface is convex (a cylinder of radius R: 1 / 2R), as
-    :func:`~oftimg.mesh.curvature.vertex_mean_curvature` on an outward mesh.
-    Voxel ``(k, j, i)`` of ``field`` sits at ``origin + (i dx, j dy, k dz)``; only the
-    box around the points (and the blur's reach) is filtered."""
-    from scipy import ndimage
+    -grad f over its length. Positive where the surface is convex (a cylinder of
+    radius R: 1 / 2R), as :func:`~oftimg.mesh.curvature.vertex_mean_curvature` on an
+    outward mesh. Voxel ``(k, j, i)`` of ``field`` sits at ``origin + (i dx, j dy, k
+    dz)``; outside the volume its border voxels continue.
 
+    The Gaussian's derivatives are taken at each point itself, from the voxels within
+    :data:`TRUNCATE` sigmas of it (one axis after another), not by filtering the whole
+    volume: the work goes with the points, not with the volume's box (a curved tube's
+    box is mostly empty), and no interpolation between voxels is needed."""
     size = np.asarray(voxel_size_xyz, float)[::-1]                   # (dz, dy, dx)
     at = ((np.asarray(points, float) - np.asarray(origin_xyz, float)) / size[::-1])[:, ::-1]
-    reach = np.ceil(TRUNCATE * sigma / size).astype(int) + 2
-    lo = np.maximum(np.floor(at.min(axis=0)).astype(int) - reach, 0)
-    hi = np.minimum(np.ceil(at.max(axis=0)).astype(int) + reach + 1, field.shape)
-    box = field[tuple(slice(a, b) for a, b in zip(lo, hi))].astype(np.float32)
-    coords = (at - lo).T
-    sig = sigma / size
-    d = {}
-    # separable, one axis after another, each pass's result used by the next and let go
-    # (18 one-axis passes, not 27; at most four volumes held: the 256^3 series' memory)
-    for ox in range(3):
-        along_x = ndimage.gaussian_filter1d(box, sig[2], axis=2, order=ox, mode="nearest",
-                                            truncate=TRUNCATE)
-        for oy in range(3 - ox):
-            along_xy = ndimage.gaussian_filter1d(along_x, sig[1], axis=1, order=oy,
-                                                 mode="nearest", truncate=TRUNCATE)
-            for name, order in _ORDERS.items():
-                if order[1:] != (oy, ox):
-                    continue
-                smooth = ndimage.gaussian_filter1d(along_xy, sig[0], axis=0, order=order[0],
-                                                   mode="nearest", truncate=TRUNCATE)
-                d[name] = ndimage.map_coordinates(smooth, coords, order=1, mode="nearest") \
-                    / np.prod(size ** np.array(order))
-                del smooth
-            del along_xy
-        del along_x
+    # plus a linear interpolation's variance (1/6 voxel^2): without it the lattice shows
+    # where sigma is about a voxel (a cylinder across 2 x 2 x 4 um voxels read 11 % high)
+    sig = np.sqrt((sigma / size) ** 2 + 1.0 / 6.0)
+    weights, index = [], []
+    for axis in range(3):                       # each axis's voxels near each point
+        reach = int(np.ceil(TRUNCATE * sig[axis]))
+        k = np.floor(at[:, axis]).astype(np.int64)[:, None] + np.arange(-reach, reach + 2)
+        u = (at[:, axis, None] - k) / sig[axis]                     # in sigmas
+        g = np.exp(-0.5 * u ** 2)
+        g /= g.sum(axis=1, keepdims=True)                           # sums to one, as scipy's
+        s = sig[axis] * size[axis]                                  # sigma, length units
+        weights.append((g, -u / s * g, (u ** 2 - 1) / s ** 2 * g))  # orders 0, 1, 2
+        index.append(np.clip(k, 0, field.shape[axis] - 1))
+    kz, ky, kx = index
+    patch = field[kz[:, :, None, None], ky[:, None, :, None], kx[:, None, None, :]]
+    n, nz, ny, nx = patch.shape                                     # the voxels near each
+    w = [np.stack(orders, axis=-1).astype(np.float32) for orders in weights]  # (n, k, 3)
+    # along x, then y, then z, as batched products: (n, z, y, ox) -> (n, z, ox, oy) -> ...
+    along_x = np.matmul(patch.reshape(n, nz * ny, nx).astype(np.float32), w[2])
+    along_xy = np.matmul(along_x.reshape(n, nz, ny, 3).transpose(0, 1, 3, 2), w[1][:, None])
+    full = np.einsum("nzab,nzc->ncba", along_xy, w[0])             # (n, oz, oy, ox)
+    d = {name: full[:, oz, oy, ox] for name, (oz, oy, ox) in _ORDERS.items()}
     gx, gy, gz = d["x"], d["y"], d["z"]
     div = (d["xx"] * (gy ** 2 + gz ** 2) + d["yy"] * (gx ** 2 + gz ** 2)
            + d["zz"] * (gx ** 2 + gy ** 2)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+CHUNK = 2000            # points whose neighbourhoods are gathered at once (memory)
 TRUNCATE = 4.0          # the Gaussians' reach, in sigmas (at 3 a 40 um cylinder reads 20 % high)
 # the derivatives a mean curvature needs: name -> order along (z, y, x)
 _ORDERS = {"z": (1, 0, 0), "y": (0, 1, 0), "x": (0, 0, 1), "zz": (2, 0, 0), "yy": (0, 2, 0),
@@ -47,15 +48,19 @@ def level_set_mean_curvature(field: np.ndarray, voxel_size_xyz, points: np.ndarr
         s = sig[axis] * size[axis]                                  # sigma, length units
         weights.append((g, -u / s * g, (u ** 2 - 1) / s ** 2 * g))  # orders 0, 1, 2
         index.append(np.clip(k, 0, field.shape[axis] - 1))
-    kz, ky, kx = index
-    patch = field[kz[:, :, None, None], ky[:, None, :, None], kx[:, None, None, :]]
-    n, nz, ny, nx = patch.shape                                     # the voxels near each
     w = [np.stack(orders, axis=-1).astype(np.float32) for orders in weights]  # (n, k, 3)
-    # along x, then y, then z, as batched products: (n, z, y, ox) -> (n, z, ox, oy) -> ...
-    along_x = np.matmul(patch.reshape(n, nz * ny, nx).astype(np.float32), w[2])
-    along_xy = np.matmul(along_x.reshape(n, nz, ny, 3).transpose(0, 1, 3, 2), w[1][:, None])
-    full = np.einsum("nzab,nzc->ncba", along_xy, w[0])             # (n, oz, oy, ox)
-    d = {name: full[:, oz, oy, ox] for name, (oz, oy, ox) in _ORDERS.items()}
+    full = np.empty((len(at), 3, 3, 3), np.float32)                 # (n, oz, oy, ox)
+    for start in range(0, len(at), CHUNK):      # a few thousand points' voxels at a time
+        c = slice(start, start + CHUNK)
+        kz, ky, kx = (k[c] for k in index)
+        patch = field[kz[:, :, None, None], ky[:, None, :, None], kx[:, None, None, :]]
+        n, nz, ny, nx = patch.shape                                 # the voxels near each
+        # along x, then y, then z, as batched products: (n, z, y, ox) -> (n, z, ox, oy)
+        along_x = np.matmul(patch.reshape(n, nz * ny, nx).astype(np.float32), w[2][c])
+        along_xy = np.matmul(along_x.reshape(n, nz, ny, 3).transpose(0, 1, 3, 2),
+                             w[1][c][:, None])
+        full[c] = np.einsum("nzab,nzc->ncba", along_xy, w[0][c])
+    d = {name: full[:, oz, oy, ox].astype(float) for name, (oz, oy, ox) in _ORDERS.items()}
     gx, gy, gz = d["x"], d["y"], d["z"]
     div = (d["xx"] * (gy ** 2 + gz ** 2) + d["yy"] * (gx ** 2 + gz ** 2)
            + d["zz"] * (gx ** 2 + gy ** 2)

@@ -328,18 +328,23 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
     inside it are kept inside its mended mask (:func:`keep_inside`, the voxels cut
     in ``nested``). A wall that cannot
     be meshed even so, or whose layer's label is absent, comes back as the reason
-    (a str: "the lumen wall has no voxel labelled lumen (3)"), to be filled from the
+    (a str: "the lumen wall: no voxel labelled lumen (3)"), to be filled from the
     neighbouring frames. Raises :class:`InputError` for float labels."""
     if isinstance(labels, dict):                        # probabilities, layer -> (z, y, x)
         masks = wall_occupancy(labels)
         present = {layer: bool(np.max(p) > LEVEL) for layer, p in labels.items()}
-        nothing, missing = "no voxel has a probability above 0.5", "no voxel above 0.5 in {}"
+        nothing = "no voxel has a probability above 0.5"
+
+        def missing(layer):
+            return f"no voxel above 0.5 in {layer}"
     else:
         masks = wall_masks(labels, label_ids)
         values = _values(labels)
         present = {layer: v in values for layer, v in label_ids.items()}
         nothing = "holds no labelled voxel (all zero)"
-        missing = "no voxel labelled {} (" + "{})"
+
+        def missing(layer):
+            return f"no voxel labelled {layer} ({label_ids[layer]})"
     walls: dict[str, WallMesh | str] = {}
     enclosing = None                 # the mended mask of the wall around this one, if any
     for wall, mask in masks.items():
@@ -349,7 +354,7 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
             walls[wall] = nothing
             continue
         if not present[layer]:
-            walls[wall] = f"the {wall} wall: {missing.format(layer, label_ids[layer])}"
+            walls[wall] = f"the {wall} wall: {missing(layer)}"
             continue
         nested = None
         if enclosing is not None:       # nested by the labels' design, unless one was mended

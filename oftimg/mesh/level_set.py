@@ -19,15 +19,14 @@ _ORDERS = {"z": (1, 0, 0), "y": (0, 1, 0), "x": (0, 0, 1), "zz": (2, 0, 0), "yy"
            "xx": (0, 0, 2), "zy": (1, 1, 0), "zx": (1, 0, 1), "yx": (0, 1, 1)}
 
 
-def level_set_mean_curvature(field: np.ndarray, voxel_size_xyz, points: np.ndarray,
-                             sigma: float, origin_xyz=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """Mean curvature ``(n,)`` (1 / length unit) of the level sets of ``field`` (``(z, y,
-    x)``, larger inside: a mask or an occupancy) blurred by a Gaussian of ``sigma``
-    (length units), at ``points (n, 3)``: div(n) / 2 of the outward unit normal n =
-    -grad f over its length. Positive where the surface is convex (a cylinder of
-    radius R: 1 / 2R), as :func:`~oftimg.mesh.curvature.vertex_mean_curvature` on an
-    outward mesh. Voxel ``(k, j, i)`` of ``field`` sits at ``origin + (i dx, j dy, k
-    dz)``; outside the volume its border voxels continue.
+def level_set_derivatives(field: np.ndarray, voxel_size_xyz, points: np.ndarray,
+                          sigma: float, origin_xyz=(0.0, 0.0, 0.0)
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """The gradient ``(n, 3)`` and Hessian ``(n, 3, 3)`` (along x, y, z; per length unit
+    and its square) of ``field`` (``(z, y, x)``, larger inside: a mask or an occupancy)
+    blurred by a Gaussian of ``sigma`` (length units), at ``points (n, 3)``. Voxel ``(k,
+    j, i)`` of ``field`` sits at ``origin + (i dx, j dy, k dz)``; outside the volume its
+    border voxels continue.
 
     The Gaussian's derivatives are taken at each point itself, from the voxels within
     :data:`TRUNCATE` sigmas of it (one axis after another), not by filtering the whole
@@ -61,9 +60,23 @@ def level_set_mean_curvature(field: np.ndarray, voxel_size_xyz, points: np.ndarr
                              w[1][c][:, None])
         full[c] = np.einsum("nzab,nzc->ncba", along_xy, w[0][c])
     d = {name: full[:, oz, oy, ox].astype(float) for name, (oz, oy, ox) in _ORDERS.items()}
-    gx, gy, gz = d["x"], d["y"], d["z"]
-    div = (d["xx"] * (gy ** 2 + gz ** 2) + d["yy"] * (gx ** 2 + gz ** 2)
-           + d["zz"] * (gx ** 2 + gy ** 2)
-           - 2 * (gx * gy * d["yx"] + gx * gz * d["zx"] + gy * gz * d["zy"]))
+    gradient = np.stack([d["x"], d["y"], d["z"]], axis=-1)
+    hessian = np.array([[d["xx"], d["yx"], d["zx"]],
+                        [d["yx"], d["yy"], d["zy"]],
+                        [d["zx"], d["zy"], d["zz"]]]).transpose(2, 0, 1)
+    return gradient, hessian
+
+
+def level_set_mean_curvature(field: np.ndarray, voxel_size_xyz, points: np.ndarray,
+                             sigma: float, origin_xyz=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """Mean curvature ``(n,)`` (1 / length unit) of the level sets of ``field`` blurred
+    by a Gaussian of ``sigma``, at ``points (n, 3)`` (:func:`level_set_derivatives`):
+    div(n) / 2 of the outward unit normal n = -grad f over its length. Positive where
+    the surface is convex (a cylinder of radius R: 1 / 2R), as
+    :func:`~oftimg.mesh.curvature.vertex_mean_curvature` on an outward mesh."""
+    g, Hs = level_set_derivatives(field, voxel_size_xyz, points, sigma, origin_xyz)
+    g2 = np.einsum("ni,ni->n", g, g)
+    # div(grad f / |grad f|) = (|g|^2 trace(H) - g.H.g) / |g|^3
+    div = g2 * np.trace(Hs, axis1=1, axis2=2) - np.einsum("ni,nij,nj->n", g, Hs, g)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return -div / (2 * (gx ** 2 + gy ** 2 + gz ** 2) ** 1.5)
+        return -div / (2 * g2 ** 1.5)

@@ -15,10 +15,11 @@ import numpy as np
 
 from ..errors import DatasetError
 from .meshformats import PARSERS, MeshFormatError, not_triangles, ply_vertex_property
-from .safefile import read_regular_file
+from .safefile import read_file_start, read_regular_file
 
 MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off", ".vtk", ".vtp")
 MAX_MESH_BYTES = 2 ** 31        # 2 GiB: some 50 million triangles
+HEADER_PEEK_BYTES = 65536       # a PLY header is read from this much of a file
 
 
 def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -111,6 +112,10 @@ def read_vertex_values(path: str | Path, name: str) -> np.ndarray | None:
     order), or None for another format or a PLY without it."""
     path = Path(path)
     if path.suffix.lower() != ".ply":
+        return None
+    head = read_file_start(path, HEADER_PEEK_BYTES)        # most files have none: no reading
+    end = head.find(b"end_header")
+    if end >= 0 and name.encode() not in head[:end]:
         return None
     try:
         return ply_vertex_property(read_regular_file(path, max_bytes=MAX_MESH_BYTES), name)

@@ -68,6 +68,18 @@ def read_regular_file(path: Path, *, max_bytes: int) -> bytes:
         raise DatasetError(f"{path}: cannot be read ({exc.strerror})") from None
 
 
+def read_file_start(path: Path, n_bytes: int) -> bytes:
+    """The first ``n_bytes`` (or fewer) of a regular file: enough to look at a header
+    without reading a whole mesh."""
+    file_status(path)
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    try:
+        with os.fdopen(fd, "rb") as fh:
+            return fh.read(n_bytes)
+    except OSError as exc:
+        raise DatasetError(f"{path}: cannot be read ({exc.strerror})") from None
+
+
 def _bounded_int(text: str) -> int:
     if len(text.lstrip("-")) > JSON_MAX_DIGITS:
         raise ValueError(f"a whole number of {len(text.lstrip('-'))} digits")

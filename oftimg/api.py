@@ -23,11 +23,13 @@ from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, che
                             cohort_maps, finished_folder, link_or_copy, require_new_folder,
                             staged_output, write_cohort_maps, write_dataset_results, write_json)
 from .io.dataset import (Dataset, check_enough_frames, find_datasets, load_dataset, natural_key,
-                         validate_dataset, with_period)
+                         read_meta_json, validate_dataset, with_period)
+from .io.intensity import load_intensity
 from .io.label_dataset import (LabelDataset, is_label_dataset, label_repairs_note,
                                load_label_dataset, mesh_label_dataset)
 from .synthetic.labels import write_label_phantom
 from .synthetic.phantom import sample_params, write_phantom
+from .synthetic.texture import TWIST_DEG as TEXTURE_TWIST_DEG
 from .progress import Progress
 from .output.results import read_summary, result_folders, source_paths
 from .workers import available_memory, closing_executor, make_executor
@@ -42,8 +44,14 @@ def _as_dataset_paths(source) -> list[Path]:
 
 
 def _load(path: Path) -> Dataset | LabelDataset:
-    """A dataset folder opened as what it holds: label volumes or meshes."""
-    return load_label_dataset(path) if is_label_dataset(path) else load_dataset(path)
+    """A dataset folder opened as what it holds: label volumes or meshes (with its
+    intensity volumes, when it has them)."""
+    if is_label_dataset(path):
+        return load_label_dataset(path)
+    ds = load_dataset(path)
+    ds.intensity = load_intensity(path, ds.n_frames, ds.meta.length_unit,
+                                  read_meta_json(Path(path)))
+    return ds
 
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,
@@ -150,7 +158,7 @@ def _meshed(lds: LabelDataset, folder: Path, options, executor, quiet: bool) -> 
     with warnings.catch_warnings():             # said of the label dataset already
         warnings.simplefilter("ignore", OftimgWarning)
         ds = load_dataset(folder)
-    ds.path, ds.labels = lds.path, record
+    ds.path, ds.labels, ds.intensity = lds.path, record, lds.intensity
     ds.meta = dataclasses.replace(ds.meta, period_ms=lds.meta.period_ms,   # --period-ms too
                                   period_assumed=lds.meta.period_assumed,
                                   period_from=lds.meta.period_from)
@@ -733,20 +741,28 @@ def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195
                  quiet: bool = False, labels: bool = False,
                  voxel_size_um: tuple[float, float, float] = (4.0, 4.0, 8.0),
                  segmentation_noise: float | None = None, probabilities: bool = False,
-                 **overrides) -> Path:
+                 intensity: bool = False, **overrides) -> Path:
     """Write one phantom dataset (see :mod:`oftimg.synthetic.phantom`) to ``out``:
     meshes, or with ``labels`` label volumes of ``voxel_size_um`` (dx, dy, dz) with
     ``segmentation_noise`` (:mod:`oftimg.synthetic.labels`); with ``probabilities``
     too, each layer's probability map instead (``segmentation_noise``: the SD of
-    the noise on their log-probabilities; None: each kind's default)."""
+    the noise on their log-probabilities; None: each kind's default). With
+    ``intensity`` (and ``labels``), intensity volumes too, a texture fixed in the
+    tissue, which twists by
+    :data:`~oftimg.synthetic.texture.TWIST_DEG` beneath the walls."""
     require_new_folder(Path(out))
+    if intensity:
+        if not labels:
+            raise InputError("--intensity needs --labels (or --probabilities): intensity "
+                             "volumes lie on a label dataset's voxels")
+        overrides.setdefault("twist_deg", TEXTURE_TWIST_DEG)
     params = sample_params(group, seed, n_frames=frames, **overrides)
     bar = Progress(frames, f"phantom {Path(out).name}", quiet=quiet)
     with staged_output(out) as tmp:
         if labels:
             write_label_phantom(tmp, params, voxel_size_um, noise=segmentation_noise,
                                 name=Path(out).name, progress=bar.update,
-                                probabilities=probabilities)
+                                probabilities=probabilities, intensity=intensity)
         else:
             write_phantom(tmp, params, name=Path(out).name, progress=bar.update)
     bar.close()

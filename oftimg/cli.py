@@ -204,6 +204,11 @@ def _parser() -> argparse.ArgumentParser:
                          "(probabilities/<layer>/, uint8 TIFF per frame: its share of each "
                          "voxel, blurred by half a voxel, with noise on its log-probability) "
                          "instead of labels")
+    ph.add_argument("--intensity", action="store_true",
+                    help="with --labels or --probabilities: intensity volumes too "
+                         "(intensity/, uint8 TIFF per frame, as OCT would image the tube): "
+                         "a texture fixed in the tissue, which slides and twists beneath the "
+                         "walls, with speckle, attenuation and noise")
     ph.add_argument("--quiet", action="store_true", help="no progress bar")
 
     me = sub.add_parser("mesh", help="mesh a label dataset (labels/) into a mesh dataset "
@@ -419,7 +424,8 @@ def _command(args) -> int:
                                labels=args.labels or args.probabilities,
                                voxel_size_um=tuple(args.voxel_size),
                                segmentation_noise=args.segmentation_noise,
-                               probabilities=args.probabilities, **extra)
+                               probabilities=args.probabilities, intensity=args.intensity,
+                               **extra)
         kind = "probability " if args.probabilities else "label " if args.labels else ""
         print(f"phantom {kind}dataset: {out}")
     elif args.command == "mesh":

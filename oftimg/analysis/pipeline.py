@@ -19,6 +19,7 @@ from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_
 from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
                                smoothing_kernel)
 from ..image.pca import contour_pca
+from .pullback import LAYERS as PULLBACK_LAYERS, pullback, refine_factors, refined
 from .tracking import follow, track_grid
 from ..mesh.clip import clip_grid, clip_positions, plane_at
 from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
@@ -427,9 +428,17 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     st = _stack_frames(frames[t0:] + frames[:t0])
     del frames  # each frame's arrays, stacked: ~120 MB for 195 frames
     _warn_about_frames(ds, st)
+    pullbacks = None
+    if ds.intensity is not None and "inner" in st["grid"]:
+        tick = time.perf_counter()
+        pullbacks = myocardium_pullbacks(ds.intensity, st["grid"]["outer"], st["grid"]["inner"],
+                                         [(t0 + k) % ds.n_frames for k in range(ds.n_frames)])
+        timings["pullbacks_s"] = time.perf_counter() - tick
     from_ring = {w: int(st["rows"][f"from_ring_{w}"].sum()) for w in st["walls"]}
     # 3. the time axis (warped or not) and the per-row series on it
     t_frames, st = _time_axis(ds, options, st, timing, t0)
+    if pullbacks is not None and options.warp:
+        pullbacks = {k: resample_time(v, t_frames, axis=2) for k, v in pullbacks.items()}
     arrays, maps, thickness = _section_arrays(ds, options, st, t_frames)
     grid, H, jelly = st["grid"], st["H"], st["jelly"]
     if H is not None and options.warp:
@@ -496,7 +505,32 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                       "space, which the fields' noise share does not see (oftimg's "
                       "docs/accuracy.md, from label volumes)", OftimgWarning, stacklevel=2)
     summary["timings_s"] = timings
-    return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"]}
+    if pullbacks is not None:
+        summary["pullbacks"] = {"shape_uvt": list(pullbacks["pullback_myocardium_mean"].shape),
+                                "in_view": float(np.isfinite(
+                                    pullbacks["pullback_myocardium_mean"]).mean()),
+                                "layers": PULLBACK_LAYERS}
+    return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"],
+            **({"pullbacks": pullbacks} if pullbacks is not None else {})}
+
+
+def myocardium_pullbacks(series, outer: np.ndarray, inner: np.ndarray, frames: list[int]
+                         ) -> dict[str, np.ndarray]:
+    """The intensity across the myocardium on a grid finer than the analysis grid
+    (:func:`~oftimg.analysis.pullback.refine_factors`: about a pixel a voxel), each
+    frame's from its own grids ``outer, inner (n_u, n_v, n_t, 3)`` mm and its volume
+    ``series.volume(frames[k])`` (one in memory at a time): ``pullback_myocardium_mean``
+    and ``_max`` ``(n_u f_u, (n_v - 1) f_v + 1, n_t)`` float32, NaN where the shell
+    leaves the imaged volume."""
+    f_u, f_v = refine_factors(outer, series.voxel_size_mm)
+    n_u, n_v, n_t = outer.shape[:3]
+    shape = (n_u * f_u, (n_v - 1) * f_v + 1, n_t)
+    mean, top = np.empty(shape, np.float32), np.empty(shape, np.float32)
+    for k, t in enumerate(frames):
+        mean[:, :, k], top[:, :, k] = pullback(
+            series.volume(t), refined(outer[:, :, k], f_u, f_v), refined(inner[:, :, k], f_u, f_v),
+            series.voxel_size_mm, series.origin_mm, PULLBACK_LAYERS)
+    return {"pullback_myocardium_mean": mean, "pullback_myocardium_max": top}
 
 
 def _per_frame_passes(ds: Dataset, opts: GridOptions, *, quiet, executor, progress,

@@ -34,7 +34,7 @@ PERIOD_MS_RANGE = (1.0, 1e7)     # a beat of 1 ms to about three hours
 VOXEL_MM_RANGE = (1e-5, 10.0)
 FILES_NAMED = 6     # bad files an error names of a kind (the rest counted)
 META_KEYS = {"name": str, "group": str, "period_ms": (int, float),
-             "length_unit": str, "voxel_size": list, "inlet": list}
+             "length_unit": str, "voxel_size": list, "inlet": list, "intensity": dict}
 
 
 # frames a dataset needs: a cycle whose shape modes have 3 frames in each of expansion
@@ -257,6 +257,7 @@ class Dataset:
     checked: dict = field(default_factory=dict, repr=False)  # (surface, t) -> Checked
     validated: bool = False                 # set by validate_dataset
     labels: dict | None = None              # meshed from label volumes: their files, how
+    intensity: object = None                # oftimg.io.intensity.IntensitySeries, or None
 
     def input_files(self) -> list[Path]:
         """The files the dataset is made of, meta.json with them."""

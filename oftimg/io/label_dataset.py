@@ -29,6 +29,7 @@ from ..mesh.labels import (CURVATURE_PROPERTY, MeshOptions, WallMesh, frame_mask
 from ..mesh.topology import MeshError
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
                       read_meta, read_meta_json)
+from .intensity import IntensitySeries, load_intensity
 from .labelfile import (LabelSource, label_suffix, list_label_sources, read_header, read_volume,
                         series_file)
 from .meshfile import write_ply
@@ -104,6 +105,7 @@ class LabelDataset:
     label_ids: dict
     ends: tuple | None
     kind: str = "labels"            # or "probabilities": a folder per layer
+    intensity: IntensitySeries | None = None     # intensity/, on the labels' voxels
 
     @property
     def n_frames(self) -> int:
@@ -118,6 +120,7 @@ class LabelDataset:
         """The files the dataset is made of (each once), meta.json with them."""
         parts = [part for s in self.sources
                  for _, part in (s.layers if isinstance(s, ProbabilitySource) else [("", s)])]
+        parts += list(self.intensity.sources) if self.intensity is not None else []
         files = list(dict.fromkeys(Path(s.path) for s in parts))
         return files + [p for p in [self.path / "meta.json"] if p.is_file()]
 
@@ -155,7 +158,10 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     voxel = _voxel_size(path / "labels", meta, raw, sources, headers)
     label_ids = _label_ids(path, raw, sources[0], first.dtype)
     ends = _ends(path, raw, first.shape, voxel)
-    return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends)
+    intensity = load_intensity(path, len(sources), meta.length_unit, raw,
+                               labels_grid=(first.shape, voxel))
+    return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends,
+                        intensity=intensity)
 
 
 def _load_probabilities(path: Path) -> LabelDataset:
@@ -194,9 +200,10 @@ def _load_probabilities(path: Path) -> LabelDataset:
     sources = tuple(ProbabilitySource(tuple((layer, per_layer[layer][t]) for layer in layers))
                     for t in range(n))
     ends = _ends(path, raw, first.shape, voxel)
+    intensity = load_intensity(path, n, meta.length_unit, raw, labels_grid=(first.shape, voxel))
     return LabelDataset(path, meta, raw, sources, first.shape, voxel,
                         {layer: DEFAULT_LABEL_IDS[layer] for layer in layers}, ends,
-                        kind="probabilities")
+                        kind="probabilities", intensity=intensity)
 
 
 def _check_headers(sources, headers):

@@ -54,15 +54,24 @@ def label_suffix(path: Path) -> str:
     return ".nii.gz" if name.endswith(".nii.gz") else path.suffix.lower()
 
 
+def series_names(folder: Path) -> tuple[str, ...]:
+    """The names a 4-D file may have in ``folder``: ``labels.tif`` ..., or the
+    folder's own name (``intensity/intensity.zarr``)."""
+    own = tuple(folder.name + suffix for suffix in (".tif", ".tiff", ".zarr"))
+    return tuple(dict.fromkeys(SERIES_NAMES + own))
+
+
 def series_file(folder: Path) -> Path | None:
     """The 4-D file of a ``labels/`` folder, or None for one file per frame."""
-    found = [folder / n for n in SERIES_NAMES if (folder / n).exists()]
+    found = [folder / n for n in series_names(folder) if (folder / n).exists()]
     return found[0] if found else None
 
 
-def list_label_sources(folder: Path, natural_key) -> list[LabelSource]:
-    """The frames of a ``labels/`` folder in time order: each frame of its 4-D file,
-    or its per-frame files in natural order (one format only)."""
+def list_label_sources(folder: Path, natural_key, what: str = "label volumes"
+                       ) -> list[LabelSource]:
+    """The frames of a ``labels/`` folder (or another of volumes, ``what`` they are)
+    in time order: each frame of its 4-D file, or its per-frame files in natural
+    order (one format only)."""
     series = series_file(folder)
     if series is not None:
         n_t = _series_shape(series)[0]
@@ -71,9 +80,9 @@ def list_label_sources(folder: Path, natural_key) -> list[LabelSource]:
                     and label_suffix(p) in PER_FRAME_SUFFIXES),
                    key=lambda p: natural_key(p.name))
     if not files:
-        raise DatasetError(f"{folder}: no label volumes (one file per frame: "
+        raise DatasetError(f"{folder}: no {what} (one file per frame: "
                            f"{', '.join(PER_FRAME_SUFFIXES)}; or one 4-D "
-                           f"{' or '.join(SERIES_NAMES)})")
+                           f"{' or '.join(series_names(folder))})")
     kinds = sorted({label_suffix(p).replace(".tiff", ".tif") for p in files})
     if len(kinds) > 1:
         raise DatasetError(f"{folder}: mixes {' and '.join(kinds)} files; a series is one "
@@ -91,7 +100,7 @@ def read_header(source: LabelSource) -> VolumeHeader:
     except DatasetError:
         raise
     except Exception as exc:             # a truncated or foreign file: its reader's words
-        raise DatasetError(f"{source}: cannot be read as a label volume: damaged, or not "
+        raise DatasetError(f"{source}: cannot be read as a volume: damaged, or not "
                            f"what its name says ({_reader_says(exc)})") from None
 
 

@@ -395,6 +395,15 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "t_ms": (["t"], "ms", "time since the minimum outer volume of each sample (with --warp: "
                               "two segments, maximum expansion at the middle sample)"),
         "clip_v": (["t"], "1", "v of the Lagrangian clipping plane (constant myocardial volume)"),
+        "pullback_myocardium_mean": (
+            ["u_fine", "v_fine", "t"], "intensity",
+            "the intensity volumes' mean across the myocardium (from the outer to the inner "
+            "wall, 5 depths) on each frame's own grid refined to about a pixel a voxel "
+            "(u_fine: n_u times f_u around from the seam, v_fine: (n_v - 1) f_v + 1 from the "
+            "inlet); in the volumes' own values; NaN where the shell leaves the volume"),
+        "pullback_myocardium_max": (
+            ["u_fine", "v_fine", "t"], "intensity",
+            "the same, the maximum across the myocardium"),
         "trim_percent": (["t"], "%", "trim distance along the centroid line, % of its length"),
         "volume_myocardium_mm3": (["t"], "mm^3", "outer minus inner capped volume"),
         "volume_jelly_mm3": (["t"], "mm^3", "the cardiac jelly: inner minus lumen capped "
@@ -557,8 +566,11 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float | None = Non
     described = {k: describe_array(k, map_positions=positions)
                  for k in list(arrays) + list(grids)}
     described.update({k: describe_pca(k) for k in result.get("pca") or {}})
+    described.update({k: describe_array(k) for k in result.get("pullbacks") or {}})
     write_arrays(folder, {"arrays.npz": arrays, "grids.npz": grids,
-                          **({"pca.npz": result["pca"]} if result.get("pca") else {})},
+                          **({"pca.npz": result["pca"]} if result.get("pca") else {}),
+                          **({"pullbacks.npz": result["pullbacks"]}
+                             if result.get("pullbacks") else {})},
                  described)
     timings["write_arrays_s"] = time.perf_counter() - tick
     tick = time.perf_counter()

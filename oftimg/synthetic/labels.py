@@ -165,14 +165,17 @@ def probability_maps(shares: dict[str, np.ndarray], noise: float,
 
 def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
                         *, noise: float | None = None, name: str | None = None,
-                        progress=None, probabilities: bool = False) -> Path:
+                        progress=None, probabilities: bool = False,
+                        intensity: bool = False) -> Path:
     """Write a label phantom dataset: ``meta.json``, ``labels/f000.tif ...`` (one
     zlib-compressed uint8 TIFF per frame, (z, y, x)) and ``truth.json``. ``noise``:
     the share of boundary voxels flipped (with specks, :func:`segmentation_noise`;
     0 for none; None: :data:`NOISE`). With ``probabilities``, ``probabilities/<layer>/f000.tif ...``
     instead: each layer's partial volume (2 x 2 x 2 samples a voxel), blurred and
-    with noise of SD ``noise`` on the log-probabilities (:func:`probability_maps`). ``params`` are bent by
-    :func:`label_params`. Returns the folder."""
+    with noise of SD ``noise`` on the log-probabilities (:func:`probability_maps`). With
+    ``intensity``, ``intensity/f000.tif ...`` too: the volumes OCT would give, a
+    texture fixed in the tissue (:func:`~oftimg.synthetic.texture.intensity_volume`).
+    ``params`` are bent by :func:`label_params`. Returns the folder."""
     import tifffile
 
     if noise is None:
@@ -198,6 +201,12 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
             (out / "probabilities" / layer).mkdir(parents=True, exist_ok=True)
     else:
         (out / "labels").mkdir(parents=True, exist_ok=True)
+    if intensity:
+        from .texture import TissueTexture, intensity_volume
+
+        texture = TissueTexture(ph, np.random.default_rng([params.seed, 59]))
+        speckle_rng = np.random.default_rng([params.seed, 61])
+        (out / "intensity").mkdir(parents=True, exist_ok=True)
     for k, t in enumerate(ph.frame_times_ms()):
         frame = f"f{k:0{width}d}.tif"
         if probabilities:
@@ -208,6 +217,9 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
             if noise > 0:
                 labels = segmentation_noise(labels, noise, rng)
             tifffile.imwrite(out / "labels" / frame, labels, compression="zlib")
+        if intensity:
+            tifffile.imwrite(out / "intensity" / frame,
+                             intensity_volume(grid, texture, t, speckle_rng), compression="zlib")
         if progress is not None:
             progress(k + 1)
     inlet_um = (ph.frame_axes(0.0)[0] @ grid.turn + grid.shift) * 1e3

@@ -75,6 +75,7 @@ class PhantomParams:
     ellipse_contracted: float = 0.03
     myocardial_fraction: float = 0.3
     stretch: float = 0.17
+    twist_deg: float = 0.0          # the tissue's turn about the axis at the inlet, contracted
     lumen_fraction: float = 0.75
     folds: int = 5
     fold_contracted: float = 0.3
@@ -284,16 +285,27 @@ class Phantom:
         theta = np.arctan2(np.einsum("...i,...i", d, B), np.einsum("...i,...i", d, N))
         return s, theta
 
-    def material_coordinates(self, X, t_ms):
-        """(S, theta) material coordinates of points ``X (..., 3)`` at time t (ms).
+    def twist(self, s, t_ms):
+        """The tissue's turn about the axis (rad) at window position s, time t: the
+        inlet's by ``twist_deg`` when fully contracted, none at the outlet. The walls'
+        shapes do not show it: only a texture fixed in the tissue does."""
+        p = self.p
+        h0 = self.expansion(0.0, t_ms)
+        return np.radians(p.twist_deg) * (1.0 - h0) * (1.0 - np.asarray(s, float) / p.length_mm)
 
-        S (mm) follows the tissue as it slides through the inlet plane:
-        ``S = L - (L - s) / lambda(t)``. Material points move radially only, so
-        their angle is the window angle.
-        """
-        s, theta = self.window_coordinates(X)
+    def material_from_window(self, s, theta, t_ms):
+        """(S, theta) material coordinates at window position s (mm), angle theta
+        (rad), time t (ms): S follows the tissue as it slides through the inlet plane
+        (``S = L - (L - s) / lambda(t)``), and the tissue's angle is the window angle
+        less its :meth:`twist` (none by default: material points then move radially)."""
         L = self.p.length_mm
-        return L - (L - s) / self.stretch(t_ms), theta
+        return L - (L - np.asarray(s, float)) / self.stretch(t_ms), theta - self.twist(s, t_ms)
+
+    def material_coordinates(self, X, t_ms):
+        """(S, theta) material coordinates of points ``X (..., 3)`` at time t (ms)
+        (:meth:`material_from_window`)."""
+        s, theta = self.window_coordinates(X)
+        return self.material_from_window(s, theta, t_ms)
 
     # -- analytic areas and volumes -----------------------------------------
     def section_moments(self, wall, s, t_ms, n_theta: int = 128):

@@ -1,0 +1,78 @@
+"""Pullbacks: the intensity volumes (the OCT images a segmentation came from) read
+across the myocardium at every node of a grid finer than the analysis grid, so that
+each frame's tissue texture becomes a (u, v) image: the input of texture tracking,
+and what a lab looks at to see its tissue move.
+
+The shell is the myocardium: at each (u, v) the segment from the outer wall's node
+to the inner wall's (the inner grid is the outer one projected towards the axis, so
+the segment runs about along the wall's normal), sampled at ``n_layers`` depths and
+reduced to their mean and maximum. Grids are ``(n_u, n_v, 3)`` mm, volumes ``(z, y,
+x)``, voxel sizes ``(dx, dy, dz)`` and origins ``(x, y, z)`` mm. Functions of arrays;
+the volumes are read by the caller.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+LAYERS = 5                  # depths sampled across the myocardium
+MAX_REFINE = 6              # the fine grid's nodes per analysis grid step, at most
+
+
+def refine_factors(grid: np.ndarray, voxel_mm, max_factor: int = MAX_REFINE) -> tuple[int, int]:
+    """How many fine pixels per grid step around and along (at least 1, at most
+    ``max_factor``) give about one pixel per voxel (the smallest side) on the grid
+    ``(n_u, n_v, ..., 3)``: its median step around and along over the voxel."""
+    step_u = np.nanmedian(np.linalg.norm(np.diff(grid, axis=0), axis=-1))
+    step_v = np.nanmedian(np.linalg.norm(np.diff(grid, axis=1), axis=-1))
+    voxel = float(np.min(voxel_mm))
+    return tuple(int(np.clip(np.round(step / voxel), 1, max_factor))
+                 for step in (step_u, step_v))
+
+
+def refined(grid: np.ndarray, factor_u: int, factor_v: int) -> np.ndarray:
+    """A grid ``(n_u, n_v, 3)`` on ``factor_u`` times as many nodes around (periodic)
+    and ``(n_v - 1) factor_v + 1`` along, its first and last rows kept: cubic splines
+    through the nodes, periodic around, so the fine nodes lie on the smooth surface
+    the grid samples, not on its flat facets."""
+    from scipy.interpolate import CubicSpline
+
+    n_u, n_v = grid.shape[:2]
+    closed = np.concatenate([grid, grid[:1]], axis=0)
+    fine_u = CubicSpline(np.arange(n_u + 1), closed, axis=0, bc_type="periodic")(
+        np.arange(n_u * factor_u) / factor_u)
+    return CubicSpline(np.arange(n_v), fine_u, axis=1)(
+        np.arange((n_v - 1) * factor_v + 1) / factor_v)
+
+
+def sample_volume(volume: np.ndarray, points_mm: np.ndarray, voxel_mm, origin_mm
+                  ) -> np.ndarray:
+    """``volume (z, y, x)`` read at ``points_mm (..., 3)`` (x, y, z), trilinear; NaN
+    outside the volume (the tissue there was not imaged)."""
+    from scipy.ndimage import map_coordinates
+
+    at = (np.asarray(points_mm, float) - np.asarray(origin_mm, float)) / np.asarray(voxel_mm)
+    flat = at.reshape(-1, 3)[:, ::-1].T                                   # (z, y, x) rows
+    values = map_coordinates(volume, flat, order=1, mode="nearest").astype(np.float32)
+    outside = np.any((flat < -0.5) | (flat > np.array(volume.shape)[:, None] - 0.5), axis=0)
+    values[outside] = np.nan
+    return values.reshape(at.shape[:-1])
+
+
+def shell_points(outer: np.ndarray, inner: np.ndarray, n_layers: int = LAYERS) -> np.ndarray:
+    """Points ``(..., n_layers, 3)`` across the myocardium at each node: from the
+    outer node to the inner one, at the layers' middles (depth (k + 1/2) / n)."""
+    depth = (np.arange(n_layers) + 0.5) / n_layers
+    return outer[..., None, :] + depth[:, None] * (inner - outer)[..., None, :]
+
+
+def pullback(volume: np.ndarray, outer: np.ndarray, inner: np.ndarray, voxel_mm, origin_mm,
+             n_layers: int = LAYERS) -> tuple[np.ndarray, np.ndarray]:
+    """One frame's myocardium pullback: the mean and the maximum ``(n_u, n_v)`` over
+    its depths of ``volume`` at :func:`shell_points` of the (fine) grids ``outer`` and
+    ``inner``; NaN where a depth lies outside the volume."""
+    values = sample_volume(volume, shell_points(outer, inner, n_layers), voxel_mm, origin_mm)
+    outside = np.isnan(values).any(axis=-1)
+    with np.errstate(invalid="ignore"):
+        mean, top = values.mean(axis=-1), values.max(axis=-1)
+    mean[outside], top[outside] = np.nan, np.nan
+    return mean, top

@@ -1,0 +1,91 @@
+"""Intensity volumes of the label phantom, as OCT would image it: a texture fixed in
+the tissue (cell-sized blobs in the myocardium, in material coordinates, so that it
+slides and twists with the tissue beneath the walls), speckle that changes in every
+frame, attenuation with depth along the beam, and noise.
+
+The texture is what lets a run follow the tissue along the tube, which the walls'
+shapes cannot show (:meth:`~oftimg.synthetic.phantom.Phantom.material_from_window`).
+Volumes are ``(z, y, x)`` uint8 on the labels' voxels
+(:class:`~oftimg.synthetic.labels.LabelGrid`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .phantom import Phantom
+
+TWIST_DEG = 20.0            # the textured phantom's tissue twist at the inlet (contracted)
+BLOB_UM = 6.0               # the texture's grain (Gaussian sigma of its random field), um
+LATTICE_UM = 3.0            # the texture's sampling in the tissue
+DEPTH_LAYERS = 8            # the texture's samples across the myocardium
+# mean intensity of each layer (0..1 before 8-bit scaling) and the texture's contrast
+LEVEL = {"myocardium": 0.55, "jelly": 0.22, "lumen": 0.08, "background": 0.04}
+CONTRAST = 0.35             # the texture's SD over the myocardium's mean
+SPECKLE = 0.2               # SD of the multiplicative speckle, new in every frame
+SPECKLE_VOXELS = 0.6        # its grain (Gaussian sigma, voxels)
+ATTENUATION_MM = 1.5        # the beam's 1/e depth along y
+NOISE = 0.015               # SD of the additive noise
+
+
+class TissueTexture:
+    """A random texture in the myocardium's material coordinates: ``(S, theta,
+    depth)``, S the material position along the tube (mm), theta the material angle
+    (rad, periodic), depth 0 at the outer wall and 1 at the inner wall. Values about
+    1 on average (SD :data:`CONTRAST`), blobs of :data:`BLOB_UM`."""
+
+    def __init__(self, phantom: Phantom, rng: np.random.Generator):
+        from scipy import ndimage
+
+        p = phantom.p
+        r = max(p.radius_inlet_mm, p.radius_outlet_mm)
+        step_mm = LATTICE_UM * 1e-3
+        self.n_s = int(np.ceil(p.length_mm / step_mm)) + 1
+        self.n_theta = int(np.ceil(2 * np.pi * r / step_mm))
+        self.ds = p.length_mm / (self.n_s - 1)
+        sigma = BLOB_UM / LATTICE_UM
+        field = rng.standard_normal((self.n_s, self.n_theta, DEPTH_LAYERS)).astype(np.float32)
+        field = ndimage.gaussian_filter(field, (sigma, sigma, 0.6),
+                                        mode=("nearest", "wrap", "nearest"))
+        field /= field.std()
+        self.values = np.clip(1.0 + CONTRAST * field, 0.2, None).astype(np.float32)
+
+    def __call__(self, S: np.ndarray, theta: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        """The texture at material points (broadcasting), linear between samples."""
+        from scipy.ndimage import map_coordinates
+
+        S, theta, depth = np.broadcast_arrays(S, theta, depth)
+        i = np.clip(S / self.ds, 0, self.n_s - 1)
+        j = np.mod(theta / (2 * np.pi) * self.n_theta, self.n_theta)
+        k = np.clip(depth, 0, 1) * (DEPTH_LAYERS - 1)
+        wrapped = np.concatenate([self.values, self.values[:, :1]], axis=1)   # theta's wrap
+        return map_coordinates(wrapped, [i, j, k], order=1, mode="nearest")
+
+
+def intensity_volume(grid, texture: TissueTexture, t_ms: float,
+                     rng: np.random.Generator) -> np.ndarray:
+    """The frame's intensity ``(z, y, x)`` uint8 at ``t_ms`` on ``grid`` (a
+    :class:`~oftimg.synthetic.labels.LabelGrid`): each layer's level, the
+    myocardium's times its texture at each voxel's material point, times a speckle
+    new in this frame, attenuated along y, plus noise (scaled so that 1 is 255)."""
+    from scipy import ndimage
+
+    ph = grid.phantom
+    out = np.full(grid.shape, LEVEL["background"], np.float32)
+    flat = out.reshape(-1)
+    s, theta, dist = grid.s, grid.theta, grid.distance
+    outer = ph.radius("outer", s, theta, t_ms)
+    inner = ph.radius("inner", s, theta, t_ms)
+    lumen = ph.radius("lumen", s, theta, t_ms)
+    myo = (dist <= outer) & (dist > inner)
+    S, theta_m = ph.material_from_window(s[myo], theta[myo], t_ms)
+    depth = (outer[myo] - dist[myo]) / (outer[myo] - inner[myo])
+    flat[grid.index[myo]] = LEVEL["myocardium"] * texture(S, theta_m, depth)
+    flat[grid.index[(dist <= inner) & (dist > lumen)]] = LEVEL["jelly"]
+    flat[grid.index[dist <= lumen]] = LEVEL["lumen"]
+    speckle = ndimage.gaussian_filter(rng.standard_normal(grid.shape).astype(np.float32),
+                                      SPECKLE_VOXELS)
+    out *= np.clip(1.0 + SPECKLE * speckle / speckle.std(), 0.0, None)
+    y_mm = np.arange(grid.shape[1]) * grid.voxel_mm[1]
+    out *= np.exp(-y_mm / ATTENUATION_MM)[None, :, None]
+    out += rng.normal(0.0, NOISE, grid.shape).astype(np.float32)
+    return np.clip(np.round(out * 255), 0, 255).astype(np.uint8)

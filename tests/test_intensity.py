@@ -1,0 +1,170 @@
+"""Intensity volumes in and pulled back onto the grid (issue 61): the textured label
+phantom, its texture read back at the tissue's true material points, the pullback
+functions on analytic shapes, a run's pullbacks.npz, and bad intensity/ folders
+refused in one line."""
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from oftimg.analysis.pullback import (pullback, refine_factors, refined, sample_volume,
+                                      shell_points)
+from oftimg.cli import main
+from oftimg.io.label_dataset import load_label_dataset
+from oftimg.synthetic.labels import LabelGrid, label_params, write_label_phantom
+from oftimg.synthetic.phantom import Phantom, sample_params
+from oftimg.synthetic.texture import LEVEL, TWIST_DEG, TissueTexture
+
+from helpers import tube_mesh, write_series
+
+pytestmark = pytest.mark.usefixtures("png_figures_only")
+
+VOXEL_UM = (4.0, 4.0, 8.0)
+N_FRAMES = 6
+
+
+@pytest.fixture(scope="module")
+def textured(tmp_path_factory):
+    path = tmp_path_factory.mktemp("intensity") / "tex"
+    params = sample_params("normal", 0, n_frames=N_FRAMES, twist_deg=TWIST_DEG)
+    write_label_phantom(path, params, VOXEL_UM, intensity=True)
+    return path
+
+
+def cylinder_grid(radius, n_u=80, n_v=50, length=1.0):
+    """A grid ``(n_u, n_v, 3)`` on a cylinder about z."""
+    u = np.arange(n_u) / n_u * 2 * np.pi
+    z = np.linspace(0, length, n_v)
+    U, Z = np.meshgrid(u, z, indexing="ij")
+    return np.stack([radius * np.cos(U), radius * np.sin(U), Z], axis=-1)
+
+
+def test_a_refined_grid_lies_on_the_cylinder_between_the_nodes():
+    """Cubic and periodic around: the fine nodes between 80 nodes on a circle stay on
+    it within 1e-5 of its radius (linear would cut the chords, 8e-4 inside)."""
+    G = cylinder_grid(0.2)
+    fine = refined(G, 4, 3)
+    assert fine.shape == (320, 148, 3)
+    assert np.allclose(fine[::4, ::3], G)
+    r = np.hypot(fine[..., 0], fine[..., 1])
+    assert np.abs(r / 0.2 - 1).max() < 1e-5
+    assert refine_factors(G, (0.004, 0.004, 0.008)) == (4, 5)   # 15.7 um around, 20 along
+
+
+def test_a_shell_between_two_cylinders_reads_the_volume_inside_it():
+    """A volume bright (200) between radii 0.15 and 0.2 mm, 50 elsewhere: the shell
+    between grids at 0.16 and 0.19 reads 200, mean and maximum; a ramp along x is read
+    exactly (trilinear); outside the volume is NaN."""
+    voxel = np.array([0.004, 0.004, 0.004])
+    origin = np.array([-0.3, -0.3, -0.1])
+    k, j, i = np.indices((300, 151, 151))
+    x, y = origin[0] + i * voxel[0], origin[1] + j * voxel[1]
+    r = np.hypot(x, y)
+    volume = np.where((r > 0.15) & (r < 0.2), 200.0, 50.0).astype(np.float32)
+    outer, inner = cylinder_grid(0.19, n_v=20), cylinder_grid(0.16, n_v=20)
+    mean, top = pullback(volume, outer, inner, voxel, origin)
+    assert np.allclose(mean, 200) and np.allclose(top, 200)
+    ramp = (origin[0] + i * voxel[0]).astype(np.float32)
+    points = shell_points(outer, inner)
+    assert np.allclose(sample_volume(ramp, points, voxel, origin), points[..., 0], atol=1e-6)
+    far = outer + np.array([0.0, 0.0, 5.0])
+    assert np.isnan(pullback(volume, far, inner, voxel, origin)[0]).all()
+
+
+def test_the_phantoms_texture_is_fixed_in_the_tissue(textured):
+    """Read across the myocardium at the phantom's own walls, the intensity follows the
+    texture at the tissue's material points (which slide and twist beneath the walls):
+    correlation over 0.6 in every frame; read at points that stay put in space
+    instead (the first frame's material points), the correlation falls in the frames
+    where the tissue has moved."""
+    ph = Phantom(label_params(sample_params("normal", 0, n_frames=N_FRAMES,
+                                            twist_deg=TWIST_DEG)))
+    grid = LabelGrid(ph, VOXEL_UM)
+    texture = TissueTexture(ph, np.random.default_rng([0, 59]))   # the writer's seed
+    lds = load_label_dataset(textured)
+    s = np.linspace(0.15, 0.85, 140) * ph.p.length_mm
+    theta = np.linspace(-np.pi, np.pi, 200, endpoint=False)
+    S_, T_ = np.meshgrid(s, theta, indexing="ij")
+    fixed = []
+    for k, t in enumerate(ph.frame_times_ms()):
+        walls = [ph.point(w, S_, T_, t) @ grid.turn + grid.shift for w in ("outer", "inner")]
+        mean, _ = pullback(lds.intensity.volume(k), *walls, grid.voxel_mm, (0.0, 0.0, 0.0))
+        depth = (np.arange(5) + 0.5) / 5
+        S_m, T_m = ph.material_from_window(S_, T_, t)
+        truth = texture(S_m[..., None], T_m[..., None], depth).mean(axis=-1)
+        assert np.corrcoef(mean.ravel(), truth.ravel())[0, 1] > 0.6, k
+        S_0, T_0 = ph.material_from_window(S_, T_, 0.0)
+        fixed.append(np.corrcoef(mean.ravel(), texture(S_0[..., None], T_0[..., None],
+                                                        depth).mean(axis=-1).ravel())[0, 1])
+    moved = int(np.argmax([np.abs(ph.stretch(t) - ph.stretch(0.0))
+                           for t in ph.frame_times_ms()]))
+    assert fixed[moved] < 0.3, fixed
+
+
+def test_a_run_writes_the_pullbacks(textured, tmp_path):
+    out = tmp_path / "res"
+    assert main(["run", str(textured), "--out", str(out), "--quiet", "--jobs", "2"]) == 0
+    folder = out / "tex"
+    described = json.loads((folder / "arrays.json").read_text())
+    info = described["pullback_myocardium_mean"]
+    assert info["file"] == "pullbacks.npz" and info["dims"] == ["u_fine", "v_fine", "t"]
+    with np.load(folder / "pullbacks.npz") as a:
+        mean, top = a["pullback_myocardium_mean"], a["pullback_myocardium_max"]
+    n_u, n_v = 80, 50
+    f_u, f_v = mean.shape[0] // n_u, (mean.shape[1] - 1) // (n_v - 1)
+    assert mean.shape == (n_u * f_u, (n_v - 1) * f_v + 1, N_FRAMES) and f_u >= 2 and f_v >= 3
+    assert np.isfinite(mean).mean() > 0.99 and np.all(top[np.isfinite(top)] >= mean[np.isfinite(mean)])
+    # the myocardium's level (LEVEL x 255, less the beam's attenuation), not the jelly's
+    assert 0.6 * LEVEL["myocardium"] * 255 < np.nanmedian(mean) < 1.1 * LEVEL["myocardium"] * 255
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["pullbacks"]["shape_uvt"] == list(mean.shape)
+
+
+@pytest.mark.parametrize("damage, says", [
+    ("drop_frame", "5 volumes for a dataset of 6 frames"),
+    ("wrong_shape", "but the labels' is"),
+    ("meta_key", "a label dataset's intensity/ lies on its labels' voxels"),
+    ("empty", "no intensity volumes"),
+])
+def test_bad_intensity_folders_are_refused_in_one_line(textured, tmp_path, capsys, damage,
+                                                       says):
+    path = tmp_path / "bad"
+    shutil.copytree(textured, path)
+    files = sorted((path / "intensity").iterdir())
+    if damage == "drop_frame":
+        files[-1].unlink()
+    elif damage == "wrong_shape":
+        import tifffile
+        for f in files:
+            tifffile.imwrite(f, np.zeros((4, 5, 6), np.uint8))
+    elif damage == "meta_key":
+        meta = json.loads((path / "meta.json").read_text())
+        meta["intensity"] = {"voxel_size": [4, 4, 8]}
+        (path / "meta.json").write_text(json.dumps(meta))
+    elif damage == "empty":
+        for f in files:
+            f.unlink()
+    out = tmp_path / "res"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and says in err[0] and "intensity" in err[0], err
+    assert not out.exists()
+
+
+def test_a_mesh_dataset_places_its_volumes_by_meta_json(tmp_path, capsys):
+    """A mesh dataset with intensity/ needs meta.json's "intensity" (voxel size and
+    origin); without it, or with a bad origin, one line and exit 2."""
+    path = tmp_path / "meshes"
+    write_series(path, [tube_mesh() for _ in range(6)])
+    (path / "intensity").mkdir()
+    for k in range(6):
+        np.save(path / "intensity" / f"f{k}.npy", np.zeros((4, 4, 4), np.uint8))
+    (path / "meta.json").write_text(json.dumps({"period_ms": 360}))
+    out = tmp_path / "res"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 2
+    assert "no \"intensity\"" in capsys.readouterr().err
+    (path / "meta.json").write_text(json.dumps(
+        {"period_ms": 360, "intensity": {"voxel_size": [0.01, 0.01, 0.01], "origin": [0, 0]}}))
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 2
+    assert "origin must be three numbers" in capsys.readouterr().err

@@ -92,11 +92,14 @@ def _parser() -> argparse.ArgumentParser:
                    help="keep a full log (progress, warnings, timings) in FILE")
     r.add_argument("--warp", action="store_true",
                    help="resample time in two segments so maximum expansion is at mid-cycle")
-    r.add_argument("--tracking", choices=("material", "none"), default="material",
+    r.add_argument("--tracking", choices=("auto", "material", "texture", "none"),
+                   default="auto",
                    help="the grid of the per-pixel fields (curvature, thickness, strain, "
-                        "phase maps): material (default), each row turned about the tube "
-                        "with the tissue from frame to frame; none, each frame's own grid, "
-                        "as in the paper")
+                        "phase maps): material, each row turned about the tube with the "
+                        "tissue from frame to frame; texture, each node moved with the "
+                        "intensity volumes' texture (intensity/), along the tube too; none, "
+                        "each frame's own grid, as in the paper; auto (default): texture "
+                        "where a dataset has intensity/, else material")
     r.add_argument("--map-positions", choices=("rows", "fixed"), default="rows",
                    help="rows of the (v, t) area maps: the grid rows, as in the paper "
                         "(default; they drift along the tube as its shape changes), or fixed "

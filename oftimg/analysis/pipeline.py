@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .. import __version__
-from ..errors import InputError, OftimgWarning
+from ..errors import DatasetError, InputError, OftimgWarning
 from ..io.dataset import Dataset, check_enough_frames
 from ..io.label_dataset import label_repairs_note
 from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
@@ -36,8 +36,10 @@ from ..progress import Progress
 # centroid line's length in every frame
 MAP_POSITIONS = ("rows", "fixed")
 # how the grid follows the tissue from frame to frame: "none", each frame's own grid
-# (the paper's); "material", each row turned with the tissue (oftimg.analysis.tracking)
-TRACKING = ("material", "none")
+# (the paper's); "material", each row turned with the tissue (oftimg.analysis.tracking);
+# "texture", each node moved with the intensity's texture (oftimg.analysis.texture_tracking);
+# "auto", texture where a dataset has intensity volumes, else material
+TRACKING = ("auto", "material", "texture", "none")
 
 
 @dataclass(frozen=True)
@@ -50,13 +52,13 @@ class PipelineOptions:
     ridge_smoothing_ms: float | str = "auto"
     field_smoothing_ms: float | str = "auto"
     strain_smoothing_ms: float | str = "auto"
-    tracking: str = "material"
+    tracking: str = "auto"
     meshing: MeshOptions = field(default_factory=MeshOptions)    # of label datasets
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
                  map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
                  field_smoothing_ms: float | str = "auto",
-                 strain_smoothing_ms: float | str = "auto", tracking: str = "material",
+                 strain_smoothing_ms: float | str = "auto", tracking: str = "auto",
                  meshing: MeshOptions | dict | None = None, **grid_kwargs):
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
@@ -445,9 +447,16 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         H = resample_time(H, t_frames, axis=2)
     # 4. the grid follows the tissue
     coords = None
-    if options.tracking == "material":
+    tracking = tracking_mode(ds, options.tracking, pullbacks is not None)
+    if tracking != "none":
         tick = time.perf_counter()
-        coords, tracked = track_grid(grid["outer"])
+        if tracking == "texture":
+            coords, tracked = _texture_pathlines(pullbacks, grid["outer"].shape[:2])
+            arrays["grid_in_view"] = (coords[..., 1] >= 0) & (coords[..., 1] <= grid[
+                "outer"].shape[1] - 1)
+        else:
+            coords, tracked = track_grid(grid["outer"])
+            tracked = {"kind": "material", **tracked}
         grid = {w: follow(g, coords) for w, g in grid.items()}
         H = follow(H, coords) if H is not None else None
         jelly = follow(jelly, coords) if jelly is not None else None
@@ -512,6 +521,30 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                                 "layers": PULLBACK_LAYERS}
     return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"],
             **({"pullbacks": pullbacks} if pullbacks is not None else {})}
+
+
+def tracking_mode(ds: Dataset, asked: str, has_pullbacks: bool) -> str:
+    """The tracking a dataset gets: ``asked``, with "auto" as texture where it has
+    pullbacks (intensity volumes and an inner wall) and material elsewhere. Raises
+    :class:`DatasetError` for texture without pullbacks."""
+    if asked == "auto":
+        return "texture" if has_pullbacks else "material"
+    if asked == "texture" and not has_pullbacks:
+        raise DatasetError(f"{ds.path}: --tracking texture follows the intensity volumes' "
+                           "texture across the myocardium: the dataset needs intensity/ and "
+                           "an inner wall")
+    return asked
+
+
+def _texture_pathlines(pullbacks: dict, grid_shape: tuple) -> tuple[np.ndarray, dict]:
+    """:func:`~oftimg.analysis.texture_tracking.texture_pathlines` of the mean
+    myocardium pullback, for an analysis grid of ``grid_shape (n_u, n_v)``."""
+    from .texture_tracking import texture_pathlines
+
+    mean = pullbacks["pullback_myocardium_mean"]
+    n_u, n_v = grid_shape
+    factors = (mean.shape[0] // n_u, (mean.shape[1] - 1) // (n_v - 1))
+    return texture_pathlines(mean, factors, n_u, n_v)
 
 
 def myocardium_pullbacks(series, outer: np.ndarray, inner: np.ndarray, frames: list[int]

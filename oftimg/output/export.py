@@ -395,6 +395,9 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "t_ms": (["t"], "ms", "time since the minimum outer volume of each sample (with --warp: "
                               "two segments, maximum expansion at the middle sample)"),
         "clip_v": (["t"], "1", "v of the Lagrangian clipping plane (constant myocardial volume)"),
+        "grid_in_view": (["u", "v", "t"], "bool",
+                         "texture tracking: the node's tissue lies within the imaged part of "
+                         "the tube in that frame (outside, its values are the nearest row's)"),
         "pullback_myocardium_mean": (
             ["u_fine", "v_fine", "t"], "intensity",
             "the intensity volumes' mean across the myocardium (from the outer to the inner "

@@ -26,7 +26,7 @@ from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
 from ..mesh.labels import MeshOptions
 from ..mesh.sections import slab_thickness, volume_from_sections
 from ..mesh.curvature import contour_curvature, count_corners
-from ..mesh.strain import grid_strain
+from ..mesh.strain import grid_strain, surface_kinematics
 from .per_frame import frame_seam_candidates, process_frame, with_warnings
 from ..progress import Progress
 
@@ -473,6 +473,11 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     # 6. curvature, thickness and strain fields on the (u, v, t) grid
     tick = time.perf_counter()
     summary.update(_field_stage(ds, options, grid, st, H, lumen_noise, jelly, coords, arrays))
+    if tracking == "texture":           # the tissue's motion within the surface
+        speed, divergence = surface_kinematics(grid["outer"], arrays["principal_stretch_outer"],
+                                               ds.meta.period_ms)
+        arrays["surface_speed_outer_mm_s"] = speed.astype(np.float32)
+        arrays["surface_divergence_outer_per_s"] = divergence.astype(np.float32)
     timings["fields_s"] = time.perf_counter() - tick
     # 7. the (v, t) area maps as images: derivatives, ridges, wave speeds, masks
     tick = time.perf_counter()

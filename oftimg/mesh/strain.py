@@ -108,3 +108,26 @@ def grid_strain(G: np.ndarray, *, reference: int = 0, chunk: int = 32):
                 out[:, :, t] = np.where(count > 0, _at_nodes(np.where(ok, value, 0.0)) / count,
                                         np.nan)
     return energy, stretches
+
+
+def surface_kinematics(G: np.ndarray, stretches: np.ndarray, period_ms: float
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """How the tissue moves within its surface, from a grid that follows it ``G (n_u,
+    n_v, n_t, 3)`` mm over one cycle and its principal stretches against t = 0
+    ``(n_u, n_v, n_t, 2)``: the speed of each node along the surface (its velocity,
+    central differences round the cycle, less the part along the surface's normal)
+    ``(n_u, n_v, n_t)`` mm/s, and the surface divergence, the rate of local area
+    change d ln(l1 l2) / dt ``(n_u, n_v, n_t)`` 1/s (positive where the tissue spreads).
+    The wave's motion towards and away from the axis is left out of the speed: what
+    remains is the tissue sliding and turning, which only a texture shows."""
+    n_t = G.shape[2]
+    dt_s = period_ms / n_t / 1000.0
+    velocity = (np.roll(G, -1, axis=2) - np.roll(G, 1, axis=2)) / (2 * dt_s)
+    along_u = np.roll(G, -1, axis=0) - np.roll(G, 1, axis=0)
+    along_v = np.gradient(G, axis=1)
+    normal = np.cross(along_u, along_v)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    tangential = velocity - np.einsum("...i,...i", velocity, normal)[..., None] * normal
+    log_area = np.log(stretches[..., 0] * stretches[..., 1])
+    divergence = (np.roll(log_area, -1, axis=2) - np.roll(log_area, 1, axis=2)) / (2 * dt_s)
+    return np.linalg.norm(tangential, axis=-1), divergence

@@ -395,6 +395,12 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "t_ms": (["t"], "ms", "time since the minimum outer volume of each sample (with --warp: "
                               "two segments, maximum expansion at the middle sample)"),
         "clip_v": (["t"], "1", "v of the Lagrangian clipping plane (constant myocardial volume)"),
+        "surface_speed_outer_mm_s": (
+            ["u", "v", "t"], "mm/s", "texture tracking: the outer wall's tissue's speed along "
+            "its surface (the tracked node's velocity less its part along the normal)"),
+        "surface_divergence_outer_per_s": (
+            ["u", "v", "t"], "1/s", "texture tracking: the outer wall's rate of local area "
+            "change, d ln(l1 l2) / dt of its principal stretches (positive: spreading)"),
         "grid_in_view": (["u", "v", "t"], "bool",
                          "texture tracking: the node's tissue lies within the imaged part of "
                          "the tube in that frame (outside, its values are the nearest row's)"),
@@ -579,7 +585,8 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float | None = Non
     tick = time.perf_counter()
     # the workers render the videos while this process draws the figures
     videos = (early_videos or []) + start_videos(
-        arrays, result["grids"], fps=fps, executor=executor,
+        {**arrays, **(result.get("pullbacks") or {})}, result["grids"], fps=fps,
+        executor=executor,
         kinds=None if early_videos is None else LATER_VIDEOS,
         grid_note=field_grid_note(result["summary"]))
     timings["videos_s"] = time.perf_counter() - tick

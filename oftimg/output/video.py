@@ -296,6 +296,14 @@ FIELD_VIDEOS = [
      dict(cmap="viridis", label="jelly thickness (mm)", title="cardiac jelly thickness")),
     ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", False,
      dict(label="mean curvature (1/mm)", title="lumen: mean curvature")),
+    ("surface_speed_outer", "surface_speed_outer_mm_s", False,
+     dict(cmap="viridis", label="tissue speed (mm/s)",
+          title="outer wall: the tissue's speed along its surface")),
+    ("surface_divergence_outer", "surface_divergence_outer_per_s", False,
+     dict(label="area change (1/s)", title="outer wall: the tissue's rate of area change")),
+    ("pullback_myocardium", "pullback_myocardium_mean", False,
+     dict(cmap="gray", label="intensity (mean across the wall)", scale=2, grid_note="",
+          title="myocardium: intensity pulled back onto each frame's own grid")),
 ]
 
 
@@ -325,7 +333,7 @@ def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
         tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms,
                                        length_mm=length_mm)))
     tasks += [("field", dict(name=name, field=arrays[key], normalize=normalize, t_ms=t_ms,
-                             options=dict(opts, grid_note=grid_note, length_mm=length_mm)))
+                             options={"grid_note": grid_note, "length_mm": length_mm, **opts}))
               for name, key, normalize, opts in FIELD_VIDEOS if key in arrays]
     return tasks
 

@@ -457,6 +457,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         else:
             coords, tracked = track_grid(grid["outer"])
             tracked = {"kind": "material", **tracked}
+        arrays["pathlines_uv"] = coords.astype(np.float32)
         grid = {w: follow(g, coords) for w, g in grid.items()}
         H = follow(H, coords) if H is not None else None
         jelly = follow(jelly, coords) if jelly is not None else None

@@ -401,6 +401,10 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "surface_divergence_outer_per_s": (
             ["u", "v", "t"], "1/s", "texture tracking: the outer wall's rate of local area "
             "change, d ln(l1 l2) / dt of its principal stretches (positive: spreading)"),
+        "pathlines_uv": (["u", "v", "t", "uv"], "grid steps",
+                         "where each tracked node's tissue lies in each frame's own grid "
+                         "(around from the seam, along from the inlet; around not wrapped): "
+                         "the tracked fields are each frame's read there"),
         "grid_in_view": (["u", "v", "t"], "bool",
                          "texture tracking: the node's tissue lies within the imaged part of "
                          "the tube in that frame (outside, its values are the nearest row's)"),
@@ -591,7 +595,8 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float | None = Non
         grid_note=field_grid_note(result["summary"]))
     timings["videos_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    dataset_figures(folder / "figures", result["summary"], arrays, result["grids"])
+    dataset_figures(folder / "figures", result["summary"], arrays, result["grids"],
+                    result.get("pullbacks"))
     if result.get("pca"):
         from .figures import pca_figure
 

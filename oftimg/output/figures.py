@@ -113,8 +113,10 @@ def field_grid_note(summary: dict) -> str:
     return f"{(summary.get('tracking') or {}).get('grid', 'per-frame')} grid"
 
 
-def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> list[Path]:
-    """All per-dataset figures into ``folder`` (``figures/``)."""
+def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
+                    pullbacks: dict | None = None) -> list[Path]:
+    """All per-dataset figures into ``folder`` (``figures/``); ``pullbacks``: the
+    intensity pullbacks, when the dataset had intensity volumes."""
     name = summary["name"]
     t_ms = arrays["t_ms"]
     written = []
@@ -135,6 +137,11 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict) -> l
                                        title=f"{name}: t = 0 (minimum volume)"))
     if "ridge_t_ms" in arrays:
         written += map_figures(folder, name, arrays, summary, summary["period_ms"])
+    if pullbacks:
+        written.append(pullback_figure(pullbacks["pullback_myocardium_mean"],
+                                       arrays.get("pathlines_uv"), t_ms,
+                                       folder / "pullback_myocardium.png",
+                                       title=f"{name}: the myocardium's intensity on the grid"))
     for layer, what in (("wall", "myocardial wall"), ("jelly", "cardiac jelly")):
         if f"{layer}_thickness_mm" in arrays:
             from ..analysis.pipeline import mean_around_tube
@@ -359,6 +366,52 @@ def field_pair(field: np.ndarray, area_mm2: np.ndarray, path: Path, *, label: st
         ax.set_title(f"{when} (frame {t})")
     axes[0].set_ylabel("v, along the tube (inlet 0)")
     colour_bar(fig, image, list(axes), label, signed=signed)
+    fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
+    return save(fig, path)
+
+
+PATHLINE_EVERY = (10, 7)     # the nodes (around, along) whose pathlines the figure draws
+
+
+@house_style
+def pullback_figure(pullback: np.ndarray, pathlines: np.ndarray | None, t_ms: np.ndarray,
+                    path: Path, *, title: str = "") -> Path:
+    """The myocardium's intensity ``(u_fine, v_fine, n_t)`` at t = 0 and at the frame
+    where the tracked nodes lie farthest from where they started, each on its own
+    grid (grey, 1st-99th percentile); with the tracking's ``pathlines (n_u, n_v, n_t,
+    2)`` (grid steps), every :data:`PATHLINE_EVERY` node's path through the cycle drawn
+    on the first, its place in that frame marked on the second: where the tissue went
+    in the grid's (u, v)."""
+    lo, hi = np.nanpercentile(pullback, [1, 99])
+    n_u, n_v = (pathlines.shape[:2] if pathlines is not None else (1, 2))
+    if pathlines is not None:
+        moved = np.linalg.norm(pathlines - pathlines[:, :, :1], axis=-1)
+        t_far = int(np.argmax(np.median(moved, axis=(0, 1))))
+    else:
+        t_far = pullback.shape[2] // 2
+    fig, axes = new_figure(PAGE_MM, 80, ncols=2, sharey=True)
+    notes = (("nodes' paths over the cycle", "the same nodes")
+             if pathlines is not None else ("", ""))
+    for ax, t, note in zip(axes, (0, t_far), notes):
+        image = ax.imshow(pullback[:, :, t].T, origin="lower", aspect="auto", cmap="gray",
+                          extent=[0, 1, 0, 1], vmin=lo, vmax=hi, interpolation="nearest")
+        ax.set_xlabel("u, around the tube from the seam")
+        ax.set_title(f"t = {t_ms[t]:.0f} ms" + (f": {note}" if note else ""))
+    axes[0].set_ylabel("v, along the tube (inlet 0)")
+    if pathlines is not None:
+        every_u, every_v = PATHLINE_EVERY
+        picked = pathlines[::every_u, ::every_v].reshape(-1, pathlines.shape[2], 2)
+        u, v = np.mod(picked[..., 0] / n_u, 1.0), picked[..., 1] / (n_v - 1)
+        for path_u, path_v in zip(u, v):
+            jumps = np.flatnonzero(np.abs(np.diff(path_u)) > 0.5) + 1   # across the seam
+            for pu, pv in zip(np.split(path_u, jumps), np.split(path_v, jumps)):
+                axes[0].plot(pu, pv, color=LINE_COLOURS[1], lw=0.6)
+        axes[0].plot(u[:, 0], v[:, 0], ".", color=LINE_COLOURS[1], ms=3)
+        axes[1].plot(u[:, t_far], v[:, t_far], ".", color=LINE_COLOURS[1], ms=3)
+    for ax in axes:                     # tissue beyond the ends has left the imaged part
+        ax.set_xlim(0, 1)
+        ax.set_ylim(0, 1)
+    colour_bar(fig, image, list(axes), "intensity, mean across the wall")
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
     return save(fig, path)
 

@@ -75,7 +75,29 @@ def write_tiff_images(results: Path, out: Path) -> list[Path]:
             path = out / f"{name}.tif"
             tifffile.imwrite(path, image, imagej=True, metadata=metadata)
             written.append(path)
+    if (results / "pullbacks.npz").is_file():
+        with np.load(results / "pullbacks.npz") as npz:
+            for name in npz.files:
+                image, metadata = pullback_tiff(npz[name], described[name], t_ms)
+                path = out / f"{name}.tif"
+                tifffile.imwrite(path, image, imagej=True, metadata=metadata)
+                written.append(path)
     return written
+
+
+def pullback_tiff(values: np.ndarray, info: dict, t_ms: np.ndarray) -> tuple[np.ndarray, dict]:
+    """A pullback ``(u_fine, v_fine, t)`` as a 16-bit ImageJ stack ``(t, v, u)`` (rows v
+    from the outlet at the top): its values rounded and clipped to 0..65535, as the
+    intensity volumes' own (8- or 16-bit) values are; 0 where not imaged (NaN)."""
+    image, axes = in_image_order(values, ["u", "v", "t"])
+    image = np.clip(np.round(np.nan_to_num(image, nan=0.0)), 0, 65535).astype(np.uint16)
+    text = [_with_unit(info) + "; 0: not imaged",
+            "rows: v_fine, from the outlet (top) to the inlet (bottom)",
+            "columns: u_fine, around the tube from the seam (u = 0)",
+            f"frames: t (ms) {_listed(t_ms)}"]
+    metadata = {"axes": axes, "finterval": float(np.median(np.diff(t_ms))) / 1000.0,
+                "Labels": [f"t = {t:.1f} ms" for t in t_ms], "Info": "\n".join(text)}
+    return image, metadata
 
 
 def write_cohort_map_images(run: Path, out: Path) -> list[Path]:

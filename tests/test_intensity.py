@@ -121,6 +121,16 @@ def test_a_run_writes_the_pullbacks(textured, tmp_path):
     assert summary["pullbacks"]["shape_uvt"] == list(mean.shape)
     assert summary["tracking"]["kind"] == "texture"                  # the default with intensity/
     assert described["grid_in_view"]["dims"] == ["u", "v", "t"]
+    assert (folder / "figures" / "pullback_myocardium.png").is_file()
+    assert (folder / "videos" / "pullback_myocardium.mp4").is_file()
+    assert "intensity pulled back" in (folder / "index.html").read_text()
+    assert main(["tiff", str(out), "--out", str(tmp_path / "tif")]) == 0
+    import tifffile
+    with tifffile.TiffFile(tmp_path / "tif" / "tex" / "pullback_myocardium_mean.tif") as tif:
+        stack = tif.series[0].asarray()
+        assert stack.dtype == np.uint16 and stack.shape == (N_FRAMES, mean.shape[1], mean.shape[0])
+    # rows from the outlet (top) down, columns around: frame 0's image as stored, rounded
+    assert np.array_equal(stack[0], np.round(mean[:, ::-1, 0].T).astype(np.uint16))
 
 
 def _drift(folder, ph, grid):

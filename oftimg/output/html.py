@@ -156,6 +156,10 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     grid_note = field_grid_note(summary)
     rows.append({"quantity": "grid of the per-pixel fields (curvature, thickness, strain, "
                              "phase maps)", "value": grid_note})
+    if summary.get("pullbacks"):
+        rows.append({"quantity": "intensity pulled back across the myocardium: pixels (u, v) "
+                                 "and frames, share imaged (pullbacks.npz)",
+                     "value": summary["pullbacks"]})
     spread = summary.get("wave_speed_noise_sd_mm_s") or {}
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():
         rows.append({"quantity": f"wave speed {k} (mm/s)", "value": v,
@@ -183,8 +187,10 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                          (summary.get("strain_noise") or {}).items()}},
               {"check": "frames whose seam continues its neighbours' (a tube without one "
                         "shortest seam)", "value": summary.get("seam_frames_continued")},
-              {"check": "tracking: how well consecutive frames registered and the closure "
-                        "miss over one cycle before it was spread",
+              {"check": "tracking: how well the frames registered (material: consecutive "
+                        "rings, and the closure miss over one cycle before it was spread; "
+                        "texture: the gap between the flows' two estimates in grid steps, "
+                        "and the share of nodes whose tissue stayed in view)",
                "value": {k: v for k, v in (summary.get("tracking") or {}).items()
                          if k != "grid"} or None},
               {"check": "section planes still crossing (0)",

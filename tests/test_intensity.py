@@ -8,8 +8,8 @@ import shutil
 import numpy as np
 import pytest
 
-from oftimg.analysis.pullback import (pullback, refine_factors, refined, sample_volume,
-                                      shell_points)
+from oftimg.analysis.pullback import (normal_shell, pullback, refine_factors, refined,
+                                      sample_volume, shell_points)
 from oftimg.cli import main
 from oftimg.io.label_dataset import load_label_dataset
 from oftimg.synthetic.labels import LabelGrid, label_params, write_label_phantom
@@ -72,6 +72,16 @@ def test_a_shell_between_two_cylinders_reads_the_volume_inside_it():
     assert np.isnan(pullback(volume, far, inner, voxel, origin)[0]).all()
 
 
+def test_a_wall_alone_has_a_shell_along_its_outward_normal():
+    """Without an inner wall the shell runs 10 um either side of the wall, outward
+    first, whichever way round the grid turns."""
+    G = cylinder_grid(0.2)
+    for grid in (G, G[::-1]):
+        outside, inside = normal_shell(grid)
+        assert np.allclose(np.hypot(outside[..., 0], outside[..., 1]), 0.21, atol=1e-4)
+        assert np.allclose(np.hypot(inside[..., 0], inside[..., 1]), 0.19, atol=1e-4)
+
+
 def test_the_phantoms_texture_is_fixed_in_the_tissue(textured):
     """Read across the myocardium at the phantom's own walls, the intensity follows the
     texture at the tissue's material points (which slide and twist beneath the walls):
@@ -107,10 +117,10 @@ def test_a_run_writes_the_pullbacks(textured, tmp_path):
     assert main(["run", str(textured), "--out", str(out), "--quiet", "--jobs", "2"]) == 0
     folder = out / "tex"
     described = json.loads((folder / "arrays.json").read_text())
-    info = described["pullback_myocardium_mean"]
+    info = described["pullback_outer_mean"]
     assert info["file"] == "pullbacks.npz" and info["dims"] == ["u_fine", "v_fine", "t"]
     with np.load(folder / "pullbacks.npz") as a:
-        mean, top = a["pullback_myocardium_mean"], a["pullback_myocardium_max"]
+        mean, top = a["pullback_outer_mean"], a["pullback_outer_max"]
     n_u, n_v = 80, 50
     f_u, f_v = mean.shape[0] // n_u, (mean.shape[1] - 1) // (n_v - 1)
     assert mean.shape == (n_u * f_u, (n_v - 1) * f_v + 1, N_FRAMES) and f_u >= 2 and f_v >= 3
@@ -121,12 +131,12 @@ def test_a_run_writes_the_pullbacks(textured, tmp_path):
     assert summary["pullbacks"]["shape_uvt"] == list(mean.shape)
     assert summary["tracking"]["kind"] == "texture"                  # the default with intensity/
     assert described["grid_in_view"]["dims"] == ["u", "v", "t"]
-    assert (folder / "figures" / "pullback_myocardium.png").is_file()
-    assert (folder / "videos" / "pullback_myocardium.mp4").is_file()
+    assert (folder / "figures" / "pullback_outer.png").is_file()
+    assert (folder / "videos" / "pullback_outer.mp4").is_file()
     assert "intensity pulled back" in (folder / "index.html").read_text()
     assert main(["tiff", str(out), "--out", str(tmp_path / "tif")]) == 0
     import tifffile
-    with tifffile.TiffFile(tmp_path / "tif" / "tex" / "pullback_myocardium_mean.tif") as tif:
+    with tifffile.TiffFile(tmp_path / "tif" / "tex" / "pullback_outer_mean.tif") as tif:
         stack = tif.series[0].asarray()
         assert stack.dtype == np.uint16 and stack.shape == (N_FRAMES, mean.shape[1], mean.shape[0])
     # rows from the outlet (top) down, columns around: frame 0's image as stored, rounded
@@ -211,3 +221,18 @@ def test_a_mesh_dataset_places_its_volumes_by_meta_json(tmp_path, capsys):
         {"period_ms": 360, "intensity": {"voxel_size": [0.01, 0.01, 0.01], "origin": [0, 0]}}))
     assert main(["run", str(path), "--out", str(out), "--quiet"]) == 2
     assert "origin must be three numbers" in capsys.readouterr().err
+    # placed right, a still tube with a random texture: its pullbacks and a grid that stays put
+    rng = np.random.default_rng(1)
+    texture = rng.integers(0, 255, (60, 30, 30)).astype(np.uint8)   # z, y, x at 20 um
+    for k in range(6):
+        np.save(path / "intensity" / f"f{k}.npy", texture)
+    (path / "meta.json").write_text(json.dumps(
+        {"period_ms": 360, "length_unit": "mm",
+         "intensity": {"voxel_size": [0.02, 0.02, 0.02], "origin": [-0.3, -0.3, -0.1]}}))
+    assert main(["run", str(path), "--out", str(out), "--quiet", "--tracking", "texture"]) == 0
+    summary = json.loads((out / "meshes" / "summary.json").read_text())
+    assert summary["pullbacks"]["shell"].startswith("-10 to 10 um")
+    assert summary["pullbacks"]["in_view"] > 0.99
+    with np.load(out / "meshes" / "arrays.npz") as a:
+        moved = a["pathlines_uv"] - a["pathlines_uv"][:, :, :1]
+    assert np.abs(moved).max() < 0.05                 # grid steps: the same image every frame

@@ -19,7 +19,8 @@ from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_
 from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
                                smoothing_kernel)
 from ..image.pca import contour_pca
-from .pullback import LAYERS as PULLBACK_LAYERS, pullback, refine_factors, refined
+from .pullback import (LAYERS as PULLBACK_LAYERS, SHELL_MM, normal_shell, pullback,
+                       refine_factors, refined)
 from .tracking import follow, track_grid
 from ..mesh.clip import clip_grid, clip_positions, plane_at
 from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
@@ -431,10 +432,10 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     del frames  # each frame's arrays, stacked: ~120 MB for 195 frames
     _warn_about_frames(ds, st)
     pullbacks = None
-    if ds.intensity is not None and "inner" in st["grid"]:
+    if ds.intensity is not None:
         tick = time.perf_counter()
-        pullbacks = myocardium_pullbacks(ds.intensity, st["grid"]["outer"], st["grid"]["inner"],
-                                         [(t0 + k) % ds.n_frames for k in range(ds.n_frames)])
+        pullbacks = outer_pullbacks(ds.intensity, st["grid"]["outer"], st["grid"].get("inner"),
+                                    [(t0 + k) % ds.n_frames for k in range(ds.n_frames)])
         timings["pullbacks_s"] = time.perf_counter() - tick
     from_ring = {w: int(st["rows"][f"from_ring_{w}"].sum()) for w in st["walls"]}
     # 3. the time axis (warped or not) and the per-row series on it
@@ -521,9 +522,12 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                       "docs/accuracy.md, from label volumes)", OftimgWarning, stacklevel=2)
     summary["timings_s"] = timings
     if pullbacks is not None:
-        summary["pullbacks"] = {"shape_uvt": list(pullbacks["pullback_myocardium_mean"].shape),
+        summary["pullbacks"] = {"shape_uvt": list(pullbacks["pullback_outer_mean"].shape),
+                                "shell": ("myocardium" if "inner" in grid else
+                                          f"{1000 * SHELL_MM[0]:g} to {1000 * SHELL_MM[1]:g} um "
+                                          "along the outer wall's normal"),
                                 "in_view": float(np.isfinite(
-                                    pullbacks["pullback_myocardium_mean"]).mean()),
+                                    pullbacks["pullback_outer_mean"]).mean()),
                                 "layers": PULLBACK_LAYERS}
     return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"],
             **({"pullbacks": pullbacks} if pullbacks is not None else {})}
@@ -531,14 +535,13 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
 
 def tracking_mode(ds: Dataset, asked: str, has_pullbacks: bool) -> str:
     """The tracking a dataset gets: ``asked``, with "auto" as texture where it has
-    pullbacks (intensity volumes and an inner wall) and material elsewhere. Raises
+    pullbacks (intensity volumes) and material elsewhere. Raises
     :class:`DatasetError` for texture without pullbacks."""
     if asked == "auto":
         return "texture" if has_pullbacks else "material"
     if asked == "texture" and not has_pullbacks:
         raise DatasetError(f"{ds.path}: --tracking texture follows the intensity volumes' "
-                           "texture across the myocardium: the dataset needs intensity/ and "
-                           "an inner wall")
+                           "texture: the dataset needs intensity/ (one volume per frame)")
     return asked
 
 
@@ -547,29 +550,32 @@ def _texture_pathlines(pullbacks: dict, grid_shape: tuple) -> tuple[np.ndarray, 
     myocardium pullback, for an analysis grid of ``grid_shape (n_u, n_v)``."""
     from .texture_tracking import texture_pathlines
 
-    mean = pullbacks["pullback_myocardium_mean"]
+    mean = pullbacks["pullback_outer_mean"]
     n_u, n_v = grid_shape
     factors = (mean.shape[0] // n_u, (mean.shape[1] - 1) // (n_v - 1))
     return texture_pathlines(mean, factors, n_u, n_v)
 
 
-def myocardium_pullbacks(series, outer: np.ndarray, inner: np.ndarray, frames: list[int]
-                         ) -> dict[str, np.ndarray]:
-    """The intensity across the myocardium on a grid finer than the analysis grid
-    (:func:`~oftimg.analysis.pullback.refine_factors`: about a pixel a voxel), each
-    frame's from its own grids ``outer, inner (n_u, n_v, n_t, 3)`` mm and its volume
-    ``series.volume(frames[k])`` (one in memory at a time): ``pullback_myocardium_mean``
-    and ``_max`` ``(n_u f_u, (n_v - 1) f_v + 1, n_t)`` float32, NaN where the shell
-    leaves the imaged volume."""
+def outer_pullbacks(series, outer: np.ndarray, inner: np.ndarray | None, frames: list[int]
+                    ) -> dict[str, np.ndarray]:
+    """The intensity across the myocardium (from ``outer`` to ``inner``; without an
+    inner wall, across :data:`~oftimg.analysis.pullback.SHELL_MM` about ``outer``)
+    on a grid finer than the analysis grid (:func:`~oftimg.analysis.pullback.refine_factors`:
+    about a pixel a voxel), each frame's from its own grids ``(n_u, n_v, n_t, 3)`` mm
+    and its volume ``series.volume(frames[k])`` (one in memory at a time):
+    ``pullback_outer_mean`` and ``_max`` ``(n_u f_u, (n_v - 1) f_v + 1, n_t)`` float32,
+    NaN where the shell leaves the imaged volume."""
     f_u, f_v = refine_factors(outer, series.voxel_size_mm)
     n_u, n_v, n_t = outer.shape[:3]
     shape = (n_u * f_u, (n_v - 1) * f_v + 1, n_t)
     mean, top = np.empty(shape, np.float32), np.empty(shape, np.float32)
     for k, t in enumerate(frames):
-        mean[:, :, k], top[:, :, k] = pullback(
-            series.volume(t), refined(outer[:, :, k], f_u, f_v), refined(inner[:, :, k], f_u, f_v),
-            series.voxel_size_mm, series.origin_mm, PULLBACK_LAYERS)
-    return {"pullback_myocardium_mean": mean, "pullback_myocardium_max": top}
+        fine = refined(outer[:, :, k], f_u, f_v)
+        faces = ((fine, refined(inner[:, :, k], f_u, f_v)) if inner is not None
+                 else normal_shell(fine))
+        mean[:, :, k], top[:, :, k] = pullback(series.volume(t), *faces, series.voxel_size_mm,
+                                               series.origin_mm, PULLBACK_LAYERS)
+    return {"pullback_outer_mean": mean, "pullback_outer_max": top}
 
 
 def _per_frame_passes(ds: Dataset, opts: GridOptions, *, quiet, executor, progress,

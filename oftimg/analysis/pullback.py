@@ -6,7 +6,8 @@ and what a lab looks at to see its tissue move.
 The shell is the myocardium: at each (u, v) the segment from the outer wall's node
 to the inner wall's (the inner grid is the outer one projected towards the axis, so
 the segment runs about along the wall's normal), sampled at ``n_layers`` depths and
-reduced to their mean and maximum. Grids are ``(n_u, n_v, 3)`` mm, volumes ``(z, y,
+reduced to their mean and maximum. A dataset of one wall (a gut, a vessel) has no
+inner wall: its shell runs along each node's normal across :data:`SHELL_MM`. Grids are ``(n_u, n_v, 3)`` mm, volumes ``(z, y,
 x)``, voxel sizes ``(dx, dy, dz)`` and origins ``(x, y, z)`` mm. Functions of arrays;
 the volumes are read by the caller.
 """
@@ -15,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 LAYERS = 5                  # depths sampled across the myocardium
+SHELL_MM = (-0.01, 0.01)    # a wall alone: its shell along the outward normal, mm
 MAX_REFINE = 6              # the fine grid's nodes per analysis grid step, at most
 
 
@@ -63,6 +65,24 @@ def shell_points(outer: np.ndarray, inner: np.ndarray, n_layers: int = LAYERS) -
     outer node to the inner one, at the layers' middles (depth (k + 1/2) / n)."""
     depth = (np.arange(n_layers) + 0.5) / n_layers
     return outer[..., None, :] + depth[:, None] * (inner - outer)[..., None, :]
+
+
+def outward_normals(grid: np.ndarray) -> np.ndarray:
+    """Unit normals ``(n_u, n_v, 3)`` of a grid ``(n_u, n_v, 3)`` (periodic around),
+    turned away from each row's centroid."""
+    along_u = np.roll(grid, -1, axis=0) - np.roll(grid, 1, axis=0)
+    normal = np.cross(along_u, np.gradient(grid, axis=1))
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    out = grid - grid.mean(axis=0, keepdims=True)
+    return normal * np.sign(np.sum(normal * out))
+
+
+def normal_shell(grid: np.ndarray, shell_mm=SHELL_MM) -> tuple[np.ndarray, np.ndarray]:
+    """The two faces ``(n_u, n_v, 3)`` of a shell about a wall's grid: each node moved
+    along its outward normal by ``shell_mm`` (inner, outer offsets), outer face first,
+    as :func:`pullback` takes the outer and inner walls."""
+    normal = outward_normals(grid)
+    return grid + shell_mm[1] * normal, grid + shell_mm[0] * normal
 
 
 def pullback(volume: np.ndarray, outer: np.ndarray, inner: np.ndarray, voxel_mm, origin_mm,

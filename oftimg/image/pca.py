@@ -132,7 +132,8 @@ def shape_pca(curves: np.ndarray, *, n_modes: int = 3, max_iter: int = 30,
         disp.append(d)
     disp = np.stack(disp)
     return ShapePCA(mean=base, aligned=aligned, displacement=disp, variance=variance[:n_modes],
-                    explained=variance[:n_modes] / variance.sum(),
+                    # all sections the same shape (a still tube): no mode explains anything
+                    explained=variance[:n_modes] / max(variance.sum(), np.finfo(float).tiny),
                     scores=(Q - q_mean) @ modes.T, iterations=iterations, converged=converged)
 
 

@@ -408,13 +408,14 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "grid_in_view": (["u", "v", "t"], "bool",
                          "texture tracking: the node's tissue lies within the imaged part of "
                          "the tube in that frame (outside, its values are the nearest row's)"),
-        "pullback_myocardium_mean": (
+        "pullback_outer_mean": (
             ["u_fine", "v_fine", "t"], "intensity",
             "the intensity volumes' mean across the myocardium (from the outer to the inner "
-            "wall, 5 depths) on each frame's own grid refined to about a pixel a voxel "
+            "wall, 5 depths; a dataset without an inner wall: from 10 um inside the outer "
+            "wall to 10 um outside, along its normal) on each frame's own grid refined to about a pixel a voxel "
             "(u_fine: n_u times f_u around from the seam, v_fine: (n_v - 1) f_v + 1 from the "
             "inlet); in the volumes' own values; NaN where the shell leaves the volume"),
-        "pullback_myocardium_max": (
+        "pullback_outer_max": (
             ["u_fine", "v_fine", "t"], "intensity",
             "the same, the maximum across the myocardium"),
         "trim_percent": (["t"], "%", "trim distance along the centroid line, % of its length"),

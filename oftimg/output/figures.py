@@ -138,9 +138,9 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
     if "ridge_t_ms" in arrays:
         written += map_figures(folder, name, arrays, summary, summary["period_ms"])
     if pullbacks:
-        written.append(pullback_figure(pullbacks["pullback_myocardium_mean"],
+        written.append(pullback_figure(pullbacks["pullback_outer_mean"],
                                        arrays.get("pathlines_uv"), t_ms,
-                                       folder / "pullback_myocardium.png",
+                                       folder / "pullback_outer.png",
                                        title=f"{name}: the myocardium's intensity on the grid"))
     for layer, what in (("wall", "myocardial wall"), ("jelly", "cardiac jelly")):
         if f"{layer}_thickness_mm" in arrays:
@@ -624,9 +624,10 @@ def _mode_arrows(ax, mean, disp, title):
     step = max(1, len(mean) // 40)
     size = np.ptp(mean, axis=0).max()
     longest = np.linalg.norm(disp, axis=1).max()
-    ax.quiver(mean[::step, 0], mean[::step, 1], disp[::step, 0], disp[::step, 1],
-              color=LINE_COLOURS[0], angles="xy", scale_units="xy",
-              scale=longest / (0.15 * size), width=0.012)
+    if longest > 0:                         # a still tube's sections have no modes to draw
+        ax.quiver(mean[::step, 0], mean[::step, 1], disp[::step, 0], disp[::step, 1],
+                  color=LINE_COLOURS[0], angles="xy", scale_units="xy",
+                  scale=longest / (0.15 * size), width=0.012)
     pad = 0.18 * size                       # the longest arrow is 0.15 size: inside the axes
     ax.set_xlim(mean[:, 0].min() - pad, mean[:, 0].max() + pad)
     ax.set_ylim(mean[:, 1].min() - pad, mean[:, 1].max() + pad)

@@ -301,7 +301,7 @@ FIELD_VIDEOS = [
           title="outer wall: the tissue's speed along its surface")),
     ("surface_divergence_outer", "surface_divergence_outer_per_s", False,
      dict(label="area change (1/s)", title="outer wall: the tissue's rate of area change")),
-    ("pullback_myocardium", "pullback_myocardium_mean", False,
+    ("pullback_outer", "pullback_outer_mean", False,
      dict(cmap="gray", label="intensity (mean across the wall)", scale=2, grid_note="",
           title="myocardium: intensity pulled back onto each frame's own grid")),
 ]

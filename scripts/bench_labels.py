@@ -1,6 +1,6 @@
 """What starting from label volumes costs: meshing time and memory (issue 53).
 
-    python scripts/bench_labels.py [--frames 195] [--jobs 2] [--cache DIR] [--big]
+    python scripts/bench_labels.py [--frames 195] [--jobs 2] [--cache DIR] [--big] [--intensity]
 
 1. The bench embryo (the normal phantom, seed 0, 195 frames) as label volumes of
    4 x 4 x 8 um with segmentation noise, and the same phantom as meshes (5.5k
@@ -13,6 +13,11 @@
 2. With --big: 195 frames of 256 x 256 x 256 uint8 volumes (the phantom at 4.1 um
    isotropic, padded to 256 along z), run as labels; prints the peak memory of all
    processes together (target: under 2.5 GB) and the seconds.
+3. With --intensity: the same label embryo with intensity volumes (the textured
+   phantom: `oftimg phantom --labels --intensity`), run with its default texture
+   tracking, against the labels alone (material tracking); prints what the pullbacks
+   and the texture tracking add (target: at most +40 %) and the peak memory of all
+   processes together (target: under 2 GB).
 Peak memory is the sum of every process's proportional set size (scripts/bench.py).
 """
 from __future__ import annotations
@@ -47,6 +52,18 @@ def bench_embryo(cache: Path, frames: int) -> tuple[Path, Path]:
     if not (meshes / "truth.json").exists():
         write_phantom(meshes, label_params(params))
     return labels, meshes
+
+
+def textured_embryo(cache: Path, frames: int) -> Path:
+    """The bench embryo as labels with intensity volumes (its tissue twisted as the
+    textured phantom's is)."""
+    from oftimg.synthetic.texture import TWIST_DEG
+
+    path = cache / f"textured_{frames}f"
+    if not (path / "truth.json").exists():
+        params = sample_params("normal", 0, n_frames=frames, twist_deg=TWIST_DEG)
+        write_label_phantom(path, params, (4.0, 4.0, 8.0), noise=0.05, intensity=True)
+    return path
 
 
 def big_series(cache: Path, frames: int) -> Path:
@@ -94,11 +111,15 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--cache", type=Path, default=None)
     ap.add_argument("--big", action="store_true", help="also the 256^3 x 195 series")
+    ap.add_argument("--intensity", action="store_true",
+                    help="only what intensity volumes and texture tracking add")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         cache = args.cache or Path(tmp)
         cache.mkdir(parents=True, exist_ok=True)
         labels, meshes = bench_embryo(cache, args.frames)
+        if args.intensity:
+            return bench_intensity(labels, textured_embryo(cache, args.frames), args)
         as_meshes = timed_run(meshes, args.jobs)
         # meshed to the meshes' size, so that the difference is the meshing's
         as_labels = timed_run(labels, args.jobs, {"meshing": {"target_vertices": VERTICES}})
@@ -122,6 +143,20 @@ def main() -> None:
             print(f"{args.frames} frames of {BIG}^3 uint8: {big['total_s']:.1f} s, of which meshing "
                   f"{big['meshing_s']:.1f} s; peak {big['peak_all_processes_mb']:.0f} MB, all "
                   "processes together (target: under 2500 MB)")
+
+
+def bench_intensity(labels: Path, textured: Path, args) -> None:
+    """Part 3 of the module text: the labels alone against the labels with intensity."""
+    options = {"meshing": {"target_vertices": VERTICES}}
+    alone = timed_run(labels, args.jobs, options)
+    textured_run = timed_run(textured, args.jobs, options)
+    print(f"bench embryo, {args.frames} frames, {args.jobs} jobs, as labels (4 x 4 x 8 um):")
+    print(f"  labels alone (material tracking): {alone['total_s']:.1f} s, peak "
+          f"{alone['peak_all_processes_mb']:.0f} MB")
+    print(f"  with intensity volumes (pullbacks, texture tracking): {textured_run['total_s']:.1f} s, "
+          f"peak {textured_run['peak_all_processes_mb']:.0f} MB (all processes)")
+    print(f"  intensity adds {100 * (textured_run['total_s'] / alone['total_s'] - 1):+.0f} % "
+          "(target: at most +40 %)")
 
 
 if __name__ == "__main__":

@@ -236,3 +236,21 @@ def test_a_mesh_dataset_places_its_volumes_by_meta_json(tmp_path, capsys):
     with np.load(out / "meshes" / "arrays.npz") as a:
         moved = a["pathlines_uv"] - a["pathlines_uv"][:, :, :1]
     assert np.abs(moved).max() < 0.05                 # grid steps: the same image every frame
+
+
+def test_fields_are_blank_where_the_tissue_left_the_grid():
+    """A node whose tissue slid out of the window, and its neighbour along the tube,
+    have NaN fields in that frame; other nodes, frames and the pathlines keep theirs."""
+    from oftimg.analysis.pipeline import blank_out_of_view
+
+    in_view = np.ones((4, 5, 3), bool)
+    in_view[2, 0, 1] = False
+    arrays = {"grid_in_view": in_view, "strain_energy_outer": np.ones((4, 5, 3)),
+              "principal_stretch_outer": np.ones((4, 5, 3, 2)),
+              "pathlines_uv": np.ones((4, 5, 3, 2)), "s_mm": np.ones(5)}
+    blank_out_of_view(arrays, (4, 5, 3))
+    blank = np.isnan(arrays["strain_energy_outer"])
+    assert blank[2, 0, 1] and blank[2, 1, 1] and blank.sum() == 2
+    assert np.isnan(arrays["principal_stretch_outer"][2, :2, 1]).all()
+    assert np.isnan(arrays["principal_stretch_outer"]).sum() == 4
+    assert np.isfinite(arrays["pathlines_uv"]).all()

@@ -480,6 +480,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                                                ds.meta.period_ms)
         arrays["surface_speed_outer_mm_s"] = speed.astype(np.float32)
         arrays["surface_divergence_outer_per_s"] = divergence.astype(np.float32)
+        blank_out_of_view(arrays, grid["outer"].shape[:3])
     timings["fields_s"] = time.perf_counter() - tick
     # 7. the (v, t) area maps as images: derivatives, ridges, wave speeds, masks
     tick = time.perf_counter()
@@ -531,6 +532,21 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                                 "layers": PULLBACK_LAYERS}
     return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"],
             **({"pullbacks": pullbacks} if pullbacks is not None else {})}
+
+
+def blank_out_of_view(arrays: dict, shape_uvt: tuple) -> None:
+    """NaN in every per-pixel field ``(n_u, n_v, n_t[, k])`` of ``arrays`` where the
+    node's tissue has left the grid along the tube (not ``grid_in_view``), and one node
+    along the tube beside it (a strain reads its neighbours): the grid holds such a
+    node at the end row, where its values are not its tissue's. In place."""
+    gone = ~arrays["grid_in_view"]
+    out = gone.copy()
+    out[:, 1:] |= gone[:, :-1]                                         # the rows beside it
+    out[:, :-1] |= gone[:, 1:]
+    for name, values in arrays.items():
+        if (name not in ("grid_in_view", "pathlines_uv") and values.shape[:3] == shape_uvt
+                and np.issubdtype(values.dtype, np.floating)):
+            values[out] = np.nan
 
 
 def tracking_mode(ds: Dataset, asked: str, has_pullbacks: bool) -> str:

@@ -407,7 +407,8 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                          "the tracked fields are each frame's read there"),
         "grid_in_view": (["u", "v", "t"], "bool",
                          "texture tracking: the node's tissue lies within the imaged part of "
-                         "the tube in that frame (outside, its values are the nearest row's)"),
+                         "the tube in that frame (outside it, and one node beside it along "
+                         "the tube, the per-pixel fields are NaN)"),
         "pullback_outer_mean": (
             ["u_fine", "v_fine", "t"], "intensity",
             "the intensity volumes' mean across the myocardium (from the outer to the inner "

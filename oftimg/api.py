@@ -23,8 +23,7 @@ from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, che
                             cohort_maps, finished_folder, link_or_copy, require_new_folder,
                             staged_output, write_cohort_maps, write_dataset_results, write_json)
 from .io.dataset import (Dataset, check_enough_frames, find_datasets, load_dataset, natural_key,
-                         read_meta_json, validate_dataset, with_period)
-from .io.intensity import load_intensity
+                         validate_dataset, with_period)
 from .io.label_dataset import (LabelDataset, is_label_dataset, label_repairs_note,
                                load_label_dataset, mesh_label_dataset)
 from .synthetic.labels import write_label_phantom
@@ -44,14 +43,8 @@ def _as_dataset_paths(source) -> list[Path]:
 
 
 def _load(path: Path) -> Dataset | LabelDataset:
-    """A dataset folder opened as what it holds: label volumes or meshes (with its
-    intensity volumes, when it has them)."""
-    if is_label_dataset(path):
-        return load_label_dataset(path)
-    ds = load_dataset(path)
-    ds.intensity = load_intensity(path, ds.n_frames, ds.meta.length_unit,
-                                  read_meta_json(Path(path)))
-    return ds
+    """A dataset folder opened as what it holds: label volumes or meshes."""
+    return load_label_dataset(path) if is_label_dataset(path) else load_dataset(path)
 
 
 def run(source, out, *, overwrite: bool = False, quiet: bool = False,

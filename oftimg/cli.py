@@ -241,6 +241,9 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--shortening", type=float, default=0.0,
                     help="longitudinal shortening towards the inlet at mid-cycle (0.15: 15 %%)")
     an.add_argument("--remesh", action="store_true", help="remesh every frame independently")
+    an.add_argument("--texture", action="store_true",
+                    help="intensity volumes too (intensity/, uint8 TIFF per frame): a texture "
+                         "fixed in the tissue, which twists and shortens with it")
     an.add_argument("--seed", type=int, default=0)
     an.add_argument("--quiet", action="store_true")
 
@@ -444,7 +447,8 @@ def _command(args) -> int:
         to_mm = args.scale * (1e-3 if args.unit == "um" else 1.0)
         bar = Progress(args.frames, f"animate {args.out.name}", quiet=args.quiet)
         out = write_animation(args.mesh, args.out, anim, scale_to_mm=to_mm,
-                              do_remesh=args.remesh, seed=args.seed, progress=bar.update)
+                              do_remesh=args.remesh, seed=args.seed, progress=bar.update,
+                              texture=args.texture)
         bar.close()
         print(f"animated dataset: {out} (coordinates x {to_mm:g} -> mm)")
     elif args.command == "validate":

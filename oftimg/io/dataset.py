@@ -26,12 +26,12 @@ from ..errors import DatasetError, OftimgWarning
 from ..mesh.topology import loop_centroid, loop_vector_area
 from .meshfile import MESH_SUFFIXES, read_mesh_file, read_vertex_values
 from .safefile import read_json_file
+from .intensity import IntensitySeries, load_intensity
 from .tube import Checked, Tube, check_tube_file, load_tube
+from .units import UNIT_TO_MM, check_voxel_size, is_number, natural_key
 
 SURFACES = ("outer", "inner", "lumen")
-UNIT_TO_MM = {"mm": 1.0, "um": 1e-3}
 PERIOD_MS_RANGE = (1.0, 1e7)     # a beat of 1 ms to about three hours
-VOXEL_MM_RANGE = (1e-5, 10.0)
 FILES_NAMED = 6     # bad files an error names of a kind (the rest counted)
 META_KEYS = {"name": str, "group": str, "period_ms": (int, float),
              "length_unit": str, "voxel_size": list, "inlet": list, "intensity": dict}
@@ -51,11 +51,6 @@ def check_enough_frames(ds) -> None:
         raise DatasetError(f"{folder}: {ds.n_frames} frames; an analysis needs at least "
                            f"{MIN_FRAMES} over the cycle (the shape modes take 3 in each of "
                            "expansion and contraction)")
-
-
-def natural_key(name: str):
-    """Sort key that puts ``f2`` before ``f10``."""
-    return [int(tok) if tok.isdigit() else tok.lower() for tok in re.split(r"(\d+)", name)]
 
 
 def list_frames(folder: Path) -> list[Path]:
@@ -114,11 +109,6 @@ def read_meta_json(folder: Path, keys: dict = META_KEYS) -> dict:
 
 _JSON_KINDS = {str: "text", list: "a list", dict: "an object", bool: "true/false",
                int: "a number", float: "a number", type(None): "null"}
-
-
-def is_number(x) -> bool:
-    """A JSON number (not a bool) that is finite."""
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and bool(np.isfinite(x))
 
 
 def read_meta(folder: Path, keys: dict = META_KEYS) -> Meta:
@@ -188,24 +178,6 @@ def with_period(datasets: list, period_ms: float | None) -> list:
             if d.meta.period_assumed else d for d in datasets]
 
 
-def check_voxel_size(path, voxel: list, to_mm: float) -> tuple[float, float, float]:
-    """A voxel size (meta.json's, or a file's own, named by ``path``), checked: three
-    numbers in a unit of ``to_mm`` mm, each side from 10 nm to 10 mm, the longest at
-    most 100 times the shortest."""
-    ok = len(voxel) == 3 and all(is_number(x) and x > 0 for x in voxel)
-    if not ok:
-        raise DatasetError(f"{path}: voxel_size must be three positive numbers [dx, dy, dz] "
-                           f"in length_unit (the files' coordinates are voxel indices), "
-                           f"found {str(voxel)[:60]}")
-    mm = [float(x) * to_mm for x in voxel]
-    if min(mm) < VOXEL_MM_RANGE[0] or max(mm) > VOXEL_MM_RANGE[1] or max(mm) > 100 * min(mm):
-        raise DatasetError(f"{path}: voxel_size {[float(x) for x in voxel]} is "
-                           f"{', '.join(f'{d:.3g}' for d in mm)} mm: each side must lie between "
-                           f"{VOXEL_MM_RANGE[0]:g} and {VOXEL_MM_RANGE[1]:g} mm, the longest at "
-                           "most 100 times the shortest (is length_unit right?)")
-    return tuple(float(x) for x in voxel)
-
-
 @dataclass(frozen=True)
 class Frame:
     """The files of one time frame: what a worker needs to read it (small to send)."""
@@ -257,7 +229,7 @@ class Dataset:
     checked: dict = field(default_factory=dict, repr=False)  # (surface, t) -> Checked
     validated: bool = False                 # set by validate_dataset
     labels: dict | None = None              # meshed from label volumes: their files, how
-    intensity: object = None                # oftimg.io.intensity.IntensitySeries, or None
+    intensity: IntensitySeries | None = None        # intensity/ (their headers checked)
 
     def input_files(self) -> list[Path]:
         """The files the dataset is made of, meta.json with them."""
@@ -342,7 +314,9 @@ def is_dataset(path: Path) -> bool:
 
 
 def load_dataset(path: str | Path) -> Dataset:
-    """Open a dataset folder, check its layout and metadata, choose the inlet.
+    """Open a dataset folder, check its layout and metadata, choose the inlet, and
+    check its intensity volumes' headers when it has ``intensity/``
+    (:func:`~oftimg.io.intensity.load_intensity`).
 
     Reads only a few outer frames (to choose the inlet end); the rest stay on
     disk until asked for.
@@ -384,7 +358,8 @@ def load_dataset(path: str | Path) -> Dataset:
         inlet = np.asarray(meta.inlet_mm)
     else:
         inlet = _reference_inlet(frames["outer"], meta.scale_to_mm)
-    return Dataset(path=path, meta=meta, frames=frames, inlet_mm=inlet)
+    intensity = load_intensity(path, n, meta.length_unit, read_meta_json(path))
+    return Dataset(path=path, meta=meta, frames=frames, inlet_mm=inlet, intensity=intensity)
 
 
 def find_datasets(path: str | Path) -> list[Path]:

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DatasetError
-from .dataset import UNIT_TO_MM, check_voxel_size, is_number, natural_key
+from .units import UNIT_TO_MM, check_voxel_size, is_number, natural_key
 from .labelfile import LabelSource, list_label_sources, read_header, read_volume
 
 FOLDER = "intensity"

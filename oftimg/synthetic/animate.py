@@ -176,8 +176,74 @@ def _own_vertices(F: np.ndarray, n_vert: int) -> np.ndarray:
     return tri
 
 
+TEXTURE_VOXELS = 2.0e6     # about so many voxels in a textured animation's volume
+TEXTURE_DEPTH_VOXELS = 3.0 # the texture's thickness about the surface (Gaussian sigma)
+TEXTURE_BLOB_VOXELS = 1.5  # its grain in the static tissue (Gaussian sigma)
+
+
+class StaticTexture:
+    """A random texture fixed in the static tube's tissue: a smooth random field on a
+    lattice of ``voxel`` mm over the static mesh's box (plus a margin), read at static
+    points; values about 1 (SD 0.35), blobs of :data:`TEXTURE_BLOB_VOXELS`."""
+
+    def __init__(self, V_static: np.ndarray, voxel: float, rng: np.random.Generator):
+        from scipy import ndimage
+
+        self.origin = V_static.min(axis=0) - 4 * voxel
+        self.voxel = voxel
+        shape = np.ceil((V_static.max(axis=0) + 4 * voxel - self.origin) / voxel).astype(int) + 1
+        field = ndimage.gaussian_filter(rng.standard_normal(tuple(shape)).astype(np.float32),
+                                        TEXTURE_BLOB_VOXELS)
+        self.values = np.clip(1.0 + 0.35 * field / field.std(), 0.2, None)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        from scipy.ndimage import map_coordinates
+
+        return map_coordinates(self.values, ((points - self.origin) / self.voxel).T, order=1,
+                               mode="nearest")
+
+
+def intensity_box(frames: list[np.ndarray], n_voxels: float = TEXTURE_VOXELS
+                  ) -> tuple[np.ndarray, float, tuple[int, int, int]]:
+    """The volume that holds every frame ``(n, 3)`` mm with a margin: its origin (x, y,
+    z) mm, its cubic voxel (mm, about ``n_voxels`` in all) and its shape (z, y, x)."""
+    lo = np.min([f.min(axis=0) for f in frames], axis=0)
+    hi = np.max([f.max(axis=0) for f in frames], axis=0)
+    extent = hi - lo
+    voxel = float((np.prod(extent) / n_voxels) ** (1 / 3))
+    origin = lo - 6 * voxel
+    shape = tuple(int(n) for n in (np.ceil((extent + 12 * voxel) / voxel) + 1)[::-1])
+    return origin, voxel, shape
+
+
+def textured_frame(Vt: np.ndarray, F: np.ndarray, V_static: np.ndarray, texture: StaticTexture,
+                   origin: np.ndarray, voxel: float, shape: tuple, rng: np.random.Generator
+                   ) -> np.ndarray:
+    """One frame's intensity ``(z, y, x)`` uint8: at each voxel near the animated
+    surface ``(Vt, F)``, the texture at the static point its closest surface point came
+    from, fading with the distance (:data:`TEXTURE_DEPTH_VOXELS`); times a speckle new
+    in every frame, plus noise, on a dark background."""
+    from scipy import ndimage
+
+    k, j, i = np.indices(shape)
+    points = origin + np.stack([i, j, k], axis=-1).reshape(-1, 3) * voxel
+    tri, bary, came_from = static_points(Vt, F, V_static, points)
+    on_surface = np.einsum("mk,mkd->md", bary, Vt[F[tri]])
+    depth = np.linalg.norm(points - on_surface, axis=1) / voxel
+    near = depth < 4 * TEXTURE_DEPTH_VOXELS
+    out = np.full(len(points), 0.04, np.float32)
+    out[near] += 0.55 * texture(came_from[near]) * np.exp(
+        -0.5 * (depth[near] / TEXTURE_DEPTH_VOXELS) ** 2)
+    out = out.reshape(shape)
+    speckle = ndimage.gaussian_filter(rng.standard_normal(shape).astype(np.float32), 0.6)
+    out *= np.clip(1.0 + 0.2 * speckle / speckle.std(), 0.0, None)
+    out += rng.normal(0.0, 0.015, shape).astype(np.float32)
+    return np.clip(np.round(out * 255), 0, 255).astype(np.uint8)
+
+
 def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0,
-                    do_remesh: bool = False, seed: int = 0, progress=None) -> Path:
+                    do_remesh: bool = False, seed: int = 0, progress=None,
+                    texture: bool = False) -> Path:
     """Write an animated dataset (meta.json, outer/, truth.json, truth/) from one static
     tube; ``out`` appears only when complete.
 
@@ -185,7 +251,10 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
     every vertex of that frame, the point of the static mesh it came from:
     ``static_point_mm (n, 3)``, on the static triangle ``triangle (n,)`` at the
     barycentric coordinates ``barycentric (n, 3)`` (for a remeshed frame, of the
-    vertex's closest point on the animated surface before remeshing)."""
+    vertex's closest point on the animated surface before remeshing). With
+    ``texture``, ``intensity/f000.tif ...`` too (:func:`textured_frame`: a texture
+    fixed in the tissue, so that it twists and shortens with it), placed by
+    meta.json's ``intensity``."""
     from ..output.export import require_new_folder, staged_output
     from ..io.tube import load_tube
     from ..io.meshfile import write_ply
@@ -200,11 +269,24 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
     _, _, s, _, _ = axial_coordinates(V, F, tube.inlet, tube.outlet)
     volumes = []
     width = len(str(anim.n_frames - 1))
+    frames = list(animate_frames(V, F, tube.inlet, tube.outlet, anim))
+    if texture:
+        import tifffile
+
+        box = intensity_box([Vt for _, Vt in frames])
+        tissue = StaticTexture(V, box[1], np.random.default_rng([seed, 67]))
+        speckle_rng = np.random.default_rng([seed, 71])
     with staged_output(out) as tmp:
         (tmp / "outer").mkdir()
         (tmp / "truth").mkdir()
         write_ply(tmp / "truth" / "static.ply", V, F)
-        for k, (t, Vt) in enumerate(animate_frames(V, F, tube.inlet, tube.outlet, anim)):
+        if texture:
+            (tmp / "intensity").mkdir()
+        for k, (t, Vt) in enumerate(frames):
+            if texture:
+                tifffile.imwrite(tmp / "intensity" / f"f{k:0{width}d}.tif",
+                                 textured_frame(Vt, F, V, tissue, *box, speckle_rng),
+                                 compression="zlib")
             volumes.append(capped_signed_volume(Vt, F, [tube.inlet, tube.outlet]))
             Vw, Fw = remesh(Vt, F, rng) if do_remesh else (Vt, F)
             write_ply(tmp / "outer" / f"f{k:0{width}d}.ply", Vw, Fw)
@@ -219,6 +301,8 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
                 progress(k + 1)
         meta = {"name": out.name, "group": "animated", "period_ms": anim.period_ms,
                 "length_unit": "mm", "inlet": loop_centroid(V[tube.inlet]).tolist()}
+        if texture:
+            meta["intensity"] = {"voxel_size": [box[1]] * 3, "origin": box[0].tolist()}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=2))
         s_grid = np.linspace(0, s[-1], 101)
         truth = {"animation": asdict(anim), "source": str(mesh_path),

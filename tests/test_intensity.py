@@ -3,6 +3,7 @@ phantom, its texture read back at the tissue's true material points, the pullbac
 functions on analytic shapes, a run's pullbacks.npz, and bad intensity/ folders
 refused in one line."""
 import json
+from pathlib import Path
 import shutil
 
 import numpy as np
@@ -254,3 +255,26 @@ def test_fields_are_blank_where_the_tissue_left_the_grid():
     assert np.isnan(arrays["principal_stretch_outer"][2, :2, 1]).all()
     assert np.isnan(arrays["principal_stretch_outer"]).sum() == 4
     assert np.isfinite(arrays["pathlines_uv"]).all()
+
+
+def test_an_animated_gut_with_texture_is_tracked_along_and_around(tmp_path):
+    """`oftimg animate --texture`: the midgut twisted (20 degrees) and shortened (15 %)
+    beneath a texture fixed in its tissue, 8 frames on a coarse volume; texture tracking
+    drifts from the tissue less than material tracking, which cannot see the
+    shortening (measured: 0.23 against 0.48 % of the length)."""
+    from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
+    from oftimg.io.dataset import load_dataset
+    from oftimg.synthetic.animate import Animation, grid_material_points, write_animation
+
+    anim = Animation(speed_mm_s=1.5, amplitude=0.3, period_ms=360.0, n_frames=8,
+                     twist_deg=20.0, shortening=0.15)
+    path = write_animation(Path(__file__).parent / "data" / "midgut_8k.ply", tmp_path / "gut",
+                           anim, scale_to_mm=0.2619e-3, texture=True, texture_voxels=4e5)
+    assert len(list((path / "intensity").iterdir())) == 8
+    drift = {}
+    for mode in ("material", "texture"):
+        result = analyse_dataset(load_dataset(path), PipelineOptions(tracking=mode), quiet=True)
+        G = result["grids"]["outer"]
+        S = grid_material_points(path, G, result["summary"]["t0_frame"])
+        drift[mode] = np.median(np.linalg.norm(S - S[:, :, :1], axis=-1)[:, :, 1:])
+    assert drift["texture"] < 0.8 * drift["material"], drift

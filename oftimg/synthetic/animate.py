@@ -243,7 +243,7 @@ def textured_frame(Vt: np.ndarray, F: np.ndarray, V_static: np.ndarray, texture:
 
 def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0,
                     do_remesh: bool = False, seed: int = 0, progress=None,
-                    texture: bool = False) -> Path:
+                    texture: bool = False, texture_voxels: float = TEXTURE_VOXELS) -> Path:
     """Write an animated dataset (meta.json, outer/, truth.json, truth/) from one static
     tube; ``out`` appears only when complete.
 
@@ -253,8 +253,8 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
     barycentric coordinates ``barycentric (n, 3)`` (for a remeshed frame, of the
     vertex's closest point on the animated surface before remeshing). With
     ``texture``, ``intensity/f000.tif ...`` too (:func:`textured_frame`: a texture
-    fixed in the tissue, so that it twists and shortens with it), placed by
-    meta.json's ``intensity``."""
+    fixed in the tissue, so that it twists and shortens with it) on about
+    ``texture_voxels`` cubic voxels, placed by meta.json's ``intensity``."""
     from ..output.export import require_new_folder, staged_output
     from ..io.tube import load_tube
     from ..io.meshfile import write_ply
@@ -273,7 +273,7 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
     if texture:
         import tifffile
 
-        box = intensity_box([Vt for _, Vt in frames])
+        box = intensity_box([Vt for _, Vt in frames], texture_voxels)
         tissue = StaticTexture(V, box[1], np.random.default_rng([seed, 67]))
         speckle_rng = np.random.default_rng([seed, 71])
     with staged_output(out) as tmp:

@@ -132,6 +132,9 @@ def test_a_run_writes_the_pullbacks(textured, tmp_path):
     assert summary["pullbacks"]["shape_uvt"] == list(mean.shape)
     assert summary["tracking"]["kind"] == "texture"                  # the default with intensity/
     assert described["grid_in_view"]["dims"] == ["u", "v", "t"]
+    import oftimg
+    assert np.array_equal(oftimg.load_results(folder)["pullback_outer_mean"], mean,
+                          equal_nan=True)                      # load_results reads them too
     assert (folder / "figures" / "pullback_outer.png").is_file()
     assert (folder / "videos" / "pullback_outer.mp4").is_file()
     assert "intensity pulled back" in (folder / "index.html").read_text()

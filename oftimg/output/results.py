@@ -19,7 +19,7 @@ from .export import COHORT_OUTPUTS
 from ..errors import DatasetError
 from ..io.dataset import natural_key
 
-RESULT_FILES = ("arrays.npz", "grids.npz", "pca.npz")
+RESULT_FILES = ("arrays.npz", "grids.npz", "pca.npz", "pullbacks.npz")
 
 # dims whose entries have names: the xarray dim and its labels
 LABELLED_DIMS = {"xyz": ("xyz", ["x", "y", "z"]), "xy": ("xy", ["x", "y"]),

@@ -97,10 +97,10 @@ def main() -> None:
                 keep = result["arrays"].get("grid_in_view")
                 d = drift(ph, grid, result["grids"]["outer"], t_ms, keep)
                 energy = float(np.nanmedian(result["arrays"]["strain_energy_outer"]))
-                truth = true_energy(ph, grid, result["grids"]["outer"][:, :, 0], t_ms)
-                truth_energy = float(np.nanmedian(truth))
+                true_field = true_energy(ph, grid, result["grids"]["outer"][:, :, 0], t_ms)
+                truth_energy = float(np.nanmedian(true_field))
                 node_error = float(np.nanmedian(np.abs(
-                    result["arrays"]["strain_energy_outer"] - truth)) / truth_energy)
+                    result["arrays"]["strain_energy_outer"] - true_field)) / truth_energy)
                 extra = (f"; in view ({100 * keep.mean():.0f} %): along "
                          f"{d['along_in_view_pct']:.2f} %, around {d['around_in_view_rad']:.4f} "
                          f"rad" if keep is not None else "")

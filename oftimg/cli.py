@@ -100,6 +100,13 @@ def _parser() -> argparse.ArgumentParser:
                         "intensity volumes' texture (intensity/), along the tube too; none, "
                         "each frame's own grid, as in the paper; auto (default): texture "
                         "where a dataset has intensity/, else material")
+    r.add_argument("--pullback-layers", type=int, default=5, metavar="N",
+                   help="with intensity/: depths sampled across the myocardium (or the "
+                        "shell) for the pullbacks (default 5)")
+    r.add_argument("--pullback-shell-um", type=float, nargs=2, default=(-10.0, 10.0),
+                   metavar=("INSIDE", "OUTSIDE"),
+                   help="with intensity/ and no inner wall: the shell about the outer wall "
+                        "along its outward normal, um (default -10 10)")
     r.add_argument("--map-positions", choices=("rows", "fixed"), default="rows",
                    help="rows of the (v, t) area maps: the grid rows, as in the paper "
                         "(default; they drift along the tube as its shape changes), or fixed "
@@ -398,7 +405,9 @@ def _command(args) -> int:
                    "ridge_smoothing_ms": args.ridge_smoothing_ms,
                    "field_smoothing_ms": args.field_smoothing_ms,
                    "strain_smoothing_ms": args.strain_smoothing_ms,
-                   "tracking": args.tracking, "meshing": _mesh_options(args)}
+                   "tracking": args.tracking, "meshing": _mesh_options(args),
+                   "pullback": {"layers": args.pullback_layers,
+                                "shell_um": tuple(args.pullback_shell_um)}}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume,

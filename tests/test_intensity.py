@@ -178,6 +178,18 @@ def test_texture_tracking_follows_the_tissue_along_and_around(textured, tmp_path
     assert drifts["material"][0] > 5 * along and drifts["material"][1] > 2 * around, drifts
 
 
+@pytest.mark.parametrize("option, says", [
+    (["--pullback-layers", "0"], "pullback layers must be a whole number in 1..50"),
+    (["--pullback-shell-um", "5", "-5"], "the pullback shell must be two offsets in um"),
+])
+def test_bad_pullback_options_are_refused_in_one_line(textured, tmp_path, capsys, option, says):
+    out = tmp_path / "res"
+    assert main(["run", str(textured), "--out", str(out), "--quiet", *option]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and says in err[0], err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("damage, says", [
     ("drop_frame", "5 volumes for a dataset of 6 frames"),
     ("wrong_shape", "but the labels' is"),

@@ -19,8 +19,7 @@ from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_
 from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
                                smoothing_kernel)
 from ..image.pca import contour_pca
-from .pullback import (LAYERS as PULLBACK_LAYERS, SHELL_MM, normal_shell, pullback,
-                       refine_factors, refined)
+from .pullback import PullbackOptions, normal_shell, pullback, refine_factors, refined
 from .tracking import follow, track_grid
 from ..mesh.clip import clip_grid, clip_positions, plane_at
 from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
@@ -55,12 +54,17 @@ class PipelineOptions:
     strain_smoothing_ms: float | str = "auto"
     tracking: str = "auto"
     meshing: MeshOptions = field(default_factory=MeshOptions)    # of label datasets
+    pullback: PullbackOptions = field(default_factory=PullbackOptions)  # with intensity/
 
     def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
                  map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
                  field_smoothing_ms: float | str = "auto",
                  strain_smoothing_ms: float | str = "auto", tracking: str = "auto",
-                 meshing: MeshOptions | dict | None = None, **grid_kwargs):
+                 meshing: MeshOptions | dict | None = None,
+                 pullback: PullbackOptions | dict | None = None, **grid_kwargs):
+        if isinstance(pullback, dict):
+            pullback = PullbackOptions(**pullback)
+        object.__setattr__(self, "pullback", pullback or PullbackOptions())
         if isinstance(grid, dict):
             grid = GridOptions(**grid)
         if isinstance(meshing, dict):
@@ -93,7 +97,7 @@ class PipelineOptions:
                 "ridge_smoothing_ms": self.ridge_smoothing_ms,
                 "field_smoothing_ms": self.field_smoothing_ms,
                 "strain_smoothing_ms": self.strain_smoothing_ms, "tracking": self.tracking,
-                "meshing": self.meshing.as_dict()}
+                "meshing": self.meshing.as_dict(), "pullback": self.pullback.as_dict()}
 
 
 def _sigma_ms(given, must: str) -> float:
@@ -435,7 +439,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     if ds.intensity is not None:
         tick = time.perf_counter()
         pullbacks = outer_pullbacks(ds.intensity, st["grid"]["outer"], st["grid"].get("inner"),
-                                    [(t0 + k) % ds.n_frames for k in range(ds.n_frames)])
+                                    [(t0 + k) % ds.n_frames for k in range(ds.n_frames)],
+                                    options.pullback)
         timings["pullbacks_s"] = time.perf_counter() - tick
     from_ring = {w: int(st["rows"][f"from_ring_{w}"].sum()) for w in st["walls"]}
     # 3. the time axis (warped or not) and the per-row series on it
@@ -525,11 +530,12 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     if pullbacks is not None:
         summary["pullbacks"] = {"shape_uvt": list(pullbacks["pullback_outer_mean"].shape),
                                 "shell": ("myocardium" if "inner" in grid else
-                                          f"{1000 * SHELL_MM[0]:g} to {1000 * SHELL_MM[1]:g} um "
-                                          "along the outer wall's normal"),
+                                          f"{options.pullback.shell_um[0]:g} to "
+                                          f"{options.pullback.shell_um[1]:g} um along the "
+                                          "outer wall's normal"),
                                 "in_view": float(np.isfinite(
                                     pullbacks["pullback_outer_mean"]).mean()),
-                                "layers": PULLBACK_LAYERS}
+                                "layers": options.pullback.layers}
     return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"],
             **({"pullbacks": pullbacks} if pullbacks is not None else {})}
 
@@ -572,10 +578,10 @@ def _texture_pathlines(pullbacks: dict, grid_shape: tuple) -> tuple[np.ndarray, 
     return texture_pathlines(mean, factors, n_u, n_v)
 
 
-def outer_pullbacks(series, outer: np.ndarray, inner: np.ndarray | None, frames: list[int]
-                    ) -> dict[str, np.ndarray]:
+def outer_pullbacks(series, outer: np.ndarray, inner: np.ndarray | None, frames: list[int],
+                    options: PullbackOptions = PullbackOptions()) -> dict[str, np.ndarray]:
     """The intensity across the myocardium (from ``outer`` to ``inner``; without an
-    inner wall, across :data:`~oftimg.analysis.pullback.SHELL_MM` about ``outer``)
+    inner wall, across ``options.shell_um`` about ``outer``) at ``options.layers`` depths
     on a grid finer than the analysis grid (:func:`~oftimg.analysis.pullback.refine_factors`:
     about a pixel a voxel), each frame's from its own grids ``(n_u, n_v, n_t, 3)`` mm
     and its volume ``series.volume(frames[k])`` (one in memory at a time):
@@ -588,9 +594,9 @@ def outer_pullbacks(series, outer: np.ndarray, inner: np.ndarray | None, frames:
     for k, t in enumerate(frames):
         fine = refined(outer[:, :, k], f_u, f_v)
         faces = ((fine, refined(inner[:, :, k], f_u, f_v)) if inner is not None
-                 else normal_shell(fine))
+                 else normal_shell(fine, tuple(d / 1000 for d in options.shell_um)))
         mean[:, :, k], top[:, :, k] = pullback(series.volume(t), *faces, series.voxel_size_mm,
-                                               series.origin_mm, PULLBACK_LAYERS)
+                                               series.origin_mm, options.layers)
     return {"pullback_outer_mean": mean, "pullback_outer_max": top}
 
 

@@ -13,11 +13,40 @@ the volumes are read by the caller.
 """
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass
+
 import numpy as np
+
+from ..errors import InputError
 
 LAYERS = 5                  # depths sampled across the myocardium
 SHELL_MM = (-0.01, 0.01)    # a wall alone: its shell along the outward normal, mm
 MAX_REFINE = 6              # the fine grid's nodes per analysis grid step, at most
+
+
+@dataclass(frozen=True)
+class PullbackOptions:
+    """How the intensity is pulled back: ``layers`` depths sampled across the shell;
+    ``shell_um`` (inside, outside) the shell about a wall alone along its outward
+    normal, um (a wall with an inner wall: the myocardium between them)."""
+
+    layers: int = LAYERS
+    shell_um: tuple[float, float] = (1000 * SHELL_MM[0], 1000 * SHELL_MM[1])
+
+    def __post_init__(self):
+        if not (isinstance(self.layers, int) and 1 <= self.layers <= 50):
+            raise InputError(f"pullback layers must be a whole number in 1..50, found "
+                             f"{self.layers!r}")
+        inside, outside = (tuple(self.shell_um) + (None, None))[:2]
+        if not (len(tuple(self.shell_um)) == 2 and all(np.isfinite([inside, outside]))
+                and -1000 <= inside < outside <= 1000):
+            raise InputError(f"the pullback shell must be two offsets in um, inside < "
+                             f"outside, within 1 mm, found {self.shell_um!r}")
+        object.__setattr__(self, "shell_um", (float(inside), float(outside)))
+
+    def as_dict(self) -> dict:
+        """As summary.json records it (the shell a list, as JSON reads it back)."""
+        return dict(asdict(self), shell_um=list(self.shell_um))
 
 
 def refine_factors(grid: np.ndarray, voxel_mm, max_factor: int = MAX_REFINE) -> tuple[int, int]:

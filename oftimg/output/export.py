@@ -412,8 +412,9 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "pullback_outer_mean": (
             ["u_fine", "v_fine", "t"], "intensity",
             "the intensity volumes' mean across the myocardium (from the outer to the inner "
-            "wall, 5 depths; a dataset without an inner wall: from 10 um inside the outer "
-            "wall to 10 um outside, along its normal) on each frame's own grid refined to about a pixel a voxel "
+            "wall at --pullback-layers depths, default 5; a dataset without an inner wall: "
+            "across --pullback-shell-um about the outer wall along its normal, default 10 um "
+            "either side) on each frame's own grid refined to about a pixel a voxel "
             "(u_fine: n_u times f_u around from the seam, v_fine: (n_v - 1) f_v + 1 from the "
             "inlet); in the volumes' own values; NaN where the shell leaves the volume"),
         "pullback_outer_max": (

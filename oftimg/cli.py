@@ -105,8 +105,13 @@ def _parser() -> argparse.ArgumentParser:
                         "shell) for the pullbacks (default 5)")
     r.add_argument("--pullback-shell-um", type=float, nargs=2, default=(-10.0, 10.0),
                    metavar=("INSIDE", "OUTSIDE"),
-                   help="with intensity/ and no inner wall: the shell about the outer wall "
-                        "along its outward normal, um (default -10 10)")
+                   help="with intensity/: the shell about a wall along its outward normal, "
+                        "um (default -10 10; the outer wall with an inner wall: the "
+                        "myocardium)")
+    r.add_argument("--pullback-walls", nargs="+", choices=("outer", "inner", "lumen"),
+                   default=["outer"], metavar="WALL",
+                   help="with intensity/: the walls pulled back (outer, inner, lumen; "
+                        "default outer, the myocardium)")
     r.add_argument("--map-positions", choices=("rows", "fixed"), default="rows",
                    help="rows of the (v, t) area maps: the grid rows, as in the paper "
                         "(default; they drift along the tube as its shape changes), or fixed "
@@ -407,7 +412,8 @@ def _command(args) -> int:
                    "strain_smoothing_ms": args.strain_smoothing_ms,
                    "tracking": args.tracking, "meshing": _mesh_options(args),
                    "pullback": {"layers": args.pullback_layers,
-                                "shell_um": tuple(args.pullback_shell_um)}}
+                                "shell_um": tuple(args.pullback_shell_um),
+                                "walls": tuple(args.pullback_walls)}}
         out = api.run(args.source, args.out, overwrite=args.overwrite, quiet=args.quiet,
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume,

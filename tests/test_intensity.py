@@ -147,6 +147,22 @@ def test_a_run_writes_the_pullbacks(textured, tmp_path):
     assert np.array_equal(stack[0], np.round(mean[:, ::-1, 0].T).astype(np.uint16))
 
 
+def test_every_wall_can_be_pulled_back(textured, tmp_path):
+    """--pullback-walls inner lumen: each wall's shell (10 um either side of it) read
+    too; the lumen's is darker than the myocardium (blood against tissue, LEVEL), the
+    inner wall's between them (half tissue, half jelly)."""
+    out = tmp_path / "res"
+    assert main(["run", str(textured), "--out", str(out), "--quiet", "--jobs", "2",
+                 "--pullback-walls", "inner", "lumen"]) == 0
+    with np.load(out / "tex" / "pullbacks.npz") as a:
+        assert sorted(a.files) == sorted(f"pullback_{w}_{m}" for w in ("outer", "inner", "lumen")
+                                         for m in ("mean", "max"))
+        level = {w: np.nanmedian(a[f"pullback_{w}_mean"]) for w in ("outer", "inner", "lumen")}
+    assert level["lumen"] < level["inner"] < level["outer"], level
+    summary = json.loads((out / "tex" / "summary.json").read_text())
+    assert summary["pullbacks"]["walls"] == ["inner", "lumen", "outer"]
+
+
 def _drift(folder, ph, grid):
     """Median drift of the outer grid from its frame-0 tissue: along (mm), around (rad)."""
     summary = json.loads((folder / "summary.json").read_text())

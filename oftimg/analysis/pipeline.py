@@ -438,9 +438,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     pullbacks = None
     if ds.intensity is not None:
         tick = time.perf_counter()
-        pullbacks = outer_pullbacks(ds.intensity, st["grid"]["outer"], st["grid"].get("inner"),
-                                    [(t0 + k) % ds.n_frames for k in range(ds.n_frames)],
-                                    options.pullback)
+        pullbacks = wall_pullbacks(ds.intensity, st["grid"],
+                                   [(t0 + k) % ds.n_frames for k in range(ds.n_frames)],
+                                   options.pullback)
         timings["pullbacks_s"] = time.perf_counter() - tick
     from_ring = {w: int(st["rows"][f"from_ring_{w}"].sum()) for w in st["walls"]}
     # 3. the time axis (warped or not) and the per-row series on it
@@ -535,7 +535,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                                           "outer wall's normal"),
                                 "in_view": float(np.isfinite(
                                     pullbacks["pullback_outer_mean"]).mean()),
-                                "layers": options.pullback.layers}
+                                "layers": options.pullback.layers,
+                                "walls": sorted({k.split("_")[1] for k in pullbacks})}
     return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"],
             **({"pullbacks": pullbacks} if pullbacks is not None else {})}
 
@@ -578,26 +579,33 @@ def _texture_pathlines(pullbacks: dict, grid_shape: tuple) -> tuple[np.ndarray, 
     return texture_pathlines(mean, factors, n_u, n_v)
 
 
-def outer_pullbacks(series, outer: np.ndarray, inner: np.ndarray | None, frames: list[int],
-                    options: PullbackOptions = PullbackOptions()) -> dict[str, np.ndarray]:
-    """The intensity across the myocardium (from ``outer`` to ``inner``; without an
-    inner wall, across ``options.shell_um`` about ``outer``) at ``options.layers`` depths
-    on a grid finer than the analysis grid (:func:`~oftimg.analysis.pullback.refine_factors`:
-    about a pixel a voxel), each frame's from its own grids ``(n_u, n_v, n_t, 3)`` mm
-    and its volume ``series.volume(frames[k])`` (one in memory at a time):
-    ``pullback_outer_mean`` and ``_max`` ``(n_u f_u, (n_v - 1) f_v + 1, n_t)`` float32,
-    NaN where the shell leaves the imaged volume."""
-    f_u, f_v = refine_factors(outer, series.voxel_size_mm)
-    n_u, n_v, n_t = outer.shape[:3]
+def wall_pullbacks(series, grids: dict, frames: list[int],
+                   options: PullbackOptions = PullbackOptions()) -> dict[str, np.ndarray]:
+    """The intensity pulled back onto each wall of ``options.walls`` that ``grids``
+    (wall -> ``(n_u, n_v, n_t, 3)`` mm, each frame's own) has, at ``options.layers``
+    depths: the outer wall's across the myocardium (to the inner wall; without one,
+    across ``options.shell_um`` about it), the inner wall's and the lumen's across
+    ``options.shell_um`` about them along their outward normals; on a grid finer than
+    the analysis grid (:func:`~oftimg.analysis.pullback.refine_factors`: about a pixel
+    a voxel), each frame's volume ``series.volume(frames[k])`` read once (one in
+    memory at a time): ``pullback_<wall>_mean`` and ``_max`` ``(n_u f_u, (n_v - 1) f_v
+    + 1, n_t)`` float32, NaN where the shell leaves the imaged volume."""
+    walls = [w for w in options.walls if w in grids]
+    f_u, f_v = refine_factors(grids["outer"], series.voxel_size_mm)
+    n_u, n_v, n_t = grids["outer"].shape[:3]
     shape = (n_u * f_u, (n_v - 1) * f_v + 1, n_t)
-    mean, top = np.empty(shape, np.float32), np.empty(shape, np.float32)
+    out = {f"pullback_{w}_{what}": np.empty(shape, np.float32)
+           for w in walls for what in ("mean", "max")}
+    shell_mm = tuple(d / 1000 for d in options.shell_um)
     for k, t in enumerate(frames):
-        fine = refined(outer[:, :, k], f_u, f_v)
-        faces = ((fine, refined(inner[:, :, k], f_u, f_v)) if inner is not None
-                 else normal_shell(fine, tuple(d / 1000 for d in options.shell_um)))
-        mean[:, :, k], top[:, :, k] = pullback(series.volume(t), *faces, series.voxel_size_mm,
-                                               series.origin_mm, options.layers)
-    return {"pullback_outer_mean": mean, "pullback_outer_max": top}
+        volume = series.volume(t)
+        for w in walls:
+            fine = refined(grids[w][:, :, k], f_u, f_v)
+            faces = ((fine, refined(grids["inner"][:, :, k], f_u, f_v))
+                     if w == "outer" and "inner" in grids else normal_shell(fine, shell_mm))
+            out[f"pullback_{w}_mean"][:, :, k], out[f"pullback_{w}_max"][:, :, k] = pullback(
+                volume, *faces, series.voxel_size_mm, series.origin_mm, options.layers)
+    return out
 
 
 def _per_frame_passes(ds: Dataset, opts: GridOptions, *, quiet, executor, progress,

@@ -27,11 +27,13 @@ MAX_REFINE = 6              # the fine grid's nodes per analysis grid step, at m
 @dataclass(frozen=True)
 class PullbackOptions:
     """How the intensity is pulled back: ``layers`` depths sampled across the shell;
-    ``shell_um`` (inside, outside) the shell about a wall alone along its outward
-    normal, um (a wall with an inner wall: the myocardium between them)."""
+    ``shell_um`` (inside, outside) the shell about a wall along its outward normal, um
+    (the outer wall with an inner wall: the myocardium between them); ``walls`` the
+    walls pulled back (the outer one always: texture tracking reads it)."""
 
     layers: int = LAYERS
     shell_um: tuple[float, float] = (1000 * SHELL_MM[0], 1000 * SHELL_MM[1])
+    walls: tuple[str, ...] = ("outer",)
 
     def __post_init__(self):
         if not (isinstance(self.layers, int) and 1 <= self.layers <= 50):
@@ -43,10 +45,15 @@ class PullbackOptions:
             raise InputError(f"the pullback shell must be two offsets in um, inside < "
                              f"outside, within 1 mm, found {self.shell_um!r}")
         object.__setattr__(self, "shell_um", (float(inside), float(outside)))
+        walls = tuple(self.walls)
+        if not set(walls) <= {"outer", "inner", "lumen"}:
+            raise InputError(f"pullback walls are outer, inner and lumen, found {walls!r}")
+        object.__setattr__(self, "walls", tuple(w for w in ("outer", "inner", "lumen")
+                                                if w in walls or w == "outer"))
 
     def as_dict(self) -> dict:
-        """As summary.json records it (the shell a list, as JSON reads it back)."""
-        return dict(asdict(self), shell_um=list(self.shell_um))
+        """As summary.json records it (lists, as JSON reads them back)."""
+        return dict(asdict(self), shell_um=list(self.shell_um), walls=list(self.walls))
 
 
 def refine_factors(grid: np.ndarray, voxel_mm, max_factor: int = MAX_REFINE) -> tuple[int, int]:

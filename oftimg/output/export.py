@@ -420,6 +420,19 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
         "pullback_outer_max": (
             ["u_fine", "v_fine", "t"], "intensity",
             "the same, the maximum across the myocardium"),
+        "pullback_inner_mean": (
+            ["u_fine", "v_fine", "t"], "intensity",
+            "--pullback-walls inner: the intensity volumes' mean across --pullback-shell-um "
+            "about the inner wall along its normal (the jelly's edge), on each frame's own "
+            "inner grid refined as pullback_outer_mean's"),
+        "pullback_inner_max": (["u_fine", "v_fine", "t"], "intensity",
+                               "the same, the maximum"),
+        "pullback_lumen_mean": (
+            ["u_fine", "v_fine", "t"], "intensity",
+            "--pullback-walls lumen: the same about the lumen's wall, on each frame's own "
+            "lumen grid"),
+        "pullback_lumen_max": (["u_fine", "v_fine", "t"], "intensity",
+                               "the same, the maximum"),
         "trim_percent": (["t"], "%", "trim distance along the centroid line, % of its length"),
         "volume_myocardium_mm3": (["t"], "mm^3", "outer minus inner capped volume"),
         "volume_jelly_mm3": (["t"], "mm^3", "the cardiac jelly: inner minus lumen capped "

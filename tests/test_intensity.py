@@ -268,6 +268,8 @@ def test_a_mesh_dataset_places_its_volumes_by_meta_json(tmp_path, capsys):
     with np.load(out / "meshes" / "arrays.npz") as a:
         moved = a["pathlines_uv"] - a["pathlines_uv"][:, :, :1]
     assert np.abs(moved).max() < 0.05                 # grid steps: the same image every frame
+    from oftimg.io.dataset import load_dataset
+    assert path / "intensity" / "f0.npy" in load_dataset(path).input_files()   # --resume sees them
 
 
 def test_fields_are_blank_where_the_tissue_left_the_grid():

@@ -232,9 +232,12 @@ class Dataset:
     intensity: IntensitySeries | None = None        # intensity/ (their headers checked)
 
     def input_files(self) -> list[Path]:
-        """The files the dataset is made of, meta.json with them."""
+        """The files the dataset is made of (its intensity volumes too), meta.json with
+        them."""
         files = ([Path(f["file"]) for f in self.labels["files"]] if self.labels
                  else [p for surface in self.frames.values() for p in surface])
+        if self.intensity is not None and not self.labels:   # a label dataset's list has them
+            files += list(dict.fromkeys(Path(s.path) for s in self.intensity.sources))
         return files + [p for p in [self.path / "meta.json"] if p.is_file()]
 
     @property

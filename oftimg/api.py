@@ -71,7 +71,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     meta.json gives none (without it, such a dataset is refused: its times and speeds
     would be a guess). Returns ``out``.
     """
-    from .analysis.pipeline import PipelineOptions
+    from .analysis.pipeline import PipelineOptions, tracking_mode
 
     if parallel not in ("auto", "frames", "embryos"):
         raise InputError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
@@ -86,6 +86,8 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     datasets = with_period([_load(p) for p in paths], period_ms)
     _check_names([(d.meta.name, d.path) for d in datasets],
                  'set another "name" in its meta.json')
+    for d in datasets:                  # --tracking texture without intensity: before any work
+        tracking_mode(d, opts.tracking, d.intensity is not None)
     started = time.time()
     finished = Finished(finished_folder(out))
     with finished.locked(out):

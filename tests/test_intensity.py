@@ -237,6 +237,16 @@ def test_bad_intensity_folders_are_refused_in_one_line(textured, tmp_path, capsy
     assert not out.exists()
 
 
+def test_texture_tracking_without_intensity_is_refused_before_any_work(tmp_path, capsys):
+    path = tmp_path / "meshes"
+    write_series(path, [tube_mesh(radius_in=0.2 + 0.002 * k) for k in range(6)])
+    (path / "meta.json").write_text(json.dumps({"period_ms": 360}))
+    out = tmp_path / "res"
+    assert main(["run", str(path), "--out", str(out), "--quiet", "--tracking", "texture"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "needs intensity/" in err[0] and not out.exists()
+
+
 def test_a_mesh_dataset_places_its_volumes_by_meta_json(tmp_path, capsys):
     """A mesh dataset with intensity/ needs meta.json's "intensity" (voxel size and
     origin); without it, or with a bad origin, one line and exit 2."""

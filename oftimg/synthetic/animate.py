@@ -187,14 +187,12 @@ class StaticTexture:
     points; values about 1 (SD 0.35), blobs of :data:`TEXTURE_BLOB_VOXELS`."""
 
     def __init__(self, V_static: np.ndarray, voxel: float, rng: np.random.Generator):
-        from scipy import ndimage
+        from .texture import random_texture
 
         self.origin = V_static.min(axis=0) - 4 * voxel
         self.voxel = voxel
         shape = np.ceil((V_static.max(axis=0) + 4 * voxel - self.origin) / voxel).astype(int) + 1
-        field = ndimage.gaussian_filter(rng.standard_normal(tuple(shape)).astype(np.float32),
-                                        TEXTURE_BLOB_VOXELS)
-        self.values = np.clip(1.0 + 0.35 * field / field.std(), 0.2, None)
+        self.values = random_texture(tuple(shape), TEXTURE_BLOB_VOXELS, rng)
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         from scipy.ndimage import map_coordinates
@@ -222,8 +220,8 @@ def textured_frame(Vt: np.ndarray, F: np.ndarray, V_static: np.ndarray, texture:
     """One frame's intensity ``(z, y, x)`` uint8: at each voxel near the animated
     surface ``(Vt, F)``, the texture at the static point its closest surface point came
     from, fading with the distance (:data:`TEXTURE_DEPTH_VOXELS`); times a speckle new
-    in every frame, plus noise, on a dark background."""
-    from scipy import ndimage
+    in every frame, plus noise, on a dark background (:func:`~oftimg.synthetic.texture.imaged`)."""
+    from .texture import LEVEL, imaged
 
     k, j, i = np.indices(shape)
     points = origin + np.stack([i, j, k], axis=-1).reshape(-1, 3) * voxel
@@ -231,14 +229,10 @@ def textured_frame(Vt: np.ndarray, F: np.ndarray, V_static: np.ndarray, texture:
     on_surface = np.einsum("mk,mkd->md", bary, Vt[F[tri]])
     depth = np.linalg.norm(points - on_surface, axis=1) / voxel
     near = depth < 4 * TEXTURE_DEPTH_VOXELS
-    out = np.full(len(points), 0.04, np.float32)
-    out[near] += 0.55 * texture(came_from[near]) * np.exp(
+    out = np.full(len(points), LEVEL["background"], np.float32)
+    out[near] += LEVEL["myocardium"] * texture(came_from[near]) * np.exp(
         -0.5 * (depth[near] / TEXTURE_DEPTH_VOXELS) ** 2)
-    out = out.reshape(shape)
-    speckle = ndimage.gaussian_filter(rng.standard_normal(shape).astype(np.float32), 0.6)
-    out *= np.clip(1.0 + 0.2 * speckle / speckle.std(), 0.0, None)
-    out += rng.normal(0.0, 0.015, shape).astype(np.float32)
-    return np.clip(np.round(out * 255), 0, 255).astype(np.uint8)
+    return imaged(out.reshape(shape), rng)
 
 
 def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0,

@@ -34,8 +34,6 @@ class TissueTexture:
     1 on average (SD :data:`CONTRAST`), blobs of :data:`BLOB_UM`."""
 
     def __init__(self, phantom: Phantom, rng: np.random.Generator):
-        from scipy import ndimage
-
         p = phantom.p
         r = max(p.radius_inlet_mm, p.radius_outlet_mm)
         step_mm = LATTICE_UM * 1e-3
@@ -43,11 +41,8 @@ class TissueTexture:
         self.n_theta = int(np.ceil(2 * np.pi * r / step_mm))
         self.ds = p.length_mm / (self.n_s - 1)
         sigma = BLOB_UM / LATTICE_UM
-        field = rng.standard_normal((self.n_s, self.n_theta, DEPTH_LAYERS)).astype(np.float32)
-        field = ndimage.gaussian_filter(field, (sigma, sigma, 0.6),
-                                        mode=("nearest", "wrap", "nearest"))
-        field /= field.std()
-        self.values = np.clip(1.0 + CONTRAST * field, 0.2, None).astype(np.float32)
+        self.values = random_texture((self.n_s, self.n_theta, DEPTH_LAYERS), (sigma, sigma, 0.6),
+                                     rng, mode=("nearest", "wrap", "nearest"))
 
     def __call__(self, S: np.ndarray, theta: np.ndarray, depth: np.ndarray) -> np.ndarray:
         """The texture at material points (broadcasting), linear between samples."""
@@ -66,9 +61,8 @@ def intensity_volume(grid, texture: TissueTexture, t_ms: float,
     """The frame's intensity ``(z, y, x)`` uint8 at ``t_ms`` on ``grid`` (a
     :class:`~oftimg.synthetic.labels.LabelGrid`): each layer's level, the
     myocardium's times its texture at each voxel's material point, times a speckle
-    new in this frame, attenuated along y, plus noise (scaled so that 1 is 255)."""
-    from scipy import ndimage
-
+    new in this frame, attenuated along y, plus noise (scaled so that 1 is 255:
+    :func:`imaged`)."""
     ph = grid.phantom
     out = np.full(grid.shape, LEVEL["background"], np.float32)
     flat = out.reshape(-1)
@@ -82,10 +76,29 @@ def intensity_volume(grid, texture: TissueTexture, t_ms: float,
     flat[grid.index[myo]] = LEVEL["myocardium"] * texture(S, theta_m, depth)
     flat[grid.index[(dist <= inner) & (dist > lumen)]] = LEVEL["jelly"]
     flat[grid.index[dist <= lumen]] = LEVEL["lumen"]
-    speckle = ndimage.gaussian_filter(rng.standard_normal(grid.shape).astype(np.float32),
-                                      SPECKLE_VOXELS)
-    out *= np.clip(1.0 + SPECKLE * speckle / speckle.std(), 0.0, None)
     y_mm = np.arange(grid.shape[1]) * grid.voxel_mm[1]
     out *= np.exp(-y_mm / ATTENUATION_MM)[None, :, None]
-    out += rng.normal(0.0, NOISE, grid.shape).astype(np.float32)
+    return imaged(out, rng)
+
+
+def random_texture(shape: tuple, sigma, rng: np.random.Generator, mode="nearest") -> np.ndarray:
+    """A smooth random field ``shape`` float32 about 1 (SD :data:`CONTRAST`, at least
+    0.2): white noise blurred by ``sigma`` (samples, per axis; ``mode`` at the edges)."""
+    from scipy import ndimage
+
+    field = ndimage.gaussian_filter(rng.standard_normal(shape).astype(np.float32), sigma,
+                                    mode=mode)
+    return np.clip(1.0 + CONTRAST * field / field.std(), 0.2, None).astype(np.float32)
+
+
+def imaged(volume: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A clean intensity ``volume`` (0..1) as an OCT frame: times a speckle new in this
+    frame (:data:`SPECKLE`, grain :data:`SPECKLE_VOXELS`), plus noise (:data:`NOISE`),
+    as uint8 (1 is 255)."""
+    from scipy import ndimage
+
+    speckle = ndimage.gaussian_filter(rng.standard_normal(volume.shape).astype(np.float32),
+                                      SPECKLE_VOXELS)
+    out = volume * np.clip(1.0 + SPECKLE * speckle / speckle.std(), 0.0, None)
+    out += rng.normal(0.0, NOISE, volume.shape).astype(np.float32)
     return np.clip(np.round(out * 255), 0, 255).astype(np.uint8)

@@ -440,7 +440,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         tick = time.perf_counter()
         pullbacks = wall_pullbacks(ds.intensity, st["grid"],
                                    [(t0 + k) % ds.n_frames for k in range(ds.n_frames)],
-                                   options.pullback)
+                                   options.pullback, executor=executor)
         timings["pullbacks_s"] = time.perf_counter() - tick
     from_ring = {w: int(st["rows"][f"from_ring_{w}"].sum()) for w in st["walls"]}
     # 3. the time axis (warped or not) and the per-row series on it
@@ -580,31 +580,42 @@ def _texture_pathlines(pullbacks: dict, grid_shape: tuple) -> tuple[np.ndarray, 
 
 
 def wall_pullbacks(series, grids: dict, frames: list[int],
-                   options: PullbackOptions = PullbackOptions()) -> dict[str, np.ndarray]:
+                   options: PullbackOptions = PullbackOptions(), *,
+                   executor=None) -> dict[str, np.ndarray]:
     """The intensity pulled back onto each wall of ``options.walls`` that ``grids``
     (wall -> ``(n_u, n_v, n_t, 3)`` mm, each frame's own) has, at ``options.layers``
     depths: the outer wall's across the myocardium (to the inner wall; without one,
     across ``options.shell_um`` about it), the inner wall's and the lumen's across
     ``options.shell_um`` about them along their outward normals; on a grid finer than
     the analysis grid (:func:`~oftimg.analysis.pullback.refine_factors`: about a pixel
-    a voxel), each frame's volume ``series.volume(frames[k])`` read once (one in
-    memory at a time): ``pullback_<wall>_mean`` and ``_max`` ``(n_u f_u, (n_v - 1) f_v
-    + 1, n_t)`` float32, NaN where the shell leaves the imaged volume."""
+    a voxel): ``pullback_<wall>_mean`` and ``_max`` ``(n_u f_u, (n_v - 1) f_v + 1,
+    n_t)`` float32, NaN where the shell leaves the imaged volume. Each frame's volume
+    ``series.volume(frames[k])`` is read and sampled by :func:`frame_pullback` in
+    ``executor``'s workers when one is given (one volume a worker in memory)."""
     walls = [w for w in options.walls if w in grids]
-    f_u, f_v = refine_factors(grids["outer"], series.voxel_size_mm)
-    n_u, n_v, n_t = grids["outer"].shape[:3]
-    shape = (n_u * f_u, (n_v - 1) * f_v + 1, n_t)
-    out = {f"pullback_{w}_{what}": np.empty(shape, np.float32)
-           for w in walls for what in ("mean", "max")}
+    factors = refine_factors(grids["outer"], series.voxel_size_mm)
+    per_frame = run_tasks(frame_pullback,
+                          [(series, t, {w: g[:, :, k] for w, g in grids.items()}, factors,
+                            options) for k, t in enumerate(frames)], executor=executor)
+    return {f"pullback_{w}_{what}": np.stack([f[w][j] for f in per_frame], axis=2,
+                                             dtype=np.float32)
+            for w in walls for j, what in enumerate(("mean", "max"))}
+
+
+def frame_pullback(series, t: int, grids: dict, factors: tuple[int, int],
+                   options: PullbackOptions) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """One frame's pullbacks (see :func:`wall_pullbacks`): wall -> (mean, max)
+    ``(n_u f_u, (n_v - 1) f_v + 1)`` float32 from volume ``series.volume(t)`` and the
+    frame's grids (wall -> ``(n_u, n_v, 3)`` mm) refined by ``factors``."""
+    volume = series.volume(t)
     shell_mm = tuple(d / 1000 for d in options.shell_um)
-    for k, t in enumerate(frames):
-        volume = series.volume(t)
-        for w in walls:
-            fine = refined(grids[w][:, :, k], f_u, f_v)
-            faces = ((fine, refined(grids["inner"][:, :, k], f_u, f_v))
-                     if w == "outer" and "inner" in grids else normal_shell(fine, shell_mm))
-            out[f"pullback_{w}_mean"][:, :, k], out[f"pullback_{w}_max"][:, :, k] = pullback(
-                volume, *faces, series.voxel_size_mm, series.origin_mm, options.layers)
+    out = {}
+    for w in (w for w in options.walls if w in grids):
+        fine = refined(grids[w], *factors)
+        faces = ((fine, refined(grids["inner"], *factors))
+                 if w == "outer" and "inner" in grids else normal_shell(fine, shell_mm))
+        out[w] = pullback(volume, *faces, series.voxel_size_mm, series.origin_mm,
+                          options.layers)
     return out
 
 

@@ -94,8 +94,8 @@ def test_table1_in_the_papers_units_and_rounding(tmp_path):
         assert header == described
     assert all(d["description"] and d["summary_json"] for d in dictionary)
     text = table1_markdown(summaries)
-    assert "| Normal A | normal | 38.27 | 61.73 | 0.62 | 372 | 142 | 230 | 3.3601 |" in text
-    assert "| mean ± SD | banded | 40.30 ± 5.78 (n=2) |" in text
+    assert "| Normal A | normal | 38.27 | 61.73 | 0.62 | 372 | 142 | 230 | 3.36 | 18.5 |" in text
+    assert "| mean ± SD | banded | 40.3 ± 5.8 (n=2) |" in text  # to the SD's 2 digits
     assert "| p | banded vs normal | 0.67 |" in text    # 2 vs 2: 4 of 6 relabellings as far
     assert "| p (Holm) | banded vs normal | 1 | 1 |" in text    # 13 tests
     assert "Holm-corrected over the 13 quantities tested" in text

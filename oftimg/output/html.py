@@ -7,6 +7,7 @@ import os
 import urllib.parse
 from pathlib import Path
 
+from . import numbers
 from .report import (CORRECTION, MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparison, table1_layout,
                      table_rows)
 
@@ -18,8 +19,9 @@ th{background:#f3f3f3} td:first-child,th:first-child{text-align:left}
 img{max-width:100%;border:1px solid #eee;margin:4px 0}
 video{max-width:100%;margin:4px 0;background:#000}
 .grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(480px,1fr));gap:10px}
+.grid .wide{grid-column:1/-1} figure{margin:0.5em}
 .small{color:#666;font-size:0.85em} .sig{background:#fde2e2}
-table.table1 th{font-weight:600} details{margin:0.6em 0} summary{cursor:pointer;font-weight:600}
+table.table1 th{font-weight:600} table.table1 tr>:nth-child(-n+2){white-space:nowrap} details{margin:0.6em 0} summary{cursor:pointer;font-weight:600}
 pre{white-space:pre-wrap;overflow-wrap:anywhere}
 """
 
@@ -53,11 +55,29 @@ window.addEventListener('load', function () {
 
 
 def _fmt(x) -> str:
+    """A value as a reader sees it (:mod:`~oftimg.output.numbers`): per wall or field
+    "name value, ...", numbers to 3 digits, yes/no, a dash for NaN, "" for None."""
     if isinstance(x, dict):  # per wall
         return ", ".join(f"{html.escape(str(k))} {_fmt(v)}" for k, v in x.items())
-    if isinstance(x, float):
-        return "nan" if x != x else f"{x:.4g}"
-    return html.escape("" if x is None else str(x))
+    if isinstance(x, (list, tuple)):
+        return ", ".join(_fmt(v) for v in x) if len(x) else "none"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if x is None:
+        return ""
+    if isinstance(x, (int, float)):
+        return numbers.number(x)
+    return html.escape(str(x))
+
+
+def _scaled(x, scale: float | None):
+    """``x`` (a number, or a dict of them) times ``scale``; ``scale`` None: a setting,
+    written as it was set (5, not 5.00)."""
+    if isinstance(x, dict):
+        return {k: _scaled(v, scale) for k, v in x.items()}
+    if not numbers.is_finite_number(x):
+        return x
+    return f"{x:g}" if scale is None else x * scale if scale != 1 else x
 
 
 def _repaired(repairs: dict, shown: int = 3) -> str:
@@ -70,8 +90,11 @@ def _repaired(repairs: dict, shown: int = 3) -> str:
     return f"{len(repairs)} ({listed}{more})"
 
 
-def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None) -> str:
-    head = "".join(f"<th>{html.escape(c)}</th>" for c in cols)
+def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None,
+           names: dict | None = None) -> str:
+    """Rows (dicts) as an HTML table of ``cols``, headed by ``names`` where given;
+    ``link(row)`` links the first cell, ``highlight(row)`` shades a row."""
+    head = "".join(f"<th>{html.escape((names or {}).get(c, c))}</th>" for c in cols)
     body = []
     for r in rows:
         cells = []
@@ -86,6 +109,8 @@ def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None) -> s
             "</div>")
 
 
+NBSP_PM = "\u00a0±\u00a0"   # "mean ± SD" kept on one line, "(n=3)" may wrap below it
+WIDE_ASPECT = 2.0          # a figure wider than this over its height spans the page
 TABLE_COLUMNS_SHOWN = 10   # a wider table is cut into parts of this many, its first column in each
 
 
@@ -106,8 +131,10 @@ def _text_table(header: list[str], body: list[list[str]], *, strong_from: int) -
     rows = []
     for k, row in enumerate(body):
         tag = "th" if k >= strong_from else "td"
-        rows.append("<tr>" + "".join(f"<{tag}>{html.escape(c)}</{tag}>" for c in row) + "</tr>")
-    return f"<table class=\"table1\"><tr>{head}</tr>{''.join(rows)}</table>"
+        rows.append("<tr>" + "".join(f"<{tag}>{html.escape(c).replace(' ± ', NBSP_PM)}</{tag}>"
+                                     for c in row) + "</tr>")
+    return (f"<div style=\"overflow-x:auto\"><table class=\"table1\"><tr>{head}</tr>"
+            f"{''.join(rows)}</table></div>")
 
 
 def _page(title: str, body: str) -> str:
@@ -132,6 +159,34 @@ def _warnings(summary: dict) -> list[str]:
 
 
 # files that show a per-pixel (u, v, t) field, whose captions name the grid it is on
+# the dataset page's quantities: summary.json key, what it is, unit, scale to that unit
+# (None: a setting, shown as set)
+QUANTITIES = [
+    ("group", "group", "", 1),
+    ("n_frames", "frames", "", 1),
+    ("period_ms", "period of the cycle", "ms", 1),
+    ("t0_frame", "input frame at t = 0 (the outer wall's smallest volume)", "", 1),
+    ("expand_fraction", "expansion: share of the cycle", "%", 100),
+    ("contract_fraction", "contraction: share of the cycle", "%", 100),
+    ("expand_ms", "expansion time", "ms", 1),
+    ("contract_ms", "contraction time", "ms", 1),
+    ("tube_length_mm", "tube length (centroid line, time average)", "mm", 1),
+    ("myocardial_volume_change", "myocardial volume change over the cycle", "%", 100),
+    ("jelly_volume_change", "cardiac jelly volume change over the cycle", "%", 100),
+    ("wall_thickness_median_mm", "wall thickness, median", "um", 1000),
+    ("wall_thickening", "wall thickening over the cycle (median row)", "%", 100),
+    ("jelly_thickness_median_mm", "cardiac jelly thickness, median", "um", 1000),
+    ("jelly_thickening", "cardiac jelly thickening over the cycle (median row)", "%", 100),
+    ("band_position_mm", "band (narrowest section at maximum area) from the inlet", "mm", 1),
+    ("corner_count", "corners of the outer section at maximum expansion", "", 1),
+    ("ridge_smoothing_ms", "ridge smoothing in time (Gaussian sigma)", "ms", None),
+    ("field_smoothing_ms", "shape fields' smoothing in time (Gaussian sigma)", "ms", None),
+    ("strain_smoothing_ms", "strain fields' smoothing in time (Gaussian sigma)", "ms", None),
+    ("wave_synchronous_within_noise", "wave indistinguishable from a synchronous beat", "", 1),
+]
+SPEED_NAMES = {"min": "minimum of the rows", "max": "maximum of the rows",
+               "mean": "mean of the rows", "std": "SD of the rows",
+               "median": "median of the rows", "cycle": "cycle (inlet to outlet)"}
 PER_PIXEL = ("curvature", "strain", "thickness", "phase")
 
 
@@ -140,20 +195,34 @@ def _on_grid(stem: str, grid_note: str) -> str:
     return f", on the {grid_note}" if any(k in stem for k in PER_PIXEL) else ""
 
 
+def png_size(path: Path) -> tuple[int, int]:
+    """A PNG's (width, height) in pixels, from its header; (0, 0) if it is not one."""
+    with open(path, "rb") as f:
+        head = f.read(24)
+    if head[:8] != b"\x89PNG\r\n\x1a\n":
+        return 0, 0
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+
+
+def figure_html(path: Path, href: str, caption: str) -> str:
+    """A figure of the page's grid, linked to itself at full size; a figure over twice
+    as wide as it is high (a page-wide one) takes the grid's whole width, so that its
+    text stays readable."""
+    width, height = png_size(path)
+    wide = ' class="wide"' if height and width > WIDE_ASPECT * height else ""
+    return (f'<figure{wide}><a href="{href}"><img src="{href}" alt="{html.escape(path.stem)}">'
+            f'</a><figcaption class="small">{caption}</figcaption></figure>')
+
+
 def dataset_page(folder: Path, summary: dict) -> Path:
     """``<name>/index.html``: the numbers, every figure and every video of one dataset."""
     figs = sorted((folder / "figures").glob("*.png"))
     vids = sorted((folder / "videos").glob("*.mp4"))
-    keys = ["group", "n_frames", "period_ms", "t0_frame", "expand_fraction", "contract_fraction",
-            "expand_ms", "contract_ms", "tube_length_mm", "myocardial_volume_change",
-            "jelly_volume_change", "wall_thickness_median_mm", "wall_thickening",
-            "jelly_thickness_median_mm", "jelly_thickening", "band_position_mm",
-            "corner_count", "ridge_smoothing_ms", "field_smoothing_ms", "strain_smoothing_ms",
-            "wave_synchronous_within_noise"]
     from .figures import field_grid_note
 
-    rows = [{"quantity": k, "value": summary.get(k)} for k in keys if k in summary]
     grid_note = field_grid_note(summary)
+    rows = [{"quantity": what, "unit": numbers.unit(unit), "value": _scaled(summary[key], scale)}
+            for key, what, unit, scale in QUANTITIES if key in summary]
     rows.append({"quantity": "grid of the per-pixel fields (curvature, thickness, strain, "
                              "phase maps)", "value": grid_note})
     if summary.get("pullbacks"):
@@ -162,8 +231,12 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                      "value": summary["pullbacks"]})
     spread = summary.get("wave_speed_noise_sd_mm_s") or {}
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():
-        rows.append({"quantity": f"wave speed {k} (mm/s)", "value": v,
-                     "spread from frame noise": spread.get(k)})
+        if k == "rows_used":
+            rows.append({"quantity": "rows of the ridge whose local speed the noise resolves",
+                         "value": v})
+            continue
+        rows.append({"quantity": f"wave speed, {SPEED_NAMES.get(k, k)}", "unit": "mm/s",
+                     "value": numbers.mean_sd(v, spread.get(k)) if spread.get(k) else v})
     checks = [{"check": "flipped triangles in the maps (0)",
                "value": summary.get("flipped_triangles")},
               {"check": "maps re-solved with clamped weights",
@@ -207,15 +280,14 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                "value": {wall: _repaired(s.get("repairs", {})) for wall, s in
                          ((summary.get("validation") or {}).get("surfaces") or {}).items()}}]
     body = [f"<p><a href=\"../index.html\">cohort</a></p><h1>{html.escape(summary['name'])}</h1>",
-            _table(rows, ["quantity", "value", "spread from frame noise"])]
+            _table(rows, ["quantity", "value", "unit"])]
     if summary.get("warnings"):
         body += ["<h2>Warnings</h2><ul>"] + [f"<li>{html.escape(text)}</li>"
                                              for text in _warnings(summary)] + ["</ul>"]
     body += ["<h2>Quality checks</h2>", _table(checks, ["check", "value"]),
              "<h2>Figures</h2><div class=\"grid\">"]
-    body += [f'<figure><a href="figures/{f.name}"><img src="figures/{f.name}" alt="{f.stem}">'
-             f'</a><figcaption class="small">{f.stem}{_on_grid(f.stem, grid_note)}'
-             '</figcaption></figure>' for f in figs]
+    body += [figure_html(f, f"figures/{f.name}", f.stem + _on_grid(f.stem, grid_note))
+             for f in figs]
     body.append("</div><h2>Videos</h2><div class=\"grid\">")
     body += [f'<figure><video src="videos/{v.name}" controls muted loop preload="metadata">'
              f'</video><figcaption class="small">{v.stem}{_on_grid(v.stem, grid_note)}'
@@ -264,9 +336,8 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
     ]
     comp = group_comparison(summaries) if comparison is None else comparison
     header, rows, note = table1_layout(summaries, comp)
-    body += ["<h2>Table 1</h2><p class=\"small\">table1.csv, table1.md; the paper's "
-             "quantities in its units and rounding; each column is described in columns.csv"
-             "</p>", _text_table(header, rows, strong_from=len(summaries))]
+    body += ["<h2>Table 1</h2><p class=\"small\">table1.md, table1.csv; the paper's "
+             "quantities in its units; each column is described in columns.csv</p>", _text_table(header, rows, strong_from=len(summaries))]
     if note:
         body.append(f"<p class=\"small\">{html.escape(note)}</p>")
     body += [f"<p class=\"small\">Note: {html.escape(n)}</p>" for n in run_info.get("notes", [])]
@@ -296,12 +367,14 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                  "differ somewhere in a cluster, not at each of its pixels); the group map "
                  "figures outline both</p>",
                  _table(map_rows, list(map_rows[0]), highlight=lambda r: r["least_p_cluster"]
-                        is not None and r["least_p_cluster"] < 0.05)]
+                        is not None and r["least_p_cluster"] < 0.05, names={
+                            "least_p_pixel": "least p, pixel by pixel",
+                            "least_p_cluster": "least p, by cluster",
+                            **{k: f"share of the map in clusters of p < {k.split('<')[1]}"
+                               for k in map_rows[0] if k.startswith("share_in_clusters")}})]
     if group_figs:
         body.append("<div class=\"grid\">")
-        body += [f'<figure><a href="{p.relative_to(out).as_posix()}"><img '
-                 f'src="{p.relative_to(out).as_posix()}" alt="{p.stem}"></a>'
-                 f'<figcaption class="small">{p.stem}</figcaption></figure>' for p in group_figs]
+        body += [figure_html(p, p.relative_to(out).as_posix(), p.stem) for p in group_figs]
         body.append("</div>")
     body.append("<h2>Run</h2><pre class=\"small\">"
                 + html.escape(json.dumps(run_info, indent=1)) + "</pre>")

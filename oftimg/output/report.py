@@ -12,6 +12,7 @@ import numpy as np
 
 from ..analysis.group_maps import TESTED_MAPS
 from ..analysis.stats import holm, permutation_test
+from . import numbers
 
 
 @dataclass(frozen=True)
@@ -195,7 +196,10 @@ QC_COLUMNS = ID_COLUMNS + [
 TABLES = {"table1.csv": TABLE1_COLUMNS, "cohort.csv": MEASUREMENT_COLUMNS,
           "qc.csv": QC_COLUMNS}
 # an embryo's Table 1 cell without a value, and what it means
-NO_VALUE = "–"
+NO_VALUE = numbers.DASH
+ROUNDING_NOTE = ("Rounded as the paper rounds, or to 3 digits where it gives more; a group's "
+                 "mean to the decimal of its SD, given to 2 digits; table1.csv keeps the paper's "
+                 "rounding.")
 NO_VALUE_NOTE = ("–: no value: not resolved within the map's noise (a wave speed), or not "
                  "measurable on this embryo (see its summary.json notes).")
 # how the p-values of the Table 1 quantities are corrected (stated where they are shown)
@@ -327,16 +331,16 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
 
 
 def _cell(x, column: Column | None = None) -> str:
-    """A table cell's text: a number rounded as its column is (3 significant digits
-    without a rounding), "" for none."""
+    """A table cell's text as a reader sees it: a number rounded as its column is
+    (:data:`~oftimg.output.numbers.SIGNIFICANT` digits where the paper gives more or
+    no rounding), "" for none."""
     if isinstance(x, float):
         if not np.isfinite(x):
             return ""
         if column is not None and column.decimals is not None:
-            return f"{round_as(x, column):.{column.decimals}f}"
-        if column is not None and column.significant is not None:
-            return f"{round_as(x, column):.{column.significant}g}"
-        return f"{x:.3g}"
+            return numbers.with_decimals(round_as(x, column), column.decimals)
+        return numbers.number(x, min(column.significant or numbers.SIGNIFICANT,
+                                     numbers.SIGNIFICANT) if column else numbers.SIGNIFICANT)
     return "" if x is None else str(x)
 
 
@@ -347,8 +351,9 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
     of groups' p-value and its correction; and the note that says how p was made ("" with
     one group)."""
     data_cols = TABLE1_COLUMNS[2:]
-    header = ["Embryo", "Group"] + [TABLE1_LABELS[c.name] + (f" ({c.unit})" if c.unit != "1"
-                                                              else "") for c in data_cols]
+    header = ["Embryo", "Group"] + [TABLE1_LABELS[c.name] + (f" ({numbers.unit(c.unit)})"
+                                                              if numbers.unit(c.unit) else "")
+                                    for c in data_cols]
     body = [[_cell(row["name"]), _cell(row["group"])]
             + [_cell(row[c.name], c) or NO_VALUE for c in data_cols]
             for row in table_rows(summaries, TABLE1_COLUMNS)]
@@ -364,9 +369,7 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
         for c in data_cols:
             r = by_metric.get(c.name, [{}])[0]
             mean, sd, n = r.get(f"{g}_mean"), r.get(f"{g}_sd"), r.get(f"{g}_n", 0)
-            cells.append("" if not n else _cell(mean, c) + (f" ± {_cell(sd, c)}"
-                                                             if np.isfinite(sd) else "")
-                         + f" (n={n})")
+            cells.append("" if not n else f"{numbers.mean_sd(mean, sd, c.decimals)} (n={n})")
         body.append(["mean ± SD", _cell(g)] + cells)
     pairs = [] if len(groups) < 2 else sorted({r["groups"] for r in comparison
                                                if " vs " in r["groups"]})
@@ -388,6 +391,7 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
             if pairs else "")
     if blank:
         note += (" " if note else "") + NO_VALUE_NOTE
+    note += (" " if note else "") + ROUNDING_NOTE
     return header, body, note
 
 

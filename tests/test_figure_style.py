@@ -52,12 +52,79 @@ def _texts(fig):
     return found
 
 
+ASCII_UNIT = re.compile(r"\bum\b|\+-|\+/-|\^\d|\bR\^")   # µm, ±, mm², R² as typed
+
+
+def _drawn_colours(handle) -> list:
+    """The RGB colours a legend handle draws with (line, marker face and edge, patch)."""
+    from matplotlib.colors import to_rgb
+
+    colours = []
+    if isinstance(handle, matplotlib.lines.Line2D):
+        if handle.get_linestyle() not in ("None", "none", "", " ") and handle.get_linewidth():
+            colours.append(handle.get_color())
+        if handle.get_marker() not in (None, "None", "none", "", " "):
+            colours.append(handle.get_markerfacecolor())
+            if handle.get_markeredgewidth():
+                colours.append(handle.get_markeredgecolor())
+    elif isinstance(handle, matplotlib.patches.Patch):
+        colours.append(handle.get_facecolor())
+        if handle.get_linewidth():
+            colours.append(handle.get_edgecolor())
+    elif isinstance(handle, matplotlib.collections.Collection):
+        colours += list(handle.get_facecolors()) + list(handle.get_edgecolors())
+    return [to_rgb(c) for c in colours if not (isinstance(c, str) and c.lower() == "none")
+            and not (len(np.atleast_1d(c)) == 4 and np.atleast_1d(c)[3] == 0)]
+
+
+def _invisible_legend_entries(fig) -> list[str]:
+    """Legend entries whose handle draws only in the legend's own background colour."""
+    from matplotlib.colors import to_rgb
+
+    problems = []
+    legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
+    for legend in legends:
+        frame = legend.get_frame()
+        background = to_rgb(frame.get_facecolor() if legend.get_frame_on()
+                            and frame.get_alpha() != 0 else fig.get_facecolor())
+        for handle, text in zip(legend.legend_handles, legend.get_texts()):
+            colours = _drawn_colours(handle)
+            if colours and all(np.abs(np.subtract(c, background)).max() < 0.1 for c in colours):
+                problems.append(f"legend entry {text.get_text()!r} is drawn in its background "
+                                "colour")
+    return problems
+
+
+def _empty_bands(fig, share: float = 0.2) -> list[str]:
+    """A band of the canvas, across its whole width or height, wider than ``share`` of
+    it, with nothing drawn in it."""
+    pixels = np.asarray(fig.canvas.buffer_rgba())[..., :3]
+    ink = (pixels < 245).any(axis=-1)
+    problems = []
+    for axis, name in ((1, "rows"), (0, "columns")):
+        line = ink.any(axis=axis)
+        longest = run = 0
+        for inked in line:
+            run = 0 if inked else run + 1
+            longest = max(longest, run)
+        if longest > share * len(line):
+            problems.append(f"{100 * longest / len(line):.0f} % of the canvas's {name} empty "
+                            "in one band")
+    return problems
+
+
 def layout_problems(fig) -> list[str]:
     """What a reader would call a layout fault: text overlapping text, text leaving the
-    figure, an axis without its label, a colour bar without a unit, type outside 7-9 pt."""
+    figure, an axis without its label, a colour bar without a unit or with a label
+    longer than the bar, type outside 7-9 pt, units typed in ASCII (um, mm^2, +-), a
+    legend entry drawn in its background's colour, a band of empty canvas."""
     fig.canvas.draw()
-    problems = []
+    problems = _invisible_legend_entries(fig) + _empty_bands(fig)
     texts = _texts(fig)
+    for text, _ in texts:
+        plain = re.sub(r"\$[^$]*\$", "", text.get_text())      # mathtext ($^2$) is typeset
+        if ASCII_UNIT.search(plain):
+            problems.append(f"text {text.get_text()!r} types a unit or sign in ASCII")
     width, height = fig.bbox.width, fig.bbox.height
     for text, box in texts:
         if box.x0 < -1 or box.y0 < -1 or box.x1 > width + 1 or box.y1 > height + 1:
@@ -73,8 +140,13 @@ def layout_problems(fig) -> list[str]:
         bar = getattr(ax, "_colorbar", None)
         if bar is not None:
             label = ax.get_ylabel() or ax.get_xlabel()
-            if not UNIT.search(label):
+            if not UNIT.search(label.replace("\n", " ")):
                 problems.append(f"colour bar {label!r} has no unit")
+            along = ax.yaxis.label if ax.get_ylabel() else ax.xaxis.label
+            extent = along.get_window_extent(fig.canvas.get_renderer())
+            long_side = extent.height if ax.get_ylabel() else extent.width
+            if long_side > 1.05 * (ax.bbox.height if ax.get_ylabel() else ax.bbox.width):
+                problems.append(f"colour bar label {label!r} is longer than its bar")
             continue
         if not _axes_drawn(ax):
             continue
@@ -191,3 +263,29 @@ def test_the_layout_check_finds_the_faults_it_looks_for():
     assert "'off the edge' leaves the figure" in problems
     assert "colour bar 'area' has no unit" in problems
     assert "no y label" in problems
+
+
+def test_the_layout_check_finds_what_a_reader_cannot_see_or_read():
+    """... and a legend marker white on white, an empty third of the canvas, a unit
+    typed in ASCII, a colour-bar label longer than its bar."""
+    import matplotlib.pyplot as plt
+
+    with matplotlib.rc_context(style.RC):
+        fig, ax = style.new_figure(style.COLUMN_MM, 90)
+        fig.get_layout_engine().set(rect=(0, 0.4, 1, 0.6))     # the bottom 40 % left empty
+        ax.plot([0, 1], [0, 1], "k-", label="line")
+        ax.plot([], [], "w*", label="one sigma")
+        ax.legend()
+        ax.set_xlabel("thickness (um)")
+        ax.set_ylabel("area (mm^2)")
+        image = ax.imshow(np.zeros((3, 3)))
+        fig.colorbar(image, ax=ax, shrink=0.3,
+                     label="a label much longer than the short colour bar beside it (1)")
+        problems = "\n".join(layout_problems(fig))
+        plt.close(fig)
+    assert "legend entry 'one sigma' is drawn in its background colour" in problems
+    assert "legend entry 'line'" not in problems
+    assert "rows empty in one band" in problems
+    assert "'thickness (um)' types a unit or sign in ASCII" in problems
+    assert "'area (mm^2)' types a unit or sign in ASCII" in problems
+    assert "is longer than its bar" in problems

@@ -326,7 +326,7 @@ def test_ridge_plot_rings_the_rows_bridged_for_the_speeds(tmp_path):
     finally:
         plt.Figure.savefig = original
     ax = captured["fig"].axes[0]
-    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    labels = [t.get_text() for t in captured["fig"].legends[0].get_texts()]   # below both
     assert "barely moves: bridged (dashed) for the speeds" in labels
     rings = [line for line in ax.get_lines() if line.get_marker() == "o"]
     assert len(rings) == 1 and np.allclose(rings[0].get_xdata(), s[bridged])

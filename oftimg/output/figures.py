@@ -14,6 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..analysis.group_maps import groups_in_order  # noqa: E402
+from . import numbers  # noqa: E402
 from .style import (COLUMN_MM, DIVERGING, LINE_COLOURS, MM, PAGE_MM, SEQUENTIAL,  # noqa: E402
                     colour_bar, house_style, new_figure, save, wrapped)
 
@@ -67,6 +68,38 @@ def trim_over_cycle(t_ms: np.ndarray, trim_percent: np.ndarray, myocardial_mm3: 
     return save(fig, path)
 
 
+def fit_axes(fig, ax, *, below, margin_px: float = 6.0, rounds: int = 6) -> None:
+    """Move and scale ``ax`` so that what it draws (box, ticks, labels: its ink in the
+    rendered figure) fills the figure below the artist ``below`` (a legend or title),
+    centred: a 3-D axes' box is a small part of its axes, and where in them depends on
+    the tube's proportions."""
+    for _ in range(rounds):
+        fig.canvas.draw()
+        top = below.get_window_extent(fig.canvas.get_renderer()).y0 - margin_px
+        pixels = np.asarray(fig.canvas.buffer_rgba())
+        height_px = pixels.shape[0]
+        ink = (pixels[..., :3] < 245).any(axis=-1)
+        ink[:int(np.ceil(height_px - top))] = False             # the legend and title above
+        rows, cols = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+        if not len(rows):
+            return
+        # the ink's box in display pixels (y up)
+        x0, x1, y0, y1 = cols[0], cols[-1] + 1, height_px - rows[-1] - 1, height_px - rows[0]
+        width, height = fig.bbox.width - 2 * margin_px, top - margin_px
+        factor = min(width / (x1 - x0), height / (y1 - y0))
+        pos = ax.get_position().transformed(fig.transFigure)      # pixels
+        # scaled about the axes' corner, then moved so that the ink is centred
+        ink_x0 = pos.x0 + factor * (x0 - pos.x0)
+        ink_y0 = pos.y0 + factor * (y0 - pos.y0)
+        shift_x = margin_px + (width - factor * (x1 - x0)) / 2 - ink_x0
+        shift_y = margin_px + (height - factor * (y1 - y0)) / 2 - ink_y0
+        ax.set_position([(pos.x0 + shift_x) / fig.bbox.width, (pos.y0 + shift_y) / fig.bbox.height,
+                         pos.width * factor / fig.bbox.width, pos.height * factor / fig.bbox.height])
+
+
+ZOOM_3D = 0.9          # the 3-D box's share of its axes: a thin tube's box is flat
+
+
 @house_style
 def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray], path: Path,
                         *, rows=(0.1, 0.5, 0.9), title: str = "") -> Path:
@@ -74,8 +107,8 @@ def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray],
 
     ``grid_mm (n_u, n_v, 3)``, ``contours_mm[wall] (n_c, n_v, 3)``.
     """
-    fig = plt.figure(figsize=(COLUMN_MM * MM, 80 * MM))
-    ax = fig.add_axes((0.04, 0.06, 0.92, 0.8), projection="3d")
+    fig = plt.figure(figsize=(COLUMN_MM * MM, 62 * MM))
+    ax = fig.add_axes((0.2, 0.15, 0.6, 0.5), projection="3d")   # all inside: fit_axes sees it
     n_u, n_v, _ = grid_mm.shape
     for i in range(0, n_u, 4):
         ax.plot(*grid_mm[i].T, color="#bbb", lw=0.5)
@@ -86,7 +119,7 @@ def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray],
             ring = np.concatenate([C[:, j], C[:1, j]])
             ax.plot(*ring.T, color=WALL_COLOURS[wall], lw=1.5,
                     label=wall if frac == rows[0] else None)
-    ax.set_box_aspect(np.ptp(grid_mm.reshape(-1, 3), axis=0), zoom=0.62)  # true proportions
+    ax.set_box_aspect(np.ptp(grid_mm.reshape(-1, 3), axis=0), zoom=ZOOM_3D)  # true proportions
     from matplotlib.ticker import MaxNLocator
 
     for axis, name, ticks in ((ax.xaxis, "x", 2), (ax.yaxis, "y", 2), (ax.zaxis, "z", 3)):
@@ -99,11 +132,12 @@ def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray],
         if len(ticks) > 2:
             axis.set_ticks(ticks[keep])
     ax.tick_params(pad=0)
-    ax.xaxis.labelpad = ax.yaxis.labelpad = 2
-    ax.zaxis.labelpad = 6
+    ax.xaxis.labelpad, ax.yaxis.labelpad, ax.zaxis.labelpad = 4, 8, 2
     ax.view_init(elev=18, azim=-40)    # the x and y tick labels apart at the near corner
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, 1.0))
+    legend = fig.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, 0.9), ncol=4,
+                        handlelength=1.5, columnspacing=1.0, frameon=False)
     fig.suptitle(wrapped(plain_text(title), COLUMN_MM, 9))
+    fit_axes(fig, ax, below=legend)
     return save(fig, path)
 
 
@@ -180,18 +214,19 @@ def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Pat
         ax.plot(np.mod(ridge_t_ms, period), s_mm, "k.", ms=3, label="maximum area")
     if crossings_75_ms is not None:
         for row in crossings_75_ms:
-            ax.plot(np.mod(row, period), s_mm, "kx", ms=3)
+            ax.plot(np.mod(row, period), s_mm, "kx", ms=3, zorder=3)
         ax.plot([], [], "kx", label="75 % of maximum")
     if sigma_ms is not None and ridge_t_ms is not None:
-        for sign in (-1, 1):
-            ax.plot(np.mod(ridge_t_ms + sign * sigma_ms, period), s_mm, "w*", ms=3)
-        ax.plot([], [], "w*", label="one sigma")
+        star = dict(marker="*", ls="none", color="w", mec="k", mew=0.3, ms=4.5)  # seen on white
+        for sign in (-1, 1):                                  # beneath the crosses it meets
+            ax.plot(np.mod(ridge_t_ms + sign * sigma_ms, period), s_mm, zorder=2, **star)
+        ax.plot([], [], label="maximum ± σ (Gaussian fit)", **star)
     ax.set_xlabel("time since minimum volume (ms)")
     ax.set_ylabel("position along the tube s (mm)")
     ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
     ax.set_title(wrapped(plain_text(title), COLUMN_MM))
     if ax.get_legend_handles_labels()[0]:
-        fig.legend(loc="outside lower center", ncol=2, fontsize=7)
+        fig.legend(loc="outside lower center", ncol=2, fontsize=7, columnspacing=1.0)
     return save(fig, path)
 
 
@@ -260,7 +295,7 @@ def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
 def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_ms=None,
                speed_sd=None, bridged=None, title: str = "") -> Path:
     """Time of maximum expansion vs position, with the two-segment fit and local speed;
-    ``ridge_sd_ms`` / ``speed_sd`` (``(n_v,)``, optional) as +- 1 SD bars / band;
+    ``ridge_sd_ms`` / ``speed_sd`` (``(n_v,)``, optional) as ± 1 SD bars / band;
     ``bridged`` (``(n_v,)`` bool, optional): rows that barely move, ringed, the line the
     speeds took across them dashed."""
     fig, axes = new_figure(PAGE_MM, 65, ncols=2)
@@ -274,25 +309,25 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
                      label="barely moves: bridged (dashed) for the speeds")
     if ridge_sd_ms is not None:
         axes[0].errorbar(s_mm, ridge_t_ms, yerr=ridge_sd_ms, fmt="k.", ms=4, elinewidth=0.6,
-                         label="ridge +- 1 SD (frame noise)")
+                         label="ridge ± 1 SD (frame noise)")
     else:
         axes[0].plot(s_mm, ridge_t_ms, "k.", label="ridge")
     if knee is not None and np.isfinite(knee["knee_mm"]):
         k = knee["knee_mm"]
         t_k = knee.get("knee_t_ms", np.interp(k, s_mm, ridge_t_ms))   # older results: none
-        for s_end, c in ((s_mm[0], knee["speed_proximal_mm_s"]),
-                         (s_mm[-1], knee["speed_distal_mm_s"])):
+        speeds = (knee["speed_proximal_mm_s"], knee["speed_distal_mm_s"])
+        for s_end, c in zip((s_mm[0], s_mm[-1]), speeds):
             axes[0].plot([s_end, k], [t_k + 1e3 * (s_end - k) / c, t_k], "r-", lw=1.2)
-        axes[0].axvline(k, color="r", ls=":", lw=0.8, label=f"knee {k:.2f} mm")
+        axes[0].plot([], [], "r-", lw=1.2, label="two-segment fit: "
+                     + ", ".join(f"{numbers.number(c)} mm/s" for c in speeds))
+        axes[0].axvline(k, color="r", ls=":", lw=0.8, label=f"knee at {numbers.number(k)} mm")
     axes[0].set_xlabel("position along the tube s (mm)")
     axes[0].set_ylabel("time of maximum area (ms)")
-    axes[0].legend(fontsize=7)
     if speed is not None:
         axes[1].plot(s_mm, speed, "b.-", lw=0.8)
         if speed_sd is not None:
             axes[1].fill_between(s_mm, speed - speed_sd, speed + speed_sd, color="b", alpha=0.2,
-                                 lw=0, label="+- 1 SD (frame noise)")
-            axes[1].legend(fontsize=7)
+                                 lw=0, label="local speed ± 1 SD (frame noise)")
             finite = np.isfinite(speed) & np.isfinite(speed_sd) & (speed_sd < np.abs(speed))
             if finite.any():   # unresolved rows (spread as large as the speed) off the scale
                 lo = np.min((speed - speed_sd)[finite])
@@ -301,11 +336,15 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
                 axes[1].set_ylim(min(lo, 0) - pad, hi + pad)
                 off = int((np.isfinite(speed) & ((speed < lo) | (speed > hi))).sum())
                 if off:
-                    axes[1].set_title(f"{off} rows not resolved (spread >= speed) off the scale",
+                    axes[1].set_title(f"{off} rows not resolved (spread ≥ speed) off the scale",
                                       fontsize=7)
         axes[1].axhline(0, color="k", lw=0.5)
     axes[1].set_xlabel("position along the tube s (mm)")
     axes[1].set_ylabel("local wave speed (mm/s)")
+    # one legend below both panels: off the ridge, which may rise or fall
+    handles, labels = [sum(x, []) for x in zip(*(ax.get_legend_handles_labels() for ax in axes))]
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=7)
     for ax in axes:
         ax.grid(alpha=0.3)
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
@@ -425,7 +464,7 @@ def _group_curves(ax, curves: list[tuple], colour: str, x: np.ndarray, *,
                   period: float | None = None, label: str = "") -> None:
     """One group's curves ``[(name, x_k, y_k), ...]`` on ``ax``: each in its own colour
     and named in the legend when there are few; else thin lines in the group's
-    colour, the mean on the common ``x`` in bold and a +-1 SD band
+    colour, the mean on the common ``x`` in bold and a ± 1 SD band
     (:func:`oftimg.output.report.mean_curve`)."""
     from .report import mean_curve
 
@@ -565,7 +604,7 @@ def group_figures(results: Path, summaries: list[dict], folder: Path, *,
     ridge time, % time expanded, and the myocardial wall's thickness and thickening
     vs position, and volume over the aligned cycle (groups overlaid). Up to
     :data:`NAMED_CURVES_MAX` embryos of a group are named lines; a larger group shows
-    its mean +- SD over thin lines. With ``maps`` (:func:`oftimg.output.export.cohort_maps`),
+    its mean ± SD over thin lines. With ``maps`` (:func:`oftimg.output.export.cohort_maps`),
     the groups' mean maps too (:data:`GROUP_MAPS`, :func:`group_maps_figure`).
     Reads each dataset's ``arrays.npz`` from ``results``."""
     groups = groups_in_order([s["group"] for s in summaries])

@@ -111,15 +111,24 @@ def colour_scale(values: np.ndarray, *, signed: bool | None = None,
 def colour_bar(fig, image, ax, label: str, *, signed: bool = False):
     """A colour bar of ``image`` beside ``ax``, labelled with the quantity and its unit,
     and for a diverging scale where 0 is."""
-    bar = fig.colorbar(image, ax=ax, label=label + ("; 0 white" if signed else ""),
-                       shrink=0.9)
+    bar = fig.colorbar(image, ax=ax, shrink=0.9)
+    # the label no longer than the bar: broken into lines by the axes' height (the bar's
+    # length, give or take the layout still to come)
+    from matplotlib.transforms import Bbox
+
+    beside = Bbox.union([a.get_position() for a in np.ravel(ax)])      # one axes or several
+    bar_mm = 0.8 * 0.9 * beside.height * fig.get_size_inches()[1] / MM
+    size = matplotlib.rcParams["axes.labelsize"]
+    size = size if isinstance(size, (int, float)) else 8.0
+    bar.set_label(wrapped(label + ("; 0 white" if signed else ""), bar_mm, size, shortest=10))
     bar.outline.set_linewidth(0.5)
     return bar
 
 
-def wrapped(text: str, width_mm: float, size_pt: float = 8.0) -> str:
+def wrapped(text: str, width_mm: float, size_pt: float = 8.0, shortest: int = 20) -> str:
     """``text`` broken into lines that fit ``width_mm`` at ``size_pt`` (a character
-    about 0.21 mm a point on average), for titles that would leave the figure."""
+    about 0.21 mm a point on average; lines of at least ``shortest`` characters), for
+    titles that would leave the figure and colour-bar labels longer than their bar."""
     import textwrap
 
-    return "\n".join(textwrap.wrap(text, max(20, int(width_mm / (0.21 * size_pt))))) or text
+    return "\n".join(textwrap.wrap(text, max(shortest, int(width_mm / (0.21 * size_pt))))) or text

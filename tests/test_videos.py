@@ -94,3 +94,71 @@ def test_the_3d_videos_are_wide_enough_for_a_slide(tmp_path):
         frame = iio.imread(tmp_path / name, index=0)
         assert frame.shape[1] >= 1280, name
         assert _ink(frame[:BANNER, :400]) > 0.01                     # title and time
+
+
+def test_every_field_video_title_fits_its_frame_and_types_its_units():
+    """The longest title with the longest grid note fits the frame (the normalised
+    curvature's ran off it), and no title or colour-bar label types a unit in ASCII."""
+    import re
+
+    from oftimg.output.video import text_width
+
+    for name, _, _, options in video.FIELD_VIDEOS:
+        scale = options.get("scale", FIELD_SCALE)              # as many pixels as the others
+        grid_note = options.get("grid_note", "per-frame grid")
+        heading = ", ".join(x for x in (options.get("title"), grid_note) if x)
+        field = _field(n_u=80 * FIELD_SCALE // scale, n_v=50 * FIELD_SCALE // scale, n_t=2)
+        frame = field_frames(field, np.arange(2) * 10.0, **{
+            **{k: v for k, v in options.items() if k != "times"}, "grid_note": grid_note})
+        # 0.7 of the title's size is the smallest it is written at
+        assert 0.7 * text_width(heading, 0.55) <= frame.shape[2] - 16, name
+        assert _ink(frame[0, 4:26, -8:]) == 0.0, f"{name}: the title runs to the frame's edge"
+        for text in (options.get("title", ""), options.get("label", "")):
+            assert not re.search(r"\bum\b|\^\d|\+-", text), f"{name}: {text!r}"
+
+
+def test_field_videos_give_a_field_in_the_figures_unit():
+    """Thickness in µm in its video as in its figures (it was mm in one, µm in the
+    other); one-signed strain in viridis, as the figures draw it."""
+    options = {name: opts for name, _, _, opts in video.FIELD_VIDEOS}
+    for name in ("wall_thickness", "jelly_thickness"):
+        assert options[name]["label"].endswith("(µm)") and options[name]["times"] == 1000.0
+    assert {options[n]["cmap"] for n in options if n.startswith("strain")} == {"viridis"}
+    arrays = {"t_ms": np.arange(4) * 10.0, "s_mm": np.linspace(0, 1.2, 50),
+              "area_outer_mm2": 0.1 + 0.01 * _field(n_t=4)[0],
+              "wall_thickness_mm": 0.02 + 0.001 * _field(n_t=4)}
+    task = next(t for t in video.video_tasks(arrays) if t[1].get("name") == "wall_thickness")
+    from_mm = dict(video.render_videos(*task))
+    assert "wall_thickness.mp4" in from_mm
+
+
+@pytest.mark.parametrize("lo, hi, ticks", [
+    (0.0274, 0.0826, ["0.03", "0.04", "0.05", "0.06", "0.07", "0.08"]),
+    (-55.3, 55.3, ["-40", "-20", "0", "20", "40"]),
+    (14.2, 40.1, ["15", "20", "25", "30", "35", "40"]),
+    (0.0, 1.0, ["0.0", "0.2", "0.4", "0.6", "0.8", "1.0"])])
+def test_colour_bar_ticks_are_round_values_to_one_decimal(lo, hi, ticks):
+    values, labels = video.nice_ticks(lo, hi)
+    assert labels == ticks
+    assert all(lo <= v <= hi for v in values)
+
+
+def test_the_3d_view_marks_the_inlet_and_the_outlet():
+    """'inlet' and 'outlet' written beyond the first and the last ring of the 3-D view,
+    where the camera projects them."""
+    n_u, n_v = 40, 20
+    u = np.linspace(0, 2 * np.pi, n_u, endpoint=False)[:, None]
+    v = np.linspace(0, 1, n_v)[None, :]
+    r = 0.15 + 0 * u * v
+    grid = np.stack(np.broadcast_arrays(r * np.cos(u), 2 * v - 1, r * np.sin(u)), axis=-1)
+    camera = video.SurfaceCamera(grid[:, :, None], size=320)
+    row, col = camera.project(np.array([grid[:, 0].mean(0), grid[:, -1].mean(0)]))
+    view = np.full((320, 320, 3), 255, np.uint8)
+    video._mark_ends(view, camera, grid)
+    written = np.argwhere(view.min(axis=-1) < 200)
+    assert len(written) > 20
+    near = [np.min(np.hypot(written[:, 0] - r_, written[:, 1] - c_)) for r_, c_ in zip(row, col)]
+    assert max(near) < 45                              # each name next to its own end
+    inlet_side = np.hypot(written[:, 0] - row[0], written[:, 1] - col[0]) < \
+        np.hypot(written[:, 0] - row[1], written[:, 1] - col[1])
+    assert 0.3 < inlet_side.mean() < 0.7               # two words, one at each end

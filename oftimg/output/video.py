@@ -14,8 +14,10 @@ from pathlib import Path
 import cv2
 import imageio.v2 as imageio
 import numpy as np
-from matplotlib import colormaps
+from matplotlib import colormaps, font_manager
+from PIL import Image, ImageDraw, ImageFont
 
+from . import numbers
 from .image_order import in_image_order
 
 
@@ -37,7 +39,7 @@ def to_rgb(values: np.ndarray, vmin: float, vmax: float, cmap: str = "jet") -> n
 
 # the frame around a (u, v) field: margins for the axes, a banner above, the colour bar
 MARGIN_LEFT, MARGIN_BOTTOM, BANNER, BAR_PANEL = 96, 64, 74, 170
-FONT = cv2.FONT_HERSHEY_SIMPLEX
+TEXT_PX_PER_SCALE = 30   # a text scale of 1: a 30-pixel font (OpenCV's Hershey scale)
 BEAT_SECONDS = 4.0       # a beat plays in this long at the default frame rate
 FIELD_SCALE = 6          # pixels a (u, v) node: 80 x 50 nodes, a 480 x 300 picture
 
@@ -67,16 +69,61 @@ def _even(img: np.ndarray, multiple: int = 16) -> np.ndarray:
     return out
 
 
-def _text(img, text: str, org, *, scale: float = 0.5, colour=(0, 0, 0), thickness: int = 1,
-          align: str = "left") -> None:
-    """``text`` on ``img`` at ``org`` (its baseline's left, centre or right end)."""
-    (w, _), _ = cv2.getTextSize(text, FONT, scale, thickness)
-    x = org[0] - {"left": 0, "centre": w // 2, "right": w}[align]
-    cv2.putText(img, text, (int(x), int(org[1])), FONT, scale, colour, thickness, cv2.LINE_AA)
+@lru_cache(maxsize=None)
+def _font(size_px: int) -> ImageFont.FreeTypeFont:
+    """DejaVu Sans (matplotlib's own font, so the figures' and the videos' type match)
+    at ``size_px`` pixels."""
+    return ImageFont.truetype(font_manager.findfont("DejaVu Sans"), size_px)
 
 
-def _ticks(lo: float, hi: float, n: int = 5) -> list[float]:
-    return list(np.linspace(lo, hi, n))
+def _font_px(scale: float) -> int:
+    return max(8, int(round(scale * TEXT_PX_PER_SCALE)))
+
+
+def text_width(text: str, scale: float = 0.5) -> int:
+    """The width in pixels of ``text`` as :func:`_text` writes it at ``scale``."""
+    return int(np.ceil(_font(_font_px(scale)).getlength(text)))
+
+
+def _text(img, text: str, org, *, scale: float = 0.5, colour=(0, 0, 0), align: str = "left",
+          max_width: int | None = None) -> None:
+    """``text`` on ``img`` at ``org`` (its baseline's left, centre or right end),
+    anti-aliased, any Unicode (mm², µm, ±); smaller, down to 0.7 of ``scale``, where
+    it would be wider than ``max_width`` pixels."""
+    px = _font_px(scale)
+    if max_width is not None:
+        smallest = int(0.7 * px)
+        while px > smallest and _font(px).getlength(text) > max_width:
+            px -= 1
+    font = _font(px)
+    anchor = {"left": "ls", "centre": "ms", "right": "rs"}[align]
+    x, y = int(org[0]), int(org[1])
+    left, top, right, bottom = font.getbbox(text, anchor=anchor)
+    x0, y0 = max(x + left - 1, 0), max(y + top - 1, 0)
+    x1, y1 = min(x + right + 2, img.shape[1]), min(y + bottom + 2, img.shape[0])
+    if x1 <= x0 or y1 <= y0:
+        return
+    patch = Image.fromarray(np.ascontiguousarray(img[y0:y1, x0:x1]))
+    ImageDraw.Draw(patch).text((x - x0, y - y0), text, font=font, fill=tuple(int(c) for c in colour),
+                               anchor=anchor)
+    img[y0:y1, x0:x1] = np.asarray(patch)
+
+
+def nice_ticks(lo: float, hi: float, n: int = 6) -> tuple[list[float], list[str]]:
+    """Up to about ``n`` round values within [lo, hi] (1, 2, 2.5 or 5 times a power of
+    ten apart) and their labels, all to the same decimal: a colour bar's ticks."""
+    from matplotlib.ticker import MaxNLocator
+
+    if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
+        return [lo], [numbers.number(lo)]
+    values = [float(v) for v in MaxNLocator(n, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+              if lo - 1e-9 * (hi - lo) <= v <= hi + 1e-9 * (hi - lo)]
+    step = values[1] - values[0] if len(values) > 1 else hi - lo
+    decimals = max(0, -int(np.floor(np.log10(step) + 1e-9)))
+    in_units = step * 10.0 ** decimals
+    if abs(in_units - round(in_units)) > 1e-6:               # 2.5 steps: one more decimal
+        decimals += 1
+    return values, [numbers.with_decimals(v, decimals) for v in values]
 
 
 def _colour_bar_panel(height: int, vmin: float, vmax: float, cmap: str, label: str
@@ -94,10 +141,10 @@ def _colour_bar_panel(height: int, vmin: float, vmax: float, cmap: str, label: s
         lines[k] = (lines[k] + " " + word).strip()
     for k, line in enumerate(lines):
         _text(panel, line, (8, 13 + 15 * k), scale=0.42)
-    for value in _ticks(vmin, vmax):
+    for value, text in zip(*nice_ticks(vmin, vmax)):
         y = int(round(bottom - 1 - (value - vmin) / ((vmax - vmin) or 1.0) * (bottom - top - 1)))
         panel[y, 30:36] = 0
-        _text(panel, f"{value:.3g}", (40, y + 5), scale=0.42)
+        _text(panel, text, (40, y + 5), scale=0.42)
     return panel
 
 
@@ -111,7 +158,7 @@ def field_canvas(n_u: int, n_v: int, scale: int, *, vmin: float, vmax: float, cm
     labelled colour bar."""
     h, w = n_v * scale, n_u * scale
     img = np.full((BANNER + h + MARGIN_BOTTOM, MARGIN_LEFT + w + BAR_PANEL, 3), 255, np.uint8)
-    _text(img, title, (8, 20), scale=0.55)
+    _text(img, title, (8, 20), scale=0.55, max_width=img.shape[1] - 16)
     x0, y0 = MARGIN_LEFT, BANNER
     cv2.rectangle(img, (x0 - 1, y0 - 1), (x0 + w, y0 + h), (0, 0, 0), 1)
     for v in (0.0, 0.25, 0.5, 0.75, 1.0):                      # v up: inlet at the bottom
@@ -122,7 +169,7 @@ def field_canvas(n_u: int, n_v: int, scale: int, *, vmin: float, vmax: float, cm
     _text(img, "inlet", (x0 - 9, y0 + h - 14), scale=0.4, align="right")
     _text(img, "v along", (4, y0 + 3 * h // 8 - 4), scale=0.42)   # between two ticks
     if length_mm is not None:
-        _text(img, f"(0-1: {length_mm:.2g} mm)", (4, y0 + 3 * h // 8 + 12), scale=0.36)
+        _text(img, f"(0-1: {numbers.number(length_mm, 2)} mm)", (4, y0 + 3 * h // 8 + 12), scale=0.36)
     for u in (0.0, 0.25, 0.5, 0.75, 1.0):
         x = int(round(x0 + u * (w - 1)))
         img[y0 + h:y0 + h + 6, x] = 0
@@ -201,7 +248,7 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
 
 def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | None = None,
                       width: int = 720, height: int = 420, cmap=None,
-                      label: str = "cross-sectional area (mm^2)"):
+                      label: str = "cross-sectional area (mm²)"):
     """Frames of a ``(n_v, n_t)`` map (about ``width`` x ``height`` pixels) with a
     moving time cursor, its axes (time in ms, position along the tube in mm, inlet
     at the bottom), its colour bar and the time in the banner."""
@@ -220,19 +267,17 @@ def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | 
     base[y0:y0 + h, x0:x0 + w] = picture
     _text(base, "the outer area map; cursor: this frame", (8, 20), scale=0.55)
     s_end = float(s_mm[-1]) if s_mm is not None else None
-    for v in (0.0, 0.5, 1.0):
-        y = int(round(y0 + h - 1 - v * (h - 1)))
+    for value, text in zip(*nice_ticks(0.0, s_end or 1.0, 4)):
+        y = int(round(y0 + h - 1 - value / (s_end or 1.0) * (h - 1)))
         base[y, x0 - 6:x0 - 1] = 0
-        _text(base, f"{v * s_end:.2g}" if s_end else f"{v:g}", (x0 - 9, y + 5), scale=0.42,
-              align="right")
+        _text(base, text, (x0 - 9, y + 5), scale=0.42, align="right")
     _text(base, "s (mm)" if s_end else "v", (4, y0 + h // 2), scale=0.42)
     _text(base, "inlet", (x0 - 9, y0 + h - 14), scale=0.4, align="right")
     period = t_ms[-1] + (t_ms[1] - t_ms[0]) if n_t > 1 else 1.0
-    for k in range(5):
-        tick = k * period / 4
+    for tick, text in zip(*nice_ticks(0.0, period, 5)):
         x = int(round(x0 + tick / period * w))
         base[y0 + h:y0 + h + 6, min(x, x0 + w - 1)] = 0
-        _text(base, f"{tick:.0f}", (x, y0 + h + 20), scale=0.42, align="centre")
+        _text(base, text, (x, y0 + h + 20), scale=0.42, align="centre")
     _text(base, "time since minimum volume (ms)", (x0 + w // 2, y0 + h + 44), scale=0.45,
           align="centre")
     base[y0 - 40:y0 + h, x0 + w + 4:x0 + w + BAR_PANEL] = \
@@ -273,14 +318,14 @@ def write_mp4(path: Path, frames, *, fps: float) -> Path:
 
 # (file, array, per-pixel normalized?, field_frames options): the (u, v) field videos;
 # signed fields get a diverging colour map centred on 0, one-signed ones a sequential one
-_STRAIN = dict(cmap="magma", reference_frame=0)
+_STRAIN = dict(cmap="viridis", reference_frame=0)     # as the figures: one-signed, viridis
 FIELD_VIDEOS = [
     ("radial_curvature_outer", "radial_curvature_outer_per_mm", False,
      dict(label="radial curvature (1/mm)", title="outer wall: radial curvature")),
     ("radial_curvature_outer_normalized", "radial_curvature_outer_per_mm", True,
-     dict(vmin=0, vmax=1, cmap="gray", label="per-pixel normalised (1)",
-          title="outer wall: radial curvature, PER-PIXEL NORMALISED (each pixel's cycle "
-                "from its min 0 to its max 1)")),
+     dict(vmin=0, vmax=1, cmap="gray", label="normalised (1)",
+          title="outer wall: radial curvature, PER-PIXEL NORMALISED (each pixel's min 0, "
+                "max 1)")),
     ("strain_energy_outer", "strain_energy_outer", False,
      dict(_STRAIN, label="strain energy (1)", title="outer wall: strain energy against t = 0")),
     ("strain_energy_outer_per_frame", "strain_energy_outer", False,
@@ -291,9 +336,11 @@ FIELD_VIDEOS = [
     ("strain_energy_inner", "strain_energy_inner", False,
      dict(_STRAIN, label="strain energy (1)", title="inner wall: strain energy against t = 0")),
     ("wall_thickness", "wall_thickness_mm", False,
-     dict(cmap="viridis", label="wall thickness (mm)", title="myocardial wall thickness")),
+     dict(cmap="viridis", label="wall thickness (µm)", title="myocardial wall thickness",
+          times=1000.0)),                                     # µm, as the figures give it
     ("jelly_thickness", "jelly_thickness_mm", False,
-     dict(cmap="viridis", label="jelly thickness (mm)", title="cardiac jelly thickness")),
+     dict(cmap="viridis", label="jelly thickness (µm)", title="cardiac jelly thickness",
+          times=1000.0)),
     ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", False,
      dict(label="mean curvature (1/mm)", title="lumen: mean curvature")),
     ("surface_speed_outer", "surface_speed_outer_mm_s", False,
@@ -350,8 +397,10 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
     t_ms = inputs["t_ms"]
     fps = fps or beat_fps(len(t_ms))
     if kind == "field":
-        field = per_pixel_normalize(inputs["field"]) if inputs["normalize"] else inputs["field"]
-        movies = {inputs["name"]: field_frames(field, t_ms, **inputs["options"])}
+        options = dict(inputs["options"])
+        field = inputs["field"] * options.pop("times", 1.0)
+        field = per_pixel_normalize(field) if inputs["normalize"] else field
+        movies = {inputs["name"]: field_frames(field, t_ms, **options)}
     elif kind == "area":
         cursor = map_cursor_frames(inputs["area"], t_ms, s_mm=inputs.get("s_mm"))
         movies = {"area_map_cursor": cursor}
@@ -360,7 +409,7 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
             area_field = np.broadcast_to(inputs["area"][None], G.shape[:3])
             movies["outer_wall_3d_area_map"] = surface_and_map_frames(
                 G, area_field, t_ms, cmap="viridis", flat=cursor,
-                title="the outer wall coloured by its cross-sectional area (mm^2)")
+                title="the outer wall coloured by its cross-sectional area (mm²)")
     elif kind == "lumen_3d":
         movies = {"lumen_mean_curvature_3d": surface_and_map_frames(
             inputs["grid"], inputs["h"], t_ms, label="mean curvature (1/mm)",
@@ -451,20 +500,25 @@ class SurfaceCamera:
 
     def window(self, pts: np.ndarray, rays: np.ndarray, margin: int = 2) -> tuple[slice, slice]:
         """Rows and columns of the pixels onto which the points ``pts (n, 3)`` project
-        (plus ``margin``), for the camera's ``rays`` (:meth:`_all_rays`): the pinhole's
-        ray directions are affine in the pixel indices on the plane of their tips, so
-        two steps of it invert the projection."""
-        d00, d01, d10 = rays[0, 0, 3:], rays[0, 1, 3:], rays[1, 0, 3:]
-        col_step, row_step = d01 - d00, d10 - d00
-        ahead = np.cross(col_step, row_step)          # normal of the tips' plane
-        rel = pts - self.eye
-        tips = rel * ((d00 @ ahead) / (rel @ ahead))[:, None] - d00
-        col = tips @ col_step / (col_step @ col_step)
-        row = tips @ row_step / (row_step @ row_step)
+        (plus ``margin``), for the camera's ``rays`` (:meth:`_all_rays`)."""
+        row, col = self.project(pts, rays)
         lo = np.floor([row.min(), col.min()]).astype(int) - margin
         hi = np.ceil([row.max(), col.max()]).astype(int) + margin + 1
         lo, hi = np.clip(lo, 0, self.size), np.clip(hi, 0, self.size)
         return slice(lo[0], hi[0]), slice(lo[1], hi[1])
+
+    def project(self, pts: np.ndarray, rays: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """The (row, column) pixel positions ``(n,)`` of the points ``pts (n, 3)``:
+        the pinhole's ray directions are affine in the pixel indices on the plane of
+        their tips, so two steps of it invert the projection."""
+        rays = self._all_rays()[:2, :2] if rays is None else rays
+        d00, d01, d10 = rays[0, 0, 3:], rays[0, 1, 3:], rays[1, 0, 3:]
+        col_step, row_step = d01 - d00, d10 - d00
+        ahead = np.cross(col_step, row_step)          # normal of the tips' plane
+        rel = np.atleast_2d(pts) - self.eye
+        tips = rel * ((d00 @ ahead) / (rel @ ahead))[:, None] - d00
+        return tips @ row_step / (row_step @ row_step), tips @ col_step / (col_step @ col_step)
 
     def render(self, X: np.ndarray, values: np.ndarray, *, vmin: float, vmax: float,
                cmap: str = "coolwarm") -> np.ndarray:
@@ -495,9 +549,33 @@ class SurfaceCamera:
 
 
 def _fit_height(img: np.ndarray, height: int) -> np.ndarray:
+    """``img`` padded with white below to ``height`` rows, or shrunk to it (area
+    averaging, so that its text stays legible) if it is taller."""
+    if img.shape[0] <= height:
+        out = np.full((height,) + img.shape[1:], 255, np.uint8)
+        out[:img.shape[0]] = img
+        return out
     scale = height / img.shape[0]
     return cv2.resize(img, (int(round(img.shape[1] * scale)), height),
-                      interpolation=cv2.INTER_NEAREST)
+                      interpolation=cv2.INTER_AREA)
+
+
+def _mark_ends(view: np.ndarray, camera: "SurfaceCamera", X: np.ndarray) -> None:
+    """"inlet" and "outlet" written on the 3-D ``view`` just beyond the grid ``X
+    (n_u, n_v, 3)``'s first and last rings, along the tube's direction there."""
+    ends = np.array([np.nanmean(X[:, 0], axis=0), np.nanmean(X[:, 1], axis=0),
+                     np.nanmean(X[:, -2], axis=0), np.nanmean(X[:, -1], axis=0)])
+    if not np.isfinite(ends).all():
+        return
+    row, col = camera.project(ends)
+    for (r0, c0), (r1, c1), name in (((row[1], col[1]), (row[0], col[0]), "inlet"),
+                                     ((row[2], col[2]), (row[3], col[3]), "outlet")):
+        step = np.array([c1 - c0, r1 - r0])
+        step = step / (np.linalg.norm(step) or 1.0)
+        x, y = np.array([c1, r1]) + 28 * step                # beyond the end, off the tube
+        _text(view, name, (int(np.clip(x, 30, view.shape[1] - 30)),
+                           int(np.clip(y + 5, 16, view.shape[0] - 40))), scale=0.45,
+              align="centre", colour=(120, 0, 0))
 
 
 def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, *,
@@ -515,24 +593,26 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
     cmap = cmap or scale_["cmap"]
     lo, hi = scale_.get("vmin", 0.0), scale_.get("vmax", 1.0)
     camera = SurfaceCamera(G, size=size)
-    if flat is None:
-        flat = field_frames(values, t_ms, vmin=lo, vmax=hi, cmap=cmap, label=label, scale=8,
+    if flat is None:               # as tall as the 3-D view, so that its text is not resized
+        flat = field_frames(values, t_ms, vmin=lo, vmax=hi, cmap=cmap, label=label,
+                            scale=max(2, (size - BANNER - MARGIN_BOTTOM) // values.shape[1]),
                             title=label, length_mm=length_mm)
     period = t_ms[-1] + (t_ms[1] - t_ms[0]) if len(t_ms) > 1 else 1.0
     px_per_mm = size / (2 * camera.distance * np.tan(np.radians(camera.fov) / 2))  # at its centre
     # the longest round length whose bar fits in a third of the picture
     bar_mm = next((x for x in (2.0, 1.0, 0.5, 0.2, 0.1, 0.05) if x * px_per_mm < size / 3), 0.05)
-    bar_text = f"{bar_mm:g} mm" if bar_mm >= 1 else f"{1000 * bar_mm:g} um"
+    bar_text = f"{bar_mm:g} mm" if bar_mm >= 1 else f"{1000 * bar_mm:g} µm"
 
     def draw(t):
         view = camera.render(G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap)
         cv2.line(view, (16, size - 20), (16 + int(round(bar_mm * px_per_mm)), size - 20),
                  (0, 0, 0), 3)
         _text(view, f"{bar_text} (at the tube's centre)", (16, size - 30), scale=0.45)
+        _mark_ends(view, camera, G[:, :, t])
         side = np.concatenate([view, _fit_height(flat[t], size)], axis=1)
         frame = np.full((BANNER + size, max(side.shape[1], 1280), 3), 255, np.uint8)
         frame[BANNER:, :side.shape[1]] = side
-        _text(frame, title or label, (8, 20), scale=0.55)
+        _text(frame, title or label, (8, 20), scale=0.55, max_width=frame.shape[1] - 16)
         _stamp(frame, t_ms[t], (t_ms[t] % period) / period, size - 16)
         return _even(frame)
 

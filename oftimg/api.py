@@ -469,7 +469,7 @@ def _frame_counter(executor, bar: Progress):
     """Yield what :func:`embryo_task` reports its frames to (``put(n)``), each
     report advancing ``bar`` here: a spawn Manager's queue for a local pool, an
     event topic on a Dask cluster; None when the bar is not shown."""
-    if not bar.shown:
+    if not bar.reporting:
         yield None
         return
     client = getattr(executor, "_client", None)  # Dask's ClientExecutor

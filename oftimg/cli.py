@@ -343,6 +343,11 @@ def _logging_to(path: Path | None, args):
         handler.close()
 
 
+def _report_line(out: Path) -> str:
+    """The last line of a run: the report to open first."""
+    return f"report: {out / 'index.html'} (open it in a browser: tables, figures, videos)"
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     from .errors import InputError, OftimgWarning
@@ -418,13 +423,13 @@ def _command(args) -> int:
                       jobs=args.jobs, scheduler=args.scheduler, fps=args.fps, options=options,
                       parallel=args.parallel, resume=args.resume,
                       cluster_alpha=args.cluster_alpha, period_ms=args.period_ms)
-        print(f"results: {out}\ncohort table: {out / 'cohort.csv'}")
+        print(f"results: {out}\ncohort table: {out / 'cohort.csv'}\n{_report_line(out)}")
     elif args.command == "cohort":
         out = api.cohort(args.results, args.out, overwrite=args.overwrite,
                          cluster_alpha=args.cluster_alpha)
         n = len(json.loads((out / "run.json").read_text())["inputs"])
         print(f"cohort: {out} ({n} dataset{'s' * (n != 1)})\n"
-              f"cohort table: {out / 'cohort.csv'}")
+              f"cohort table: {out / 'cohort.csv'}\n{_report_line(out)}")
     elif args.command == "paraview":
         out = api.paraview(args.results, args.out, quiet=args.quiet, jobs=args.jobs)
         print(f"ParaView series: {out} (open each dataset's *.pvd)")
@@ -435,7 +440,8 @@ def _command(args) -> int:
         out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
                        jobs=args.jobs)
         print(f"demo data: {out / 'data'}\nresults: {out / 'results'}\n"
-              f"cohort table: {out / 'results' / 'cohort.csv'}")
+              f"cohort table: {out / 'results' / 'cohort.csv'}\n"
+              f"{_report_line(out / 'results')}")
     elif args.command == "phantom":
         extra = {"noise_mm": args.noise_mm, "expand_change": args.expand_change}
         if args.vertices:

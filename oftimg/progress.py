@@ -1,18 +1,37 @@
-"""Progress on stderr: frames done, rate, time left (tqdm); silent when not a terminal."""
+"""Progress on stderr: a bar (tqdm: frames done, rate, time left) on a terminal; off a
+terminal (a CI log, a notebook, ``| tee``), a plain line every :data:`LINE_EVERY_S`
+seconds, so that a long command is never silent for long."""
 from __future__ import annotations
 
 import sys
+import threading
+import time
+import weakref
 
 from tqdm import tqdm
 
+LINE_EVERY_S = 10.0     # off a terminal: a line at least this often while a bar is open
+PLURAL = {"mesh": "meshes", "series": "series"}
+
 
 class Progress:
-    """A progress bar over ``total`` items that stays quiet off a terminal."""
+    """Progress over ``total`` items: a bar on a terminal, a line every
+    :data:`LINE_EVERY_S` seconds off one (its ``desc``, the stage :meth:`note` gave,
+    items done and their share, seconds so far) and one when it closes; nothing when
+    ``quiet``."""
 
     def __init__(self, total: int, desc: str, *, quiet: bool = False, unit: str = "frame"):
-        disable = quiet or not sys.stderr.isatty()
-        self._bar = tqdm(total=total, desc=desc, unit=unit, disable=disable,
+        terminal = sys.stderr.isatty()
+        self._bar = tqdm(total=total, desc=desc, unit=unit, disable=quiet or not terminal,
                          file=sys.stderr, dynamic_ncols=True, leave=False)
+        self._desc, self._unit, self._stage = desc, unit, ""
+        self._count, self._total, self._started = 0, total, time.monotonic()
+        self._stop = threading.Event()
+        self._lines = None
+        if not quiet and not terminal:
+            self._lines = threading.Thread(target=_every_interval,
+                                           args=(weakref.ref(self), self._stop), daemon=True)
+            self._lines.start()
 
     @property
     def shown(self) -> bool:
@@ -20,24 +39,70 @@ class Progress:
         return not self._bar.disable
 
     @property
+    def reporting(self) -> bool:
+        """Whether progress is reported at all (a bar, or lines off a terminal): whether
+        counting it is worth the cost."""
+        return self.shown or self._lines is not None
+
+    @property
     def n(self) -> int:
         """Items done so far."""
-        return self._bar.n
+        return self._count
 
     @property
     def total(self) -> int:
-        return self._bar.total
+        return self._total
 
     def note(self, text: str) -> None:
-        """Show ``text`` after the bar."""
+        """Show ``text`` (the stage now under way) after the bar, or in the lines."""
+        self._stage = text
         self._bar.set_postfix_str(text)
 
     def update(self, done: int) -> None:
         """Set the number of items done."""
-        self._bar.update(done - self._bar.n)
+        self.advance(done - self._count)
 
     def advance(self, n: int = 1) -> None:
+        self._count += n
         self._bar.update(n)
 
     def close(self) -> None:
+        """End the bar (off a terminal: a last line, "done")."""
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        if self._lines is not None:
+            if self._lines is not threading.current_thread():
+                self._lines.join()
+            self._stage = "done"
+            self._line()
         self._bar.close()
+
+    def line_text(self) -> str:
+        """The line written off a terminal: ``"normal_0: fields, maps: 48/48 frames
+        (100 %), 12 s"``."""
+        share = f" ({100 * self._count / self._total:.0f} %)" if self._total else ""
+        stage = f": {self._stage}" if self._stage else ""
+        units = PLURAL.get(self._unit, self._unit + "s")
+        return (f"{self._desc}{stage}: {self._count}/{self._total} {units}{share}, "
+                f"{time.monotonic() - self._started:.0f} s")
+
+    def _line(self) -> None:
+        print(self.line_text(), file=sys.stderr, flush=True)
+
+    def __enter__(self) -> Progress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _every_interval(progress: weakref.ref, stop: threading.Event) -> None:
+    """A line every :data:`LINE_EVERY_S` seconds until the bar is closed or gone (a bar
+    left open by an error does not write on for ever)."""
+    while not stop.wait(LINE_EVERY_S):
+        bar = progress()
+        if bar is None:
+            return
+        bar._line()
+        del bar

@@ -2,6 +2,7 @@
 import csv
 import html
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -212,13 +213,21 @@ def test_a_log_where_it_would_be_lost_or_cannot_be_is_refused(tmp_path, capsys):
 def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     """`oftimg demo`: results whose provenance points at the demo's own data folder
     (not the temporary folder it was made in), and a second demo refused without
-    --overwrite. (A smaller demo: tests/test_documented_outputs.py runs the real one.)"""
-    from oftimg import api
+    --overwrite; off a terminal, a line of progress at least every few seconds, and the
+    last line names the report to open. (A smaller demo: tests/test_documented_outputs.py
+    runs the real one.)"""
+    from oftimg import api, progress
 
     monkeypatch.setattr(api, "DEMO_SMALL", (1, {"frames": 12, "vertices_min": 1500,
                                                 "vertices_max": 1800}))
+    monkeypatch.setattr(progress, "LINE_EVERY_S", 0.5)
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--quiet"]) == 0
+    assert main(["demo", "--out", str(out)]) == 0
+    said = capsys.readouterr()
+    lines = [line for line in said.err.splitlines() if re.search(r": \d+/\d+ \w+s", line)]
+    assert any(re.search(r"normal_0.*: \d+/24 frames \(\d+ %\)", line) for line in lines)
+    assert said.out.splitlines()[-1].startswith(f"report: {out / 'results' / 'index.html'}")
+    assert (out / "results" / "index.html").is_file()
     run_info = json.loads((out / "results" / "run.json").read_text())
     assert sorted(run_info["inputs"]) == sorted(str(p) for p in (out / "data").iterdir())
     for name in ("normal_0", "banded_0"):

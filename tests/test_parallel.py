@@ -89,7 +89,7 @@ class RecordingBar:
         self.total, self.desc, self.unit, self.n, self.notes = total, desc, unit, 0, []
         self.bars.append(self)
 
-    shown = True
+    shown = reporting = True
 
     def advance(self, n=1):
         self.n += n

@@ -352,7 +352,8 @@ def test_a_killed_progress_manager_ends_the_bar_not_the_run():
 
     from oftimg import api
     class Bar:                                            # a bar on a terminal
-        shown, n = True, 0
+        shown = reporting = True
+        n = 0
 
         def advance(self, k):
             self.n += k

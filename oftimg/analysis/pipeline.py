@@ -625,17 +625,16 @@ def _per_frame_passes(ds: Dataset, opts: GridOptions, *, quiet, executor, progre
     in input order, and the number of frames whose seam was continued from their
     neighbours'. Adds their wall and CPU seconds to ``timings``."""
     n_t = ds.n_frames
-    bar = Progress(2 * n_t, f"{ds.meta.name}", quiet=quiet or progress is not None)
-    advance = progress or bar.advance
-    tick = time.perf_counter()
-    p_in, p_out, seams_continued = seam_end_points(ds, opts, progress=advance,
-                                                   executor=executor)
-    timings["seam_end_points_s"] = time.perf_counter() - tick
-    tick = time.perf_counter()
-    frames = run_tasks(process_frame, [(ds.frame(t), p_in[t], p_out[t], opts)
-                                       for t in range(n_t)],
-                       executor=executor, progress=advance)
-    bar.close()
+    with Progress(2 * n_t, f"{ds.meta.name}", quiet=quiet or progress is not None) as bar:
+        advance = progress or bar.advance
+        tick = time.perf_counter()
+        p_in, p_out, seams_continued = seam_end_points(ds, opts, progress=advance,
+                                                       executor=executor)
+        timings["seam_end_points_s"] = time.perf_counter() - tick
+        tick = time.perf_counter()
+        frames = run_tasks(process_frame, [(ds.frame(t), p_in[t], p_out[t], opts)
+                                           for t in range(n_t)],
+                           executor=executor, progress=advance)
     timings["frames_s"] = time.perf_counter() - tick
     cpu = {}
     for f in frames:

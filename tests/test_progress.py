@@ -1,0 +1,52 @@
+"""Progress off a terminal (issue 62): a CI log, a notebook or `| tee` gets a plain line
+at least every LINE_EVERY_S seconds, with the stage and the share done; nothing when
+quiet; no line after the bar is closed, or once it is gone."""
+import gc
+import time
+
+from oftimg import progress
+from oftimg.progress import Progress
+
+
+def test_off_a_terminal_a_line_comes_every_interval_with_the_stage_and_share(monkeypatch,
+                                                                             capsys):
+    monkeypatch.setattr(progress, "LINE_EVERY_S", 0.05)
+    with Progress(40, "normal_0") as bar:
+        assert not bar.shown                          # pytest's stderr is no terminal
+        bar.advance(10)
+        bar.note("fields, maps")
+        time.sleep(0.3)
+    lines = capsys.readouterr().err.splitlines()
+    assert "normal_0: fields, maps: 10/40 frames (25 %)" in lines[-2]
+    assert lines[-1].startswith("normal_0: done: 10/40 frames (25 %)")   # and when it ends
+    assert len(lines) >= 4
+    time.sleep(0.2)
+    assert capsys.readouterr().err == ""                             # closed: silent
+
+
+def test_a_unit_has_its_plural():
+    bar = Progress(72, "normal_0: checking meshes", unit="mesh", quiet=True)
+    bar.advance(9)
+    assert bar.line_text().startswith("normal_0: checking meshes: 9/72 meshes (12 %)")
+    bar.close()
+
+
+def test_quiet_writes_nothing(monkeypatch, capsys):
+    monkeypatch.setattr(progress, "LINE_EVERY_S", 0.05)
+    bar = Progress(10, "x", quiet=True)
+    bar.advance(3)
+    time.sleep(0.2)
+    bar.close()
+    assert capsys.readouterr().err == ""
+    assert bar.n == 3 and bar.total == 10
+
+
+def test_a_bar_left_open_by_an_error_stops_writing_once_it_is_gone(monkeypatch, capsys):
+    monkeypatch.setattr(progress, "LINE_EVERY_S", 0.05)
+    bar = Progress(10, "left open")
+    thread = bar._lines
+    del bar
+    gc.collect()
+    thread.join(timeout=2)
+    assert not thread.is_alive()
+    capsys.readouterr()

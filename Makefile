@@ -9,7 +9,8 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.oftimg-installed
 DEMO_OUT ?= oftimg-demo
 # pytest-xdist processes for the suite, each taking whole test files (their module
-# fixtures built once): on 2 cores ~1010 s -> 718 s (2026-12-02, a slow day)
+# fixtures built once): on 2 cores ~1010 s -> 718 s wall time (2026-12-02; wall times here
+# vary by 30 % or more with the machine's load, and the suite has grown since)
 TEST_WORKERS ?= 2
 
 .PHONY: demo test test-lowest setup clean docs

@@ -2,12 +2,9 @@
 from __future__ import annotations
 
 import os
-import sys
-from pathlib import Path
 
 import oftimg
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "examples"))   # gallery_data
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 project = "oftimg"
@@ -37,7 +34,6 @@ sphinx_gallery_conf = {
     "examples_dirs": "examples",
     "gallery_dirs": "gallery",
     "filename_pattern": r"/plot_",
-    "ignore_pattern": r"gallery_data\.py",
     "within_subsection_order": "FileNameSortKey",
     "download_all_examples": False,
     "remove_config_comments": True,

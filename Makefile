@@ -12,18 +12,25 @@ DEMO_OUT ?= oftimg-demo
 # fixtures built once): on 2 cores ~1010 s -> 718 s wall time (2026-12-02; wall times here
 # vary by 30 % or more with the machine's load, and the suite has grown since)
 TEST_WORKERS ?= 2
+# pip without setuptools' "Editable installation" box (a flat layout's editable install
+# warns of folders named like the package: this clone's own oftimg/ is that folder)
+PIP := PYTHONWARNINGS="ignore:Editable installation" $(PY) -m pip
+# apt-get quietly: its ~120 dpkg lines only when it fails
+APT_INSTALL = SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo sudo); \
+	  log=$$(mktemp); { $$SUDO apt-get update -qq && $$SUDO env DEBIAN_FRONTEND=noninteractive \
+	  apt-get install -y -qq
+APT_DONE = ; } >"$$log" 2>&1 || { cat "$$log"; rm -f "$$log"; exit 1; }; rm -f "$$log"
 
 .PHONY: demo test test-lowest setup clean docs
 setup: $(STAMP)
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PIP) install --quiet --upgrade pip
+	$(PIP) install --quiet -e '.[test]'
 	$(PY) -c "import open3d" 2>/dev/null || { \
 	  echo "open3d cannot load libusb-1.0: installing libusb-1.0-0 with apt-get"; \
-	  SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo sudo); \
-	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq libusb-1.0-0; }
+	  $(APT_INSTALL) libusb-1.0-0 $(APT_DONE); }
 	$(PY) -c "import open3d"
 	touch $(STAMP)
 
@@ -33,14 +40,13 @@ demo: $(STAMP)
 test: $(STAMP)
 	command -v chromium >/dev/null || { \
 	  echo "the report test needs a headless browser: installing chromium with apt-get"; \
-	  SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo sudo); \
-	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq chromium; }
+	  $(APT_INSTALL) chromium $(APT_DONE); }
 	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 # The suite against the oldest releases pyproject.toml allows (uv's lowest-direct
 # resolution), in .venv-lowest: checks that those lower bounds are true.
 test-lowest: $(STAMP)
-	test -x $(VENV)/bin/uv || $(PY) -m pip install --quiet uv
+	test -x $(VENV)/bin/uv || $(PIP) install --quiet uv
 	$(VENV)/bin/uv venv --quiet --allow-existing --python $(PY) .venv-lowest
 	$(VENV)/bin/uv pip install --quiet --python .venv-lowest/bin/python \
 	  --resolution lowest-direct -e '.[test]'
@@ -52,6 +58,6 @@ clean:
 # The documentation site (Sphinx, its gallery executed) into docs/_build/html; warnings
 # are errors
 docs: $(STAMP)
-	$(PY) -m pip install --quiet -e '.[docs]'
+	$(PIP) install --quiet -e '.[docs]'
 	$(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
 	$(PY) scripts/check_api_reference.py docs/_build/html

@@ -67,15 +67,17 @@ class Progress:
         self._bar.update(n)
 
     def close(self) -> None:
-        """End the bar (off a terminal: a last line, "done")."""
+        """End the bar (off a terminal: a last line, "done", unless an error is on its
+        way up: its one line is then the last)."""
         if self._stop.is_set():
             return
         self._stop.set()
         if self._lines is not None:
             if self._lines is not threading.current_thread():
                 self._lines.join()
-            self._stage = "done"
-            self._line()
+            if sys.exc_info()[0] is None:            # closed in a finally an error passes
+                self._stage = "done"
+                self._line()
         self._bar.close()
 
     def line_text(self) -> str:

@@ -1,3 +1,4 @@
+import contextlib
 import warnings
 
 import pytest
@@ -33,11 +34,40 @@ def png_figures_only():
         yield
 
 
-@pytest.fixture(autouse=True)
-def _oftimg_warnings_visible():
-    with warnings.catch_warnings():
+@contextlib.contextmanager
+def _oftimg_warnings_expected():
+    """oftimg's own warnings are what it tells a user about the data; the phantoms and
+    damaged inputs the suite feeds it make them on purpose, so they stay out of the
+    run's warnings summary. Every one is raised ('always': a test that is about one
+    catches it with pytest.warns or catch_warnings(record=True)); any other warning
+    is passed on to the summary."""
+    with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OftimgWarning)
-        yield
+        try:
+            yield
+        finally:
+            others = [w for w in caught if not issubclass(w.category, OftimgWarning)]
+    for w in others:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+# around each phase of each test, inside pytest's own recording: fixtures of any scope too
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_setup(item):
+    with _oftimg_warnings_expected():
+        return (yield)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item):
+    with _oftimg_warnings_expected():
+        return (yield)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_teardown(item, nextitem):
+    with _oftimg_warnings_expected():
+        return (yield)
 
 
 @pytest.fixture(scope="session")

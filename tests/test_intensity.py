@@ -222,7 +222,7 @@ def test_bad_intensity_folders_are_refused_in_one_line(textured, tmp_path, capsy
     elif damage == "wrong_shape":
         import tifffile
         for f in files:
-            tifffile.imwrite(f, np.zeros((4, 5, 6), np.uint8))
+            tifffile.imwrite(f, np.zeros((4, 5, 6), np.uint8), photometric="minisblack")
     elif damage == "meta_key":
         meta = json.loads((path / "meta.json").read_text())
         meta["intensity"] = {"voxel_size": [4, 4, 8]}

@@ -50,3 +50,13 @@ def test_a_bar_left_open_by_an_error_stops_writing_once_it_is_gone(monkeypatch, 
     thread.join(timeout=2)
     assert not thread.is_alive()
     capsys.readouterr()
+
+
+def test_a_bar_closed_by_an_error_leaves_the_error_the_last_line(capsys):
+    try:
+        with Progress(5, "emb: checking meshes", unit="mesh") as bar:
+            bar.advance(5)
+            raise ValueError("f2.ply: is a folder, not a file")
+    except ValueError:
+        pass
+    assert capsys.readouterr().err == ""

@@ -88,7 +88,7 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     knee, sd = speeds["knee"], spread["speeds"]
     if spread["synchronous"]:
         notes.append(f"the ridge's slope along the tube, {spread['ridge_slope_ms_per_mm']:.3g} "
-                     f"+- {spread['ridge_slope_noise_sd_ms_per_mm']:.2g} ms/mm, is consistent "
+                     f"± {spread['ridge_slope_noise_sd_ms_per_mm']:.2g} ms/mm, is consistent "
                      "with none within the map's noise: the tube contracts at once "
                      "(synchronous within noise), so no wave speed is given (NaN)")
     elif np.isfinite(spread["noise_sd"]).any():
@@ -156,7 +156,7 @@ def _unresolved_speeds(value: dict, spread: dict) -> list[str]:
         if not np.isfinite(sd):
             poor.append(f"{k} {value[k]:.3g} mm/s (not resolved)")
         elif sd > SPREAD_NOTE_SHARE * abs(value[k]):
-            poor.append(f"{k} {value[k]:.3g} +- {sd:.2g} mm/s")
+            poor.append(f"{k} {value[k]:.3g} ± {sd:.2g} mm/s")
     if not poor:
         return []
     return [f"wave speeds whose spread from the area map's frame-to-frame noise alone is over "

@@ -531,7 +531,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         summary["pullbacks"] = {"shape_uvt": list(pullbacks["pullback_outer_mean"].shape),
                                 "shell": ("myocardium" if "inner" in grid else
                                           f"{options.pullback.shell_um[0]:g} to "
-                                          f"{options.pullback.shell_um[1]:g} um along the "
+                                          f"{options.pullback.shell_um[1]:g} µm along the "
                                           "outer wall's normal"),
                                 "in_view": float(np.isfinite(
                                     pullbacks["pullback_outer_mean"]).mean()),
@@ -862,7 +862,7 @@ def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H,
         if noise["error_share"] > NOISY_STRAIN_SHARE:
             warnings.warn(
                 f"{ds.path}: {name} is noisy: its grid nodes move by "
-                f"{1000 * noise['node_noise_mm']:.1f} um from frame to frame (median), which "
+                f"{1000 * noise['node_noise_mm']:.1f} µm from frame to frame (median), which "
                 f"after {noise['smoothing_ms']:g} ms of smoothing alone changes the energy by "
                 f"{100 * noise['error_share']:.0f} % of its median size (summary.json: "
                 "strain_noise); a square, it is biased up; smoother surfaces, finer meshes "

@@ -49,7 +49,7 @@ class Animation:
         if self.period_ms <= 0 or self.n_frames < 3:
             raise InputError("period_ms must be positive and n_frames at least 3")
         if not abs(self.twist_deg) <= 180:
-            raise InputError(f"twist_deg must be within +-180 degrees, found {self.twist_deg}")
+            raise InputError(f"twist_deg must be within ±180 degrees, found {self.twist_deg}")
         if not 0 <= self.shortening < 0.9:
             raise InputError(f"shortening must be in [0, 0.9), found {self.shortening}")
 

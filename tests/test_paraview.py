@@ -96,8 +96,9 @@ def test_paraview_series_hold_the_results(run_out, tmp_path):
     folder, out = run_out / "normal", pv / "normal"
     arrays, grids = np.load(folder / "arrays.npz"), np.load(folder / "grids.npz")
     t_ms = arrays["t_ms"]
-    expected = {f"{g}.pvd" for g in grids.files} | {f"sections_{w}.pvd"
-                                                    for w in ("outer", "inner", "lumen")}
+    walls = ("outer", "inner", "lumen")
+    expected = ({f"{g}.pvd" for g in grids.files} | {f"{w}_clipped.pvd" for w in walls}
+                | {f"sections_{w}.pvd" for w in walls})      # the clipped: made on load
     assert {p.name for p in out.glob("*.pvd")} == expected
     steps = _steps(out / "outer.pvd")
     assert [t for t, _ in steps] == pytest.approx(t_ms.tolist())

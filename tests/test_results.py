@@ -21,8 +21,11 @@ def test_every_array_reads_back_with_its_dims(run_out):
     res = oftimg.load_results(folder)
     assert (res.name, res.group) == ("normal", "normal")
     stored = {f: _npz(folder, f) for f in ("arrays.npz", "grids.npz", "pca.npz")}
-    assert set(res.names) == set().union(*map(set, stored.values()))
+    made = {n for n in res.names if "made_on_load" in res.info(n)}
+    assert made == {"outer_clipped", "inner_clipped", "lumen_clipped"}     # not stored
+    assert set(res.names) - made == set().union(*map(set, stored.values()))
     read = res.arrays(res.names)
+    stored["grids.npz"].update({n: read[n] for n in made})
     summary = json.loads((folder / "summary.json").read_text())
     n_u, n_v = summary["provenance"]["options"]["grid"]["n_u"], summary["provenance"]["options"]["grid"]["n_v"]
     sizes = {"u": n_u, "v": n_v, "v_clipped": n_v, "t": len(stored["arrays.npz"]["t_ms"]),
@@ -35,6 +38,29 @@ def test_every_array_reads_back_with_its_dims(run_out):
             assert sizes.get(dim, n) == n, (name, dim)
     np.testing.assert_array_equal(res["outer"], stored["grids.npz"]["outer"])
     assert "outer_clipped" in res and "no_such_array" not in res
+
+
+def test_the_clipped_grids_made_on_load_are_the_runs(analysed_normal, tmp_path):
+    """Not stored (a third of grids.npz), the clipped grids are made on load from the
+    stored grids and clipping planes: the run's own, within the grids' stored precision."""
+    from oftimg.output.export import write_dataset_results
+
+    _, _, result = analysed_normal
+    folder = tmp_path / "normal"
+    folder.mkdir()
+    write_dataset_results(folder, result, fps=10)
+    with np.load(folder / "grids.npz") as grids:
+        assert sorted(grids.files) == ["inner", "lumen", "outer"]
+    res = oftimg.load_results(folder)
+    for wall in ("outer", "inner", "lumen"):
+        run = result["grids"][f"{wall}_clipped"]
+        loaded = res[f"{wall}_clipped"]
+        assert loaded.shape == run.shape and loaded.dtype == np.float32
+        np.testing.assert_allclose(loaded, run, rtol=0, atol=2e-5)   # mm: 20 nm
+        assert np.array_equal(np.isnan(loaded), np.isnan(run))
+        assert res.info(f"{wall}_clipped")["dims"] == ["u", "v_clipped", "t", "xyz"]
+    both = res.arrays(["outer_clipped", "area_outer_mm2"])       # with others, at once
+    np.testing.assert_array_equal(both["outer_clipped"], res["outer_clipped"])
 
 
 def test_unknown_names_and_bad_folders_are_named(run_out, tmp_path):

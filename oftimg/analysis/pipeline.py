@@ -21,7 +21,7 @@ from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, sm
 from ..image.pca import contour_pca
 from .pullback import PullbackOptions, normal_shell, pullback, refine_factors, refined
 from .tracking import follow, track_grid
-from ..mesh.clip import clip_grid, clip_positions, plane_at
+from ..mesh.clip import clip_positions, clipped_grids
 from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
 from ..mesh.labels import MeshOptions
 from ..mesh.sections import slab_thickness, volume_from_sections
@@ -817,13 +817,8 @@ def _myocardium(ds: Dataset, st: dict, arrays: dict, grid: dict, thickness: dict
         [np.interp(v * (n_v - 1), np.arange(n_v), s_rows[:, t]) / s_rows[-1, t]
          for t, v in enumerate(clip_v)])
     summary["clipped_myocardial_volume_mm3"] = target
-    origins, normals = st["rows"]["origin"], st["rows"]["normal"]
-    planes = [plane_at(origins[:, t], normals[:, t], clip_v[t]) for t in range(n_t)]
-    plane_origin = np.array([o for o, _ in planes])                     # (n_t, 3)
-    plane_normal = np.array([n for _, n in planes])
-    for w in walls:  # u-lines of all frames at once: (n_u, n_t, n_v, 3)
-        lines = clip_grid(grid[w].transpose(0, 2, 1, 3), plane_origin, plane_normal)
-        grid[f"{w}_clipped"] = lines.transpose(0, 2, 1, 3)
+    grid.update(clipped_grids({w: grid[w] for w in walls}, st["rows"]["origin"],
+                              st["rows"]["normal"], clip_v))
     return summary
 
 

@@ -80,3 +80,20 @@ def clip_grid(X: np.ndarray, origin: np.ndarray, normal: np.ndarray) -> np.ndarr
     target = s_start[:, None] + np.linspace(0.0, 1.0, n_v) * (s[:, -1] - s_start)[:, None]
     out = interp_grouped(target, s.ravel(), lines.reshape(-1, 3), np.repeat(rows, n_v))
     return out.reshape(X.shape)
+
+
+def clipped_grids(grids: dict[str, np.ndarray], plane_origin: np.ndarray,
+                  plane_normal: np.ndarray, clip_v: np.ndarray) -> dict[str, np.ndarray]:
+    """Each wall's grid ``(n_u, n_v, n_t, 3)`` mm clipped in every frame at the plane
+    of constant myocardial volume, as ``"<wall>_clipped"`` ``(n_u, n_v, n_t, 3)``:
+    frame t's plane lies at ``clip_v[t]`` between its section planes ``plane_origin``
+    / ``plane_normal`` ``(n_v, n_t, 3)`` (:func:`plane_at`), and each u-line is cut there
+    and resampled from it to the outlet (:func:`clip_grid`). Made from what a run
+    stores, so that the clipped grids need not be stored too."""
+    planes = [plane_at(plane_origin[:, t], plane_normal[:, t], float(v))
+              for t, v in enumerate(clip_v)]
+    origin = np.array([o for o, _ in planes])                   # (n_t, 3)
+    normal = np.array([n for _, n in planes])
+    return {f"{w}_clipped": clip_grid(np.asarray(g, float).transpose(0, 2, 1, 3), origin,
+                                      normal).transpose(0, 2, 1, 3)       # u-lines of all frames
+            for w, g in grids.items()}

@@ -273,10 +273,13 @@ def write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
 
 
 def write_arrays(folder: Path, files: dict[str, dict[str, np.ndarray]],
-                 described: dict[str, dict]) -> None:
+                 described: dict[str, dict], made_on_load: dict[str, dict] | None = None
+                 ) -> None:
     """Each of ``files`` (file name -> its arrays) as ``folder/<file name>`` (npz),
     and one ``arrays.json`` giving every array's dims, unit and meaning
-    (``described``), its file, shape and dtype."""
+    (``described``), its file, shape and dtype; and the entries ``made_on_load``
+    (arrays not stored, which :func:`~oftimg.output.results.load_results` makes from
+    stored ones: described in full, with what they are made from)."""
     missing = {k for arrays in files.values() for k in arrays} - set(described)
     if missing:
         raise ValueError(f"arrays without a description: {sorted(missing)}")
@@ -285,10 +288,14 @@ def write_arrays(folder: Path, files: dict[str, dict[str, np.ndarray]],
         write_npz(folder / file, {k: bit_round(v) for k, v in arrays.items()})
         desc.update({k: dict(described[k], file=file, shape=list(np.shape(v)),
                              dtype=str(np.asarray(v).dtype)) for k, v in arrays.items()})
+    desc.update(made_on_load or {})
     write_json(folder / "arrays.json", desc)
 
 
 WALLS = ("outer", "inner", "lumen")
+CLIPPED = "_clipped"
+CLIPPED_ON_LOAD = ("not stored: made on load from the wall's grid, clip_v, plane_origin_mm "
+                   "and plane_normal (oftimg.mesh.clip.clipped_grids), as the run made it")
 
 
 # the cohort's maps on one grid (cohort_maps.npz): name -> (dims, unit, description)
@@ -589,18 +596,22 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float | None = Non
     tick = time.perf_counter()
     (folder / "figures").mkdir(exist_ok=True)
     (folder / "videos").mkdir(exist_ok=True)
-    grids = {w: g.astype(np.float32) for w, g in result["grids"].items()}
+    grids = {w: g.astype(np.float32) for w, g in result["grids"].items()
+             if not w.endswith(CLIPPED)}       # the clipped ones are made on load from these
     arrays = result["arrays"]
     positions = result["summary"]["provenance"]["options"]["map_positions"]
     described = {k: describe_array(k, map_positions=positions)
-                 for k in list(arrays) + list(grids)}
+                 for k in list(arrays) + list(result["grids"])}
     described.update({k: describe_pca(k) for k in result.get("pca") or {}})
     described.update({k: describe_array(k) for k in result.get("pullbacks") or {}})
+    made_on_load = {k: dict(described.pop(k), file="grids.npz", shape=list(g.shape),
+                            dtype="float32", made_on_load=CLIPPED_ON_LOAD)
+                    for k, g in result["grids"].items() if k.endswith(CLIPPED)}
     write_arrays(folder, {"arrays.npz": arrays, "grids.npz": grids,
                           **({"pca.npz": result["pca"]} if result.get("pca") else {}),
                           **({"pullbacks.npz": result["pullbacks"]}
                              if result.get("pullbacks") else {})},
-                 described)
+                 described, made_on_load)
     timings["write_arrays_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     # the workers render the videos while this process draws the figures

@@ -10,6 +10,8 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from .results import load_results
+
 WALLS = ("outer", "inner", "lumen")
 MYOCARDIUM = ("outer", "inner")          # the walls the wall thickness belongs to
 JELLY = "inner"                          # the wall the jelly thickness is measured from
@@ -94,8 +96,9 @@ def write_pvd(path: Path, steps: list[tuple[float, str]]) -> None:
 def series_names(results: Path) -> list[str]:
     """The series :func:`write_series` can make of a results folder: every grid of
     ``grids.npz``, then ``sections_<wall>`` for each wall with section contours."""
-    with np.load(results / "grids.npz") as grids, np.load(results / "arrays.npz") as npz:
-        return grids.files + [f"sections_{w}" for w in WALLS if f"contour_{w}_mm" in npz.files]
+    described = json.loads((results / "arrays.json").read_text())
+    return ([n for n, d in described.items() if d.get("file") == "grids.npz"]
+            + [f"sections_{w}" for w in WALLS if f"contour_{w}_mm" in described])
 
 
 def _series_frames(results: Path, name: str):
@@ -115,8 +118,7 @@ def _series_frames(results: Path, name: str):
                            {"u": u, area_name: _point_values(np.broadcast_to(area[:, t],
                                                                              (n_u, n_v)))})
                           for t in range(len(t_ms)))
-        with np.load(results / "grids.npz") as grids:
-            G = grids[name]
+        G = load_results(results)[name]          # a clipped grid is made on load
         n_u, n_v = G.shape[:2]
         wall = name.removesuffix("_clipped")
         cells = ("quad", quad_cells(n_u, n_v))

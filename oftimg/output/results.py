@@ -15,9 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .export import COHORT_OUTPUTS
+from .export import CLIPPED, COHORT_OUTPUTS
 from ..errors import DatasetError
 from ..io.dataset import natural_key
+from ..mesh.clip import clipped_grids
 
 RESULT_FILES = ("arrays.npz", "grids.npz", "pca.npz", "pullbacks.npz")
 
@@ -134,13 +135,24 @@ class Results:
         return self.described[name]
 
     def arrays(self, names) -> dict[str, np.ndarray]:
-        """The arrays ``names``, each file opened once."""
+        """The arrays ``names``, each file opened once; those arrays.json marks
+        ``made_on_load`` (the clipped grids) made from the stored ones they come from."""
+        names = list(names)
+        made = [n for n in names if "made_on_load" in self.info(n)]
+        sources = list(dict.fromkeys(
+            [n.removesuffix(CLIPPED) for n in made]
+            + (["clip_v", "plane_origin_mm", "plane_normal"] if made else [])))
         by_file: dict[str, list[str]] = {}
-        for name in names:
+        for name in dict.fromkeys([n for n in names if n not in made] + sources):
             by_file.setdefault(self.info(name)["file"], []).append(name)
         out = {}
         for file, wanted in by_file.items():
             out.update(_read_npz(self.folder / file, wanted))
+        if made:
+            clipped = clipped_grids({n.removesuffix(CLIPPED): out[n.removesuffix(CLIPPED)]
+                                     for n in made}, out["plane_origin_mm"],
+                                    out["plane_normal"], out["clip_v"])
+            out.update({n: g.astype(np.float32) for n, g in clipped.items()})
         return {n: out[n] for n in names}
 
     def __getitem__(self, name: str) -> np.ndarray:

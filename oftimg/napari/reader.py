@@ -1,0 +1,99 @@
+"""A results folder (``oftimg run``'s ``OUT/<name>``, or a run's ``OUT``) as napari
+layers: each wall's grid as a Surface over time (vertices ``(t, z, y, x)`` mm, one set
+per frame, so that napari's time slider moves the wall), coloured by a (u, v, t) field
+in the house colour maps (viridis for a one-signed field, RdBu centred on 0 for a
+signed one). Pure functions of the stored arrays; napari is needed only to show them.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..mesh.strain import grid_triangles
+from ..output.paraview import node_field_names
+from ..output.results import Results, load_results, result_folders
+from ..output.style import colour_scale
+
+WALLS = ("outer", "inner", "lumen")
+WALL_NAMES = {"outer": "outer wall", "inner": "inner wall", "lumen": "lumen"}
+# the field each wall is coloured by when none is asked for (the first it has)
+DEFAULT_FIELDS = {"outer": ("radial_curvature_outer_per_mm", "strain_energy_outer"),
+                  "inner": ("radial_curvature_inner_per_mm", "strain_energy_inner"),
+                  "lumen": ("mean_curvature_lumen_per_mm",)}
+
+
+def surface_over_time(grid: np.ndarray, values: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, ...]:
+    """napari Surface data of a grid ``(n_u, n_v, n_t, 3)`` mm (x, y, z) over time:
+    vertices ``(n_t n_u n_v, 4)`` as (frame, z, y, x), faces ``(n_t F, 3)`` (each
+    frame's grid triangles, periodic in u), and with ``values (n_u, n_v, n_t)`` the
+    value of each vertex ``(n_t n_u n_v,)`` (NaN where the field has none)."""
+    n_u, n_v, n_t, _ = grid.shape
+    per_frame = np.moveaxis(grid, 2, 0).reshape(n_t, n_u * n_v, 3)[..., ::-1]   # z, y, x
+    frame = np.repeat(np.arange(n_t, dtype=float), n_u * n_v)[:, None]
+    vertices = np.concatenate([frame, per_frame.reshape(-1, 3)], axis=1)
+    triangles = grid_triangles(n_u, n_v)
+    faces = (triangles[None] + (n_u * n_v * np.arange(n_t))[:, None, None]).reshape(-1, 3)
+    if values is None:
+        return vertices, faces
+    return vertices, faces, np.moveaxis(values, 2, 0).reshape(-1).astype(float)
+
+
+def wall_fields(results: Results, wall: str) -> list[str]:
+    """The (u, v, t) fields on ``wall``'s grid nodes that a Surface can be coloured by."""
+    return [n for n in node_field_names(results.described, wall)
+            if results.info(n)["dims"] == ["u", "v", "t"]]
+
+
+def field_label(results: Results, name: str) -> str:
+    """A field's name with its unit, as a colour bar or a list names it."""
+    unit = results.info(name).get("unit", "")
+    return f"{name} ({unit})" if unit else name
+
+
+def wall_layer(results: Results, wall: str, field: str | None = None) -> tuple:
+    """One wall as a napari layer-data tuple ``(data, kwargs, "surface")``, coloured by
+    ``field`` (default :data:`DEFAULT_FIELDS`'s first the wall has; none: one colour)."""
+    fields = wall_fields(results, wall)
+    if field is None or field not in fields:
+        field = next((f for f in DEFAULT_FIELDS.get(wall, ()) if f in fields), None)
+    grid = results[wall]
+    kwargs = {"name": f"{results.name}: {WALL_NAMES.get(wall, wall)}", "shading": "smooth",
+              "wireframe": {"visible": False, "color": "black", "width": 0.5},
+              "metadata": {"oftimg": {"results": str(results.folder), "wall": wall,
+                                      "field": field, "fields": fields,
+                                      "t_ms": results["t_ms"].tolist()}}}
+    if field is None:
+        return surface_over_time(grid), kwargs, "surface"
+    values = results[field]
+    scale = colour_scale(values)
+    kwargs.update(colormap=scale["cmap"],
+                  contrast_limits=(scale.get("vmin", 0.0), scale.get("vmax", 1.0)))
+    kwargs["metadata"]["oftimg"]["label"] = field_label(results, field)
+    return surface_over_time(grid, values), kwargs, "surface"
+
+
+def results_layers(path, field: str | None = None) -> list[tuple]:
+    """Every wall of every dataset's results under ``path`` (one results folder or a
+    run's ``--out``) as napari layer-data tuples (:func:`wall_layer`)."""
+    layers = []
+    for folder in result_folders(path):
+        results = load_results(folder)
+        layers += [wall_layer(results, w, field) for w in WALLS if w in results]
+    return layers
+
+
+def napari_get_reader(path):
+    """napari's reader hook: :func:`results_layers` for a results folder or a run's
+    ``--out`` (a folder with summary.json, or with run.json), else None (another
+    plugin may read it)."""
+    if isinstance(path, list):
+        path = path[0] if len(path) == 1 else None
+    if path is None:
+        return None
+    path = Path(path)
+    if not path.is_dir() or not ((path / "summary.json").is_file()
+                                 or (path / "run.json").is_file()):
+        return None
+    return results_layers

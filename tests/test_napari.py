@@ -1,0 +1,102 @@
+"""The napari plugin (issue 63, first part): a results folder opens as the walls'
+surfaces over time on napari's time slider, coloured by a field in the house colour
+maps; found by napari through the entry point; oftimg itself never imports napari.
+Headless: napari's ViewerModel, no Qt."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+napari = pytest.importorskip("napari")
+
+from oftimg.napari.reader import (napari_get_reader, results_layers,  # noqa: E402
+                                  surface_over_time, wall_layer)
+
+
+def _cylinder(n_u=8, n_v=5, n_t=3):
+    u = np.linspace(0, 2 * np.pi, n_u, endpoint=False)[:, None, None]
+    v = np.linspace(0, 1, n_v)[None, :, None]
+    r = (0.2 + 0.05 * np.arange(n_t))[None, None, :]
+    x, y, z = np.broadcast_arrays(r * np.cos(u), r * np.sin(u), v + 0 * r)
+    return np.stack([x, y, z], axis=-1)                       # (u, v, t, xyz)
+
+
+def test_a_grid_over_time_is_one_vertex_set_a_frame_in_napari_axis_order():
+    grid = _cylinder()
+    field = np.arange(8 * 5 * 3, dtype=float).reshape(8, 5, 3)
+    vertices, faces, values = surface_over_time(grid, field)
+    assert vertices.shape == (3 * 40, 4) and faces.shape == (3 * 2 * 8 * 4, 3)
+    frame = vertices[:, 0].astype(int)
+    assert np.array_equal(np.bincount(frame), [40, 40, 40])
+    for t in range(3):                           # (z, y, x) of frame t's nodes, u-major
+        np.testing.assert_array_equal(vertices[frame == t, 1:],
+                                      grid[:, :, t].reshape(-1, 3)[:, ::-1])
+        np.testing.assert_array_equal(values[frame == t], field[:, :, t].ravel())
+    assert np.all(frame[faces] == frame[faces][:, :1])     # no face joins two frames
+
+
+@pytest.fixture(scope="module")
+def viewer_with_results(run_out):
+    from napari.components import ViewerModel
+    from napari.plugins import _initialize_plugins
+
+    _initialize_plugins()                        # headless: napari finds plugins itself
+    viewer = ViewerModel(ndisplay=3)
+    layers = viewer.open(run_out / "normal", plugin="oftimg")
+    return viewer, layers
+
+
+def test_a_results_folder_opens_as_three_walls_on_the_time_slider(viewer_with_results,
+                                                                  run_out):
+    import oftimg
+
+    viewer, layers = viewer_with_results
+    res = oftimg.load_results(run_out / "normal")
+    assert [layer.name for layer in layers] == ["normal: outer wall", "normal: inner wall",
+                                                "normal: lumen"]
+    assert all(layer._type_string == "surface" for layer in layers)
+    n_t = res["t_ms"].size
+    assert viewer.dims.nsteps[0] == n_t                            # time first
+    outer = res["outer"]
+    for t in (0, n_t // 2):
+        viewer.dims.set_current_step(0, t)
+        shown = layers[0]._view_vertices                           # (z, y, x) of frame t
+        np.testing.assert_allclose(np.sort(shown, axis=0),
+                                   np.sort(outer[:, :, t].reshape(-1, 3)[:, ::-1], axis=0))
+        assert len(layers[0]._view_faces) == 2 * outer.shape[0] * (outer.shape[1] - 1)
+
+
+def test_each_wall_is_coloured_by_a_field_in_the_house_colour_maps(viewer_with_results,
+                                                                   run_out):
+    import oftimg
+
+    _, layers = viewer_with_results
+    res = oftimg.load_results(run_out / "normal")
+    meta = layers[0].metadata["oftimg"]
+    assert meta["field"] == "radial_curvature_outer_per_mm"       # signed: RdBu, about 0
+    assert meta["label"] == "radial_curvature_outer_per_mm (1/mm)"
+    assert layers[0].colormap.name == "RdBu_r"
+    low, high = layers[0].contrast_limits
+    assert low == pytest.approx(-high)
+    assert "strain_energy_outer" in meta["fields"] and "wall_thickness_mm" in meta["fields"]
+    data, kwargs, kind = wall_layer(res, "outer", "strain_energy_outer")  # one-signed
+    assert kind == "surface" and kwargs["colormap"] == "viridis"
+    assert kwargs["contrast_limits"][0] >= 0
+    assert kwargs["metadata"]["oftimg"]["field"] == "strain_energy_outer"
+    assert layers[2].metadata["oftimg"]["field"] == "mean_curvature_lumen_per_mm"
+
+
+def test_the_reader_takes_results_and_leaves_other_folders(run_out, tmp_path):
+    assert napari_get_reader(str(run_out / "normal")) is results_layers
+    assert napari_get_reader(str(run_out)) is results_layers       # a run's --out
+    assert napari_get_reader(str(tmp_path)) is None
+    assert napari_get_reader(str(run_out / "normal" / "arrays.npz")) is None
+    assert len(results_layers(run_out)) == 3
+
+
+def test_oftimg_runs_without_napari():
+    """Importing oftimg and its command line never imports napari."""
+    code = ("import sys, oftimg, oftimg.api, oftimg.cli, oftimg.output.results; "
+            "assert 'napari' not in sys.modules, 'napari imported'")
+    subprocess.run([sys.executable, "-c", code], check=True)

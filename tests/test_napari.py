@@ -100,3 +100,35 @@ def test_oftimg_runs_without_napari():
     code = ("import sys, oftimg, oftimg.api, oftimg.cli, oftimg.output.results; "
             "assert 'napari' not in sys.modules, 'napari imported'")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_walls_over_time_show_the_slider_s_frame_and_change_field(run_out):
+    """For scrubbing: each wall's layer holds the current frame only, swapped when the
+    time slider moves; the slider spans the frames; a field can be chosen for all."""
+    import oftimg
+    from napari.components import ViewerModel
+
+    from oftimg.napari.walls import WallsOverTime
+
+    res = oftimg.load_results(run_out / "normal")
+    viewer = ViewerModel(ndisplay=3)
+    walls = WallsOverTime(viewer, run_out / "normal")
+    n_t = res["t_ms"].size
+    assert viewer.dims.nsteps[0] == n_t
+    for t in (0, 7, n_t - 1):
+        viewer.dims.set_current_step(0, t)
+        assert walls.frame == t
+        for w in ("outer", "lumen"):
+            vertices, faces, values = walls.layers[w].data
+            np.testing.assert_array_equal(vertices, res[w][:, :, t].reshape(-1, 3)[:, ::-1])
+        field = res["radial_curvature_outer_per_mm"][:, :, t].reshape(-1)
+        np.testing.assert_array_equal(walls.layers["outer"].data[2], field)
+    assert walls.colour_by("strain_energy_outer") == ["outer"]
+    assert walls.layers["outer"].colormap.name == "viridis"
+    np.testing.assert_array_equal(walls.layers["outer"].data[2],
+                                  res["strain_energy_outer"][:, :, n_t - 1].reshape(-1))
+    assert walls.layers["inner"].metadata["oftimg"]["field"] == "radial_curvature_inner_per_mm"
+    walls.close()
+    viewer.dims.set_current_step(0, 0)                     # no longer followed
+    np.testing.assert_array_equal(walls.layers["outer"].data[0],
+                                  res["outer"][:, :, n_t - 1].reshape(-1, 3)[:, ::-1])

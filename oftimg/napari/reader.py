@@ -52,26 +52,40 @@ def field_label(results: Results, name: str) -> str:
     return f"{name} ({unit})" if unit else name
 
 
-def wall_layer(results: Results, wall: str, field: str | None = None) -> tuple:
-    """One wall as a napari layer-data tuple ``(data, kwargs, "surface")``, coloured by
-    ``field`` (default :data:`DEFAULT_FIELDS`'s first the wall has; none: one colour)."""
+def wall_style(results: Results, wall: str, field: str | None = None
+               ) -> tuple[np.ndarray | None, dict]:
+    """What colours one wall: the field's values ``(n_u, n_v, n_t)`` (``field``, or
+    :data:`DEFAULT_FIELDS`'s first the wall has; None: one colour) and the Surface
+    layer's keywords (name, colour map and limits, wireframe hidden, metadata)."""
     fields = wall_fields(results, wall)
     if field is None or field not in fields:
         field = next((f for f in DEFAULT_FIELDS.get(wall, ()) if f in fields), None)
-    grid = results[wall]
     kwargs = {"name": f"{results.name}: {WALL_NAMES.get(wall, wall)}", "shading": "smooth",
               "wireframe": {"visible": False, "color": "black", "width": 0.5},
               "metadata": {"oftimg": {"results": str(results.folder), "wall": wall,
                                       "field": field, "fields": fields,
                                       "t_ms": results["t_ms"].tolist()}}}
     if field is None:
-        return surface_over_time(grid), kwargs, "surface"
+        return None, kwargs
     values = results[field]
-    scale = colour_scale(values)
-    kwargs.update(colormap=scale["cmap"],
-                  contrast_limits=(scale.get("vmin", 0.0), scale.get("vmax", 1.0)))
+    kwargs.update(field_colours(values))
     kwargs["metadata"]["oftimg"]["label"] = field_label(results, field)
-    return surface_over_time(grid, values), kwargs, "surface"
+    return values, kwargs
+
+
+def field_colours(values: np.ndarray) -> dict:
+    """A Surface's colour map and contrast limits for ``values``: the house's
+    (:func:`~oftimg.output.style.colour_scale`)."""
+    scale = colour_scale(values)
+    return {"colormap": scale["cmap"],
+            "contrast_limits": (scale.get("vmin", 0.0), scale.get("vmax", 1.0))}
+
+
+def wall_layer(results: Results, wall: str, field: str | None = None) -> tuple:
+    """One wall as a napari layer-data tuple ``(data, kwargs, "surface")`` over all
+    frames (:func:`surface_over_time`), coloured as :func:`wall_style` says."""
+    values, kwargs = wall_style(results, wall, field)
+    return surface_over_time(results[wall], values), kwargs, "surface"
 
 
 def results_layers(path, field: str | None = None) -> list[tuple]:

@@ -1,0 +1,77 @@
+"""The walls of one results folder in a napari viewer one frame at a time, for
+scrubbing: each wall's Surface holds only the current frame (its vertices and values
+swapped when the time slider moves, a few milliseconds), and a hidden Points layer
+spanning the frames gives napari its time axis. :func:`~oftimg.napari.reader.results_layers`
+gives the same walls as layers with every frame in them (napari slices them itself:
+simpler to pass around, slower to scrub).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..mesh.strain import grid_triangles
+from ..output.results import load_results
+from .reader import WALLS, field_colours, field_label, wall_fields, wall_style
+
+
+class WallsOverTime:
+    """One results folder's walls in ``viewer`` (a napari ``Viewer`` or
+    ``ViewerModel``), coloured by ``field`` where a wall has it (default: each wall's
+    own, :data:`~oftimg.napari.reader.DEFAULT_FIELDS`); time is the viewer's first
+    axis, in frames of the aligned cycle (``t_ms``)."""
+
+    def __init__(self, viewer, folder, field: str | None = None):
+        self.viewer, self.results = viewer, load_results(folder)
+        self.t_ms = self.results["t_ms"]
+        self.walls = [w for w in WALLS if w in self.results]
+        self.grids = {w: self.results[w][..., ::-1] for w in self.walls}    # (u, v, t, zyx)
+        n_u, n_v = self.grids[self.walls[0]].shape[:2]
+        self.faces = grid_triangles(n_u, n_v)
+        ends = np.zeros((2, 4))
+        ends[1, 0] = len(self.t_ms) - 1
+        self.clock = viewer.add_points(ends, name=f"{self.results.name}: frames",
+                                       visible=False, size=0)
+        self.values, self.layers = {}, {}
+        for w in self.walls:
+            values, kwargs = wall_style(self.results, w, field)
+            self.values[w] = values
+            self.layers[w] = viewer.add_surface(self._frame_data(w, 0), **kwargs)
+        viewer.dims.events.current_step.connect(self.show_current)
+        self.show_current()
+
+    @property
+    def frame(self) -> int:
+        """The frame the viewer's time slider is at."""
+        return int(np.clip(self.viewer.dims.current_step[0], 0, len(self.t_ms) - 1))
+
+    def _frame_data(self, wall: str, t: int) -> tuple:
+        vertices = self.grids[wall][:, :, t].reshape(-1, 3)
+        values = self.values[wall]
+        if values is None:
+            return vertices, self.faces
+        return vertices, self.faces, values[:, :, t].reshape(-1).astype(float)
+
+    def show_current(self, event=None) -> None:
+        """Put the current frame's vertices and values into each wall's layer."""
+        t = self.frame
+        for w, layer in self.layers.items():
+            layer.data = self._frame_data(w, t)
+
+    def colour_by(self, field: str) -> list[str]:
+        """Colour every wall that has ``field`` by it (the others keep theirs);
+        returns the walls recoloured."""
+        recoloured = []
+        for w, layer in self.layers.items():
+            if field not in wall_fields(self.results, w):
+                continue
+            self.values[w] = self.results[field]
+            layer.data = self._frame_data(w, self.frame)
+            colours = field_colours(self.values[w])
+            layer.colormap, layer.contrast_limits = colours["colormap"], colours["contrast_limits"]
+            layer.metadata["oftimg"].update(field=field, label=field_label(self.results, field))
+            recoloured.append(w)
+        return recoloured
+
+    def close(self) -> None:
+        """Stop following the time slider."""
+        self.viewer.dims.events.current_step.disconnect(self.show_current)

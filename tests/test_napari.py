@@ -132,3 +132,48 @@ def test_walls_over_time_show_the_slider_s_frame_and_change_field(run_out):
     viewer.dims.set_current_step(0, 0)                     # no longer followed
     np.testing.assert_array_equal(walls.layers["outer"].data[0],
                                   res["outer"][:, :, n_t - 1].reshape(-1, 3)[:, ::-1])
+
+
+def test_the_linked_views_move_with_the_slider_and_follow_a_picked_node(run_out):
+    """The (u, v) view shows the current frame, the area map's cursor sits at its time,
+    a picked node (in the image, or as a vertex of the 3-D wall) gets its time course
+    and its row's area, and a new field recolours the views."""
+    import oftimg
+    from napari.components import ViewerModel
+
+    from oftimg.napari.linked import LinkedViews
+    from oftimg.napari.walls import WallsOverTime
+
+    res = oftimg.load_results(run_out / "normal")
+    viewer = ViewerModel(ndisplay=3)
+    walls = WallsOverTime(viewer, run_out / "normal")
+    views = LinkedViews(res, "radial_curvature_outer_per_mm")
+    redrawn = []
+    views.follow(walls, redraw=lambda: redrawn.append(walls.frame))
+    field, t_ms = res["radial_curvature_outer_per_mm"], res["t_ms"]
+    viewer.dims.set_current_step(0, 9)
+    assert redrawn[-1] == 9
+    np.testing.assert_array_equal(views.image.get_array(), field[:, :, 9].T)
+    assert views.cursor.get_xdata()[0] == t_ms[9]
+    n_u, n_v = field.shape[:2]
+    assert views.node_at(20 / n_u, 30 / (n_v - 1)) == (20, 30)
+    views.pick(20, 30)
+    assert views.marker.get_xydata().tolist() == [[20 / n_u, 30 / (n_v - 1)]]
+    curve, = views.ax_node.get_lines()[:1]
+    np.testing.assert_array_equal(curve.get_ydata(), field[20, 30])
+    np.testing.assert_array_equal(views._twin.get_lines()[0].get_ydata(),
+                                  res["area_outer_mm2"][30])
+    assert views.now.get_xdata()[0] == t_ms[9]
+    viewer.dims.set_current_step(0, 4)
+    assert views.now.get_xdata()[0] == t_ms[4]
+    assert views.pick_vertex(7 * n_v + 11) == (7, 11)         # a vertex of the 3-D wall
+    views.set_field("strain_energy_outer")
+    assert views.image.get_cmap().name == "viridis"
+    np.testing.assert_array_equal(views.image.get_array(), res["strain_energy_outer"][:, :, 4].T)
+    np.testing.assert_array_equal(views.ax_node.get_lines()[0].get_ydata(),
+                                  res["strain_energy_outer"][7, 11])
+    from test_figure_style import layout_problems
+    assert layout_problems(views.figure) == []          # the house's type, nothing overlaps
+    views.unfollow()
+    viewer.dims.set_current_step(0, 2)
+    assert views.frame == 4

@@ -1,0 +1,160 @@
+"""The views beside a napari viewer's walls, linked to its time slider: the chosen
+field at the current frame as a (u, v) image (seam at u = 0 and 1, inlet at the
+bottom), the (v, t) area map with a cursor at the current time, and the time course of
+a picked grid node (the field there and its row's section area) with the current time
+marked. Drawn with matplotlib in the house style, so that the same views are a Qt dock
+widget in napari's window or a figure anywhere else.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..output.style import COLUMN_MM, colour_bar, colour_scale, house_style, new_figure
+
+UNIT_SUFFIXES = ("_per_mm", "_mm2", "_mm", "_ms", "_um")
+
+
+def readable(name: str) -> str:
+    """An array's name as words, its unit suffix left to the unit:
+    ``radial_curvature_outer_per_mm`` -> ``radial curvature outer``."""
+    for suffix in UNIT_SUFFIXES:
+        if name.endswith(suffix):
+            name = name[:-len(suffix)]
+            break
+    return name.replace("_", " ")
+
+
+def small_ticks(*axes) -> None:
+    """The house's 7 pt tick labels, kept when the figure is drawn later (by a Qt canvas,
+    outside the house style: ticks are made when drawn)."""
+    for ax in axes:
+        ax.tick_params(labelsize=7, width=0.6)
+
+
+def axis_label(results, name: str) -> str:
+    """``readable(name) (unit)``."""
+    unit = results.info(name).get("unit", "")
+    return f"{readable(name)} ({unit})" if unit else readable(name)
+
+
+class LinkedViews:
+    """The linked views of one result (a :class:`~oftimg.output.results.Results`):
+    :meth:`set_frame` moves their time, :meth:`set_field` changes the field,
+    :meth:`pick` marks a grid node ``(i_u, i_v)`` and plots its time course;
+    ``figure`` is the matplotlib figure holding them."""
+
+    @house_style
+    def __init__(self, results, field: str, wall: str = "outer"):
+        self.results, self.wall = results, wall
+        self.t_ms, self.s_mm = results["t_ms"], results["s_mm"]
+        self.area = results[f"area_{wall}_mm2"] if f"area_{wall}_mm2" in results \
+            else results["area_outer_mm2"]                              # (v, t)
+        self.figure, axes = new_figure(COLUMN_MM, 190, nrows=3)    # a column beside napari
+        self.ax_field, self.ax_map, self.ax_node = axes
+        self.frame, self.node = 0, None
+        self._map()
+        self.set_field(field)
+
+    def _map(self) -> None:
+        ax = self.ax_map
+        step = self.t_ms[1] - self.t_ms[0] if len(self.t_ms) > 1 else 1.0
+        image = ax.imshow(self.area, origin="lower", aspect="auto",
+                          extent=[self.t_ms[0] - step / 2, self.t_ms[-1] + step / 2,
+                                  self.s_mm[0], self.s_mm[-1]], **colour_scale(self.area))
+        colour_bar(self.figure, image, ax, f"{self.wall} section area (mm$^2$)")
+        self.cursor = ax.axvline(self.t_ms[0], color="w", lw=1.2)
+        small_ticks(ax, self.figure.axes[-1])                            # and its colour bar
+        ax.set_xlabel("time since minimum volume (ms)")
+        ax.set_ylabel("position along the tube s (mm)")
+
+    @house_style
+    def set_field(self, field: str) -> None:
+        """Show ``field`` ``(n_u, n_v, n_t)`` in the (u, v) view and the node's course."""
+        self.field_name, self.field = field, self.results[field]
+        scale = colour_scale(self.field)
+        ax = self.ax_field
+        if getattr(self, "image", None) is None:
+            n_u, n_v = self.field.shape[:2]                 # pixel centres on the nodes
+            self.image = ax.imshow(self.field[:, :, self.frame].T, origin="lower",
+                                   aspect="auto", **scale,
+                                   extent=[-0.5 / n_u, 1 - 0.5 / n_u,
+                                           -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)])
+            self.bar = colour_bar(self.figure, self.image, ax, axis_label(self.results, field))
+            ax.set_xlabel("u around the tube (0 and 1: the seam)")
+            ax.set_ylabel("v along (0: inlet, 1: outlet)")
+            self.marker, = ax.plot([], [], "k+", ms=9, mew=1.5)
+            small_ticks(ax, self.bar.ax)
+        else:
+            self.image.set_cmap(scale["cmap"])
+            self.image.set_clim(scale.get("vmin", 0.0), scale.get("vmax", 1.0))
+            self.bar.set_label(axis_label(self.results, field))
+        self.set_frame(self.frame)
+        if self.node is not None:
+            self.pick(*self.node)
+
+    @house_style
+    def set_frame(self, t: int) -> None:
+        """Move every view to frame ``t``."""
+        self.frame = int(np.clip(t, 0, len(self.t_ms) - 1))
+        self.image.set_data(self.field[:, :, self.frame].T)
+        self.ax_field.set_title(f"{readable(self.field_name)} at t = "
+                                f"{self.t_ms[self.frame]:.0f} ms")
+        self.cursor.set_xdata([self.t_ms[self.frame]] * 2)
+        if self.node is not None:
+            self.now.set_xdata([self.t_ms[self.frame]] * 2)
+
+    def node_at(self, u: float, v: float) -> tuple[int, int]:
+        """The grid node ``(i_u, i_v)`` nearest the (u, v) image's point ``(u, v)``."""
+        n_u, n_v = self.field.shape[:2]
+        return int(round(u * n_u)) % n_u, int(np.clip(round(v * (n_v - 1)), 0, n_v - 1))
+
+    @house_style
+    def pick(self, i_u: int, i_v: int) -> None:
+        """Mark grid node ``(i_u, i_v)`` and plot its field and its row's section area
+        over the cycle, the current time marked."""
+        n_u, n_v = self.field.shape[:2]
+        self.node = (int(i_u) % n_u, int(np.clip(i_v, 0, n_v - 1)))
+        i_u, i_v = self.node
+        self.marker.set_data([i_u / n_u], [i_v / (n_v - 1)])
+        ax = self.ax_node
+        ax.clear()
+        ax.plot(self.t_ms, self.field[i_u, i_v], color="k", lw=1.2)
+        ax.set_ylabel(axis_label(self.results, self.field_name))
+        ax.set_xlabel("time since minimum volume (ms)")
+        twin = getattr(self, "_twin", None) or ax.twinx()
+        self._twin = twin
+        twin.clear()                                # which puts its axis back on the left
+        twin.yaxis.tick_right()
+        twin.yaxis.set_label_position("right")
+        twin.tick_params(axis="x", bottom=False, labelbottom=False)   # ax's time axis shows
+        twin.patch.set_visible(False)
+        twin.plot(self.t_ms, self.area[i_v], color="#0072B2", lw=1.0, ls="--")
+        twin.set_ylabel("its row's area (mm$^2$)", color="#0072B2")
+        ax.set_title(f"node u = {i_u / n_u:.2f}, v = {i_v / (n_v - 1):.2f}")
+        self.now = ax.axvline(self.t_ms[self.frame], color="0.5", lw=0.8)
+        small_ticks(ax, twin)
+
+    def pick_vertex(self, index: int) -> tuple[int, int]:
+        """:meth:`pick` the grid node that is vertex ``index`` of a wall's one-frame
+        Surface (:class:`~oftimg.napari.walls.WallsOverTime`: u-major); returns it."""
+        n_v = self.field.shape[1]
+        self.pick(*divmod(int(index), n_v))
+        return self.node
+
+    def follow(self, walls, redraw=None) -> None:
+        """Move with ``walls``' time slider (a :class:`~oftimg.napari.walls.WallsOverTime`),
+        calling ``redraw()`` after each move (a Qt canvas's ``draw_idle``)."""
+        def moved(event=None):
+            self.set_frame(walls.frame)
+            if redraw is not None:
+                redraw()
+        walls.viewer.dims.events.current_step.connect(moved)
+        self._moved = (walls, moved)
+        moved()
+
+    def unfollow(self) -> None:
+        """Stop following the slider :meth:`follow` tied these views to."""
+        walls, moved = getattr(self, "_moved", (None, None))
+        if walls is not None:
+            walls.viewer.dims.events.current_step.disconnect(moved)
+            self._moved = (None, None)

@@ -41,7 +41,10 @@ test: $(STAMP)
 	command -v chromium >/dev/null || { \
 	  echo "the report test needs a headless browser: installing chromium with apt-get"; \
 	  $(APT_INSTALL) chromium $(APT_DONE); }
-	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
+	$(PY) -c "from qtpy import QtWidgets" 2>/dev/null || { \
+	  echo "Qt (the napari widget's tests) cannot load its system libraries: installing them with apt-get"; \
+	  $(APT_INSTALL) libgl1 libegl1 libxkbcommon0 libfontconfig1 libdbus-1-3 $(APT_DONE); }
+	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 # The suite against the oldest releases pyproject.toml allows (uv's lowest-direct
 # resolution), in .venv-lowest: checks that those lower bounds are true.

@@ -1,0 +1,116 @@
+"""The dock widget in napari's window: open a results folder, choose the field, and
+see the linked views (:class:`~oftimg.napari.linked.LinkedViews`) move with the time
+slider; a click on the (u, v) image, or on a wall in the 3-D view, picks the node
+whose time course is plotted. Needs napari's Qt (``pip install "napari[all]"``).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
+from qtpy.QtWidgets import QComboBox, QFileDialog, QLabel, QPushButton, QVBoxLayout, QWidget
+
+from ..output.results import load_results
+from .linked import LinkedViews
+from .reader import wall_fields
+from .walls import WallsOverTime
+
+
+class OftimgWidget(QWidget):
+    """oftimg's dock widget for ``napari_viewer``: :meth:`open` a results folder (or
+    the Open button), a field list (named with units) that recolours the walls and
+    the views, the linked views below."""
+
+    def __init__(self, napari_viewer):
+        super().__init__()
+        self.viewer, self.walls, self.views, self.canvas = napari_viewer, None, None, None
+        self.setLayout(QVBoxLayout())
+        self.open_button = QPushButton("Open results folder…")
+        self.open_button.clicked.connect(self._choose_folder)
+        self.fields = QComboBox()
+        self.fields.currentTextChanged.connect(self.set_field)
+        self.status = QLabel("no results open")
+        for w in (self.open_button, self.fields, self.status):
+            self.layout().addWidget(w)
+
+    def _choose_folder(self) -> None:
+        folder = QFileDialog.getExistingDirectory(self, "An oftimg results folder (OUT/<name>)")
+        if folder:
+            self.open(folder)
+
+    def open(self, folder) -> None:
+        """Show the results in ``folder`` (one dataset's, ``OUT/<name>``): the walls
+        over time in the viewer, the linked views here."""
+        self.close_results()
+        results = load_results(folder)
+        self.walls = WallsOverTime(self.viewer, folder)
+        fields = wall_fields(results, "outer")
+        first = self.walls.layers["outer"].metadata["oftimg"]["field"] or fields[0]
+        self.views = LinkedViews(results, first)
+        self.canvas = FigureCanvasQTAgg(self.views.figure)
+        self.canvas.mpl_connect("button_press_event", self._clicked_image)
+        self.layout().addWidget(self.canvas)
+        self.views.follow(self.walls, redraw=self.canvas.draw_idle)
+        for layer in self.walls.layers.values():
+            layer.mouse_drag_callbacks.append(self._clicked_wall)
+        self.fields.blockSignals(True)
+        self.fields.clear()
+        self.fields.addItems(fields)
+        self.fields.setCurrentText(first)
+        self.fields.blockSignals(False)
+        self.status.setText(f"{results.name} ({Path(folder)}): {len(results['t_ms'])} frames")
+
+    def set_field(self, field: str) -> None:
+        """Colour the walls that have ``field`` and the (u, v) view by it."""
+        if self.views is None or not field:
+            return
+        self.walls.colour_by(field)
+        self.views.set_field(field)
+        self.canvas.draw_idle()
+
+    def _clicked_image(self, event) -> None:
+        if event.inaxes is self.views.ax_field and event.xdata is not None:
+            self.views.pick(*self.views.node_at(event.xdata, event.ydata))
+            self.canvas.draw_idle()
+
+    def _clicked_wall(self, layer, event) -> None:
+        """A click on a wall in the 3-D view: of the triangle hit, the vertex nearest
+        the line of sight."""
+        vertex = vertex_hit(layer, event.position, event.view_direction,
+                            event.dims_displayed)
+        if vertex is not None:
+            self.views.pick_vertex(vertex)
+            self.canvas.draw_idle()
+
+    def close_results(self) -> None:
+        """Take the open results' layers and views away."""
+        if self.walls is None:
+            return
+        self.views.unfollow()
+        self.walls.close()
+        for layer in [*self.walls.layers.values(), self.walls.clock]:
+            if layer in self.viewer.layers:
+                self.viewer.layers.remove(layer)
+        self.layout().removeWidget(self.canvas)
+        self.canvas.deleteLater()
+        self.walls = self.views = self.canvas = None
+
+
+def vertex_hit(layer, position, view_direction, dims_displayed) -> int | None:
+    """The vertex of a one-frame Surface ``layer`` that a click at ``position`` looking
+    along ``view_direction`` (world coordinates, all dims) meets: of the first triangle
+    on that line, its vertex nearest the line; None if the line misses the wall."""
+    hit = layer.get_value(position, view_direction=view_direction,
+                          dims_displayed=dims_displayed, world=True)
+    if hit is None or hit[1] is None:
+        return None
+    corners = layer.data[1][int(hit[1])]
+    points = layer.data[0][corners]                          # (3, 3) in the displayed dims
+    origin = np.asarray(position, float)[list(dims_displayed)]
+    direction = np.asarray(view_direction, float)[list(dims_displayed)]
+    direction = direction / np.linalg.norm(direction)
+    offsets = points - origin
+    off_line = offsets - np.outer(offsets @ direction, direction)
+    return int(corners[np.argmin(np.linalg.norm(off_line, axis=1))])

@@ -273,7 +273,7 @@ def test_a_mesh_dataset_places_its_volumes_by_meta_json(tmp_path, capsys):
          "intensity": {"voxel_size": [0.02, 0.02, 0.02], "origin": [-0.3, -0.3, -0.1]}}))
     assert main(["run", str(path), "--out", str(out), "--quiet", "--tracking", "texture"]) == 0
     summary = json.loads((out / "meshes" / "summary.json").read_text())
-    assert summary["pullbacks"]["shell"].startswith("-10 to 10 um")
+    assert summary["pullbacks"]["shell"].startswith("-10 to 10 µm")
     assert summary["pullbacks"]["in_view"] > 0.99
     with np.load(out / "meshes" / "arrays.npz") as a:
         moved = a["pathlines_uv"] - a["pathlines_uv"][:, :, :1]

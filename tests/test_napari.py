@@ -148,6 +148,8 @@ def test_the_linked_views_move_with_the_slider_and_follow_a_picked_node(run_out)
     viewer = ViewerModel(ndisplay=3)
     walls = WallsOverTime(viewer, run_out / "normal")
     views = LinkedViews(res, "radial_curvature_outer_per_mm")
+    import matplotlib.pyplot as plt                   # not one of pyplot's, kept open for ever
+    assert all(plt.figure(n) is not views.figure for n in plt.get_fignums())
     redrawn = []
     views.follow(walls, redraw=lambda: redrawn.append(walls.frame))
     field, t_ms = res["radial_curvature_outer_per_mm"], res["t_ms"]

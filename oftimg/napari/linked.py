@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..output.style import COLUMN_MM, colour_bar, colour_scale, house_style, new_figure
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ..output.style import COLUMN_MM, MM, colour_bar, colour_scale, house_style
 
 UNIT_SUFFIXES = ("_per_mm", "_mm2", "_mm", "_ms", "_um")
 
@@ -49,7 +52,11 @@ class LinkedViews:
         self.t_ms, self.s_mm = results["t_ms"], results["s_mm"]
         self.area = results[f"area_{wall}_mm2"] if f"area_{wall}_mm2" in results \
             else results["area_outer_mm2"]                              # (v, t)
-        self.figure, axes = new_figure(COLUMN_MM, 190, nrows=3)    # a column beside napari
+        # a Figure of its own, not pyplot's (which keeps every figure it made open):
+        # a column beside napari's canvas
+        self.figure = Figure(figsize=(COLUMN_MM * MM, 190 * MM), layout="constrained")
+        FigureCanvasAgg(self.figure)            # drawn off screen until a Qt canvas takes it
+        axes = self.figure.subplots(nrows=3)
         self.ax_field, self.ax_map, self.ax_node = axes
         self.frame, self.node = 0, None
         self._map()

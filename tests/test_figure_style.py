@@ -53,6 +53,7 @@ def _texts(fig):
 
 
 ASCII_UNIT = re.compile(r"\bum\b|\+-|\+/-|\^\d|\bR\^")   # µm, ±, mm², R² as typed
+RAW_EXPONENT = re.compile(r"\d[eE][+\-\u2212]?\d")             # 5.68e-04, 1e−5
 
 
 def _drawn_colours(handle) -> list:
@@ -125,6 +126,8 @@ def layout_problems(fig) -> list[str]:
         plain = re.sub(r"\$[^$]*\$", "", text.get_text())      # mathtext ($^2$) is typeset
         if ASCII_UNIT.search(plain):
             problems.append(f"text {text.get_text()!r} types a unit or sign in ASCII")
+        if RAW_EXPONENT.search(plain):
+            problems.append(f"text {text.get_text()!r} shows a raw exponent")
     width, height = fig.bbox.width, fig.bbox.height
     for text, box in texts:
         if box.x0 < -1 or box.y0 < -1 or box.x1 > width + 1 or box.y1 > height + 1:
@@ -277,6 +280,7 @@ def test_the_layout_check_finds_what_a_reader_cannot_see_or_read():
         ax.plot([], [], "w*", label="one sigma")
         ax.legend()
         ax.set_xlabel("thickness (um)")
+        ax.set_title("rate 5.68e-04 mm$^2$/ms")
         ax.set_ylabel("area (mm^2)")
         image = ax.imshow(np.zeros((3, 3)))
         fig.colorbar(image, ax=ax, shrink=0.3,
@@ -289,3 +293,4 @@ def test_the_layout_check_finds_what_a_reader_cannot_see_or_read():
     assert "'thickness (um)' types a unit or sign in ASCII" in problems
     assert "'area (mm^2)' types a unit or sign in ASCII" in problems
     assert "is longer than its bar" in problems
+    assert "'rate 5.68e-04 mm$^2$/ms' shows a raw exponent" in problems

@@ -286,8 +286,10 @@ def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
     wax.set_title("key: hue = direction\n(d/dt right, d/ds up),\nbrightness = size",
                   fontsize=7)
     if rates is not None:
-        wax.text(0.5, -0.08, "max expansion\n%.2e mm$^2$/ms\nmax contraction\n%.2e mm$^2$/ms"
-                 % rates, fontsize=7, ha="center", va="top", transform=wax.transAxes)
+        expand, contract = (numbers.number(1e6 * r) for r in rates)   # mm² -> µm²: no 1e-04
+        wax.text(0.5, -0.08, f"max expansion\n{expand} µm²/ms\nmax contraction\n"
+                 f"{contract} µm²/ms", fontsize=7, ha="center", va="top",
+                 transform=wax.transAxes)
     return save(fig, path)
 
 

@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 
 from ..mesh.strain import grid_triangles
+from ..output.export import WALLS
 from ..output.paraview import node_field_names
 from ..output.results import Results, load_results, result_folders
 from ..output.style import colour_scale
 
-WALLS = ("outer", "inner", "lumen")
 WALL_NAMES = {"outer": "outer wall", "inner": "inner wall", "lumen": "lumen"}
 # the field each wall is coloured by when none is asked for (the first it has)
 DEFAULT_FIELDS = {"outer": ("radial_curvature_outer_per_mm", "strain_energy_outer"),

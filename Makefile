@@ -37,6 +37,10 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/oftimg demo --out $(DEMO_OUT) --overwrite
 
+# what Qt's xcb platform (napari's window under Xvfb) loads besides Qt itself
+QT_XCB_LIBS = libxcb-cursor0 libxkbcommon-x11-0 libxcb-icccm4 libxcb-image0 libxcb-keysyms1 \
+  libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xinerama0 libxcb-xkb1
+
 test: $(STAMP)
 	command -v chromium >/dev/null || { \
 	  echo "the report test needs a headless browser: installing chromium with apt-get"; \
@@ -44,7 +48,10 @@ test: $(STAMP)
 	$(PY) -c "from qtpy import QtWidgets" 2>/dev/null || { \
 	  echo "Qt (the napari widget's tests) cannot load its system libraries: installing them with apt-get"; \
 	  $(APT_INSTALL) libgl1 libegl1 libxkbcommon0 libfontconfig1 libdbus-1-3 $(APT_DONE); }
-	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
+	command -v xvfb-run >/dev/null || { \
+	  echo "napari's window tests need a virtual screen: installing xvfb with apt-get"; \
+	  $(APT_INSTALL) xvfb xauth $(QT_XCB_LIBS) $(APT_DONE); }
+	xvfb-run -a -s "-screen 0 1600x1000x24" $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 # The suite against the oldest releases pyproject.toml allows (uv's lowest-direct
 # resolution), in .venv-lowest: checks that those lower bounds are true.

@@ -3,6 +3,7 @@ terminal (a CI log, a notebook, ``| tee``), a plain line every :data:`LINE_EVERY
 seconds, so that a long command is never silent for long."""
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
@@ -11,6 +12,8 @@ import weakref
 from tqdm import tqdm
 
 LINE_EVERY_S = 10.0     # off a terminal: a line at least this often while a bar is open
+# a program reading the lines (napari's run panel) asks for them more often
+EVERY_S_VARIABLE = "OFTIMG_PROGRESS_EVERY_S"
 PLURAL = {"mesh": "meshes", "series": "series"}
 
 
@@ -100,9 +103,11 @@ class Progress:
 
 
 def _every_interval(progress: weakref.ref, stop: threading.Event) -> None:
-    """A line every :data:`LINE_EVERY_S` seconds until the bar is closed or gone (a bar
-    left open by an error does not write on for ever)."""
-    while not stop.wait(LINE_EVERY_S):
+    """A line every :data:`LINE_EVERY_S` seconds (or as the environment variable
+    :data:`EVERY_S_VARIABLE` says) until the bar is closed or gone (a bar left open by
+    an error does not write on for ever)."""
+    every_s = float(os.environ.get(EVERY_S_VARIABLE) or LINE_EVERY_S)
+    while not stop.wait(every_s):
         bar = progress()
         if bar is None:
             return

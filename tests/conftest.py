@@ -1,4 +1,5 @@
 import contextlib
+import os
 import warnings
 
 import pytest
@@ -7,6 +8,11 @@ from oftimg.errors import OftimgWarning
 from oftimg.synthetic.phantom import sample_params, write_phantom
 
 SMALL = dict(n_frames=36, vertices_min=2500, vertices_max=3500)
+
+# Qt (the napari tests) without a screen draws off screen; make test gives one (Xvfb),
+# on which napari's own window is tested too (tests/test_napari_window.py)
+if not os.environ.get("DISPLAY"):
+    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
 
 @pytest.fixture(scope="session")

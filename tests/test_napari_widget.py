@@ -1,12 +1,9 @@
 """The napari dock widget (issue 63): opening a result, the field list, the views
 linked to the slider, clicks on the (u, v) image and on a wall. Qt offscreen with a
-headless napari ViewerModel (the window itself: to come, under Xvfb)."""
-import os
-
+headless napari ViewerModel (the window itself: tests/test_napari_window.py)."""
 import numpy as np
 import pytest
 
-os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 pytest.importorskip("napari")
 pytest.importorskip("qtpy.QtWidgets")
 pytest.importorskip("pytestqt")

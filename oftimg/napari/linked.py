@@ -3,7 +3,10 @@ field at the current frame as a (u, v) image (seam at u = 0 and 1, inlet at the
 bottom), the (v, t) area map with a cursor at the current time, and the time course of
 a picked grid node (the field there and its row's section area) with the current time
 marked. Drawn with matplotlib in the house style, so that the same views are a Qt dock
-widget in napari's window or a figure anywhere else.
+widget in napari's window or a figure anywhere else. What moves with time (the frame's
+image, its time, the cursors, the marker) is drawn over a stored background
+(matplotlib's blitting): a slider step redraws in a few milliseconds, not the ~130 ms of
+the whole figure.
 """
 from __future__ import annotations
 
@@ -58,9 +61,42 @@ class LinkedViews:
         FigureCanvasAgg(self.figure)            # drawn off screen until a Qt canvas takes it
         axes = self.figure.subplots(nrows=3)
         self.ax_field, self.ax_map, self.ax_node = axes
-        self.frame, self.node = 0, None
+        self.frame, self.node, self.now, self._background = 0, None, None, None
         self._map()
         self.set_field(field)
+        self.ax_node.set_axis_off()                 # until a node is picked: how to pick one
+        self.ax_node.text(0.5, 0.5, "click the (u, v) image or a wall\nto follow a node "
+                          "over the cycle", ha="center", va="center", fontsize=7, color="0.3",
+                          transform=self.ax_node.transAxes)
+        # the callbacks live on the figure: they hold for any canvas that later shows it
+        self.figure.canvas.mpl_connect("draw_event", self._drawn)
+
+    def moving(self) -> list:
+        """The artists that change with the frame (animated: a full draw leaves them
+        out, :meth:`redraw_frame` draws them over the background)."""
+        return [a for a in (self.image, self.time_title, self.cursor, self.marker, self.now)
+                if a is not None]
+
+    def _drawn(self, event) -> None:
+        """After a full draw: keep it as the background, and draw what moves on it."""
+        self._background = self.figure.canvas.copy_from_bbox(self.figure.bbox)
+        for artist in self.moving():
+            self.figure.draw_artist(artist)
+
+    def redraw_frame(self) -> None:
+        """Show the current frame on the figure's canvas: the moving artists over the
+        background of the last full draw (a full draw if there is none yet)."""
+        canvas = self.figure.canvas
+        if self._background is None:
+            canvas.draw_idle()
+            return
+        canvas.restore_region(self._background)
+        for artist in self.moving():
+            self.figure.draw_artist(artist)
+        if hasattr(canvas, "update"):    # a Qt canvas: painted with the window's next paint
+            canvas.update()              # (its blit repaints the whole window at once)
+        else:
+            canvas.blit(self.figure.bbox)
 
     def _map(self) -> None:
         ax = self.ax_map
@@ -69,7 +105,7 @@ class LinkedViews:
                           extent=[self.t_ms[0] - step / 2, self.t_ms[-1] + step / 2,
                                   self.s_mm[0], self.s_mm[-1]], **colour_scale(self.area))
         colour_bar(self.figure, image, ax, f"{self.wall} section area (mm$^2$)")
-        self.cursor = ax.axvline(self.t_ms[0], color="w", lw=1.2)
+        self.cursor = ax.axvline(self.t_ms[0], color="w", lw=1.2, animated=True)
         small_ticks(ax, self.figure.axes[-1])                            # and its colour bar
         ax.set_xlabel("time since minimum volume (ms)")
         ax.set_ylabel("position along the tube s (mm)")
@@ -85,11 +121,14 @@ class LinkedViews:
             self.image = ax.imshow(self.field[:, :, self.frame].T, origin="lower",
                                    aspect="auto", **scale,
                                    extent=[-0.5 / n_u, 1 - 0.5 / n_u,
-                                           -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)])
+                                           -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)],
+                                   animated=True)
             self.bar = colour_bar(self.figure, self.image, ax, axis_label(self.results, field))
             ax.set_xlabel("u around the tube (0 and 1: the seam)")
             ax.set_ylabel("v along (0: inlet, 1: outlet)")
-            self.marker, = ax.plot([], [], "k+", ms=9, mew=1.5)
+            self.marker, = ax.plot([], [], "k+", ms=9, mew=1.5, animated=True)
+            self.time_title = ax.set_title(" ")          # the field and the time: moves
+            self.time_title.set_animated(True)
             small_ticks(ax, self.bar.ax)
         else:
             self.image.set_cmap(scale["cmap"])
@@ -104,11 +143,15 @@ class LinkedViews:
         """Move every view to frame ``t``."""
         self.frame = int(np.clip(t, 0, len(self.t_ms) - 1))
         self.image.set_data(self.field[:, :, self.frame].T)
-        self.ax_field.set_title(f"{readable(self.field_name)} at t = "
-                                f"{self.t_ms[self.frame]:.0f} ms")
+        self.time_title.set_text(f"{readable(self.field_name)} at t = "
+                                 f"{self.t_ms[self.frame]:.0f} ms")
         self.cursor.set_xdata([self.t_ms[self.frame]] * 2)
         if self.node is not None:
             self.now.set_xdata([self.t_ms[self.frame]] * 2)
+
+    def frame_at(self, t_ms: float) -> int:
+        """The frame nearest time ``t_ms`` (ms) of the area map."""
+        return int(np.argmin(np.abs(self.t_ms - t_ms)))
 
     def node_at(self, u: float, v: float) -> tuple[int, int]:
         """The grid node ``(i_u, i_v)`` nearest the (u, v) image's point ``(u, v)``."""
@@ -125,6 +168,7 @@ class LinkedViews:
         self.marker.set_data([i_u / n_u], [i_v / (n_v - 1)])
         ax = self.ax_node
         ax.clear()
+        ax.set_axis_on()
         ax.plot(self.t_ms, self.field[i_u, i_v], color="k", lw=1.2)
         ax.set_ylabel(axis_label(self.results, self.field_name))
         ax.set_xlabel("time since minimum volume (ms)")
@@ -138,7 +182,7 @@ class LinkedViews:
         twin.plot(self.t_ms, self.area[i_v], color="#0072B2", lw=1.0, ls="--")
         twin.set_ylabel("its row's area (mm$^2$)", color="#0072B2")
         ax.set_title(f"node u = {i_u / n_u:.2f}, v = {i_v / (n_v - 1):.2f}")
-        self.now = ax.axvline(self.t_ms[self.frame], color="0.5", lw=0.8)
+        self.now = ax.axvline(self.t_ms[self.frame], color="0.5", lw=0.8, animated=True)
         small_ticks(ax, twin)
 
     def pick_vertex(self, index: int) -> tuple[int, int]:
@@ -150,11 +194,12 @@ class LinkedViews:
 
     def follow(self, walls, redraw=None) -> None:
         """Move with ``walls``' time slider (a :class:`~oftimg.napari.walls.WallsOverTime`),
-        calling ``redraw()`` after each move (a Qt canvas's ``draw_idle``)."""
+        calling ``redraw()`` after each move (default :meth:`redraw_frame`)."""
+        redraw = redraw or self.redraw_frame
+
         def moved(event=None):
             self.set_frame(walls.frame)
-            if redraw is not None:
-                redraw()
+            redraw()
         walls.viewer.dims.events.current_step.connect(moved)
         self._moved = (walls, moved)
         moved()

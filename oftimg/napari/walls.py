@@ -14,6 +14,9 @@ from ..output.results import load_results
 from .reader import WALLS, field_colours, field_label, wall_fields, wall_style
 
 
+AXIS_LABELS = ("frame", "z (mm)", "y (mm)", "x (mm)")
+
+
 class WallsOverTime:
     """One results folder's walls in ``viewer`` (a napari ``Viewer`` or
     ``ViewerModel``), coloured by ``field`` where a wall has it (default: each wall's
@@ -36,6 +39,11 @@ class WallsOverTime:
             values, kwargs = wall_style(self.results, w, field)
             self.values[w] = values
             self.layers[w] = viewer.add_surface(self._frame_data(w, 0), **kwargs)
+            self.layers[w].metadata["oftimg"]["frame"] = 0
+            self.layers[w].events.visible.connect(self.show_current)
+        if len(viewer.layers) == len(self.walls) + 1:      # only ours: fit the view to the walls
+            viewer.dims.axis_labels = AXIS_LABELS
+            viewer.reset_view()
         viewer.dims.events.current_step.connect(self.show_current)
         self.show_current()
 
@@ -52,10 +60,14 @@ class WallsOverTime:
         return vertices, self.faces, values[:, :, t].reshape(-1).astype(float)
 
     def show_current(self, event=None) -> None:
-        """Put the current frame's vertices and values into each wall's layer."""
+        """Put the current frame's vertices and values into each shown wall's layer (a
+        hidden wall gets its frame when it is shown: each wall's new frame costs vispy
+        a shader rebuild, vispy/vispy#2568)."""
         t = self.frame
         for w, layer in self.layers.items():
-            layer.data = self._frame_data(w, t)
+            if layer.visible and layer.metadata["oftimg"].get("frame") != t:
+                layer.data = self._frame_data(w, t)
+                layer.metadata["oftimg"]["frame"] = t
 
     def colour_by(self, field: str) -> list[str]:
         """Colour every wall that has ``field`` by it (the others keep theirs);
@@ -66,6 +78,7 @@ class WallsOverTime:
                 continue
             self.values[w] = self.results[field]
             layer.data = self._frame_data(w, self.frame)
+            layer.metadata["oftimg"]["frame"] = self.frame
             colours = field_colours(self.values[w])
             layer.colormap, layer.contrast_limits = colours["colormap"], colours["contrast_limits"]
             layer.metadata["oftimg"].update(field=field, label=field_label(self.results, field))
@@ -75,3 +88,5 @@ class WallsOverTime:
     def close(self) -> None:
         """Stop following the time slider."""
         self.viewer.dims.events.current_step.disconnect(self.show_current)
+        for layer in self.layers.values():
+            layer.events.visible.disconnect(self.show_current)

@@ -1,7 +1,9 @@
-"""The dock widget in napari's window: open a results folder, choose the field, and
-see the linked views (:class:`~oftimg.napari.linked.LinkedViews`) move with the time
-slider; a click on the (u, v) image, or on a wall in the 3-D view, picks the node
-whose time course is plotted. Needs napari's Qt (``pip install "napari[all]"``).
+"""The dock widget in napari's window: open a results folder (or run a dataset,
+:class:`~oftimg.napari.run.RunPanel`), choose the field, and see the linked views
+(:class:`~oftimg.napari.linked.LinkedViews`) move with the time slider; a click on the
+(u, v) image, or on a wall in the 3-D view, picks the node whose time course is
+plotted; a click on the area map moves the time slider there. Needs napari's Qt
+(``pip install "napari[all]"``).
 """
 from __future__ import annotations
 
@@ -12,9 +14,11 @@ import numpy as np
 from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
 from qtpy.QtWidgets import QComboBox, QFileDialog, QLabel, QPushButton, QVBoxLayout, QWidget
 
-from ..output.results import load_results
+from ..errors import InputError
+from ..output.results import load_results, result_folders
 from .linked import LinkedViews
 from .reader import wall_fields
+from .run import RunPanel
 from .walls import WallsOverTime
 
 
@@ -32,17 +36,24 @@ class OftimgWidget(QWidget):
         self.fields = QComboBox()
         self.fields.currentTextChanged.connect(self.set_field)
         self.status = QLabel("no results open")
-        for w in (self.open_button, self.fields, self.status):
+        self.status.setWordWrap(True)
+        self.run_panel = RunPanel(done=self.open)
+        for w in (self.open_button, self.run_panel, self.fields, self.status):
             self.layout().addWidget(w)
 
     def _choose_folder(self) -> None:
         folder = QFileDialog.getExistingDirectory(self, "An oftimg results folder (OUT/<name>)")
         if folder:
-            self.open(folder)
+            try:
+                self.open(folder)
+            except InputError as exc:                  # the command line's one line
+                self.status.setText(f"error: {exc}")
 
     def open(self, folder) -> None:
-        """Show the results in ``folder`` (one dataset's, ``OUT/<name>``): the walls
-        over time in the viewer, the linked views here."""
+        """Show the results in ``folder`` (one dataset's, ``OUT/<name>``, or a run's
+        ``OUT``: its first dataset's): the walls over time in the viewer, the linked
+        views here."""
+        folder = result_folders(folder)[0]
         self.close_results()
         results = load_results(folder)
         self.walls = WallsOverTime(self.viewer, folder)
@@ -52,7 +63,7 @@ class OftimgWidget(QWidget):
         self.canvas = FigureCanvasQTAgg(self.views.figure)
         self.canvas.mpl_connect("button_press_event", self._clicked_image)
         self.layout().addWidget(self.canvas)
-        self.views.follow(self.walls, redraw=self.canvas.draw_idle)
+        self.views.follow(self.walls)
         for layer in self.walls.layers.values():
             layer.mouse_drag_callbacks.append(self._clicked_wall)
         self.fields.blockSignals(True)
@@ -71,9 +82,15 @@ class OftimgWidget(QWidget):
         self.canvas.draw_idle()
 
     def _clicked_image(self, event) -> None:
-        if event.inaxes is self.views.ax_field and event.xdata is not None:
+        """A click on the (u, v) image picks its node; on the area map, moves the time
+        slider to the frame clicked."""
+        if event.xdata is None:
+            return
+        if event.inaxes is self.views.ax_field:
             self.views.pick(*self.views.node_at(event.xdata, event.ydata))
             self.canvas.draw_idle()
+        elif event.inaxes is self.views.ax_map:
+            self.viewer.dims.set_current_step(0, self.views.frame_at(event.xdata))
 
     def _clicked_wall(self, layer, event) -> None:
         """A click on a wall in the 3-D view: of the triangle hit, the vertex nearest

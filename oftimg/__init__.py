@@ -9,10 +9,10 @@ __version__ = "0.1.0"
 # the layers, lowest first: the leaves (errors, a progress bar), per-frame mesh
 # geometry, the dataset contract and files, maps and fields as images, the stages of
 # one dataset, results written and read back, synthetic data with a known truth, the
-# orchestration of runs (API, worker pools), and the command line and the napari
-# plugin on top
+# orchestration of runs (API, worker pools), and the command line (python -m oftimg
+# too) and the napari plugin on top
 LAYERS = (("errors", "progress"), ("mesh",), ("io",), ("image",), ("analysis",),
-          ("output",), ("synthetic",), ("api", "workers"), ("cli", "napari"))
+          ("output",), ("synthetic",), ("api", "workers"), ("cli", "napari", "__main__"))
 
 import importlib
 

@@ -21,7 +21,8 @@ def public_objects() -> list[str]:
     """Dotted names of every public function and class defined in oftimg's modules."""
     names = []
     modules = [oftimg.__name__] + [m.name for m in pkgutil.walk_packages(oftimg.__path__,
-                                                                          "oftimg.")]
+                                                                          "oftimg.")
+                                   if not m.name.endswith("__main__")]   # runs the CLI
     for module_name in modules:
         module = importlib.import_module(module_name)
         for name, obj in vars(module).items():

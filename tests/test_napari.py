@@ -179,3 +179,75 @@ def test_the_linked_views_move_with_the_slider_and_follow_a_picked_node(run_out)
     views.unfollow()
     viewer.dims.set_current_step(0, 2)
     assert views.frame == 4
+
+
+def test_a_mesh_dataset_opens_as_its_surfaces_over_time(phantom_normal):
+    """A dataset folder (drag and drop): each surface as meshed, frame by frame, in mm."""
+    from oftimg.io.meshfile import read_mesh_file
+    from oftimg.napari.volumes import dataset_layers
+
+    reader = napari_get_reader(str(phantom_normal))
+    assert reader is not None
+    layers = reader(str(phantom_normal))
+    assert [kwargs["name"] for _, kwargs, _ in layers] == [
+        "normal: outer (as meshed)", "normal: inner (as meshed)", "normal: lumen (as meshed)"]
+    (vertices, faces), _, kind = layers[2]
+    assert kind == "surface"
+    V, F = read_mesh_file(sorted((phantom_normal / "lumen").iterdir())[7])
+    frame = vertices[:, 0].astype(int)
+    np.testing.assert_allclose(vertices[frame == 7, 1:], V[:, ::-1])        # mm (z, y, x)
+    assert np.all(frame[faces] == 7 * np.ones((1, 3), int), axis=1).sum() == len(F)
+    assert dataset_layers is not None
+
+
+def test_a_result_finds_its_dataset_and_its_volumes_come_in_the_cycle_s_order(
+        run_out, phantom_normal, tmp_path):
+    """The volumes under a result's walls: input frame (t + t0_frame) mod n at result
+    frame t; labels and intensity on the labels' voxels, in mm."""
+    import oftimg
+    from oftimg.napari.volumes import cycle_order, dataset_of, result_volumes, volume_layers
+    from oftimg.synthetic.labels import write_label_phantom
+    from oftimg.synthetic.phantom import sample_params
+
+    res = oftimg.load_results(run_out / "normal")
+    assert dataset_of(res) == phantom_normal
+    assert result_volumes(res) == []                       # meshes only: no volumes
+    assert cycle_order(5, 3).tolist() == [3, 4, 0, 1, 2]
+    path = tmp_path / "tex"
+    write_label_phantom(path, sample_params("normal", 0, n_frames=4), (4.0, 4.0, 8.0),
+                        intensity=True)
+    from oftimg.io.label_dataset import load_label_dataset, read_frame
+
+    lds = load_label_dataset(path)
+    order = cycle_order(4, 1)
+    (labels, lkw, lkind), (image, ikw, ikind) = volume_layers(path, order)
+    assert (lkind, ikind) == ("labels", "image")
+    assert labels.shape == (4, *lds.shape) and image.shape == (4, *lds.shape)
+    np.testing.assert_allclose(lkw["scale"], (1, 0.008, 0.004, 0.004))    # mm, (t, z, y, x)
+    np.testing.assert_allclose(ikw["scale"], lkw["scale"])
+    np.testing.assert_array_equal(np.asarray(labels[0]), read_frame(lds.sources[1]))
+    np.testing.assert_array_equal(np.asarray(image[3]), lds.intensity.volume(0))
+    assert lkw["visible"] is False and ikw["rendering"] == "mip"
+    low, high = ikw["contrast_limits"]
+    assert 0 <= low < high
+
+
+def test_a_hidden_wall_gets_its_frame_when_it_is_shown(run_out):
+    """Each wall's new frame costs vispy a shader rebuild: a hidden wall is not
+    updated while hidden, and shows the slider's frame as soon as it is shown."""
+    import oftimg
+    from napari.components import ViewerModel
+
+    from oftimg.napari.walls import AXIS_LABELS, WallsOverTime
+
+    res = oftimg.load_results(run_out / "normal")
+    viewer = ViewerModel(ndisplay=3)
+    walls = WallsOverTime(viewer, run_out / "normal")
+    assert tuple(viewer.dims.axis_labels) == AXIS_LABELS
+    inner, before = walls.layers["inner"], walls.frame         # napari starts mid-slider
+    inner.visible = False
+    viewer.dims.set_current_step(0, 5)
+    np.testing.assert_array_equal(inner.data[0],
+                                  res["inner"][:, :, before].reshape(-1, 3)[:, ::-1])
+    inner.visible = True
+    np.testing.assert_array_equal(inner.data[0], res["inner"][:, :, 5].reshape(-1, 3)[:, ::-1])

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.dataset import is_dataset
 from ..mesh.strain import grid_triangles
 from ..output.export import WALLS
 from ..output.paraview import node_field_names
@@ -90,24 +91,34 @@ def wall_layer(results: Results, wall: str, field: str | None = None) -> tuple:
 
 def results_layers(path, field: str | None = None) -> list[tuple]:
     """Every wall of every dataset's results under ``path`` (one results folder or a
-    run's ``--out``) as napari layer-data tuples (:func:`wall_layer`)."""
+    run's ``--out``) as napari layer-data tuples (:func:`wall_layer`), over the
+    volumes of the dataset each was made from when it is still there
+    (:func:`~oftimg.napari.volumes.result_volumes`)."""
+    from .volumes import result_volumes
+
     layers = []
     for folder in result_folders(path):
         results = load_results(folder)
+        layers += result_volumes(results)
         layers += [wall_layer(results, w, field) for w in WALLS if w in results]
     return layers
 
 
 def napari_get_reader(path):
     """napari's reader hook: :func:`results_layers` for a results folder or a run's
-    ``--out`` (a folder with summary.json, or with run.json), else None (another
-    plugin may read it)."""
+    ``--out`` (a folder with summary.json, or with run.json),
+    :func:`~oftimg.napari.volumes.dataset_layers` for a dataset folder (meshes, labels,
+    intensity volumes), else None (another plugin may read it)."""
     if isinstance(path, list):
         path = path[0] if len(path) == 1 else None
     if path is None:
         return None
     path = Path(path)
-    if not path.is_dir() or not ((path / "summary.json").is_file()
-                                 or (path / "run.json").is_file()):
+    if not path.is_dir():
         return None
-    return results_layers
+    if (path / "summary.json").is_file() or (path / "run.json").is_file():
+        return results_layers
+    if is_dataset(path):
+        from .volumes import dataset_layers
+        return dataset_layers
+    return None

@@ -12,6 +12,7 @@ import numpy as np
 from ..mesh.strain import grid_triangles
 from ..output.results import load_results
 from .reader import WALLS, field_colours, field_label, wall_fields, wall_style
+from .volumes import result_volumes
 
 
 AXIS_LABELS = ("frame", "z (mm)", "y (mm)", "x (mm)")
@@ -23,7 +24,7 @@ class WallsOverTime:
     own, :data:`~oftimg.napari.reader.DEFAULT_FIELDS`); time is the viewer's first
     axis, in frames of the aligned cycle (``t_ms``)."""
 
-    def __init__(self, viewer, folder, field: str | None = None):
+    def __init__(self, viewer, folder, field: str | None = None, volumes: bool = True):
         self.viewer, self.results = viewer, load_results(folder)
         self.t_ms = self.results["t_ms"]
         self.walls = [w for w in WALLS if w in self.results]
@@ -34,6 +35,9 @@ class WallsOverTime:
         ends[1, 0] = len(self.t_ms) - 1
         self.clock = viewer.add_points(ends, name=f"{self.results.name}: frames",
                                        visible=False, size=0)
+        # the dataset's volumes under the walls, if it is still where it was read
+        self.volumes = [getattr(viewer, f"add_{kind}")(data, **kwargs) for data, kwargs, kind
+                        in (result_volumes(self.results) if volumes else [])]
         self.values, self.layers = {}, {}
         for w in self.walls:
             values, kwargs = wall_style(self.results, w, field)
@@ -41,7 +45,8 @@ class WallsOverTime:
             self.layers[w] = viewer.add_surface(self._frame_data(w, 0), **kwargs)
             self.layers[w].metadata["oftimg"]["frame"] = 0
             self.layers[w].events.visible.connect(self.show_current)
-        if len(viewer.layers) == len(self.walls) + 1:      # only ours: fit the view to the walls
+        if len(viewer.layers) == len(self.walls) + len(self.volumes) + 1:
+            # only ours: fit the view to them
             viewer.dims.axis_labels = AXIS_LABELS
             viewer.reset_view()
         viewer.dims.events.current_step.connect(self.show_current)

@@ -107,7 +107,7 @@ class OftimgWidget(QWidget):
             return
         self.views.unfollow()
         self.walls.close()
-        for layer in [*self.walls.layers.values(), self.walls.clock]:
+        for layer in [*self.walls.layers.values(), self.walls.clock, *self.walls.volumes]:
             if layer in self.viewer.layers:
                 self.viewer.layers.remove(layer)
         self.layout().removeWidget(self.canvas)

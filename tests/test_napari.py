@@ -251,3 +251,21 @@ def test_a_hidden_wall_gets_its_frame_when_it_is_shown(run_out):
                                   res["inner"][:, :, before].reshape(-1, 3)[:, ::-1])
     inner.visible = True
     np.testing.assert_array_equal(inner.data[0], res["inner"][:, :, 5].reshape(-1, 3)[:, ::-1])
+
+
+def test_the_first_view_has_the_outlet_up_and_looks_at_the_bend():
+    """A tube bent in the (z, x) plane, inlet at z = 0: up is from inlet to outlet,
+    the view is perpendicular to the bend's plane, tilted 30 degrees from above."""
+    from oftimg.napari.walls import TILT_DEG, oblique_view
+
+    s = np.linspace(0, np.pi / 2, 50)                               # a quarter circle
+    u = np.linspace(0, 2 * np.pi, 80, endpoint=False)[:, None]
+    centre = np.stack([np.sin(s), 0 * s, 1 - np.cos(s)], axis=-1)  # (z, y, x)
+    grid = centre[None] + 0.1 * np.stack([0 * u + 0 * s, np.cos(u) + 0 * s,
+                                          np.sin(u) + 0 * s], axis=-1)
+    view, up = oblique_view(grid)
+    chord = centre[-1] - centre[0]
+    np.testing.assert_allclose(up, chord / np.linalg.norm(chord), atol=0.02)
+    assert np.degrees(np.arcsin(-view @ up)) == pytest.approx(TILT_DEG, abs=0.5)
+    side = view + np.sin(np.radians(TILT_DEG)) * up                 # its part off the axis
+    assert abs(side[1]) == pytest.approx(np.cos(np.radians(TILT_DEG)), abs=0.02)  # along y

@@ -16,6 +16,24 @@ from .volumes import result_volumes
 
 
 AXIS_LABELS = ("frame", "z (mm)", "y (mm)", "x (mm)")
+TILT_DEG = 30.0         # the first view: from beside the tube's bend, this far from the outlet
+
+
+def oblique_view(grid_zyx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A first camera for one frame's grid ``(n_u, n_v, 3)`` (z, y, x): the view
+    direction and the up direction (napari's ``camera.set_view_direction``). Up runs
+    from the inlet to the outlet, as v does in the (u, v) image; the view looks at the
+    plane the centreline bends in, from :data:`TILT_DEG` towards the outlet, so the
+    tube's curve and its outlet opening both show."""
+    centres = grid_zyx.mean(axis=0)                       # (n_v, 3) ring centres
+    up = centres[-1] - centres[0]
+    up /= np.linalg.norm(up)
+    _, _, axes = np.linalg.svd(centres - centres.mean(axis=0))
+    normal = np.cross(axes[0], axes[1])                   # of the bend's plane
+    normal -= (normal @ up) * up
+    normal /= np.linalg.norm(normal)
+    tilt = np.radians(TILT_DEG)
+    return np.cos(tilt) * normal - np.sin(tilt) * up, up
 
 
 class WallsOverTime:
@@ -49,6 +67,11 @@ class WallsOverTime:
             # only ours: fit the view to them
             viewer.dims.axis_labels = AXIS_LABELS
             viewer.reset_view()
+            if viewer.dims.ndisplay == 3:
+                view, up = oblique_view(self.grids[self.walls[0]][:, :, 0])
+                # napari 0.9 moved the camera to viewer.scene
+                camera = viewer.scene.camera if hasattr(viewer, "scene") else viewer.camera
+                camera.set_view_direction(tuple(view), tuple(up))
         viewer.dims.events.current_step.connect(self.show_current)
         self.show_current()
 

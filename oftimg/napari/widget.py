@@ -71,7 +71,10 @@ class OftimgWidget(QWidget):
         self.fields.addItems(fields)
         self.fields.setCurrentText(first)
         self.fields.blockSignals(False)
-        self.status.setText(f"{results.name} ({Path(folder)}): {len(results['t_ms'])} frames")
+        folder = Path(folder)                       # the full path: the tooltip
+        self.status.setText(f"{results.name}: {len(results['t_ms'])} frames, from "
+                            f"{folder.parent.name}/{folder.name}")
+        self.status.setToolTip(str(folder.resolve()))
 
     def set_field(self, field: str) -> None:
         """Colour the walls that have ``field`` and the (u, v) view by it."""

@@ -250,10 +250,12 @@ def test_strain_noise_is_the_change_the_roughness_makes():
     jitter = np.random.default_rng(1).standard_normal(smooth.shape)
     for size, sigma in ((0.002, 0.0), (0.002, 5.0), (0.005, 5.0), (0.005, 10.0),
                         (0.01, 10.0)):
-        energy, _, noise = smoothed_strain(smooth + size * r0 * jitter, period, sigma)
-        clean = smoothed_strain(smooth, period, sigma)[0]
+        energy, stretch, noise = smoothed_strain(smooth + size * r0 * jitter, period, sigma)
+        clean, clean_stretch, _ = smoothed_strain(smooth, period, sigma)
         change = np.median(np.abs(energy - clean)) / np.median(clean)
         assert 0.8 * change < noise["error_share"] < 1.25 * change
+        stretch_change = np.median(np.abs(stretch - clean_stretch))     # what arrays.npz's
+        assert 0.7 * stretch_change < noise["stretch_noise_median"] < 1.4 * stretch_change
         assert noise["smoothing_ms"] == sigma
         # the median length of a 3-D normal vector of SD s: 1.54 s
         assert noise["node_noise_mm"] == pytest.approx(1.54 * size * r0, rel=0.05)

@@ -176,3 +176,38 @@ def test_results_are_stored_compressed_to_a_stated_precision(tmp_path):
     with zipfile.ZipFile(tmp_path / "a.npz") as zf:
         assert {i.compress_type for i in zf.infolist()} == {zipfile.ZIP_DEFLATED}
     assert (tmp_path / "a.npz").stat().st_size < 0.8 * grid.nbytes
+
+
+def test_a_field_with_measured_noise_keeps_only_the_bits_above_a_tenth_of_it(tmp_path):
+    """An array whose noise SD is known is stored to fewer mantissa bits, its largest
+    rounding error under a tenth of that noise, and arrays.json says so; without a
+    noise, 15 bits."""
+    import json
+
+    from oftimg.output.export import (MANTISSA_BITS_KEPT, NOISE_SHARE_KEPT, mantissa_bits,
+                                      write_arrays)
+
+    rng = np.random.default_rng(1)
+    field = (20 * np.sin(np.linspace(0, 6, 80 * 50 * 40)).reshape(80, 50, 40)
+             + rng.normal(0, 0.5, (80, 50, 40))).astype(np.float32)
+    assert mantissa_bits(field, None) == MANTISSA_BITS_KEPT
+    largest = float(np.abs(field).max())            # about 22
+    assert mantissa_bits(field, 0.5) == 8           # ceil(log2(22 / 0.05)) - 1
+    assert largest * 2.0 ** -9 <= 0.05 < largest * 2.0 ** -8
+    described = {k: {"dims": ["u", "v", "t"], "unit": "1/mm", "description": k}
+                 for k in ("noisy", "exact")}
+    write_arrays(tmp_path, {"arrays.npz": {"noisy": field, "exact": field}}, described,
+                 noise={"noisy": 0.5})
+    said = json.loads((tmp_path / "arrays.json").read_text())
+    assert said["noisy"]["mantissa_bits"] == 8 and said["exact"]["mantissa_bits"] == 15
+    assert said["noisy"]["noise_sd"] == 0.5 and "noise_sd" not in said["exact"]
+    with np.load(tmp_path / "arrays.npz") as back:
+        error = np.abs(back["noisy"].astype(float) - field).max()
+        assert error <= said["noisy"]["rounding_error_max"] <= NOISE_SHARE_KEPT * 0.5
+        assert np.abs(back["exact"].astype(float) - field).max() <= largest * 2.0 ** -16
+    import zlib
+
+    from oftimg.output.export import bit_round
+
+    sizes = [len(zlib.compress(bit_round(field, bits).tobytes(), 1)) for bits in (8, 15)]
+    assert sizes[0] < 0.8 * sizes[1]                # what the dropped bits cost zlib

@@ -234,7 +234,8 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
     over the grid kept), smoothed by the sigma and added once more to the
     smoothed grid. Its ``error_share`` is the median absolute change of the energy with it over
     the median absolute energy (every ``STRAIN_NOISE_EVERY``-th frame): the share by which
-    the noise alone moves the field, a square that noise biases up. On the phantoms
+    the noise alone moves the field, a square that noise biases up;
+    ``stretch_noise_median`` the median absolute change of the principal stretches. On the phantoms
     and a jittered cylinder it came out 0.85-1.2x the change the roughness made where
     that was under 0.4, and low above (about 0.5x for changes of 0.6-1.5). ``node_noise_mm`` is the
     noise's median length over nodes and frames; ``smoothing_ms`` the sigma taken.
@@ -242,7 +243,8 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
     """
     n_t = G.shape[2]
     ladder = RIDGE_SMOOTHING_LADDER_MS if smoothing_ms == "auto" else (float(smoothing_ms),)
-    noise = {"error_share": float("nan"), "node_noise_mm": float("nan")}
+    noise = {"error_share": float("nan"), "node_noise_mm": float("nan"),
+             "stretch_noise_median": float("nan")}
     if n_t < 10 or noise_seed is None:
         smoothed = _smoothed_grid(G, period_ms, ladder[0])
         return (*grid_strain(smoothed), {**noise, "smoothing_ms": ladder[0]})
@@ -259,12 +261,14 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
             whole, whole_ms = _smoothed_grid(G, period_ms, sigma), sigma
         # the first sigma's fields whole (most often the ones kept), the others' at the frames
         fields = grid_strain(whole) if sigma == ladder[0] else None
-        energy = (fields[0][:, :, frames] if fields is not None
-                  else grid_strain(whole[:, :, frames])[0])
+        energy, stretch = ((fields[0][:, :, frames], fields[1][:, :, frames])
+                           if fields is not None else grid_strain(whole[:, :, frames]))
         again = _smoothed_grid(residual, period_ms, sigma)[:, :, frames] + whole[:, :, frames]
-        change = np.abs(grid_strain(again)[0] - energy)
+        energy_again, stretch_again = grid_strain(again)
         del again                                # a grid's copies: ~7 MB each
+        change = np.abs(energy_again - energy)
         noise["error_share"] = float(np.nanmedian(change) / np.nanmedian(np.abs(energy)))
+        noise["stretch_noise_median"] = float(np.nanmedian(np.abs(stretch_again - stretch)))
         if not noise["error_share"] > STRAIN_NOISE_TARGET:
             break
     del residual

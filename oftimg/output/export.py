@@ -244,6 +244,42 @@ def write_json(path: Path, data: dict) -> None:
 # precision 2^-16 = 1.5e-5: 0.03 um on a 2 mm coordinate, far under the meshes' noise);
 # the bits dropped are noise to zlib, which then saves a third instead of a tenth
 MANTISSA_BITS_KEPT = 15
+# an array whose own noise is measured (a field's noise SD, oftimg.analysis.pipeline)
+# keeps fewer: its rounding error at most this share of that noise
+NOISE_SHARE_KEPT = 0.1
+MANTISSA_BITS_LEAST = 6
+
+
+def mantissa_bits(values: np.ndarray, noise_sd: float | None) -> int:
+    """The mantissa bits an array keeps: :data:`MANTISSA_BITS_KEPT`, or fewer where
+    its measured ``noise_sd`` (same unit) allows, so that the largest rounding error,
+    ``max |x| 2^-(bits + 1)``, stays under :data:`NOISE_SHARE_KEPT` of the noise (the
+    dropped bits are noise to zlib; none of the field's information is in them)."""
+    finite = np.abs(np.asarray(values, float)[np.isfinite(values)])
+    if not finite.size or noise_sd is None or not np.isfinite(noise_sd) or noise_sd <= 0:
+        return MANTISSA_BITS_KEPT
+    largest = float(finite.max())
+    if largest == 0:
+        return MANTISSA_BITS_KEPT
+    bits = int(np.ceil(np.log2(largest / (NOISE_SHARE_KEPT * noise_sd)))) - 1
+    return int(np.clip(bits, MANTISSA_BITS_LEAST, MANTISSA_BITS_KEPT))
+
+
+def measured_noise(summary: dict, arrays: dict) -> dict[str, float]:
+    """The noise SD of each stored field that the analysis measured, in the field's
+    unit: the smoothed fields' remaining noise (``field_noise``), and the strain
+    energies' and principal stretches' (``strain_noise``: the share by which the nodes'
+    noise moves the energy, times its median; the median change it makes in the
+    stretches)."""
+    noise = {k: v.get("noise_sd_smoothed") for k, v in (summary.get("field_noise") or {}).items()
+             if k in arrays}
+    for k, v in (summary.get("strain_noise") or {}).items():
+        if k in arrays and np.isfinite(v.get("error_share", np.nan)):
+            noise[k] = float(v["error_share"] * np.nanmedian(np.abs(arrays[k])))
+        stretch = k.replace("strain_energy_", "principal_stretch_")
+        if stretch in arrays:
+            noise[stretch] = v.get("stretch_noise_median")
+    return {k: float(v) for k, v in noise.items() if v is not None and np.isfinite(v)}
 
 
 def bit_round(values: np.ndarray, keep: int = MANTISSA_BITS_KEPT) -> np.ndarray:
@@ -273,23 +309,39 @@ def write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
 
 
 def write_arrays(folder: Path, files: dict[str, dict[str, np.ndarray]],
-                 described: dict[str, dict], made_on_load: dict[str, dict] | None = None
-                 ) -> None:
+                 described: dict[str, dict], made_on_load: dict[str, dict] | None = None,
+                 noise: dict[str, float] | None = None) -> None:
     """Each of ``files`` (file name -> its arrays) as ``folder/<file name>`` (npz),
     and one ``arrays.json`` giving every array's dims, unit and meaning
-    (``described``), its file, shape and dtype; and the entries ``made_on_load``
-    (arrays not stored, which :func:`~oftimg.output.results.load_results` makes from
-    stored ones: described in full, with what they are made from)."""
+    (``described``), its file, shape and dtype, and the precision it is stored to; and
+    the entries ``made_on_load`` (arrays not stored, which
+    :func:`~oftimg.output.results.load_results` makes from stored ones: described in
+    full, with what they are made from). ``noise``: an array's measured noise SD,
+    which lets it keep fewer mantissa bits (:func:`mantissa_bits`)."""
     missing = {k for arrays in files.values() for k in arrays} - set(described)
     if missing:
         raise ValueError(f"arrays without a description: {sorted(missing)}")
-    desc = {}
+    desc, noise = {}, noise or {}
     for file, arrays in files.items():
-        write_npz(folder / file, {k: bit_round(v) for k, v in arrays.items()})
+        bits = {k: mantissa_bits(v, noise.get(k)) for k, v in arrays.items()}
+        write_npz(folder / file, {k: bit_round(v, bits[k]) for k, v in arrays.items()})
         desc.update({k: dict(described[k], file=file, shape=list(np.shape(v)),
-                             dtype=str(np.asarray(v).dtype)) for k, v in arrays.items()})
+                             dtype=str(np.asarray(v).dtype), **_precision(v, bits[k],
+                                                                          noise.get(k)))
+                     for k, v in arrays.items()})
     desc.update(made_on_load or {})
     write_json(folder / "arrays.json", desc)
+
+
+def _precision(values, bits: int, noise_sd: float | None) -> dict:
+    """What arrays.json says of a float32 array's stored precision."""
+    if np.asarray(values).dtype != np.float32:
+        return {}
+    said = {"mantissa_bits": bits, "relative_precision": 2.0 ** -(bits + 1)}
+    if bits < MANTISSA_BITS_KEPT:
+        said.update(noise_sd=noise_sd, rounding_error_max=float(
+            np.nanmax(np.abs(values)) * 2.0 ** -(bits + 1)))
+    return said
 
 
 WALLS = ("outer", "inner", "lumen")
@@ -611,7 +663,7 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float | None = Non
                           **({"pca.npz": result["pca"]} if result.get("pca") else {}),
                           **({"pullbacks.npz": result["pullbacks"]}
                              if result.get("pullbacks") else {})},
-                 described, made_on_load)
+                 described, made_on_load, noise=measured_noise(result["summary"], arrays))
     timings["write_arrays_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     # the workers render the videos while this process draws the figures

@@ -33,6 +33,10 @@ def test_the_overlay_labels_the_axes_around_the_field_and_leaves_the_field_alone
     assert _ink(framed[3, BANNER + h:BANNER + h + 60, MARGIN_LEFT:MARGIN_LEFT + w]) > 0.02
     bar = framed[3, BANNER - 40:BANNER + h, MARGIN_LEFT + w:]
     assert _ink(bar) > 0.05                                          # the colour bar
+    streamed = field_frames(field, t_ms, label="radial curvature (1/mm)", title="outer wall",
+                            grid_note="tracked grid", length_mm=1.2, stream=True)
+    assert not isinstance(streamed, np.ndarray)                      # one frame at a time
+    assert np.array_equal(np.stack(list(streamed)), framed)         # the same frames
     assert _ink(bar[:20]) > 0.02                                     # and its label above it
     # the time stamp: in the white banner, different from frame to frame
     banner = framed[:, :BANNER, :MARGIN_LEFT + w]

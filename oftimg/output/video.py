@@ -198,8 +198,10 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
                  label="", scale: int = FIELD_SCALE, per_frame: bool = False, grid_note: str = "",
                  title: str = "", period_ms: float | None = None,
                  length_mm: float | None = None, reference_frame: int | None = None,
-                 annotate: bool = True):
-    """Video frames ``(n_t, rows, cols, 3)`` uint8 of a ``(n_u, n_v, n_t)`` field.
+                 annotate: bool = True, stream: bool = False):
+    """Video frames ``(n_t, rows, cols, 3)`` uint8 of a ``(n_u, n_v, n_t)`` field (with
+    ``stream``, the frames one at a time: an encoder needs no more, and a 195-frame
+    field video holds ~200 MB).
 
     One colour range for the whole cycle (``vmin``/``vmax``, default
     :func:`oftimg.output.style.colour_scale`'s: symmetric about 0 on a diverging
@@ -243,15 +245,16 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
         _stamp(frame, t_ms[t], (t_ms[t] % period) / period, MARGIN_LEFT + rgb.shape[1], note)
         return _even(frame)
 
-    return _stack(n_t, draw)
+    return (draw(t) for t in range(n_t)) if stream else _stack(n_t, draw)
 
 
 def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | None = None,
                       width: int = 720, height: int = 420, cmap=None,
-                      label: str = "cross-sectional area (mm²)"):
+                      label: str = "cross-sectional area (mm²)", stream: bool = False):
     """Frames of a ``(n_v, n_t)`` map (about ``width`` x ``height`` pixels) with a
     moving time cursor, its axes (time in ms, position along the tube in mm, inlet
-    at the bottom), its colour bar and the time in the banner."""
+    at the bottom), its colour bar and the time in the banner (``stream``: one at a
+    time, as :func:`field_frames`)."""
     from .style import SEQUENTIAL
 
     cmap = cmap or SEQUENTIAL
@@ -291,7 +294,7 @@ def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | 
         _stamp(img, t_ms[t], (t_ms[t] % period) / period, x0 + w)
         return _even(img)
 
-    return _stack(n_t, draw)
+    return (draw(t) for t in range(n_t)) if stream else _stack(n_t, draw)
 
 
 def write_mp4(path: Path, frames, *, fps: float) -> Path:
@@ -402,15 +405,17 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
         options = dict(inputs["options"])
         field = inputs["field"] * options.pop("times", 1.0)
         field = per_pixel_normalize(field) if inputs["normalize"] else field
-        movies = {inputs["name"]: field_frames(field, t_ms, **options)}
+        movies = {inputs["name"]: field_frames(field, t_ms, stream=True, **options)}
     elif kind == "area":
-        cursor = map_cursor_frames(inputs["area"], t_ms, s_mm=inputs.get("s_mm"))
-        movies = {"area_map_cursor": cursor}
+        def cursor():               # drawn twice, one frame at a time: cheaper than held
+            return map_cursor_frames(inputs["area"], t_ms, s_mm=inputs.get("s_mm"),
+                                     stream=True)
+        movies = {"area_map_cursor": cursor()}
         G = inputs["grid"]
         if G is not None:
             area_field = np.broadcast_to(inputs["area"][None], G.shape[:3])
             movies["outer_wall_3d_area_map"] = surface_and_map_frames(
-                G, area_field, t_ms, cmap="viridis", flat=cursor,
+                G, area_field, t_ms, cmap="viridis", flat=cursor(),
                 title="the outer wall coloured by its cross-sectional area (mm²)")
     elif kind == "lumen_3d":
         movies = {"lumen_mean_curvature_3d": surface_and_map_frames(
@@ -586,9 +591,10 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
                            length_mm: float | None = None):
     """Frames ``(rows, cols, 3)`` uint8, one at a time (a 195-frame video would hold
     ~190 MB), at least 1280 pixels wide: the 3-D grid surface coloured by ``values
-    (n_u, n_v, n_t)``, with a scale bar, next to a flat picture (default the
-    unfolded (u, v) map of the same values with its axes and colour bar), under a
-    banner with ``title``, the time and the phase in the beat."""
+    (n_u, n_v, n_t)``, with a scale bar, next to a flat picture (``flat``: frames in
+    order, an array or one at a time; default the unfolded (u, v) map of the same
+    values with its axes and colour bar), under a banner with ``title``, the time and
+    the phase in the beat. Drawn in order: each frame is taken when it is drawn."""
     from .style import colour_scale
 
     scale_ = colour_scale(values)
@@ -598,7 +604,8 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
     if flat is None:               # as tall as the 3-D view, so that its text is not resized
         flat = field_frames(values, t_ms, vmin=lo, vmax=hi, cmap=cmap, label=label,
                             scale=max(2, (size - BANNER - MARGIN_BOTTOM) // values.shape[1]),
-                            title=label, length_mm=length_mm)
+                            title=label, length_mm=length_mm, stream=True)
+    flat = iter(flat)              # an array's frames, or frames drawn one at a time
     period = t_ms[-1] + (t_ms[1] - t_ms[0]) if len(t_ms) > 1 else 1.0
     px_per_mm = size / (2 * camera.distance * np.tan(np.radians(camera.fov) / 2))  # at its centre
     # the longest round length whose bar fits in a third of the picture
@@ -611,7 +618,7 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
                  (0, 0, 0), 3)
         _text(view, f"{bar_text} (at the tube's centre)", (16, size - 30), scale=0.45)
         _mark_ends(view, camera, G[:, :, t])
-        side = np.concatenate([view, _fit_height(flat[t], size)], axis=1)
+        side = np.concatenate([view, _fit_height(next(flat), size)], axis=1)
         frame = np.full((BANNER + size, max(side.shape[1], 1280), 3), 255, np.uint8)
         frame[BANNER:, :side.shape[1]] = side
         _text(frame, title or label, (8, 20), scale=0.55, max_width=frame.shape[1] - 16)

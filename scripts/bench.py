@@ -87,7 +87,8 @@ class TreeMemory:
     processes counts 1/k in each), so shared libraries count once."""
 
     def __init__(self, interval: float = 0.25):
-        self.interval, self.peak_mb = interval, None
+        self.interval, self.peak_mb, self.at_peak, self.peak_s = interval, None, [], None
+        self.started = time.perf_counter()
 
     def _sample(self) -> float:
         tree, todo = set(), [os.getpid()]
@@ -99,15 +100,20 @@ class TreeMemory:
                     todo += [int(c) for c in children.read_text().split()]
                 except OSError:      # ended meanwhile
                     pass
-        kb = 0
+        each = {}
         for pid in tree:
             try:
                 rollup = Path(f"/proc/{pid}/smaps_rollup").read_text()
             except OSError:
                 continue
-            kb += sum(int(line.split()[1]) for line in rollup.splitlines()
-                      if line.startswith("Pss:"))
-        return kb / 1024
+            each[pid] = sum(int(line.split()[1]) for line in rollup.splitlines()
+                            if line.startswith("Pss:")) / 1024
+        total = sum(each.values())
+        if total > (self.peak_mb or 0):       # who held what at the peak: this process first
+            self.at_peak = [round(each.pop(os.getpid(), 0.0))] + sorted(
+                (round(mb) for mb in each.values()), reverse=True)
+            self.peak_s = time.perf_counter() - self.started
+        return total
 
     def __enter__(self):
         if not Path("/proc/self/smaps_rollup").exists():
@@ -172,6 +178,7 @@ def bench(path: Path, jobs: int, tracking: str = "material") -> dict:
             "read_only_after_s": float(np.median(read_after)),
             "read_open3d_s": read_open3d_s, "ratio_open3d": target / read_open3d_s,
             "peak_mb": peak_mb(), "peak_all_processes_mb": tree.peak_mb, "cpu_s": cpu_s,
+            "at_peak_mb": tree.at_peak, "peak_at_s": tree.peak_s,
             "per_frame_work_s": per_frame,
             "frame_cpu_ms": 1e3 * sum(cpu.values()) / summary["n_frames"], "stages_s": stages}
 
@@ -186,7 +193,9 @@ def print_table(r: dict) -> None:
           f"{r['peak_mb']:.0f} MB (largest process)")
     if r["peak_all_processes_mb"] is not None:
         print(f"peak memory of all processes together {r['peak_all_processes_mb']:.0f} MB "
-              "(PSS, sampled every 0.25 s)")
+              f"(PSS, sampled every 0.25 s), {r['peak_at_s']:.0f} s into the run: this "
+              f"process {r['at_peak_mb'][0]} MB, the others (workers, encoders) "
+              f"{r['at_peak_mb'][1:]} MB")
     print(f"CPU {r['cpu_s']:.1f} s in all processes: {r['cpu_s'] / r['total_s']:.2f} cores busy "
           f"on average (of {r['jobs']} jobs); the per-frame pass (all walls of a frame: grids, "
           f"sections, volumes, curvature) {r['frame_cpu_ms']:.0f} ms CPU per frame")

@@ -305,14 +305,17 @@ def write_mp4(path: Path, frames, *, fps: float) -> Path:
     ``quality=7`` (CRF 15): measured on the bench embryo's 12 videos (195 frames),
     4.6 MB in all with a mean error of 0.77 of 255 (the worst video 0.93), against
     19.2 MB and 0.65 with "ultrafast" (which leaves out CABAC and most motion search),
-    for about 25 % more encoding time; the arrays themselves are in ``arrays.npz``.
+    for about 25 % more encoding time; the arrays themselves are in ``arrays.npz``. One
+    encoder thread: the workers already fill the cores, and each thread holds frames
+    (an encoder 0.13-0.15 GB with x264's own threads, 0.09-0.11 GB with one).
     """
     # format named: if imageio cannot load its ffmpeg plugin, it says so instead of
     # handing the .mp4 to another plugin (tifffile, whose error names an "fps" argument)
     writer = imageio.get_writer(str(path), format="FFMPEG", fps=fps, codec="libx264",
                                 pixelformat="yuv420p", macro_block_size=16, quality=7,
-                                ffmpeg_log_level="error",
-                                ffmpeg_params=["-preset", "veryfast", "-tune", "animation"])
+                                ffmpeg_log_level="error",   # one thread: the workers fill the cores
+                                ffmpeg_params=["-preset", "veryfast", "-tune", "animation",
+                                               "-threads", "1"])
     try:
         for frame in frames:
             writer.append_data(frame)

@@ -6,12 +6,12 @@ from its own layer or lower ones (``tests/test_layers.py`` checks it).
 """
 __version__ = "0.1.0"
 
-# the layers, lowest first: the leaves (errors, a progress bar), per-frame mesh
+# the layers, lowest first: the leaves (errors, a progress bar, memory), per-frame mesh
 # geometry, the dataset contract and files, maps and fields as images, the stages of
 # one dataset, results written and read back, synthetic data with a known truth, the
 # orchestration of runs (API, worker pools), and the command line (python -m oftimg
 # too) and the napari plugin on top
-LAYERS = (("errors", "progress"), ("mesh",), ("io",), ("image",), ("analysis",),
+LAYERS = (("errors", "progress", "memory"), ("mesh",), ("io",), ("image",), ("analysis",),
           ("output",), ("synthetic",), ("api", "workers"), ("cli", "napari", "__main__"))
 
 import importlib

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DatasetError, InputError, OftimgWarning
+from ..memory import release_freed
 from ..io.dataset import Dataset, check_enough_frames
 from ..io.label_dataset import label_repairs_note
 from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
@@ -318,6 +319,7 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                 grid[w], period_ms, strain_smoothing_ms)
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
             arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
+            release_freed()             # the noise's grid copies, before the next wall's
     if "inner" in grid:
         # each outer node to its inner node, carried towards the row's centre (negative
         thickness = signed_thickness(grid["outer"], grid["inner"],       # where they cross)
@@ -438,6 +440,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     t0 = timing["t0_frame"]
     st = _stack_frames(frames[t0:] + frames[:t0])
     del frames  # each frame's arrays, stacked: ~120 MB for 195 frames
+    release_freed()                     # which the heap would otherwise keep (oftimg.memory)
     _warn_about_frames(ds, st)
     pullbacks = None
     if ds.intensity is not None:
@@ -481,9 +484,11 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     summary = _cycle_summary(ds, timing, t0, arrays["s_mm"], options.warp)
     # 5. the myocardium's volume, and every grid clipped to its constant volume
     summary.update(_myocardium(ds, st, arrays, grid, thickness))
+    release_freed()                     # the clipping's working copies
     # 6. curvature, thickness and strain fields on the (u, v, t) grid
     tick = time.perf_counter()
     summary.update(_field_stage(ds, options, grid, st, H, lumen_noise, jelly, coords, arrays))
+    release_freed()                     # the strain noise's grid copies
     if tracking == "texture":           # the tissue's motion within the surface
         speed, divergence = surface_kinematics(grid["outer"], arrays["principal_stretch_outer"],
                                                ds.meta.period_ms)

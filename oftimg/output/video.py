@@ -401,7 +401,9 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
     import tempfile
 
     from ..image.normalize import per_pixel_normalize
+    from ..memory import release_freed
 
+    release_freed()             # a worker's heap from its frames' work, before the frames here
     t_ms = inputs["t_ms"]
     fps = fps or beat_fps(len(t_ms))
     if kind == "field":

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh.strain import grid_triangles
-from ..output.results import load_results
+from ..output.results import Results, load_results
 from .reader import WALLS, field_colours, field_label, wall_fields, wall_style
 from .volumes import result_volumes
 
@@ -43,7 +43,8 @@ class WallsOverTime:
     axis, in frames of the aligned cycle (``t_ms``)."""
 
     def __init__(self, viewer, folder, field: str | None = None, volumes: bool = True):
-        self.viewer, self.results = viewer, load_results(folder)
+        self.viewer = viewer            # folder: a results folder, or its Results already read
+        self.results = folder if isinstance(folder, Results) else load_results(folder)
         self.t_ms = self.results["t_ms"]
         self.walls = [w for w in WALLS if w in self.results]
         self.grids = {w: self.results[w][..., ::-1] for w in self.walls}    # (u, v, t, zyx)

@@ -56,7 +56,7 @@ class OftimgWidget(QWidget):
         folder = result_folders(folder)[0]
         self.close_results()
         results = load_results(folder)
-        self.walls = WallsOverTime(self.viewer, folder)
+        self.walls = WallsOverTime(self.viewer, results)   # the arrays read once
         fields = wall_fields(results, "outer")
         first = self.walls.layers["outer"].metadata["oftimg"]["field"] or fields[0]
         self.views = LinkedViews(results, first)

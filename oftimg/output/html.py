@@ -221,7 +221,8 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     from .figures import field_grid_note
 
     grid_note = field_grid_note(summary)
-    rows = [{"quantity": what, "unit": numbers.unit(unit), "value": _scaled(summary[key], scale)}
+    rows = [{"quantity": what, "unit": numbers.unit(unit),   # no value (no band): a dash
+             "value": numbers.DASH if summary[key] is None else _scaled(summary[key], scale)}
             for key, what, unit, scale in QUANTITIES if key in summary]
     rows.append({"quantity": "grid of the per-pixel fields (curvature, thickness, strain, "
                              "phase maps)", "value": grid_note})

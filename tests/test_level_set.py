@@ -111,3 +111,40 @@ def test_the_curvature_blur_is_checked():
     plain = mesh_wall(np.hypot(y - 15, x - 15) < 8, (10.0, 10.0, 10.0),
                       MeshOptions(lumen_curvature_blur=0.0), curvature=True)
     assert plain.mean_curvature is None
+
+
+def test_the_derivatives_are_scipys_gaussian_derivatives_with_the_border_continued():
+    """At voxel centres, near the volume's faces and beyond them, the gradient and
+    Hessian are scipy's Gaussian derivatives of the volume with its border voxels
+    continued (``mode="nearest"``), in length units; a point far outside reads what
+    one just outside the same face does (the border continued)."""
+    from scipy import ndimage
+
+    from oftimg.mesh.level_set import level_set_derivatives
+
+    rng = np.random.default_rng(3)
+    field = ndimage.gaussian_filter(rng.random((16, 20, 24)), 1.5).astype(np.float32)
+    size_xyz = (2.0, 3.0, 4.0)
+    sigma = 8.0                                  # 2-4 voxels: the kernels' tails negligible
+    sig = np.sqrt((sigma / np.array(size_xyz[::-1])) ** 2 + 1 / 6)     # voxels, (z, y, x)
+    kji = np.array([[0, 0, 0], [15, 19, 23], [5, 0, 7], [2, 9, 23], [8, 10, 12]])
+    points = kji[:, ::-1] * np.array(size_xyz)
+    gradient, hessian = level_set_derivatives(field, size_xyz, points, sigma)
+    length = np.array(size_xyz[::-1])
+    for axis in range(3):                    # z, y, x; the gradient is (x, y, z)
+        order = [0, 0, 0]
+        order[axis] = 1
+        d = ndimage.gaussian_filter(field.astype(float), sig, order=order, mode="nearest",
+                                    truncate=4.0) / length[axis]
+        assert np.allclose(gradient[:, 2 - axis], d[tuple(kji.T)], rtol=1e-3, atol=1e-5)
+        for other in range(3):
+            order = [0, 0, 0]
+            order[axis] += 1
+            order[other] += 1
+            d = ndimage.gaussian_filter(field.astype(float), sig, order=order, mode="nearest",
+                                        truncate=4.0) / (length[axis] * length[other])
+            assert np.allclose(hessian[:, 2 - axis, 2 - other], d[tuple(kji.T)],
+                               rtol=1e-3, atol=1e-5)
+    beyond = np.array([[-100.0, 20.0, 30.0], [-1000.0, 20.0, 30.0]])
+    far = level_set_derivatives(field, size_xyz, beyond, sigma)
+    assert np.array_equal(far[0][0], far[0][1]) and np.array_equal(far[1][0], far[1][1])

@@ -11,6 +11,7 @@ voxel size's length unit, as in :mod:`oftimg.mesh.labels`.
 from __future__ import annotations
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 CHUNK = 2000            # points whose neighbourhoods are gathered at once (memory)
 TRUNCATE = 4.0          # the Gaussians' reach, in sigmas (at 3 a 40 um cylinder reads 20 % high)
@@ -31,34 +32,47 @@ def level_set_derivatives(field: np.ndarray, voxel_size_xyz, points: np.ndarray,
     The Gaussian's derivatives are taken at each point itself, from the voxels within
     :data:`TRUNCATE` sigmas of it (one axis after another), not by filtering the whole
     volume: the work goes with the points, not with the volume's box (a curved tube's
-    box is mostly empty), and no interpolation between voxels is needed."""
+    box is mostly empty), and no interpolation between voxels is needed. The points'
+    box is read once, as float32, and each point's rows along x are taken from it as
+    windows (twice as fast as gathering voxel by voxel, the same numbers)."""
     size = np.asarray(voxel_size_xyz, float)[::-1]                   # (dz, dy, dx)
     at = ((np.asarray(points, float) - np.asarray(origin_xyz, float)) / size[::-1])[:, ::-1]
     # plus a linear interpolation's variance (1/6 voxel^2): without it the lattice shows
     # where sigma is about a voxel (a cylinder across 2 x 2 x 4 um voxels read 11 % high)
     sig = np.sqrt((sigma / size) ** 2 + 1.0 / 6.0)
-    weights, index = [], []
+    weights, first, box = [], [], []
     for axis in range(3):                       # each axis's voxels near each point
         reach = int(np.ceil(TRUNCATE * sig[axis]))
-        k = np.floor(at[:, axis]).astype(np.int64)[:, None] + np.arange(-reach, reach + 2)
-        u = (at[:, axis, None] - k) / sig[axis]                     # in sigmas
+        start = np.floor(at[:, axis]).astype(np.int64) - reach     # each point's first voxel
+        u = (at[:, axis, None] - start[:, None] - np.arange(2 * reach + 2)) / sig[axis]
         g = np.exp(-0.5 * u ** 2)
         g /= g.sum(axis=1, keepdims=True)                           # sums to one, as scipy's
         s = sig[axis] * size[axis]                                  # sigma, length units
-        weights.append((g, -u / s * g, (u ** 2 - 1) / s ** 2 * g))  # orders 0, 1, 2
-        index.append(np.clip(k, 0, field.shape[axis] - 1))
-    w = [np.stack(orders, axis=-1).astype(np.float32) for orders in weights]  # (n, k, 3)
+        weights.append(np.stack((g, -u / s * g, (u ** 2 - 1) / s ** 2 * g), axis=-1
+                                ).astype(np.float32))               # (n, k, 3): orders 0, 1, 2
+        # a window wholly outside the volume reads its border voxel throughout, from
+        # wherever it starts out there: so the box stays within a window of the volume
+        start = np.clip(start, -2 * reach - 2, field.shape[axis] - 1)
+        lo, hi = (int(start.min()), int(start.max())) if len(start) else (0, 0)
+        first.append(start - lo)
+        box.append(np.clip(np.arange(lo, hi + 2 * reach + 2), 0, field.shape[axis] - 1))
+    # the voxels around all the points as float32 once, the border continued outside
+    # the volume; each point's rows along x are then windows of it, gathered whole
+    near = field.take(box[0], 0).take(box[1], 1).take(box[2], 2).astype(np.float32)
+    rows = sliding_window_view(near, weights[2].shape[1], axis=2)   # (z, y, x, k)
     full = np.empty((len(at), 3, 3, 3), np.float32)                 # (n, oz, oy, ox)
-    for start in range(0, len(at), CHUNK):      # a few thousand points' voxels at a time
-        c = slice(start, start + CHUNK)
-        kz, ky, kx = (k[c] for k in index)
-        patch = field[kz[:, :, None, None], ky[:, None, :, None], kx[:, None, None, :]]
-        n, nz, ny, nx = patch.shape                                 # the voxels near each
+    nz, ny = weights[0].shape[1], weights[1].shape[1]
+    for chunk in range(0, len(at), CHUNK):      # a few thousand points' voxels at a time
+        c = slice(chunk, chunk + CHUNK)
+        kz = first[0][c, None, None] + np.arange(nz)[:, None]
+        ky = first[1][c, None, None] + np.arange(ny)
+        patch = rows[kz, ky, first[2][c, None, None]]             # (n, z, y, x)
+        n, nx = len(patch), patch.shape[-1]
         # along x, then y, then z, as batched products: (n, z, y, ox) -> (n, z, ox, oy)
-        along_x = np.matmul(patch.reshape(n, nz * ny, nx).astype(np.float32), w[2][c])
+        along_x = np.matmul(patch.reshape(n, nz * ny, nx), weights[2][c])
         along_xy = np.matmul(along_x.reshape(n, nz, ny, 3).transpose(0, 1, 3, 2),
-                             w[1][c][:, None])
-        full[c] = np.einsum("nzab,nzc->ncba", along_xy, w[0][c])
+                             weights[1][c][:, None])
+        full[c] = np.einsum("nzab,nzc->ncba", along_xy, weights[0][c])
     d = {name: full[:, oz, oy, ox].astype(float) for name, (oz, oy, ox) in _ORDERS.items()}
     gradient = np.stack([d["x"], d["y"], d["z"]], axis=-1)
     hessian = np.array([[d["xx"], d["yx"], d["zx"]],

@@ -51,9 +51,10 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
 
     # One thread per worker: the workers already fill the cores, and BLAS or
     # OpenMP threads on top of them made the per-frame sections 1.9x slower
-    # (49 frames, 2 jobs). Spawned workers inherit this environment; the user's
-    # own setting wins.
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    # (49 frames, 2 jobs); OpenCV's own threads likewise. Spawned workers inherit
+    # this environment; the user's own setting wins.
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                "OPENCV_FOR_THREADS_NUM"):
         os.environ.setdefault(var, "1")
     # glibc's malloc hands every array over 128 kB back to the system when it is
     # freed, so the next one costs page faults (~1400 per frame, 4-7 ms of system

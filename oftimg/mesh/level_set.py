@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-CHUNK = 2000            # points whose neighbourhoods are gathered at once (memory)
+CHUNK = 500             # points gathered at once: 9.6 MB, in the cache and reused (2000: 20 % slower)
 TRUNCATE = 4.0          # the Gaussians' reach, in sigmas (at 3 a 40 um cylinder reads 20 % high)
 # the derivatives a mean curvature needs: name -> order along (z, y, x)
 _ORDERS = {"z": (1, 0, 0), "y": (0, 1, 0), "x": (0, 0, 1), "zz": (2, 0, 0), "yy": (0, 2, 0),

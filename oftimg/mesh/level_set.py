@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-CHUNK = 500             # points gathered at once: 9.6 MB, in the cache and reused (2000: 20 % slower)
+CHUNK = 500             # points gathered at once: 9.6 MB, cached and reused (2000: 20 % slower)
 TRUNCATE = 4.0          # the Gaussians' reach, in sigmas (at 3 a 40 um cylinder reads 20 % high)
 # the derivatives a mean curvature needs: name -> order along (z, y, x)
 _ORDERS = {"z": (1, 0, 0), "y": (0, 1, 0), "x": (0, 0, 1), "zz": (2, 0, 0), "yy": (0, 2, 0),
@@ -62,7 +62,7 @@ def level_set_derivatives(field: np.ndarray, voxel_size_xyz, points: np.ndarray,
     rows = sliding_window_view(near, weights[2].shape[1], axis=2)   # (z, y, x, k)
     full = np.empty((len(at), 3, 3, 3), np.float32)                 # (n, oz, oy, ox)
     nz, ny = weights[0].shape[1], weights[1].shape[1]
-    for chunk in range(0, len(at), CHUNK):      # a few thousand points' voxels at a time
+    for chunk in range(0, len(at), CHUNK):      # CHUNK points' voxels at a time
         c = slice(chunk, chunk + CHUNK)
         kz = first[0][c, None, None] + np.arange(nz)[:, None]
         ky = first[1][c, None, None] + np.arange(ny)

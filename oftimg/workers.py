@@ -51,10 +51,9 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
 
     # One thread per worker: the workers already fill the cores, and BLAS or
     # OpenMP threads on top of them made the per-frame sections 1.9x slower
-    # (49 frames, 2 jobs); OpenCV's own threads likewise. Spawned workers inherit
-    # this environment; the user's own setting wins.
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-                "OPENCV_FOR_THREADS_NUM"):
+    # (49 frames, 2 jobs). Spawned workers inherit this environment; the user's
+    # own setting wins.
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
     # glibc's malloc hands every array over 128 kB back to the system when it is
     # freed, so the next one costs page faults (~1400 per frame, 4-7 ms of system
@@ -65,7 +64,7 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
     os.environ.setdefault("MALLOC_TRIM_THRESHOLD_", str(64 * 2 ** 20))
     # spawn: open3d and BLAS threads do not survive fork reliably
     return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
-                               initializer=_exit_with_parent, initargs=(os.getpid(),))
+                               initializer=_start_worker, initargs=(os.getpid(),))
 
 
 def usable_cpus(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int:
@@ -128,6 +127,14 @@ def _read_text(path: str) -> str | None:
             return f.read()
     except OSError:
         return None
+
+
+def _start_worker(parent_pid: int) -> None:
+    """A worker's start-up: OpenCV on one thread (the workers fill the cores, as for
+    BLAS above; set here, not in the main process, whose optical flow runs while the
+    workers wait), the user's own setting winning; and :func:`_exit_with_parent`."""
+    os.environ.setdefault("OPENCV_FOR_THREADS_NUM", "1")
+    _exit_with_parent(parent_pid)
 
 
 def _exit_with_parent(parent_pid: int, interval: float = 1.0) -> None:

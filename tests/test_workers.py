@@ -388,6 +388,21 @@ def test_a_worker_imports_no_image_figure_or_video_module():
     assert out.stdout.strip() == "[]"
 
 
+def test_workers_run_opencv_on_one_thread_and_the_main_process_keeps_its_own(monkeypatch):
+    """The workers fill the cores, so each runs OpenCV on one thread (a user's own
+    OPENCV_FOR_THREADS_NUM wins); the main process, whose optical flow runs while they
+    wait, is left as it was."""
+    from oftimg.workers import closing_executor, make_executor
+
+    monkeypatch.delenv("OPENCV_FOR_THREADS_NUM", raising=False)
+    with closing_executor(make_executor(2)) as executor:
+        assert executor.submit(os.getenv, "OPENCV_FOR_THREADS_NUM").result() == "1"
+    assert "OPENCV_FOR_THREADS_NUM" not in os.environ
+    monkeypatch.setenv("OPENCV_FOR_THREADS_NUM", "3")
+    with closing_executor(make_executor(2)) as executor:
+        assert executor.submit(os.getenv, "OPENCV_FOR_THREADS_NUM").result() == "3"
+
+
 def test_every_public_name_resolves_and_others_do_not():
     import oftimg
     for name in oftimg.__all__:

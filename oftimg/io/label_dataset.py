@@ -157,6 +157,7 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
                                "numbers (0 background), as segmentation tools export it")
     voxel = _voxel_size(path / "labels", meta, raw, sources, headers)
     label_ids = _label_ids(path, raw, sources[0], first.dtype)
+    label_ids = check_nesting(path / "labels", sources, label_ids, given="labels" in raw)
     ends = _ends(path, raw, first.shape, voxel)
     intensity = load_intensity(path, len(sources), meta.length_unit, raw,
                                labels_grid=(first.shape, voxel))
@@ -200,9 +201,10 @@ def _load_probabilities(path: Path) -> LabelDataset:
     sources = tuple(ProbabilitySource(tuple((layer, per_layer[layer][t]) for layer in layers))
                     for t in range(n))
     ends = _ends(path, raw, first.shape, voxel)
+    label_ids = {layer: DEFAULT_LABEL_IDS[layer] for layer in layers}
+    check_nesting(folder, sources, label_ids, given=True)
     intensity = load_intensity(path, n, meta.length_unit, raw, labels_grid=(first.shape, voxel))
-    return LabelDataset(path, meta, raw, sources, first.shape, voxel,
-                        {layer: DEFAULT_LABEL_IDS[layer] for layer in layers}, ends,
+    return LabelDataset(path, meta, raw, sources, first.shape, voxel, label_ids, ends,
                         kind="probabilities", intensity=intensity)
 
 
@@ -255,11 +257,11 @@ def _fmt(size) -> str:
 
 def _label_ids(path: Path, raw: dict, first: LabelSource, dtype: np.dtype) -> dict:
     """The layers' label values from meta.json (each one the volumes' ``dtype`` can
-    hold), or read off the first frame."""
+    hold), or by default myocardium 1, jelly 2, lumen 3 (checked by
+    :func:`check_nesting`, which takes myocardium 1 alone for a volume of 0 and 1)."""
     meta_file = path / "meta.json"
     if "labels" not in raw:
-        values = np.unique(read_volume(first))
-        return {"myocardium": 1} if set(values.tolist()) <= {0, 1} else dict(DEFAULT_LABEL_IDS)
+        return dict(DEFAULT_LABEL_IDS)
     ids = raw["labels"]
     unknown = sorted(set(ids) - set(LAYER_NAMES))
     if unknown or "myocardium" not in ids:
@@ -275,6 +277,102 @@ def _label_ids(path: Path, raw: dict, first: LabelSource, dtype: np.dtype) -> di
         raise DatasetError(f"{meta_file}: label {max(values)} cannot occur in {first}'s "
                            f"{np.dtype(dtype)} voxels (at most {top}); is labels right?")
     return {layer: ids[layer] for layer in LAYER_NAMES if layer in ids}
+
+
+def _sample_frames(n: int) -> list[int]:
+    """The frames whose voxels :func:`check_nesting` reads: the first, middle and last."""
+    return sorted({0, n // 2, n - 1})
+
+
+def _as_labels(volume: np.ndarray | dict, label_ids: dict) -> np.ndarray:
+    """A frame as labels: a label volume as it is; a probabilities frame (layer ->
+    ``(z, y, x)``) as each voxel's most likely layer's value in ``label_ids``, 0 where
+    no layer reaches 0.5."""
+    if not isinstance(volume, dict):
+        return volume
+    layers = list(volume)
+    stacked = np.stack([volume[layer] for layer in layers])
+    codes = np.array([0] + [label_ids[layer] for layer in layers], np.uint8)
+    return codes[np.where(stacked.max(axis=0) >= 0.5, stacked.argmax(axis=0) + 1, 0)]
+
+
+def check_nesting(folder: Path, sources, label_ids: dict, *, given: bool) -> dict:
+    """``label_ids`` (layer -> value), once the values they name are seen to nest as the
+    layers do (myocardium around jelly around lumen) in the first, middle and last
+    frames of ``sources`` (:mod:`oftimg.mesh.nesting`); without a ``labels`` mapping
+    in meta.json (``given`` False), a volume of 0 and 1 is the myocardium alone.
+    Raises one :class:`DatasetError` for the dataset that names the values found
+    with their voxel counts, the nesting seen, and the mapping to write."""
+    from ..mesh.nesting import enclosed, label_contacts, layers_present, nesting_order
+
+    frames = _sample_frames(len(sources))
+    contacts = None
+    for t in frames:
+        part = label_contacts(_as_labels(read_frame(sources[t]), label_ids))
+        contacts = part if contacts is None else contacts + part
+    present = layers_present(contacts)
+    if not given and present == [1]:
+        return {"myocardium": 1}
+    expected = list(label_ids.values())
+    missing = [layer for layer, v in label_ids.items() if contacts.count(v) == 0]
+    order = nesting_order(contacts, expected) if not missing else []
+    if not missing and order == expected and all(
+            enclosed(contacts, a, b) for a, b in zip(expected, expected[1:])):
+        return label_ids
+    names = ", ".join(str(Path(sources[t].path).name) if sources[t].index is None
+                      else f"frame {sources[t].index}" for t in frames)
+    found = ", ".join(f"{int(v)} ({int(n):,} voxels)" for v, n in zip(contacts.values,
+                                                                       contacts.voxels) if v)
+    seen = _nesting_words(contacts, nesting_order(contacts, present))
+    wanted = " around ".join(f"{layer} {v}" for layer, v in label_ids.items())
+    if isinstance(sources[0], ProbabilitySource):
+        said = f"its folders say {' around '.join(f'{layer}/' for layer in label_ids)}"
+        problem = (f"no voxel is most likely {', '.join(missing)}" if missing else
+                   f"the layers do not nest as {said}")
+        raise DatasetError(f"{folder}: {problem} (in {names}, each voxel's most likely layer "
+                           f"where one reaches 0.5: {found}; {seen}); myocardium/ holds the "
+                           "outermost layer, jelly/ the one inside it, lumen/ the innermost")
+    if missing:
+        problem = "no voxel holds " + ", ".join(f"{layer} {label_ids[layer]}"
+                                                 for layer in missing)
+    else:
+        problem = f"the labels do not nest as {wanted}"
+    source = ("meta.json's \"labels\"" if given else "no \"labels\" in meta.json, so myocardium "
+              "1, jelly 2, lumen 3 were assumed")
+    return _refuse_nesting(folder, f"{problem} ({source}); in {names} the values found are "
+                           f"{found or 'none but 0'}; {seen}", contacts, present)
+
+
+def _nesting_words(contacts, order: list[int]) -> str:
+    """The nesting seen, in words: "3 encloses 2, which encloses 1"."""
+    from ..mesh.nesting import enclosed
+
+    if len(order) < 2:
+        return f"one layer, {order[0]}" if order else "no layer"
+    text = str(order[0])
+    for k, (a, b) in enumerate(zip(order, order[1:])):
+        if enclosed(contacts, a, b):
+            text += f" encloses {b}" if k == 0 else f", which encloses {b}"
+        else:
+            text += f"; {b} lies beside {a}, not inside it"
+    return text
+
+
+def _refuse_nesting(folder: Path, said: str, contacts, present: list[int]):
+    """Raise the :class:`DatasetError` of :func:`check_nesting` for a labels folder,
+    with the ``labels`` mapping to write when the nesting seen gives one."""
+    from ..mesh.nesting import enclosed, nesting_order
+
+    order = nesting_order(contacts, present)
+    nested = all(enclosed(contacts, a, b) for a, b in zip(order, order[1:]))
+    roles = {1: ["myocardium"], 2: ["myocardium", "lumen"], 3: list(LAYER_NAMES)}
+    if nested and len(order) in roles:
+        mapping = json.dumps(dict(zip(roles[len(order)], order)))
+        fix = f"write \"labels\": {mapping} in {folder.parent / 'meta.json'}"
+    else:
+        fix = (f"name each layer's value in {folder.parent / 'meta.json'}'s \"labels\" "
+               "(myocardium the outermost, jelly the one inside it, lumen the innermost)")
+    raise DatasetError(f"{folder}: {said}; {fix}")
 
 
 def _ends(path: Path, raw: dict, shape_zyx, voxel_size) -> tuple | None:
@@ -317,7 +415,7 @@ def _ends(path: Path, raw: dict, shape_zyx, voxel_size) -> tuple | None:
 
 
 def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, voxel_size,
-               options: MeshOptions, ends=None) -> dict | DatasetError:
+               options: MeshOptions, ends=None, length_unit: str = "um") -> dict | DatasetError:
     """Mesh one frame's volume into ``out/<wall>/<mesh_name>`` (binary PLY, in the
     volume's length unit): per wall meshed its vertex count, clean-up count,
     sampling step and mask repairs, and ``left_out`` (wall -> why) for the walls
@@ -325,7 +423,8 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
     :class:`DatasetError` naming the frame's file when the file itself is bad
     (returned, so that one pass over the frames finds every bad one)."""
     try:
-        walls = mesh_walls(read_frame(source), label_ids, voxel_size, options, ends)
+        walls = mesh_walls(read_frame(source), label_ids, voxel_size, options, ends,
+                           length_unit=length_unit)
     except DatasetError as exc:                  # names its file already
         return exc
     except (InputError, MeshError) as exc:
@@ -348,7 +447,7 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
 
 def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, left: tuple,
               out: str, mesh_name: str, label_ids: dict, voxel_size, options: MeshOptions,
-              ends=None) -> dict | DatasetError:
+              ends=None, length_unit: str = "um") -> dict | DatasetError:
     """The ``wall`` of frame ``t``, left out there, meshed from the frames around it:
     ``between = (t_before, t_after, weight)``, their masks (``mended``: whether each
     had its topology mended, redone here) blended by
@@ -376,7 +475,8 @@ def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, 
             else None,
             around=own[order[k + 1]].astype(np.float32) if k + 1 < len(order)
             and order[k + 1] in whole else None)
-        mesh = mesh_wall(occupancy, voxel_size, options, ends, curvature=wall == "lumen")
+        mesh = mesh_wall(occupancy, voxel_size, options, ends, curvature=wall == "lumen",
+                         length_unit=length_unit)
     except MeshError as exc:
         return DatasetError(f"{sources[t]}: the {wall} wall, left out, filled from frames "
                             f"{t_before} and {t_after}, {exc}")
@@ -461,7 +561,7 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     out = Path(out)
     n = lds.n_frames
     args = (lds.sources, [str(out)] * n, lds.mesh_names(), [lds.label_ids] * n,
-            [lds.voxel_size] * n, [options] * n, [lds.ends] * n)
+            [lds.voxel_size] * n, [options] * n, [lds.ends] * n, [lds.meta.length_unit] * n)
     results = []
     for result in (map(mesh_frame, *args) if executor is None else executor.map(mesh_frame, *args)):
         results.append(result)
@@ -527,7 +627,7 @@ def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: 
     m = len(tasks)
     args = ([lds.sources] * m, *zip(*[(t, w, b, md, tuple(left[t])) for t, w, b, md in tasks]),
             [str(out)] * m, [names[t] for t, *_ in tasks], [lds.label_ids] * m,
-            [lds.voxel_size] * m, [options] * m, [lds.ends] * m)
+            [lds.voxel_size] * m, [options] * m, [lds.ends] * m, [lds.meta.length_unit] * m)
     filled = list(map(fill_wall, *args) if executor is None else executor.map(fill_wall, *args))
     failed = [f for f in filled if isinstance(f, DatasetError)]
     if failed:

@@ -63,6 +63,9 @@ def test_only_mend_drops_debris_and_fills_pinholes():
                                         r"hole \(perimeter 0\.344 mm, 46% of the shorter end's "
                                         r"0\.753 mm"):
         check_tube(V[used], np.searchsorted(used, wider), mend=True)
+    with pytest.raises(MeshError, match=r"\(perimeter 344 µm, 46% of the shorter end's "
+                                        r"753 µm"):            # a label dataset's unit
+        check_tube(1000 * V[used], np.searchsorted(used, wider), mend=True, length_unit="um")
     debris = np.concatenate([F, len(V) + F[:40]])           # a strip of wall apart: 1.1 %
     with pytest.raises(MeshError, match="parts apart from the largest are dropped while "
                                         "together under 1% of the faces"):

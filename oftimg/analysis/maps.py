@@ -148,15 +148,18 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     return arrays, summary
 
 
-def _unresolved_speeds(value: dict, spread: dict) -> list[str]:
+def _unresolved_speeds(speeds_mm_s: dict, spread: dict) -> list[str]:
     """One note naming the wave speeds whose spread is over :data:`SPREAD_NOTE_SHARE` of
-    their value or undefined (none when every speed is resolved)."""
+    their value or undefined (none when every speed is resolved; a speed that was not
+    measured at all is no part of it: the notes on the ridge say why)."""
     poor = []
-    for k, sd in spread.items():
-        if not np.isfinite(sd):
-            poor.append(f"{k} {value[k]:.3g} mm/s (not resolved)")
-        elif sd > SPREAD_NOTE_SHARE * abs(value[k]):
-            poor.append(f"{k} {value[k]:.3g} ± {sd:.2g} mm/s")
+    for k, sd_mm_s in spread.items():
+        if not np.isfinite(speeds_mm_s[k]):
+            continue
+        if not np.isfinite(sd_mm_s):
+            poor.append(f"{k} {speeds_mm_s[k]:.3g} mm/s (not resolved)")
+        elif sd_mm_s > SPREAD_NOTE_SHARE * abs(speeds_mm_s[k]):
+            poor.append(f"{k} {speeds_mm_s[k]:.3g} ± {sd_mm_s:.2g} mm/s")
     if not poor:
         return []
     return [f"wave speeds whose spread from the area map's frame-to-frame noise alone is over "

@@ -306,7 +306,7 @@ class WallMesh:
 
 
 def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptions(),
-              ends=None, *, curvature: bool = False) -> WallMesh:
+              ends=None, *, curvature: bool = False, length_unit: str = "um") -> WallMesh:
     """One wall's surface from its mask ``(z, y, x)``, bool or an occupancy in [0,
     1] (float32: a blend of masks or a probability map): the mask smoothed and
     resampled (:func:`level_set_field`), its level 0.5 by marching cubes (not
@@ -317,7 +317,8 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
     volume of millions of voxels), Taubin-smoothed with its boundary loops held,
     faces outward; with ``curvature`` (and ``options.lumen_curvature_blur``), the mean
     curvature of the mask's level sets at each vertex. Raises :class:`MeshError`
-    when the result is not an open tube (one message, no file name)."""
+    when the result is not an open tube (one message, no file name, lengths in
+    ``length_unit``: the voxel size's)."""
     from skimage.measure import marching_cubes
 
     step = sample_step(mask, voxel_size_xyz, options.target_vertices)
@@ -339,7 +340,7 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
         raise MeshError("leaves the volume at one end only (one open end): a tube that "
                         "ends inside the volume needs two cutting planes, meta.json "
                         "\"ends\"")
-    topo = check_tube(V, F, mend=True)            # a pinhole left by marching cubes: filled
+    topo = check_tube(V, F, mend=True, length_unit=length_unit)   # marching cubes' pinholes
     V = V if topo.V is None else topo.V
     rim = np.concatenate(topo.loops)
     V = taubin_smooth(V, topo.F, options.taubin_steps, fixed=rim)
@@ -353,7 +354,8 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
 
 
 def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_xyz,
-               options: MeshOptions = MeshOptions(), ends=None) -> dict[str, WallMesh | str]:
+               options: MeshOptions = MeshOptions(), ends=None, *,
+               length_unit: str = "um") -> dict[str, WallMesh | str]:
     """Every wall of one frame's label volume ``(z, y, x)`` (:func:`wall_masks`), or of
     its probabilities (layer -> ``(z, y, x)`` in [0, 1]: :func:`wall_occupancy`), by
     :func:`mesh_wall`, outer first. A wall that is not an open tube has its mask
@@ -394,18 +396,21 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
         if enclosing is not None:       # nested by the labels' design, unless one was mended
             mask, nested = keep_inside(mask, enclosing)
         walls[wall], enclosing = _mesh_or_mend(wall, mask, voxel_size_xyz, options, ends,
-                                               curvature=wall == "lumen")
+                                               curvature=wall == "lumen",
+                                               length_unit=length_unit)
         if nested is not None and isinstance(walls[wall], WallMesh):
             walls[wall] = replace(walls[wall], nested=nested)
     return walls
 
 
 def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOptions, ends,
-                  *, curvature: bool = False) -> tuple[WallMesh | str, np.ndarray | None]:
+                  *, curvature: bool = False, length_unit: str = "um"
+                  ) -> tuple[WallMesh | str, np.ndarray | None]:
     """The wall meshed from ``mask``, or from the mended mask when that fails, with
     the mended mask (None when not mended); or the reason it cannot be."""
     try:
-        return mesh_wall(mask, voxel_size_xyz, options, ends, curvature=curvature), None
+        return mesh_wall(mask, voxel_size_xyz, options, ends, curvature=curvature,
+                         length_unit=length_unit), None
     except MeshError as exc:        # a handle, a tunnel, a bridge: mend the mask, once
         inside = mask if mask.dtype == bool else mask > LEVEL
         solid, repair = solid_tube_mask(inside)
@@ -415,8 +420,8 @@ def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOpti
         mended = solid if mask.dtype == bool else np.where(solid == inside, mask, solid
                                                             ).astype(np.float32)
         try:
-            return replace(mesh_wall(mended, voxel_size_xyz, options, ends, curvature=curvature),
-                           repair=repair), solid
+            return replace(mesh_wall(mended, voxel_size_xyz, options, ends, curvature=curvature,
+                                     length_unit=length_unit), repair=repair), solid
         except MeshError as again:
             return f"the {wall} wall {again} (after its mask's {repair.what})", None
 

@@ -15,6 +15,9 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from ..errors import InputError
 
 
+UNIT_SYMBOL = {"um": "µm", "mm": "mm"}      # a length unit's name -> as a message writes it
+
+
 class MeshError(InputError):
     """A mesh that is not the open tube oftimg expects."""
 
@@ -303,7 +306,8 @@ class TubeTopology:
     hole_edges: int = 0
 
 
-def check_tube(V: np.ndarray, F: np.ndarray, *, mend: bool = False) -> TubeTopology:
+def check_tube(V: np.ndarray, F: np.ndarray, *, mend: bool = False,
+               length_unit: str = "mm") -> TubeTopology:
     """Check that ``(V, F)`` is an open tube and orient its faces outwards.
 
     A tube is one connected, edge-manifold, orientable triangle mesh with
@@ -315,6 +319,7 @@ def check_tube(V: np.ndarray, F: np.ndarray, *, mend: bool = False) -> TubeTopol
     longest (the ends) are filled, each with a fan around its centroid, while
     each one's perimeter is under :data:`HOLE_SHARE` of the shorter end's; the
     result's ``V`` then holds the vertices (the kept ones, then the fans' centres).
+    ``length_unit``: the unit of ``V`` ("mm" or "um"), for the lengths a message gives.
     """
     if len(F) == 0:
         raise MeshError("has no triangles")
@@ -341,7 +346,8 @@ def check_tube(V: np.ndarray, F: np.ndarray, *, mend: bool = False) -> TubeTopol
     loops = boundary_loops(F, None if flipped else incidence)   # a flip reorders face_edge
     n_input_faces, n_edges = len(F), len(edges)
     if len(loops) > 2 and mend:
-        V, F, loops, mended["holes"], mended["hole_edges"] = _fill_holes(V, F, loops)
+        V, F, loops, mended["holes"], mended["hole_edges"] = _fill_holes(V, F, loops,
+                                                                         length_unit)
         n_edges += mended["hole_edges"]                      # a fan's spokes
     if len(loops) != 2:
         hint = {0: " (a closed surface: cut it open at the inlet and the outlet)",
@@ -378,7 +384,7 @@ def _drop_islands(V, F, label, n_comp: int, mend: bool):
     return V[used], (np.cumsum(used) - 1)[F], int(np.count_nonzero(sizes)) - 1, rest
 
 
-def _fill_holes(V, F, loops):
+def _fill_holes(V, F, loops, length_unit: str = "mm"):
     """Fill every boundary loop but the two longest (the tube's ends) with a fan of
     faces around a new vertex at its centroid, oriented with the faces around it.
     Returns ``V, F, (the two end loops), holes filled, their boundary edges``;
@@ -390,12 +396,14 @@ def _fill_holes(V, F, loops):
     shortest_end = perimeter[ends].min()
     too_big = [k for k in holes if perimeter[k] >= HOLE_SHARE * shortest_end]
     if too_big:
+        unit = UNIT_SYMBOL.get(length_unit, length_unit)
         raise MeshError(f"has {len(loops)} boundary loops; a tube has 2, and "
                         f"{len(too_big)} of the {len(holes)} beyond its ends "
                         f"{'is' if len(too_big) == 1 else 'are'} too large to fill as a hole "
-                        f"(perimeter {perimeter[too_big].max():.3g} mm, "
+                        f"(perimeter {perimeter[too_big].max():.3g} {unit}, "
                         f"{perimeter[too_big].max() / shortest_end:.0%} of the shorter end's "
-                        f"{shortest_end:.3g} mm; holes are filled up to {HOLE_SHARE:.0%} of it)")
+                        f"{shortest_end:.3g} {unit}; holes are filled up to {HOLE_SHARE:.0%} "
+                        "of it)")
     centres = np.array([loop_centroid(V[loops[k]]) for k in holes])
     fans = [np.column_stack([np.roll(loops[k], -1), loops[k], np.full(len(loops[k]), len(V) + i)])
             for i, k in enumerate(holes)]                   # (b, a, c) for each half-edge a -> b

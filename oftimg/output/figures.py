@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 from ..analysis.group_maps import groups_in_order  # noqa: E402
 from . import numbers  # noqa: E402
 from .style import (COLUMN_MM, DIVERGING, LINE_COLOURS, MM, PAGE_MM, SEQUENTIAL,  # noqa: E402
-                    colour_bar, house_style, new_figure, save, wrapped)
+                    colour_bar, house_style, new_figure, nothing_to_show, save, wrapped)
 
 # Okabe-Ito colours (style.LINE_COLOURS), one per wall and layer
 WALL_COLOURS = {"outer": "#D55E00", "inner": "#E69F00", "lumen": "#0072B2",
@@ -43,9 +43,13 @@ def volume_over_cycle(t_ms: np.ndarray, volumes_mm3: dict[str, np.ndarray], path
         ax.set_xlabel("time since minimum volume (ms)")
         ax.set_ylabel("volume (mm$^3$)")
         ax.set_title(what, fontsize=9)
+        ax.ticklabel_format(axis="y", useOffset=False)   # no "+1.25e2" above the axis
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
+    if not any(name in LAYERS for name in volumes_mm3):
+        nothing_to_show(axes[1], "one wall only: no layer between walls (the dataset has no "
+                        "inner wall or lumen)", PAGE_MM / 2)
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
     return save(fig, path)
 
@@ -122,15 +126,21 @@ def frame_with_contours(grid_mm: np.ndarray, contours_mm: dict[str, np.ndarray],
     ax.set_box_aspect(np.ptp(grid_mm.reshape(-1, 3), axis=0), zoom=ZOOM_3D)  # true proportions
     from matplotlib.ticker import MaxNLocator
 
-    for axis, name, ticks in ((ax.xaxis, "x", 2), (ax.yaxis, "y", 2), (ax.zaxis, "z", 3)):
-        axis.set_major_locator(MaxNLocator(ticks))  # few: a thin tube's axes are short
+    # few ticks, at the ends of the axis (its label sits in the middle): one, the middle
+    # one, on an axis under a quarter of the longest (a flat tube's); x's last and y's
+    # first meet at the near corner: each leaves that one out
+    extent = np.ptp(grid_mm.reshape(-1, 3), axis=0)
+    for axis, name, k in ((ax.xaxis, "x", 0), (ax.yaxis, "y", 1), (ax.zaxis, "z", 2)):
         axis.set_label_text(f"{name} (mm)")
-    # x's last tick and y's first meet at the near corner: each leaves that one out
-    for axis, keep in ((ax.xaxis, slice(None, -1)), (ax.yaxis, slice(1, None))):
         lo, hi = sorted(axis.get_view_interval())
-        ticks = [x for x in axis.get_major_locator().tick_values(lo, hi) if lo <= x <= hi]
-        if len(ticks) > 2:
-            axis.set_ticks(ticks[keep])
+        ticks = [x for x in MaxNLocator(4).tick_values(lo, hi) if lo <= x <= hi]
+        if not ticks:
+            continue
+        if extent[k] < 0.25 * extent.max() or len(ticks) == 1:
+            ticks = [min(ticks, key=lambda x: abs(x - (lo + hi) / 2))]
+        else:
+            ticks = {"x": [ticks[0]], "y": [ticks[-1]]}.get(name, [ticks[0], ticks[-1]])
+        axis.set_ticks(ticks)
     ax.tick_params(pad=0)
     ax.xaxis.labelpad, ax.yaxis.labelpad, ax.zaxis.labelpad = 4, 8, 2
     ax.view_init(elev=18, azim=-40)    # the x and y tick labels apart at the near corner
@@ -259,6 +269,11 @@ def max_area_profile(s_mm, max_area: dict, path: Path, *, sigma_area: dict | Non
 def time_expanded(s_mm, shares: dict[str, np.ndarray], path: Path, *, title: str = "") -> Path:
     """Fig. C: % of the cycle each section is expanded."""
     fig, ax = new_figure(COLUMN_MM, 75)
+    if not any(np.isfinite(share).any() for share in shares.values()):
+        nothing_to_show(ax, "no row expands and contracts over the cycle (its area does not "
+                        "change beyond the frames' noise): no share of the cycle expanded")
+        ax.set_title(wrapped(plain_text(title), COLUMN_MM))
+        return save(fig, path)
     for label, share in shares.items():
         ax.plot(s_mm, 100 * share, lw=1.6, label=label)
     ax.set_xlabel("position along the tube s (mm)")
@@ -286,9 +301,9 @@ def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
     wax.set_title("key: hue = direction\n(d/dt right, d/ds up),\nbrightness = size",
                   fontsize=7)
     if rates is not None:
-        expand, contract = (numbers.number(1e6 * r) for r in rates)   # mm² -> µm²: no 1e-04
-        wax.text(0.5, -0.08, f"max expansion\n{expand} µm²/ms\nmax contraction\n"
-                 f"{contract} µm²/ms", fontsize=7, ha="center", va="top",
+        expand_um2, contract_um2 = (numbers.number(1e6 * r) for r in rates)   # no 1e-04
+        wax.text(0.5, -0.08, f"max expansion\n{expand_um2} µm²/ms\nmax contraction\n"
+                 f"{contract_um2} µm²/ms", fontsize=7, ha="center", va="top",
                  transform=wax.transAxes)
     return save(fig, path)
 
@@ -301,7 +316,14 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
     ``bridged`` (``(n_v,)`` bool, optional): rows that barely move, ringed, the line the
     speeds took across them dashed."""
     fig, axes = new_figure(PAGE_MM, 65, ncols=2)
-    if bridged is not None and np.any(bridged):
+    if not np.isfinite(ridge_t_ms).any():
+        for ax in axes:
+            nothing_to_show(ax, "no ridge: no row of the area map has a time of maximum area "
+                            "(the tube does not change over the cycle, or not as a wave)",
+                            PAGE_MM / 2)
+        bridged = None
+    elif bridged is not None and np.any(bridged) and np.any(
+            ~np.asarray(bridged, bool) & np.isfinite(ridge_t_ms)):
         bridged = np.asarray(bridged, bool)
         moving = ~bridged & np.isfinite(ridge_t_ms)
         inside = (s_mm >= s_mm[moving][0]) & (s_mm <= s_mm[moving][-1])
@@ -315,17 +337,25 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
     else:
         axes[0].plot(s_mm, ridge_t_ms, "k.", label="ridge")
     if knee is not None and np.isfinite(knee["knee_mm"]):
-        k = knee["knee_mm"]
-        t_k = knee.get("knee_t_ms", np.interp(k, s_mm, ridge_t_ms))   # older results: none
-        speeds = (knee["speed_proximal_mm_s"], knee["speed_distal_mm_s"])
-        for s_end, c in zip((s_mm[0], s_mm[-1]), speeds):
-            axes[0].plot([s_end, k], [t_k + 1e3 * (s_end - k) / c, t_k], "r-", lw=1.2)
+        knee_mm = knee["knee_mm"]
+        t_k = knee.get("knee_t_ms", np.interp(knee_mm, s_mm, ridge_t_ms))   # older: none
+        speeds_mm_s = (knee["speed_proximal_mm_s"], knee["speed_distal_mm_s"])
+        for s_end, c in zip((s_mm[0], s_mm[-1]), speeds_mm_s):
+            axes[0].plot([s_end, knee_mm], [t_k + 1e3 * (s_end - knee_mm) / c, t_k], "r-",
+                         lw=1.2)
         axes[0].plot([], [], "r-", lw=1.2, label="two-segment fit: "
-                     + ", ".join(f"{numbers.number(c)} mm/s" for c in speeds))
-        axes[0].axvline(k, color="r", ls=":", lw=0.8, label=f"knee at {numbers.number(k)} mm")
+                     + ", ".join(f"{numbers.number(speed_mm_s)} mm/s"
+                                 for speed_mm_s in speeds_mm_s))
+        axes[0].axvline(knee_mm, color="r", ls=":", lw=0.8,
+                        label=f"knee at {numbers.number(knee_mm)} mm")
     axes[0].set_xlabel("position along the tube s (mm)")
     axes[0].set_ylabel("time of maximum area (ms)")
-    if speed is not None:
+    if speed is None or not np.isfinite(speed).any():
+        if np.isfinite(ridge_t_ms).any():
+            nothing_to_show(axes[1], "no local wave speed: the rows reach their maximum area "
+                            "together within the noise (the tube moves all at once)",
+                            PAGE_MM / 2)
+    else:
         axes[1].plot(s_mm, speed, "b.-", lw=0.8)
         if speed_sd is not None:
             axes[1].fill_between(s_mm, speed - speed_sd, speed + speed_sd, color="b", alpha=0.2,

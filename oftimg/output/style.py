@@ -125,6 +125,15 @@ def colour_bar(fig, image, ax, label: str, *, signed: bool = False):
     return bar
 
 
+def nothing_to_show(ax, why: str, width_mm: float = COLUMN_MM) -> None:
+    """Say on ``ax`` why it is empty (``why``: what the data lack, in words), in place
+    of a plot: a figure of a valid dataset with nothing to show is made, not failed."""
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.text(0.5, 0.5, wrapped(why, 0.7 * width_mm, 8), ha="center", va="center",
+            transform=ax.transAxes, fontsize=8, color="0.3")
+
+
 def wrapped(text: str, width_mm: float, size_pt: float = 8.0, shortest: int = 20) -> str:
     """``text`` broken into lines that fit ``width_mm`` at ``size_pt`` (a character
     about 0.21 mm a point on average; lines of at least ``shortest`` characters), for

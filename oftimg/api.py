@@ -9,6 +9,7 @@ import contextlib
 import dataclasses
 import logging
 import math
+import os
 import platform
 import shutil
 import sys
@@ -29,7 +30,7 @@ from .io.label_dataset import (LabelDataset, is_label_dataset, label_repairs_not
 from .synthetic.labels import write_label_phantom
 from .synthetic.phantom import sample_params, write_phantom
 from .synthetic.texture import TWIST_DEG as TEXTURE_TWIST_DEG
-from .progress import Progress
+from .progress import FramePasses, Progress
 from .output.results import read_summary, result_folders, source_paths
 from .workers import available_memory, closing_executor, make_executor
 
@@ -126,7 +127,7 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
             work = (_embryos_in_workers if parallel == "embryos" and executor is not None
                     else _frames_in_workers)
             done = work(todo, reports, finished, fingerprints, opts, executor, fps=fps,
-                        quiet=quiet)
+                        quiet=quiet, out=out)
             summaries = [reused.get(name) or done[name] for name in names]
             _write_run(summaries, finished, out, paths, opts, overwrite=overwrite,
                        started=started, cluster_alpha=cluster_alpha)
@@ -236,19 +237,22 @@ def _n_workers(executor) -> int:
 
 
 def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: float,
-                      quiet: bool = True, executor=None, progress=None) -> dict:
+                      quiet: bool = True, executor=None, progress=None,
+                      results_at: Path | None = None) -> dict:
     """One validated dataset end to end: its results into ``folder`` (which
     exists); returns its summary, which records the warnings of the analysis
     (``warnings``, raised again too). ``progress``: see :func:`analyse_dataset`;
-    without it, a bar over the frames that then names the stages still to come."""
-    from .analysis.pipeline import analyse_dataset
+    without it, a bar over the frames that then names the stages still to come.
+    ``results_at``: where the results will be read from (``--out/<name>``; default
+    ``folder``), so that the provenance gives the dataset's path from there too."""
+    from .analysis.pipeline import FRAME_PASSES, analyse_dataset
     from .output.video import EARLY_VIDEOS, start_videos
 
     started = time.perf_counter()
     bar = None
     if progress is None:
-        bar = Progress(2 * ds.n_frames, ds.meta.name, quiet=quiet)
-        progress = bar.advance
+        bar = Progress(ds.n_frames, ds.meta.name, quiet=quiet)
+        progress = FramePasses(bar, FRAME_PASSES)
     early = None
 
     def aligned(arrays, grids):
@@ -269,6 +273,8 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
             finally:
                 raised = _raise_again(caught)
             summary = result["summary"]
+            summary["provenance"]["dataset"]["from_results"] = os.path.relpath(
+                summary["provenance"]["dataset"]["path"], Path(results_at or folder).resolve())
             summary["warnings"] = raised
             summary["validation"] = report
             if bar is not None:
@@ -314,7 +320,7 @@ def _tail_frames(n_frames: int) -> int:
 
 
 def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
-                vector_suffixes=None):
+                vector_suffixes=None, results_at: Path | None = None):
     """:func:`analyse_and_write` in a worker, into a folder of its own.
 
     Returns the summary, the files ``{path relative to the dataset's folder:
@@ -322,7 +328,8 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
     warnings raised, each once, for the caller to raise again. ``frames_done``:
     a queue that gets a 1 for each frame of each per-frame pass and, once the
     files are made, :data:`TAIL_PASSES` x the frames for them; or None.
-    ``vector_suffixes``: the figures' vector formats, the caller's
+    ``results_at``: as :func:`analyse_and_write` has it. ``vector_suffixes``: the
+    figures' vector formats, the caller's
     :func:`~oftimg.output.style.vector_formats` (a worker does not share it), or
     None for the default.
     """
@@ -340,7 +347,8 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
         folder.mkdir()
         report_frames = _Reports(frames_done)
         progress = None if frames_done is None else lambda: report_frames.put(1)
-        summary = analyse_and_write(ds, report, folder, opts, fps=fps, progress=progress)
+        summary = analyse_and_write(ds, report, folder, opts, fps=fps, progress=progress,
+                                    results_at=results_at)
         report_frames.put(_tail_frames(ds.n_frames))
         files = {p.relative_to(folder).as_posix(): p.read_bytes()
                  for p in sorted(folder.rglob("*")) if p.is_file()}
@@ -349,7 +357,7 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
 
 
 def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
-                        fps, quiet) -> dict:
+                        fps, quiet, out: Path) -> dict:
     """Every dataset as one :func:`embryo_task`, each kept in ``finished`` as it
     ends; returns the summaries by name. At most :func:`embryos_at_once` run at
     a time. After a dataset fails, no more are started, those running are still
@@ -362,8 +370,7 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
     from .output.style import vector_suffixes
 
     bar = Progress(sum(2 * ds.n_frames + _tail_frames(ds.n_frames) for ds in datasets),
-                   f"{len(datasets)} datasets",
-                   quiet=quiet)
+                   f"{len(datasets)} datasets", quiet=quiet, unit="step")   # a frame's pass
     log.info("%d datasets, each analysed whole in a worker", len(datasets))
     at_once = embryos_at_once(datasets, executor)
     summaries = {}
@@ -375,7 +382,7 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
         while waiting and len(running) < at_once and error is None:
             ds = waiting.pop(0)
             running.add(executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps,
-                                        frames_done, vector_suffixes()))
+                                        frames_done, vector_suffixes(), out / ds.meta.name))
 
     try:
         with _frame_counter(executor, bar) as frames_done:
@@ -512,7 +519,7 @@ class _DaskTopic:
 
 
 def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
-                       fps, quiet) -> dict:
+                       fps, quiet, out: Path) -> dict:
     """One dataset after another, each one's frames in ``executor``'s workers, each
     kept in ``finished`` as it ends; returns the summaries by name."""
     summaries = {}
@@ -521,7 +528,7 @@ def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts
         log.info("%s: analysing %d frames (%d of %d datasets)", name, ds.n_frames, k + 1,
                  len(datasets))
         summary = analyse_and_write(ds, reports[name], finished.writing(name), opts, fps=fps,
-                                    quiet=quiet, executor=executor)
+                                    quiet=quiet, executor=executor, results_at=out / name)
         finished.keep(name, fingerprints[name], summary)
         summaries[name] = summary
         _log_done(summary)
@@ -547,7 +554,7 @@ def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, st
 def _run_info(inputs: list[Path], options: dict, started: float) -> dict:
     """What ``run.json`` records: oftimg, Python, platform, inputs, options, seconds."""
     return {"oftimg_version": __version__, "python": sys.version.split()[0],
-            "platform": platform.platform(), "inputs": [str(p) for p in inputs],
+            "platform": platform.platform(), "inputs": [str(Path(p).resolve()) for p in inputs],
             "options": options, "seconds": round(time.time() - started, 2)}
 
 

@@ -69,6 +69,12 @@ class Progress:
         self._count += n
         self._bar.update(n)
 
+    def restart(self, stage: str) -> None:
+        """Count the same total again from 0, for the stage ``stage`` (:meth:`note`)."""
+        self._count = 0
+        self._bar.reset(total=self._total)
+        self.note(stage)
+
     def close(self) -> None:
         """End the bar (off a terminal: a last line, "done", unless an error is on its
         way up: its one line is then the last)."""
@@ -100,6 +106,26 @@ class Progress:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class FramePasses:
+    """The progress callback of passes over the same frames: ``bar`` (a
+    :class:`Progress` over the frames) counts each pass's frames from 0, its stage
+    naming the pass ("seams (pass 1 of 2)"), so that a 48-frame dataset counts 48
+    frames, not 96."""
+
+    def __init__(self, bar: Progress, stages: tuple[str, ...]):
+        self.bar, self.stages, self.k = bar, stages, 0
+        bar.note(self._stage())
+
+    def _stage(self) -> str:
+        return f"{self.stages[self.k]} (pass {self.k + 1} of {len(self.stages)})"
+
+    def __call__(self) -> None:
+        if self.bar.n >= self.bar.total and self.k + 1 < len(self.stages):
+            self.k += 1
+            self.bar.restart(self._stage())
+        self.bar.advance()
 
 
 def _every_interval(progress: weakref.ref, stop: threading.Event) -> None:

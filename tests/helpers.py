@@ -114,3 +114,158 @@ def label_phantom_area_errors(page, phantom_folder, n_frames: int, group: str = 
     return {wall: np.abs(arrays[f"area_{wall}_mm2"]
                          / ph.area_mm2(wall, arrays["s_mm"][:, None], t_ms[None, :]) - 1)
             for wall in ("outer", "inner", "lumen")}
+
+
+# ------------------------------------------------------ valid but unusual datasets
+SMALL_MESH = dict(vertices_min=1200, vertices_max=1600)
+
+
+def _phantom_case(folder, walls=("outer", "inner", "lumen"), *, group="normal", seed=5,
+                  n_frames=12, um=False, **overrides):
+    """A phantom (:func:`~oftimg.synthetic.phantom.write_phantom`) with ``walls`` only;
+    ``um``: its meshes and inlet given in µm (``length_unit`` "um")."""
+    import json
+
+    from oftimg.io.meshfile import read_mesh_file
+    from oftimg.synthetic.phantom import sample_params, write_phantom
+
+    params = sample_params(group, seed, n_frames=n_frames, **{**SMALL_MESH, **overrides})
+    write_phantom(folder, params, walls=walls)
+    if um:
+        for path in sorted(folder.glob("*/*.ply")):
+            V, F = read_mesh_file(path)
+            write_ply(path, V * 1000.0, F)
+        meta = json.loads((folder / "meta.json").read_text())
+        meta.update(length_unit="um", inlet=[1000.0 * x for x in meta["inlet"]])
+        (folder / "meta.json").write_text(json.dumps(meta))
+    return folder
+
+
+def _straight_case(folder, radii, n_frames=16):
+    """A straight tube meshed anew in every frame (:func:`retriangulated_tube`), its
+    radius ``radii(k)`` in frame ``k``: outer wall only, mm, 400 ms a beat."""
+    import json
+
+    rng = np.random.default_rng(1)
+    write_series(folder, [retriangulated_tube(rng, radius_in=radii(k), n_vertices=1500)
+                          for k in range(n_frames)])
+    (folder / "meta.json").write_text(json.dumps({"name": folder.name, "period_ms": 400.0,
+                                                  "length_unit": "mm", "inlet": [0, 0, 0]}))
+    return folder
+
+
+def _label_case(folder, n_frames=8, voxel_um=(8.0, 8.0, 16.0), **kwargs):
+    from oftimg.synthetic.labels import write_label_phantom
+    from oftimg.synthetic.phantom import sample_params
+
+    return write_label_phantom(folder, sample_params("normal", 2, n_frames=n_frames),
+                               voxel_um, **kwargs)
+
+
+# name -> a function of an empty folder that writes the dataset there (issue 71, point 4)
+UNUSUAL_DATASETS = {
+    "rigid": lambda f: _straight_case(f, lambda k: 2.0),
+    "breathing": lambda f: _straight_case(
+        f, lambda k: 2.0 * (1 + 0.2 * np.sin(np.pi * k / 16) ** 4)),
+    "outer_alone": lambda f: _phantom_case(f, ("outer",)),
+    "outer_and_lumen": lambda f: _phantom_case(f, ("outer", "lumen")),
+    "five_frames": lambda f: _phantom_case(f, n_frames=5),
+    "400_frames": lambda f: _phantom_case(f, ("outer",), n_frames=400, vertices_min=600,
+                                          vertices_max=800),
+    "short_tube": lambda f: _phantom_case(f, length_mm=0.3, speed_knee_mm=0.12),
+    "long_tube": lambda f: _phantom_case(f, length_mm=5.0, bend_radius_mm=3.0,
+                                         radius_inlet_mm=0.1, radius_outlet_mm=0.07,
+                                         speed_knee_mm=2.0, vertices_min=3000,
+                                         vertices_max=3500),
+    "um": lambda f: _phantom_case(f, um=True),
+    "banded": lambda f: _phantom_case(f, group="banded", n_frames=16),
+    "labels": _label_case,
+    "labels_intensity": lambda f: _label_case(f, intensity=True),
+    "probabilities": lambda f: _label_case(f, 6, (12.0, 12.0, 24.0), probabilities=True),
+}
+
+
+# what every dataset's results hold, by the walls and inputs it has (issue 71, point 4)
+FIGURES = {"outer": {"area_derivative_outer", "area_map_outer", "frame_t0_contours",
+                     "max_area_profile", "ridge_speed", "shape_pca", "time_expanded",
+                     "volume_over_cycle"},
+           "inner": {"trim_over_cycle", "wall_thickness_map"},
+           "jelly": {"jelly_thickness_map"}, "intensity": {"pullback_outer"}}
+VIDEOS = {"outer": {"area_map_cursor", "outer_wall_3d_area_map", "radial_curvature_outer",
+                    "radial_curvature_outer_normalized", "strain_energy_outer",
+                    "strain_energy_outer_per_frame"},
+          "inner": {"radial_curvature_inner", "strain_energy_inner", "wall_thickness"},
+          "lumen": {"mean_curvature_lumen", "lumen_mean_curvature_3d"},
+          "jelly": {"jelly_thickness"},
+          "intensity": {"pullback_outer", "surface_speed_outer", "surface_divergence_outer"}}
+
+
+def expected_outputs(walls: set, intensity: bool) -> tuple[set, set]:
+    """The figures and videos (names without suffix) of a dataset with ``walls``."""
+    parts = set(walls) | ({"jelly"} if {"inner", "lumen"} <= set(walls) else set()) \
+        | ({"intensity"} if intensity else set())
+    return (set().union(*(FIGURES.get(p, set()) for p in parts)),
+            set().union(*(VIDEOS.get(p, set()) for p in parts)))
+
+
+def run_to_the_end(dataset, work) -> dict:
+    """``dataset`` through `oftimg run` (in this process, one job) and every export
+    (`oftimg paraview`, `oftimg tiff`, the napari reader), each checked to end with
+    exit 0 and complete outputs: every figure and video its walls and inputs give,
+    each readable and not blank; every file the pages link there; no "nan" where a
+    person reads (pages, tables, warnings). Returns the dataset's summary."""
+    import html
+    import json
+    import re
+    from pathlib import Path
+
+    import cv2
+    import imageio.v3 as iio
+
+    from oftimg.cli import main
+    from oftimg.napari.reader import results_layers
+
+    work = Path(work)
+    out = work / "results"
+    assert main(["run", str(dataset), "--out", str(out), "--quiet", "--jobs", "1"]) == 0
+    folder = next(p for p in out.iterdir() if (p / "summary.json").is_file())
+    summary = json.loads((folder / "summary.json").read_text())
+    walls = {w for w in ("outer", "inner", "lumen") if (dataset / w).is_dir()} or \
+        set(summary["provenance"]["meshing"]["vertices"])
+    figures, videos = expected_outputs(walls, (dataset / "intensity").is_dir())
+    assert {p.stem for p in (folder / "figures").glob("*.png")} >= figures
+    assert {p.stem for p in (folder / "videos").glob("*.mp4")} >= videos
+    for png in (folder / "figures").glob("*.png"):
+        image = iio.imread(png)
+        assert image.std() > 1, f"{png.name} is blank"
+    for mp4 in (folder / "videos").glob("*.mp4"):
+        video = cv2.VideoCapture(str(mp4))
+        frames = int(video.get(cv2.CAP_PROP_FRAME_COUNT))
+        video.set(cv2.CAP_PROP_POS_FRAMES, frames // 2)
+        ok, frame = video.read()
+        video.release()
+        assert ok and frames >= summary["n_frames"] and frame.std() > 1, \
+            f"{mp4.name}: {frames} frames, none readable or all blank"
+    for page in (out / "index.html", folder / "index.html"):
+        text = page.read_text()
+        for link in re.findall(r'(?:src|href)="([^"#:]+)"', text):
+            assert (page.parent / html.unescape(link)).exists(), f"{page}: {link} missing"
+        visible = re.sub(r"<[^>]+>", " ", re.sub(r"<(script|style)[^>]*>.*?</\1>", " ", text,
+                                                 flags=re.S))
+        assert not re.search(r"\bnan\b", visible, re.I), f"{page}: nan in the text"
+    assert not re.search(r"\bnan\b", (out / "table1.md").read_text(), re.I)
+    assert not [w for w in summary["warnings"] if re.search(r"\bnan\b", w, re.I)]
+    page = (folder / "index.html").read_text()
+    for warning in summary["warnings"]:                     # each on the page, its path cut
+        assert html.escape(warning.split(": ", 1)[-1]) in page, warning
+    assert main(["paraview", str(out), "--out", str(work / "paraview"), "--quiet",
+                 "--jobs", "1"]) == 0
+    assert any((work / "paraview").rglob("*.vt*"))
+    assert main(["tiff", str(out), "--out", str(work / "tiff"), "--quiet"]) == 0
+    assert any((work / "tiff").rglob("*.tif"))
+    layers = results_layers(out)
+    surfaces = [layer for layer in layers if layer[2] == "surface"]
+    assert len(surfaces) == len(walls)
+    if (dataset / "labels").is_dir() or (dataset / "intensity").is_dir():
+        assert any(layer[2] in ("labels", "image") for layer in layers)  # its volumes too
+    return summary

@@ -30,7 +30,10 @@ def test_output_contract(run_out, phantom_normal):
     summary = json.loads((folder / "summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
     assert summary["provenance"]["oftimg_version"]
-    assert len(summary["provenance"]["inputs"]["outer"]) == 36
+    assert len(summary["provenance"]["inputs"]["meshes"]["outer"]) == 36
+    dataset = summary["provenance"]["dataset"]            # found from anywhere (issue 71)
+    assert Path(dataset["path"]).is_absolute() and Path(dataset["path"]) == phantom_normal
+    assert (folder / dataset["from_results"]).resolve() == phantom_normal.resolve()
     assert summary["tracking"]["grid"] == "tracked"               # the default
     assert summary["tracking"]["ring_rms_mm"] <= summary["tracking"]["ring_rms_unturned_mm"]
     assert "on the tracked grid" in (folder / "index.html").read_text()
@@ -227,14 +230,15 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     assert main(["demo", "--out", str(out)]) == 0
     said = capsys.readouterr()
     lines = [line for line in said.err.splitlines() if re.search(r": \d+/\d+ \w+s", line)]
-    assert any(re.search(r"normal_0.*: \d+/24 frames \(\d+ %\)", line) for line in lines)
+    assert any(re.search(r"normal_0: grids and sections \(pass 2 of 2\): \d+/12 frames "
+                         r"\(\d+ %\)", line) for line in lines)        # 12 frames, not 24
     assert said.out.splitlines()[-1].startswith(f"report: {out / 'results' / 'index.html'}")
     assert (out / "results" / "index.html").is_file()
     run_info = json.loads((out / "results" / "run.json").read_text())
     assert sorted(run_info["inputs"]) == sorted(str(p) for p in (out / "data").iterdir())
     for name in ("normal_0", "banded_0"):
         summary = json.loads((out / "results" / name / "summary.json").read_text())
-        files = [f["file"] for f in summary["provenance"]["inputs"]["outer"]]
+        files = [f["file"] for f in summary["provenance"]["inputs"]["meshes"]["outer"]]
         assert len(files) == 12
         assert all(Path(f).parent.samefile(out / "data" / name / "outer") for f in files)
     assert not [p for p in out.iterdir() if p.name.startswith(".")]   # no staging left
@@ -362,9 +366,10 @@ def test_a_cluster_forming_threshold_must_be_a_p_value(tmp_path, capsys, command
 
 
 @pytest.mark.usefixtures("png_figures")
-def test_swapped_walls_are_pointed_out(tmp_path):
+def test_swapped_walls_are_refused(tmp_path, capsys):
     """inner/ and outer/ swapped gave negative myocardial volumes and a 100 % trim
-    without a word."""
+    without a word; then warnings and exit 0; now exit 2 with one line (issue 71),
+    after the warnings that say what was seen."""
     import warnings
 
     from oftimg.synthetic.phantom import sample_params, write_phantom
@@ -377,29 +382,17 @@ def test_swapped_walls_are_pointed_out(tmp_path):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         assert main(["run", str(ds), "--out", str(tmp_path / "out"), "--quiet",
-                     "--jobs", "1"]) == 0
+                     "--jobs", "1"]) == 2
     swapped = [str(w.message) for w in caught if "swapped?" in str(w.message)]
     assert swapped == [f"{ds}: the inner wall encloses as much as the outer one or more in "
                        "5 of 5 frames: are inner/ and outer/ swapped?"]   # lumen/ is fine
-    # every "inner" node lies outside its "outer" node: the thickness is negative
-    crossed = [str(w.message) for w in caught if "segmentations cross?" in str(w.message)]
-    assert crossed == [f"{ds}: the inner wall lies outside the outer one at 20000 of 20000 "
-                       "grid nodes over the frames, where wall_thickness_mm is negative: do the "
-                       "segmentations cross? (see inner_nodes_outside_outer)"]
-    summary = json.loads((tmp_path / "out" / "swapped" / "summary.json").read_text())
-    assert summary["inner_nodes_outside_outer"] == 20000
-    assert summary["lumen_nodes_outside_inner"] == summary["inner_nodes_at_closest_point"] == 0
-    thickness = np.load(tmp_path / "out" / "swapped" / "arrays.npz")["wall_thickness_mm"]
-    assert np.all(thickness < 0) and summary["wall_thickness_median_mm"] < 0
-    assert summary["wall_thickening"] is None              # NaN: no ratio of negatives
-    # the warnings, each raised once, are in the summary and on both pages (the path cut)
-    assert swapped[0] in summary["warnings"] and crossed[0] in summary["warnings"]
-    assert len(set(summary["warnings"])) == len(summary["warnings"])
-    said = crossed[0].removeprefix(f"{ds}: ")
-    assert said.startswith("the inner wall lies outside")
-    for page in (tmp_path / "out" / "swapped" / "index.html", tmp_path / "out" / "index.html"):
-        assert html.escape(said) in page.read_text(), page
-    assert '<a href="swapped/index.html">swapped</a>' in (tmp_path / "out" / "index.html").read_text()
+    errors = [line for line in capsys.readouterr().err.splitlines()
+              if line.startswith("oftimg: error:")]
+    assert len(errors) == 1 and errors[0].startswith(
+        f"oftimg: error: {ds}: results that cannot be right, so none are written: the inner "
+        "wall lies outside the outer one at 100% of the grid nodes")
+    assert "the inner wall encloses as much as the outer one or more in 5 of 5 frames" in errors[0]
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.usefixtures("png_figures")

@@ -37,7 +37,7 @@ def in_its_unit(expression: str, unit: str) -> bool:
     """The expression's number is in ``unit`` by its name (``inlet_mm``, ``speed_mm_s``,
     ``VOXEL_MM_RANGE``, ``area_um2``) or an explicit conversion."""
     name = LENGTH_UNITS[unit]
-    if name == "um" and re.search(r"\b(1000|1e3) \*", expression):
+    if name == "um" and re.search(r"\b(1000|1e3) \*|\* (1000|1e3)\b", expression):
         return True                                       # mm converted on the spot
     return re.search(rf"(\b|_){name}(\d|_|\b)", expression, re.IGNORECASE) is not None
 

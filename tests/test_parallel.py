@@ -97,6 +97,10 @@ class RecordingBar:
     def note(self, text):
         self.notes.append(text)
 
+    def restart(self, stage):
+        self.n = 0
+        self.note(stage)
+
     def close(self):
         pass
 
@@ -131,7 +135,7 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
         monkeypatch.setattr(api, "Progress", RecordingBar)
         whole = api.run(cohort, tmp_path / "whole", quiet=True, jobs=2, parallel="embryos")
     bar, = [b for b in RecordingBar.bars if b.desc == "2 datasets"]
-    assert (bar.unit, bar.total, bar.n) == ("frame", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
+    assert (bar.unit, bar.total, bar.n) == ("step", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
     assert bar.notes == ["1 of 2 datasets done", "2 of 2 datasets done"]
     runs = {"local pool": (whole, worker_warnings)}
     try:
@@ -147,7 +151,7 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
                            scheduler=cluster.scheduler_address)
         runs["Dask cluster"] = (dask, dask_warnings)
         bar = [b for b in RecordingBar.bars if b.desc == "2 datasets"][-1]
-        assert (bar.unit, bar.total, bar.n) == ("frame", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
+        assert (bar.unit, bar.total, bar.n) == ("step", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
     ours = lambda caught: sorted({str(w.message) for w in caught  # noqa: E731
                                   if issubclass(w.category, OftimgWarning)})
     for how, (out, caught) in runs.items():
@@ -172,8 +176,9 @@ def test_one_dataset_bar_counts_frames_then_names_the_stages(tmp_path, monkeypat
     monkeypatch.setattr(api, "Progress", RecordingBar)
     api.run(path, tmp_path / "out", jobs=1)
     bar, = [b for b in RecordingBar.bars if b.desc == "p"]
-    assert (bar.total, bar.n) == (10, 10)
-    assert bar.notes == ["fields, maps, shape modes", "figures, videos"]
+    assert (bar.total, bar.n) == (5, 5)                 # the frames, once each pass
+    assert bar.notes == ["seams (pass 1 of 2)", "grids and sections (pass 2 of 2)",
+                         "fields, maps, shape modes", "figures, videos"]
 
 
 def test_this_process_runs_one_blas_thread_while_its_workers_run(tmp_path, monkeypatch):
@@ -185,7 +190,8 @@ def test_this_process_runs_one_blas_thread_while_its_workers_run(tmp_path, monke
 
     seen = []
     monkeypatch.setattr(pipeline, "analyse_dataset",
-                        lambda *a, **k: seen.append(blas_threads()) or {"summary": {}})
+                        lambda *a, **k: seen.append(blas_threads()) or {"summary": {
+                            "provenance": {"dataset": {"path": str(tmp_path)}}}})
     monkeypatch.setattr(api, "write_dataset_results", lambda *a, **k: seen.append(blas_threads()))
     ds = SimpleNamespace(n_frames=3, meta=SimpleNamespace(name="x"))
     with threadpoolctl.threadpool_limits(limits=2, user_api="blas"):
@@ -235,7 +241,7 @@ def test_by_embryo_no_more_run_at_once_than_fit(tmp_path, monkeypatch):
     running, most = [0], [0]
     lock = threading.Lock()
 
-    def task(ds, report, opts, fps, frames_done, vector_suffixes):
+    def task(ds, report, opts, fps, frames_done, vector_suffixes, results_at):
         with lock:
             running[0] += 1
             most[0] = max(most[0], running[0])
@@ -252,7 +258,7 @@ def test_by_embryo_no_more_run_at_once_than_fit(tmp_path, monkeypatch):
     with ThreadPoolExecutor(4) as pool:
         done = api._embryos_in_workers(datasets, {f"e{k}": {} for k in range(7)},
                                        Finished(tmp_path / "kept"), {f"e{k}": {} for k in range(7)},
-                                       None, pool, fps=30.0, quiet=True)
+                                       None, pool, fps=30.0, quiet=True, out=tmp_path / "out")
     assert sorted(done) == [f"e{k}" for k in range(7)]
     assert most[0] == 2
     assert Finished(tmp_path / "kept").names() == [f"e{k}" for k in range(7)]

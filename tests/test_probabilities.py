@@ -61,7 +61,7 @@ def test_probability_maps_through_run(maps, tmp_path, capsys):
     summary = json.loads((out / "pm" / "summary.json").read_text())
     meshing = summary["provenance"]["meshing"]
     assert meshing["kind"] == "probabilities" and meshing["label_repairs"] == []
-    files = {f["file"] for f in summary["provenance"]["inputs"]["labels"]}
+    files = {f["file"] for f in summary["provenance"]["inputs"]["probabilities"]}
     assert len(files) == 3 * 8 and all("/probabilities/" in f for f in files)
     for wall, error in label_phantom_area_errors(out / "pm", maps, 8).items():
         assert np.median(error) < 0.05, wall

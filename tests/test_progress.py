@@ -60,3 +60,21 @@ def test_a_bar_closed_by_an_error_leaves_the_error_the_last_line(capsys):
     except ValueError:
         pass
     assert capsys.readouterr().err == ""
+
+
+def test_passes_over_the_frames_count_the_frames_once_each_pass():
+    """A 48-frame label run counted "49/96 frames" and "done: 96/96"."""
+    from oftimg.progress import FramePasses
+
+    bar = Progress(48, "emb", quiet=True)
+    step = FramePasses(bar, ("seams", "grids and sections"))
+    assert bar.line_text().startswith("emb: seams (pass 1 of 2): 0/48 frames (0 %)")
+    for _ in range(48):
+        step()
+    assert bar.line_text().startswith("emb: seams (pass 1 of 2): 48/48 frames (100 %)")
+    step()
+    assert bar.line_text().startswith("emb: grids and sections (pass 2 of 2): 1/48 frames (2 %)")
+    for _ in range(47):
+        step()
+    assert bar.n == bar.total == 48
+    bar.close()

@@ -90,13 +90,13 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
         notes.append(f"the ridge's slope along the tube, {spread['ridge_slope_ms_per_mm']:.3g} "
                      f"± {spread['ridge_slope_noise_sd_ms_per_mm']:.2g} ms/mm, is consistent "
                      "with none within the map's noise: the tube contracts at once "
-                     "(synchronous within noise), so no wave speed is given (NaN)")
+                     "(synchronous within noise), so no wave speed is given")
     elif np.isfinite(spread["noise_sd"]).any():
         notes += _unresolved_speeds(speeds["summary"] | {"proximal": knee.speed_proximal_mm_s,
                                                          "distal": knee.speed_distal_mm_s}, sd)
     else:
         notes.append(f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
-                     "the wave speeds have no noise spread (NaN)")
+                     "the wave speeds are given without their spread")
     still = int(np.count_nonzero(spread["still_rows"]))
     summary["ridge_rows_bridged"] = still
     if still:

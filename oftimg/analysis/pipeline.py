@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -12,7 +13,7 @@ from .. import __version__
 from ..errors import DatasetError, InputError, OftimgWarning
 from ..memory import release_freed
 from ..io.dataset import Dataset, check_enough_frames
-from ..io.label_dataset import label_repairs_note
+from ..io.label_dataset import label_repairs_note, listed_files
 from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                            volume_change, wrap_step_ratio)
 from .maps import analyse_area_maps
@@ -29,7 +30,7 @@ from ..mesh.sections import slab_thickness, volume_from_sections
 from ..mesh.curvature import contour_curvature, count_corners
 from ..mesh.strain import grid_strain, surface_kinematics
 from .per_frame import frame_seam_candidates, process_frame, with_warnings
-from ..progress import Progress
+from ..progress import FramePasses, Progress
 
 
 # where the rows of the (v, t) area maps lie: at the grid rows, as in the paper (they
@@ -442,6 +443,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     del frames  # each frame's arrays, stacked: ~120 MB for 195 frames
     release_freed()                     # which the heap would otherwise keep (oftimg.memory)
     _warn_about_frames(ds, st)
+    _refuse_implausible(ds, st, t0)
     pullbacks = None
     if ds.intensity is not None:
         tick = time.perf_counter()
@@ -520,14 +522,16 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     summary["section_volume_error"] = {
         w: float(np.median(np.abs(arrays[f"volume_from_sections_{w}_mm3"]
                                   / arrays[f"volume_{w}_mm3"] - 1))) for w in st["walls"]}
+    inputs = {kind: ({w: listed_files(p) for w, p in paths.items()} if isinstance(paths, dict)
+                     else listed_files(paths)) for kind, paths in ds.inputs_by_kind().items()}
     summary["provenance"] = {
         "oftimg_version": __version__, "options": options.as_dict(),
-        "length_unit": ds.meta.length_unit, "voxel_size": ds.meta.voxel_size,
-        "inputs": {s: [{"file": str(p), "bytes": p.stat().st_size} for p in files]
-                   for s, files in ds.frames.items()}}
+        "length_unit": ds.meta.length_unit,
+        "voxel_size": (ds.labels["meshing"]["voxel_size"] if ds.labels is not None
+                       else ds.meta.voxel_size),
+        "dataset": {"path": str(Path(ds.path).resolve())}, "inputs": inputs}
     if ds.labels is not None:           # meshed from label volumes: those are the inputs
-        summary["provenance"].update(inputs={"labels": ds.labels["files"]},
-                                     meshing=ds.labels["meshing"])
+        summary["provenance"]["meshing"] = ds.labels["meshing"]
         mended = label_repairs_note(ds.path, ds.labels["meshing"].get("label_repairs", []))
         if mended:
             warnings.warn(mended, OftimgWarning, stacklevel=2)
@@ -628,14 +632,17 @@ def frame_pullback(series, t: int, grids: dict, factors: tuple[int, int],
     return out
 
 
+FRAME_PASSES = ("seams", "grids and sections")     # what each pass over the frames makes
+
+
 def _per_frame_passes(ds: Dataset, opts: GridOptions, *, quiet, executor, progress,
                       timings: dict) -> tuple[list[dict], int]:
     """The two per-frame passes (seam end points, then everything else of a frame),
     in input order, and the number of frames whose seam was continued from their
     neighbours'. Adds their wall and CPU seconds to ``timings``."""
     n_t = ds.n_frames
-    with Progress(2 * n_t, f"{ds.meta.name}", quiet=quiet or progress is not None) as bar:
-        advance = progress or bar.advance
+    with Progress(n_t, f"{ds.meta.name}", quiet=quiet or progress is not None) as bar:
+        advance = progress or FramePasses(bar, FRAME_PASSES)
         tick = time.perf_counter()
         p_in, p_out, seams_continued = seam_end_points(ds, opts, progress=advance,
                                                        executor=executor)
@@ -729,6 +736,19 @@ def _warn_about_frames(ds: Dataset, st: dict) -> None:
         warnings.warn(f"{ds.path}: {sum(st['flipped'].values())} flipped triangles in the "
                       "(u, v) maps (the map is not one-to-one there)", OftimgWarning,
                       stacklevel=3)
+
+
+def _refuse_implausible(ds: Dataset, st: dict, t0: int) -> None:
+    """Stop with one :class:`DatasetError` when the stacked per-frame results (frames
+    from ``t0`` on) cannot be right (:func:`~oftimg.analysis.plausibility.implausible`),
+    before anything is written."""
+    from .plausibility import implausible
+
+    names = [ds.frames["outer"][(t0 + k) % st["n_t"]].name for k in range(st["n_t"])]
+    problems = implausible(st["grid"], st["volume"], st["outside"], frame_names=names)
+    if problems:
+        raise DatasetError(f"{ds.path}: results that cannot be right, so none are written: "
+                           + "; ".join(problems))
 
 
 def _time_axis(ds: Dataset, options: PipelineOptions, st: dict, timing: dict, t0: int

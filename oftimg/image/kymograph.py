@@ -164,7 +164,7 @@ def ridge_times(area: np.ndarray, period_ms: float, *,
         t[~flat] = periodic_peak(smooth[~flat], find="max") * period_ms / n_t
     if flat.any():
         warnings.warn(f"{int(flat.sum())} of {len(flat)} rows of the map do not change over "
-                      "time: no ridge there (NaN)", RuntimeWarning, stacklevel=2)
+                      "time: no ridge there (left blank)", RuntimeWarning, stacklevel=2)
     ok = np.isfinite(t)
     if ok.sum() > 1:
         t[ok] = unwrap_robust(t[ok], period_ms)

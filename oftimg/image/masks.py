@@ -105,8 +105,8 @@ def expanded_sigma(area: np.ndarray, *, min_r2: float = 0.8):
         sigma[ok] = np.where(r2[ok] >= min_r2, fit, np.nan)
     bad = int(np.isnan(sigma).sum())
     if bad:
-        warnings.warn(f"Gaussian fits poorly (R² < {min_r2}), or the row has NaN cells or "
-                      f"does not change, in {bad} of {n_v} rows (NaN)", RuntimeWarning,
+        warnings.warn(f"Gaussian fits poorly (R² < {min_r2}), or the row has empty cells or "
+                      f"does not change, in {bad} of {n_v} rows (their width left blank)", RuntimeWarning,
                       stacklevel=2)
     dt = np.abs((frames[None, :] - peak[:, None] + n_t / 2) % n_t - n_t / 2)
     mask = dt <= sigma[:, None]

@@ -98,6 +98,7 @@ def read_meta_json(folder: Path, keys: dict = META_KEYS) -> dict:
     if not isinstance(raw, dict):
         raise DatasetError(f"{path}: expected a JSON object, found {type(raw).__name__}")
     for key, value in raw.items():
+        _check_text(path, key, value)
         if key not in keys:
             raise DatasetError(f"{path}: unknown key {key[:40]!r}; allowed: {', '.join(keys)}")
         if not isinstance(value, keys[key]) or isinstance(value, bool):
@@ -105,6 +106,31 @@ def read_meta_json(folder: Path, keys: dict = META_KEYS) -> dict:
             raise DatasetError(f"{path}: {key!r} must be {want}, found "
                                f"{_JSON_KINDS.get(type(value), type(value).__name__)}")
     return raw
+
+
+def _check_text(path: Path, key: str, value) -> None:
+    """Every string in a meta.json entry (its key too) is text that can be written:
+    JSON lets ``"\\udc80"`` through, half of a UTF-16 pair that no file, folder or
+    figure can hold."""
+    strings = [key]
+    todo = [value]
+    while todo:
+        item = todo.pop()
+        if isinstance(item, str):
+            strings.append(item)
+        elif isinstance(item, dict):
+            strings += list(item)
+            todo += list(item.values())
+        elif isinstance(item, list):
+            todo += item
+    for text in strings:
+        try:
+            text.encode("utf-8")
+        except UnicodeEncodeError as exc:
+            raise DatasetError(f"{path}: {key[:40].encode('utf-8', 'replace').decode()!r} "
+                               f"holds {text[exc.start]!r}, half of a UTF-16 pair (a lone "
+                               "surrogate) that is no character; write it as plain text"
+                               ) from None
 
 
 _JSON_KINDS = {str: "text", list: "a list", dict: "an object", bool: "true/false",
@@ -231,13 +257,26 @@ class Dataset:
     labels: dict | None = None              # meshed from label volumes: their files, how
     intensity: IntensitySeries | None = None        # intensity/ (their headers checked)
 
+    def inputs_by_kind(self) -> dict[str, list[Path] | dict[str, list[Path]]]:
+        """The files the dataset is made of, by kind: ``meshes`` (wall -> its frames'
+        files) and ``intensity``; or, meshed from label volumes, theirs (``labels`` or
+        ``probabilities``, and ``intensity``)."""
+        if self.labels:
+            return {kind: [Path(f["file"]) for f in files]
+                    for kind, files in self.labels["inputs"].items()}
+        inputs = {"meshes": dict(self.frames)}
+        if self.intensity is not None:
+            inputs["intensity"] = list(dict.fromkeys(Path(s.path)
+                                                     for s in self.intensity.sources))
+        return inputs
+
     def input_files(self) -> list[Path]:
         """The files the dataset is made of (its intensity volumes too), meta.json with
         them."""
-        files = ([Path(f["file"]) for f in self.labels["files"]] if self.labels
-                 else [p for surface in self.frames.values() for p in surface])
-        if self.intensity is not None and not self.labels:   # a label dataset's list has them
-            files += list(dict.fromkeys(Path(s.path) for s in self.intensity.sources))
+        files = []
+        for paths in self.inputs_by_kind().values():
+            files += ([p for wall in paths.values() for p in wall] if isinstance(paths, dict)
+                      else paths)
         return files + [p for p in [self.path / "meta.json"] if p.is_file()]
 
     @property
@@ -476,6 +515,8 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
             warnings.warn(f"{ds.path / surface}: repaired {len(repairs)} of {ds.n_frames} "
                           f"frames ({listed}{more})", OftimgWarning, stacklevel=2)
         nv, nf, inlet_area, outlet_area = (list(x) for x in zip(*(f for f, _, _ in results)))
+        if surface == "outer":
+            check_frames_alike(ds, inlet_area)
         report["surfaces"][surface] = {
             "frames": len(nv), "vertices_min": int(min(nv)), "vertices_max": int(max(nv)),
             "faces_min": int(min(nf)), "faces_max": int(max(nf)), "boundary_loops": 2,
@@ -485,5 +526,53 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
         }
     if problems:
         raise _every_bad_frame(ds, problems)
+    check_tube_size(ds, report["surfaces"]["outer"])
     ds.validated = True
     return report
+
+
+AREA_OFF = 100.0     # a frame whose inlet's area is this many times the median's: not alike
+
+
+def check_frames_alike(ds: Dataset, inlet_areas_mm2: list[float]) -> None:
+    """Refuse a frame whose outer inlet loop's area is :data:`AREA_OFF` times the
+    frames' median or more (or as much less): a beat changes it by far less, a frame
+    exported in other units (or of another embryo) by that much."""
+    areas = np.asarray(inlet_areas_mm2, float)
+    off = np.abs(np.log(np.maximum(areas, 1e-300) / np.median(areas)))
+    t = int(np.argmax(off))
+    if off[t] > np.log(AREA_OFF):
+        raise DatasetError(f"{ds.frames['outer'][t]}: its inlet's area is "
+                           f"{areas[t] / np.median(areas):.3g} times the frames' median (a "
+                           "beat changes it by far less): is this frame in other units, or "
+                           "of another embryo?")
+
+
+def _length(mm: float) -> str:
+    """A length for a message, in µm under a millimetre."""
+    return f"{1000 * mm:.3g} µm" if mm < 1 else f"{mm:.3g} mm"
+
+
+# a living tube's radius: a capillary's few µm to the largest aorta's (a blue whale's,
+# about 115 mm); outside this, the length unit is most likely wrong
+RADIUS_MM_RANGE = (1e-3, 150.0)
+
+
+def check_tube_size(ds: Dataset, outer: dict) -> None:
+    """Refuse an outer wall whose ends' radius (from the median area of its inlet and
+    outlet loops, ``outer``: the validation report's entry) is outside
+    :data:`RADIUS_MM_RANGE`: no living tube's, and what a length unit off by 1000 gives
+    (µm given as mm, or mm as µm)."""
+    areas = [outer["inlet_area_mm2_median"], outer["outlet_area_mm2_median"]]
+    radius_mm = float(np.sqrt(max(areas) / np.pi))
+    low_mm, high_mm = RADIUS_MM_RANGE
+    if low_mm <= radius_mm <= high_mm:
+        return
+    said = ("meta.json's length_unit" if "length_unit" in read_meta_json(ds.path)
+            else "the length unit (mm when meta.json gives no length_unit)")
+    unit = "um" if ds.meta.length_unit == "mm" else "mm"
+    raise DatasetError(
+        f"{ds.path / 'outer'}: a tube {_length(2 * radius_mm)} across at its wider end: "
+        f"no living tube is {'so thin' if radius_mm < low_mm else 'so wide'} "
+        f"({2 * low_mm * 1000:g} µm to {2 * high_mm:g} mm); is {said} right? The coordinates "
+        f"look like {unit}: set \"length_unit\": \"{unit}\" in meta.json")

@@ -116,12 +116,20 @@ class LabelDataset:
         """``labels/`` or ``probabilities/``."""
         return self.path / self.kind
 
-    def input_files(self) -> list[Path]:
-        """The files the dataset is made of (each once), meta.json with them."""
+    def inputs_by_kind(self) -> dict[str, list[Path]]:
+        """The files the dataset is made of, each once, by kind: ``labels`` or
+        ``probabilities``, and ``intensity`` when it has intensity volumes."""
         parts = [part for s in self.sources
                  for _, part in (s.layers if isinstance(s, ProbabilitySource) else [("", s)])]
-        parts += list(self.intensity.sources) if self.intensity is not None else []
-        files = list(dict.fromkeys(Path(s.path) for s in parts))
+        inputs = {self.kind: list(dict.fromkeys(Path(s.path) for s in parts))}
+        if self.intensity is not None:
+            inputs["intensity"] = list(dict.fromkeys(Path(s.path)
+                                                     for s in self.intensity.sources))
+        return inputs
+
+    def input_files(self) -> list[Path]:
+        """The files the dataset is made of (each once), meta.json with them."""
+        files = [p for paths in self.inputs_by_kind().values() for p in paths]
         return files + [p for p in [self.path / "meta.json"] if p.is_file()]
 
     def mesh_names(self) -> list[str]:
@@ -553,7 +561,8 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     ``progress()`` after each frame. A wall left out in a frame (its label absent,
     its mask not mendable) is filled from the frames around it (:func:`fill_wall`)
     when at most :data:`FILLED_SHARE` of the frames have one. Returns what the
-    results' provenance records: the label files, the meshing options, per wall
+    results' provenance records: the input files by kind (:func:`listed_files`), the
+    meshing options, per wall
     each frame's vertex count and the pieces its clean-up dropped, and every mask
     repair and fill (``label_repairs``). Raises one :class:`DatasetError` naming
     every frame that cannot be meshed."""
@@ -574,8 +583,7 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     write_meshed_meta(lds, out)
     walls = [w for w in ("outer", "inner", "lumen") if w in results[0]["vertices"]]
     return {
-        "files": [{"file": str(p), "bytes": p.stat().st_size} for p in lds.input_files()
-                  if p.name != "meta.json"],
+        "inputs": {kind: listed_files(paths) for kind, paths in lds.inputs_by_kind().items()},
         "meshing": {"options": options.as_dict(), "voxel_size": list(lds.voxel_size),
                     "length_unit": lds.meta.length_unit, "shape_zyx": list(lds.shape),
                     "labels": lds.label_ids, "kind": lds.kind,
@@ -584,6 +592,11 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
                        for key in ("vertices", "pieces_dropped", "step")},
                     "label_repairs": repairs,
                     "seconds": round(time.perf_counter() - tick, 2)}}
+
+
+def listed_files(paths: list[Path]) -> list[dict]:
+    """Files as the results' provenance lists them: each one's absolute path and size."""
+    return [{"file": str(Path(p).resolve()), "bytes": Path(p).stat().st_size} for p in paths]
 
 
 def _raise_for_bad_files(results: list, n: int) -> None:

@@ -74,7 +74,9 @@ def list_label_sources(folder: Path, natural_key, what: str = "label volumes"
     order (one format only)."""
     series = series_file(folder)
     if series is not None:
-        n_t = _series_shape(series)[0]
+        _check_kind(series)
+        with _read_as(series, "a 4-D series"):
+            n_t = _series_shape(series)[0]
         return [LabelSource(str(series), t) for t in range(n_t)]
     files = sorted((p for p in folder.iterdir() if not p.name.startswith(".")
                     and label_suffix(p) in PER_FRAME_SUFFIXES),
@@ -94,14 +96,8 @@ def read_header(source: LabelSource) -> VolumeHeader:
     """The frame's shape, dtype and voxel size from its file's header."""
     path = Path(source.path)
     _check_kind(path)
-    try:
-        with _quiet_readers():
-            return _read_header(source, path)
-    except DatasetError:
-        raise
-    except Exception as exc:             # a truncated or foreign file: its reader's words
-        raise DatasetError(f"{source}: cannot be read as a volume: damaged, or not "
-                           f"what its name says ({_reader_says(exc)})") from None
+    with _read_as(source, "a volume"):
+        return _read_header(source, path)
 
 
 def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
@@ -133,13 +129,20 @@ def _check_kind(path: Path) -> None:
 
 
 @contextlib.contextmanager
-def _quiet_readers():
-    """tifffile logs what it finds odd in a damaged file (kilobytes of it); the
-    error oftimg raises says it in one line."""
+def _read_as(source, what: str):
+    """Reading ``source`` (a path or :class:`LabelSource`) as ``what``: a reader's
+    exception (a truncated or foreign file) becomes one :class:`DatasetError` in its
+    reader's words, and tifffile's log of what it finds odd (kilobytes of it) is
+    kept quiet."""
     logger = logging.getLogger("tifffile")
     disabled, logger.disabled = logger.disabled, True
     try:
         yield
+    except DatasetError:
+        raise
+    except Exception as exc:
+        raise DatasetError(f"{source}: cannot be read as {what}: damaged, or not what its "
+                           f"name says ({_reader_says(exc)})") from None
     finally:
         logger.disabled = disabled
 
@@ -162,14 +165,8 @@ def read_volume(source: LabelSource) -> np.ndarray:
     """The frame's labels ``(z, y, x)`` as stored (one frame read, not the series)."""
     path = Path(source.path)
     _check_kind(path)
-    try:
-        with _quiet_readers():
-            return _read_volume(source, path)
-    except DatasetError:
-        raise
-    except Exception as exc:
-        raise DatasetError(f"{source}: cannot be read: damaged, or not what its name says "
-                           f"({_reader_says(exc)})") from None
+    with _read_as(source, "a volume"):
+        return _read_volume(source, path)
 
 
 def _read_volume(source: LabelSource, path: Path) -> np.ndarray:

@@ -20,7 +20,6 @@ import numpy as np
 __all__ = ["MeshFormatError", "PARSERS", "not_triangles", "parse_ply", "parse_obj", "parse_stl",
            "parse_off", "parse_vtk", "ply_vertex_property"]
 
-HEADER_MAX_BYTES = 65536
 MAX_COUNT = 2 ** 31 - 1          # int32 indices: a count beyond is a damaged header
 
 PLY_TYPES = {"char": "i1", "uchar": "u1", "int8": "i1", "uint8": "u1", "short": "i2",
@@ -93,11 +92,12 @@ def _check_faces(F: np.ndarray, n_vert: int) -> np.ndarray:
 
 
 def _split_header(data: bytes, end_marker: bytes, what: str) -> tuple[list[list[str]], int]:
-    """The header's lines as words, and the byte at which the body begins."""
-    end = data.find(end_marker, 0, HEADER_MAX_BYTES)
+    """The header's lines as words, and the byte at which the body begins. A header
+    of any length (a PLY's comments can fill many kilobytes): the file is in memory
+    and a search for its end runs at memory speed."""
+    end = data.find(end_marker)
     if end < 0:
-        raise MeshFormatError(f"no {end_marker.decode()} line in its first "
-                              f"{HEADER_MAX_BYTES // 1024} KB: not a {what} file, or damaged")
+        raise MeshFormatError(f"no {end_marker.decode()} line: not a {what} file, or damaged")
     newline = data.find(b"\n", end)
     start = len(data) if newline < 0 else newline + 1
     head = data[:end]

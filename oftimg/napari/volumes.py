@@ -38,13 +38,10 @@ def cycle_order(n_frames: int, t0_frame: int) -> np.ndarray:
 
 
 def dataset_of(results) -> Path | None:
-    """The dataset folder a result was made from (from its provenance), if it is still
-    there."""
-    inputs = results.summary.get("provenance", {}).get("inputs", {})
-    files = next(iter(inputs.values()), [])
-    if not files:
-        return None
-    for folder in Path(files[0]["file"]).parents:
+    """The dataset folder a result was made from, if it is still there
+    (:meth:`~oftimg.output.results.Results.dataset_candidates`: where the run found
+    it, or as far from the results as it was)."""
+    for folder in results.dataset_candidates():
         if folder.is_dir() and (is_dataset(folder) or is_label_dataset(folder)):
             return folder
     return None
@@ -56,7 +53,17 @@ def result_volumes(results) -> list[tuple]:
     gone, or the cycle was time-warped (its frames are not the input's)."""
     folder = dataset_of(results)
     summary = results.summary
-    if folder is None or summary.get("time_warp"):
+    if folder is None:
+        import warnings
+
+        from ..errors import OftimgWarning
+
+        places = " nor ".join(str(p) for p in results.dataset_candidates()) or "unknown"
+        warnings.warn(f"{results.folder}: the dataset these results were made from is "
+                      f"not at {places}: its walls are shown without its volumes",
+                      OftimgWarning, stacklevel=2)   # napari shows it as a notification
+        return []
+    if summary.get("time_warp"):
         return []
     order = cycle_order(int(summary["n_frames"]), int(summary["t0_frame"]))
     return volume_layers(folder, order, name=results.name)

@@ -153,7 +153,7 @@ class Finished:
         """What a dataset's results are made from: its input files (sizes and
         modification times), the options, fps, and oftimg's version and source
         (so that a development install's changed code is not taken for the same)."""
-        stats = [(str(p), p.stat()) for p in ds.input_files()]
+        stats = [(str(p.resolve()), p.stat()) for p in ds.input_files()]   # any cwd
         return {"oftimg_version": __version__, "oftimg_source": _source_digest(),
                 "options": opts.as_dict(), "fps": fps, "period_ms": ds.meta.period_ms,
                 "inputs": [[p, st.st_size, st.st_mtime_ns] for p, st in stats]}

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import json
+import os
 import zipfile
 from pathlib import Path
 
@@ -125,6 +126,26 @@ class Results:
 
     def __contains__(self, name) -> bool:
         return name in self.described
+
+    def dataset_candidates(self) -> list[Path]:
+        """Where the dataset these results were made from may be, in the order to try:
+        its absolute path at the run, then its path from the results applied to where
+        the results are now (both moved together), then (results of before 0.2) the
+        folders around its first input file."""
+        provenance = self.summary.get("provenance", {})
+        dataset = provenance.get("dataset") or {}
+        places = []
+        if dataset.get("path"):
+            places.append(Path(dataset["path"]))
+        if dataset.get("from_results"):
+            places.append(Path(os.path.normpath(self.folder.resolve() / dataset["from_results"])))
+        if not places:
+            inputs = provenance.get("inputs", {})
+            files = next(iter(inputs.values()), [])
+            files = next(iter(files.values()), []) if isinstance(files, dict) else files
+            if files:
+                places += list(Path(files[0]["file"]).parents)[1:3]
+        return list(dict.fromkeys(places))
 
     def info(self, name: str) -> dict:
         """``{"dims", "unit", "description", "file", ...}`` of array ``name``."""

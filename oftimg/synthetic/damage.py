@@ -150,6 +150,11 @@ def odd_file(folder, rng):
     path = _a_frame(folder, rng) if target == "frame" else folder / "meta.json"
     kind = str(rng.choice(["fifo", "folder", "dev_zero", "broken_link", "link_loop",
                            "empty", "random"]))
+    if (kind == "folder" and target == "frame" and path.parent.name == "labels"
+            and rng.random() < 0.5):
+        for frame in path.parent.iterdir():     # the 4-D labels.tif that is a folder
+            frame.unlink()
+        path = path.parent / "labels.tif"
     if path.exists() or path.is_symlink():
         path.unlink()
     if kind == "fifo":
@@ -170,7 +175,7 @@ def odd_file(folder, rng):
 
 
 _ODD_VALUES = [None, True, -1, 0, 1e-12, 1e999, -1e999, 10 ** 400, 10 ** 16, "", "x" * 300,
-               "\x00", [], [1, 2], [0, 0, 0], [True, 0, 0], [1e999, 0, 0], [1e9, 1e9, 1e9],
+               "\x00", "ab\udc80c", [], [1, 2], [0, 0, 0], [True, 0, 0], [1e999, 0, 0], [1e9, 1e9, 1e9],
                {"a": 1}, [[1]], 3.5, 360, [10, 1e-12, 20], [1, 1, 1e6], "mm", "um", "m"]
 
 
@@ -257,6 +262,67 @@ def odd_labels(folder, rng):
     return what
 
 
+def label_values(folder, rng):
+    """The label values renumbered in every frame: layers swapped (meta.json's labels
+    kept, or removed), two layers merged into one value, or a layer's voxels given to
+    the layer around it (missing). None of these can give a right answer."""
+    import tifffile
+
+    how = str(rng.choice(["swapped", "swapped, no labels", "merged", "missing"]))
+    table = np.arange(256, dtype=np.uint8)
+    if how.startswith("swapped"):
+        order = [(2, 1, 3), (1, 3, 2), (3, 2, 1), (2, 3, 1), (3, 1, 2)][int(rng.integers(5))]
+        table[[1, 2, 3]] = order
+    elif how == "merged":
+        a = int(rng.integers(1, 3))
+        table[a + 1] = a                                  # jelly into myocardium, or lumen
+    else:                                                 # into jelly
+        layer = int(rng.integers(2, 4))
+        table[layer] = layer - 1
+    for path in sorted((folder / "labels").glob("*.tif")):
+        tifffile.imwrite(path, table[tifffile.imread(path)], compression="zlib")
+    if how.endswith("no labels"):
+        meta = json.loads((folder / "meta.json").read_text())
+        meta.pop("labels", None)
+        (folder / "meta.json").write_text(json.dumps(meta))
+    return how
+
+
+label_values.must_refuse = True         # an exit 0 is a fault: the answer cannot be right
+
+
+def units_off(folder, rng):
+    """meta.json's length unit or period off by 1000: mm for um and back, the voxel
+    size or the period 1000 times too large or too small."""
+    meta = json.loads((folder / "meta.json").read_text())
+    how = str(rng.choice(["length_unit", "voxel_size", "period_ms"]))
+    if how == "length_unit":
+        meta["length_unit"] = "mm" if meta.get("length_unit", "mm") == "um" else "um"
+        what = f"length_unit {meta['length_unit']}"
+    else:
+        factor = float(rng.choice([1e-3, 1e3]))
+        if how == "voxel_size" and "voxel_size" not in meta:
+            how = "period_ms"
+        meta[how] = ([d * factor for d in meta[how]] if how == "voxel_size"
+                     else meta[how] * factor)
+        what = f"{how} x {factor:g}"
+    (folder / "meta.json").write_text(json.dumps(meta))
+    return what
+
+
+def long_header(folder, rng):
+    """A valid .ply frame whose header holds 70 KB of comment lines (a tool's history)."""
+    path = _pick(folder, rng, "*/*.ply")
+    data = path.read_bytes()
+    comments = b"".join(b"comment exported by a tool, step %d of its history\n" % k
+                        for k in range(1500))
+    path.write_bytes(data.replace(b"\n", b"\n" + comments, 1))
+    return f"{path.name}: {len(comments) // 1024} KB of header comments"
+
+
+long_header.must_pass = True            # valid: a refusal is a fault
+
+
 def odd_folder(folder, rng):
     """The folder's layout changed: a wall folder renamed, emptied or given one frame
     fewer, a stray file beside the frames."""
@@ -276,8 +342,9 @@ def odd_folder(folder, rng):
 
 
 MESH_MUTATIONS = (flip_bytes, cut_short, header_lies, face_sizes, other_format, odd_file,
-                  odd_meta, odd_folder)
-LABEL_MUTATIONS = (flip_bytes, cut_short, odd_file, odd_meta, odd_labels, odd_folder)
+                  odd_meta, odd_folder, units_off, long_header)
+LABEL_MUTATIONS = (flip_bytes, cut_short, odd_file, odd_meta, odd_labels, odd_folder,
+                   label_values, units_off)
 
 
 # --- running and judging ---------------------------------------------------------------
@@ -395,6 +462,10 @@ def fuzz(cases: int, work: str | Path, cli_main, *, seed: int = 0, run_every: in
                 validated = code
             elif validated == 0 and code == 2 and "no period_ms" not in stderr:
                 faults.append("validate passed what run refused")   # (a run needs a period)
+            if code == 0 and getattr(mutation, "must_refuse", False):
+                faults.append("exit 0 for what cannot be right")
+            if code == 2 and getattr(mutation, "must_pass", False):
+                faults.append("refused what is valid")
             outcomes.append(Outcome(case, base, what, argv[0], code,
                                     (stderr.strip().splitlines() or [""])[0][:300],
                                     round(seconds, 3), faults))

@@ -220,6 +220,10 @@ def test_ends_planes_cut_a_tube_inside_the_volume():
     from oftimg.mesh.topology import MeshError
     with pytest.raises(MeshError, match="closed surface"):
         mesh_wall(labels.astype(bool), (8.0, 8.0, 8.0))
+    beside = (((0, 0, 400.0), (0, 0, 1.0)), ((0, 0, 470.0), (0, 0, -1.0)))   # past its end
+    with pytest.raises(MeshError, match="lies wholly outside the part between the ends "
+                                        "planes"):     # an IndexError (found by the fuzzer)
+        mesh_wall(labels.astype(bool), (8.0, 8.0, 8.0), ends=beside)
 
 
 def test_ends_in_meta_json_cut_a_tube_that_ends_inside_the_volume(label_phantom, tmp_path):

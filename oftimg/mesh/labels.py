@@ -231,6 +231,8 @@ def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal) -> tuple[np.ndarra
     normal points to, its triangles split where they cross the plane (new vertices
     on the plane, shared by neighbouring triangles), so the cut leaves a boundary
     loop lying in the plane."""
+    if len(F) == 0:                               # cut away whole by a plane before
+        return V, F
     normal = np.asarray(normal, float) / np.linalg.norm(normal)
     d = (V - np.asarray(point, float)) @ normal
     d[np.abs(d) < 1e-12 * max(np.ptp(V), 1.0)] = 0.0
@@ -334,6 +336,9 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
     V, F, _ = repair(V, F)
     for point, normal in ends or ():
         V, F = cut_by_plane(V, F, point, normal)
+    if len(F) == 0:
+        raise MeshError("lies wholly outside the part between the ends planes (meta.json "
+                        "\"ends\"): is each normal pointing into the tube's part to keep?")
     V, F, cleaned = _largest_piece(V, F)
     loops = boundary_loops(F)
     if len(loops) == 1:

@@ -124,6 +124,8 @@ def test_fingerprint_changes_with_inputs_options_and_code(tmp_path, monkeypatch)
     (folder / "meta.json").write_text(json.dumps({"period_ms": 3.0}))
     os.utime(folder / "meta.json", ns=(base["inputs"][-1][2],) * 2)
     assert Finished.fingerprint(ds, PipelineOptions(), 30.0) == base
+    monkeypatch.chdir(tmp_path)            # the dataset named from another folder: the same
+    assert Finished.fingerprint(load_dataset("emb"), PipelineOptions(), 30.0) == base
     monkeypatch.setattr(export, "_source_digest", lambda: "changed code")
     assert Finished.fingerprint(ds, PipelineOptions(), 30.0) != base
 

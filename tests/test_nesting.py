@@ -58,6 +58,19 @@ def test_noise_and_specks_do_not_change_the_nesting():
     assert nesting_order(c, layers_present(c)) == [5, 9, 2]
 
 
+def test_a_myocardium_eroded_to_shreds_is_still_the_outermost():
+    """The zoo's first draws: a myocardium one voxel thick with holes (a wall eroded by
+    a voxel at coarse voxels) leaves the jelly touching the background more than the
+    myocardium does; the layers' depths still nest."""
+    rng = np.random.default_rng(2)
+    labels = rings(radii=(15, 14, 8), values=(6, 4, 41))
+    shell = labels == 6
+    labels[shell & (rng.random(labels.shape) < 0.85)] = 0             # 85 % of it gone
+    c = label_contacts(labels)
+    assert c.between(0, 4) > c.between(0, 6)                     # by contact: the jelly out
+    assert nesting_order(c, [4, 6, 41]) == [6, 4, 41]
+
+
 def test_layers_side_by_side_are_not_enclosed():
     labels = np.zeros((20, 30, 60), np.uint8)
     labels[:, 5:25, 5:28] = 1

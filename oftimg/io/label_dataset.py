@@ -311,7 +311,7 @@ def check_nesting(folder: Path, sources, label_ids: dict, *, given: bool) -> dic
     in meta.json (``given`` False), a volume of 0 and 1 is the myocardium alone.
     Raises one :class:`DatasetError` for the dataset that names the values found
     with their voxel counts, the nesting seen, and the mapping to write."""
-    from ..mesh.nesting import enclosed, label_contacts, layers_present, nesting_order
+    from ..mesh.nesting import label_contacts, layers_present, nesting_order
 
     frames = _sample_frames(len(sources))
     contacts = None
@@ -323,9 +323,7 @@ def check_nesting(folder: Path, sources, label_ids: dict, *, given: bool) -> dic
         return {"myocardium": 1}
     expected = list(label_ids.values())
     missing = [layer for layer, v in label_ids.items() if contacts.count(v) == 0]
-    order = nesting_order(contacts, expected) if not missing else []
-    if not missing and order == expected and all(
-            enclosed(contacts, a, b) for a, b in zip(expected, expected[1:])):
+    if not missing and nesting_order(contacts, expected) == expected:
         return label_ids
     names = ", ".join(str(Path(sources[t].path).name) if sources[t].index is None
                       else f"frame {sources[t].index}" for t in frames)
@@ -369,12 +367,11 @@ def _nesting_words(contacts, order: list[int]) -> str:
 def _refuse_nesting(folder: Path, said: str, contacts, present: list[int]):
     """Raise the :class:`DatasetError` of :func:`check_nesting` for a labels folder,
     with the ``labels`` mapping to write when the nesting seen gives one."""
-    from ..mesh.nesting import enclosed, nesting_order
+    from ..mesh.nesting import nesting_order
 
     order = nesting_order(contacts, present)
-    nested = all(enclosed(contacts, a, b) for a, b in zip(order, order[1:]))
     roles = {1: ["myocardium"], 2: ["myocardium", "lumen"], 3: list(LAYER_NAMES)}
-    if nested and len(order) in roles:
+    if len(order) in roles:
         mapping = json.dumps(dict(zip(roles[len(order)], order)))
         fix = f"write \"labels\": {mapping} in {folder.parent / 'meta.json'}"
     else:

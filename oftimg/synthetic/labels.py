@@ -166,7 +166,8 @@ def probability_maps(shares: dict[str, np.ndarray], noise: float,
 def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
                         *, noise: float | None = None, name: str | None = None,
                         progress=None, probabilities: bool = False,
-                        intensity: bool = False) -> Path:
+                        intensity: bool = False, texture=None,
+                        islands: int = ISLANDS) -> Path:
     """Write a label phantom dataset: ``meta.json``, ``labels/f000.tif ...`` (one
     zlib-compressed uint8 TIFF per frame, (z, y, x)) and ``truth.json``. ``noise``:
     the share of boundary voxels flipped (with specks, :func:`segmentation_noise`;
@@ -174,7 +175,9 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
     instead: each layer's partial volume (2 x 2 x 2 samples a voxel), blurred and
     with noise of SD ``noise`` on the log-probabilities (:func:`probability_maps`). With
     ``intensity``, ``intensity/f000.tif ...`` too: the volumes OCT would give, a
-    texture fixed in the tissue (:func:`~oftimg.synthetic.texture.intensity_volume`).
+    texture fixed in the tissue (:func:`~oftimg.synthetic.texture.intensity_volume`),
+    looking as ``texture`` (:class:`~oftimg.synthetic.texture.TextureParams`, default
+    the textured phantom's) says. ``islands``: the label noise's specks per frame.
     ``params`` are bent by :func:`label_params`. Returns the folder."""
     import tifffile
 
@@ -202,9 +205,10 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
     else:
         (out / "labels").mkdir(parents=True, exist_ok=True)
     if intensity:
-        from .texture import TissueTexture, intensity_volume
+        from .texture import TextureParams, TissueTexture, intensity_volume
 
-        texture = TissueTexture(ph, np.random.default_rng([params.seed, 59]))
+        texture = TissueTexture(ph, np.random.default_rng([params.seed, 59]),
+                                texture or TextureParams())
         speckle_rng = np.random.default_rng([params.seed, 61])
         (out / "intensity").mkdir(parents=True, exist_ok=True)
     for k, t in enumerate(ph.frame_times_ms()):
@@ -215,7 +219,7 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
         else:
             labels = grid.labels(t)
             if noise > 0:
-                labels = segmentation_noise(labels, noise, rng)
+                labels = segmentation_noise(labels, noise, rng, islands)
             tifffile.imwrite(out / "labels" / frame, labels, compression="zlib")
         if intensity:
             tifffile.imwrite(out / "intensity" / frame,

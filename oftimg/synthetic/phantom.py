@@ -27,7 +27,9 @@ The model (lengths in mm, times in ms):
   (1 - h(phi_inlet))`` with the outlet end fixed, so tissue slides through the
   inlet plane; a point at window position s has material position
   ``S = L - (L - s) / lambda(t)``, and the myocardial volume in the window
-  changes by about ``stretch``.
+  changes by about ``stretch``. The tissue may also turn about the axis beneath
+  the walls (``twist_deg``, largest at the inlet, the outlet or mid-tube, lagging
+  the slide by ``twist_phase`` of a cycle): only a texture fixed in it shows that.
 * **Lumen**: inside the inner wall (``lumen_fraction`` of its radius, the cardiac
   jelly between) with ``folds`` longitudinal folds that deepen on contraction.
 * **Band** (group ``banded``): a Gaussian neck of depth ``band_depth`` and
@@ -49,6 +51,9 @@ import numpy as np
 from ..errors import InputError
 
 WALLS = ("outer", "inner", "lumen")
+# the twist's share along the tube (x = s / L), by where it is largest
+TWIST_PROFILES = {"inlet": lambda x: 1.0 - x, "outlet": lambda x: x,
+                  "middle": lambda x: np.sin(np.pi * x)}
 
 
 @dataclass(frozen=True)
@@ -75,7 +80,9 @@ class PhantomParams:
     ellipse_contracted: float = 0.03
     myocardial_fraction: float = 0.3
     stretch: float = 0.17
-    twist_deg: float = 0.0          # the tissue's turn about the axis at the inlet, contracted
+    twist_deg: float = 0.0          # the tissue's largest turn about the axis, contracted
+    twist_profile: str = "inlet"    # where the turn is largest: inlet, outlet or middle
+    twist_phase: float = 0.0        # the turn's lag behind the slide, a share of the cycle
     lumen_fraction: float = 0.75
     folds: int = 5
     fold_contracted: float = 0.3
@@ -106,6 +113,9 @@ class PhantomParams:
             raise InputError("need 100 <= vertices_min <= vertices_max")
         if not (np.isfinite(self.noise_mm) and self.noise_mm >= 0):
             raise InputError(f"noise_mm must be >= 0, found {self.noise_mm}")
+        if self.twist_profile not in TWIST_PROFILES:
+            raise InputError(f"twist_profile must be one of {', '.join(TWIST_PROFILES)}, "
+                             f"found {self.twist_profile!r}")
 
 
 def sample_params(group: str = "normal", seed: int = 0, *, expand_change: float = 0.0,
@@ -286,12 +296,15 @@ class Phantom:
         return s, theta
 
     def twist(self, s, t_ms):
-        """The tissue's turn about the axis (rad) at window position s, time t: the
-        inlet's by ``twist_deg`` when fully contracted, none at the outlet. The walls'
-        shapes do not show it: only a texture fixed in the tissue does."""
+        """The tissue's turn about the axis (rad) at window position s, time t:
+        ``twist_deg`` when fully contracted where :data:`TWIST_PROFILES` puts the most
+        (the inlet by default, none at the outlet), following the inlet's beat
+        ``twist_phase`` of a cycle later than the slide does. The walls' shapes do not
+        show it: only a texture fixed in the tissue does."""
         p = self.p
-        h0 = self.expansion(0.0, t_ms)
-        return np.radians(p.twist_deg) * (1.0 - h0) * (1.0 - np.asarray(s, float) / p.length_mm)
+        h0 = self.expansion(0.0, np.asarray(t_ms, float) - p.twist_phase * p.period_ms)
+        along = TWIST_PROFILES[p.twist_profile](np.asarray(s, float) / p.length_mm)
+        return np.radians(p.twist_deg) * (1.0 - h0) * along
 
     def material_from_window(self, s, theta, t_ms):
         """(S, theta) material coordinates at window position s (mm), angle theta

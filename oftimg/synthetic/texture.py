@@ -10,6 +10,8 @@ Volumes are ``(z, y, x)`` uint8 on the labels' voxels
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .phantom import Phantom
@@ -25,24 +27,46 @@ SPECKLE = 0.2               # SD of the multiplicative speckle, new in every fra
 SPECKLE_VOXELS = 0.6        # its grain (Gaussian sigma, voxels)
 ATTENUATION_MM = 1.5        # the beam's 1/e depth along y
 NOISE = 0.015               # SD of the additive noise
+DEPTH_SIGMA = 0.6           # the texture's correlation through the wall, in depth samples
+
+
+@dataclass(frozen=True)
+class TextureParams:
+    """How the tissue looks and is imaged: the texture's grain (``blob_um``, Gaussian
+    sigma), ``contrast`` (its SD over its mean), its correlation through the wall
+    (``depth_sigma``, in :data:`DEPTH_LAYERS` samples across the myocardium: small, a
+    texture that changes with depth), the ``speckle`` new in every frame (SD), the
+    beam's 1/e depth ``attenuation_mm`` and the additive ``noise`` (SD, 1 = 255).
+    The defaults are the textured phantom's."""
+
+    blob_um: float = BLOB_UM
+    contrast: float = CONTRAST
+    depth_sigma: float = DEPTH_SIGMA
+    speckle: float = SPECKLE
+    attenuation_mm: float = ATTENUATION_MM
+    noise: float = NOISE
 
 
 class TissueTexture:
     """A random texture in the myocardium's material coordinates: ``(S, theta,
     depth)``, S the material position along the tube (mm), theta the material angle
     (rad, periodic), depth 0 at the outer wall and 1 at the inner wall. Values about
-    1 on average (SD :data:`CONTRAST`), blobs of :data:`BLOB_UM`."""
+    1 on average (SD ``params.contrast``), blobs of ``params.blob_um``."""
 
-    def __init__(self, phantom: Phantom, rng: np.random.Generator):
+    def __init__(self, phantom: Phantom, rng: np.random.Generator,
+                 params: TextureParams = TextureParams()):
         p = phantom.p
+        self.params = params
         r = max(p.radius_inlet_mm, p.radius_outlet_mm)
         step_mm = LATTICE_UM * 1e-3
         self.n_s = int(np.ceil(p.length_mm / step_mm)) + 1
         self.n_theta = int(np.ceil(2 * np.pi * r / step_mm))
         self.ds = p.length_mm / (self.n_s - 1)
-        sigma = BLOB_UM / LATTICE_UM
-        self.values = random_texture((self.n_s, self.n_theta, DEPTH_LAYERS), (sigma, sigma, 0.6),
-                                     rng, mode=("nearest", "wrap", "nearest"))
+        sigma = params.blob_um / LATTICE_UM
+        self.values = random_texture((self.n_s, self.n_theta, DEPTH_LAYERS),
+                                     (sigma, sigma, params.depth_sigma), rng,
+                                     mode=("nearest", "wrap", "nearest"),
+                                     contrast=params.contrast)
 
     def __call__(self, S: np.ndarray, theta: np.ndarray, depth: np.ndarray) -> np.ndarray:
         """The texture at material points (broadcasting), linear between samples."""
@@ -77,28 +101,31 @@ def intensity_volume(grid, texture: TissueTexture, t_ms: float,
     flat[grid.index[(dist <= inner) & (dist > lumen)]] = LEVEL["jelly"]
     flat[grid.index[dist <= lumen]] = LEVEL["lumen"]
     y_mm = np.arange(grid.shape[1]) * grid.voxel_mm[1]
-    out *= np.exp(-y_mm / ATTENUATION_MM)[None, :, None]
-    return imaged(out, rng)
+    look = texture.params
+    out *= np.exp(-y_mm / look.attenuation_mm)[None, :, None]
+    return imaged(out, rng, speckle=look.speckle, noise=look.noise)
 
 
-def random_texture(shape: tuple, sigma, rng: np.random.Generator, mode="nearest") -> np.ndarray:
-    """A smooth random field ``shape`` float32 about 1 (SD :data:`CONTRAST`, at least
+def random_texture(shape: tuple, sigma, rng: np.random.Generator, mode="nearest",
+                   contrast: float = CONTRAST) -> np.ndarray:
+    """A smooth random field ``shape`` float32 about 1 (SD ``contrast``, at least
     0.2): white noise blurred by ``sigma`` (samples, per axis; ``mode`` at the edges)."""
     from scipy import ndimage
 
     field = ndimage.gaussian_filter(rng.standard_normal(shape).astype(np.float32), sigma,
                                     mode=mode)
-    return np.clip(1.0 + CONTRAST * field / field.std(), 0.2, None).astype(np.float32)
+    return np.clip(1.0 + contrast * field / field.std(), 0.2, None).astype(np.float32)
 
 
-def imaged(volume: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def imaged(volume: np.ndarray, rng: np.random.Generator, *, speckle: float = SPECKLE,
+           noise: float = NOISE) -> np.ndarray:
     """A clean intensity ``volume`` (0..1) as an OCT frame: times a speckle new in this
-    frame (:data:`SPECKLE`, grain :data:`SPECKLE_VOXELS`), plus noise (:data:`NOISE`),
+    frame (SD ``speckle``, grain :data:`SPECKLE_VOXELS`), plus noise (SD ``noise``),
     as uint8 (1 is 255)."""
     from scipy import ndimage
 
-    speckle = ndimage.gaussian_filter(rng.standard_normal(volume.shape).astype(np.float32),
-                                      SPECKLE_VOXELS)
-    out = volume * np.clip(1.0 + SPECKLE * speckle / speckle.std(), 0.0, None)
-    out += rng.normal(0.0, NOISE, volume.shape).astype(np.float32)
+    grain = ndimage.gaussian_filter(rng.standard_normal(volume.shape).astype(np.float32),
+                                    SPECKLE_VOXELS)
+    out = volume * np.clip(1.0 + speckle * grain / grain.std(), 0.0, None)
+    out += rng.normal(0.0, noise, volume.shape).astype(np.float32)
     return np.clip(np.round(out * 255), 0, 255).astype(np.uint8)

@@ -1,0 +1,268 @@
+"""A randomized phantom zoo: datasets drawn from wide distributions, each with its
+truth, so that accuracy is measured as a distribution over the data labs bring rather
+than on the one phantom a method was tuned beside.
+
+:func:`draw_scenario` draws a :class:`Scenario` from a seed (deterministic: the same
+seed, the same scenario): the input kind (meshes, label volumes, probability maps,
+labels with intensity volumes), frames per cycle, period, the wave's speeds and
+shape (with or without a band), the expansion's share and its change along the tube,
+the tissue's slide and twist (largest at the inlet, the outlet or mid-tube, at any
+phase against the slide), the texture and how it is imaged (grain, contrast, its
+change through the wall, speckle, attenuation), the voxel size and anisotropy, a
+segmentation's defects (boundary flips, islands, a wall eroded or dilated by a voxel,
+holes and handles in a few frames), the label values and the file format, and for
+meshes their roughness and vertex counts. :func:`write_scenario` writes it as a
+dataset folder with ``truth.json`` (the model's answers) and ``scenario.json`` (what
+was drawn).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .label_defects import DEFECTS, inject
+from .labels import write_label_phantom
+from .phantom import PhantomParams, sample_params, write_phantom
+from .texture import TextureParams
+
+KINDS = ("meshes", "labels", "probabilities", "labels+intensity")
+FORMATS = ("tif", "tif4d", "npy", "nii", "zarr")
+LAYERS = ("myocardium", "jelly", "lumen")
+# what a draw ranges over (uniform between the two numbers unless said)
+RANGES = {
+    "n_frames": (30, 200), "period_ms": (250.0, 600.0),
+    "speed_proximal_mm_s": (3.0, 15.0), "distal_over_proximal": (1.0, 4.0),
+    "knee_share": (0.25, 0.75), "knee_width_mm": (0.03, 0.2),
+    "expand_fraction": (0.3, 0.55), "expand_change": (-0.15, 0.15),
+    "contraction": (0.15, 0.4), "twist_deg": (0.0, 30.0), "slide": (0.0, 0.15),
+    "band_share": (0.3, 0.7), "band_depth": (0.2, 0.5),
+    "noise_mm": (0.0, 0.005), "vertices_min": (1500, 8000),
+    "voxel_um": (2.0, 8.0), "anisotropy": (1.0, 3.0),
+    "flip": (0.0, 0.08), "islands": (0, 60), "probability_noise": (0.1, 0.6),
+    "blob_um": (3.0, 12.0), "contrast": (0.15, 0.5), "depth_sigma": (0.3, 4.0),
+    "speckle": (0.15, 0.5), "attenuation_mm": (0.5, 3.0),
+}
+BANDED_SHARE = 0.3          # of the draws: a band
+SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
+DEFECT_SHARE = 0.3          # of the label draws: a defect in one or two frames
+OWN_VALUES_SHARE = 0.5      # of the label draws: values other than 1, 2, 3
+
+
+@dataclass(frozen=True)
+class Segmentation:
+    """What a label draw's segmentation does beyond the phantom's truth: ``flip`` (the
+    share of boundary voxels given a neighbour's label) and ``islands`` (specks per
+    frame); ``systematic``: ``(layer, voxels)``, that layer's region grown (+1) or
+    shrunk (-1) by a voxel in every frame, or None; ``defects``: frame -> a defect of
+    :data:`~oftimg.synthetic.label_defects.DEFECTS`; ``values``: layer -> the value
+    written for it (meta.json's ``labels``); ``file_format``: one of :data:`FORMATS`;
+    ``probability_noise``: for probability maps, the noise's SD on the log-probabilities."""
+
+    flip: float = 0.05
+    islands: int = 30
+    systematic: tuple | None = None
+    defects: dict = field(default_factory=dict)
+    values: dict = field(default_factory=lambda: {"myocardium": 1, "jelly": 2, "lumen": 3})
+    file_format: str = "tif"
+    probability_noise: float = 0.3
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One draw of the zoo: the input ``kind`` (:data:`KINDS`), the phantom's
+    parameters, and for label kinds the voxel size (um, x y z), the segmentation and
+    (with intensity) the texture."""
+
+    seed: int
+    kind: str
+    phantom: PhantomParams
+    voxel_um: tuple | None = None
+    segmentation: Segmentation | None = None
+    texture: TextureParams | None = None
+
+    def as_dict(self) -> dict:
+        out = asdict(self)
+        if self.segmentation is not None:     # JSON keys are text: frames as strings
+            out["segmentation"]["defects"] = {str(k): v for k, v in
+                                              self.segmentation.defects.items()}
+        return out
+
+
+def _uniform(rng, name: str) -> float:
+    low, high = RANGES[name]
+    return float(rng.uniform(low, high))
+
+
+def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = None,
+                  voxel_um_min: float | None = None) -> Scenario:
+    """The scenario of ``seed`` (the same seed, the same draw): ``kind`` drawn from
+    :data:`KINDS` unless given, every number from :data:`RANGES`. ``n_frames`` and
+    ``voxel_um_min`` (the finest voxel side drawn) override the draw, for quick runs:
+    the rest of the draw is the same."""
+    rng = np.random.default_rng([seed, 72])
+    drawn_kind = KINDS[int(rng.integers(len(KINDS)))]
+    kind = drawn_kind if kind is None else kind
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {', '.join(KINDS)}, found {kind!r}")
+    group = "banded" if rng.random() < BANDED_SHARE else "normal"
+    base = sample_params(group, seed)
+    length = base.length_mm
+    frames = int(rng.integers(RANGES["n_frames"][0], RANGES["n_frames"][1] + 1))
+    proximal = _uniform(rng, "speed_proximal_mm_s")
+    expand = _uniform(rng, "expand_fraction")
+    change = _uniform(rng, "expand_change") if rng.random() < 0.5 else 0.0
+    v_min = int(rng.integers(*RANGES["vertices_min"]))
+    params = replace(
+        base, n_frames=frames if n_frames is None else n_frames,
+        period_ms=_uniform(rng, "period_ms"), speed_proximal_mm_s=proximal,
+        speed_distal_mm_s=proximal * _uniform(rng, "distal_over_proximal"),
+        speed_knee_mm=_uniform(rng, "knee_share") * length,
+        speed_knee_width_mm=_uniform(rng, "knee_width_mm"),
+        expand_fraction=expand,
+        expand_fraction_outlet=float(np.clip(expand + change, 0.2, 0.7)) if change else None,
+        contraction=_uniform(rng, "contraction"),
+        twist_deg=_uniform(rng, "twist_deg"),
+        twist_profile=str(rng.choice(["inlet", "outlet", "middle"])),
+        twist_phase=float(rng.uniform(0, 1)),
+        stretch=_uniform(rng, "slide"),
+        band_position_mm=(_uniform(rng, "band_share") * length if group == "banded" else None),
+        band_depth=_uniform(rng, "band_depth"),
+        noise_mm=_uniform(rng, "noise_mm") if kind == "meshes" else 0.0,
+        vertices_min=v_min, vertices_max=int(1.5 * v_min))
+    side = _uniform(rng, "voxel_um")
+    if voxel_um_min is not None:
+        side = max(side, voxel_um_min)
+    voxel = (side, side, side * _uniform(rng, "anisotropy"))
+    systematic = ((str(rng.choice(LAYERS)), int(rng.choice([-1, 1])))
+                  if rng.random() < SYSTEMATIC_SHARE else None)
+    n_defects = int(rng.integers(1, 3)) if rng.random() < DEFECT_SHARE else 0
+    at = rng.uniform(0, 1, n_defects)           # where in the cycle: any frame count
+    defects = {int(share * params.n_frames): str(rng.choice(sorted(DEFECTS)))
+               for share in at}
+    values = ({layer: int(v) for layer, v in zip(LAYERS, rng.choice(np.arange(1, 251), 3,
+                                                                      replace=False))}
+              if rng.random() < OWN_VALUES_SHARE else dict(zip(LAYERS, (1, 2, 3))))
+    segmentation = Segmentation(
+        flip=_uniform(rng, "flip"), islands=int(rng.integers(*RANGES["islands"])),
+        systematic=systematic, defects=defects, values=values,
+        file_format=str(rng.choice(FORMATS)),
+        probability_noise=_uniform(rng, "probability_noise"))
+    texture = TextureParams(blob_um=_uniform(rng, "blob_um"),
+                            contrast=_uniform(rng, "contrast"),
+                            depth_sigma=_uniform(rng, "depth_sigma"),
+                            speckle=_uniform(rng, "speckle"),
+                            attenuation_mm=_uniform(rng, "attenuation_mm"))
+    if kind == "meshes":
+        return Scenario(seed, kind, params)
+    return Scenario(seed, kind, params, voxel, segmentation,
+                    texture if kind == "labels+intensity" else None)
+
+
+def write_scenario(scenario: Scenario, out: str | Path) -> Path:
+    """``scenario`` as a dataset folder ``out`` (which must not exist or be empty):
+    meshes (:func:`~oftimg.synthetic.phantom.write_phantom`) or label volumes,
+    probability maps, intensity (:func:`~oftimg.synthetic.labels.write_label_phantom`,
+    then the segmentation's systematic error, defects, values and file format), with
+    ``truth.json`` and ``scenario.json``. Returns the folder."""
+    out = Path(out)
+    sc = scenario
+    if sc.kind == "meshes":
+        write_phantom(out, sc.phantom)
+    else:
+        seg = sc.segmentation
+        probabilities = sc.kind == "probabilities"
+        write_label_phantom(out, sc.phantom, sc.voxel_um,
+                            noise=seg.probability_noise if probabilities else seg.flip,
+                            probabilities=probabilities,
+                            intensity=sc.kind == "labels+intensity", texture=sc.texture,
+                            islands=seg.islands)
+        if not probabilities:
+            _segmented(out, seg, sc.voxel_um)
+    (out / "scenario.json").write_text(json.dumps(sc.as_dict(), indent=1))
+    return out
+
+
+def _segmented(folder: Path, seg: Segmentation, voxel_um) -> None:
+    """The label phantom in ``folder`` given the segmentation's systematic error and
+    defects, written with its values and in its file format (meta.json to match)."""
+    import tifffile
+
+    from ..io.label_dataset import DEFAULT_LABEL_IDS
+
+    frames = sorted((folder / "labels").glob("*.tif"))
+    table = np.zeros(256, np.uint8)
+    for layer, value in seg.values.items():
+        table[DEFAULT_LABEL_IDS[layer]] = value
+    volumes = []
+    for t, path in enumerate(frames):
+        labels = tifffile.imread(path)
+        if seg.systematic is not None:
+            labels = grown(labels, DEFAULT_LABEL_IDS[seg.systematic[0]], seg.systematic[1])
+        if t in seg.defects:
+            labels = inject(labels, seg.defects[t])
+        volumes.append(table[labels])
+        path.unlink()
+    meta = json.loads((folder / "meta.json").read_text())
+    meta["labels"] = dict(seg.values)
+    _write_labels(folder / "labels", volumes, seg.file_format, voxel_um,
+                  [p.stem for p in frames])
+    (folder / "meta.json").write_text(json.dumps(meta, indent=2))
+
+
+def grown(labels: np.ndarray, value: int, voxels: int) -> np.ndarray:
+    """``labels`` with the region of ``value`` grown by one voxel (``voxels`` +1: into
+    the layers around it and the background, 6-connected) or shrunk by one (-1: each
+    of its boundary voxels given the largest label among its neighbours outside it:
+    the layer inside it before the background)."""
+    from scipy import ndimage
+
+    region = labels == value
+    six = ndimage.generate_binary_structure(3, 1)
+    out = labels.copy()
+    if voxels > 0:
+        out[ndimage.binary_dilation(region, six) & ~region] = value
+        return out
+    rim = region & ~ndimage.binary_erosion(region, six, border_value=1)
+    other = np.where(region, 0, labels).astype(np.int16)
+    neighbour = ndimage.maximum_filter(np.where(region, -1, other), footprint=six,
+                                       mode="nearest")
+    out[rim] = np.maximum(neighbour[rim], 0)
+    return out
+
+
+def _write_labels(folder: Path, volumes: list, file_format: str, voxel_um, stems) -> None:
+    """The frames ``volumes`` ((z, y, x) each) into ``folder`` as ``file_format``:
+    per-frame TIFF, NumPy or NIfTI files (named ``stems``), or one 4-D ImageJ TIFF or
+    zarr array."""
+    dx, dy, dz = voxel_um
+    if file_format == "tif":
+        import tifffile
+
+        for stem, v in zip(stems, volumes):
+            tifffile.imwrite(folder / f"{stem}.tif", v, compression="zlib")
+    elif file_format == "tif4d":
+        import tifffile
+
+        tifffile.imwrite(folder / "labels.tif", np.stack(volumes), imagej=True,
+                         resolution=(1 / dx, 1 / dy), metadata={"spacing": dz, "unit": "um",
+                                                                "axes": "TZYX"})
+    elif file_format == "npy":
+        for stem, v in zip(stems, volumes):
+            np.save(folder / f"{stem}.npy", v)
+    elif file_format == "nii":
+        import nibabel
+
+        for stem, v in zip(stems, volumes):
+            image = nibabel.Nifti1Image(v.transpose(2, 1, 0), np.diag([dx, dy, dz, 1.0]))
+            image.header.set_xyzt_units("micron")
+            nibabel.save(image, folder / f"{stem}.nii.gz")
+    elif file_format == "zarr":
+        import zarr
+
+        zarr.save_array(str(folder / "labels.zarr"), np.stack(volumes))
+    else:
+        raise ValueError(f"file_format must be one of {', '.join(FORMATS)}, "
+                         f"found {file_format!r}")

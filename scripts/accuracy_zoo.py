@@ -1,0 +1,179 @@
+"""Accuracy over the randomized phantom zoo: every metric as a distribution over draws.
+
+    python scripts/accuracy_zoo.py [--draws 50] [--seed 0] [--kinds meshes labels ...]
+                                   [--frames N] [--voxel-min-um U] [--jobs 2]
+                                   [--cache DIR] [--json FILE] [--no-pair]
+
+Draws ``--draws`` scenarios per input kind (oftimg.synthetic.zoo: seeds S, S+1, ...,
+the kind given), writes each as a dataset (kept in --cache), runs oftimg on it, and
+compares the results with its truth (scripts/accuracy.py's errors: Table 1's numbers,
+the maps, the fields). For label kinds it also runs the same phantom as meshes
+(unless --no-pair) and compares the (u, v, t) fields node by node (labels against
+meshes: what the voxels alone cost); with intensity, how far texture tracking's grid
+drifts from the tissue along and around (scripts/texture_accuracy.py's drift).
+Prints per kind and metric the median, the 90th percentile and the worst |error| with
+the worst draw's seed (rerun it with --seed SEED --draws 1 --kinds KIND). ``--frames``
+and ``--voxel-min-um`` make quick draws (the rest of each draw unchanged).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+import oftimg
+from oftimg.synthetic.labels import LabelGrid, label_params
+from oftimg.synthetic.phantom import read_truth, write_phantom
+from oftimg.synthetic.zoo import KINDS, draw_scenario, write_scenario
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from accuracy import embryo_errors, pixel_differences  # noqa: E402
+from texture_accuracy import drift  # noqa: E402
+
+# (key, unit, what): the headline metrics, in this order (|error| unless said)
+HEADLINE = [
+    ("area_outer_p95_pct", "%", "section area, outer (95th percentile over v, t)"),
+    ("volume_outer_pct", "%", "volume of the outer wall (worst frame)"),
+    ("myocardial_change_pp", "pp", "myocardial volume change"),
+    ("expand_pp", "pp", "expansion share of the cycle"),
+    ("speed_cycle_pct", "%", "wave speed over the cycle"),
+    ("local_speed_median_pct", "%", "local wave speeds, row by row (median)"),
+    ("wall_thickness_pct", "%", "wall thickness"),
+    ("radial_curvature_outer_pct", "%", "radial curvature, outer wall"),
+    ("radial_curvature_inner_pct", "%", "radial curvature, inner wall"),
+    ("mean_curvature_lumen_pct", "%", "mean curvature, lumen"),
+    ("strain_energy_inner_pct", "%", "strain energy, inner wall"),
+    ("labels_vs_meshes_radial_curvature_outer_pct", "%",
+     "radial curvature, outer: labels against meshes, node by node"),
+    ("labels_vs_meshes_radial_curvature_inner_pct", "%",
+     "radial curvature, inner: labels against meshes, node by node"),
+    ("labels_vs_meshes_mean_curvature_lumen_pct", "%",
+     "mean curvature, lumen: labels against meshes, node by node"),
+    ("labels_vs_meshes_strain_energy_inner_pct", "%",
+     "strain energy, inner: labels against meshes, node by node"),
+    ("labels_vs_meshes_strain_energy_inner_bias_pct", "%",
+     "strain energy, inner: labels' median over the meshes' (signed)"),
+    ("drift_along_pct", "% L", "texture tracking: drift along the tube (median node)"),
+    ("drift_around_rad", "rad", "texture tracking: drift around the tube (median node)"),
+]
+
+
+def run_quietly(dataset: Path, out: Path, jobs: int) -> Path:
+    """``oftimg run`` of one dataset into ``out`` (its warnings kept quiet); the
+    dataset's results folder."""
+    if not (out / dataset.name / "summary.json").is_file():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            oftimg.run(dataset, out, quiet=True, jobs=jobs, overwrite=True)
+    return out / dataset.name
+
+
+def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs: int,
+                pair: bool) -> dict[str, float]:
+    """One draw written, run and compared with its truth: every metric's error."""
+    scenario = draw_scenario(seed, kind, n_frames=frames, voxel_um_min=voxel_min_um)
+    dataset = root / "data" / f"{kind.replace('+', '_')}_{seed}"
+    if not (dataset / "scenario.json").is_file():
+        write_scenario(scenario, dataset)
+    results = run_quietly(dataset, root / "results" / dataset.name, jobs)
+    errors = embryo_errors(dataset, results)
+    if kind != "meshes" and pair:         # the same geometry as meshes: node by node
+        meshes = root / "data" / f"{dataset.name}_meshes"
+        if not (meshes / "truth.json").is_file():
+            write_phantom(meshes, replace(label_params(scenario.phantom), noise_mm=0.0))
+        paired = run_quietly(meshes, root / "results" / meshes.name, jobs)
+        for name, pct in pixel_differences(results, paired).items():
+            key = name.removesuffix("_per_mm")
+            errors[f"labels_vs_meshes_{key}_pct"] = pct
+        a, b = (np.load(r / "arrays.npz")["strain_energy_inner"] for r in (results, paired))
+        errors["labels_vs_meshes_strain_energy_inner_bias_pct"] = float(
+            100 * (np.nanmedian(a) / np.nanmedian(b) - 1))
+    if kind == "labels+intensity":
+        ph, truth = read_truth(dataset)
+        summary = json.loads((results / "summary.json").read_text())
+        arrays = np.load(results / "arrays.npz")
+        t_ms = np.roll(np.asarray(truth["t_ms"]), -summary["t0_frame"])
+        grid = LabelGrid(ph, scenario.voxel_um)
+        d = drift(ph, grid, np.load(results / "grids.npz")["outer"].astype(float), t_ms,
+                  arrays["grid_in_view"] if "grid_in_view" in arrays.files else None)
+        errors["drift_along_pct"], errors["drift_around_rad"] = d["along_pct"], d["around_rad"]
+    return errors
+
+
+def distribution(errors: dict[int, dict], key: str) -> dict | None:
+    """|error| of ``key`` over the draws: n, median, 90th percentile, worst and its
+    seed (a metric not found counts as worst); signed keys (``_bias_``) as they are."""
+    pairs = [(seed, e[key]) for seed, e in errors.items() if key in e]
+    if not pairs:
+        return None
+    seeds = np.array([s for s, _ in pairs])
+    x = np.array([v for _, v in pairs], float)
+    x = x if "_bias_" in key else np.abs(x)
+    missing = ~np.isfinite(x)
+    if missing.any():
+        return {"n": len(x), "median": float(np.nanmedian(x)) if (~missing).any() else np.nan,
+                "p90": float(np.nanpercentile(x, 90)) if (~missing).any() else np.nan,
+                "worst": np.inf, "worst_seed": int(seeds[missing][0])}
+    worst = int(np.argmax(np.abs(x)))
+    return {"n": len(x), "median": float(np.median(x)), "p90": float(np.percentile(x, 90)),
+            "worst": float(x[worst]), "worst_seed": int(seeds[worst])}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--draws", type=int, default=50, help="draws per input kind")
+    ap.add_argument("--seed", type=int, default=0, help="the first draw's seed")
+    ap.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
+    ap.add_argument("--frames", type=int, default=None, help="every draw's frames (quick)")
+    ap.add_argument("--voxel-min-um", type=float, default=None,
+                    help="the finest voxel side drawn (quick)")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--cache", type=Path, default=None, help="keep the draws and runs here")
+    ap.add_argument("--json", type=Path, default=None, help="every draw's errors")
+    ap.add_argument("--no-pair", action="store_true",
+                    help="label kinds without their meshes' run (no node-by-node metrics)")
+    args = ap.parse_args()
+    started = time.perf_counter()
+    every = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        root = args.cache or Path(tmp)
+        for kind in args.kinds:
+            every[kind] = {}
+            for seed in range(args.seed, args.seed + args.draws):
+                tick = time.perf_counter()
+                try:
+                    every[kind][seed] = draw_errors(seed, kind, root, frames=args.frames,
+                                                    voxel_min_um=args.voxel_min_um,
+                                                    jobs=args.jobs, pair=not args.no_pair)
+                except oftimg.InputError as exc:     # refused: a fault of the zoo or of oftimg
+                    every[kind][seed] = {"refused": str(exc)}
+                print(f"{kind} draw {seed}: {time.perf_counter() - tick:.0f} s"
+                      + (f", refused: {every[kind][seed]['refused']}"
+                         if "refused" in every[kind][seed] else ""), flush=True)
+    print(f"\n{sum(len(v) for v in every.values())} draws, {time.perf_counter() - started:.0f} s"
+          f" (frames {args.frames or 'drawn'}, voxels from {args.voxel_min_um or 'drawn'} um)")
+    for kind, errors in every.items():
+        refused = [s for s, e in errors.items() if "refused" in e]
+        print(f"\n{kind}: {len(errors)} draws (seeds {args.seed}-{args.seed + args.draws - 1})"
+              + (f", refused: {refused}" if refused else ""))
+        print(f"  {'metric':<62}{'unit':>6}{'median':>9}{'p90':>9}{'worst':>9}  seed")
+        for key, unit, what in HEADLINE:
+            d = distribution(errors, key)
+            if d is None:
+                continue
+            worst = "not found" if not np.isfinite(d["worst"]) else f"{d['worst']:9.3g}"
+            print(f"  {what:<62}{unit:>6}{d['median']:9.3g}{d['p90']:9.3g}{worst:>9}"
+                  f"  {d['worst_seed']}")
+    if args.json:
+        args.json.write_text(json.dumps(every, indent=1, default=str))
+
+
+if __name__ == "__main__":
+    main()

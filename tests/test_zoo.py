@@ -1,0 +1,89 @@
+"""The randomized phantom zoo (issue 72): draws are deterministic by seed, span the
+ranges they promise, and each kind writes a dataset that oftimg reads, with its truth
+and what was drawn."""
+import json
+
+import numpy as np
+import pytest
+
+from oftimg.io.dataset import load_dataset
+from oftimg.io.label_dataset import load_label_dataset, read_frame
+from oftimg.synthetic.zoo import (FORMATS, KINDS, RANGES, Scenario, draw_scenario, grown,
+                                  write_scenario)
+
+
+def test_the_same_seed_draws_the_same_scenario_and_others_differ():
+    assert draw_scenario(7) == draw_scenario(7)
+    assert draw_scenario(7) != draw_scenario(8)
+    quick = draw_scenario(7, "labels", n_frames=6, voxel_um_min=8.0)
+    full = draw_scenario(7, "labels")
+    assert quick.phantom.n_frames == 6 and min(quick.voxel_um) >= 8.0
+    assert quick.phantom.period_ms == full.phantom.period_ms       # the rest as drawn
+    assert quick.segmentation.values == full.segmentation.values
+    assert sorted(quick.segmentation.defects.values()) == sorted(
+        full.segmentation.defects.values())          # at the same share of the cycle
+
+
+def test_draws_span_their_ranges():
+    draws = [draw_scenario(seed) for seed in range(200)]
+    assert {d.kind for d in draws} == set(KINDS)
+    frames = [d.phantom.n_frames for d in draws]
+    assert RANGES["n_frames"][0] <= min(frames) < 60 and 170 < max(frames) <= 200
+    twist = [d.phantom.twist_deg for d in draws]
+    assert min(twist) < 3 and max(twist) > 27
+    assert {d.phantom.twist_profile for d in draws} == {"inlet", "outlet", "middle"}
+    assert 0.2 < np.mean([d.phantom.band_position_mm is not None for d in draws]) < 0.4
+    labelled = [d for d in draws if d.kind != "meshes"]
+    sides = [d.voxel_um[0] for d in labelled]
+    assert min(sides) < 3 and max(sides) > 7
+    assert all(1 <= d.voxel_um[2] / d.voxel_um[0] <= 3 for d in labelled)
+    assert {d.segmentation.file_format for d in labelled} == set(FORMATS)
+    assert any(d.segmentation.systematic for d in labelled)
+    assert any(d.segmentation.defects for d in labelled)
+    assert any(d.segmentation.values != {"myocardium": 1, "jelly": 2, "lumen": 3}
+               for d in labelled)
+    assert all(d.texture is not None for d in draws if d.kind == "labels+intensity")
+    assert all(d.voxel_um is None and d.segmentation is None
+               for d in draws if d.kind == "meshes")
+
+
+def test_a_wall_grown_or_shrunk_by_one_voxel():
+    labels = np.zeros((9, 9, 9), np.uint8)
+    labels[2:7, 2:7, 2:7] = 1
+    labels[3:6, 3:6, 3:6] = 2
+    bigger = grown(labels, 2, +1)
+    assert (bigger == 2).sum() == 27 + 6 * 9 + 0      # a face layer on each side (no edges)
+    assert (bigger == 1).sum() == (labels == 1).sum() - 6 * 9
+    smaller = grown(labels, 2, -1)
+    assert (smaller == 2).sum() == 1 and (smaller == 1).sum() == (labels == 1).sum() + 26
+    outer = grown(labels, 1, -1)         # a shell one voxel thick: all of it is rim, given
+    assert (outer == 1).sum() == 0       # to the layer inside where it touches it, else out
+    assert (outer == 2).sum() == 27 + 6 * 9 and (outer == 0).sum() == 729 - 81
+
+
+@pytest.mark.parametrize("seed, kind", [(3, "labels"), (4, "labels+intensity"),
+                                        (12, "probabilities"), (5, "meshes")])
+def test_each_kind_writes_a_dataset_oftimg_reads_with_its_truth(tmp_path, seed, kind):
+    scenario = draw_scenario(seed, kind, n_frames=5, voxel_um_min=10.0)
+    path = write_scenario(scenario, tmp_path / "d")
+    drawn = json.loads((path / "scenario.json").read_text())
+    assert drawn["seed"] == seed and drawn["kind"] == kind
+    assert json.loads((path / "truth.json").read_text())["params"]["twist_profile"] == \
+        scenario.phantom.twist_profile
+    if kind == "meshes":
+        assert load_dataset(path).n_frames == 5
+        return
+    lds = load_label_dataset(path)             # the nesting check passes: values as drawn
+    assert lds.n_frames == 5 and lds.voxel_size == pytest.approx(scenario.voxel_um)
+    if kind != "probabilities":
+        assert lds.label_ids == scenario.segmentation.values
+        values = set().union(*(np.unique(read_frame(s)).tolist() for s in lds.sources))
+        assert set(scenario.segmentation.values.values()) <= values
+    assert (lds.intensity is not None) == (kind == "labels+intensity")
+
+
+def test_scenarios_are_json():
+    sc = draw_scenario(19, "labels")
+    assert isinstance(sc, Scenario) and sc.segmentation.defects
+    text = json.dumps(sc.as_dict())
+    assert json.loads(text)["segmentation"]["defects"]

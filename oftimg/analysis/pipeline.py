@@ -745,7 +745,14 @@ def _refuse_implausible(ds: Dataset, st: dict, t0: int) -> None:
     from .plausibility import implausible
 
     names = [ds.frames["outer"][(t0 + k) % st["n_t"]].name for k in range(st["n_t"])]
-    problems = implausible(st["grid"], st["volume"], st["outside"], frame_names=names)
+    grid = st["grid"]
+    thickness = {}
+    if "inner" in grid:
+        thickness["inner"] = signed_thickness(grid["outer"], grid["inner"],
+                                              grid["outer"].mean(axis=0))
+    if st["jelly"] is not None:
+        thickness["lumen"] = st["jelly"]
+    problems = implausible(st["volume"], thickness, frame_names=names)
     if problems:
         raise DatasetError(f"{ds.path}: results that cannot be right, so none are written: "
                            + "; ".join(problems))

@@ -10,7 +10,9 @@ compares the results with its truth (scripts/accuracy.py's errors: Table 1's num
 the maps, the fields). For label kinds it also runs the same phantom as meshes
 (unless --no-pair) and compares the (u, v, t) fields node by node (labels against
 meshes: what the voxels alone cost); with intensity, how far texture tracking's grid
-drifts from the tissue along and around (scripts/texture_accuracy.py's drift).
+drifts from the tissue along and around (scripts/texture_accuracy.py's drift). Kind
+"real": the midgut of tests/data animated with a drawn wave, twist and shortening, and
+how far material tracking's grid drifts from its tissue (the animation's truth).
 Prints per kind and metric the median, the 90th percentile and the worst |error| with
 the worst draw's seed (rerun it with --seed SEED --draws 1 --kinds KIND). ``--frames``
 and ``--voxel-min-um`` make quick draws (the rest of each draw unchanged).
@@ -29,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 import oftimg
+from oftimg.synthetic.animate import grid_material_points
 from oftimg.synthetic.labels import LabelGrid, label_params
 from oftimg.synthetic.phantom import read_truth, write_phantom
 from oftimg.synthetic.zoo import KINDS, draw_scenario, write_scenario
@@ -62,7 +65,12 @@ HEADLINE = [
      "strain energy, inner: labels' median over the meshes' (signed)"),
     ("drift_along_pct", "% L", "texture tracking: drift along the tube (median node)"),
     ("drift_around_rad", "rad", "texture tracking: drift around the tube (median node)"),
+    ("real_drift_median_pct", "% L", "real shape, material tracking: drift (median node)"),
+    ("real_drift_p90_pct", "% L", "real shape, material tracking: drift (90th pct node)"),
+    ("real_speed_cycle_pct", "%", "real shape: wave speed over the cycle"),
 ]
+MIDGUT = Path(__file__).resolve().parent.parent / "tests" / "data" / "midgut_8k.ply"
+MIDGUT_SCALE_TO_MM = 0.2619e-3        # tests/data/README.md
 
 
 def run_quietly(dataset: Path, out: Path, jobs: int) -> Path:
@@ -81,8 +89,11 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
     scenario = draw_scenario(seed, kind, n_frames=frames, voxel_um_min=voxel_min_um)
     dataset = root / "data" / f"{kind.replace('+', '_')}_{seed}"
     if not (dataset / "scenario.json").is_file():
-        write_scenario(scenario, dataset)
+        write_scenario(scenario, dataset, real_shape=MIDGUT,
+                       real_scale_to_mm=MIDGUT_SCALE_TO_MM)
     results = run_quietly(dataset, root / "results" / dataset.name, jobs)
+    if kind == "real":
+        return real_shape_errors(dataset, results)
     errors = embryo_errors(dataset, results)
     if kind != "meshes" and pair:         # the same geometry as meshes: node by node
         meshes = root / "data" / f"{dataset.name}_meshes"
@@ -105,6 +116,23 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
                   arrays["grid_in_view"] if "grid_in_view" in arrays.files else None)
         errors["drift_along_pct"], errors["drift_around_rad"] = d["along_pct"], d["around_rad"]
     return errors
+
+
+def real_shape_errors(dataset: Path, results: Path) -> dict[str, float]:
+    """A real shape's draw: how far the tracked grid drifts from the tissue (each
+    node's static point in each frame against its point at t = 0, median and 90th
+    percentile over nodes and frames, % of the tube's length) and the cycle's wave
+    speed against the animation's."""
+    summary = json.loads((results / "summary.json").read_text())
+    truth = json.loads((dataset / "truth.json").read_text())
+    G = np.load(results / "grids.npz")["outer"].astype(float)
+    S = grid_material_points(dataset, G, summary["t0_frame"])
+    drift_mm = np.linalg.norm(S - S[:, :, :1], axis=-1)[:, :, 1:]
+    length = summary["tube_length_mm"]
+    return {"real_drift_median_pct": float(100 * np.median(drift_mm) / length),
+            "real_drift_p90_pct": float(100 * np.percentile(drift_mm, 90) / length),
+            "real_speed_cycle_pct": float(100 * (summary["wave_speed_mm_s"]["cycle"]
+                                                 / truth["wave_speed_mm_s"]["cycle"] - 1))}
 
 
 def distribution(errors: dict[int, dict], key: str) -> dict | None:

@@ -33,7 +33,7 @@ def test_draws_span_their_ranges():
     assert min(twist) < 3 and max(twist) > 27
     assert {d.phantom.twist_profile for d in draws} == {"inlet", "outlet", "middle"}
     assert 0.2 < np.mean([d.phantom.band_position_mm is not None for d in draws]) < 0.4
-    labelled = [d for d in draws if d.kind != "meshes"]
+    labelled = [d for d in draws if d.kind not in ("meshes", "real")]
     sides = [d.voxel_um[0] for d in labelled]
     assert min(sides) < 3 and max(sides) > 7
     assert all(1 <= d.voxel_um[2] / d.voxel_um[0] <= 3 for d in labelled)
@@ -80,6 +80,22 @@ def test_each_kind_writes_a_dataset_oftimg_reads_with_its_truth(tmp_path, seed, 
         values = set().union(*(np.unique(read_frame(s)).tolist() for s in lds.sources))
         assert set(scenario.segmentation.values.values()) <= values
     assert (lds.intensity is not None) == (kind == "labels+intensity")
+
+
+def test_a_real_shape_is_animated_with_its_tissue_traced(tmp_path):
+    from pathlib import Path
+
+    midgut = Path(__file__).parent / "data" / "midgut_8k.ply"
+    scenario = draw_scenario(3, "real", n_frames=6)
+    assert scenario.animation["n_frames"] == 6 and scenario.voxel_um is None
+    path = write_scenario(scenario, tmp_path / "gut", real_shape=midgut,
+                          real_scale_to_mm=0.2619e-3)
+    truth = json.loads((path / "truth.json").read_text())
+    assert truth["animation"]["twist_deg"] == scenario.animation["twist_deg"]
+    assert len(list((path / "truth").glob("f*.npz"))) == 6
+    assert load_dataset(path).n_frames == 6
+    with pytest.raises(ValueError, match="needs the static tube's mesh file"):
+        write_scenario(scenario, tmp_path / "none")
 
 
 def test_scenarios_are_json():

@@ -7,7 +7,8 @@ seed, the same scenario): the input kind (meshes, label volumes, probability map
 labels with intensity volumes), frames per cycle, period, the wave's speeds and
 shape (with or without a band), the expansion's share and its change along the tube,
 the tissue's slide and twist (largest at the inlet, the outlet or mid-tube, at any
-phase against the slide), the texture and how it is imaged (grain, contrast, its
+phase against the slide), a real tube's shape animated with a known wave, twist and
+shortening (its tissue traced in every frame), the texture and how it is imaged (grain, contrast, its
 change through the wall, speckle, attenuation), the voxel size and anisotropy, a
 segmentation's defects (boundary flips, islands, a wall eroded or dilated by a voxel,
 holes and handles in a few frames), the label values and the file format, and for
@@ -28,7 +29,7 @@ from .labels import write_label_phantom
 from .phantom import PhantomParams, sample_params, write_phantom
 from .texture import TextureParams
 
-KINDS = ("meshes", "labels", "probabilities", "labels+intensity")
+KINDS = ("meshes", "labels", "probabilities", "labels+intensity", "real")
 FORMATS = ("tif", "tif4d", "npy", "nii", "zarr")
 LAYERS = ("myocardium", "jelly", "lumen")
 # what a draw ranges over (uniform between the two numbers unless said)
@@ -44,6 +45,9 @@ RANGES = {
     "flip": (0.0, 0.08), "islands": (0, 60), "probability_noise": (0.1, 0.6),
     "blob_um": (3.0, 12.0), "contrast": (0.15, 0.5), "depth_sigma": (0.3, 4.0),
     "speckle": (0.15, 0.5), "attenuation_mm": (0.5, 3.0),
+    # a real shape animated (oftimg.synthetic.animate): its wave, twist and shortening
+    "real_speed_lengths_s": (2.0, 15.0), "real_amplitude": (0.1, 0.4),
+    "real_shortening": (0.0, 0.15),
 }
 BANDED_SHARE = 0.3          # of the draws: a band
 SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
@@ -82,6 +86,8 @@ class Scenario:
     voxel_um: tuple | None = None
     segmentation: Segmentation | None = None
     texture: TextureParams | None = None
+    animation: dict | None = None     # kind "real": the wave in tube lengths a second,
+    #                                   amplitude, twist, shortening, frames, period
 
     def as_dict(self) -> dict:
         out = asdict(self)
@@ -155,21 +161,34 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
                             depth_sigma=_uniform(rng, "depth_sigma"),
                             speckle=_uniform(rng, "speckle"),
                             attenuation_mm=_uniform(rng, "attenuation_mm"))
+    animation = {"speed_lengths_s": _uniform(rng, "real_speed_lengths_s"),
+                 "amplitude": _uniform(rng, "real_amplitude"),
+                 "twist_deg": float(params.twist_deg * (-1) ** int(rng.integers(2))),
+                 "shortening": _uniform(rng, "real_shortening"),
+                 "n_frames": params.n_frames, "period_ms": params.period_ms}
     if kind == "meshes":
         return Scenario(seed, kind, params)
+    if kind == "real":
+        return Scenario(seed, kind, params, animation=animation)
     return Scenario(seed, kind, params, voxel, segmentation,
                     texture if kind == "labels+intensity" else None)
 
 
-def write_scenario(scenario: Scenario, out: str | Path) -> Path:
+def write_scenario(scenario: Scenario, out: str | Path, *, real_shape=None,
+                   real_scale_to_mm: float = 1.0) -> Path:
     """``scenario`` as a dataset folder ``out`` (which must not exist or be empty):
     meshes (:func:`~oftimg.synthetic.phantom.write_phantom`) or label volumes,
     probability maps, intensity (:func:`~oftimg.synthetic.labels.write_label_phantom`,
-    then the segmentation's systematic error, defects, values and file format), with
-    ``truth.json`` and ``scenario.json``. Returns the folder."""
+    then the segmentation's systematic error, defects, values and file format); for
+    kind "real", the static tube ``real_shape`` (a mesh file, coordinates times
+    ``real_scale_to_mm`` in mm) animated and remeshed in every frame
+    (:func:`~oftimg.synthetic.animate.write_animation`); with ``truth.json`` and
+    ``scenario.json``. Returns the folder."""
     out = Path(out)
     sc = scenario
-    if sc.kind == "meshes":
+    if sc.kind == "real":
+        _animated(sc, out, real_shape, real_scale_to_mm)
+    elif sc.kind == "meshes":
         write_phantom(out, sc.phantom)
     else:
         seg = sc.segmentation
@@ -183,6 +202,23 @@ def write_scenario(scenario: Scenario, out: str | Path) -> Path:
             _segmented(out, seg, sc.voxel_um)
     (out / "scenario.json").write_text(json.dumps(sc.as_dict(), indent=1))
     return out
+
+
+def _animated(sc: Scenario, out: Path, shape, scale_to_mm: float) -> None:
+    """Kind "real": the static tube ``shape`` animated as ``sc.animation`` says, its
+    wave's speed in tube lengths a second (the shape's centre line's length)."""
+    from ..io.tube import load_tube
+    from .animate import Animation, axial_coordinates, write_animation
+
+    if shape is None:
+        raise ValueError("a real-shape draw needs the static tube's mesh file (real_shape)")
+    tube = load_tube(shape, unit_scale=scale_to_mm)
+    length_mm = float(axial_coordinates(tube.V, tube.F, tube.inlet, tube.outlet)[2][-1])
+    a = sc.animation
+    write_animation(shape, out, Animation(
+        speed_mm_s=a["speed_lengths_s"] * length_mm, amplitude=a["amplitude"],
+        period_ms=a["period_ms"], n_frames=a["n_frames"], twist_deg=a["twist_deg"],
+        shortening=a["shortening"]), scale_to_mm=scale_to_mm, do_remesh=True, seed=sc.seed)
 
 
 def _segmented(folder: Path, seg: Segmentation, voxel_um) -> None:

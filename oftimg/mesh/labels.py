@@ -408,27 +408,53 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
     return walls
 
 
+# voxels: the blur tried when a wall's surface is no tube although its mask is one (or
+# was mended into one): folds a voxel apart, which the usual blur's level set parts
+# into handles (the zoo's eroded, folded lumens: every such frame meshed with 1 voxel)
+WIDER_BLUR = 1.0
+
+
 def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOptions, ends,
                   *, curvature: bool = False, length_unit: str = "um"
                   ) -> tuple[WallMesh | str, np.ndarray | None]:
-    """The wall meshed from ``mask``, or from the mended mask when that fails, with
-    the mended mask (None when not mended); or the reason it cannot be."""
+    """The wall meshed from ``mask``; when that fails, from the mask mended
+    (:func:`~oftimg.mesh.mask_topology.solid_tube_mask`), and then, if the surface is
+    still no tube, with its level set blurred by ``WIDER_BLUR`` voxels; with the mended
+    mask (None when not mended). Or the reason it cannot be meshed."""
+    def meshed(m, opts=options):
+        return mesh_wall(m, voxel_size_xyz, opts, ends, curvature=curvature,
+                         length_unit=length_unit)
+
     try:
-        return mesh_wall(mask, voxel_size_xyz, options, ends, curvature=curvature,
-                         length_unit=length_unit), None
+        return meshed(mask), None
     except MeshError as exc:        # a handle, a tunnel, a bridge: mend the mask, once
-        inside = mask if mask.dtype == bool else mask > LEVEL
-        solid, repair = solid_tube_mask(inside)
-        if repair is None:
-            return f"the {wall} wall {exc}", None
+        failed = exc
+    inside = mask if mask.dtype == bool else mask > LEVEL
+    solid, repair = solid_tube_mask(inside)
+    mended = mask
+    if repair is None:
+        solid = None                                 # a solid tube already: not mended
+    else:
         # an occupancy keeps its values where the mending left the voxel as it was
         mended = solid if mask.dtype == bool else np.where(solid == inside, mask, solid
                                                             ).astype(np.float32)
         try:
-            return replace(mesh_wall(mended, voxel_size_xyz, options, ends, curvature=curvature,
-                                     length_unit=length_unit), repair=repair), solid
+            return replace(meshed(mended), repair=repair), solid
         except MeshError as again:
-            return f"the {wall} wall {again} (after its mask's {repair.what})", None
+            failed = again
+    if options.smoothing < WIDER_BLUR:
+        try:
+            mesh = meshed(mended, replace(options, smoothing=WIDER_BLUR))
+        except MeshError:
+            pass
+        else:
+            what = f"level set blurred by {WIDER_BLUR:g} voxel" + (
+                f" after its mask's {repair.what}" if repair else "")
+            return replace(mesh, repair=MaskRepair(
+                what, repair.voxels if repair else 0,
+                repair.euler_before if repair else 1)), solid
+    return f"the {wall} wall {failed}" + (
+        f" (after its mask's {repair.what})" if repair else ""), None
 
 
 def keep_inside(mask: np.ndarray, enclosing: np.ndarray) -> tuple[np.ndarray, int | None]:

@@ -93,8 +93,8 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
                        real_scale_to_mm=MIDGUT_SCALE_TO_MM)
     results = run_quietly(dataset, root / "results" / dataset.name, jobs)
     if kind == "real":
-        return real_shape_errors(dataset, results)
-    errors = embryo_errors(dataset, results)
+        return {**real_shape_errors(dataset, results), "draw": conditions(scenario)}
+    errors = {**embryo_errors(dataset, results), "draw": conditions(scenario)}
     if kind != "meshes" and pair:         # the same geometry as meshes: node by node
         meshes = root / "data" / f"{dataset.name}_meshes"
         if not (meshes / "truth.json").is_file():
@@ -118,6 +118,26 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
     return errors
 
 
+def conditions(scenario) -> dict:
+    """What a draw is, in the words a reader of its errors needs: its frames, voxels,
+    segmentation's faults, twist, slide and mesh roughness (the whole draw: the
+    dataset's scenario.json)."""
+    p, seg = scenario.phantom, scenario.segmentation
+    out = {"frames": p.n_frames, "twist_deg": round(p.twist_deg, 1),
+           "twist": f"{p.twist_profile}, phase {p.twist_phase:.2f}",
+           "slide_pct": round(100 * p.stretch, 1)}
+    if scenario.kind == "meshes":
+        out |= {"roughness_um": round(1000 * p.noise_mm, 2), "vertices_min": p.vertices_min}
+    if scenario.voxel_um is not None:
+        out["voxel_um"] = [round(v, 2) for v in scenario.voxel_um]
+    if seg is not None:
+        out |= {"flip_pct": round(100 * seg.flip, 1), "islands": seg.islands,
+                "wall_shifted": (f"{seg.systematic[0]} {seg.systematic[1]:+d} voxel"
+                                 if seg.systematic else None),
+                "defects": {str(k): v for k, v in seg.defects.items()}}
+    return out
+
+
 def real_shape_errors(dataset: Path, results: Path) -> dict[str, float]:
     """A real shape's draw: how far the tracked grid drifts from the tissue (each
     node's static point in each frame against its point at t = 0, median and 90th
@@ -133,6 +153,12 @@ def real_shape_errors(dataset: Path, results: Path) -> dict[str, float]:
             "real_drift_p90_pct": float(100 * np.percentile(drift_mm, 90) / length),
             "real_speed_cycle_pct": float(100 * (summary["wave_speed_mm_s"]["cycle"]
                                                  / truth["wave_speed_mm_s"]["cycle"] - 1))}
+
+
+def unshifted(errors: dict[int, dict]) -> dict[int, dict]:
+    """The draws whose segmentation has no wall grown or shrunk by a voxel: against
+    the same geometry as meshes, the others carry the segmentation's own shift."""
+    return {s: e for s, e in errors.items() if not e.get("draw", {}).get("wall_shifted")}
 
 
 def distribution(errors: dict[int, dict], key: str) -> dict | None:
@@ -154,6 +180,30 @@ def distribution(errors: dict[int, dict], key: str) -> dict | None:
             "worst": float(x[worst]), "worst_seed": int(seeds[worst])}
 
 
+def print_distribution(what: str, unit: str, d: dict | None) -> None:
+    """One metric's line of the table (nothing when no draw has it)."""
+    if d is None:
+        return
+    worst = "not found" if not np.isfinite(d["worst"]) else f"{d['worst']:9.3g}"
+    print(f"  {what:<62}{unit:>6}{d['median']:9.3g}{d['p90']:9.3g}{worst:>9}"
+          f"  {d['worst_seed']:<6}{d['n']}")
+
+
+def print_tables(every: dict[str, dict]) -> None:
+    """Per kind, each headline metric's distribution over the draws (seeds as keys)."""
+    for kind, errors in every.items():
+        seeds = sorted(int(seed) for seed in errors)
+        refused = [int(s) for s, e in errors.items() if "refused" in e]
+        print(f"\n{kind}: {len(errors)} draws (seeds {seeds[0]}-{seeds[-1]})"
+              + (f", refused: {sorted(refused)}" if refused else ""))
+        print(f"  {'metric':<62}{'unit':>6}{'median':>9}{'p90':>9}{'worst':>9}  seed    n")
+        for key, unit, what in HEADLINE:
+            print_distribution(what, unit, distribution(errors, key))
+            if key.startswith("labels_vs_meshes_"):
+                print_distribution("  (no wall shifted by the segmentation)", unit,
+                                   distribution(unshifted(errors), key))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--draws", type=int, default=50, help="draws per input kind")
@@ -164,10 +214,20 @@ def main() -> None:
                     help="the finest voxel side drawn (quick)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--cache", type=Path, default=None, help="keep the draws and runs here")
-    ap.add_argument("--json", type=Path, default=None, help="every draw's errors")
+    ap.add_argument("--json", type=Path, default=None,
+                    help="every draw's errors and conditions (written after each draw)")
+    ap.add_argument("--tables", type=Path, nargs="+", default=None, metavar="JSON",
+                    help="print the tables of earlier runs' --json files (merged), run nothing")
     ap.add_argument("--no-pair", action="store_true",
                     help="label kinds without their meshes' run (no node-by-node metrics)")
     args = ap.parse_args()
+    if args.tables:
+        every: dict[str, dict] = {}
+        for path in args.tables:
+            for kind, errors in json.loads(path.read_text()).items():
+                every.setdefault(kind, {}).update(errors)
+        print_tables(every)
+        return
     started = time.perf_counter()
     every = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -181,26 +241,17 @@ def main() -> None:
                                                     voxel_min_um=args.voxel_min_um,
                                                     jobs=args.jobs, pair=not args.no_pair)
                 except oftimg.InputError as exc:     # refused: a fault of the zoo or of oftimg
-                    every[kind][seed] = {"refused": str(exc)}
+                    every[kind][seed] = {"refused": str(exc), "draw": conditions(
+                        draw_scenario(seed, kind, n_frames=args.frames,
+                                      voxel_um_min=args.voxel_min_um))}
                 print(f"{kind} draw {seed}: {time.perf_counter() - tick:.0f} s"
                       + (f", refused: {every[kind][seed]['refused']}"
                          if "refused" in every[kind][seed] else ""), flush=True)
+                if args.json:
+                    args.json.write_text(json.dumps(every, indent=1, default=str))
     print(f"\n{sum(len(v) for v in every.values())} draws, {time.perf_counter() - started:.0f} s"
           f" (frames {args.frames or 'drawn'}, voxels from {args.voxel_min_um or 'drawn'} um)")
-    for kind, errors in every.items():
-        refused = [s for s, e in errors.items() if "refused" in e]
-        print(f"\n{kind}: {len(errors)} draws (seeds {args.seed}-{args.seed + args.draws - 1})"
-              + (f", refused: {refused}" if refused else ""))
-        print(f"  {'metric':<62}{'unit':>6}{'median':>9}{'p90':>9}{'worst':>9}  seed")
-        for key, unit, what in HEADLINE:
-            d = distribution(errors, key)
-            if d is None:
-                continue
-            worst = "not found" if not np.isfinite(d["worst"]) else f"{d['worst']:9.3g}"
-            print(f"  {what:<62}{unit:>6}{d['median']:9.3g}{d['p90']:9.3g}{worst:>9}"
-                  f"  {d['worst_seed']}")
-    if args.json:
-        args.json.write_text(json.dumps(every, indent=1, default=str))
+    print_tables(every)
 
 
 if __name__ == "__main__":

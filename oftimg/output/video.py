@@ -95,18 +95,29 @@ def _text(img, text: str, org, *, scale: float = 0.5, colour=(0, 0, 0), align: s
         smallest = int(0.7 * px)
         while px > smallest and _font(px).getlength(text) > max_width:
             px -= 1
-    font = _font(px)
-    anchor = {"left": "ls", "centre": "ms", "right": "rs"}[align]
-    x, y = int(org[0]), int(org[1])
-    left, top, right, bottom = font.getbbox(text, anchor=anchor)
-    x0, y0 = max(x + left - 1, 0), max(y + top - 1, 0)
-    x1, y1 = min(x + right + 2, img.shape[1]), min(y + bottom + 2, img.shape[0])
+    coverage, (left, top) = _glyphs(text, px, align)
+    x, y = int(org[0]) + left, int(org[1]) + top
+    x0, y0 = max(x, 0), max(y, 0)
+    x1, y1 = min(x + coverage.shape[1], img.shape[1]), min(y + coverage.shape[0], img.shape[0])
     if x1 <= x0 or y1 <= y0:
         return
-    patch = Image.fromarray(np.ascontiguousarray(img[y0:y1, x0:x1]))
-    ImageDraw.Draw(patch).text((x - x0, y - y0), text, font=font, fill=tuple(int(c) for c in colour),
-                               anchor=anchor)
-    img[y0:y1, x0:x1] = np.asarray(patch)
+    alpha = coverage[y0 - y:y1 - y, x0 - x:x1 - x, None]
+    patch = img[y0:y1, x0:x1].astype(np.float32)
+    patch += alpha * (np.asarray(colour, np.float32) - patch)
+    img[y0:y1, x0:x1] = np.rint(patch).astype(np.uint8)
+
+
+@lru_cache(maxsize=4096)
+def _glyphs(text: str, px: int, align: str) -> tuple[np.ndarray, tuple[int, int]]:
+    """``text``'s anti-aliased coverage ``(h, w)`` float32 in [0, 1] at ``px`` pixels,
+    and its top left corner from the anchor (the baseline's left, centre or right end):
+    rendered once per text and size (a video writes the same labels on every frame)."""
+    font = _font(px)
+    anchor = {"left": "ls", "centre": "ms", "right": "rs"}[align]
+    left, top, right, bottom = font.getbbox(text, anchor=anchor)
+    mask = Image.new("L", (right - left + 3, bottom - top + 3), 0)
+    ImageDraw.Draw(mask).text((1 - left, 1 - top), text, font=font, fill=255, anchor=anchor)
+    return np.asarray(mask, np.float32) / 255.0, (left - 1, top - 1)
 
 
 def nice_ticks(lo: float, hi: float, n: int = 6) -> tuple[list[float], list[str]]:

@@ -333,6 +333,11 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
         noise = field_noise.get(array) or {}
         spread = np.nanmedian(np.nanstd(measured - truth_at_mean, axis=-1))
         e[f"{name}_noise_ratio"] = (noise.get("noise_sd_smoothed") or np.nan) / spread
+        # calibration: the share of nodes and frames whose error lies within the 95 %
+        # band the run reports (1.96 times its noise after the smoothing)
+        band = 1.96 * (noise.get("noise_sd_smoothed") or np.nan)
+        e[f"{name}_within_95_pct"] = float(100.0 * np.nanmean(
+            np.abs(measured - truth_at_mean) <= band)) if np.isfinite(band) else np.nan
         e[f"{name}_noise_share"] = noise.get("noise_share") or np.nan
         e[f"{name}_smoothing_ms"] = noise.get("smoothing_ms", np.nan)
     for w in ("outer", "inner"):

@@ -3,6 +3,7 @@
     python scripts/accuracy_zoo.py [--draws 50] [--seed 0] [--kinds meshes labels ...]
                                    [--frames N] [--voxel-min-um U] [--jobs 2]
                                    [--cache DIR] [--json FILE] [--no-pair]
+    python scripts/accuracy_zoo.py --tables FILE.json [...] [--markdown]
 
 Draws ``--draws`` scenarios per input kind (oftimg.synthetic.zoo: seeds S, S+1, ...,
 the kind given), writes each as a dataset (kept in --cache), runs oftimg on it, and
@@ -68,6 +69,18 @@ HEADLINE = [
     ("real_drift_median_pct", "% L", "real shape, material tracking: drift (median node)"),
     ("real_drift_p90_pct", "% L", "real shape, material tracking: drift (90th pct node)"),
     ("real_speed_cycle_pct", "%", "real shape: wave speed over the cycle"),
+]
+# (key, what): the run's own error bars against the truth, % of nodes and frames (or
+# rows) whose error lies within the band the run reports (its noise: summary.json's
+# field_noise, the speeds' noise spreads); a calibrated band holds about 95 %
+CALIBRATION = [
+    ("radial_curvature_outer_within_95_pct", "radial curvature, outer, within its 95 % band"),
+    ("radial_curvature_inner_within_95_pct", "radial curvature, inner, within its 95 % band"),
+    ("mean_curvature_lumen_within_95_pct", "mean curvature, lumen, within its 95 % band"),
+    ("wall_thickness_within_95_pct", "wall thickness within its 95 % band"),
+    ("jelly_thickness_within_95_pct", "jelly thickness within its 95 % band"),
+    ("local_within_2_spreads_pct", "local wave speeds within 2 noise spreads"),
+    ("ridge_within_2_spreads_pct", "ridge times within 2 noise spreads"),
 ]
 MIDGUT = Path(__file__).resolve().parent.parent / "tests" / "data" / "midgut_8k.ply"
 MIDGUT_SCALE_TO_MM = 0.2619e-3        # tests/data/README.md
@@ -180,28 +193,69 @@ def distribution(errors: dict[int, dict], key: str) -> dict | None:
             "worst": float(x[worst]), "worst_seed": int(seeds[worst])}
 
 
-def print_distribution(what: str, unit: str, d: dict | None) -> None:
+def print_distribution(what: str, unit: str, d: dict | None, markdown: bool = False) -> None:
     """One metric's line of the table (nothing when no draw has it)."""
     if d is None:
         return
-    worst = "not found" if not np.isfinite(d["worst"]) else f"{d['worst']:9.3g}"
+    worst = "not found" if not np.isfinite(d["worst"]) else f"{d['worst']:.3g}"
+    if markdown:
+        print(f"| {what.strip()} | {unit} | {d['median']:.3g} | {d['p90']:.3g} | {worst} "
+              f"| {d['worst_seed']} | {d['n']} |")
+        return
     print(f"  {what:<62}{unit:>6}{d['median']:9.3g}{d['p90']:9.3g}{worst:>9}"
           f"  {d['worst_seed']:<6}{d['n']}")
 
 
-def print_tables(every: dict[str, dict]) -> None:
-    """Per kind, each headline metric's distribution over the draws (seeds as keys)."""
+def print_tables(every: dict[str, dict], markdown: bool = False) -> None:
+    """Per kind, each headline metric's distribution over the draws (seeds as keys),
+    as text or as Markdown tables (docs/accuracy.md)."""
     for kind, errors in every.items():
         seeds = sorted(int(seed) for seed in errors)
         refused = [int(s) for s, e in errors.items() if "refused" in e]
         print(f"\n{kind}: {len(errors)} draws (seeds {seeds[0]}-{seeds[-1]})"
               + (f", refused: {sorted(refused)}" if refused else ""))
-        print(f"  {'metric':<62}{'unit':>6}{'median':>9}{'p90':>9}{'worst':>9}  seed    n")
+        if markdown:
+            print("\n| metric | unit | median | 90th percentile | worst | its seed | draws |\n"
+                  "|---|---|---|---|---|---|---|")
+        else:
+            print(f"  {'metric':<62}{'unit':>6}{'median':>9}{'p90':>9}{'worst':>9}  seed    n")
         for key, unit, what in HEADLINE:
-            print_distribution(what, unit, distribution(errors, key))
+            print_distribution(what, unit, distribution(errors, key), markdown)
             if key.startswith("labels_vs_meshes_"):
                 print_distribution("  (no wall shifted by the segmentation)", unit,
-                                   distribution(unshifted(errors), key))
+                                   distribution(unshifted(errors), key), markdown)
+        print_calibration(errors, markdown)
+
+
+def print_calibration(errors: dict[int, dict], markdown: bool = False) -> None:
+    """The run's own error bars against the truth: per band, the median share within
+    it over the draws, the 10th percentile and the lowest (with its seed); and the
+    share of draws whose cycle speed lies within 1.96 of its noise spreads."""
+    rows = []
+    for key, what in CALIBRATION:
+        pairs = [(int(s), e[key]) for s, e in errors.items()
+                 if key in e and np.isfinite(e[key])]
+        if pairs:
+            x = np.array([v for _, v in pairs])
+            rows.append((what, np.median(x), np.percentile(x, 10), x.min(),
+                         pairs[int(np.argmin(x))][0], len(x)))
+    spreads = [abs(e["speed_cycle_spreads"]) for e in errors.values()
+               if np.isfinite(e.get("speed_cycle_spreads", np.nan))]
+    if not rows:
+        return
+    if markdown:
+        print("\n| the run's own band | median over draws | 10th percentile | lowest | "
+              "its seed | draws |\n|---|---|---|---|---|---|")
+        for what, med, p10, low, seed, n in rows:
+            print(f"| {what} | {med:.0f} % | {p10:.0f} % | {low:.0f} % | {seed} | {n} |")
+    else:
+        print(f"  {'calibration':<62}{'median':>9}{'p10':>9}{'lowest':>9}  seed    n")
+        for what, med, p10, low, seed, n in rows:
+            print(f"  {what:<62}{med:9.0f}{p10:9.0f}{low:9.0f}  {seed:<6}{n}")
+    if spreads:
+        share = 100 * np.mean(np.array(spreads) <= 1.96)
+        print(f"{'  ' if not markdown else chr(10)}cycle speed within 1.96 noise spreads of the "
+              f"truth: {share:.0f} % of {len(spreads)} draws")
 
 
 def main() -> None:
@@ -218,6 +272,7 @@ def main() -> None:
                     help="every draw's errors and conditions (written after each draw)")
     ap.add_argument("--tables", type=Path, nargs="+", default=None, metavar="JSON",
                     help="print the tables of earlier runs' --json files (merged), run nothing")
+    ap.add_argument("--markdown", action="store_true", help="--tables as Markdown tables")
     ap.add_argument("--no-pair", action="store_true",
                     help="label kinds without their meshes' run (no node-by-node metrics)")
     args = ap.parse_args()
@@ -226,7 +281,7 @@ def main() -> None:
         for path in args.tables:
             for kind, errors in json.loads(path.read_text()).items():
                 every.setdefault(kind, {}).update(errors)
-        print_tables(every)
+        print_tables(every, args.markdown)
         return
     started = time.perf_counter()
     every = {}

@@ -71,6 +71,7 @@ from oftimg.mesh.strain import grid_strain
 from oftimg.analysis.pipeline import smoothed_strain, thickness_summary
 from oftimg.synthetic.labels import NOISE, label_params, volume_frame, write_label_phantom
 from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
+from oftimg.synthetic.zoo import volume_offset_um
 
 WALLS = ("outer", "inner", "lumen")
 # the fields smoothed in time as their noise asks
@@ -178,6 +179,9 @@ def in_phantom_frame(dataset: Path, npz, points=lambda key: True) -> dict:
     ph, _ = read_truth(dataset)
     meta = json.loads((dataset / "meta.json").read_text())
     turn, shift = volume_frame(ph, meta["voxel_size"])
+    drawn = dataset / "scenario.json"           # a zoo draw: its tube may end inside
+    if drawn.is_file():
+        shift = shift + 1e-3 * volume_offset_um(json.loads(drawn.read_text()))
     return {k: ((a.astype(float) - shift) @ turn.T if points(k) and a.shape[-1:] == (3,) else a)
             for k, a in arrays.items()}
 
@@ -207,7 +211,7 @@ def _in_spreads(measured, true, spread) -> float:
     return float((measured - true) / spread) if spread else float("nan")
 
 
-def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
+def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dict[str, float]:
     """Every metric's error (measured minus true) for one analysed phantom."""
     ph, truth = read_truth(dataset)
     p = truth["params"]
@@ -281,12 +285,12 @@ def embryo_errors(dataset: Path, results: Path) -> dict[str, float]:
         e["band_mm"] = np.nan if found is None else found - truth["band_position_mm"]
     e["corners_wrong"] = float(summ["corner_count"] != truth["corner_count"])
     e.update(field_errors(ph, arr, in_phantom_frame(dataset, np.load(results / "grids.npz")),
-                          t_ms, summ, period))
+                          t_ms, summ, period, keep))
     return {k: float(v) for k, v in e.items()}
 
 
-def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
-                 ) -> dict[str, float]:
+def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float,
+                 keep: dict | None = None) -> dict[str, float]:
     """The shape fields' errors against the model, away from the end rows; each
     curvature and the wall thickness (smoothed in time:
     ``field_noise[name]["smoothing_ms"]``) also against
@@ -296,7 +300,9 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
     cornered section); for each curvature, the noise oftimg reports (``summary.json:
     field_noise``, after its smoothing) over the true error's spread (each
     pixel's SD over the cycle, median, against the model at the mean positions),
-    and the noise share it reports."""
+    and the noise share it reports. ``keep``: a dict given the node errors, name ->
+    ``(error (n_u, n_v - 4, n_t) against the mean positions, the noise reported)``
+    (scripts/zoo_calibration.py)."""
     field_noise, strain_noise = summ.get("field_noise") or {}, summ["strain_noise"]
     rows, t = slice(2, -2), t_ms[None, None, :]
 
@@ -328,6 +334,9 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
     e = {}
     for name, (array, truth, truth_at_mean) in truths.items():
         measured = arr[array][:, rows]
+        if keep is not None:
+            keep[name] = (measured - truth_at_mean,
+                          (field_noise.get(array) or {}).get("noise_sd_smoothed") or np.nan)
         e[f"{name}_pct"] = median_pct(measured, truth)
         e[f"{name}_mean_position_pct"] = median_pct(measured, truth_at_mean)
         noise = field_noise.get(array) or {}
@@ -338,6 +347,10 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float
         band = 1.96 * (noise.get("noise_sd_smoothed") or np.nan)
         e[f"{name}_within_95_pct"] = float(100.0 * np.nanmean(
             np.abs(measured - truth_at_mean) <= band)) if np.isfinite(band) else np.nan
+        # what a calibrated band would need: the error's 95th percentile (the field's
+        # unit) beside the noise the run reports
+        e[f"{name}_error_p95"] = float(np.nanpercentile(np.abs(measured - truth_at_mean), 95))
+        e[f"{name}_noise_sd"] = noise.get("noise_sd_smoothed") or np.nan
         e[f"{name}_noise_share"] = noise.get("noise_share") or np.nan
         e[f"{name}_smoothing_ms"] = noise.get("smoothing_ms", np.nan)
     for w in ("outer", "inner"):

@@ -35,7 +35,7 @@ import oftimg
 from oftimg.synthetic.animate import grid_material_points
 from oftimg.synthetic.labels import LabelGrid, label_params
 from oftimg.synthetic.phantom import read_truth, write_phantom
-from oftimg.synthetic.zoo import KINDS, draw_scenario, write_scenario
+from oftimg.synthetic.zoo import KINDS, draw_scenario, volume_offset_um, write_scenario
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from accuracy import embryo_errors, pixel_differences  # noqa: E402
@@ -125,7 +125,9 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
         arrays = np.load(results / "arrays.npz")
         t_ms = np.roll(np.asarray(truth["t_ms"]), -summary["t0_frame"])
         grid = LabelGrid(ph, scenario.voxel_um)
-        d = drift(ph, grid, np.load(results / "grids.npz")["outer"].astype(float), t_ms,
+        G = np.load(results / "grids.npz")["outer"].astype(float)     # in the volume, mm
+        G -= 1e-3 * volume_offset_um(json.loads((dataset / "scenario.json").read_text()))
+        d = drift(ph, grid, G, t_ms,
                   arrays["grid_in_view"] if "grid_in_view" in arrays.files else None)
         errors["drift_along_pct"], errors["drift_around_rad"] = d["along_pct"], d["around_rad"]
     return errors
@@ -143,6 +145,8 @@ def conditions(scenario) -> dict:
         out |= {"roughness_um": round(1000 * p.noise_mm, 2), "vertices_min": p.vertices_min}
     if scenario.voxel_um is not None:
         out["voxel_um"] = [round(v, 2) for v in scenario.voxel_um]
+        out["ends_inside"] = (f"{scenario.end_inside}, {scenario.end_inside_voxels} voxels on"
+                              if scenario.end_inside else None)
     if seg is not None:
         out |= {"flip_pct": round(100 * seg.flip, 1), "islands": seg.islands,
                 "wall_shifted": (f"{seg.systematic[0]} {seg.systematic[1]:+d} voxel"

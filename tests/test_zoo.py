@@ -38,6 +38,9 @@ def test_draws_span_their_ranges():
     assert min(sides) < 3 and max(sides) > 7
     assert all(1 <= d.voxel_um[2] / d.voxel_um[0] <= 3 for d in labelled)
     assert {d.segmentation.file_format for d in labelled} == set(FORMATS)
+    ending = [d.end_inside for d in labelled]
+    assert {"inlet", "outlet", None} == set(ending)
+    assert 0.15 < np.mean([e is not None for e in ending]) < 0.45
     assert any(d.segmentation.systematic for d in labelled)
     assert any(d.segmentation.defects for d in labelled)
     assert any(d.segmentation.values != {"myocardium": 1, "jelly": 2, "lumen": 3}
@@ -103,3 +106,34 @@ def test_scenarios_are_json():
     assert isinstance(sc, Scenario) and sc.segmentation.defects
     text = json.dumps(sc.as_dict())
     assert json.loads(text)["segmentation"]["defects"]
+
+
+@pytest.mark.parametrize("seed, end", [(5, "outlet"), (17, "inlet")])
+def test_a_tube_that_ends_inside_the_volume_is_cut_at_the_windows_plane(tmp_path, seed, end):
+    """A draw whose tube goes on past the window's plane at one end and ends inside
+    the volume: meta.json's "ends" cut every wall at that plane (the other end at its
+    face), and the walls meshed there lie where the phantom's window ends, once the
+    voxels added before that face are taken off (volume_offset_um)."""
+    from oftimg.mesh.labels import MeshOptions, mesh_walls
+    from oftimg.mesh.topology import check_tube
+    from oftimg.synthetic.zoo import END_GAP_VOXELS, volume_offset_um
+
+    scenario = draw_scenario(seed, "labels", n_frames=4, voxel_um_min=10.0)
+    assert scenario.end_inside == end
+    path = write_scenario(scenario, tmp_path / "d")
+    drawn = json.loads((path / "scenario.json").read_text())
+    offset = volume_offset_um(drawn)
+    axis = {"outlet": 0, "inlet": 1}[end]
+    assert offset[axis] == pytest.approx((scenario.end_inside_voxels + END_GAP_VOXELS)
+                                         * scenario.voxel_um[axis])
+    lds = load_label_dataset(path)
+    assert lds.ends is not None
+    volume = read_frame(lds.sources[0])
+    face = np.take(volume, 0, axis=2 - axis)       # (z, y, x): the face the tube ended at
+    assert not face.any()                          # background before the volume's face
+    walls = mesh_walls(volume, lds.label_ids, lds.voxel_size, MeshOptions(), lds.ends)
+    assert set(walls) == {"outer", "inner", "lumen"}
+    for wall, mesh in walls.items():
+        loops = check_tube(mesh.V, mesh.F).loops
+        at_plane = [np.allclose(mesh.V[loop, axis], offset[axis], atol=1e-6) for loop in loops]
+        assert sorted(at_plane) == [False, True], wall    # one end cut at the window's plane

@@ -11,8 +11,10 @@ phase against the slide), a real tube's shape animated with a known wave, twist 
 shortening (its tissue traced in every frame), the texture and how it is imaged (grain, contrast, its
 change through the wall, speckle, attenuation), the voxel size and anisotropy, a
 segmentation's defects (boundary flips, islands, a wall eroded or dilated by a voxel,
-holes and handles in a few frames), the label values and the file format, and for
-meshes their roughness and vertex counts. :func:`write_scenario` writes it as a
+holes and handles in a few frames), the label values and the file format, the tube
+cut by the volume's faces at both ends or going on past one end and ending inside the
+volume (meta.json's "ends" then cut it), and for meshes their roughness and vertex
+counts. :func:`write_scenario` writes it as a
 dataset folder with ``truth.json`` (the model's answers) and ``scenario.json`` (what
 was drawn).
 """
@@ -53,6 +55,8 @@ BANDED_SHARE = 0.3          # of the draws: a band
 SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
 DEFECT_SHARE = 0.3          # of the label draws: a defect in one or two frames
 OWN_VALUES_SHARE = 0.5      # of the label draws: values other than 1, 2, 3
+END_INSIDE_SHARE = 0.3      # of the label draws: the tube ends inside the volume at one end
+END_INSIDE_VOXELS = (4, 16)  # how far it goes on past the window's plane there
 
 
 @dataclass(frozen=True)
@@ -88,6 +92,11 @@ class Scenario:
     texture: TextureParams | None = None
     animation: dict | None = None     # kind "real": the wave in tube lengths a second,
     #                                   amplitude, twist, shortening, frames, period
+    # label kinds: the end ("inlet" or "outlet") where the tube goes on past the window's
+    # plane and ends inside the volume (meta.json "ends" then cuts it), and by how many
+    # voxels it goes on; None: the volume's faces cut both ends
+    end_inside: str | None = None
+    end_inside_voxels: int = 0
 
     def as_dict(self) -> dict:
         out = asdict(self)
@@ -166,12 +175,18 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
                  "twist_deg": float(params.twist_deg * (-1) ** int(rng.integers(2))),
                  "shortening": _uniform(rng, "real_shortening"),
                  "n_frames": params.n_frames, "period_ms": params.period_ms}
+    # drawn from a stream of their own, so that the draws above stay as they were
+    more = np.random.default_rng([seed, 72, 1])
+    end_inside = (str(more.choice(["inlet", "outlet"])) if more.random() < END_INSIDE_SHARE
+                  else None)
+    end_voxels = int(more.integers(*END_INSIDE_VOXELS)) if end_inside else 0
     if kind == "meshes":
         return Scenario(seed, kind, params)
     if kind == "real":
         return Scenario(seed, kind, params, animation=animation)
     return Scenario(seed, kind, params, voxel, segmentation,
-                    texture if kind == "labels+intensity" else None)
+                    texture if kind == "labels+intensity" else None,
+                    end_inside=end_inside, end_inside_voxels=end_voxels)
 
 
 def write_scenario(scenario: Scenario, out: str | Path, *, real_shape=None,
@@ -198,6 +213,8 @@ def write_scenario(scenario: Scenario, out: str | Path, *, real_shape=None,
                             probabilities=probabilities,
                             intensity=sc.kind == "labels+intensity", texture=sc.texture,
                             islands=seg.islands)
+        if sc.end_inside:
+            _ending_inside(out, sc.end_inside, sc.end_inside_voxels, sc.voxel_um)
         if not probabilities:
             _segmented(out, seg, sc.voxel_um)
     (out / "scenario.json").write_text(json.dumps(sc.as_dict(), indent=1))
@@ -219,6 +236,51 @@ def _animated(sc: Scenario, out: Path, shape, scale_to_mm: float) -> None:
         speed_mm_s=a["speed_lengths_s"] * length_mm, amplitude=a["amplitude"],
         period_ms=a["period_ms"], n_frames=a["n_frames"], twist_deg=a["twist_deg"],
         shortening=a["shortening"]), scale_to_mm=scale_to_mm, do_remesh=True, seed=sc.seed)
+
+
+# background between the tube's end inside the volume and the volume's face
+END_GAP_VOXELS = 3
+
+
+def volume_offset_um(scenario_json: dict) -> np.ndarray:
+    """Where the phantom's volume origin lies in the dataset's volume (um, x y z): the
+    voxels added before the face where the tube ends inside (0 when none)."""
+    end = scenario_json.get("end_inside")
+    if not end:
+        return np.zeros(3)
+    axis = {"outlet": 0, "inlet": 1}[end]        # the outlet's face x = 0, the inlet's y = 0
+    offset = np.zeros(3)
+    offset[axis] = (scenario_json["end_inside_voxels"] + END_GAP_VOXELS) * \
+        scenario_json["voxel_um"][axis]
+    return offset
+
+
+def _ending_inside(folder: Path, end: str, voxels: int, voxel_um) -> None:
+    """Every volume of ``folder`` (labels, probabilities, intensity; TIFF per frame,
+    (z, y, x)) made to hold the tube going on ``voxels`` past the window's plane at
+    ``end`` (its face's slice repeated: the tube goes on straight, as it leaves the
+    window) and then ending, ``END_GAP_VOXELS`` of background before the volume's
+    face; meta.json's "ends" cut it at the window's plane again (and at the other
+    end's face). The phantom's coordinates then lie ``volume_offset_um`` further."""
+    import tifffile
+
+    axis = {"outlet": 2, "inlet": 1}[end]          # (z, y, x): x = 0 the outlet's face
+    for path in sorted(folder.glob("**/*.tif")):
+        volume = tifffile.imread(path)
+        face = np.take(volume, [0], axis=axis)
+        gap = np.zeros_like(face).repeat(END_GAP_VOXELS, axis=axis)
+        if path.parent.name == "intensity":        # OCT's background, not black
+            gap[...] = np.median(np.take(volume, [-1], axis=axis))
+        tifffile.imwrite(path, np.concatenate([gap, face.repeat(voxels, axis=axis), volume],
+                                              axis=axis), compression="zlib")
+    offset = volume_offset_um({"end_inside": end, "end_inside_voxels": voxels,
+                               "voxel_um": list(voxel_um)})
+    faces = {"inlet": {"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0]},
+             "outlet": {"point": [0.0, 0.0, 0.0], "normal": [1.0, 0.0, 0.0]}}
+    faces[end]["point"] = offset.tolist()
+    meta = json.loads((folder / "meta.json").read_text())
+    meta["ends"] = [faces["inlet"], faces["outlet"]]
+    (folder / "meta.json").write_text(json.dumps(meta, indent=2))
 
 
 def _segmented(folder: Path, seg: Segmentation, voxel_um) -> None:

@@ -144,6 +144,14 @@ def _parser() -> argparse.ArgumentParser:
                         "summary.json: strain_noise says how much that noise still moves "
                         "each field and the sigma taken")
     _mesh_arguments(r)
+    r.add_argument("--rough-mesh-smoothing", default="auto", metavar="STEPS",
+                   type=lambda x: x if x == "auto" else int(x),
+                   help="Taubin smoothing steps on every wall's mesh before anything is "
+                        "measured on it; auto (default): 30 on a mesh rough at its own "
+                        "vertices (each vertex's normal offset from its neighbours', which "
+                        "they do not share, 3 %% of the edge length or more), none on a "
+                        "smooth one; 0: never (the paper). summary.json: "
+                        "frames_smoothed_as_rough counts them")
     r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
                    help="Taubin smoothing steps on each lumen mesh before its mean curvature "
                         "(default 0: none, as the paper); for rough segmentations, whose "
@@ -411,6 +419,7 @@ def _command(args) -> int:
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
                    "seam_method": args.seam_method, "warp": args.warp,
                    "lumen_smoothing_steps": args.lumen_smoothing_steps,
+                   "rough_mesh_smoothing": args.rough_mesh_smoothing,
                    "map_positions": args.map_positions,
                    "ridge_smoothing_ms": args.ridge_smoothing_ms,
                    "field_smoothing_ms": args.field_smoothing_ms,

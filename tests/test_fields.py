@@ -445,8 +445,9 @@ def test_field_noise_measures_white_noise_and_its_smoothing():
 def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_path):
     """Every vertex moved radially by 5 um (2.5 % of the radius): the corner count
     used to come out as 10 for the phantom's 4. The curvature fields are then mostly
-    noise (each frame meshed on its own): oftimg measures that noise as the model's
-    truth shows it, and says so."""
+    noise (each frame meshed on its own, and left rough: --rough-mesh-smoothing 0, as the
+    paper; tests/test_roughness.py smooths it): oftimg measures that noise as the
+    model's truth shows it, and says so."""
     from oftimg.errors import OftimgWarning
     from oftimg.io.dataset import load_dataset
     from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
@@ -458,8 +459,8 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
     # on the per-frame grid, whose field pixels are the section contours' points, where
     # the model's curvature is known exactly
     with pytest.warns(OftimgWarning, match="radial_curvature_outer_per_mm is mostly noise"):
-        result = analyse_dataset(load_dataset(path), PipelineOptions(tracking="none"),
-                                 quiet=True)
+        result = analyse_dataset(load_dataset(path), PipelineOptions(
+            tracking="none", rough_mesh_smoothing=0), quiet=True)
     assert result["summary"]["corner_count"] == truth["corner_count"] == 4
     assert np.mean(result["arrays"]["corner_count_per_row"] == 4) > 0.8
     t_ms = np.roll(np.asarray(truth["t_ms"]), -result["summary"]["t0_frame"])[None, None, :]

@@ -7,12 +7,15 @@ from __future__ import annotations
 
 import time
 import warnings
+from dataclasses import replace
 
 import numpy as np
 
 from ..errors import DatasetError
 from ..io.dataset import Frame
-from ..mesh.curvature import fill_boundary, taubin_smooth, vertex_mean_curvature
+from ..io.tube import Tube
+from ..mesh.curvature import (ROUGH_SHARE, ROUGH_STEPS, fill_boundary, smoothing_steps,
+                              taubin_smooth, vertex_mean_curvature, vertex_roughness)
 from ..mesh.grid import (GridOptions, SeamCandidates, grid_frame, project_towards_axis,
                          seam_candidates, signed_thickness)
 from ..mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
@@ -55,6 +58,39 @@ def _named(tube, fn, *args, **kwargs):
         raise DatasetError(f"{tube.source}: {exc}") from None
 
 
+def rough_mesh_steps(frames: list[Frame], setting: int | str) -> dict[str, int]:
+    """Taubin steps for each wall of a dataset, one number for all its frames (each
+    frame's mesh is made on its own, and a wall smoothed in some frames only would
+    change from frame to frame by the smoothing): ``setting`` when a number; for
+    "auto", :func:`~oftimg.mesh.curvature.smoothing_steps` of the median roughness of
+    ``frames`` (the first, middle and last are enough: a segmentation's roughness does
+    not change with the beat)."""
+    walls = frames[0].surfaces
+    if setting != "auto":
+        return {w: int(setting) for w in walls}
+    steps = {}
+    for wall in walls:
+        rough = [vertex_roughness(t.V, t.F) for t in (f.tube(wall) for f in frames)]
+        share = float(np.median([sigma / edge for sigma, edge in rough]))
+        steps[wall] = ROUGH_STEPS if share >= ROUGH_SHARE else 0
+    return steps
+
+
+def measured_tube(frame: Frame, wall: str, options: GridOptions) -> tuple[Tube, int]:
+    """The frame's ``wall`` as it is measured: Taubin-smoothed (its rims held) by
+    ``options.rough_mesh_smoothing`` steps (a number, or wall -> number:
+    :func:`rough_mesh_steps`; "auto": as this mesh's own roughness asks), and the
+    steps taken."""
+    tube = frame.tube(wall)
+    setting = options.rough_mesh_smoothing
+    steps = (setting.get(wall, 0) if isinstance(setting, dict)
+             else smoothing_steps(tube.V, tube.F, setting))
+    if steps:
+        rim = np.concatenate([tube.inlet, tube.outlet])
+        tube = replace(tube, V=taubin_smooth(tube.V, tube.F, steps, fixed=rim))
+    return tube, steps
+
+
 def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
                   options: GridOptions) -> dict:
     """Everything that needs one frame's meshes, for all walls at once.
@@ -69,10 +105,10 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     """
     n_c = options.n_u
     out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {},
-           "from_ring": {}, "cpu_s": {}}
+           "from_ring": {}, "cpu_s": {}, "smoothed": {}}
     clock = _Clock(out["cpu_s"])
     with clock("load"):
-        tb = frame.tube("outer")
+        tb, out["smoothed"]["outer"] = measured_tube(frame, "outer", options)
     with clock("grid"):
         g = _named(tb, grid_frame, tb.V, tb.F, tb.inlet, tb.outlet, p_in, p_out, options)
     X = g.X
@@ -84,7 +120,7 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     walls = {"outer": (tb, X, g)}
     if "inner" in frame.surfaces:
         with clock("load"):
-            ti = frame.tube("inner")
+            ti, out["smoothed"]["inner"] = measured_tube(frame, "inner", options)
         with clock("grid"):
             Xi, out["inner_at_closest"] = project_towards_axis(ti.V, ti.F, ti.inlet,
                                                                   ti.outlet, X)
@@ -92,7 +128,7 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
             walls["inner"] = (ti, Xi, None)
     if "lumen" in frame.surfaces:
         with clock("load"):
-            tl = frame.tube("lumen")
+            tl, out["smoothed"]["lumen"] = measured_tube(frame, "lumen", options)
         with clock("fields"):
             H = frame.stored_mean_curvature("lumen", tl)    # from a label volume's level sets
             if H is None:
@@ -126,8 +162,10 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     return out
 
 
-def frame_seam_candidates(frame: Frame, method: str) -> SeamCandidates:
+def frame_seam_candidates(frame: Frame, method: str,
+                          rough_mesh_smoothing: int | str | dict = 0) -> SeamCandidates:
     """The ends of the frame's shortest inlet-to-outlet geodesic and the seam
-    lengths from every loop point (:func:`~oftimg.mesh.grid.seam_candidates`)."""
-    tb = frame.tube("outer")
+    lengths from every loop point (:func:`~oftimg.mesh.grid.seam_candidates`), on the
+    outer wall as it is measured (``rough_mesh_smoothing``: :func:`measured_tube`)."""
+    tb, _ = measured_tube(frame, "outer", GridOptions(rough_mesh_smoothing=rough_mesh_smoothing))
     return _named(tb, seam_candidates, tb.V, tb.F, tb.inlet, tb.outlet, method=method)

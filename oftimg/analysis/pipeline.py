@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +29,7 @@ from ..mesh.labels import MeshOptions
 from ..mesh.sections import slab_thickness, volume_from_sections
 from ..mesh.curvature import contour_curvature, count_corners
 from ..mesh.strain import grid_strain, surface_kinematics
-from .per_frame import frame_seam_candidates, process_frame, with_warnings
+from .per_frame import frame_seam_candidates, process_frame, rough_mesh_steps, with_warnings
 from ..progress import FramePasses, Progress
 
 
@@ -177,7 +177,8 @@ def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=N
     time (:func:`~oftimg.mesh.grid.continuous_seam_ends`), and how many frames' seams
     continue their neighbours' rather than their own shortest."""
     candidates = run_tasks(frame_seam_candidates,
-                           [(ds.frame(t), options.seam_method) for t in range(ds.n_frames)],
+                           [(ds.frame(t), options.seam_method, options.rough_mesh_smoothing)
+                            for t in range(ds.n_frames)],
                            executor=executor, progress=progress)
     p_in, p_out, chosen = continuous_seam_ends(candidates, options.seam_smoothing_frames)
     return p_in, p_out, int(chosen.sum())
@@ -641,6 +642,8 @@ def _per_frame_passes(ds: Dataset, opts: GridOptions, *, quiet, executor, progre
     in input order, and the number of frames whose seam was continued from their
     neighbours'. Adds their wall and CPU seconds to ``timings``."""
     n_t = ds.n_frames
+    opts = replace(opts, rough_mesh_smoothing=rough_mesh_steps(
+        [ds.frame(t) for t in sorted({0, n_t // 2, n_t - 1})], opts.rough_mesh_smoothing))
     with Progress(n_t, f"{ds.meta.name}", quiet=quiet or progress is not None) as bar:
         advance = progress or FramePasses(bar, FRAME_PASSES)
         tick = time.perf_counter()
@@ -686,6 +689,7 @@ def _stack_frames(frames: list[dict]) -> dict:
         "jelly": optional("jelly_thickness"),                   # (n_u, n_v, n_t)
         "flipped": {w: int(sum(f["flipped"][w] for f in frames)) for w in walls},
         "repaired": {w: int(sum(f["repaired"][w] for f in frames)) for w in walls},
+        "smoothed": {w: int(sum(bool(f["smoothed"][w]) for f in frames)) for w in walls},
         "inner_closest": int(sum(f.get("inner_at_closest", 0) for f in frames)),
         "jelly_closest": int(sum(f.get("jelly_at_closest", 0) for f in frames)),
         "outside": {w: int(sum(f.get(f"{w}_outside", 0) for f in frames))
@@ -908,6 +912,7 @@ def _quality_summary(st: dict, seams_continued: int, series_checks: dict, from_r
     return {
         "flipped_triangles": st["flipped"],
         "maps_with_clamped_weights": st["repaired"],
+        "frames_smoothed_as_rough": st["smoothed"],
         "inner_nodes_at_closest_point": st["inner_closest"],
         "jelly_nodes_at_closest_point": st["jelly_closest"],
         "inner_nodes_outside_outer": st["outside"]["inner"],

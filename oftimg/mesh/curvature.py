@@ -104,6 +104,52 @@ def taubin_smooth(V: np.ndarray, F: np.ndarray, steps: int, *,
     return V
 
 
+def vertex_roughness(V: np.ndarray, F: np.ndarray) -> tuple[float, float]:
+    """How rough a mesh is at its own vertices: ``(sigma, edge)`` in V's unit, sigma the
+    robust SD of each vertex's normal offset from its neighbours' mean less the mean of
+    its neighbours' offsets (a smooth surface's offsets, its curvature, vary smoothly
+    from vertex to vertex and cancel there; noise at each vertex does not), edge the
+    median edge length. On the phantoms' meshes sigma came out 1.3 times the SD of a
+    radial noise drawn at each vertex (0.5-5 um), and at most 1.6 % of the edge
+    without noise."""
+    import scipy.sparse as sp
+
+    V = np.asarray(V, float)
+    n = len(V)
+    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
+    A = sp.csr_matrix((np.ones(2 * len(i)), (np.concatenate([i, j]), np.concatenate([j, i]))),
+                      shape=(n, n))
+    A.data[:] = 1.0
+    mean_of_neighbours = sp.diags(1.0 / np.maximum(np.asarray(A.sum(axis=1)).ravel(), 1)) @ A
+    face_normals = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    normals = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(normals, F[:, k], face_normals)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+    offset = np.einsum("ij,ij->i", V - mean_of_neighbours @ V, normals)
+    own = offset - mean_of_neighbours @ offset
+    sigma = 1.4826 * float(np.median(np.abs(own - np.median(own))))
+    edges = np.linalg.norm(V[i] - V[j], axis=1)
+    return sigma, float(np.median(edges))
+
+
+ROUGH_SHARE = 0.03   # of the median edge: a mesh this rough at its vertices is smoothed
+ROUGH_STEPS = 30     # Taubin steps then (as a label volume's meshes get)
+
+
+def smoothing_steps(V: np.ndarray, F: np.ndarray, setting: int | str) -> int:
+    """Taubin steps for a wall's mesh: ``setting`` when a number; for "auto",
+    ``ROUGH_STEPS`` where :func:`vertex_roughness` is at least ``ROUGH_SHARE`` of the
+    median edge, else 0. Each frame is segmented and meshed on its own, and a
+    curvature or a strain, a second derivative, carries roughness at the vertices
+    several times over: in the zoo's mesh draws (0-5 um of it) the radial curvature
+    was 27 % off in the median and the lumen's mean curvature 108 %."""
+    if setting != "auto":
+        return int(setting)
+    sigma, edge = vertex_roughness(V, F)
+    return ROUGH_STEPS if sigma >= ROUGH_SHARE * edge else 0
+
+
 def mixed_areas(cots: np.ndarray, l2: np.ndarray, area: np.ndarray) -> np.ndarray:
     """Each face corner's share of its face's area ``(n_face, 3)`` mm^2: its
     Voronoi region where the face has no obtuse angle, else half the face at the

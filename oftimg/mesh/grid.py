@@ -28,6 +28,11 @@ class GridOptions:
     seam_smoothing_frames: float = 1.0
     seam_method: str = "graph"
     lumen_smoothing_steps: int = 0      # Taubin steps before the lumen's mean curvature
+    # Taubin steps on every wall's mesh before anything is measured on it: "auto" takes
+    # ROUGH_STEPS where the mesh is rough at its vertices (curvature.vertex_roughness over
+    # the median edge at least ROUGH_SHARE) and none elsewhere; 0: never (the paper); a
+    # dict: wall -> steps (the pipeline's decision for a whole dataset)
+    rough_mesh_smoothing: int | str = "auto"
 
     def __post_init__(self):
         if self.n_u < 3 or self.n_v < 2:
@@ -36,6 +41,12 @@ class GridOptions:
                 and 0 <= self.lumen_smoothing_steps <= 1000):
             raise InputError("lumen_smoothing_steps must be a whole number from 0 to 1000, "
                              f"found {self.lumen_smoothing_steps!r}")
+        steps = self.rough_mesh_smoothing
+        if not (steps == "auto" or isinstance(steps, dict) or (
+                isinstance(steps, (int, np.integer)) and not isinstance(steps, bool)
+                and 0 <= steps <= 1000)):
+            raise InputError("rough_mesh_smoothing must be \"auto\" or a whole number of "
+                             f"Taubin steps from 0 to 1000, found {steps!r}")
         if self.seam_smoothing_frames < 0:
             raise InputError("seam_smoothing_frames must be >= 0")
         if self.seam_method not in METHODS:

@@ -30,6 +30,7 @@ from ..mesh.sections import slab_thickness, volume_from_sections
 from ..mesh.curvature import contour_curvature, count_corners
 from ..mesh.strain import grid_strain, surface_kinematics
 from .per_frame import frame_seam_candidates, process_frame, rough_mesh_steps, with_warnings
+from .uncertainty import input_kind, with_bands
 from ..progress import FramePasses, Progress
 
 
@@ -875,6 +876,7 @@ def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H,
     arrays.update(fields.pop("arrays"))
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise
+    fields["field_noise"] = with_bands(fields["field_noise"], input_kind(ds.inputs_by_kind()))
     # the sigma taken for each curvature and thickness field ("auto": as much as its noise asks)
     fields["field_smoothing_ms"] = {name: noise["smoothing_ms"]
                                     for name, noise in fields["field_noise"].items()}

@@ -255,6 +255,10 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                         "cycle that is frame-to-frame noise (well under 0.25)",
                "value": {name: (noise or {}).get("noise_share") for name, noise in
                          (summary.get("field_noise") or {}).items()}},
+              {"check": "half the 95 % band of each curvature and thickness field at a "
+                        "node: its noise widened by the accuracy zoo's calibration",
+               "value": {name: (noise or {}).get("band_95") for name, noise in
+                         (summary.get("field_noise") or {}).items()}},
               {"check": "share of each strain energy field's size by which its grid's "
                         "node noise moves it (well under 0.25)",
                "value": {name: (noise or {}).get("error_share") for name, noise in

@@ -177,6 +177,15 @@ QC_COLUMNS = ID_COLUMNS + [
            "ms", _SIGMA.format("wall thickness")),
     Column("jelly_thickness_smoothing_ms", ("field_noise", "jelly_thickness_mm", "smoothing_ms"),
            "ms", _SIGMA.format("jelly thickness")),
+    *[Column(f"{field}_band_95", ("field_noise", f"{field}_{unit}", "band_95"),
+             unit.replace("per_mm", "1/mm"),
+             f"half the 95 % band of the {what} at each node: its noise widened by the "
+             "accuracy zoo's calibration for the input kind (docs/accuracy.md)")
+      for field, unit, what in (("radial_curvature_outer", "per_mm", "outer radial curvature"),
+                                ("radial_curvature_inner", "per_mm", "inner radial curvature"),
+                                ("mean_curvature_lumen", "per_mm", "lumen's mean curvature"),
+                                ("wall_thickness", "mm", "wall thickness"),
+                                ("jelly_thickness", "mm", "jelly thickness"))],
     Column("strain_energy_outer_error_share",
            ("strain_noise", "strain_energy_outer", "error_share"), "1",
            "share of the outer strain energy's median size by which its grid nodes' noise "

@@ -1,0 +1,53 @@
+"""Each shape field's 95 % band: the frame-to-frame noise a run measures in it
+(``field_noise``: :func:`~oftimg.image.normalize.smooth_field`) widened by a factor
+calibrated on the randomized phantom zoo, per input kind.
+
+The noise a run measures is the part of its error that changes from frame to frame.
+What stays put in space it cannot see: the voxel lattice of a label volume (a wall
+sampled by the same voxels in every frame), the mesh's roughness at its own vertices
+around a section, the model's curvature changing across a node's jitter. On the zoo's
+draws 1.96 times that noise held only part of the true error (docs/accuracy.md); the
+factors below widen it so that the band holds 95 % of the nodes and frames of the draws
+it was fitted on, and they were checked on draws it was not fitted on
+(``scripts/zoo_calibration.py``; docs/accuracy.md, "The runs' own error bars").
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# input kind -> field -> factor k (95 % band = 1.96 k x the noise after smoothing)
+BAND_FACTORS = {
+    "meshes": {"radial_curvature_outer": 1.69, "radial_curvature_inner": 1.62,
+               "mean_curvature_lumen": 1.96, "wall_thickness": 1.05, "jelly_thickness": 1.08},
+    "labels": {"radial_curvature_outer": 3.6, "radial_curvature_inner": 2.95,
+               "mean_curvature_lumen": 13.95, "wall_thickness": 3.3, "jelly_thickness": 3.59},
+}
+# probability maps: the label volumes' factors until the zoo's probability draws are
+# run (the same lattice, blurred: its error is the labels' at most)
+BAND_FACTORS["probabilities"] = dict(BAND_FACTORS["labels"])
+FIELD_OF = {"radial_curvature_outer_per_mm": "radial_curvature_outer",
+            "radial_curvature_inner_per_mm": "radial_curvature_inner",
+            "mean_curvature_lumen_per_mm": "mean_curvature_lumen",
+            "wall_thickness_mm": "wall_thickness",
+            "jelly_thickness_mm": "jelly_thickness"}
+
+
+def input_kind(inputs_by_kind: dict) -> str:
+    """"meshes", "labels" or "probabilities": what the dataset's walls were made from
+    (:meth:`~oftimg.io.dataset.Dataset.inputs_by_kind`'s keys)."""
+    return next((k for k in ("probabilities", "labels") if k in inputs_by_kind), "meshes")
+
+
+def with_bands(field_noise: dict, kind: str) -> dict:
+    """``field_noise`` (field -> its noise entry) with each field's ``band_95`` (the
+    field's unit: half the width of its 95 % band, 1.96 k times ``noise_sd_smoothed``)
+    and ``band_factor`` k for input ``kind``; None for a field without a factor or a
+    measured noise."""
+    out = {}
+    for name, noise in field_noise.items():
+        k = BAND_FACTORS.get(kind, {}).get(FIELD_OF.get(name))
+        sd = noise.get("noise_sd_smoothed")
+        finite = k is not None and sd is not None and np.isfinite(sd)
+        out[name] = {**noise, "band_factor": k if finite else None,
+                     "band_95": float(1.96 * k * sd) if finite else None}
+    return out

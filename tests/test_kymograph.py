@@ -580,3 +580,20 @@ def test_a_neck_that_barely_moves_is_bridged_for_the_speeds():
     assert np.allclose(bridged_ridge(t, x, x == 2), [0, 1, 2, 3, 4, 5])
     assert np.allclose(bridged_ridge(t, x, x >= 4), [0, 1, 9, 3, np.nan, np.nan],
                        equal_nan=True)
+
+
+@pytest.mark.parametrize("speed, limited", [(80.0, True), (15.0, False)])
+def test_a_wave_faster_than_the_frames_is_said_to_be(speed, limited):
+    """A wave crossing a 1.3 mm tube in 16 ms, under one frame of 30 over 490 ms (the
+    zoo's draw 10: its cycle speed came out 40 % slow with a spread of 1 %), is said to
+    be at the frame rate's limit; one crossing it in 87 ms (5 frames) is not."""
+    period, n_t = 490.0, 30
+    s = np.linspace(0, 1.3, 50)
+    area = hump_map(1e3 * s / speed, period, n_t)
+    arrays, summary = analyse_area_maps({"outer": area}, s, period)
+    crossing = summary["wave_crossing_frames"]
+    assert crossing == pytest.approx(1.3 / summary["wave_speed_mm_s"]["cycle"] * 1e3
+                                     / (period / n_t))
+    notes = [n for n in summary["image_analysis_notes"] if "limit of the frame rate" in n]
+    assert (len(notes) == 1) == limited
+    assert (crossing < 2.0) == limited

@@ -203,12 +203,17 @@ def pixel_differences(labels: Path, meshes: Path) -> dict[str, float]:
 
 
 def _relative_pct(measured, true) -> float:
+    """(measured / true - 1) in %; NaN where nothing was measured (null in JSON: a
+    wave speed that the run could not give)."""
+    if measured is None or true is None:
+        return float("nan")
     return float(100.0 * (measured / true - 1.0))
 
 
 def _in_spreads(measured, true, spread) -> float:
     """Error over the noise spread (NaN: not resolved, or no spread given)."""
-    return float((measured - true) / spread) if spread else float("nan")
+    return float((measured - true) / spread) if spread and measured is not None else float(
+        "nan")
 
 
 def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dict[str, float]:
@@ -238,7 +243,8 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
         np.abs(arr["local_speed_mm_s"] / true_speed - 1.0)))
     e["speed_proximal_pct"] = _relative_pct(two["speed_proximal_mm_s"], true_two["proximal"])
     e["speed_distal_pct"] = _relative_pct(two["speed_distal_mm_s"], true_two["distal"])
-    e["knee_mm"] = two["knee_mm"] - p["speed_knee_mm"]
+    e["knee_mm"] = (two["knee_mm"] - p["speed_knee_mm"]) if two["knee_mm"] is not None \
+        else float("nan")
     # the errors in units of the spread that the map's own noise gives (docs/accuracy.md)
     spread = summ["wave_speed_noise_sd_mm_s"]
     e["speed_cycle_spreads"] = _in_spreads(summ["wave_speed_mm_s"]["cycle"],

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import DatasetError
 from ..io.dataset import Frame
 from ..io.tube import Tube
-from ..mesh.curvature import (ROUGH_SHARE, ROUGH_STEPS, fill_boundary, smoothing_steps,
+from ..mesh.curvature import (fill_boundary, smoothing_steps, steps_for_roughness,
                               taubin_smooth, vertex_mean_curvature, vertex_roughness)
 from ..mesh.grid import (GridOptions, SeamCandidates, grid_frame, project_towards_axis,
                          seam_candidates, signed_thickness)
@@ -62,7 +62,7 @@ def rough_mesh_steps(frames: list[Frame], setting: int | str) -> dict[str, int]:
     """Taubin steps for each wall of a dataset, one number for all its frames (each
     frame's mesh is made on its own, and a wall smoothed in some frames only would
     change from frame to frame by the smoothing): ``setting`` when a number; for
-    "auto", :func:`~oftimg.mesh.curvature.smoothing_steps` of the median roughness of
+    "auto", :func:`~oftimg.mesh.curvature.steps_for_roughness` of the median roughness of
     ``frames`` (the first, middle and last are enough: a segmentation's roughness does
     not change with the beat)."""
     walls = frames[0].surfaces
@@ -71,8 +71,8 @@ def rough_mesh_steps(frames: list[Frame], setting: int | str) -> dict[str, int]:
     steps = {}
     for wall in walls:
         rough = [vertex_roughness(t.V, t.F) for t in (f.tube(wall) for f in frames)]
-        share = float(np.median([sigma / edge for sigma, edge in rough]))
-        steps[wall] = ROUGH_STEPS if share >= ROUGH_SHARE else 0
+        steps[wall] = steps_for_roughness(float(np.median([sigma / edge
+                                                           for sigma, edge in rough])))
     return steps
 
 

@@ -139,15 +139,20 @@ ROUGH_STEPS = 30     # Taubin steps then (as a label volume's meshes get)
 
 def smoothing_steps(V: np.ndarray, F: np.ndarray, setting: int | str) -> int:
     """Taubin steps for a wall's mesh: ``setting`` when a number; for "auto",
-    ``ROUGH_STEPS`` where :func:`vertex_roughness` is at least ``ROUGH_SHARE`` of the
-    median edge, else 0. Each frame is segmented and meshed on its own, and a
-    curvature or a strain, a second derivative, carries roughness at the vertices
-    several times over: in the zoo's mesh draws (0-5 um of it) the radial curvature
-    was 27 % off in the median and the lumen's mean curvature 108 %."""
+    :func:`steps_for_roughness` of its own roughness."""
     if setting != "auto":
         return int(setting)
     sigma, edge = vertex_roughness(V, F)
-    return ROUGH_STEPS if sigma >= ROUGH_SHARE * edge else 0
+    return steps_for_roughness(sigma / edge)
+
+
+def steps_for_roughness(share: float) -> int:
+    """``ROUGH_STEPS`` for a roughness of at least ``ROUGH_SHARE`` of the median edge
+    (:func:`vertex_roughness`), else 0. Each frame is segmented and meshed on its own,
+    and a curvature or a strain, a second derivative, carries roughness at the vertices
+    several times over: in the zoo's mesh draws (0-5 um of it) the radial curvature was
+    27 % off in the median and the lumen's mean curvature 108 %."""
+    return ROUGH_STEPS if share >= ROUGH_SHARE else 0
 
 
 def mixed_areas(cots: np.ndarray, l2: np.ndarray, area: np.ndarray) -> np.ndarray:

@@ -150,7 +150,8 @@ def conditions(scenario) -> dict:
     if seg is not None:
         out |= {"flip_pct": round(100 * seg.flip, 1), "islands": seg.islands,
                 "wall_shifted": (f"{seg.systematic[0]} {seg.systematic[1]:+d} voxel"
-                                 if seg.systematic else None),
+                                 if seg.systematic and scenario.kind != "probabilities"
+                                 else None),             # (probability maps: not written)
                 "defects": {str(k): v for k, v in seg.defects.items()}}
     return out
 

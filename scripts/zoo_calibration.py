@@ -67,7 +67,8 @@ def main() -> None:
             if dataset.name.endswith("_meshes") or not (results / "summary.json").is_file():
                 continue
             scenario = json.loads((dataset / "scenario.json").read_text())
-            shifted = bool((scenario.get("segmentation") or {}).get("systematic"))
+            shifted = bool((scenario.get("segmentation") or {}).get("systematic")
+                           and scenario["kind"] != "probabilities")   # written for labels only
             draws[scenario["seed"]] = (shifted, draw_ratios(dataset, results))
         split = -1 if args.factors else args.split     # given factors: every draw held out
         fit = [d for s, (shifted, d) in draws.items() if s < split and not shifted]
@@ -75,9 +76,11 @@ def main() -> None:
         apart = {s: d for s, (shifted, d) in draws.items() if shifted}
         if not fit and not args.factors:
             continue
-        print(f"\n{kind}: " + (f"oftimg's factors for {args.factors}" if args.factors else
-                                f"fitted on {len(fit)} draws (seeds < {args.split})")
-              + f", measured on {len(held)} others; {len(apart)} with a wall shifted apart")
+        print(f"\n{kind}: " + (f"oftimg's factors for {args.factors}, measured on {len(held)} "
+                                "draws" if args.factors else
+                                f"fitted on {len(fit)} draws (seeds < {args.split}), measured "
+                                f"on {len(held)} others")
+              + f"; {len(apart)} with a wall shifted apart")
         if args.markdown:
             print("\n| field | k | held-out nodes within 1.96 k noise | per draw: median, 10th "
                   "percentile, lowest | within 1.96 noise (k = 1) | walls shifted, within "
@@ -100,17 +103,18 @@ def main() -> None:
             per = np.array(list(share.values())) if share else np.array([np.nan])
             shifted_in = np.concatenate([d[name] for d in apart.values() if name in d]
                                         or [np.array([])])
-            shifted_share = 100 * np.mean(shifted_in <= k) if len(shifted_in) else np.nan
+            shifted_share = (f"{100 * np.mean(shifted_in <= k):.0f} %" if len(shifted_in)
+                             else "-")
             low_seed = min(share, key=share.get) if share else "-"
             if args.markdown:
                 print(f"| {name.replace('_', ' ')} | {k:.2f} | {inside:.0f} % | {np.median(per):.0f}, "
                       f"{np.percentile(per, 10):.0f}, {per.min():.0f} % (seed {low_seed}) | "
-                      f"{plain:.0f} % | {shifted_share:.0f} % |")
+                      f"{plain:.0f} % | {shifted_share} |")
             else:
                 print(f"  {name:<26} k {k:5.2f}  held out {inside:5.1f} % (per draw median "
                       f"{np.median(per):.0f}, p10 {np.percentile(per, 10):.0f}, lowest "
                       f"{per.min():.0f} at {low_seed}); k = 1: {plain:.0f} %; walls shifted: "
-                      f"{shifted_share:.0f} %")
+                      f"{shifted_share}")
     print("\nfactors:", json.dumps(factors))
 
 

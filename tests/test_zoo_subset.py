@@ -1,0 +1,76 @@
+"""The accuracy zoo in the suite (issue 72): a mesh draw and a label draw at a seed
+drawn afresh on every run (printed on failure, with the command that reruns it), each
+metric within its bound over the zoo at the same settings (docs/accuracy.md's tables,
+BOUNDS below). The label draw is one whose segmentation shifts no wall by a voxel (that
+error is the segmentation's, and the tables give it apart). OFTIMG_ZOO_SEED reruns one
+seed."""
+import json
+import os
+import random
+import sys
+from pathlib import Path
+
+import pytest
+
+from oftimg import InputError
+from oftimg.synthetic.zoo import draw_scenario
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from accuracy_zoo import draw_errors  # noqa: E402
+
+FRAMES, VOXEL_MIN_UM = 30, 6.0          # the zoo's settings in docs/accuracy.md
+FIRST = int(os.environ.get("OFTIMG_ZOO_SEED") or random.SystemRandom().randrange(10 ** 6))
+
+# kind -> metric -> bound on |error| in the metric's unit (scripts/accuracy_zoo.py's keys):
+# 1.5 times the worst of docs/accuracy.md's draws whose segmentation shifted no wall (21
+# mesh draws, 11 label draws, 2026-12-05; the cycle speed over the draws whose wave
+# crosses the tube in 2 frames or more). A random draw lies beyond the worst of n draws
+# about once in n + 1 runs (the bounds at 1.5 times the 90th percentile failed on the
+# first seed tried: areas 2.58 % against 2.4 %); half as much again beyond it, rarely,
+# and a method that became half again as bad is caught.
+BOUNDS = {
+    "meshes": {"area_outer_p95_pct": 3.0, "volume_outer_pct": 0.92, "myocardial_change_pp": 1.8,
+               "expand_pp": 1.8, "speed_cycle_pct": 8.6, "wall_thickness_pct": 5.7,
+               "radial_curvature_outer_pct": 20.0, "radial_curvature_inner_pct": 22.0,
+               "mean_curvature_lumen_pct": 64.0, "strain_energy_inner_pct": 32.0},
+    "labels": {"area_outer_p95_pct": 3.4, "volume_outer_pct": 0.88, "myocardial_change_pp": 3.3,
+               "expand_pp": 2.0, "speed_cycle_pct": 15.0, "wall_thickness_pct": 3.6,
+               "radial_curvature_outer_pct": 24.0, "radial_curvature_inner_pct": 24.0,
+               "mean_curvature_lumen_pct": 75.0, "strain_energy_inner_pct": 18.0},
+}
+SPEED_CROSSING_FRAMES = 3    # speeds checked where the wave takes this many frames or more
+
+
+def unshifted_seed(kind: str, first: int) -> int:
+    """The first seed from ``first`` on whose draw shifts no wall by a voxel."""
+    seed = first
+    while kind != "meshes" and draw_scenario(seed, kind).segmentation.systematic is not None:
+        seed += 1
+    return seed
+
+
+def crossing_frames(dataset: Path) -> float:
+    """How many frames the draw's wave takes to cross its tube (its truth)."""
+    truth = json.loads((dataset / "truth.json").read_text())
+    frame_ms = truth["params"]["period_ms"] / truth["params"]["n_frames"]
+    return 1000 * truth["tube_length_mm"] / abs(truth["wave_speed_mm_s"]["cycle"]) / frame_ms
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", sorted(BOUNDS))
+def test_a_random_draw_is_within_the_zoos_bounds(tmp_path, kind):
+    seed = unshifted_seed(kind, FIRST)
+    rerun = (f"rerun: python scripts/accuracy_zoo.py --seed {seed} --draws 1 --kinds {kind} "
+             f"--frames {FRAMES} --voxel-min-um {VOXEL_MIN_UM:g} --no-pair")
+    try:
+        errors = draw_errors(seed, kind, tmp_path, frames=FRAMES, voxel_min_um=VOXEL_MIN_UM,
+                             jobs=1, pair=False)
+    except InputError as exc:
+        pytest.fail(f"zoo draw {seed} ({kind}) refused: {exc}; {rerun}")
+    bounds = dict(BOUNDS[kind])
+    if crossing_frames(tmp_path / "data" / f"{kind}_{seed}") < SPEED_CROSSING_FRAMES:
+        bounds = {k: v for k, v in bounds.items() if "speed" not in k}  # the frames' limit
+    beyond = {key: round(errors.get(key, float("nan")), 3) for key, bound in bounds.items()
+              if not abs(errors.get(key, float("nan"))) <= bound}
+    assert not beyond, (f"zoo draw {seed} ({kind}; {errors['draw']}) beyond its bounds "
+                        f"{BOUNDS[kind]}: {beyond}; {rerun}")

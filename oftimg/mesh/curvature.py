@@ -77,6 +77,18 @@ def vertex_mean_curvature(V: np.ndarray, F: np.ndarray, boundary: np.ndarray | N
     return H
 
 
+def neighbour_mean(F: np.ndarray, n: int):
+    """The sparse ``(n, n)`` operator that takes each vertex's values to the mean of its
+    neighbours' (an edge shared by two faces counted once)."""
+    import scipy.sparse as sp
+
+    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
+    A = sp.csr_matrix((np.ones(2 * len(i)), (np.concatenate([i, j]), np.concatenate([j, i]))),
+                      shape=(n, n))
+    A.data[:] = 1.0                                      # an edge of two faces counts once
+    return sp.diags(1.0 / np.maximum(np.asarray(A.sum(axis=1)).ravel(), 1)) @ A
+
+
 def taubin_smooth(V: np.ndarray, F: np.ndarray, steps: int, *,
                   fixed: np.ndarray | None = None, lam: float = 0.5, mu: float = -0.53
                   ) -> np.ndarray:
@@ -84,17 +96,11 @@ def taubin_smooth(V: np.ndarray, F: np.ndarray, steps: int, *,
     each vertex moved ``lam`` of the way to its neighbours' mean, then back by
     ``mu``, which takes roughness at the scale of the edges away with little
     shrinkage of the shape. ``fixed`` vertices (the rims) stay where they are."""
-    import scipy.sparse as sp
-
     V = np.asarray(V, float)
     if steps == 0:
         return V
     n = len(V)
-    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
-    A = sp.csr_matrix((np.ones(2 * len(i)), (np.concatenate([i, j]), np.concatenate([j, i]))),
-                      shape=(n, n))
-    A.data[:] = 1.0                                      # an edge of two faces counts once
-    mean_of_neighbours = sp.diags(1.0 / np.maximum(np.asarray(A.sum(axis=1)).ravel(), 1)) @ A
+    mean_of_neighbours = neighbour_mean(F, n)
     free = np.ones((n, 1))
     if fixed is not None:
         free[np.asarray(fixed)] = 0.0
@@ -112,15 +118,9 @@ def vertex_roughness(V: np.ndarray, F: np.ndarray) -> tuple[float, float]:
     median edge length. On the phantoms' meshes sigma came out 1.3 times the SD of a
     radial noise drawn at each vertex (0.5-5 um), and at most 1.6 % of the edge
     without noise."""
-    import scipy.sparse as sp
-
     V = np.asarray(V, float)
-    n = len(V)
     i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
-    A = sp.csr_matrix((np.ones(2 * len(i)), (np.concatenate([i, j]), np.concatenate([j, i]))),
-                      shape=(n, n))
-    A.data[:] = 1.0
-    mean_of_neighbours = sp.diags(1.0 / np.maximum(np.asarray(A.sum(axis=1)).ravel(), 1)) @ A
+    mean_of_neighbours = neighbour_mean(F, len(V))
     face_normals = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     normals = np.zeros_like(V)
     for k in range(3):

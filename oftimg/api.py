@@ -52,7 +52,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         options: dict | None = None, jobs: int | None = None,
         scheduler: str | None = None, fps: float | None = None, parallel: str = "auto",
         resume: bool = False, cluster_alpha: float = 0.05,
-        period_ms: float | None = None) -> Path:
+        period_ms: float | None = None, figures: bool = True) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
     Every frame of every dataset is validated before any work. The work runs
@@ -70,7 +70,9 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     ``cluster_alpha``: the cluster-forming threshold of the cohort maps' tests
     (:func:`cohort_maps`). ``period_ms``: the beat's length of every dataset whose
     meta.json gives none (without it, such a dataset is refused: its times and speeds
-    would be a guess). Returns ``out``.
+    would be a guess). ``figures=False``: numbers only (arrays, summaries, tables, pages;
+    no figures or videos), for sweeps and batches where the numbers are what is read.
+    Returns ``out``.
     """
     from .analysis.pipeline import PipelineOptions, tracking_mode
 
@@ -95,15 +97,15 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
         return _run_locked(datasets, finished, out, paths, opts, resume=resume, jobs=jobs,
                            scheduler=scheduler, parallel=parallel, overwrite=overwrite,
                            quiet=quiet, fps=fps, started=started,
-                           cluster_alpha=cluster_alpha)
+                           cluster_alpha=cluster_alpha, figures=figures)
 
 
 def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs, scheduler,
-                parallel, overwrite, quiet, fps, started, cluster_alpha) -> Path:
+                parallel, overwrite, quiet, fps, started, cluster_alpha, figures) -> Path:
     """:func:`run` once it holds ``finished``: what to reuse, validation, the work,
     the cohort outputs; on failure, the note on what is kept."""
     names = [d.meta.name for d in datasets]
-    fingerprints = {d.meta.name: finished.fingerprint(d, opts, fps) for d in datasets}
+    fingerprints = {d.meta.name: finished.fingerprint(d, opts, fps, figures) for d in datasets}
     reused = {}
     if resume:
         for name, fp in fingerprints.items():
@@ -127,10 +129,10 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
             work = (_embryos_in_workers if parallel == "embryos" and executor is not None
                     else _frames_in_workers)
             done = work(todo, reports, finished, fingerprints, opts, executor, fps=fps,
-                        quiet=quiet, out=out)
+                        figures=figures, quiet=quiet, out=out)
             summaries = [reused.get(name) or done[name] for name in names]
             _write_run(summaries, finished, out, paths, opts, overwrite=overwrite,
-                       started=started, cluster_alpha=cluster_alpha)
+                       started=started, cluster_alpha=cluster_alpha, figures=figures)
     except BaseException as exc:
         kept = finished.names()
         if kept:
@@ -238,13 +240,14 @@ def _n_workers(executor) -> int:
 
 def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: float,
                       quiet: bool = True, executor=None, progress=None,
-                      results_at: Path | None = None) -> dict:
+                      results_at: Path | None = None, figures: bool = True) -> dict:
     """One validated dataset end to end: its results into ``folder`` (which
     exists); returns its summary, which records the warnings of the analysis
     (``warnings``, raised again too). ``progress``: see :func:`analyse_dataset`;
     without it, a bar over the frames that then names the stages still to come.
     ``results_at``: where the results will be read from (``--out/<name>``; default
-    ``folder``), so that the provenance gives the dataset's path from there too."""
+    ``folder``), so that the provenance gives the dataset's path from there too.
+    ``figures=False``: no figures or videos."""
     from .analysis.pipeline import FRAME_PASSES, analyse_dataset
     from .output.video import EARLY_VIDEOS, start_videos
 
@@ -259,7 +262,7 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
         nonlocal early
         if bar is not None:
             bar.note("fields, maps, shape modes")
-        if executor is not None:  # the workers render while this process goes on
+        if executor is not None and figures:  # the workers render while this process goes on
             early = start_videos(arrays, grids, fps=fps, executor=executor, kinds=EARLY_VIDEOS)
 
     caught = []
@@ -278,9 +281,9 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
             summary["warnings"] = raised
             summary["validation"] = report
             if bar is not None:
-                bar.note("figures, videos")
+                bar.note("figures, videos" if figures else "files")
             write_dataset_results(folder, result, fps=fps, executor=executor, early_videos=early,
-                                  started=started)
+                                  started=started, figures=figures)
     finally:
         if bar is not None:
             bar.close()
@@ -320,7 +323,7 @@ def _tail_frames(n_frames: int) -> int:
 
 
 def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
-                vector_suffixes=None, results_at: Path | None = None):
+                vector_suffixes=None, results_at: Path | None = None, figures: bool = True):
     """:func:`analyse_and_write` in a worker, into a folder of its own.
 
     Returns the summary, the files ``{path relative to the dataset's folder:
@@ -328,7 +331,7 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
     warnings raised, each once, for the caller to raise again. ``frames_done``:
     a queue that gets a 1 for each frame of each per-frame pass and, once the
     files are made, :data:`TAIL_PASSES` x the frames for them; or None.
-    ``results_at``: as :func:`analyse_and_write` has it. ``vector_suffixes``: the
+    ``results_at``, ``figures``: as :func:`analyse_and_write` has them. ``vector_suffixes``: the
     figures' vector formats, the caller's
     :func:`~oftimg.output.style.vector_formats` (a worker does not share it), or
     None for the default.
@@ -348,7 +351,7 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
         report_frames = _Reports(frames_done)
         progress = None if frames_done is None else lambda: report_frames.put(1)
         summary = analyse_and_write(ds, report, folder, opts, fps=fps, progress=progress,
-                                    results_at=results_at)
+                                    results_at=results_at, figures=figures)
         report_frames.put(_tail_frames(ds.n_frames))
         files = {p.relative_to(folder).as_posix(): p.read_bytes()
                  for p in sorted(folder.rglob("*")) if p.is_file()}
@@ -357,7 +360,7 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
 
 
 def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
-                        fps, quiet, out: Path) -> dict:
+                        fps, figures, quiet, out: Path) -> dict:
     """Every dataset as one :func:`embryo_task`, each kept in ``finished`` as it
     ends; returns the summaries by name. At most :func:`embryos_at_once` run at
     a time. After a dataset fails, no more are started, those running are still
@@ -382,7 +385,8 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
         while waiting and len(running) < at_once and error is None:
             ds = waiting.pop(0)
             running.add(executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps,
-                                        frames_done, vector_suffixes(), out / ds.meta.name))
+                                        frames_done, vector_suffixes(), out / ds.meta.name,
+                                        figures))
 
     try:
         with _frame_counter(executor, bar) as frames_done:
@@ -519,7 +523,7 @@ class _DaskTopic:
 
 
 def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
-                       fps, quiet, out: Path) -> dict:
+                       fps, figures, quiet, out: Path) -> dict:
     """One dataset after another, each one's frames in ``executor``'s workers, each
     kept in ``finished`` as it ends; returns the summaries by name."""
     summaries = {}
@@ -528,7 +532,8 @@ def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts
         log.info("%s: analysing %d frames (%d of %d datasets)", name, ds.n_frames, k + 1,
                  len(datasets))
         summary = analyse_and_write(ds, reports[name], finished.writing(name), opts, fps=fps,
-                                    quiet=quiet, executor=executor, results_at=out / name)
+                                    quiet=quiet, executor=executor, results_at=out / name,
+                                    figures=figures)
         finished.keep(name, fingerprints[name], summary)
         summaries[name] = summary
         _log_done(summary)
@@ -541,13 +546,16 @@ def _log_done(summary: dict) -> None:
 
 
 def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, started,
-               cluster_alpha):
+               cluster_alpha, figures):
     """The finished datasets and the cohort tables, figures and pages, staged into ``out``."""
     with staged_output(out, overwrite=overwrite) as tmp:
         for s in summaries:
             finished.copy_into(s["name"], tmp)
-        write_cohort_outputs(tmp, summaries, _run_info(paths, opts.as_dict(), started),
-                             cluster_alpha=cluster_alpha)
+        run_info = _run_info(paths, opts.as_dict(), started)
+        if not figures:
+            run_info["numbers_only"] = True
+        write_cohort_outputs(tmp, summaries, run_info, cluster_alpha=cluster_alpha,
+                             figures=figures)
     return out
 
 
@@ -559,12 +567,12 @@ def _run_info(inputs: list[Path], options: dict, started: float) -> dict:
 
 
 def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
-                         cluster_alpha: float = 0.05) -> None:
+                         cluster_alpha: float = 0.05, figures: bool = True) -> None:
     """Cohort table (csv, md), group comparison, the area maps on one grid
     (``cohort_maps.npz``, clusters formed at ``cluster_alpha``), group figures (two
     groups or more), every dataset's page and the cohort's, ``run.json``
     (``run_info`` and ``cluster_alpha``), into ``folder``, which holds each
-    dataset's results in ``folder/<name>``."""
+    dataset's results in ``folder/<name>``. ``figures=False``: no group figures."""
     from .output.figures import group_figures
     from .output.html import cohort_page, dataset_page
     from .output.report import (field_smoothing_caveat, group_comparison, map_comparison_rows,
@@ -585,7 +593,7 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
     maps = cohort_maps(folder, summaries, cluster_alpha=cluster_alpha)
     write_cohort_maps(folder, maps)
     group_figs = []
-    if len({s["group"] for s in summaries}) >= 2:
+    if figures and len({s["group"] for s in summaries}) >= 2:
         (folder / "figures").mkdir()
         group_figs = group_figures(folder, summaries, folder / "figures", maps=maps)
     for s in summaries:

@@ -87,12 +87,12 @@ MIDGUT_SCALE_TO_MM = 0.2619e-3        # tests/data/README.md
 
 
 def run_quietly(dataset: Path, out: Path, jobs: int) -> Path:
-    """``oftimg run`` of one dataset into ``out`` (its warnings kept quiet); the
-    dataset's results folder."""
+    """``oftimg run --numbers-only`` of one dataset into ``out`` (its warnings kept
+    quiet); the dataset's results folder."""
     if not (out / dataset.name / "summary.json").is_file():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            oftimg.run(dataset, out, quiet=True, jobs=jobs, overwrite=True)
+            oftimg.run(dataset, out, quiet=True, jobs=jobs, overwrite=True, figures=False)
     return out / dataset.name
 
 

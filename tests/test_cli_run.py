@@ -456,3 +456,27 @@ def test_the_warnings_of_a_failed_analysis_are_not_lost(monkeypatch, tmp_path):
         api.analyse_and_write(object(), {}, tmp_path, None, fps=30.0, progress=lambda: None)
     assert [str(w.message) for w in caught] == ["a: first", "a: second"]
     assert all(w.category is OftimgWarning for w in caught)
+
+
+def test_numbers_only_writes_the_numbers_and_says_so(tmp_path, capsys):
+    """--numbers-only (sweeps, batches): arrays, summaries, tables and pages, no figure or
+    video anywhere; each page and the last line say so (never reused by a --resume that
+    draws them: tests/test_resume.py)."""
+    from oftimg.synthetic.phantom import sample_params, write_phantom
+
+    data = write_phantom(tmp_path / "emb", sample_params("normal", 2, n_frames=5,
+                                                         vertices_min=1500, vertices_max=1800))
+    out = tmp_path / "out"
+    assert main(["run", str(data), "--out", str(out), "--quiet", "--jobs", "1",
+                 "--numbers-only"]) == 0
+    assert capsys.readouterr().out.strip().endswith("(open it in a browser: tables; numbers only)")
+    written = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
+    assert not [f for f in written if f.endswith((".png", ".pdf", ".svg", ".mp4"))], written
+    assert {"emb/arrays.npz", "emb/grids.npz", "emb/summary.json", "emb/index.html",
+            "table1.csv", "cohort.csv", "qc.csv", "index.html"} <= written
+    summary = json.loads((out / "emb" / "summary.json").read_text())
+    assert summary["numbers_only"] is True and np.isfinite(summary["wave_speed_mm_s"]["cycle"])
+    assert json.loads((out / "run.json").read_text())["numbers_only"] is True
+    assert "Numbers only" in (out / "emb" / "index.html").read_text()
+    assert "<h2>Figures</h2>" not in (out / "emb" / "index.html").read_text()
+    assert "numbers only" in (out / "index.html").read_text()

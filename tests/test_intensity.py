@@ -153,7 +153,7 @@ def test_every_wall_can_be_pulled_back(textured, tmp_path):
     inner wall's between them (half tissue, half jelly)."""
     out = tmp_path / "res"
     assert main(["run", str(textured), "--out", str(out), "--quiet", "--jobs", "2",
-                 "--pullback-walls", "inner", "lumen"]) == 0
+                 "--pullback-walls", "inner", "lumen", "--numbers-only"]) == 0
     with np.load(out / "tex" / "pullbacks.npz") as a:
         assert sorted(a.files) == sorted(f"pullback_{w}_{m}" for w in ("outer", "inner", "lumen")
                                          for m in ("mean", "max"))
@@ -187,7 +187,7 @@ def test_texture_tracking_follows_the_tissue_along_and_around(textured, tmp_path
     for mode in ("material", "texture"):
         out = tmp_path / mode
         assert main(["run", str(textured), "--out", str(out), "--quiet", "--jobs", "2",
-                     "--tracking", mode]) == 0
+                     "--tracking", mode, "--numbers-only"]) == 0
         drifts[mode] = _drift(out / "tex", ph, grid)
     along, around = drifts["texture"]
     assert along < 0.003 * ph.p.length_mm and around < 0.01, drifts

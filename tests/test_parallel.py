@@ -108,7 +108,8 @@ class RecordingBar:
 def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
     """--parallel embryos: each dataset analysed whole in a worker (a local pool,
     then a Dask cluster) gives the serial run's arrays, summaries and files (its
-    figures in the caller's formats: PNG only here), its warnings reach the caller,
+    figures in the caller's formats: PNG only here; on the cluster --numbers-only,
+    the same files but the figures and videos), its warnings reach the caller,
     and the bar counts the frames done in the workers."""
     import json
     import warnings
@@ -148,14 +149,17 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
                 warnings.catch_warnings(record=True) as dask_warnings:
             warnings.simplefilter("always")
             dask = api.run(cohort, tmp_path / "dask", quiet=True, parallel="embryos",
-                           scheduler=cluster.scheduler_address)
+                           scheduler=cluster.scheduler_address, figures=False)
         runs["Dask cluster"] = (dask, dask_warnings)
         bar = [b for b in RecordingBar.bars if b.desc == "2 datasets"][-1]
         assert (bar.unit, bar.total, bar.n) == ("step", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
     ours = lambda caught: sorted({str(w.message) for w in caught  # noqa: E731
                                   if issubclass(w.category, OftimgWarning)})
+    drawn = ("figures/", "videos/")
     for how, (out, caught) in runs.items():
-        assert _files(out) == _files(serial), how
+        numbers_only = how == "Dask cluster"
+        assert _files(out) == [f for f in _files(serial) if not (
+            numbers_only and any(d in f for d in drawn))], how
         for name in ("normal_7", "banded_8"):
             a, b = np.load(serial / name / "arrays.npz"), np.load(out / name / "arrays.npz")
             assert sorted(a.files) == sorted(b.files)
@@ -164,6 +168,7 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
             s1, s2 = (json.loads((r / name / "summary.json").read_text()) for r in (serial, out))
             for s in (s1, s2):
                 s.pop("timings_s"), s["validation"].pop("seconds")
+            assert s2.pop("numbers_only", False) == numbers_only
             assert s1 == s2, how
         assert any("merged 1 duplicate" in m for m in ours(caught)), how
         assert ours(caught) == ours(serial_warnings), how
@@ -241,7 +246,7 @@ def test_by_embryo_no_more_run_at_once_than_fit(tmp_path, monkeypatch):
     running, most = [0], [0]
     lock = threading.Lock()
 
-    def task(ds, report, opts, fps, frames_done, vector_suffixes, results_at):
+    def task(ds, report, opts, fps, frames_done, vector_suffixes, results_at, figures):
         with lock:
             running[0] += 1
             most[0] = max(most[0], running[0])
@@ -258,7 +263,8 @@ def test_by_embryo_no_more_run_at_once_than_fit(tmp_path, monkeypatch):
     with ThreadPoolExecutor(4) as pool:
         done = api._embryos_in_workers(datasets, {f"e{k}": {} for k in range(7)},
                                        Finished(tmp_path / "kept"), {f"e{k}": {} for k in range(7)},
-                                       None, pool, fps=30.0, quiet=True, out=tmp_path / "out")
+                                       None, pool, fps=30.0, figures=True, quiet=True,
+                                       out=tmp_path / "out")
     assert sorted(done) == [f"e{k}" for k in range(7)]
     assert most[0] == 2
     assert Finished(tmp_path / "kept").names() == [f"e{k}" for k in range(7)]

@@ -24,7 +24,9 @@ def test_failed_run_keeps_finished_datasets_and_resume_reuses_them(tmp_path, mon
     for group, seed in (("normal", 7), ("banded", 8)):
         write_phantom(cohort / f"{group}_{seed}", sample_params(
             group, seed, n_frames=6, vertices_min=2000, vertices_max=2500))
-    fresh = api.run(cohort, tmp_path / "fresh", quiet=True, jobs=1)
+    # numbers only: what is kept and reused is the same with figures (their files are not
+    # what is tested; test_parallel.py compares those)
+    fresh = api.run(cohort, tmp_path / "fresh", quiet=True, jobs=1, figures=False)
     assert not finished_folder(fresh).exists()          # removed after a good run
 
     real = api.analyse_and_write
@@ -44,7 +46,8 @@ def test_failed_run_keeps_finished_datasets_and_resume_reuses_them(tmp_path, mon
     out = tmp_path / "out"
     kept = finished_folder(out)
     # through the command line: the error, and where the finished dataset is kept
-    assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1"]) == 1
+    assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1",
+                 "--numbers-only"]) == 1
     err = capsys.readouterr().err
     assert "disk full" in err and str(kept) in err and "--resume" in err
     assert not out.exists()
@@ -55,14 +58,14 @@ def test_failed_run_keeps_finished_datasets_and_resume_reuses_them(tmp_path, mon
     os.utime(frame, ns=(frame.stat().st_atime_ns, frame.stat().st_mtime_ns + 10 ** 9))
     analysed.clear()
     with pytest.raises(RuntimeError, match="disk full") as failed:
-        api.run(cohort, out, quiet=True, jobs=1, resume=True)
+        api.run(cohort, out, quiet=True, jobs=1, resume=True, figures=False)
     assert analysed == ["banded_8", "normal_7"] and "--resume" in failed.value.__notes__[0]
 
     # resumed: only the dataset that failed is validated and analysed
     fail[0] = False
     analysed.clear(), validated.clear()
     assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1",
-                 "--resume"]) == 0
+                 "--resume", "--numbers-only"]) == 0
     assert analysed == ["normal_7"] and validated == ["normal_7"]
     assert not kept.exists()
     # the same results as the run that never failed
@@ -99,7 +102,7 @@ def test_by_embryo_the_datasets_running_when_one_fails_are_kept(tmp_path, monkey
     monkeypatch.setattr(api, "_n_workers", lambda executor: 3)
     out = tmp_path / "out"
     with pytest.raises(RuntimeError, match="node lost") as failed:
-        api.run(cohort, out, quiet=True, parallel="embryos")
+        api.run(cohort, out, quiet=True, parallel="embryos", figures=False)
     assert "the 2 datasets finished before this kept in" in failed.value.__notes__[0]
     assert Finished(finished_folder(out)).names() == ["e1", "e2"]
     assert not out.exists()
@@ -119,6 +122,7 @@ def test_fingerprint_changes_with_inputs_options_and_code(tmp_path, monkeypatch)
     assert Finished.fingerprint(ds, PipelineOptions(warp=True), 30.0) != base
     assert Finished.fingerprint(ds, PipelineOptions(n_u=64), 30.0) != base
     assert Finished.fingerprint(ds, PipelineOptions(), 25.0) != base
+    assert Finished.fingerprint(ds, PipelineOptions(), 30.0, figures=False) != base  # numbers only
     (folder / "meta.json").write_text(json.dumps({"period_ms": 3.5}))
     assert Finished.fingerprint(ds, PipelineOptions(), 30.0) != base
     (folder / "meta.json").write_text(json.dumps({"period_ms": 3.0}))

@@ -149,13 +149,15 @@ class Finished:
         self.root = root
 
     @staticmethod
-    def fingerprint(ds, opts, fps: float) -> dict:
+    def fingerprint(ds, opts, fps: float, figures: bool = True) -> dict:
         """What a dataset's results are made from: its input files (sizes and
-        modification times), the options, fps, and oftimg's version and source
-        (so that a development install's changed code is not taken for the same)."""
+        modification times), the options, fps, whether figures are drawn, and oftimg's
+        version and source (so that a development install's changed code is not taken for
+        the same)."""
         stats = [(str(p.resolve()), p.stat()) for p in ds.input_files()]   # any cwd
         return {"oftimg_version": __version__, "oftimg_source": _source_digest(),
-                "options": opts.as_dict(), "fps": fps, "period_ms": ds.meta.period_ms,
+                "options": opts.as_dict(), "fps": fps, "figures": figures,
+                "period_ms": ds.meta.period_ms,
                 "inputs": [[p, st.st_size, st.st_mtime_ns] for p, st in stats]}
 
     def summary_if_current(self, name: str, fingerprint: dict) -> dict | None:
@@ -633,21 +635,17 @@ def describe_pca(name: str) -> dict:
 
 def write_dataset_results(folder: Path, result: dict, *, fps: float | None = None,
                           executor=None, early_videos: list | None = None,
-                          started: float | None = None) -> None:
+                          started: float | None = None, figures: bool = True) -> None:
     """summary.json, arrays.npz + arrays.json, grids.npz (float32 mm), figures/, videos/
-    (rendered in ``executor``'s workers when one is given). ``early_videos``: the
+    (rendered in ``executor``'s workers when one is given; neither without ``figures``,
+    and the summary says ``numbers_only``). ``early_videos``: the
     :data:`~oftimg.output.video.EARLY_VIDEOS` already started (:func:`oftimg.output.video.start_videos`).
     ``started``: the ``time.perf_counter()`` at which the analysis began; the summary's
     ``timings_s.total_s`` then holds the seconds of analysis and writing."""
     import time
 
-    from .figures import dataset_figures, field_grid_note
-    from .video import LATER_VIDEOS, save_videos, start_videos
-
     timings = result["summary"].setdefault("timings_s", {})
     tick = time.perf_counter()
-    (folder / "figures").mkdir(exist_ok=True)
-    (folder / "videos").mkdir(exist_ok=True)
     grids = {w: g.astype(np.float32) for w, g in result["grids"].items()
              if not w.endswith(CLIPPED)}       # the clipped ones are made on load from these
     arrays = result["arrays"]
@@ -665,7 +663,28 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float | None = Non
                              if result.get("pullbacks") else {})},
                  described, made_on_load, noise=measured_noise(result["summary"], arrays))
     timings["write_arrays_s"] = time.perf_counter() - tick
+    if figures:
+        _draw_figures_and_videos(folder, result, fps=fps, executor=executor,
+                                 early_videos=early_videos)
+    else:
+        result["summary"]["numbers_only"] = True
+    if started is not None:
+        timings["total_s"] = time.perf_counter() - started
+    write_json(folder / "summary.json", result["summary"])
+
+
+def _draw_figures_and_videos(folder: Path, result: dict, *, fps, executor, early_videos) -> None:
+    """figures/ and videos/ of :func:`write_dataset_results`; their seconds in the
+    summary's ``timings_s``."""
+    import time
+
+    from .figures import dataset_figures, field_grid_note
+    from .video import LATER_VIDEOS, save_videos, start_videos
+
+    arrays, timings = result["arrays"], result["summary"]["timings_s"]
     tick = time.perf_counter()
+    (folder / "figures").mkdir(exist_ok=True)
+    (folder / "videos").mkdir(exist_ok=True)
     # the workers render the videos while this process draws the figures
     videos = (early_videos or []) + start_videos(
         {**arrays, **(result.get("pullbacks") or {})}, result["grids"], fps=fps,
@@ -685,6 +704,4 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float | None = Non
     tick = time.perf_counter()
     save_videos(folder / "videos", videos)
     timings["videos_s"] += time.perf_counter() - tick
-    if started is not None:
-        timings["total_s"] = time.perf_counter() - started
-    write_json(folder / "summary.json", result["summary"])
+

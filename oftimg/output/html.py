@@ -293,14 +293,18 @@ def dataset_page(folder: Path, summary: dict) -> Path:
     if summary.get("warnings"):
         body += ["<h2>Warnings</h2><ul>"] + [f"<li>{html.escape(text)}</li>"
                                              for text in _warnings(summary)] + ["</ul>"]
-    body += ["<h2>Quality checks</h2>", _table(checks, ["check", "value"]),
-             "<h2>Figures</h2><div class=\"grid\">"]
-    body += [figure_html(f, f"figures/{f.name}", f.stem + _on_grid(f.stem, grid_note))
-             for f in figs]
-    body.append("</div><h2>Videos</h2><div class=\"grid\">")
-    body += [f'<figure><video src="videos/{v.name}" controls muted loop preload="metadata">'
-             f'</video><figcaption class="small">{v.stem}{_on_grid(v.stem, grid_note)}'
-             '</figcaption></figure>' for v in vids]
+    body += ["<h2>Quality checks</h2>", _table(checks, ["check", "value"])]
+    if summary.get("numbers_only"):
+        body.append("<p>Numbers only (run with --numbers-only): no figures or videos drawn; "
+                    "arrays.npz, summary.json and the tables hold every number.</p><div>")
+    else:
+        body.append("<h2>Figures</h2><div class=\"grid\">")
+        body += [figure_html(f, f"figures/{f.name}", f.stem + _on_grid(f.stem, grid_note))
+                 for f in figs]
+        body.append("</div><h2>Videos</h2><div class=\"grid\">")
+        body += [f'<figure><video src="videos/{v.name}" controls muted loop preload="metadata">'
+                 f'</video><figcaption class="small">{v.stem}{_on_grid(v.stem, grid_note)}'
+                 '</figcaption></figure>' for v in vids]
     body.append("</div><h2>Provenance</h2><pre class=\"small\">"
                 + html.escape(json.dumps({k: summary.get(k) for k in
                                           ("provenance", "timings_s")}, indent=1)[:20000])
@@ -341,7 +345,9 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
             f"{html.escape(str(run_info.get('oftimg_version')))}, "
             f"{_fmt(run_info.get('seconds'))} s"
             + (f" (gathered; the datasets' own runs took {_fmt(run_info['datasets_seconds'])} s)"
-               if run_info.get("datasets_seconds") is not None else "") + "</p>",
+               if run_info.get("datasets_seconds") is not None else "")
+            + ("; numbers only (--numbers-only): no figures or videos"
+               if run_info.get("numbers_only") else "") + "</p>",
     ]
     comp = group_comparison(summaries) if comparison is None else comparison
     header, rows, note = table1_layout(summaries, comp)

@@ -37,6 +37,12 @@ def test_output_contract(run_out, phantom_normal):
     assert summary["tracking"]["grid"] == "tracked"               # the default
     assert summary["tracking"]["ring_rms_mm"] <= summary["tracking"]["ring_rms_unturned_mm"]
     assert "on the tracked grid" in (folder / "index.html").read_text()
+    band = summary["wave_speed_band_95_mm_s"]["cycle"]           # calibrated on the zoo
+    assert band > 1.96 * summary["wave_speed_noise_sd_mm_s"]["cycle"]
+    speed = summary["wave_speed_mm_s"]["cycle"]
+    assert re.search(r"<td>[0-9.]+ ± [0-9.]+ \(95 % band\)</td>", (folder / "index.html").read_text())
+    from oftimg.output.numbers import mean_sd
+    assert f"| {mean_sd(speed, band)} |" in (run_out / "table1.md").read_text()
     grids = np.load(folder / "grids.npz")
     for wall in ("outer", "inner", "lumen"):
         assert grids[wall].shape == (80, 50, 36, 3) and grids[wall].dtype == np.float32

@@ -10,6 +10,7 @@ from ..image.gradient import area_rates
 from ..image.kymograph import (RESOLVED_ROW_SHARE, STILL_ROW_SHARE, auto_ridge_smoothing,
                                noise_colour, speed_spread)
 from ..image.masks import expanded_75, expanded_sigma
+from .uncertainty import speed_band_95
 
 
 def fill_gaps(area: np.ndarray) -> tuple[np.ndarray, int]:
@@ -160,6 +161,7 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
         notes.append(limited)
     summary["wave_speed_noise_sd_mm_s"] = {k: sd[k]
                                            for k in ("min", "max", "mean", "median", "cycle")}
+    summary["wave_speed_band_95_mm_s"] = {"cycle": speed_band_95(cycle, sd["cycle"])}
     summary["wave_two_segment"] = {"speed_proximal_mm_s": knee.speed_proximal_mm_s,
                                    "speed_distal_mm_s": knee.speed_distal_mm_s,
                                    "speed_proximal_noise_sd_mm_s": sd["proximal"],

@@ -231,13 +231,19 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                                  "and frames, share imaged (pullbacks.npz)",
                      "value": summary["pullbacks"]})
     spread = summary.get("wave_speed_noise_sd_mm_s") or {}
+    band = summary.get("wave_speed_band_95_mm_s") or {}
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():
         if k == "rows_used":
             rows.append({"quantity": "rows of the ridge whose local speed the noise resolves",
                          "value": v})
             continue
+        if band.get(k) is not None:          # calibrated on the accuracy zoo: a 95 % band
+            value = f"{numbers.mean_sd(v, band[k])} (95 % band)"
+        else:                                # the noise spread alone: ± 1 SD
+            value = (f"{numbers.mean_sd(v, spread[k])} (noise SD)" if spread.get(k)
+                     and numbers.is_finite_number(spread[k]) else numbers.mean_sd(v, None))
         rows.append({"quantity": f"wave speed, {SPEED_NAMES.get(k, k)}", "unit": "mm/s",
-                     "value": numbers.mean_sd(v, spread.get(k)) if spread.get(k) else v})
+                     "value": value})
     checks = [{"check": "flipped triangles in the maps (0)",
                "value": summary.get("flipped_triangles")},
               {"check": "maps re-solved with clamped weights",

@@ -153,6 +153,9 @@ QC_COLUMNS = ID_COLUMNS + [
            _NOISE_SD.format("speed_median_mm_s")),
     Column("speed_cycle_noise_sd_mm_s", ("wave_speed_noise_sd_mm_s", "cycle"), "mm/s",
            _NOISE_SD.format("speed_cycle_mm_s")),
+    Column("speed_cycle_band_95_mm_s", ("wave_speed_band_95_mm_s", "cycle"), "mm/s",
+           "half the 95 % band of speed_cycle_mm_s (Table 1's ±): 1.96 x its noise SD and "
+           "the share of it the accuracy zoo found beyond the noise, in quadrature"),
     Column("speed_proximal_noise_sd_mm_s", ("wave_two_segment", "speed_proximal_noise_sd_mm_s"),
            "mm/s", _NOISE_SD.format("speed_proximal_mm_s")),
     Column("speed_distal_noise_sd_mm_s", ("wave_two_segment", "speed_distal_noise_sd_mm_s"),
@@ -209,6 +212,8 @@ NO_VALUE = numbers.DASH
 ROUNDING_NOTE = ("Rounded as the paper rounds, or to 3 digits where it gives more; a group's "
                  "mean to the decimal of its SD, given to 2 digits; table1.csv keeps the paper's "
                  "rounding.")
+BAND_NOTE = ("Speed cycle ± half its 95 % band: the run's own noise and the share the "
+             "accuracy zoo found beyond it (qc.csv speed_cycle_band_95_mm_s).")
 NO_VALUE_NOTE = ("–: no value: not resolved within the map's noise (a wave speed), or not "
                  "measurable on this embryo (see its summary.json notes).")
 # how the p-values of the Table 1 quantities are corrected (stated where they are shown)
@@ -364,8 +369,10 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
                                                               if numbers.unit(c.unit) else "")
                                     for c in data_cols]
     body = [[_cell(row["name"]), _cell(row["group"])]
-            + [_cell(row[c.name], c) or NO_VALUE for c in data_cols]
-            for row in table_rows(summaries, TABLE1_COLUMNS)]
+            + [_with_band(row[c.name], c, summary) or NO_VALUE for c in data_cols]
+            for row, summary in zip(table_rows(summaries, TABLE1_COLUMNS), summaries)]
+    banded = any((s.get("wave_speed_band_95_mm_s") or {}).get("cycle") is not None
+                 for s in summaries)
     blank = any(NO_VALUE in row for row in body)
     comparison = group_comparison(summaries) if comparison is None else comparison
     by_metric = {}
@@ -398,10 +405,21 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
             + (" and the pairs of groups" if len(pairs) > 1 else "")
             + f"; * {CORRECTION}-corrected p < 0.05. Each column is described in columns.csv."
             if pairs else "")
+    if banded:
+        note += (" " if note else "") + BAND_NOTE
     if blank:
         note += (" " if note else "") + NO_VALUE_NOTE
     note += (" " if note else "") + ROUNDING_NOTE
     return header, body, note
+
+
+def _with_band(value, column: Column, summary: dict) -> str:
+    """A Table 1 cell of one embryo: its value, and for the cycle speed ± half its 95 %
+    band (:func:`~oftimg.analysis.uncertainty.speed_band_95`) when the run has one."""
+    band = (summary.get("wave_speed_band_95_mm_s") or {}).get("cycle")
+    if column.name != "speed_cycle_mm_s" or band is None or not numbers.is_finite_number(value):
+        return _cell(value, column)
+    return numbers.mean_sd(value, band)
 
 
 def table1_markdown(summaries: list[dict], comparison: list[dict] | None = None) -> str:

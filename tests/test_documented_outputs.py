@@ -24,10 +24,14 @@ def _pattern(path: str, names: set[str]) -> str:
     return "/".join(parts)
 
 
-def test_the_demo_writes_the_documented_files(tmp_path):
-    from oftimg.api import demo
+def test_the_demo_writes_the_documented_files(tmp_path, monkeypatch):
+    """The demo's every file (its figures as PNG and PDF), on a smaller cohort: 2 embryos
+    per group of 12 frames, enough for the group comparison's tests and figures."""
+    from oftimg import api
 
-    out = demo(tmp_path / "demo", quiet=True)
+    monkeypatch.setattr(api, "DEMO_SMALL", (2, {"frames": 12, "vertices_min": 1500,
+                                                "vertices_max": 1800}))
+    out = api.demo(tmp_path / "demo", quiet=True)
     names = {p.name for p in (out / "data").iterdir()}
     written = set()
     for f in out.rglob("*"):

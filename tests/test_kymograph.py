@@ -5,7 +5,7 @@ import pytest
 from oftimg.image.band import detect_band
 from oftimg.image.gradient import area_rates, colour_wheel, gradient_hsv
 from oftimg.errors import InputError
-from oftimg.analysis.maps import analyse_area_maps
+from oftimg.analysis.maps import FRAME_LIMITED_CROSSING, analyse_area_maps
 from oftimg.image.kymograph import (at_fixed_positions, auto_ridge_smoothing, cycle_speed,
                                     local_speed, map_noise_sd, noise_colour, ridge_times,
                                     smooth_in_time, speed_spread, two_segment_fit,
@@ -582,11 +582,12 @@ def test_a_neck_that_barely_moves_is_bridged_for_the_speeds():
                        equal_nan=True)
 
 
-@pytest.mark.parametrize("speed, limited", [(80.0, True), (15.0, False)])
+@pytest.mark.parametrize("speed, limited", [(80.0, True), (30.0, True), (15.0, False)])
 def test_a_wave_faster_than_the_frames_is_said_to_be(speed, limited):
     """A wave crossing a 1.3 mm tube in 16 ms, under one frame of 30 over 490 ms (the
-    zoo's draw 10: its cycle speed came out 40 % slow with a spread of 1 %), is said to
-    be at the frame rate's limit; one crossing it in 87 ms (5 frames) is not."""
+    zoo's draw 10: its cycle speed came out 40 % slow with a spread of 1 %) or in 43 ms
+    (2.7 frames: draw 34 came out 20 % slow) is said to be at the frame rate's limit;
+    one crossing it in 87 ms (5 frames) is not."""
     period, n_t = 490.0, 30
     s = np.linspace(0, 1.3, 50)
     area = hump_map(1e3 * s / speed, period, n_t)
@@ -596,4 +597,4 @@ def test_a_wave_faster_than_the_frames_is_said_to_be(speed, limited):
                                      / (period / n_t))
     notes = [n for n in summary["image_analysis_notes"] if "limit of the frame rate" in n]
     assert (len(notes) == 1) == limited
-    assert (crossing < 2.0) == limited
+    assert (crossing < FRAME_LIMITED_CROSSING) == limited

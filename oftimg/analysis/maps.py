@@ -43,9 +43,10 @@ COLOURED_NOISE = 2.0
 
 
 # a wave that crosses the tube in fewer frames than this: its speed is at the frame
-# rate's limit (the zoo: crossing in 0.95 frame, the cycle speed came out 40 % slow and
-# its noise spread 20-40 times too small; from 2.9 frames on within 10 %)
-FRAME_LIMITED_CROSSING = 2.0
+# rate's limit (the zoo's 50 mesh draws, by the crossing each run measured: 1.5 and 2.6
+# frames, the cycle speed 35 and 20 % slow with noise spreads of 0.2-0.5 %; from 3.2
+# frames on every one within 6 %; draw 10, crossing in 0.95 frame, 40 % slow)
+FRAME_LIMITED_CROSSING = 3.0
 
 
 def frame_limited(length_mm: float, speed_mm_s: float, frame_ms: float) -> str | None:

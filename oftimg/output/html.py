@@ -250,7 +250,7 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                "value": summary.get("maps_with_clamped_weights")},
               {"check": "frames whose meshes were smoothed as rough (all or none of a wall's)",
                "value": summary.get("frames_smoothed_as_rough")},
-              {"check": "frames the wave takes to cross the tube (2 or more)",
+              {"check": "frames the wave takes to cross the tube (3 or more)",
                "value": summary.get("wave_crossing_frames")},
               {"check": "inner grid nodes at the closest point, not towards the centre (0)",
                "value": summary.get("inner_nodes_at_closest_point")},

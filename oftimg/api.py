@@ -172,16 +172,17 @@ def _mesh_with_bar(lds: LabelDataset, folder: Path, options, executor, quiet: bo
         bar.close()
 
 
-def validate_labels(path, *, quiet: bool = False) -> dict:
-    """Check a label dataset as a run would: its headers, then every frame meshed
-    (here, into a temporary folder) and the meshes validated. Returns the
-    validation report of the meshes (:func:`validate_dataset`) for ``path``, with
-    the volumes' shape, voxel size and labels."""
+def validate_labels(path, *, quiet: bool = False, period_ms: float | None = None) -> dict:
+    """Check a label dataset as a run would: its headers and period (``period_ms`` as
+    :func:`run` takes it), then every frame meshed (here, into a temporary folder) and
+    the meshes validated. Returns the validation report of the meshes
+    (:func:`validate_dataset`) for ``path``, with the volumes' shape, voxel size and
+    labels."""
     import tempfile
 
     from .mesh.labels import MeshOptions
 
-    lds = load_label_dataset(path)
+    lds = with_period([load_label_dataset(path)], period_ms)[0]
     check_enough_frames(lds)
     with tempfile.TemporaryDirectory(prefix="oftimg-validate-") as tmp:
         ds = _meshed(lds, Path(tmp) / "meshes", MeshOptions(), None, quiet)

@@ -275,6 +275,9 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("dataset", type=Path, help="dataset folder (with outer/, or labels/: meshed "
                                               "as a run would) or cohort folder")
     v.add_argument("--json", action="store_true", help="print the report as JSON")
+    v.add_argument("--period-ms", type=float, default=None, metavar="MS",
+                   help="the beat's length of every dataset whose meta.json gives none "
+                        "(as oftimg run takes it; without it such a dataset is a problem)")
     return p
 
 
@@ -304,14 +307,8 @@ def _print_report(report: dict) -> None:
     for name, s in report["surfaces"].items():
         for file, what in s["repairs"].items():
             print(f"  repaired {name}/{file}: {what}")
-    if report.get("period_ms") is None:
-        print("  period: none (meta.json has no period_ms): times in ms and speeds in mm/s "
-              "need it; oftimg run refuses this dataset unless meta.json gives period_ms or "
-              "the run --period-ms MS")
-    else:
-        print(f"  period: {report['period_ms']:g} ms ({report['period_from']})")
-    print("  problems: none" if report.get("period_ms") is not None else
-          "  problems: none in the meshes; the period is missing (above)")
+    print(f"  period: {report['period_ms']:g} ms ({report['period_from']})")
+    print("  problems: none")
 
 
 @contextmanager
@@ -489,17 +486,19 @@ def _command(args) -> int:
         bar.close()
         print(f"animated dataset: {out} (coordinates x {to_mm:g} -> mm)")
     elif args.command == "validate":
-        return _validate(args.dataset, as_json=args.json)
+        return _validate(args.dataset, as_json=args.json, period_ms=args.period_ms)
     return 0
 
 
-def _validate(path: Path, *, as_json: bool) -> int:
-    """Check a dataset, or every dataset of a cohort (each one's problem, or its bad
+def _validate(path: Path, *, as_json: bool, period_ms: float | None = None) -> int:
+    """Check a dataset, or every dataset of a cohort, as a run would (its period too:
+    ``period_ms`` for those whose meta.json gives none); each one's problem, or its bad
     frames, printed, and the rest are checked; with ``as_json`` a bad dataset's entry
-    lists its problems); 2 if any has a problem."""
+    lists its problems; 2 if any has a problem."""
     from .errors import InputError
     from .api import validate_labels
-    from .io.dataset import check_enough_frames, find_datasets, load_dataset, validate_dataset
+    from .io.dataset import (check_enough_frames, find_datasets, load_dataset,
+                             validate_dataset, with_period)
     from .io.label_dataset import is_label_dataset
     from .progress import Progress
 
@@ -508,11 +507,11 @@ def _validate(path: Path, *, as_json: bool) -> int:
     for folder in folders:
         try:
             if is_label_dataset(folder):            # meshed as a run would, then checked
-                reports.append(validate_labels(folder))
+                reports.append(validate_labels(folder, period_ms=period_ms))
                 if not as_json:
                     _print_report(reports[-1])
                 continue
-            ds = load_dataset(folder)
+            ds = with_period([load_dataset(folder)], period_ms)[0]
             check_enough_frames(ds)
             bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
                            unit="mesh")

@@ -321,8 +321,9 @@ def test_too_few_frames_for_a_cycle_stop_the_run_before_any_work(tmp_path, capsy
 def test_without_a_period_a_run_refuses_and_says_how_to_give_one(tmp_path, capsys):
     """A dataset without period_ms was timed at 2 ms a frame: a 24-frame series became a
     48 ms beat and its wave 7x too fast, with a warning naming a meta.json that did not
-    exist. Now validate says the period is missing and what it changes, and a run
-    refuses it (naming every such dataset) until meta.json or --period-ms gives one."""
+    exist. Now validate and run both refuse it (a run naming every such dataset, and
+    a missing meta.json as missing) until meta.json or --period-ms gives one; validate
+    exited 0 ("problems: none") where the run then refused."""
     import shutil
 
     from oftimg.synthetic.phantom import sample_params, write_phantom
@@ -335,13 +336,17 @@ def test_without_a_period_a_run_refuses_and_says_how_to_give_one(tmp_path, capsy
         (ds / "meta.json").unlink()
     shutil.copytree(cohort / "a", cohort / "c")
     (cohort / "c" / "meta.json").write_text(json.dumps({"period_ms": 300}))
-    assert main(["validate", str(cohort / "a")]) == 0
+    assert main(["validate", str(cohort / "a")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        f"oftimg: error: {cohort / 'a'}: no meta.json, so no period_ms: "), err
+    assert main(["validate", str(cohort), "--period-ms", "300"]) == 0
     said = capsys.readouterr().out
-    assert "period: none (meta.json has no period_ms)" in said and "oftimg run refuses" in said
+    assert said.count("period: 300 ms (--period-ms)") == 2 and "period: 300 ms (meta.json)" in said
     out = tmp_path / "out"
     assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert err == [f"oftimg: error: {cohort / 'a' / 'meta.json'}: no period_ms (and 1 more of "
+    assert err == [f"oftimg: error: {cohort / 'a'}: no meta.json, so no period_ms (and 1 more of "
                    "the 3 datasets: b): oftimg gives times in ms and speeds in mm/s, which "
                    "need the beat's length; add \"period_ms\" to meta.json or run with "
                    "--period-ms MS (the frame interval times the 5 frames of one beat)"]

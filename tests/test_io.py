@@ -770,12 +770,13 @@ def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
         write_series(tmp_path / "cohort" / name, cone_frames(5))
     bad = tmp_path / "cohort" / "b" / "outer" / "f1.ply"
     bad.write_bytes(bad.read_bytes()[:400])
-    assert main(["validate", str(tmp_path / "cohort")]) == 2
+    # (no meta.json: the period from the command line, as a run takes it)
+    assert main(["validate", str(tmp_path / "cohort"), "--period-ms", "300"]) == 2
     out, err = capfd.readouterr()
     assert out.count("problems: none") == 2 and "(" + str(tmp_path / "cohort" / "c") in out
     assert f"oftimg: error: {bad}: the file is truncated" in err
     assert "oftimg: error: 1 of 3 datasets have a problem" in err
-    assert main(["validate", str(tmp_path / "cohort"), "--json"]) == 2
+    assert main(["validate", str(tmp_path / "cohort"), "--json", "--period-ms", "300"]) == 2
     reports = json.loads(capfd.readouterr().out)
     assert [r["path"] for r in reports] == [str(tmp_path / "cohort" / n) for n in "abc"]
     assert reports[1]["problems"] == [{"file": str(bad), "problem": str(bad) + ": the file is "
@@ -783,7 +784,7 @@ def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
                                        "vertices, with 18 of the "
                                        "250 vertices its header lists whole"}]
     assert "surfaces" in reports[0] and "problems" not in reports[0]
-    assert main(["validate", str(tmp_path / "cohort" / "a"), "--json"]) == 0
+    assert main(["validate", str(tmp_path / "cohort" / "a"), "--json", "--period-ms", "300"]) == 0
     assert json.loads(capfd.readouterr().out)["surfaces"]["outer"]["frames"] == 5
 
 

@@ -194,11 +194,13 @@ def with_period(datasets: list, period_ms: float | None) -> list:
                 f"{', '.join(d.meta.name for d in missing[1:FILES_NAMED + 1])}"
                 f"{', ...' if len(missing) > FILES_NAMED + 1 else ''})" if len(missing) > 1
                 else "")
+        meta = first.path / "meta.json"
+        where = (f"{meta}: no period_ms" if meta.is_file() else
+                 f"{first.path}: no meta.json, so no period_ms")
         raise DatasetError(
-            f"{first.path / 'meta.json'}: no period_ms{more}: oftimg gives times in ms and "
-            f"speeds in mm/s, which need the beat's length; add \"period_ms\" to meta.json "
-            f"or run with --period-ms MS (the frame interval times the {first.n_frames} "
-            "frames of one beat)")
+            f"{where}{more}: oftimg gives times in ms and speeds in mm/s, which need the "
+            "beat's length; add \"period_ms\" to meta.json or run with --period-ms MS (the "
+            f"frame interval times the {first.n_frames} frames of one beat)")
     return [replace(d, meta=replace(d.meta, period_ms=float(period_ms), period_assumed=False,
                                     period_from="--period-ms"))
             if d.meta.period_assumed else d for d in datasets]

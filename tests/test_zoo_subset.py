@@ -22,21 +22,21 @@ FRAMES, VOXEL_MIN_UM = 30, 6.0          # the zoo's settings in docs/accuracy.md
 FIRST = int(os.environ.get("OFTIMG_ZOO_SEED") or random.SystemRandom().randrange(10 ** 6))
 
 # kind -> metric -> bound on |error| in the metric's unit (scripts/accuracy_zoo.py's keys):
-# 1.5 times the worst of docs/accuracy.md's draws whose segmentation shifted no wall (21
-# mesh draws, 11 label draws, 2026-12-05; the cycle speed over the draws whose wave
-# crosses the tube in 2 frames or more). A random draw lies beyond the worst of n draws
-# about once in n + 1 runs (the bounds at 1.5 times the 90th percentile failed on the
-# first seed tried: areas 2.58 % against 2.4 %); half as much again beyond it, rarely,
-# and a method that became half again as bad is caught.
+# 1.5 times the worst of docs/accuracy.md's draws whose segmentation shifted no wall (50
+# mesh draws, 38 label draws, 2026-12-05; the cycle speed over the draws whose wave
+# crosses the tube in 3 frames or more, as checked below). A random draw lies beyond the
+# worst of n draws about once in n + 1 runs (on 11 label draws, seed 871832 came out at
+# 1.02 times the bound in a suite run); half as much again beyond it, rarely, and a method that
+# became half again as bad is caught.
 BOUNDS = {
     "meshes": {"area_outer_p95_pct": 6.9, "volume_outer_pct": 1.2, "myocardial_change_pp": 2.0,
                "expand_pp": 2.5, "speed_cycle_pct": 8.6, "wall_thickness_pct": 5.9,
                "radial_curvature_outer_pct": 20.0, "radial_curvature_inner_pct": 24.0,
                "mean_curvature_lumen_pct": 66.0, "strain_energy_inner_pct": 39.0},
-    "labels": {"area_outer_p95_pct": 3.4, "volume_outer_pct": 0.88, "myocardial_change_pp": 3.3,
-               "expand_pp": 2.0, "speed_cycle_pct": 15.0, "wall_thickness_pct": 3.6,
-               "radial_curvature_outer_pct": 24.0, "radial_curvature_inner_pct": 24.0,
-               "mean_curvature_lumen_pct": 75.0, "strain_energy_inner_pct": 18.0},
+    "labels": {"area_outer_p95_pct": 4.3, "volume_outer_pct": 1.6, "myocardial_change_pp": 5.3,
+               "expand_pp": 3.5, "speed_cycle_pct": 15.0, "wall_thickness_pct": 4.7,
+               "radial_curvature_outer_pct": 34.0, "radial_curvature_inner_pct": 35.0,
+               "mean_curvature_lumen_pct": 80.0, "strain_energy_inner_pct": 18.0},
 }
 SPEED_CROSSING_FRAMES = 3    # speeds checked where the wave takes this many frames or more
 

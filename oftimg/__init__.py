@@ -20,7 +20,7 @@ import importlib
 # process that imports only ``oftimg.analysis.per_frame`` then skips the image analysis,
 # figures and video modules (0.83 -> 0.52 s of imports per worker process).
 _WHERE = {
-    "cohort": "api", "demo": "api", "make_phantom": "api", "paraview": "api", "run": "api",
+    "cohort": "api", "demo": "api", "example_results": "api", "make_phantom": "api", "paraview": "api", "run": "api",
     "tiff": "api",
     "InputError": "errors",
     "Dataset": "io.dataset", "DatasetError": "errors", "OftimgWarning": "errors",

@@ -826,17 +826,78 @@ def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = Fals
     paper's size.
     Returns ``out``; the generated data are in ``out/data``.
     """
-    out = Path(out)
+    per_group, kwargs = DEMO_FULL if full else DEMO_SMALL
+    return _phantom_cohort(Path(out), per_group, kwargs, overwrite=overwrite, quiet=quiet,
+                           jobs=jobs)
+
+
+def _phantom_cohort(out: Path, per_group: int, phantom: dict, *, overwrite: bool, quiet: bool,
+                    jobs: int | None) -> Path:
+    """``per_group`` normal and banded phantoms (``make_phantom``'s ``phantom``
+    arguments) in ``out/data``, analysed into ``out/results``."""
     check_output_location(out, [], overwrite=overwrite, kind=None)  # replaces only these two:
     for sub, kind in (("data", "demo data"), ("results", "results")):
         if overwrite and (out / sub).is_dir():
             check_replaceable(out / sub, kind)
-    per_group, kwargs = DEMO_FULL if full else DEMO_SMALL
     specs = [("normal", s) for s in range(per_group)] + [("banded", s) for s in range(per_group)]
     # data first, then results, each staged: the results (their provenance and
     # warnings) name the data where they stay, not a temporary folder
     with staged_output(out / "data", overwrite=overwrite, kind="demo data") as data:
         for group, seed in specs:
-            make_phantom(data / f"{group}_{seed}", group=group, seed=seed, quiet=quiet, **kwargs)
+            make_phantom(data / f"{group}_{seed}", group=group, seed=seed, quiet=quiet, **phantom)
     run(out / "data", out / "results", quiet=quiet, jobs=jobs, overwrite=overwrite)
     return out
+
+
+# the gallery's cohort: both groups, small enough to make in about a minute
+EXAMPLE_COHORT = (2, {"frames": 12, "vertices_min": 1500, "vertices_max": 1800})
+
+
+def example_results(cache=None) -> Path:
+    """The results folder of a small analysed phantom cohort (2 normal and 2
+    banded embryos of 12 frames, as ``oftimg run`` writes it), made on the first
+    call (about a minute) and reused after: the gallery's examples start from it.
+
+    ``cache``: where it is kept (default: ``$OFTIMG_CACHE``, else the user's cache
+    folder, ``~/.cache/oftimg`` on Linux); made again when oftimg's code changes.
+    Made in a temporary folder and moved in whole, so that a call interrupted, or
+    two at once, never leave a half-made cohort to be reused.
+    """
+    import hashlib
+    import tempfile
+
+    root = Path(cache) if cache is not None else _cache_folder()
+    code = hashlib.sha256(__version__.encode())
+    for path in sorted(Path(__file__).parent.rglob("*.py")):
+        code.update(path.read_bytes())
+    folder = root / f"example-cohort-{code.hexdigest()[:12]}"
+    if not (folder / "results" / "run.json").is_file():
+        root.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".example-cohort.partial-", dir=root))
+        try:
+            with warnings.catch_warnings():     # the phantoms' expected notes
+                warnings.simplefilter("ignore", OftimgWarning)
+                _phantom_cohort(tmp / "cohort", *EXAMPLE_COHORT, overwrite=False, quiet=True,
+                                jobs=None)
+            try:
+                (tmp / "cohort").rename(folder)
+            except OSError:                     # another call finished first
+                if not (folder / "results" / "run.json").is_file():
+                    raise
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    return folder / "results"
+
+
+def _cache_folder() -> Path:
+    """Where oftimg keeps what it makes once (``$OFTIMG_CACHE``, else the
+    platform's cache folder)."""
+    if os.environ.get("OFTIMG_CACHE"):
+        return Path(os.environ["OFTIMG_CACHE"])
+    if sys.platform == "win32":
+        base = Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
+    elif sys.platform == "darwin":
+        base = Path.home() / "Library" / "Caches"
+    else:
+        base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base / "oftimg"

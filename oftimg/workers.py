@@ -13,12 +13,16 @@ way round, workers end themselves when the main process is killed.
 """
 from __future__ import annotations
 
+import ast
 import os
 import signal
+import sys
 import threading
 import time
+import warnings
+from pathlib import Path
 
-from .errors import InputError
+from .errors import InputError, OftimgWarning
 
 
 class WorkerLost(RuntimeError):
@@ -46,6 +50,13 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
         raise InputError(f"--jobs must be at least 1, found {jobs}")
     if jobs == 1:
         return None
+    unguarded = unguarded_script_line()
+    if unguarded:
+        warnings.warn(f"{unguarded}: oftimg was called from a script's top level, outside "
+                      "`if __name__ == \"__main__\":`; its worker processes would each run the "
+                      "script again, so this run stays in one process. Put the call under "
+                      f"that line to use {jobs} workers", OftimgWarning, stacklevel=2)
+        return None
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
@@ -65,6 +76,44 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
     # spawn: open3d and BLAS threads do not survive fork reliably
     return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
                                initializer=_start_worker, initargs=(os.getpid(),))
+
+
+def unguarded_script_line() -> str | None:
+    """``"script.py:line"`` when this call comes from the top-level code of the
+    script Python runs (``python script.py``), outside an ``if __name__ ==
+    "__main__":`` block; else None (a guarded call, an import, a notebook,
+    ``python -c``, pytest, a docs build). A spawned worker imports that script
+    again before it takes a task, so an unguarded call would start the whole run
+    again in every worker (and fail there, the output folder being taken)."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if not path or not str(path).endswith(".py"):
+        return None
+    frame = sys._getframe(1)
+    while frame is not None and not (frame.f_globals is vars(main)
+                                     and frame.f_code.co_name == "<module>"):
+        frame = frame.f_back
+    if frame is None:
+        return None
+    try:
+        tree = ast.parse(Path(path).read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, ValueError, UnicodeDecodeError):
+        return None
+    line = frame.f_lineno
+    if any(isinstance(node, ast.If) and _is_main_test(node.test)
+           and node.lineno <= line <= node.end_lineno for node in ast.walk(tree)):
+        return None
+    return f"{path}:{line}"
+
+
+def _is_main_test(test: ast.expr) -> bool:
+    """Whether ``test`` is ``__name__ == "__main__"`` (either way round)."""
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1
+            and isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = [test.left, test.comparators[0]]
+    return (any(isinstance(s, ast.Name) and s.id == "__name__" for s in sides)
+            and any(isinstance(s, ast.Constant) and s.value == "__main__" for s in sides))
 
 
 def usable_cpus(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int:
@@ -295,6 +344,8 @@ def _worker_lost(exc: BaseException, processes=(), killed=frozenset()) -> Worker
         what, how = "a Dask worker", f"died while running a task ({exc})"
     else:
         return None
+    if "exit status" in how:           # an error of its own, printed above: not memory
+        return WorkerLost(f"{what} {how}")
     return WorkerLost(f"{what} {how}. If memory ran short, run again with fewer --jobs "
                       "(by embryo, each worker holds a whole embryo: about 0.35 GB + 3 MB "
                       "per frame) or with more memory")

@@ -7,19 +7,13 @@ the bottom; t = 0 at the minimum volume). The ridge (each row's time of maximum 
 gives the wave speeds; the masks mark where each section is expanded: above 75 % of
 its range, and within one sigma of a Gaussian fitted to its peak.
 """
-import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 
 import oftimg
 
-demo = Path("oftimg-demo")       # what `make demo` writes: the built-in phantom cohort
-if not (demo / "results" / "run.json").exists():
-    with warnings.catch_warnings():    # the phantoms' expected notes; each summary.json keeps them
-        warnings.simplefilter("ignore")
-        oftimg.demo(demo, quiet=True)  # 3 normal and 3 banded embryos, analysed: about a minute
-res = oftimg.load_results(demo / "results" / "normal_0")
+results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
+res = oftimg.load_results(results / "normal_0")
 area = res["area_outer_mm2"]                    # (v, t) mm^2
 s_mm, t_ms = res["s_mm"], res["t_ms"]
 extent = [t_ms[0], t_ms[-1], s_mm[0], s_mm[-1]]

@@ -6,20 +6,14 @@ The area map's gradient as colour: hue is the gradient's direction (expanding or
 contracting, along the tube or in time), value its size. A travelling wave shows as
 bands of one hue slanting across the map.
 """
-import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 
 import oftimg
 from oftimg.image.gradient import colour_wheel, gradient_hsv
 
-demo = Path("oftimg-demo")       # what `make demo` writes: the built-in phantom cohort
-if not (demo / "results" / "run.json").exists():
-    with warnings.catch_warnings():    # the phantoms' expected notes; each summary.json keeps them
-        warnings.simplefilter("ignore")
-        oftimg.demo(demo, quiet=True)  # 3 normal and 3 banded embryos, analysed: about a minute
-res = oftimg.load_results(demo / "results" / "normal_0")
+results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
+res = oftimg.load_results(results / "normal_0")
 area = res["area_outer_mm2"]
 rgb = gradient_hsv(area)                        # (v, t, 3) in [0, 1]
 s_mm, t_ms = res["s_mm"], res["t_ms"]

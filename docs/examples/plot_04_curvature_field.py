@@ -7,8 +7,6 @@ The outer wall's radial curvature (the curvature of each section's contour) as a
 frame. Normalising each pixel over the cycle (its minimum to 0, its maximum to 1)
 shows when each piece of wall is most curved, whatever its mean curvature.
 """
-import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -16,12 +14,8 @@ import numpy as np
 import oftimg
 from oftimg.image.normalize import per_pixel_normalize
 
-demo = Path("oftimg-demo")       # what `make demo` writes: the built-in phantom cohort
-if not (demo / "results" / "run.json").exists():
-    with warnings.catch_warnings():    # the phantoms' expected notes; each summary.json keeps them
-        warnings.simplefilter("ignore")
-        oftimg.demo(demo, quiet=True)  # 3 normal and 3 banded embryos, analysed: about a minute
-res = oftimg.load_results(demo / "results" / "normal_0")
+results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
+res = oftimg.load_results(results / "normal_0")
 k = res["radial_curvature_outer_per_mm"]       # (u, v, t) 1/mm
 t = k.shape[2] // 3
 frames = {"radial curvature (1/mm)": (k[:, :, t], "PuOr_r", None),

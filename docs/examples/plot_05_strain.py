@@ -7,20 +7,14 @@ principal stretches of each grid triangle against the same triangle at t = 0 (th
 minimum volume). On the tracked grid each triangle is the same tissue all cycle, so
 a rigid tube gives 0. Left: its mean around the tube over (v, t); right: one frame.
 """
-import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
 import oftimg
 
-demo = Path("oftimg-demo")       # what `make demo` writes: the built-in phantom cohort
-if not (demo / "results" / "run.json").exists():
-    with warnings.catch_warnings():    # the phantoms' expected notes; each summary.json keeps them
-        warnings.simplefilter("ignore")
-        oftimg.demo(demo, quiet=True)  # 3 normal and 3 banded embryos, analysed: about a minute
-res = oftimg.load_results(demo / "results" / "normal_0")
+results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
+res = oftimg.load_results(results / "normal_0")
 energy = res["strain_energy_outer"]             # (u, v, t)
 s_mm, t_ms = res["s_mm"], res["t_ms"]
 t = int(np.argmax(np.nanmean(energy, axis=(0, 1))))

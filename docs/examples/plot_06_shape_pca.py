@@ -7,20 +7,14 @@ their Karcher mean (in the square-root velocity framework, size kept) and the fi
 modes of how they vary, drawn as the mean plus and minus a number of standard
 deviations that makes each mode's shape visible.
 """
-import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
 import oftimg
 
-demo = Path("oftimg-demo")       # what `make demo` writes: the built-in phantom cohort
-if not (demo / "results" / "run.json").exists():
-    with warnings.catch_warnings():    # the phantoms' expected notes; each summary.json keeps them
-        warnings.simplefilter("ignore")
-        oftimg.demo(demo, quiet=True)  # 3 normal and 3 banded embryos, analysed: about a minute
-res = oftimg.load_results(demo / "results" / "normal_0")
+results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
+res = oftimg.load_results(results / "normal_0")
 row = 1                                         # rows at v = 0.1, 0.5, 0.9
 mean = res[f"pca_row{row}_expansion_mean_mm"]                   # (n, 2) mm
 modes = res[f"pca_row{row}_expansion_displacement_mm"]          # (n_modes, n, 2) mm

@@ -4,23 +4,17 @@ Where two groups differ
 
 Every embryo's outer area map on one (position along the tube, phase of the cycle)
 grid, each row over its maximum; the groups' means and the banded group's difference
-from the normal one. With three embryos a group this is a sketch: the cluster test
+from the normal one. With two embryos a group this is a sketch: the cluster test
 needs more to say where the difference is significant.
 """
-import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 
 import oftimg
 
-demo = Path("oftimg-demo")       # what `make demo` writes: the built-in phantom cohort
-if not (demo / "results" / "run.json").exists():
-    with warnings.catch_warnings():    # the phantoms' expected notes; each summary.json keeps them
-        warnings.simplefilter("ignore")
-        oftimg.demo(demo, quiet=True)  # 3 normal and 3 banded embryos, analysed: about a minute
-maps = oftimg.load_cohort_maps(demo / "results")        # an xarray.Dataset
-area = maps["area_outer_normalized"]                    # (embryo, position, phase)
+results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
+maps = oftimg.load_cohort_maps(results)         # an xarray.Dataset
+area = maps["area_outer_normalized"]            # (embryo, position, phase)
 means = area.groupby("group").mean("embryo")
 
 fig, axes = plt.subplots(1, 3, figsize=(7.1, 2.6), sharey=True, layout="constrained")

@@ -5,19 +5,13 @@ Results as xarray
 Every array of a results folder on named axes (u around, v along with ``s_mm`` as a
 coordinate, t in ms), with units and descriptions: select, average and plot by name.
 """
-import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 
 import oftimg
 
-demo = Path("oftimg-demo")       # what `make demo` writes: the built-in phantom cohort
-if not (demo / "results" / "run.json").exists():
-    with warnings.catch_warnings():    # the phantoms' expected notes; each summary.json keeps them
-        warnings.simplefilter("ignore")
-        oftimg.demo(demo, quiet=True)  # 3 normal and 3 banded embryos, analysed: about a minute
-res = oftimg.load_results(demo / "results" / "normal_0")
+results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
+res = oftimg.load_results(results / "normal_0")
 ds = res.to_xarray()
 thickness = ds["wall_thickness_mm"]             # dims (u, v, t)
 print(thickness.attrs["units"], "-", thickness.attrs["description"][:80], "...")

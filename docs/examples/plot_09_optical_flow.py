@@ -7,8 +7,6 @@ flow between two frames of the outer wall's radial-curvature video (u across, v 
 scaled to 8 bits over the whole cycle's range as a video frame is. On the tracked
 grid the tissue holds still; what moves is the curvature pattern the wave carries.
 """
-import warnings
-from pathlib import Path
 
 import cv2
 import matplotlib.pyplot as plt
@@ -16,12 +14,8 @@ import numpy as np
 
 import oftimg
 
-demo = Path("oftimg-demo")       # what `make demo` writes: the built-in phantom cohort
-if not (demo / "results" / "run.json").exists():
-    with warnings.catch_warnings():    # the phantoms' expected notes; each summary.json keeps them
-        warnings.simplefilter("ignore")
-        oftimg.demo(demo, quiet=True)  # 3 normal and 3 banded embryos, analysed: about a minute
-res = oftimg.load_results(demo / "results" / "normal_0")
+results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
+res = oftimg.load_results(results / "normal_0")
 k = res["radial_curvature_outer_per_mm"]       # (u, v, t)
 low, high = np.nanpercentile(k, [1, 99])
 frames = np.clip(255 * (np.nan_to_num(k) - low) / (high - low), 0, 255).astype(np.uint8)

@@ -68,8 +68,8 @@ def check_output_location(out: Path, inputs: list[Path], *, overwrite: bool,
         raise InputError(f"--out {out} exists and is not a folder")
     if out.exists() and any(out.iterdir()):
         if not overwrite:
-            raise InputError(f"--out {out} exists and is not empty; pass --overwrite to "
-                             "replace it")
+            raise InputError(f"--out {out} exists and is not empty; pass --overwrite "
+                             "(overwrite=True in Python) to replace it")
         if kind is not None:
             check_replaceable(out, kind)
 

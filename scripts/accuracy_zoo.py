@@ -33,7 +33,8 @@ import numpy as np
 
 import oftimg
 from oftimg.analysis.uncertainty import SPEED_SYSTEMATIC_SHARE
-from oftimg.synthetic.animate import grid_material_points
+from oftimg.image.kymograph import cycle_speed
+from oftimg.synthetic.animate import grid_material_points, wave_arrival_ms
 from oftimg.synthetic.labels import LabelGrid, label_params
 from oftimg.synthetic.phantom import read_truth, write_phantom
 from oftimg.synthetic.zoo import KINDS, draw_scenario, volume_offset_um, write_scenario
@@ -160,19 +161,27 @@ def conditions(scenario) -> dict:
 def real_shape_errors(dataset: Path, results: Path) -> dict[str, float]:
     """A real shape's draw: how far the tracked grid drifts from the tissue (each
     node's static point in each frame against its point at t = 0, median and 90th
-    percentile over nodes and frames, % of the tube's length) and the cycle's wave
-    speed against the animation's."""
+    percentile over nodes and frames, % of the tube's length), and the cycle's wave
+    speed against the true one in the run's own coordinates: each row's tissue (its
+    nodes at t = 0) reached by the drawn wave when it is, over the run's ``s_mm``, end
+    to end as the run measures it (the rows whose ridge it has)."""
     summary = json.loads((results / "summary.json").read_text())
-    truth = json.loads((dataset / "truth.json").read_text())
+    res = oftimg.load_results(results)
     G = np.load(results / "grids.npz")["outer"].astype(float)
     S = grid_material_points(dataset, G, summary["t0_frame"])
     drift_mm = np.linalg.norm(S - S[:, :, :1], axis=-1)[:, :, 1:]
     length = summary["tube_length_mm"]
     cycle = summary["wave_speed_mm_s"]["cycle"]          # None: no speed given (said why)
+    arrival = wave_arrival_ms(dataset, S[:, :, 0].reshape(-1, 3)).reshape(S.shape[:2])
+    rows = np.where(np.isfinite(res["ridge_t_ms"]), arrival.mean(axis=0), np.nan)
+    true_cycle = cycle_speed(res["s_mm"], rows)
+    sd = summary["wave_speed_noise_sd_mm_s"]["cycle"]
     return {"real_drift_median_pct": float(100 * np.median(drift_mm) / length),
             "real_drift_p90_pct": float(100 * np.percentile(drift_mm, 90) / length),
             "real_speed_cycle_pct": (np.nan if cycle is None else
-                                     float(100 * (cycle / truth["wave_speed_mm_s"]["cycle"] - 1)))}
+                                     float(100 * (cycle / true_cycle - 1))),
+            "speed_cycle_spreads": (np.nan if cycle is None or not sd else
+                                    float((cycle - true_cycle) / sd))}
 
 
 def unshifted(errors: dict[int, dict]) -> dict[int, dict]:
@@ -262,9 +271,9 @@ def print_calibration(errors: dict[int, dict], markdown: bool = False) -> None:
     spreads = [abs(e["speed_cycle_spreads"]) for e in errors.values()
                if np.isfinite(e.get("speed_cycle_spreads", np.nan))]
     # each draw's |relative error| and noise SD relative to the true speed
-    relative = np.array([(abs(e["speed_cycle_pct"]) / 100,
-                          abs(e["speed_cycle_pct"]) / 100 / abs(e["speed_cycle_spreads"]))
-                         for e in errors.values()
+    pct = {s: e.get("speed_cycle_pct", e.get("real_speed_cycle_pct")) for s, e in errors.items()}
+    relative = np.array([(abs(pct[s]) / 100, abs(pct[s]) / 100 / abs(e["speed_cycle_spreads"]))
+                         for s, e in errors.items()
                          if np.isfinite(e.get("speed_cycle_spreads", np.nan))
                          and e["speed_cycle_spreads"] != 0]).reshape(-1, 2)
     if not rows:

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from helpers import tube_mesh
-from oftimg.synthetic.animate import Animation, animate_frames, axial_coordinates, pulse, write_animation
+from oftimg.synthetic.animate import (Animation, animate_frames, axial_coordinates, pulse,
+                                      wave_arrival_ms, write_animation)
 from oftimg.io.dataset import load_dataset
 from oftimg.io.meshfile import write_ply
 from oftimg.mesh.topology import check_tube
@@ -80,6 +81,19 @@ def test_truth_traces_every_written_vertex_to_the_static_mesh(tmp_path, remeshed
         assert np.abs(carried - written).max() < (5e-3 if remeshed else 1e-6)   # PLY: float32
         if not remeshed:
             assert np.array_equal(came_from, static)
+
+
+def test_the_wave_reaches_each_tissue_point_when_drawn(tmp_path):
+    """A cone's (the inlet its wide end) tissue points: the wave reaches each at its
+    position along the axis over the speed, the same time all round a ring."""
+    V, F = tube_mesh(0.2, 0.12, length=1.0, n_theta=32, n_s=30)
+    write_ply(tmp_path / "cone.ply", V, F)
+    anim = Animation(5.0, 0.3, 100.0, 5, twist_deg=20.0)
+    ds = write_animation(tmp_path / "cone.ply", tmp_path / "anim", anim)
+    arrival = wave_arrival_ms(ds, V)
+    assert np.abs(arrival - 1e3 * V[:, 2] / 5.0).max() < 1e3 * 0.05 / 5.0   # s = z within 5 %
+    ring = np.isclose(V[:, 2], V[200, 2])
+    assert np.ptp(arrival[ring]) < 1e-6
 
 
 @pytest.mark.parametrize("scale", [0.0, -1.0, float("nan")])

@@ -335,6 +335,26 @@ def grid_material_points(dataset, grid: np.ndarray, t0_frame: int) -> np.ndarray
     return out
 
 
+def wave_arrival_ms(dataset, points: np.ndarray) -> np.ndarray:
+    """When the drawn wave reaches the static mesh's ``points (n, 3)`` mm of an animated
+    ``dataset``: ``(n,)`` ms, not wrapped into the cycle (0 at the inlet, growing by
+    the period over each ``speed x period`` along the animation's centre line).
+
+    Measured against a run's own positions along the tube (one row's tissue, its
+    ``s_mm``), this gives the wave's true speed in the run's coordinates: the
+    animation's own arc length depends on how finely its centre line is sampled on a
+    coiled tube (the midgut's 0.41-0.72 mm for 8-128 slabs), so its speed in those
+    units is not a number a run can be held to."""
+    from ..io.tube import load_tube
+
+    truth = json.loads((Path(dataset) / "truth.json").read_text())
+    tube = load_tube(Path(dataset) / "truth" / "static.ply")
+    anim = Animation(**truth["animation"])
+    _, _, _, s_v, _ = axial_coordinates(tube.V, tube.F, tube.inlet, tube.outlet)
+    tri, bary, _ = static_points(tube.V, tube.F, tube.V, np.asarray(points, float))
+    return 1e3 * np.einsum("mk,mk->m", bary, s_v[tube.F[tri]]) / anim.speed_mm_s
+
+
 def tissue_positions(dataset, points: np.ndarray, t0_frame: int) -> np.ndarray:
     """Where the static mesh's ``points (n, 3)`` mm are in every frame of an animated
     ``dataset``: ``(n, n_t, 3)`` mm in aligned time (frame t is animation frame

@@ -53,6 +53,7 @@ def _texts(fig):
 
 
 ASCII_UNIT = re.compile(r"\bum\b|\+-|\+/-|\^\d|\bR\^")   # µm, ±, mm², R² as typed
+UNIT_ONE = re.compile(r"\(1\)\s*$")       # a dimensionless unit written as SI's "1"
 RAW_EXPONENT = re.compile(r"\d[eE][+\-\u2212]?\d")             # 5.68e-04, 1e−5
 
 
@@ -118,7 +119,8 @@ def layout_problems(fig) -> list[str]:
     """What a reader would call a layout fault: text overlapping text, text leaving the
     figure, an axis without its label, a colour bar without a unit or with a label
     longer than the bar, type outside 7-9 pt, units typed in ASCII (um, mm^2, +-), a
-    legend entry drawn in its background's colour, a band of empty canvas."""
+    legend entry drawn in its background's colour, a band of empty canvas, a unit
+    given as "(1)"."""
     fig.canvas.draw()
     problems = _invisible_legend_entries(fig) + _empty_bands(fig)
     texts = _texts(fig)
@@ -126,6 +128,8 @@ def layout_problems(fig) -> list[str]:
         plain = re.sub(r"\$[^$]*\$", "", text.get_text())      # mathtext ($^2$) is typeset
         if ASCII_UNIT.search(plain):
             problems.append(f"text {text.get_text()!r} types a unit or sign in ASCII")
+        if UNIT_ONE.search(plain.replace("\n", " ")):
+            problems.append(f"text {text.get_text()!r} gives its unit as (1)")
         if RAW_EXPONENT.search(plain):
             problems.append(f"text {text.get_text()!r} shows a raw exponent")
     width, height = fig.bbox.width, fig.bbox.height
@@ -282,6 +286,7 @@ def test_the_layout_check_finds_what_a_reader_cannot_see_or_read():
         ax.set_xlabel("thickness (um)")
         ax.set_title("rate 5.68e-04 mm$^2$/ms")
         ax.set_ylabel("area (mm^2)")
+        ax.text(0.5, 0.5, "strain energy (1)")
         image = ax.imshow(np.zeros((3, 3)))
         fig.colorbar(image, ax=ax, shrink=0.3,
                      label="a label much longer than the short colour bar beside it (1)")
@@ -292,5 +297,6 @@ def test_the_layout_check_finds_what_a_reader_cannot_see_or_read():
     assert "rows empty in one band" in problems
     assert "'thickness (um)' types a unit or sign in ASCII" in problems
     assert "'area (mm^2)' types a unit or sign in ASCII" in problems
+    assert "'strain energy (1)' gives its unit as (1)" in problems
     assert "is longer than its bar" in problems
     assert "'rate 5.68e-04 mm$^2$/ms' shows a raw exponent" in problems

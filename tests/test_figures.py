@@ -249,12 +249,15 @@ def test_group_maps_leave_out_embryos_without_the_map(tmp_path, monkeypatch):
     thickness = np.stack([np.full((50, 100), 0.03 + 0.01 * k) for k in range(5)])
     thickness[[3, 4]] = np.nan
     figures.group_maps_figure(_compared(thickness, groups, "wall_thickness_mm"),
-                              tmp_path / "w.png", key="wall_thickness_mm", title="wall")
+                              tmp_path / "w.png", key="wall_thickness_mm", title="wall",
+                              unit_label="wall thickness (µm)", times=1000.0)
     axes = [ax for ax in drawn[0].axes if ax.images]
     assert [ax.get_title() for ax in axes] == [
         "normal mean (n = 2)", "banded mean (n = 1)", "banded - normal\ntoo few embryos to test"]
-    assert axes[0].images[0].get_clim() == pytest.approx((0.035, 0.05))   # the means' range
-    assert np.asarray(axes[2].images[0].get_array()) == pytest.approx(0.05 - 0.035)
+    assert axes[0].images[0].get_clim() == pytest.approx((35, 50))   # the means' range, in µm
+    assert np.asarray(axes[2].images[0].get_array()) == pytest.approx(50 - 35)
+    bars = [ax.get_ylabel() or ax.get_xlabel() for ax in drawn[0].axes if not ax.images]
+    assert any("wall thickness" in b and "(µm)" in b.replace("\n", " ") for b in bars), bars
 
 
 def test_names_with_dollar_signs_are_drawn_as_they_are(tmp_path):

@@ -554,41 +554,43 @@ def _group_profiles(path: Path) -> dict:
 
 
 # the cohort maps drawn per group: key of cohort_maps.npz, title, file, range of the means,
-# the colour bar's quantity and unit
+# the colour bar's quantity and unit, and the factor from the map's unit to that one
 GROUP_MAPS = [
     ("area_outer_normalized", "outer area, each row over its maximum", "group_area_maps.png",
-     (0.0, 1.0), "area / row maximum (1)"),
+     (0.0, 1.0), "area / row maximum (0-1)", 1.0),
     ("wall_thickness_mm", "myocardial wall thickness, mean around the tube",
-     "group_wall_thickness_maps.png", None, "wall thickness (mm)"),
+     "group_wall_thickness_maps.png", None, "wall thickness (µm)", 1000.0),
     ("jelly_thickness_mm", "cardiac jelly thickness, mean around the tube",
-     "group_jelly_thickness_maps.png", None, "jelly thickness (mm)"),
+     "group_jelly_thickness_maps.png", None, "jelly thickness (µm)", 1000.0),
     ("strain_energy_outer", "outer wall's strain energy against t = 0, mean around the tube",
-     "group_strain_energy_maps.png", None, "strain energy (1)"),
+     "group_strain_energy_maps.png", None, "strain energy (dimensionless)", 1.0),
 ]
 
 
 @house_style
 def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normalized",
                       title: str = "outer area, each row over its maximum", value_range=None,
-                      alpha: float = 0.05, unit_label: str = "area / row maximum (1)") -> Path:
+                      alpha: float = 0.05, unit_label: str = "area / row maximum (0-1)",
+                      times: float = 1.0) -> Path:
     """Each group's mean of map ``key`` on the cohort's common grid (``maps``:
     :func:`oftimg.output.export.cohort_maps`; ``value_range`` its colour range, default the
     means' own), and each other group's difference from the first (normals first),
     with the clusters (solid) and the single pixels (dashed) where it is significant
     over the whole map (``*_p_cluster``, ``*_p_fwer`` below ``alpha``) outlined;
-    ``unit_label`` names the colour bars' quantity and unit.
+    ``unit_label`` names the colour bars' quantity and unit, ``times`` takes the map
+    into it (1000: mm to µm, as thickness is given everywhere else).
     Embryos without the map (all NaN) are left out."""
     from ..analysis.group_maps import group_mean_maps
 
     present = ~np.all(np.isnan(maps[key]), axis=(1, 2))
     order = groups_in_order(maps["groups"][present])
-    means = group_mean_maps(maps[key][present], maps["groups"][present])
+    means = group_mean_maps(times * maps[key][present], maps["groups"][present])
     lo, hi = value_range or (np.nanmin([means[g][0] for g in order]),
                              np.nanmax([means[g][0] for g in order]))
     extent = [0, 1, 0, 1]
     panels = [(f"{g} mean (n = {means[g][2]})", means[g][0], SEQUENTIAL, lo, hi, None)
               for g in order]
-    differences = maps[f"{key}_difference"]
+    differences = times * maps[f"{key}_difference"]
     lim = (float(np.nanmax(np.abs(differences)))
            if np.isfinite(differences).any() else 1.0)
     for name, difference, p_fwer, p_cluster in zip(
@@ -677,10 +679,12 @@ def group_figures(results: Path, summaries: list[dict], folder: Path, *,
     ax.set_ylabel("outer volume / its mean")
     ax.grid(alpha=0.3)
     written.append(save(fig, folder / "group_volume.png"))
-    for key, title, fname, value_range, unit_label in GROUP_MAPS if maps is not None else []:
+    for key, title, fname, value_range, unit_label, times in (GROUP_MAPS if maps is not None
+                                                              else []):
         if np.isfinite(maps[key]).any():
             written.append(group_maps_figure(maps, folder / fname, key=key, title=title,
-                                             value_range=value_range, unit_label=unit_label))
+                                             value_range=value_range, unit_label=unit_label,
+                                             times=times))
     for phase in ("expansion", "contraction"):
         p = pca_groups_figure(results, summaries, folder / f"group_pca_{phase}.png", phase=phase)
         if p is not None:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from oftimg.output import figures, style
-from test_figures import cohort_results, figure_cases
+from test_figures import cohort_results, figure_cases, fixed_map
 
 UNIT = re.compile(r"\(([^()]+)\)")          # "quantity (unit)"
 
@@ -97,6 +97,55 @@ def _invisible_legend_entries(fig) -> list[str]:
     return problems
 
 
+def _hidden_legend_entries(fig) -> list[str]:
+    """Legend entries whose own marks change no pixel when they are hidden: drawn
+    under others (a dashed line beneath a solid one), so the legend names what a
+    reader cannot find. Entries without data of their own (legend proxies) are
+    skipped."""
+    labelled = [artist for ax in fig.axes for artist in ax.get_lines() + ax.collections
+                if not artist.get_label().startswith("_") and artist.get_visible()
+                and _has_data(artist)]
+    if not labelled:
+        return []
+    fig.canvas.draw()                 # constrained layout settles on its second draw
+    before = np.asarray(fig.canvas.buffer_rgba()).astype(int)
+    problems = []
+    for artist in labelled:
+        artist.set_visible(False)
+        fig.canvas.draw()
+        changed = np.abs(np.asarray(fig.canvas.buffer_rgba()).astype(int) - before).max(axis=-1)
+        if (changed > 60).sum() < 20:            # antialiased edges aside: nothing shows
+            problems.append(f"legend entry {artist.get_label()!r} is hidden under other marks")
+        artist.set_visible(True)
+    fig.canvas.draw()
+    return problems
+
+
+def _has_data(artist) -> bool:
+    if hasattr(artist, "get_xdata"):
+        return len(artist.get_xdata()) > 0
+    return len(artist.get_offsets()) > 0 or len(artist.get_paths()) > 0
+
+
+def _arrows_outside_panels(fig) -> list[str]:
+    """Quiver arrows reaching past their panel's frame (cut there by the clipping)."""
+    from matplotlib.quiver import Quiver
+
+    problems = []
+    for ax in fig.axes:
+        box = ax.bbox.padded(1)
+        for quiver in (c for c in ax.collections if isinstance(c, Quiver)):
+            shape = quiver.get_transform()
+            offsets = quiver.get_offset_transform().transform(quiver.get_offsets())
+            out = sum(not np.all((box.x0 <= xy[:, 0]) & (xy[:, 0] <= box.x1)
+                                 & (box.y0 <= xy[:, 1]) & (xy[:, 1] <= box.y1))
+                      for xy in (shape.transform(path.vertices) + offset
+                                 for path, offset in zip(quiver.get_paths(), offsets)))
+            if out:
+                problems.append(f"axes {ax.get_title()!r}: {out} arrows leave the panel")
+    return problems
+
+
 def _empty_bands(fig, share: float = 0.2) -> list[str]:
     """A band of the canvas, across its whole width or height, wider than ``share`` of
     it, with nothing drawn in it."""
@@ -119,10 +168,11 @@ def layout_problems(fig) -> list[str]:
     """What a reader would call a layout fault: text overlapping text, text leaving the
     figure, an axis without its label, a colour bar without a unit or with a label
     longer than the bar, type outside 7-9 pt, units typed in ASCII (um, mm^2, +-), a
-    legend entry drawn in its background's colour, a band of empty canvas, a unit
-    given as "(1)"."""
+    legend entry drawn in its background's colour or hidden under other marks, a band
+    of empty canvas, a unit given as "(1)", arrows leaving their panel."""
     fig.canvas.draw()
-    problems = _invisible_legend_entries(fig) + _empty_bands(fig)
+    problems = (_invisible_legend_entries(fig) + _empty_bands(fig) + _hidden_legend_entries(fig)
+                + _arrows_outside_panels(fig))
     texts = _texts(fig)
     for text, _ in texts:
         plain = re.sub(r"\$[^$]*\$", "", text.get_text())      # mathtext ($^2$) is typeset
@@ -215,6 +265,12 @@ def drawn(tmp_path_factory) -> tuple:
 def _draw_every_figure(tmp_path) -> None:
     for name, draw in figure_cases(tmp_path).items():
         draw(tmp_path / f"{name}.png")
+    arrays, summary, _ = fixed_map()
+    still = np.zeros(len(arrays["s_mm"]), bool)
+    still[len(still) // 3:len(still) // 3 + 4] = True          # a band that barely moves
+    figures.ridge_plot(arrays["s_mm"], arrays["ridge_t_ms"], tmp_path / "ridge_bridged.png",
+                       knee=summary["wave_two_segment"], speed=arrays["local_speed_mm_s"],
+                       bridged=still, title="an embryo: a band bridged")
     pca, grid = _pca()
     figures.pca_figure(pca["arrays"], pca["summary"], tmp_path / "shape_pca.png",
                        title="an embryo: cross-section shape modes")
@@ -227,7 +283,29 @@ def _draw_every_figure(tmp_path) -> None:
                        label="radial curvature (1/mm)", title="an embryo: radial curvature")
     (tmp_path / "cohort").mkdir()
     summaries = cohort_results(tmp_path / "cohort", {"normal": 3, "banded": 3})
+    with_walls_and_shapes(tmp_path / "cohort", summaries, pca)
     figures.group_figures(tmp_path / "cohort", summaries, tmp_path)
+
+
+def with_walls_and_shapes(folder, summaries, pca) -> None:
+    """The cohort's embryos given wall and jelly thickness (u, v, t) and shape modes,
+    so that every group figure is drawn (thickness curves, shape modes), and curves of
+    their own (one embryo's line exactly over another's would hide it)."""
+    rng = np.random.default_rng(1)
+    for k, summary in enumerate(summaries):
+        path = folder / summary["name"] / "arrays.npz"
+        with np.load(path) as arrays:
+            arrays = dict(arrays)
+        arrays["ridge_t_ms"] = arrays["ridge_t_ms"] + 4.0 * k
+        arrays["expanded_fraction_sigma_outer"] = arrays["expanded_fraction_sigma_outer"] + 0.02 * k
+        arrays["volume_outer_mm3"] = arrays["volume_outer_mm3"] + 0.03 * k * np.cos(
+            2 * np.pi * arrays["t_ms"] / summary["period_ms"])
+        shape = (16, len(arrays["s_mm"]), len(arrays["t_ms"]))
+        arrays["wall_thickness_mm"] = 0.04 + 0.005 * rng.random(shape)
+        arrays["jelly_thickness_mm"] = 0.03 + 0.01 * rng.random(shape)
+        np.savez(path, **arrays)
+        np.savez(folder / summary["name"] / "pca.npz", **pca["arrays"])
+        summary["pca"] = pca["summary"]
 
 
 def test_every_figure_is_laid_out_for_a_journal(drawn):
@@ -273,21 +351,24 @@ def test_the_layout_check_finds_the_faults_it_looks_for():
 
 
 def test_the_layout_check_finds_what_a_reader_cannot_see_or_read():
-    """... and a legend marker white on white, an empty third of the canvas, a unit
-    typed in ASCII, a colour-bar label longer than its bar."""
+    """... and a legend marker white on white, a legend's line under another, an empty
+    third of the canvas, a unit typed in ASCII or as (1), a colour-bar label longer
+    than its bar, an arrow out of its panel."""
     import matplotlib.pyplot as plt
 
     with matplotlib.rc_context(style.RC):
         fig, ax = style.new_figure(style.COLUMN_MM, 90)
         fig.get_layout_engine().set(rect=(0, 0.4, 1, 0.6))     # the bottom 40 % left empty
-        ax.plot([0, 1], [0, 1], "k-", label="line")
         ax.plot([], [], "w*", label="one sigma")
-        ax.legend()
         ax.set_xlabel("thickness (um)")
         ax.set_title("rate 5.68e-04 mm$^2$/ms")
         ax.set_ylabel("area (mm^2)")
         ax.text(0.5, 0.5, "strain energy (1)")
-        image = ax.imshow(np.zeros((3, 3)))
+        ax.plot([0, 1], [0, 1], "b--", label="under the line")
+        ax.plot([0, 1], [0, 1], "k-", lw=3, label="line")             # drawn over it
+        ax.legend()
+        image = ax.imshow(np.zeros((3, 3)))                            # x from -0.5 to 2.5
+        ax.quiver([2.2], [1.0], [1.0], [0], angles="xy", scale_units="xy", scale=1)
         fig.colorbar(image, ax=ax, shrink=0.3,
                      label="a label much longer than the short colour bar beside it (1)")
         problems = "\n".join(layout_problems(fig))
@@ -298,5 +379,8 @@ def test_the_layout_check_finds_what_a_reader_cannot_see_or_read():
     assert "'thickness (um)' types a unit or sign in ASCII" in problems
     assert "'area (mm^2)' types a unit or sign in ASCII" in problems
     assert "'strain energy (1)' gives its unit as (1)" in problems
+    assert "legend entry 'under the line' is hidden under other marks" in problems
+    assert "legend entry 'line' is hidden" not in problems
+    assert "1 arrows leave the panel" in problems
     assert "is longer than its bar" in problems
     assert "'rate 5.68e-04 mm$^2$/ms' shows a raw exponent" in problems

@@ -330,6 +330,13 @@ def test_ridge_plot_rings_the_rows_bridged_for_the_speeds(tmp_path):
         plt.Figure.savefig = original
     ax = captured["fig"].axes[0]
     labels = [t.get_text() for t in captured["fig"].legends[0].get_texts()]   # below both
-    assert "barely moves: bridged (dashed) for the speeds" in labels
+    assert "rows that barely move" in labels
+    assert "the line the speeds take across them" in labels
     rings = [line for line in ax.get_lines() if line.get_marker() == "o"]
     assert len(rings) == 1 and np.allclose(rings[0].get_xdata(), s[bridged])
+    dashed = [line for line in ax.get_lines() if line.get_linestyle() == "--"]
+    assert len(dashed) == 1                     # from the last moving row to the next one
+    assert np.allclose(dashed[0].get_xdata(), s[[21, 28]])
+    assert np.allclose(dashed[0].get_ydata(), ridge[[21, 28]])
+    assert dashed[0].get_zorder() > max(line.get_zorder() for line in ax.get_lines()
+                                        if line is not dashed[0])   # over the fit: seen

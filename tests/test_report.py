@@ -206,3 +206,18 @@ def test_map_comparison_rows_sum_up_where_the_groups_differ():
     assert jelly_row["map"] == "jelly_thickness_mm" and jelly_row["least_p_cluster"] > 0.05
     assert strain_row["map"] == "strain_energy_outer"
     assert 0.04 <= strain_row["share_in_clusters_p<0.05"] < 0.06
+
+
+@pytest.mark.parametrize("size, wide", [((2126, 1300), True),    # the page's width (180 mm)
+                                        ((1200, 500), True),     # over twice as wide as high
+                                        ((1004, 768), False)])   # a column's figure
+def test_a_page_wide_figure_spans_the_report(tmp_path, size, wide):
+    """Drawn the page's width, a figure takes the grid's whole width: in one cell its
+    7-9 pt text (the shape modes') was shown at under half its size."""
+    from PIL import Image
+
+    from oftimg.output.html import figure_html
+
+    path = tmp_path / "figure.png"
+    Image.new("RGB", size, "white").save(path)
+    assert ('class="wide"' in figure_html(path, "figure.png", "a figure")) == wide

@@ -325,12 +325,12 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
     elif bridged is not None and np.any(bridged) and np.any(
             ~np.asarray(bridged, bool) & np.isfinite(ridge_t_ms)):
         bridged = np.asarray(bridged, bool)
-        moving = ~bridged & np.isfinite(ridge_t_ms)
-        inside = (s_mm >= s_mm[moving][0]) & (s_mm <= s_mm[moving][-1])
-        axes[0].plot(s_mm[inside], np.interp(s_mm[inside], s_mm[moving], ridge_t_ms[moving]),
-                     color="0.5", ls="--", lw=0.8, zorder=1)
+        moving = np.flatnonzero(~bridged & np.isfinite(ridge_t_ms))
+        for k, (a, b) in enumerate(_bridges(bridged, moving)):   # over the fit, to be seen
+            axes[0].plot(s_mm[[a, b]], ridge_t_ms[[a, b]], color="0.25", ls="--", lw=1.2,
+                         zorder=3, label="the line the speeds take across them" if k == 0 else None)
         axes[0].plot(s_mm[bridged], ridge_t_ms[bridged], "o", mfc="none", mec="0.5", ms=7,
-                     label="barely moves: bridged (dashed) for the speeds")
+                     label="rows that barely move")
     if ridge_sd_ms is not None:
         axes[0].errorbar(s_mm, ridge_t_ms, yerr=ridge_sd_ms, fmt="k.", ms=4, elinewidth=0.6,
                          label="ridge ± 1 SD (frame noise)")
@@ -381,6 +381,16 @@ def ridge_plot(s_mm, ridge_t_ms, path: Path, *, knee=None, speed=None, ridge_sd_
         ax.grid(alpha=0.3)
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
     return save(fig, path)
+
+
+def _bridges(bridged: np.ndarray, moving: np.ndarray) -> list[tuple[int, int]]:
+    """Each run of ``bridged`` rows ``(n_v,)`` between two ``moving`` rows (indices,
+    ascending): the moving rows on either side, which the speeds join by a line."""
+    spans = []
+    for a, b in zip(moving[:-1], moving[1:]):
+        if b > a + 1 and bridged[a + 1:b].any():
+            spans.append((int(a), int(b)))
+    return spans
 
 
 def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms: float
@@ -660,7 +670,7 @@ def group_figures(results: Path, summaries: list[dict], folder: Path, *,
             ax.set_title(plain_text(g), fontsize=9)
             ax.set_xlabel("position along the tube s (mm)")
             ax.grid(alpha=0.3)
-        axes[0][0].set_ylabel(ylabel)
+        axes[0][0].set_ylabel(wrapped(ylabel, 50))       # the panel's height, not more
         written.append(save(fig, folder / fname))
     fig, ax = new_figure(COLUMN_MM, 65)
     cycle = np.linspace(0.0, 1.0, 101)
@@ -724,7 +734,10 @@ def pca_groups_figure(results: Path, summaries: list[dict], path: Path, *,
         return None
     groups = groups_in_order(list(firsts))
     n_rows = len(firsts[groups[0]]["pca"]["rows"])
-    fig, axes = new_figure(PAGE_MM, 110, nrows=2, ncols=n_rows * len(groups), squeeze=False)
+    n_cols = n_rows * len(groups)
+    # square panels (equal aspect) under two-line titles: the height they fill, no more
+    fig, axes = new_figure(PAGE_MM, 2 * (PAGE_MM / n_cols + 12) + 12, nrows=2, ncols=n_cols,
+                           squeeze=False)
     for gi, g in enumerate(groups):
         summ = firsts[g]
         pca = np.load(Path(results) / summ["name"] / "pca.npz")

@@ -8,6 +8,7 @@ import urllib.parse
 from pathlib import Path
 
 from . import numbers
+from .style import PAGE_MM, PNG_DPI
 from .report import (CORRECTION, MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparison, table1_layout,
                      table_rows)
 
@@ -111,6 +112,7 @@ def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None,
 
 NBSP_PM = "\u00a0±\u00a0"   # "mean ± SD" kept on one line, "(n=3)" may wrap below it
 WIDE_ASPECT = 2.0          # a figure wider than this over its height spans the page
+PAGE_WIDE_PX = 0.95 * PAGE_MM / 25.4 * PNG_DPI   # ... as does one drawn the page's width
 TABLE_COLUMNS_SHOWN = 10   # a wider table is cut into parts of this many, its first column in each
 
 
@@ -205,11 +207,13 @@ def png_size(path: Path) -> tuple[int, int]:
 
 
 def figure_html(path: Path, href: str, caption: str) -> str:
-    """A figure of the page's grid, linked to itself at full size; a figure over twice
-    as wide as it is high (a page-wide one) takes the grid's whole width, so that its
-    text stays readable."""
+    """A figure of the page's grid, linked to itself at full size; a figure drawn the
+    journal page's width, or over twice as wide as it is high, takes the grid's whole
+    width, so that its 7-9 pt text stays readable (in one grid cell the shape modes'
+    was shown at under half its size)."""
     width, height = png_size(path)
-    wide = ' class="wide"' if height and width > WIDE_ASPECT * height else ""
+    wide = (' class="wide"' if height and (width > WIDE_ASPECT * height or width >= PAGE_WIDE_PX)
+            else "")
     return (f'<figure{wide}><a href="{href}"><img src="{href}" alt="{html.escape(path.stem)}">'
             f'</a><figcaption class="small">{caption}</figcaption></figure>')
 

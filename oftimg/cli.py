@@ -283,7 +283,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def _print_report(report: dict) -> None:
     print(f"dataset {report['name']} ({report['path']}): {report['n_frames']} frames, "
-          f"inlet at {report['inlet_mm']} mm ({report['inlet_from']})")
+          f"inlet at ({', '.join(f'{round(x, 3) + 0.0:.3f}' for x in report['inlet_mm'])}) mm "
+          f"({report['inlet_from']})")                # to the µm: what a mesh resolves
     if "labels" in report:
         lab = report["labels"]
         soft = lab["kind"] == "probabilities"

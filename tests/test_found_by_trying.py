@@ -3,6 +3,7 @@ correct result now. A 4-D labels.tif that is a folder, a lone surrogate in meta.
 a PLY header of over 64 KB, provenance that survives a move, the frames counted once."""
 import json
 import os
+import re
 import shutil
 
 import numpy as np
@@ -50,9 +51,9 @@ def test_a_lone_surrogate_in_meta_json_is_named(meshes, tmp_path, capsys):
     assert "'name' holds '\\udc80', half of a UTF-16 pair (a lone surrogate)" in line
 
 
-def test_a_ply_header_of_any_length_is_read(meshes, tmp_path):
+def test_a_ply_header_of_any_length_is_read(meshes, tmp_path, capsys):
     """A valid PLY with 70 KB of comments was refused: "no end_header line in its first
-    64 KB"."""
+    64 KB". The validator then gives the inlet to the µm, not as [0.298879, ..., 1.5e-05]."""
     good = shutil.copytree(meshes, tmp_path / "long")
     path = sorted((good / "outer").iterdir())[0]
     data = path.read_bytes()
@@ -63,7 +64,10 @@ def test_a_ply_header_of_any_length_is_read(meshes, tmp_path):
     V0, F0 = read_mesh_file(meshes / "outer" / path.name)
     np.testing.assert_array_equal(V, V0)
     np.testing.assert_array_equal(F, F0)
+    capsys.readouterr()
     assert main(["validate", str(good)]) == 0
+    inlet = re.search(r"inlet at (\S.*?) mm \(", capsys.readouterr().out).group(1)
+    assert re.fullmatch(r"\(-?\d+\.\d{3}, -?\d+\.\d{3}, -?\d+\.\d{3}\)", inlet), inlet  # to the µm
 
 
 @pytest.mark.slow

@@ -2,8 +2,10 @@
 import numpy as np
 import pytest
 
+from oftimg.output import numbers
 from oftimg.output.report import (cohort_rows, group_comparison, map_comparison_rows, mean_curve,
-                                  table1_markdown, write_cohort_tables, write_table1_markdown)
+                                  table1_layout, table1_markdown, write_cohort_tables,
+                                  write_table1_markdown)
 from oftimg.analysis.stats import holm, permutation_test
 
 
@@ -97,8 +99,44 @@ def test_table1_in_the_papers_units_and_rounding(tmp_path):
     assert "| Normal A | normal | 38.27 | 61.73 | 0.62 | 372 | 142 | 230 | 3.36 | 18.5 |" in text
     assert "| mean ± SD | banded | 40.3 ± 5.8 (n=2) |" in text  # to the SD's 2 digits
     assert "| p | banded vs normal | 0.67 |" in text    # 2 vs 2: 4 of 6 relabellings as far
-    assert "| p (Holm) | banded vs normal | 1 | 1 |" in text    # 13 tests
+    assert "| p (Holm) | banded vs normal | 1.0 | 1.0 |" in text    # 13 tests, 2 digits
     assert "Holm-corrected over the 13 quantities tested" in text
+    assert "†" not in text                            # no speed's noise given: none marked
+
+
+def test_table1_marks_a_speed_lost_in_the_noise_and_rounds_means_as_rows():
+    """A speed whose noise spread is over a fifth of it carries a mark and the note says
+    why; a group's mean is given no finer than its embryos' rows (13.8, not 13.83)."""
+    from oftimg.analysis.maps import SPREAD_NOTE_SHARE
+
+    def embryo(name, group, cycle, max_sd):
+        return {"name": name, "group": group, "period_ms": 300.0,
+                "wave_speed_mm_s": {"min": 5.0, "max": 24.6, "mean": 12.0, "std": 4.0,
+                                    "cycle": cycle},
+                "wave_speed_noise_sd_mm_s": {"min": 0.1, "max": max_sd, "mean": 0.2,
+                                             "cycle": 0.05}}
+    poor = 24.6 * SPREAD_NOTE_SHARE * 1.1
+    summaries = [embryo("A", "normal", 13.83, poor), embryo("B", "normal", 13.81, 0.3),
+                 embryo("C", "banded", 9.0, 0.3), embryo("D", "banded", 9.4, 0.3)]
+    header, body, note = table1_layout(summaries)
+    column = {name: k for k, name in enumerate(header)}
+    rows = {row[0] if row[0] != "mean ± SD" else row[1]: row for row in body}
+    assert rows["A"][column["Speed max (mm/s)"]] == "24.6 †"
+    assert rows["B"][column["Speed max (mm/s)"]] == "24.6"
+    assert rows["A"][column["Speed min (mm/s)"]] == "5.00"
+    assert f"over {SPREAD_NOTE_SHARE:.0%} of it" in note
+    assert rows["normal"][column["Speed cycle (mm/s)"]] == "13.8 ± 0.0 (n=2)"   # as its rows
+
+
+def test_p_values_read_alike_in_every_table():
+    """Table 1 and the report's tables: 0.10, not 0.1 in one and 0.100 in another."""
+    from oftimg.output import html
+
+    assert numbers.p_value(0.1) == "0.10" and numbers.p_value(0.0321) == "0.032"
+    table = html._table([{"metric": "x", "p_value": 0.1, "p_holm": 1.0, "least_p_cluster": 0.25,
+                          "banded_mean": 0.1}], ["metric", "p_value", "p_holm",
+                                                  "least_p_cluster", "banded_mean"])
+    assert "<td>0.10</td><td>1.0</td><td>0.25</td><td>0.100</td>" in table
 
 
 def test_holm_adjusted_p_values():

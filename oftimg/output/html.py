@@ -4,6 +4,7 @@ from __future__ import annotations
 import html
 import json
 import os
+import re
 import urllib.parse
 from pathlib import Path
 
@@ -100,7 +101,9 @@ def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None,
     for r in rows:
         cells = []
         for c in cols:
-            text = _fmt(r.get(c))
+            value = r.get(c)
+            text = (numbers.p_value(value) if P_COLUMN.search(c) and isinstance(value, float)
+                    else _fmt(value))
             if link and c == cols[0]:
                 text = f'<a href="{html.escape(link(r))}">{text}</a>'
             cells.append(f"<td>{text}</td>")
@@ -112,6 +115,7 @@ def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None,
 
 NBSP_PM = "\u00a0±\u00a0"   # "mean ± SD" kept on one line, "(n=3)" may wrap below it
 WIDE_ASPECT = 2.0          # a figure wider than this over its height spans the page
+P_COLUMN = re.compile(r"(^|_)p(_|$)")        # p_value, p_holm, least_p_cluster: 2 digits
 PAGE_WIDE_PX = 0.95 * PAGE_MM / 25.4 * PNG_DPI   # ... as does one drawn the page's width
 TABLE_COLUMNS_SHOWN = 10   # a wider table is cut into parts of this many, its first column in each
 

@@ -54,6 +54,21 @@ def number(x, significant: int = SIGNIFICANT) -> str:
     return f"{x / 10.0 ** power:.{significant - 1}f} × {power_of_ten(power)}"
 
 
+def p_value(p) -> str:
+    """A p-value as every table gives it: two significant digits ("0.10", "0.032"),
+    :data:`DASH` for none."""
+    return number(p, 2)
+
+
+def decimals_of(x, significant: int = SIGNIFICANT) -> int:
+    """How many decimals :func:`number` gives ``x`` (0 for numbers of ``significant``
+    digits or more before the point): a group mean is then given no finer than its
+    embryos' rows."""
+    if not is_finite_number(x) or x == 0:
+        return 0
+    return max(significant - 1 - leading_decimal(float(x)), 0)
+
+
 def power_of_ten(power: int) -> str:
     """``10⁻⁷`` for -7."""
     return f"10{str(power).translate(_SUPERSCRIPT)}"

@@ -210,10 +210,13 @@ TABLES = {"table1.csv": TABLE1_COLUMNS, "cohort.csv": MEASUREMENT_COLUMNS,
 # an embryo's Table 1 cell without a value, and what it means
 NO_VALUE = numbers.DASH
 ROUNDING_NOTE = ("Rounded as the paper rounds, or to 3 digits where it gives more; a group's "
-                 "mean to the decimal of its SD, given to 2 digits; table1.csv keeps the paper's "
-                 "rounding.")
+                 "mean to the decimal of its SD, given to 2 digits, and no finer than its rows; "
+                 "p to 2 digits; table1.csv keeps the paper's rounding.")
 BAND_NOTE = ("Speed cycle ± half its 95 % band: the run's own noise and the share the "
              "accuracy zoo found beyond it (qc.csv speed_cycle_band_95_mm_s).")
+POOR_MARK = " †"
+POOR_NOTE = ("†: a wave speed whose spread from the map's frame-to-frame noise alone is over "
+             "{share:.0%} of it (qc.csv *_noise_sd_mm_s; the embryo's notes give it).")
 NO_VALUE_NOTE = ("–: no value: not resolved within the map's noise (a wave speed), or not "
                  "measurable on this embryo (see its summary.json notes).")
 # how the p-values of the Table 1 quantities are corrected (stated where they are shown)
@@ -374,6 +377,7 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
     banded = any((s.get("wave_speed_band_95_mm_s") or {}).get("cycle") is not None
                  for s in summaries)
     blank = any(NO_VALUE in row for row in body)
+    poor = any(cell.endswith(POOR_MARK) for row in body for cell in row)
     comparison = group_comparison(summaries) if comparison is None else comparison
     by_metric = {}
     for r in comparison:
@@ -385,7 +389,9 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
         for c in data_cols:
             r = by_metric.get(c.name, [{}])[0]
             mean, sd, n = r.get(f"{g}_mean"), r.get(f"{g}_sd"), r.get(f"{g}_n", 0)
-            cells.append("" if not n else f"{numbers.mean_sd(mean, sd, c.decimals)} (n={n})")
+            decimals = (c.decimals if c.decimals is not None else numbers.decimals_of(
+                mean, min(c.significant or numbers.SIGNIFICANT, numbers.SIGNIFICANT)))
+            cells.append("" if not n else f"{numbers.mean_sd(mean, sd, decimals)} (n={n})")
         body.append(["mean ± SD", _cell(g)] + cells)
     pairs = [] if len(groups) < 2 else sorted({r["groups"] for r in comparison
                                                if " vs " in r["groups"]})
@@ -395,8 +401,8 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
             for c in data_cols:
                 r = next((r for r in by_metric.get(c.name, []) if r["groups"] == pair), None)
                 cells.append("" if r is None or not np.isfinite(r[key]) else
-                             f"{r[key]:.2g}" + (" *" if key == "p_holm" and r[key] < 0.05
-                                                else ""))
+                             numbers.p_value(r[key]) + (" *" if key == "p_holm"
+                                                        and r[key] < 0.05 else ""))
             body.append([label, _cell(pair)] + cells)
     n_tested = len({r["metric"] for rows in by_metric.values() for r in rows
                     if np.isfinite(r["p_value"])})
@@ -407,6 +413,10 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
             if pairs else "")
     if banded:
         note += (" " if note else "") + BAND_NOTE
+    if poor:
+        from ..analysis.maps import SPREAD_NOTE_SHARE
+
+        note += (" " if note else "") + POOR_NOTE.format(share=SPREAD_NOTE_SHARE)
     if blank:
         note += (" " if note else "") + NO_VALUE_NOTE
     note += (" " if note else "") + ROUNDING_NOTE
@@ -414,12 +424,31 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
 
 
 def _with_band(value, column: Column, summary: dict) -> str:
-    """A Table 1 cell of one embryo: its value, and for the cycle speed ± half its 95 %
-    band (:func:`~oftimg.analysis.uncertainty.speed_band_95`) when the run has one."""
+    """A Table 1 cell of one embryo: its value, for the cycle speed ± half its 95 %
+    band (:func:`~oftimg.analysis.uncertainty.speed_band_95`) when the run has one (no
+    finer than the other rows), and :data:`POOR_MARK` after a speed whose noise spread
+    is over :data:`~oftimg.analysis.maps.SPREAD_NOTE_SHARE` of it (the run's notes
+    name it: the cell says so too)."""
     band = (summary.get("wave_speed_band_95_mm_s") or {}).get("cycle")
-    if column.name != "speed_cycle_mm_s" or band is None or not numbers.is_finite_number(value):
+    if not numbers.is_finite_number(value):
         return _cell(value, column)
-    return numbers.mean_sd(value, band)
+    if column.name == "speed_cycle_mm_s" and band is not None:
+        text = numbers.mean_sd(value, band, numbers.decimals_of(value))
+    else:
+        text = _cell(value, column)
+    return text + (POOR_MARK if _poorly_resolved(value, column, summary) else "")
+
+
+def _poorly_resolved(value: float, column: Column, summary: dict) -> bool:
+    """Whether a wave speed's noise spread (summary.json wave_speed_noise_sd_mm_s) is
+    over :data:`~oftimg.analysis.maps.SPREAD_NOTE_SHARE` of it, or undefined."""
+    from ..analysis.maps import SPREAD_NOTE_SHARE
+
+    noise = summary.get("wave_speed_noise_sd_mm_s") or {}
+    if column.path[0] != "wave_speed_mm_s" or column.path[1] not in noise:
+        return False                      # no spread of its own (the speeds' SD)
+    sd = noise[column.path[1]]
+    return not numbers.is_finite_number(sd) or sd > SPREAD_NOTE_SHARE * abs(value)
 
 
 def table1_markdown(summaries: list[dict], comparison: list[dict] | None = None) -> str:

@@ -97,7 +97,7 @@ def test_table1_in_the_papers_units_and_rounding(tmp_path):
     assert all(d["description"] and d["summary_json"] for d in dictionary)
     text = table1_markdown(summaries)
     assert "| Normal A | normal | 38.27 | 61.73 | 0.62 | 372 | 142 | 230 | 3.36 | 18.5 |" in text
-    assert "| mean ± SD | banded | 40.3 ± 5.8 (n=2) |" in text  # to the SD's 2 digits
+    assert "| mean ± SD | banded (n=2) | 40.3 ± 5.8 |" in text  # to the SD's 2 digits
     assert "| p | banded vs normal | 0.67 |" in text    # 2 vs 2: 4 of 6 relabellings as far
     assert "| p (Holm) | banded vs normal | 1.0 | 1.0 |" in text    # 13 tests, 2 digits
     assert "Holm-corrected over the 13 quantities tested" in text
@@ -120,12 +120,13 @@ def test_table1_marks_a_speed_lost_in_the_noise_and_rounds_means_as_rows():
                  embryo("C", "banded", 9.0, 0.3), embryo("D", "banded", 9.4, 0.3)]
     header, body, note = table1_layout(summaries)
     column = {name: k for k, name in enumerate(header)}
-    rows = {row[0] if row[0] != "mean ± SD" else row[1]: row for row in body}
+    rows = {row[0] if row[0] != "mean ± SD" else row[1].split()[0]: row for row in body}
     assert rows["A"][column["Speed max (mm/s)"]] == "24.6 †"
     assert rows["B"][column["Speed max (mm/s)"]] == "24.6"
     assert rows["A"][column["Speed min (mm/s)"]] == "5.00"
     assert f"over {SPREAD_NOTE_SHARE:.0%} of it" in note
-    assert rows["normal"][column["Speed cycle (mm/s)"]] == "13.8 ± 0.0 (n=2)"   # as its rows
+    assert rows["normal"][column["Speed cycle (mm/s)"]] == "13.8 ± 0.0"   # as its rows
+    assert rows["normal"][1] == "normal (n=2)"             # the same embryos in every column
 
 
 def test_p_values_read_alike_in_every_table():

@@ -14,16 +14,17 @@ from .report import (CORRECTION, MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparis
                      table_rows)
 
 STYLE = """
-body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1200px;color:#222}
+body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1320px;padding:0 1em;color:#222}
 table{border-collapse:collapse;font-size:0.85em;margin:1em 0}
 th,td{border:1px solid #ccc;padding:3px 6px;text-align:right}
-th{background:#f3f3f3} td:first-child,th:first-child{text-align:left}
+th{background:#f3f3f3} td:first-child,th:first-child,td.text,th.text{text-align:left}
+table.table1{font-size:0.74em} table.table1 td,table.table1 th{padding:2px 4px}
 img{max-width:100%;border:1px solid #eee;margin:4px 0}
 video{max-width:100%;margin:4px 0;background:#000}
 .grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(480px,1fr));gap:10px}
 .grid .wide{grid-column:1/-1} figure{margin:0.5em}
 .small{color:#666;font-size:0.85em} .sig{background:#fde2e2}
-table.table1 th{font-weight:600} table.table1 tr>:nth-child(-n+2){white-space:nowrap} details{margin:0.6em 0} summary{cursor:pointer;font-weight:600}
+table.table1 th{font-weight:600} table.table1 tr>:first-child{white-space:nowrap} details{margin:0.6em 0} summary{cursor:pointer;font-weight:600}
 pre{white-space:pre-wrap;overflow-wrap:anywhere}
 """
 
@@ -96,7 +97,10 @@ def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None,
            names: dict | None = None) -> str:
     """Rows (dicts) as an HTML table of ``cols``, headed by ``names`` where given;
     ``link(row)`` links the first cell, ``highlight(row)`` shades a row."""
-    head = "".join(f"<th>{html.escape((names or {}).get(c, c))}</th>" for c in cols)
+    prose = {c for c in cols if any(isinstance(r.get(c), str) and len(r.get(c)) > PROSE_CHARS
+                                    for r in rows)}                 # read left to right
+    head = "".join(('<th class="text">' if c in prose else "<th>")
+                   + f"{html.escape((names or {}).get(c, c))}</th>" for c in cols)
     body = []
     for r in rows:
         cells = []
@@ -106,7 +110,7 @@ def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None,
                     else _fmt(value))
             if link and c == cols[0]:
                 text = f'<a href="{html.escape(link(r))}">{text}</a>'
-            cells.append(f"<td>{text}</td>")
+            cells.append(f'<td class="text">{text}</td>' if c in prose else f"<td>{text}</td>")
         cls = ' class="sig"' if highlight and highlight(r) else ""
         body.append(f"<tr{cls}>{''.join(cells)}</tr>")
     return (f"<div style=\"overflow-x:auto\"><table><tr>{head}</tr>{''.join(body)}</table>"
@@ -115,6 +119,7 @@ def _table(rows: list[dict], cols: list[str], *, link=None, highlight=None,
 
 NBSP_PM = "\u00a0±\u00a0"   # "mean ± SD" kept on one line, "(n=3)" may wrap below it
 WIDE_ASPECT = 2.0          # a figure wider than this over its height spans the page
+PROSE_CHARS = 40                              # a longer text cell is prose: left-aligned
 P_COLUMN = re.compile(r"(^|_)p(_|$)")        # p_value, p_holm, least_p_cluster: 2 digits
 PAGE_WIDE_PX = 0.95 * PAGE_MM / 25.4 * PNG_DPI   # ... as does one drawn the page's width
 TABLE_COLUMNS_SHOWN = 10   # a wider table is cut into parts of this many, its first column in each

@@ -385,14 +385,20 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
             by_metric.setdefault(r["metric"], []).append(r)
     groups = sorted({s["group"] for s in summaries})
     for g in groups:
-        cells = []
+        cells, counts = [], []
         for c in data_cols:
             r = by_metric.get(c.name, [{}])[0]
             mean, sd, n = r.get(f"{g}_mean"), r.get(f"{g}_sd"), r.get(f"{g}_n", 0)
             decimals = (c.decimals if c.decimals is not None else numbers.decimals_of(
                 mean, min(c.significant or numbers.SIGNIFICANT, numbers.SIGNIFICANT)))
-            cells.append("" if not n else f"{numbers.mean_sd(mean, sd, decimals)} (n={n})")
-        body.append(["mean ± SD", _cell(g)] + cells)
+            cells.append("" if not n else numbers.mean_sd(mean, sd, decimals))
+            counts.append(n)
+        shown = {n for n in counts if n}
+        if len(shown) == 1:             # every column of the same embryos: n said once
+            body.append(["mean ± SD", f"{_cell(g)} (n={shown.pop()})"] + cells)
+        else:
+            body.append(["mean ± SD", _cell(g)] + [f"{cell} (n={n})" if n else cell
+                                                  for cell, n in zip(cells, counts)])
     pairs = [] if len(groups) < 2 else sorted({r["groups"] for r in comparison
                                                if " vs " in r["groups"]})
     for pair in pairs:

@@ -166,3 +166,20 @@ def test_the_3d_view_marks_the_inlet_and_the_outlet():
     inlet_side = np.hypot(written[:, 0] - row[0], written[:, 1] - col[0]) < \
         np.hypot(written[:, 0] - row[1], written[:, 1] - col[1])
     assert 0.3 < inlet_side.mean() < 0.7               # two words, one at each end
+
+
+def test_the_map_cursor_sits_at_the_time_its_axis_gives():
+    """At 100 ms the cursor lies on the axis's 100 ms tick (it sat half a frame later:
+    the ticks marked each column's left edge, the cursor its centre)."""
+    n_v, n_t, dt = 30, 20, 20.0                  # ticks at 0, 100, 200, 300 ms
+    area = np.tile(np.linspace(1, 2, n_t), (n_v, 1))
+    t_ms = dt * np.arange(n_t)
+    frames = video.map_cursor_frames(area, t_ms)
+    h = n_v * max(1, round(420 / n_v))
+    tick_row = frames[0, BANNER + h + 3, MARGIN_LEFT:]            # below the map
+    ticks = MARGIN_LEFT + np.flatnonzero(tick_row.max(axis=-1) < 60)
+    for k in (0, 5, 10, 15):                     # 0, 100, 200, 300 ms
+        inside = frames[k, BANNER + h // 2, MARGIN_LEFT:]
+        cursor = MARGIN_LEFT + np.flatnonzero(inside.max(axis=-1) < 60)
+        assert len(cursor) == 1
+        assert np.abs(ticks - cursor[0]).min() == 0, (k, cursor, ticks)

@@ -288,9 +288,13 @@ def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | 
     _text(base, "s (mm)" if s_end else "v", (4, y0 + h // 2), scale=0.42)
     _text(base, "inlet", (x0 - 9, y0 + h - 14), scale=0.4, align="right")
     period = t_ms[-1] + (t_ms[1] - t_ms[0]) if n_t > 1 else 1.0
+    # each frame's column is centred on its time, as the cursor is (a tick at a
+    # column's left edge put the cursor half a frame after the title's time)
     for tick, text in zip(*nice_ticks(0.0, period, 5)):
-        x = int(round(x0 + tick / period * w))
-        base[y0 + h:y0 + h + 6, min(x, x0 + w - 1)] = 0
+        x = int(round(x0 + (tick / period * n_t + 0.5) * sx))
+        if x > x0 + w - 1:
+            continue
+        base[y0 + h:y0 + h + 6, x] = 0
         _text(base, text, (x, y0 + h + 20), scale=0.42, align="centre")
     _text(base, "time since minimum volume (ms)", (x0 + w // 2, y0 + h + 44), scale=0.45,
           align="centre")

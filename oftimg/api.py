@@ -240,12 +240,13 @@ def _n_workers(executor) -> int:
 
 
 def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: float,
-                      quiet: bool = True, executor=None, progress=None,
+                      quiet: bool = True, executor=None, progress=None, stage=None,
                       results_at: Path | None = None, figures: bool = True) -> dict:
     """One validated dataset end to end: its results into ``folder`` (which
     exists); returns its summary, which records the warnings of the analysis
     (``warnings``, raised again too). ``progress``: see :func:`analyse_dataset`;
     without it, a bar over the frames that then names the stages still to come.
+    ``stage(text)``: called as each stage after the frames begins (with ``progress``).
     ``results_at``: where the results will be read from (``--out/<name>``; default
     ``folder``), so that the provenance gives the dataset's path from there too.
     ``figures=False``: no figures or videos."""
@@ -257,12 +258,13 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
     if progress is None:
         bar = Progress(ds.n_frames, ds.meta.name, quiet=quiet)
         progress = FramePasses(bar, FRAME_PASSES)
+        stage = bar.note
+    stage = stage or (lambda text: None)
     early = None
 
     def aligned(arrays, grids):
         nonlocal early
-        if bar is not None:
-            bar.note("fields, maps, shape modes")
+        stage("fields, maps, shape modes")
         if executor is not None and figures:  # the workers render while this process goes on
             early = start_videos(arrays, grids, fps=fps, executor=executor, kinds=EARLY_VIDEOS)
 
@@ -281,8 +283,7 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
                 summary["provenance"]["dataset"]["path"], Path(results_at or folder).resolve())
             summary["warnings"] = raised
             summary["validation"] = report
-            if bar is not None:
-                bar.note("figures, videos" if figures else "files")
+            stage("figures, videos" if figures else "files")
             write_dataset_results(folder, result, fps=fps, executor=executor, early_videos=early,
                                   started=started, figures=figures)
     finally:
@@ -330,8 +331,10 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
     Returns the summary, the files ``{path relative to the dataset's folder:
     bytes}`` (so that a cluster worker need not see the output folder) and the
     warnings raised, each once, for the caller to raise again. ``frames_done``:
-    a queue that gets a 1 for each frame of each per-frame pass and, once the
-    files are made, :data:`TAIL_PASSES` x the frames for them; or None.
+    a queue that gets a 1 for each frame of each per-frame pass and
+    :data:`TAIL_PASSES` x the frames for the rest (a third as the files begin),
+    and ``(name, stage)`` as each stage begins (``(name, None)`` at the end), for
+    the bar to say what the workers are doing; or None.
     ``results_at``, ``figures``: as :func:`analyse_and_write` has them. ``vector_suffixes``: the
     figures' vector formats, the caller's
     :func:`~oftimg.output.style.vector_formats` (a worker does not share it), or
@@ -350,10 +353,21 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
         folder = Path(tmp) / ds.meta.name
         folder.mkdir()
         report_frames = _Reports(frames_done)
-        progress = None if frames_done is None else lambda: report_frames.put(1)
+        progress = stage = None
+        tail = _tail_frames(ds.n_frames)
+        if frames_done is not None:
+            steps = iter((0, tail // 3))       # the fields, then the files: a third of the tail
+
+            def progress():
+                report_frames.put(1)
+
+            def stage(text):
+                report_frames.put(next(steps, 0))
+                report_frames.put((ds.meta.name, text))
         summary = analyse_and_write(ds, report, folder, opts, fps=fps, progress=progress,
-                                    results_at=results_at, figures=figures)
-        report_frames.put(_tail_frames(ds.n_frames))
+                                    stage=stage, results_at=results_at, figures=figures)
+        report_frames.put(tail - tail // 3)
+        report_frames.put((ds.meta.name, None))
         files = {p.relative_to(folder).as_posix(): p.read_bytes()
                  for p in sorted(folder.rglob("*")) if p.is_file()}
     raised = list({(type(w.message), str(w.message)): w.message for w in caught}.values())
@@ -457,23 +471,41 @@ class _Reports:
     def __init__(self, queue):
         self.queue = queue
 
-    def put(self, n: int) -> None:
+    def put(self, report) -> None:
         if self.queue is None:
             return
         try:
-            self.queue.put(n)
+            self.queue.put(report)
         except (OSError, EOFError):                 # BrokenPipe, ConnectionRefused, ...
             self.queue = None
 
 
 def _drain(queue, bar: Progress) -> None:
-    """Advance ``bar`` by each report on ``queue`` until None, or until the queue is
-    gone (its manager killed): the bar then stops, the run goes on."""
+    """Take each report on ``queue`` (:func:`_show_report`) until None, or until the
+    queue is gone (its manager killed): the bar then stops, the run goes on."""
+    running = {}
     try:
-        for n in iter(queue.get, None):
-            bar.advance(n)
+        for report in iter(queue.get, None):
+            _show_report(report, bar, running)
     except (OSError, EOFError):
         pass
+
+
+def _show_report(report, bar: Progress, running: dict) -> None:
+    """One report of :func:`embryo_task`'s: steps done advance ``bar``; a dataset's
+    stage, ``(name, text)``, is shown with the others' under way (``running``, name:
+    stage, kept between reports), so that a bar waiting on the files of two embryos
+    says so instead of looking stuck."""
+    if not isinstance(report, (tuple, list)):
+        bar.advance(report)
+        return
+    name, text = report
+    if text is None:
+        running.pop(name, None)
+    else:
+        running[name] = text
+    if running:
+        bar.note("; ".join(f"{n}: {t}" for n, t in running.items()))
 
 
 @contextlib.contextmanager
@@ -487,7 +519,8 @@ def _frame_counter(executor, bar: Progress):
     client = getattr(executor, "_client", None)  # Dask's ClientExecutor
     if client is not None:
         topic = f"oftimg-frames-{uuid.uuid4().hex}"
-        client.subscribe_topic(topic, lambda event: bar.advance(event[1]))
+        running = {}
+        client.subscribe_topic(topic, lambda event: _show_report(event[1], bar, running))
         try:
             yield _DaskTopic(topic)
             deadline = time.time() + 2.0       # events may trail the tasks' results
@@ -517,10 +550,10 @@ class _DaskTopic:
     def __init__(self, topic: str):
         self.topic = topic
 
-    def put(self, n: int) -> None:
+    def put(self, report) -> None:
         from distributed import get_worker
 
-        get_worker().log_event(self.topic, n)
+        get_worker().log_event(self.topic, report)
 
 
 def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,

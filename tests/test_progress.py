@@ -78,3 +78,35 @@ def test_passes_over_the_frames_count_the_frames_once_each_pass():
         step()
     assert bar.n == bar.total == 48
     bar.close()
+
+
+def test_by_embryo_the_bar_says_what_each_worker_is_doing(tmp_path):
+    """A whole embryo in a worker reports its frames, then each stage by name (the bar
+    stood at 25 % for 40 s while two embryos made their files, saying nothing), and a
+    third of its tail as the files begin; the bar shows the stages of those under way."""
+    from oftimg import api
+    from oftimg.analysis.pipeline import PipelineOptions
+    from oftimg.io.dataset import load_dataset
+    from oftimg.synthetic.phantom import sample_params, write_phantom
+
+    ds = load_dataset(write_phantom(tmp_path / "e0", sample_params(
+        "normal", 0, n_frames=6, vertices_min=800, vertices_max=900), name="e0"))
+    reports = []
+    queue = type("Queue", (), {"put": lambda self, report: reports.append(report)})()
+    api.embryo_task(ds, api._validated(ds, None, True), PipelineOptions(), 30.0, queue,
+                    figures=False)
+    stages = [r for r in reports if isinstance(r, tuple)]
+    assert stages == [("e0", "fields, maps, shape modes"), ("e0", "files"), ("e0", None)]
+    steps = [r for r in reports if not isinstance(r, tuple)]
+    tail = api._tail_frames(6)
+    assert sum(steps) == 2 * 6 + tail                    # every frame of both passes, the tail
+    assert steps[reports.index(("e0", "files")) - 2] == tail // 3     # as the files begin
+
+    bar, running = Progress(100, "2 datasets", quiet=True), {}
+    for report in (5, ("e0", "figures, videos"), ("e1", "fields, maps, shape modes"),
+                   ("e0", None)):
+        api._show_report(report, bar, running)
+    assert bar.n == 5 and bar._stage == "e1: fields, maps, shape modes"
+    api._show_report(("e1", "figures, videos"), bar, running)
+    api._show_report(("e2", "fields, maps, shape modes"), bar, running)
+    assert bar._stage == "e1: figures, videos; e2: fields, maps, shape modes"

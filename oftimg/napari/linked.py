@@ -15,7 +15,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ..output.style import COLUMN_MM, MM, colour_bar, colour_scale, house_style
+from ..output.numbers import label_unit
+from ..output.style import COLUMN_MM, MM, bar_label, colour_bar, colour_scale, house_style
 
 UNIT_SUFFIXES = ("_per_mm", "_mm2", "_mm", "_ms", "_um")
 
@@ -39,7 +40,7 @@ def small_ticks(*axes) -> None:
 
 def axis_label(results, name: str) -> str:
     """``readable(name) (unit)``."""
-    unit = results.info(name).get("unit", "")
+    unit = label_unit(results.info(name).get("unit", ""))
     return f"{readable(name)} ({unit})" if unit else readable(name)
 
 
@@ -133,7 +134,7 @@ class LinkedViews:
         else:
             self.image.set_cmap(scale["cmap"])
             self.image.set_clim(scale.get("vmin", 0.0), scale.get("vmax", 1.0))
-            self.bar.set_label(axis_label(self.results, field))
+            self.bar.set_label(bar_label(self.figure, ax, axis_label(self.results, field)))
         self.set_frame(self.frame)
         if self.node is not None:
             self.pick(*self.node)

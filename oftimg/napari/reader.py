@@ -15,6 +15,7 @@ from ..mesh.strain import grid_triangles
 from ..output.export import WALLS
 from ..output.paraview import node_field_names
 from ..output.results import Results, load_results, result_folders
+from ..output.numbers import label_unit
 from ..output.style import colour_scale
 
 WALL_NAMES = {"outer": "outer wall", "inner": "inner wall", "lumen": "lumen"}
@@ -49,7 +50,7 @@ def wall_fields(results: Results, wall: str) -> list[str]:
 
 def field_label(results: Results, name: str) -> str:
     """A field's name with its unit, as a colour bar or a list names it."""
-    unit = results.info(name).get("unit", "")
+    unit = label_unit(results.info(name).get("unit", ""))
     return f"{name} ({unit})" if unit else name
 
 

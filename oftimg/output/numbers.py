@@ -93,6 +93,12 @@ def mean_sd(mean, sd, decimals: int | None = None) -> str:
             f"{with_decimals(sd / 10.0 ** scale, places)}) × {power_of_ten(scale)}")
 
 
+def label_unit(text: str) -> str:
+    """A unit as an axis or colour bar names it: :func:`unit`, and "dimensionless" for
+    a pure number ("1"), which a label never gives as "(1)"."""
+    return "dimensionless" if text == "1" else unit(text)
+
+
 def unit(text: str) -> str:
     """A unit typeset: ``mm^3`` -> ``mm³``, ``mm^2/ms`` -> ``mm²/ms``, ``um`` ->
     ``µm``, ``1/mm`` unchanged; "" for a pure number ("1")."""

@@ -112,17 +112,21 @@ def colour_bar(fig, image, ax, label: str, *, signed: bool = False):
     """A colour bar of ``image`` beside ``ax``, labelled with the quantity and its unit,
     and for a diverging scale where 0 is."""
     bar = fig.colorbar(image, ax=ax, shrink=0.9)
-    # the label no longer than the bar: broken into lines by the axes' height (the bar's
-    # length, give or take the layout still to come)
+    bar.set_label(bar_label(fig, ax, label + ("; 0 white" if signed else "")))
+    bar.outline.set_linewidth(0.5)
+    return bar
+
+
+def bar_label(fig, ax, label: str) -> str:
+    """A colour bar's ``label`` broken into lines no longer than the bar beside ``ax``
+    (the axes' height, give or take the layout still to come)."""
     from matplotlib.transforms import Bbox
 
     beside = Bbox.union([a.get_position() for a in np.ravel(ax)])      # one axes or several
     bar_mm = 0.8 * 0.9 * beside.height * fig.get_size_inches()[1] / MM
     size = matplotlib.rcParams["axes.labelsize"]
     size = size if isinstance(size, (int, float)) else 8.0
-    bar.set_label(wrapped(label + ("; 0 white" if signed else ""), bar_mm, size, shortest=10))
-    bar.outline.set_linewidth(0.5)
-    return bar
+    return wrapped(label, bar_mm, size, shortest=10)
 
 
 def nothing_to_show(ax, why: str, width_mm: float = COLUMN_MM) -> None:

@@ -281,6 +281,12 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+# the demo's phantoms warn on purpose: what a newcomer reads after their warnings
+DEMO_WARNINGS_NOTE = ("the warnings above are the phantoms' own, made on purpose (a band that "
+                      "barely moves, meshes remade each frame, groups of different noise); "
+                      "docs/getting-started.md, 'The demo's warnings', says what each means")
+
+
 def _print_report(report: dict) -> None:
     print(f"dataset {report['name']} ({report['path']}): {report['n_frames']} frames, "
           f"inlet at ({', '.join(f'{round(x, 3) + 0.0:.3f}' for x in report['inlet_mm'])}) mm "
@@ -456,6 +462,8 @@ def _command(args) -> int:
         print(f"demo data: {out / 'data'}\nresults: {out / 'results'}\n"
               f"cohort table: {out / 'results' / 'cohort.csv'}\n"
               f"{_report_line(out / 'results')}")
+        if not args.quiet:
+            print(DEMO_WARNINGS_NOTE)
     elif args.command == "phantom":
         extra = {"noise_mm": args.noise_mm, "expand_change": args.expand_change}
         if args.vertices:

@@ -340,3 +340,22 @@ def test_ridge_plot_rings_the_rows_bridged_for_the_speeds(tmp_path):
     assert np.allclose(dashed[0].get_ydata(), ridge[[21, 28]])
     assert dashed[0].get_zorder() > max(line.get_zorder() for line in ax.get_lines()
                                         if line is not dashed[0])   # over the fit: seen
+
+
+def test_a_maps_blank_cells_are_grey_and_named(tmp_path, monkeypatch):
+    """Cells without a value (tissue slid out of view) are grey and in the legend: they
+    were white, with no legend entry, beside docs saying they had the end row's values."""
+    drawn = []
+    monkeypatch.setattr(figures, "save", lambda fig, path: drawn.append(fig) or path)
+    arrays, _, _ = fixed_map()
+    thickness = np.full(arrays["area_outer_mm2"].shape, 30.0)
+    thickness[-3:, 5:9] = np.nan
+    figures.area_map(thickness, arrays["s_mm"], arrays["t_ms"], tmp_path / "t.png",
+                     label="wall thickness (µm)", blank="no value: tissue out of view")
+    figures.area_map(arrays["area_outer_mm2"], arrays["s_mm"], arrays["t_ms"], tmp_path / "a.png")
+    labels = [[t.get_text() for t in fig.legends[0].get_texts()] if fig.legends else []
+              for fig in drawn]
+    assert "no value: tissue out of view" in labels[0]
+    assert not any("no value" in text for text in labels[1])          # none blank: no entry
+    image = drawn[0].axes[0].images[0]
+    assert image.get_cmap().get_bad()[:3] == pytest.approx((0.82, 0.82, 0.82))

@@ -195,6 +195,7 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
                                     folder / f"{layer}_thickness_map.png",
                                     ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
                                     label=f"{layer} thickness, mean around the tube (µm)",
+                                    blank="no value: tissue out of view",
                                     title=f"{name}: {what} thickness, "
                                           f"{field_grid_note(summary)} (dots: maximum "
                                           "outer area)"))
@@ -202,6 +203,7 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
 
 
 # ------------------------------------------------------------------ (v, t) maps
+BLANK_GREY = "0.82"     # a map's cells without a value: grey, named in the legend
 def _map_extent(s_mm, t_ms):
     dt = t_ms[1] - t_ms[0] if len(t_ms) > 1 else 1.0
     return [t_ms[0] - dt / 2, t_ms[-1] + dt / 2, s_mm[0], s_mm[-1]]
@@ -210,15 +212,20 @@ def _map_extent(s_mm, t_ms):
 @house_style
 def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Path, *,
              ridge_t_ms=None, crossings_75_ms=None, sigma_ms=None, title: str = "",
-             label: str = "cross-sectional area (mm$^2$)", cmap: str = SEQUENTIAL) -> Path:
+             label: str = "cross-sectional area (mm$^2$)", cmap: str = SEQUENTIAL,
+             blank: str = "no value") -> Path:
     """The paper's Fig. 'area to line' A: area (or another (v, t) map, ``label``) as
     colour, v up (inlet at the bottom), t to the right, with the ridge (line), 75 %
     crossings (x) and one-sigma times (*); a sequential colour map (``cmap``) with its
-    bar labelled ``label`` (quantity and unit)."""
+    bar labelled ``label`` (quantity and unit). Cells without a value (NaN) grey, in
+    the legend as ``blank``."""
     period = t_ms[-1] + (t_ms[1] - t_ms[0])
     fig, ax = new_figure(COLUMN_MM, 78)
-    im = ax.imshow(area_mm2, origin="lower", aspect="auto", cmap=cmap,
+    im = ax.imshow(area_mm2, origin="lower", aspect="auto",
+                   cmap=matplotlib.colormaps[cmap].with_extremes(bad=BLANK_GREY),
                    extent=_map_extent(s_mm, t_ms), interpolation="nearest")
+    if np.isnan(area_mm2).any():
+        ax.fill_between([], [], color=BLANK_GREY, label=blank)      # the legend's swatch
     colour_bar(fig, im, ax, label)
     if ridge_t_ms is not None:
         ax.plot(np.mod(ridge_t_ms, period), s_mm, "k.", ms=3, label="maximum area")

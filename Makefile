@@ -28,7 +28,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	$(PIP) install --quiet -e '.[test]'
-	$(PY) -c "import open3d" 2>/dev/null || { \
+	@$(PY) -c "import open3d" 2>/dev/null || { \
 	  echo "open3d cannot load libusb-1.0: installing libusb-1.0-0 with apt-get"; \
 	  $(APT_INSTALL) libusb-1.0-0 $(APT_DONE); }
 	$(PY) -c "import open3d"
@@ -42,13 +42,13 @@ QT_XCB_LIBS = libxcb-cursor0 libxkbcommon-x11-0 libxcb-icccm4 libxcb-image0 libx
   libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xinerama0 libxcb-xkb1
 
 test: $(STAMP)
-	command -v chromium >/dev/null || { \
+	@command -v chromium >/dev/null || { \
 	  echo "the report test needs a headless browser: installing chromium with apt-get"; \
 	  $(APT_INSTALL) chromium $(APT_DONE); }
-	$(PY) -c "from qtpy import QtWidgets" 2>/dev/null || { \
+	@$(PY) -c "from qtpy import QtWidgets" 2>/dev/null || { \
 	  echo "Qt (the napari widget's tests) cannot load its system libraries: installing them with apt-get"; \
 	  $(APT_INSTALL) libgl1 libegl1 libxkbcommon0 libfontconfig1 libdbus-1-3 $(APT_DONE); }
-	command -v xvfb-run >/dev/null || { \
+	@command -v xvfb-run >/dev/null || { \
 	  echo "napari's window tests need a virtual screen: installing xvfb with apt-get"; \
 	  $(APT_INSTALL) xvfb xauth $(QT_XCB_LIBS) $(APT_DONE); }
 	xvfb-run -a -s "-screen 0 1600x1000x24" $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile

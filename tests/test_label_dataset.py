@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from oftimg.cli import main
-from oftimg.errors import OftimgWarning
+from oftimg.errors import DatasetError, OftimgWarning
 from oftimg.io.dataset import load_dataset, validate_dataset
 from oftimg.io.label_dataset import load_label_dataset, mesh_frame
 from oftimg.io.labelfile import read_volume
@@ -57,8 +57,9 @@ def run_fails(capsys, args, out):
 
 def test_formats_read_back(label_phantom, tmp_path):
     """The same frames as per-frame TIFF, one 4-D ImageJ TIFF with its spacing,
-    per-frame NIfTI (spacing in its header, axes (x, y, z)), .npy, and zarr: each
-    read back voxel for voxel, with its voxel size."""
+    per-frame NIfTI (spacing in its header, axes (x, y, z)), .npy, zarr, and OME-TIFF
+    (4-D t-major and z-major, and per frame, as tifffile's OME writer makes them):
+    each read back voxel for voxel, with its voxel size."""
     import nibabel
     import tifffile
     import zarr
@@ -93,7 +94,23 @@ def test_formats_read_back(label_phantom, tmp_path):
     store = dataset("zarr")
     zarr.save_array(str(store / "labels" / "labels.zarr"), np.stack(volumes))
     (store / "meta.json").write_text(json.dumps({**meta, "voxel_size": list(COARSE_UM)}))
-    for folder in (stack, nifti, npy, store):
+    # OME-TIFF as Bio-Formats and Fiji write it: the voxel size in its OME-XML (each
+    # axis in its unit), the planes in the order its DimensionOrder gives
+    physical = {f"PhysicalSize{a}": d for a, d in zip("XYZ", COARSE_UM)}
+    ome = dataset("ome")
+    tifffile.imwrite(ome / "labels" / "labels.ome.tif", np.stack(volumes), ome=True,
+                     metadata={"axes": "TZYX", **physical, **{f"PhysicalSize{a}Unit": "µm"
+                                                             for a in "XYZ"}})
+    z_major = dataset("ome_z_major")
+    tifffile.imwrite(z_major / "labels" / "labels.ome.tif",
+                     np.stack(volumes).transpose(1, 0, 2, 3), ome=True,
+                     metadata={"axes": "ZTYX", **physical})               # µm: OME's default
+    per_frame = dataset("ome_per_frame")
+    for t, v in enumerate(volumes):
+        tifffile.imwrite(per_frame / "labels" / f"t{t}.ome.tif", v, ome=True, metadata={
+            "axes": "ZYX", **{k: d / 1000 for k, d in physical.items()},
+            **{f"PhysicalSize{a}Unit": "mm" for a in "XYZ"}})
+    for folder in (stack, nifti, npy, store, ome, z_major, per_frame):
         read = load_label_dataset(folder)
         assert read.n_frames == 3 and read.shape == lds.shape, folder.name
         assert read.voxel_size == pytest.approx(COARSE_UM), folder.name
@@ -429,3 +446,24 @@ def test_a_bridge_across_the_lumen_in_one_frame_is_mended_and_said(label_phantom
     assert [(r["frame"], r["wall"]) for r in summary["provenance"]["meshing"]["label_repairs"]
             ] == [(2, "lumen")]
     assert "mended the topology of 1 wall mask" in (page / "index.html").read_text()
+
+
+def test_an_ome_tiff_with_channels_or_an_odd_unit_is_named(tmp_path):
+    """An OME-TIFF of two channels is not a label series, and a voxel size in a unit
+    that is no length is not taken: one line each, naming the file."""
+    import tifffile
+
+    from oftimg.io.labelfile import LabelSource, read_header
+
+    two = tmp_path / "two.ome.tif"
+    tifffile.imwrite(two, np.zeros((2, 3, 2, 8, 8), np.uint8), ome=True,
+                     metadata={"axes": "TCZYX"})
+    with pytest.raises(DatasetError, match=r"two.ome.tif: has channels \(axes TCZYX\)"):
+        read_header(LabelSource(str(two), 0))
+    odd = tmp_path / "odd.ome.tif"
+    tifffile.imwrite(odd, np.zeros((3, 8, 8), np.uint8), ome=True,
+                     metadata={"axes": "ZYX", "PhysicalSizeX": 1.0, "PhysicalSizeXUnit": "s",
+                               "PhysicalSizeY": 1.0, "PhysicalSizeZ": 1.0})
+    with pytest.raises(DatasetError, match="odd.ome.tif: OME PhysicalSizeXUnit 's' is not a "
+                                           "length"):
+        read_header(LabelSource(str(odd)))

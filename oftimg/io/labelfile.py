@@ -1,9 +1,10 @@
 """Label volume files: one frame's volume read as an array ``(z, y, x)``, and the
 voxel size the file itself carries.
 
-Formats: one 3-D file per frame (TIFF, NIfTI through nibabel, ``.npy``), or one
-4-D file for the whole series (``labels.tif`` with axes (t, z, y, x), as ImageJ
-writes a hyperstack, or a ``labels.zarr`` array). Headers are read without the
+Formats: one 3-D file per frame (TIFF or OME-TIFF, NIfTI through nibabel, ``.npy``),
+or one 4-D file for the whole series (``labels.tif`` with axes (t, z, y, x), as ImageJ
+writes a hyperstack; ``labels.ome.tif``, its axes and voxel size from its OME-XML; or a
+``labels.zarr`` array). Headers are read without the
 voxels, so that a whole series is checked before any frame is meshed; a frame's
 voxels are read when it is meshed (a TIFF page range, a memory map, a zarr chunk),
 so a worker holds one volume at a time.
@@ -21,10 +22,11 @@ from ..errors import DatasetError
 from .safefile import file_status
 
 PER_FRAME_SUFFIXES = (".tif", ".tiff", ".nii", ".nii.gz", ".npy")
-SERIES_NAMES = ("labels.tif", "labels.tiff", "labels.zarr")
+SERIES_NAMES = ("labels.tif", "labels.tiff", "labels.ome.tif", "labels.ome.tiff", "labels.zarr")
 # length units as TIFF (ImageJ) and NIfTI headers spell them, in mm
 HEADER_UNITS_MM = {"mm": 1.0, "millimeter": 1.0, "um": 1e-3, "micron": 1e-3, "µm": 1e-3,
-                   "\u00b5m": 1e-3, "microns": 1e-3, "meter": 1e3, "m": 1e3}
+                   "\u00b5m": 1e-3, "\u03bcm": 1e-3, "microns": 1e-3, "micrometer": 1e-3,
+                   "nm": 1e-6, "meter": 1e3, "m": 1e3}
 
 
 @dataclass(frozen=True)
@@ -57,7 +59,8 @@ def label_suffix(path: Path) -> str:
 def series_names(folder: Path) -> tuple[str, ...]:
     """The names a 4-D file may have in ``folder``: ``labels.tif`` ..., or the
     folder's own name (``intensity/intensity.zarr``)."""
-    own = tuple(folder.name + suffix for suffix in (".tif", ".tiff", ".zarr"))
+    own = tuple(folder.name + suffix for suffix in (".tif", ".tiff", ".ome.tif", ".ome.tiff",
+                                                    ".zarr"))
     return tuple(dict.fromkeys(SERIES_NAMES + own))
 
 
@@ -176,10 +179,8 @@ def _read_volume(source: LabelSource, path: Path) -> np.ndarray:
             return np.asarray(_zarr(path)[source.index])
         import tifffile
         with tifffile.TiffFile(path) as tif:
-            n_z = tif.series[0].shape[1]
-            first = source.index * n_z
-            return tif.asarray(key=range(first, first + n_z)).reshape(
-                tif.series[0].shape[1:])
+            shape, pages = _tiff_series_layout(tif)
+            return tif.asarray(key=pages[source.index].tolist()).reshape(shape[1:])
     kind = label_suffix(path)
     if kind == ".npy":
         data = np.load(path, mmap_mode="r")
@@ -211,17 +212,40 @@ def _series_shape(path: Path) -> tuple[int, int, int, int]:
     else:
         import tifffile
         with tifffile.TiffFile(path) as tif:
-            series = tif.series[0]
-            shape, axes = series.shape, series.axes
-            if "C" in axes:
-                raise DatasetError(f"{path}: has channels (axes {axes}); a label series has "
-                                   "axes (t, z, y, x)")
-            if len(shape) == 3 and tif.is_imagej:        # a single frame's hyperstack
-                shape = (1, *shape)
+            shape = _tiff_series_layout(tif)[0]
     if len(shape) != 4:
         raise DatasetError(f"{path}: a {len(shape)}-D array of shape {tuple(shape)}; "
                            "the series file is 4-D, axes (t, z, y, x)")
     return tuple(int(n) for n in shape)
+
+
+def _tiff_series_layout(tif) -> tuple[tuple[int, ...], np.ndarray]:
+    """A 4-D TIFF's shape ``(t, z, y, x)`` and its pages, ``(t, z)`` page indices.
+
+    An OME-TIFF's axes come from its metadata (Fiji, Bio-Formats and microscope
+    software may store the planes z-major, ``DimensionOrder`` XYTZC): its pages are
+    taken in that order, never guessed from the shape. An ImageJ hyperstack or a
+    plain TIFF is (t, z, y, x) as stored; an ImageJ file of one frame, (z, y, x)."""
+    series = tif.series[0]
+    shape, axes = tuple(int(n) for n in series.shape), series.axes
+    path = tif.filehandle.path
+    if "C" in axes or "S" in axes:
+        raise DatasetError(f"{path}: has channels (axes {axes}); a label series has "
+                           "axes (t, z, y, x)")
+    if tif.is_ome and len(shape) == 4:
+        if sorted(axes) != sorted("TZYX") or axes[-2:] != "YX":
+            raise DatasetError(f"{path}: OME axes {axes}; a series is a time series of "
+                               "3-D volumes, axes T, Z, Y, X (in any order of T and Z)")
+        lead = axes[:2]
+        pages = np.arange(shape[0] * shape[1]).reshape(shape[:2])
+        if lead == "ZT":                                  # z-major planes
+            pages, shape = pages.T, (shape[1], shape[0], *shape[2:])
+        return shape, pages
+    if len(shape) == 3 and (tif.is_imagej or tif.is_ome):   # a single frame
+        shape = (1, *shape)
+    if len(shape) != 4:
+        return shape, np.zeros((0, 0), int)           # refused by the caller, named there
+    return shape, np.arange(shape[0] * shape[1]).reshape(shape[:2])
 
 
 def _series_dtype(path: Path) -> np.dtype:
@@ -241,8 +265,12 @@ def _series_voxel(path: Path):
 
 
 def _tiff_voxel(tif) -> tuple[float, float, float] | None:
-    """An ImageJ TIFF's voxel size in mm (x and y from the resolution tags, z from
-    its ``spacing``), or None for another TIFF (its resolution is a print setting)."""
+    """A TIFF's voxel size in mm: an OME-TIFF's ``PhysicalSizeX/Y/Z`` (each in its
+    unit, micrometres where none is given, as the OME schema has it); an ImageJ
+    TIFF's (x and y from the resolution tags, z from its ``spacing``); else None
+    (another TIFF's resolution is a print setting)."""
+    if tif.is_ome:
+        return _ome_voxel(tif)
     meta = tif.imagej_metadata
     if not meta or "spacing" not in meta:
         return None
@@ -253,6 +281,32 @@ def _tiff_voxel(tif) -> tuple[float, float, float] | None:
     tags = tif.pages[0].tags
     dx, dy = (tags[name].value[1] / tags[name].value[0] for name in ("XResolution", "YResolution"))
     return (dx * unit, dy * unit, float(meta["spacing"]) * unit)
+
+
+def _ome_voxel(tif) -> tuple[float, float, float] | None:
+    """An OME-TIFF's PhysicalSizeX, Y and Z in mm, or None unless all three are given."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.fromstring(tif.ome_metadata)
+    except ET.ParseError as exc:
+        raise DatasetError(f"{tif.filehandle.path}: its OME-XML cannot be read ({exc})") \
+            from None
+    pixels = next((e for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "Pixels"), None)
+    if pixels is None:
+        return None
+    sizes = []
+    for axis in "XYZ":
+        value = pixels.get(f"PhysicalSize{axis}")
+        if value is None:
+            return None
+        unit = pixels.get(f"PhysicalSize{axis}Unit", "µm")
+        scale = HEADER_UNITS_MM.get(unit.strip().lower())
+        if scale is None:
+            raise DatasetError(f"{tif.filehandle.path}: OME PhysicalSize{axis}Unit {unit!r} "
+                               f"is not a length oftimg knows ({', '.join(HEADER_UNITS_MM)})")
+        sizes.append(float(value) * scale)
+    return tuple(sizes)
 
 
 def _zarr(path: Path):

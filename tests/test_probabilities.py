@@ -102,3 +102,96 @@ def test_bad_maps_are_one_line_naming_the_file(maps, tmp_path, capsys, problem):
     assert len(err) == 1 and err[0].startswith(f"oftimg: error: {where}"), err
     assert what in err[0], err[0]
     assert not out.exists()
+
+
+AXISTAGS = {key: {"key": key, "typeFlags": flag, "resolution": 0, "description": ""}
+            for key, flag in (("t", 8), ("z", 2), ("y", 2), ("x", 2), ("c", 1))}
+
+
+def ilastik_export(maps, dst, *, series: bool) -> None:
+    """``maps`` as ilastik's Pixel Classification exports them (h5py, dataset
+    ``exported_data``, float32, its ``axistags`` as vigra writes them, channel 0 the
+    background), the classes in another order than oftimg's layers (lumen 1,
+    myocardium 2, jelly 3): one 4-D ``probabilities.h5`` (t, z, y, x, c) or one file per
+    frame (z, y, x, c)."""
+    import h5py
+
+    lds = load_label_dataset(maps)
+    frames = [read_frame(s) for s in lds.sources]
+    stacks = [np.stack([1 - sum(f.values()), f["lumen"], f["myocardium"], f["jelly"]], axis=-1)
+              for f in frames]
+    (dst / "probabilities").mkdir(parents=True)
+    raw = json.loads((maps / "meta.json").read_text())
+    raw["classes"] = {"myocardium": 2, "jelly": 3, "lumen": 1}
+    (dst / "meta.json").write_text(json.dumps(raw))
+
+    def write(path, data, axes):
+        with h5py.File(path, "w") as f:
+            ds = f.create_dataset("exported_data", data=data.astype(np.float32),
+                                  chunks=True, compression="gzip")
+            ds.attrs["axistags"] = json.dumps({"axes": [AXISTAGS[a] for a in axes]})
+
+    if series:
+        write(dst / "probabilities" / "probabilities.h5", np.stack(stacks), "tzyxc")
+    else:
+        for t, stack in enumerate(stacks):
+            write(dst / "probabilities" / f"frame_{t}.h5", stack, "zyxc")
+
+
+@pytest.mark.parametrize("series", [True, False], ids=["one_4d_file", "a_file_per_frame"])
+def test_an_ilastik_export_reads_as_the_tiff_maps(maps, tmp_path, series):
+    """ilastik's HDF5 export, its channels named in meta.json's "classes", gives every
+    layer's map of every frame as the TIFF folders do, voxel for voxel."""
+    ilastik_export(maps, tmp_path / "pm", series=series)
+    tiffs, h5 = load_label_dataset(maps), load_label_dataset(tmp_path / "pm")
+    assert h5.kind == "probabilities" and h5.n_frames == tiffs.n_frames == 8
+    assert h5.shape == tiffs.shape and h5.voxel_size == tiffs.voxel_size
+    assert [layer for layer, _ in h5.sources[0].layers] == ["myocardium", "jelly", "lumen"]
+    for a, b in zip(tiffs.sources[::3], h5.sources[::3]):
+        fa, fb = read_frame(a), read_frame(b)
+        for layer in fa:
+            np.testing.assert_allclose(fb[layer], fa[layer], atol=1e-6, err_msg=layer)
+
+
+def test_an_ilastik_export_gives_the_tiff_maps_numbers(maps, tmp_path):
+    """The same maps as an ilastik export and as TIFF folders: the same results."""
+    ilastik_export(maps, tmp_path / "pm", series=True)
+    for source, out in ((maps, tmp_path / "tiff"), (tmp_path / "pm", tmp_path / "h5")):
+        assert main(["run", str(source), "--out", str(out), "--quiet", "--jobs", "1",
+                     "--numbers-only"]) == 0
+    a, b = (np.load(out / "pm" / "arrays.npz") for out in (tmp_path / "tiff", tmp_path / "h5"))
+    for key in ("area_outer_mm2", "area_lumen_mm2", "wall_thickness_mm",
+                "radial_curvature_outer_per_mm"):
+        np.testing.assert_allclose(b[key], a[key], rtol=1e-4, atol=1e-9, err_msg=key)
+
+
+@pytest.mark.parametrize("problem", ["no_classes", "channel_out_of_range", "bad_axistags"])
+def test_a_bad_ilastik_export_is_one_line(maps, tmp_path, capsys, problem):
+    import h5py
+
+    ilastik_export(maps, tmp_path / "pm", series=True)
+    meta = tmp_path / "pm" / "meta.json"
+    raw = json.loads(meta.read_text())
+    file = tmp_path / "pm" / "probabilities" / "probabilities.h5"
+    if problem == "no_classes":
+        del raw["classes"]
+        with h5py.File(file, "a") as f:          # 5 channels: no default numbering
+            data = f["exported_data"][...]
+            del f["exported_data"]
+            f["exported_data"] = np.concatenate([data, data[..., :1]], axis=-1)
+            f["exported_data"].attrs["axistags"] = json.dumps(
+                {"axes": [AXISTAGS[a] for a in "tzyxc"]})
+        expected = "5 channels; meta.json's \"classes\" says which is which"
+    elif problem == "channel_out_of_range":
+        raw["classes"]["lumen"] = 4
+        expected = "gives lumen channel 4; the file has channels 0-3"
+    else:
+        with h5py.File(file, "a") as f:
+            f["exported_data"].attrs["axistags"] = "not json"
+        expected = "its axistags cannot be read"
+    meta.write_text(json.dumps(raw))
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "pm"), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and expected in err[0], err
+    assert not out.exists()

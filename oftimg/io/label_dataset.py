@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -30,11 +30,11 @@ from ..mesh.topology import MeshError
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
                       read_meta, read_meta_json)
 from .intensity import IntensitySeries, load_intensity
-from .labelfile import (LabelSource, label_suffix, list_label_sources, read_header, read_volume,
-                        series_file)
+from .labelfile import (HDF5_SUFFIXES, LabelSource, hdf5_channels, label_suffix,
+                        list_label_sources, read_header, read_volume, series_file)
 from .meshfile import write_ply
 
-LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list}
+LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list, "classes": dict}
 # a probability map's stored types, and the value that means 1
 PROBABILITY_SCALE = {"float16": 1.0, "float32": 1.0, "float64": 1.0, "uint8": 255.0,
                      "uint16": 65535.0}
@@ -182,6 +182,9 @@ def _load_probabilities(path: Path) -> LabelDataset:
         raise DatasetError(f"{path}: holds both labels/ and probabilities/; keep the one to "
                            "mesh")
     layers = [layer for layer in LAYER_NAMES if (folder / layer).is_dir()]
+    exported = _hdf5_export(folder)
+    if exported and not layers:
+        return _load_hdf5_probabilities(path, folder, exported)
     if "myocardium" not in layers:
         raise DatasetError(f"{folder}: no myocardium/ folder; probabilities/ holds a folder "
                            f"per layer ({', '.join(f'{n}/' for n in LAYER_NAMES)}; myocardium/ "
@@ -206,6 +209,14 @@ def _load_probabilities(path: Path) -> LabelDataset:
                                "value)")
     n = counts["myocardium"]
     voxel = _voxel_size(folder / "myocardium", meta, raw, flat[:n], headers[:n])
+    return _probability_dataset(path, folder, meta, raw, per_layer, first, voxel)
+
+
+def _probability_dataset(path, folder, meta, raw, per_layer: dict, first, voxel) -> LabelDataset:
+    """A probabilities dataset from each layer's frames (layer -> sources), once their
+    headers are checked: nesting, ends and intensity as every label dataset has them."""
+    layers = list(per_layer)
+    n = len(per_layer["myocardium"])
     sources = tuple(ProbabilitySource(tuple((layer, per_layer[layer][t]) for layer in layers))
                     for t in range(n))
     ends = _ends(path, raw, first.shape, voxel)
@@ -214,6 +225,58 @@ def _load_probabilities(path: Path) -> LabelDataset:
     intensity = load_intensity(path, n, meta.length_unit, raw, labels_grid=(first.shape, voxel))
     return LabelDataset(path, meta, raw, sources, first.shape, voxel, label_ids, ends,
                         kind="probabilities", intensity=intensity)
+
+
+def _hdf5_export(folder: Path) -> list[Path]:
+    """The HDF5 files of an ilastik export in ``folder``: its series file
+    (``probabilities.h5``) or one file per frame; [] when there are none."""
+    series = series_file(folder)
+    if series is not None and label_suffix(series) in HDF5_SUFFIXES:
+        return [series]
+    return sorted((p for p in folder.iterdir() if label_suffix(p) in HDF5_SUFFIXES
+                   and not p.name.startswith(".")), key=lambda p: natural_key(p.name))
+
+
+def _load_hdf5_probabilities(path: Path, folder: Path, files: list[Path]) -> LabelDataset:
+    """A probabilities dataset from an HDF5 export with a channel per class (ilastik's
+    Pixel Classification, ``exported_data`` with its axistags): one 4-D series file or
+    one file per frame; meta.json's ``classes`` names the layers' channels (channel 0
+    the background), by default myocardium 1, jelly 2, lumen 3 of four channels, the
+    myocardium 1 of two."""
+    raw = read_meta_json(path, LABEL_META_KEYS)
+    meta = read_meta(path, LABEL_META_KEYS)
+    frames = (list_label_sources(folder, natural_key, "probability volumes")
+              if len(files) == 1 and files[0] == series_file(folder)
+              else [LabelSource(str(p)) for p in files])
+    channels = hdf5_channels(Path(frames[0].path))
+    classes = raw.get("classes") or {4: DEFAULT_LABEL_IDS, 2: {"myocardium": 1}}.get(channels)
+    where = f"{path / 'meta.json'}: \"classes\""
+    if classes is None:
+        raise DatasetError(f"{frames[0].path}: {channels} channels; meta.json's \"classes\" "
+                           "says which is which, e.g. {\"myocardium\": 1, \"jelly\": 2, "
+                           "\"lumen\": 3} (channel 0 the background)")
+    unknown = sorted(set(classes) - set(LAYER_NAMES))
+    if unknown or "myocardium" not in classes:
+        raise DatasetError(f"{where} names {', '.join(unknown) or 'no myocardium'}; its "
+                           f"layers are {', '.join(LAYER_NAMES)} (myocardium at least)")
+    for layer, channel in classes.items():
+        if not (isinstance(channel, int) and not isinstance(channel, bool)
+                and 0 <= channel < channels):
+            raise DatasetError(f"{where} gives {layer} channel {channel!r}; the file has "
+                               f"channels 0-{channels - 1}")
+    layers = [layer for layer in LAYER_NAMES if layer in classes]
+    per_layer = {layer: [replace(f, channel=classes[layer]) for f in frames] for layer in layers}
+    flat = [s for layer in layers for s in per_layer[layer]]
+    headers = [read_header(s) for s in flat]
+    first = _check_headers(flat, headers)
+    for source, header in zip(flat, headers):
+        if header.dtype.name not in PROBABILITY_SCALE:
+            raise DatasetError(f"{source}: {header.dtype} voxels; a probability map is float "
+                               "(values in [0, 1]), uint8 or uint16 (scaled to its largest "
+                               "value)")
+    n = len(frames)
+    voxel = _voxel_size(folder, meta, raw, flat[:n], headers[:n])
+    return _probability_dataset(path, folder, meta, raw, per_layer, first, voxel)
 
 
 def _check_headers(sources, headers):
@@ -233,7 +296,7 @@ def _check_headers(sources, headers):
 def _voxel_size(folder: Path, meta: Meta, raw: dict, sources, headers) -> tuple:
     """The voxel size in the meta's length unit: meta.json's, which each file in
     ``folder`` that carries one must agree with, or the files' own."""
-    path = folder.parent if folder.name == "labels" else folder.parent.parent
+    path = folder.parent if folder.name in ("labels", "probabilities") else folder.parent.parent
     to_unit = 1.0 / UNIT_TO_MM[meta.length_unit]
     given = meta.voxel_size
     if series_file(folder) is not None:

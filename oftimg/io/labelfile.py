@@ -21,8 +21,11 @@ import numpy as np
 from ..errors import DatasetError
 from .safefile import file_status
 
-PER_FRAME_SUFFIXES = (".tif", ".tiff", ".nii", ".nii.gz", ".npy")
-SERIES_NAMES = ("labels.tif", "labels.tiff", "labels.ome.tif", "labels.ome.tiff", "labels.zarr")
+PER_FRAME_SUFFIXES = (".tif", ".tiff", ".nii", ".nii.gz", ".npy", ".h5", ".hdf5")
+SERIES_NAMES = ("labels.tif", "labels.tiff", "labels.ome.tif", "labels.ome.tiff", "labels.zarr",
+                "labels.h5")
+HDF5_SUFFIXES = (".h5", ".hdf5")
+ILASTIK_DATASET = "exported_data"          # where ilastik's export puts its array
 # length units as TIFF (ImageJ) and NIfTI headers spell them, in mm
 HEADER_UNITS_MM = {"mm": 1.0, "millimeter": 1.0, "um": 1e-3, "micron": 1e-3, "µm": 1e-3,
                    "\u00b5m": 1e-3, "\u03bcm": 1e-3, "microns": 1e-3, "micrometer": 1e-3,
@@ -35,9 +38,12 @@ class LabelSource:
 
     path: str
     index: int | None = None
+    channel: int | None = None        # of an HDF5 export's channel axis (ilastik's classes)
 
     def __str__(self) -> str:
-        return self.path if self.index is None else f"{self.path} (frame {self.index})"
+        where = [] if self.index is None else [f"frame {self.index}"]
+        where += [] if self.channel is None else [f"channel {self.channel}"]
+        return f"{self.path} ({', '.join(where)})" if where else self.path
 
 
 @dataclass(frozen=True)
@@ -60,7 +66,7 @@ def series_names(folder: Path) -> tuple[str, ...]:
     """The names a 4-D file may have in ``folder``: ``labels.tif`` ..., or the
     folder's own name (``intensity/intensity.zarr``)."""
     own = tuple(folder.name + suffix for suffix in (".tif", ".tiff", ".ome.tif", ".ome.tiff",
-                                                    ".zarr"))
+                                                    ".zarr", ".h5", ".hdf5"))
     return tuple(dict.fromkeys(SERIES_NAMES + own))
 
 
@@ -105,10 +111,15 @@ def read_header(source: LabelSource) -> VolumeHeader:
 
 def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
     """:func:`read_header` by the file's own reader (its errors unwrapped)."""
+    kind = label_suffix(path)
+    if kind in HDF5_SUFFIXES:
+        with _hdf5(path) as data:
+            axes = hdf5_axes(data, path)
+            shape = tuple(int(data.shape[axes.index(a)]) for a in "zyx")
+            return VolumeHeader(shape, data.dtype, None)
     if source.index is not None:
         shape = _series_shape(path)
         return VolumeHeader(tuple(shape[1:]), _series_dtype(path), _series_voxel(path))
-    kind = label_suffix(path)
     if kind == ".npy":
         arr = np.load(path, mmap_mode="r")
         return VolumeHeader(_three_d(arr.shape, path), arr.dtype, None)
@@ -153,7 +164,7 @@ def _read_as(source, what: str):
 def _reader_says(exc: BaseException) -> str:
     """What a reader's exception says, as ``"tifffile says: ..."``."""
     reader = {"tifffile": "tifffile", "nibabel": "nibabel", "zarr": "zarr",
-              "numcodecs": "zarr"}.get(type(exc).__module__.split(".")[0], "the reader")
+              "numcodecs": "zarr", "h5py": "h5py"}.get(type(exc).__module__.split(".")[0], "the reader")
     return f"{reader} says: {printable(exc) or type(exc).__name__}"
 
 
@@ -174,6 +185,9 @@ def read_volume(source: LabelSource) -> np.ndarray:
 
 def _read_volume(source: LabelSource, path: Path) -> np.ndarray:
     """:func:`read_volume` by the file's own reader (its errors unwrapped)."""
+    if label_suffix(path) in HDF5_SUFFIXES:
+        with _hdf5(path) as data:
+            return _hdf5_frame(data, hdf5_axes(data, path), source)
     if source.index is not None:
         if label_suffix(path) == ".zarr":
             return np.asarray(_zarr(path)[source.index])
@@ -207,7 +221,14 @@ def _three_d(shape, path: Path) -> tuple[int, int, int]:
 
 def _series_shape(path: Path) -> tuple[int, int, int, int]:
     """``(t, z, y, x)`` of a 4-D file."""
-    if label_suffix(path) == ".zarr":
+    if label_suffix(path) in HDF5_SUFFIXES:
+        with _hdf5(path) as data:
+            axes = hdf5_axes(data, path)
+            if "t" not in axes:
+                raise DatasetError(f"{path}: axes {axes} (its axistags) have no time; the "
+                                   "series file holds every frame, axes t, z, y, x")
+            shape = tuple(int(data.shape[axes.index(a)]) for a in "tzyx")
+    elif label_suffix(path) == ".zarr":
         shape = _zarr(path).shape
     else:
         import tifffile
@@ -307,6 +328,82 @@ def _ome_voxel(tif) -> tuple[float, float, float] | None:
                                f"is not a length oftimg knows ({', '.join(HEADER_UNITS_MM)})")
         sizes.append(float(value) * scale)
     return tuple(sizes)
+
+
+@contextlib.contextmanager
+def _hdf5(path: Path):
+    """The volume array of an HDF5 file (ilastik's ``exported_data``, or the file's
+    only array), open for as long as the ``with`` lasts."""
+    try:
+        import h5py
+    except ImportError:
+        raise DatasetError(f"{path}: reading HDF5 needs h5py: pip install 'oftimg[h5]'") \
+            from None
+    with h5py.File(path, "r") as f:
+        arrays = []
+        f.visititems(lambda name, obj: arrays.append(name) if isinstance(obj, h5py.Dataset)
+                     else None)
+        name = ILASTIK_DATASET if ILASTIK_DATASET in f else (arrays[0] if len(arrays) == 1
+                                                              else None)
+        if name is None:
+            raise DatasetError(f"{path}: no '{ILASTIK_DATASET}' array (ilastik's export) and "
+                               f"{len(arrays)} others ({', '.join(arrays[:5]) or 'none'}); "
+                               "oftimg reads the file's one volume array")
+        yield f[name]
+
+
+def hdf5_axes(data, path: Path) -> str:
+    """An HDF5 array's axes, ``"tzyxc"`` or a part of it, from ilastik's ``axistags``
+    attribute (never guessed from the shape where it is given); without it, ilastik's
+    order by the number of axes (zyx, zyxc, tzyxc)."""
+    import json
+
+    tags = data.attrs.get("axistags")
+    if tags is not None:
+        try:
+            axes = "".join(a["key"] for a in json.loads(tags)["axes"]).lower()
+        except (ValueError, KeyError, TypeError) as exc:
+            raise DatasetError(f"{path}: its axistags cannot be read ({printable(exc)})") \
+                from None
+    else:
+        axes = {3: "zyx", 4: "zyxc", 5: "tzyxc"}.get(data.ndim, "")
+    if len(axes) != data.ndim or not set("zyx") <= set(axes) or not set(axes) <= set("tzyxc"):
+        raise DatasetError(f"{path}: an array of shape {tuple(data.shape)} with axes "
+                           f"{axes or 'not given'}; a volume has axes z, y, x (and t, c)")
+    return axes
+
+
+def hdf5_channels(path: Path) -> int:
+    """How many channels an HDF5 volume file has (its c axis; 1 without one)."""
+    _check_kind(path)
+    with _read_as(path, "an HDF5 volume"), _hdf5(path) as data:
+        axes = hdf5_axes(data, path)
+        return int(data.shape[axes.index("c")]) if "c" in axes else 1
+
+
+def _hdf5_frame(data, axes: str, source: LabelSource) -> np.ndarray:
+    """One frame's volume ``(z, y, x)`` of an HDF5 array with ``axes``: frame
+    ``source.index`` along t, channel ``source.channel`` along c (a label export's one
+    channel when None)."""
+    where = []
+    for axis in axes:
+        if axis == "t":
+            n_t = data.shape[axes.index("t")]
+            if source.index is None and n_t != 1:
+                raise DatasetError(f"{source.path}: {n_t} frames in a file of one frame; a "
+                                   "whole series is one file named as its folder (labels.h5)")
+            where.append(source.index or 0)
+        elif axis == "c":
+            n_c = data.shape[axes.index("c")]
+            if source.channel is None and n_c != 1:
+                raise DatasetError(f"{source.path}: {n_c} channels; a label volume has one "
+                                   "(ilastik's probabilities go in probabilities/)")
+            where.append(source.channel or 0)
+        else:
+            where.append(slice(None))
+    kept = [a for a in axes if a in "zyx"]
+    return np.ascontiguousarray(np.transpose(data[tuple(where)],
+                                             [kept.index(a) for a in "zyx"]))
 
 
 def _zarr(path: Path):

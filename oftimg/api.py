@@ -25,6 +25,7 @@ from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, che
                             staged_output, write_cohort_maps, write_dataset_results, write_json)
 from .io.dataset import (Dataset, check_enough_frames, find_datasets, load_dataset, natural_key,
                          validate_dataset, with_period)
+from .io.labelfile import describe_format
 from .io.label_dataset import (LabelDataset, is_label_dataset, label_repairs_note,
                                load_label_dataset, mesh_label_dataset)
 from .synthetic.labels import write_label_phantom
@@ -190,6 +191,13 @@ def validate_labels(path, *, quiet: bool = False, period_ms: float | None = None
     report["labels"] = {k: ds.labels["meshing"][k]
                         for k in ("shape_zyx", "voxel_size", "length_unit", "labels",
                                   "label_repairs", "kind")}
+    first = lds.sources[0]
+    first = first.layers[0][1] if hasattr(first, "layers") else first
+    described = describe_format(first)
+    carried = described.pop("file_voxel_size")
+    report["labels"] |= described | {"voxel_size_from": (
+        "meta.json, the files' own agreeing" if lds.meta.voxel_size is not None and carried
+        else "meta.json" if lds.meta.voxel_size is not None else "the files' headers")}
     return report
 
 

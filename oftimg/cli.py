@@ -298,6 +298,9 @@ def _print_report(report: dict) -> None:
               f"{tuple(lab['shape_zyx'])}, voxel "
               f"{' x '.join(f'{d:g}' for d in lab['voxel_size'])} {lab['length_unit']}, "
               f"{'layers' if soft else 'labels'} {lab['labels']}: meshed as a run meshes them")
+        if "format" in lab:
+            print(f"  {lab['format']}; axes {lab['axes']}; voxel size from "
+                  f"{lab['voxel_size_from']}")
         for r in lab["label_repairs"]:
             name = f"{'probabilities/*' if soft else 'labels'}/{Path(r['file']).name} {r['wall']}"
             if "filled_from" in r:

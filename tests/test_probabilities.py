@@ -195,3 +195,14 @@ def test_a_bad_ilastik_export_is_one_line(maps, tmp_path, capsys, problem):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and expected in err[0], err
     assert not out.exists()
+
+
+def test_validate_says_each_inputs_format_axes_and_voxel_size(maps, tmp_path, capsys):
+    """Per input, the format, the axes and where they and the voxel size came from."""
+    ilastik_export(maps, tmp_path / "pm", series=True)
+    assert main(["validate", str(tmp_path / "pm")]) == 0
+    out = capsys.readouterr().out
+    assert ("HDF5 (exported_data), one file for every frame; axes tzyxc (its axistags); "
+            "voxel size from meta.json") in out
+    assert main(["validate", str(maps)]) == 0
+    assert "TIFF, one file per frame; axes zyx" in capsys.readouterr().out

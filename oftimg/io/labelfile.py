@@ -133,6 +133,44 @@ def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
         return VolumeHeader(_three_d(series.shape, path), series.dtype, _tiff_voxel(tif))
 
 
+def describe_format(source: LabelSource) -> dict:
+    """What a frame's file is, for a person checking their input: ``format`` (its
+    kind, one file per frame or one for the series), ``axes`` as the file gives them
+    (or as oftimg reads a format that gives none) and ``voxel_size`` (whether the
+    file carries one)."""
+    path = Path(source.path)
+    kind = label_suffix(path)
+    series = source.index is not None
+    where = "one file for every frame" if series else "one file per frame"
+    carries = read_header(source).voxel_size_mm is not None
+    if kind in HDF5_SUFFIXES:
+        with _read_as(source, "an HDF5 volume"), _hdf5(path) as data:
+            name, axes = data.name.lstrip("/"), hdf5_axes(data, path)
+            tagged = "axistags" in data.attrs
+        return {"format": f"HDF5 ({name}), {where}",
+                "axes": f"{axes} ({'its axistags' if tagged else 'ilastik order, no axistags'})",
+                "file_voxel_size": False}
+    if kind == ".zarr":
+        return {"format": f"zarr, {where}", "axes": "tzyx (as oftimg reads zarr)",
+                "file_voxel_size": False}
+    if kind in (".nii", ".nii.gz"):
+        return {"format": f"NIfTI, {where}", "axes": "xyz (its header), turned to zyx",
+                "file_voxel_size": carries}
+    if kind == ".npy":
+        return {"format": f"npy, {where}", "axes": "zyx (as oftimg reads npy)",
+                "file_voxel_size": False}
+    import tifffile
+    with _read_as(source, "a TIFF"), tifffile.TiffFile(path) as tif:
+        name = "OME-TIFF" if tif.is_ome else "ImageJ TIFF" if tif.is_imagej else "TIFF"
+        if tif.is_ome or tif.is_imagej:
+            axes = tif.series[0].axes.lower()
+            said = "its OME-XML" if tif.is_ome else "its ImageJ metadata"
+        else:                                   # tifffile's letters say nothing: Q, I
+            axes, said = ("tzyx" if series else "zyx"), "as oftimg reads a plain TIFF"
+    return {"format": f"{name}, {where}", "axes": f"{axes} ({said})",
+            "file_voxel_size": carries}
+
+
 def _check_kind(path: Path) -> None:
     """A zarr store is a folder; every other label file a regular file."""
     if label_suffix(path) == ".zarr":

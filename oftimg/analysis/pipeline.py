@@ -22,6 +22,7 @@ from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, sm
                                smoothing_kernel)
 from ..image.pca import contour_pca
 from .pullback import PullbackOptions, normal_shell, pullback, refine_factors, refined
+from .texture_tracking import texture_match_note
 from .tracking import follow, track_grid
 from ..mesh.clip import clip_positions, clipped_grids
 from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
@@ -469,6 +470,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         tick = time.perf_counter()
         if tracking == "texture":
             coords, tracked = _texture_pathlines(pullbacks, grid["outer"].shape[:2])
+            note = texture_match_note(tracked["forward_backward_gap_steps"]["median"])
+            if note:
+                warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
             arrays["grid_in_view"] = (coords[..., 1] >= 0) & (coords[..., 1] <= grid[
                 "outer"].shape[1] - 1)
         else:

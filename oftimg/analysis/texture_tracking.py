@@ -23,6 +23,11 @@ NORMALISE_PX = 6.0          # the local mean and contrast taken out: Gaussian si
 CLIP_SD = 3.0               # normalised intensities beyond this many local SDs clipped
 SMOOTH_STEPS = 1.0          # the displacements' smoothing over nodes (Gaussian sigma, steps)
 INVERSE_STEPS = 5           # fixed-point steps inverting the flow back to frame 0
+# the forward-backward gap (median, grid steps) above which a run warns: over 35 of the
+# accuracy zoo's labels-with-intensity draws the grid's drift from the tissue rose with it
+# (along the tube about 2 x the gap in % of the length: under 0.3 % below 0.15 steps,
+# 0.23-1.9 % above; docs/accuracy.md)
+GAP_WARN_STEPS = 0.15
 
 
 def normalised(image: np.ndarray) -> np.ndarray:
@@ -139,3 +144,18 @@ def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int], n_u: int,
                     "forward_backward_gap_steps": {"median": float(np.median(gap)),
                                                    "max": float(gap.max())},
                     "in_view": float(in_view.mean())}
+
+
+def texture_match_note(gap_median_steps: float) -> str | None:
+    """A warning when the texture matched poorly from frame to frame: the median gap
+    between the forward and backward estimates over :data:`GAP_WARN_STEPS` grid steps
+    (on the zoo, where the grid drifted from the tissue); else None. Faint texture
+    under strong speckle, or texture finer than the voxels, does it."""
+    if not gap_median_steps > GAP_WARN_STEPS:
+        return None
+    return (f"the texture matched poorly from frame to frame (forward-backward gap: median "
+            f"{gap_median_steps:.2g} grid steps, over {GAP_WARN_STEPS:g}): on the accuracy "
+            "zoo's draws such a gap came with the tracked grid drifting 0.2-1.9 % of the "
+            "tube's length from the tissue (under 0.3 % below it), as when the texture is "
+            "fainter than its speckle or finer than the voxels; look at pullback_outer.png, "
+            "or compare with --tracking material")

@@ -462,11 +462,11 @@ def _command(args) -> int:
     elif args.command == "demo":
         out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
                        jobs=args.jobs)
+        if not args.quiet:                     # before the lines naming what it wrote
+            print(DEMO_WARNINGS_NOTE)
         print(f"demo data: {out / 'data'}\nresults: {out / 'results'}\n"
               f"cohort table: {out / 'results' / 'cohort.csv'}\n"
               f"{_report_line(out / 'results')}")
-        if not args.quiet:
-            print(DEMO_WARNINGS_NOTE)
     elif args.command == "phantom":
         extra = {"noise_mm": args.noise_mm, "expand_change": args.expand_change}
         if args.vertices:

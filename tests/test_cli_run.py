@@ -239,6 +239,7 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     assert any(re.search(r"normal_0: grids and sections \(pass 2 of 2\): \d+/12 frames "
                          r"\(\d+ %\)", line) for line in lines)        # 12 frames, not 24
     assert said.out.splitlines()[-1].startswith(f"report: {out / 'results' / 'index.html'}")
+    assert "the warnings above are the phantoms' own, made on purpose" in said.out
     assert (out / "results" / "index.html").is_file()
     run_info = json.loads((out / "results" / "run.json").read_text())
     assert sorted(run_info["inputs"]) == sorted(str(p) for p in (out / "data").iterdir())

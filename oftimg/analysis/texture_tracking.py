@@ -23,10 +23,10 @@ NORMALISE_PX = 6.0          # the local mean and contrast taken out: Gaussian si
 CLIP_SD = 3.0               # normalised intensities beyond this many local SDs clipped
 SMOOTH_STEPS = 1.0          # the displacements' smoothing over nodes (Gaussian sigma, steps)
 INVERSE_STEPS = 5           # fixed-point steps inverting the flow back to frame 0
-# the forward-backward gap (median, grid steps) above which a run warns: over 35 of the
-# accuracy zoo's labels-with-intensity draws the grid's drift from the tissue rose with it
-# (along the tube about 2 x the gap in % of the length: under 0.3 % below 0.15 steps,
-# 0.23-1.9 % above; docs/accuracy.md)
+# the forward-backward gap (median, grid steps) above which a run warns: over the accuracy
+# zoo's 49 labels-with-intensity draws the grid's drift from the tissue rose with it (log-log
+# correlation 0.97): at or under 0.15 steps (38 draws) at most 0.27 % of the length along
+# and 0.020 rad around, above it (11 draws) 0.23-1.9 % and 0.021-0.20 rad (docs/accuracy.md)
 GAP_WARN_STEPS = 0.15
 
 
@@ -156,6 +156,6 @@ def texture_match_note(gap_median_steps: float) -> str | None:
     return (f"the texture matched poorly from frame to frame (forward-backward gap: median "
             f"{gap_median_steps:.2g} grid steps, over {GAP_WARN_STEPS:g}): on the accuracy "
             "zoo's draws such a gap came with the tracked grid drifting 0.2-1.9 % of the "
-            "tube's length from the tissue (under 0.3 % below it), as when the texture is "
-            "fainter than its speckle or finer than the voxels; look at pullback_outer.png, "
-            "or compare with --tracking material")
+            "tube's length and 0.02-0.2 rad around from the tissue (at most 0.27 % and 0.02 "
+            "rad below it), as when the texture is fainter than its speckle or finer than "
+            "the voxels; look at pullback_outer.png, or compare with --tracking material")

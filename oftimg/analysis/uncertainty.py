@@ -28,9 +28,11 @@ BAND_FACTORS = {     # fitted 2026-12-05: meshes on the zoo's seeds 0-9, labels 
 # this share added in quadrature in 96 % (45 draws of every input kind, 2026-12-05;
 # scripts/accuracy_zoo.py --tables prints both)
 SPEED_SYSTEMATIC_SHARE = 0.05
-# probability maps: the label volumes' factors until the zoo's probability draws are
-# run (the same lattice, blurred: its error is the labels' at most)
-BAND_FACTORS["probabilities"] = dict(BAND_FACTORS["labels"])
+# probability maps: fitted on the zoo's probability draws 0-9, 2026-12-05 (95-97 % of the
+# 40 others' nodes inside; docs/accuracy.md)
+BAND_FACTORS["probabilities"] = {"radial_curvature_outer": 3.62, "radial_curvature_inner": 3.79,
+                                 "mean_curvature_lumen": 14.66, "wall_thickness": 1.84,
+                                 "jelly_thickness": 4.36}
 FIELD_OF = {"radial_curvature_outer_per_mm": "radial_curvature_outer",
             "radial_curvature_inner_per_mm": "radial_curvature_inner",
             "mean_curvature_lumen_per_mm": "mean_curvature_lumen",

@@ -900,8 +900,8 @@ def example_results(cache=None) -> Path:
     call (about a minute) and reused after: the gallery's examples start from it.
 
     ``cache``: where it is kept (default: ``$OFTIMG_CACHE``, else the user's cache
-    folder, ``~/.cache/oftimg`` on Linux); made again when oftimg's code changes.
-    Made in a temporary folder and moved in whole, so that a call interrupted, or
+    folder, ``~/.cache/oftimg`` on Linux); made again when oftimg's code changes
+    (the cohort of the code before then removed). Made in a temporary folder and moved in whole, so that a call interrupted, or
     two at once, never leave a half-made cohort to be reused.
     """
     import hashlib
@@ -927,6 +927,9 @@ def example_results(cache=None) -> Path:
                     raise
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
+        for older in root.glob("example-cohort-*"):     # made by another oftimg: not reused
+            if older != folder:
+                shutil.rmtree(older, ignore_errors=True)
     return folder / "results"
 
 

@@ -85,6 +85,23 @@ def test_the_examples_cohort_is_made_once(cache):
     assert len(before) == 1 and before[0].startswith("example-cohort-")
 
 
+def test_an_older_oftimgs_cohort_is_removed_when_a_new_one_is_made(tmp_path, monkeypatch):
+    """The cohort another oftimg made is not reused, and not left behind (the cohort
+    itself replaced by a stand-in: making one is what the tests above check)."""
+    from oftimg import api
+
+    older = tmp_path / "example-cohort-0123456789ab" / "results"
+    older.mkdir(parents=True)
+
+    def stand_in(out, *args, **kwargs):
+        (out / "results").mkdir(parents=True)
+        (out / "results" / "run.json").write_text("{}")
+    monkeypatch.setattr(api, "_phantom_cohort", stand_in)
+    made = api.example_results(tmp_path)
+    assert (made / "run.json").is_file() and not older.parent.exists()
+    assert [p.name for p in tmp_path.iterdir()] == [made.parent.name]
+
+
 @pytest.mark.parametrize("example", EXAMPLES, ids=lambda p: p.stem)
 def test_each_example_runs_copied_into_an_empty_folder(example, cache, tmp_path):
     """The reader's way: the page's code in a file of its own, ``python file.py``;

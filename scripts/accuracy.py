@@ -239,8 +239,10 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
     true_speed = np.interp(s_mm, truth["s_mm"], ridge_speed)
     true_two = {side: float(ph.ridge_speed_from(p[f"speed_{side}_mm_s"]))
                 for side in ("proximal", "distal")}
-    e["local_speed_median_pct"] = float(100.0 * np.nanmedian(
-        np.abs(arr["local_speed_mm_s"] / true_speed - 1.0)))
+    local = np.abs(arr["local_speed_mm_s"] / true_speed - 1.0)
+    # no local speed at all where the run says the tube moves at once (right, and said)
+    e["local_speed_median_pct"] = (float(100.0 * np.nanmedian(local))
+                                   if np.isfinite(local).any() else float("nan"))
     e["speed_proximal_pct"] = _relative_pct(two["speed_proximal_mm_s"], true_two["proximal"])
     e["speed_distal_pct"] = _relative_pct(two["speed_distal_mm_s"], true_two["distal"])
     e["knee_mm"] = (two["knee_mm"] - p["speed_knee_mm"]) if two["knee_mm"] is not None \
@@ -255,8 +257,9 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
     local_sd = arr["local_speed_noise_sd_mm_s"]
     resolved = np.isfinite(local_sd)
     e["local_unresolved_pct"] = float(100.0 * (1 - resolved.mean()))
-    e["local_within_2_spreads_pct"] = float(100.0 * np.mean(
+    e["local_within_2_spreads_pct"] = (float(100.0 * np.mean(
         np.abs(arr["local_speed_mm_s"] - true_speed)[resolved] < 2 * local_sd[resolved]))
+        if resolved.any() else float("nan"))
     # ridge: aligned time back to phantom time, compared around the cycle
     ridge = arr["ridge_t_ms"] + t_ms[0]
     true_ridge = np.interp(s_mm, truth["s_mm"], truth["ridge_t_ms"])

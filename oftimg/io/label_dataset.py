@@ -199,14 +199,7 @@ def _load_probabilities(path: Path) -> LabelDataset:
     if len(set(counts.values())) > 1:
         raise DatasetError(f"{folder}: its layers have different numbers of frames ("
                            + ", ".join(f"{layer}/ {n}" for layer, n in counts.items()) + ")")
-    flat = [s for layer in layers for s in per_layer[layer]]
-    headers = [read_header(s) for s in flat]
-    first = _check_headers(flat, headers)
-    for source, header in zip(flat, headers):
-        if header.dtype.name not in PROBABILITY_SCALE:
-            raise DatasetError(f"{source}: {header.dtype} voxels; a probability map is float "
-                               "(values in [0, 1]), uint8 or uint16 (scaled to its largest "
-                               "value)")
+    flat, headers, first = _probability_headers(per_layer)
     n = counts["myocardium"]
     voxel = _voxel_size(folder / "myocardium", meta, raw, flat[:n], headers[:n])
     return _probability_dataset(path, folder, meta, raw, per_layer, first, voxel)
@@ -266,7 +259,16 @@ def _load_hdf5_probabilities(path: Path, folder: Path, files: list[Path]) -> Lab
                                f"channels 0-{channels - 1}")
     layers = [layer for layer in LAYER_NAMES if layer in classes]
     per_layer = {layer: [replace(f, channel=classes[layer]) for f in frames] for layer in layers}
-    flat = [s for layer in layers for s in per_layer[layer]]
+    flat, headers, first = _probability_headers(per_layer)
+    n = len(frames)
+    voxel = _voxel_size(folder, meta, raw, flat[:n], headers[:n])
+    return _probability_dataset(path, folder, meta, raw, per_layer, first, voxel)
+
+
+def _probability_headers(per_layer: dict) -> tuple[list, list, object]:
+    """Every layer's frames in one list (layer after layer), their headers, and the
+    first header, once each has a probability map's type and every frame one shape."""
+    flat = [s for sources in per_layer.values() for s in sources]
     headers = [read_header(s) for s in flat]
     first = _check_headers(flat, headers)
     for source, header in zip(flat, headers):
@@ -274,9 +276,7 @@ def _load_hdf5_probabilities(path: Path, folder: Path, files: list[Path]) -> Lab
             raise DatasetError(f"{source}: {header.dtype} voxels; a probability map is float "
                                "(values in [0, 1]), uint8 or uint16 (scaled to its largest "
                                "value)")
-    n = len(frames)
-    voxel = _voxel_size(folder, meta, raw, flat[:n], headers[:n])
-    return _probability_dataset(path, folder, meta, raw, per_layer, first, voxel)
+    return flat, headers, first
 
 
 def _check_headers(sources, headers):

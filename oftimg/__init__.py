@@ -21,7 +21,7 @@ import importlib
 # figures and video modules (0.83 -> 0.52 s of imports per worker process).
 _WHERE = {
     "cohort": "api", "demo": "api", "example_results": "api", "make_phantom": "api", "paraview": "api", "run": "api",
-    "tiff": "api",
+    "ome_zarr": "api", "tiff": "api",
     "InputError": "errors",
     "Dataset": "io.dataset", "DatasetError": "errors", "OftimgWarning": "errors",
     "load_dataset": "io.dataset", "validate_dataset": "io.dataset",

@@ -195,6 +195,9 @@ def validate_labels(path, *, quiet: bool = False, period_ms: float | None = None
     first = first.layers[0][1] if hasattr(first, "layers") else first
     described = describe_format(first)
     carried = described.pop("file_voxel_size")
+    described.pop("file_time_step")                  # said by the period's source
+    if "channels" in lds.raw_meta:
+        described["channels"] = lds.raw_meta["channels"]
     report["labels"] |= described | {"voxel_size_from": (
         "meta.json, the files' own agreeing" if lds.meta.voxel_size is not None and carried
         else "meta.json" if lds.meta.voxel_size is not None else "the files' headers")}
@@ -730,6 +733,30 @@ def tiff(sources, out, *, quiet: bool = False) -> Path:
         for run in runs:
             write_cohort_map_images(run, tmp / ("cohort_maps" if len(runs) == 1
                                                 else f"cohort_maps_{run.name}"))
+            bar.advance()
+        bar.close()
+    return out
+
+
+def ome_zarr(sources, out, *, quiet: bool = False) -> Path:
+    """Every dataset's fields, phase maps and pullbacks among ``sources`` (as
+    :func:`cohort` takes them) as OME-Zarr images with their axes and units, in
+    ``out/<name>/<array>.ome.zarr`` (:mod:`oftimg.output.omezarr`; the (v, t) maps
+    :func:`tiff` writes). ``out`` must be new or empty; it appears only when complete.
+    Returns ``out``."""
+    from .output.omezarr import write_ome_zarr_images
+
+    try:
+        import zarr  # noqa: F401
+    except ImportError:
+        raise InputError("writing OME-Zarr needs zarr: pip install 'oftimg[ome]'") from None
+    out = Path(out)
+    names, folders = _exported(sources, out, (
+        ("arrays.json", "it says which arrays are images"),))
+    with staged_output(out) as tmp:
+        bar = Progress(len(folders), "OME-Zarr images", quiet=quiet, unit="folder")
+        for name, folder in zip(names, folders):
+            write_ome_zarr_images(folder, tmp / name)
             bar.advance()
         bar.close()
     return out

@@ -177,7 +177,10 @@ def _parser() -> argparse.ArgumentParser:
     exports = {"paraview": "write analysed datasets' grids (with every field on their nodes) "
                            "and section contours as ParaView time series (.pvd)",
                "tiff": "write analysed datasets' maps and fields (and a run's cohort maps) as "
-                       "TIFF images that Fiji / ImageJ open (float32, time as frames)"}
+                       "TIFF images that Fiji / ImageJ open (float32, time as frames)",
+               "ome-zarr": "write analysed datasets' (u, v, t) fields, phase maps and "
+                           "pullbacks as OME-Zarr images (axes, time in ms) for napari, "
+                           "Fiji or web viewers"}
     for name, what in exports.items():
         ex = sub.add_parser(name, help=what)
         ex.add_argument("results", type=Path, nargs="+", help=results_help)
@@ -301,6 +304,9 @@ def _print_report(report: dict) -> None:
         if "format" in lab:
             print(f"  {lab['format']}; axes {lab['axes']}; voxel size from "
                   f"{lab['voxel_size_from']}")
+        if "channels" in lab:
+            print("  channels: " + ", ".join(f"{role} {c}" for role, c in lab["channels"].items())
+                  + " (meta.json)")
         for r in lab["label_repairs"]:
             name = f"{'probabilities/*' if soft else 'labels'}/{Path(r['file']).name} {r['wall']}"
             if "filled_from" in r:
@@ -459,6 +465,9 @@ def _command(args) -> int:
     elif args.command == "tiff":
         out = api.tiff(args.results, args.out, quiet=args.quiet)
         print(f"TIFF images: {out} (open them in Fiji / ImageJ)")
+    elif args.command == "ome-zarr":
+        out = api.ome_zarr(args.results, args.out, quiet=args.quiet)
+        print(f"OME-Zarr images: {out} (open them in napari, Fiji or a web viewer)")
     elif args.command == "demo":
         out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
                        jobs=args.jobs)

@@ -449,8 +449,9 @@ def test_a_bridge_across_the_lumen_in_one_frame_is_mended_and_said(label_phantom
 
 
 def test_an_ome_tiff_with_channels_or_an_odd_unit_is_named(tmp_path):
-    """An OME-TIFF of two channels is not a label series, and a voxel size in a unit
-    that is no length is not taken: one line each, naming the file."""
+    """An OME-TIFF of three channels is no label series unless meta.json says which
+    channel holds what, and a voxel size in a unit that is no length is not taken: one
+    line each, naming the file."""
     import tifffile
 
     from oftimg.io.labelfile import LabelSource, read_header
@@ -458,7 +459,8 @@ def test_an_ome_tiff_with_channels_or_an_odd_unit_is_named(tmp_path):
     two = tmp_path / "two.ome.tif"
     tifffile.imwrite(two, np.zeros((2, 3, 2, 8, 8), np.uint8), ome=True,
                      metadata={"axes": "TCZYX"})
-    with pytest.raises(DatasetError, match=r"two.ome.tif: has channels \(axes TCZYX\)"):
+    with pytest.raises(DatasetError, match=r"two.ome.tif: has 3 channels \(axes TCZYX\); "
+                                           r"meta.json's \"channels\" says which holds what"):
         read_header(LabelSource(str(two), 0))
     odd = tmp_path / "odd.ome.tif"
     tifffile.imwrite(odd, np.zeros((3, 8, 8), np.uint8), ome=True,

@@ -5,9 +5,10 @@ onto the grid (:mod:`oftimg.analysis.pullback`).
 Layout::
 
     DATASET/
-      intensity/  one 3-D volume per frame (.tif/.tiff, .nii/.nii.gz, .npy), or one
-                  4-D intensity.tif / intensity.zarr with axes (t, z, y, x), as
-                  labels/ holds them (oftimg.io.labelfile)
+      intensity/  one 3-D volume per frame (.tif/.tiff, .nii/.nii.gz, .npy, ...), or one
+                  4-D intensity.tif / intensity.ome.zarr ... with axes (t, z, y, x), as
+                  labels/ holds them (oftimg.io.labelfile); or, in a label dataset, a
+                  channel of the labels' stack (meta.json's "channels")
       meta.json   for a mesh dataset: "intensity": {"voxel_size": [dx, dy, dz],
                   "origin": [x, y, z]} in length_unit, where voxel (k, j, i) lies
                   at origin + (i dx, j dy, k dz) in the meshes' coordinates
@@ -52,24 +53,24 @@ class IntensitySeries:
         return np.asarray(read_volume(self.sources[t]), dtype=np.float32)
 
 
-def has_intensity(path: str | Path) -> bool:
-    """Whether the dataset folder holds ``intensity/``."""
-    return (Path(path) / FOLDER).is_dir()
-
-
 def load_intensity(path: str | Path, n_frames: int, length_unit: str, raw_meta: dict, *,
-                   labels_grid: tuple | None = None) -> IntensitySeries | None:
+                   labels_grid: tuple | None = None, sources: list | None = None
+                   ) -> IntensitySeries | None:
     """The dataset's ``intensity/`` checked from its headers: one volume per frame
     (``n_frames``), every frame one shape, whole or real numbers. ``labels_grid``
     (``(shape (z, y, x), voxel_size (dx, dy, dz))`` in ``length_unit``) for a label
     dataset: the volumes lie on it; else meta.json's ``"intensity"`` gives their
-    voxel size and origin. None when there is no ``intensity/``. Raises one
+    voxel size and origin. ``sources``: the frames' intensity as a channel of the
+    labels' stack, instead of ``intensity/``. None when there is neither. Raises one
     :class:`DatasetError` naming the file and what is wrong."""
     path = Path(path)
     folder = path / FOLDER
-    if not folder.is_dir():
-        return None
-    sources = list_label_sources(folder, natural_key, what="intensity volumes")
+    if sources is None:
+        if not folder.is_dir():
+            return None
+        sources = list_label_sources(folder, natural_key, what="intensity volumes")
+    else:
+        folder = Path(sources[0].path).parent
     if len(sources) != n_frames:
         raise DatasetError(f"{folder}: {len(sources)} volumes for a dataset of {n_frames} "
                            "frames; intensity/ holds one volume per frame, in the frames' "

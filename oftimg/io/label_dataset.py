@@ -7,9 +7,16 @@ Layout::
     DATASET/
       meta.json   {"length_unit": "um", "voxel_size": [dx, dy, dz], "period_ms": ...,
                    "labels": {"myocardium": 1, "jelly": 2, "lumen": 3},
-                   "ends": [{"point": [x, y, z], "normal": [x, y, z]}, {...}]}
-      labels/     one 3-D volume per frame (.tif/.tiff, .nii/.nii.gz, .npy), or one
-                  4-D labels.tif / labels.zarr with axes (t, z, y, x)
+                   "ends": [{"point": [x, y, z], "normal": [x, y, z]}, {...}],
+                   "channels": {"intensity": 0, "labels": 1}}
+      labels/     one 3-D volume per frame (.tif/.tiff, .nii/.nii.gz, .npy, .h5,
+                  .ome.zarr), or one 4-D labels.tif / labels.ome.tif / labels.ome.zarr /
+                  labels.zarr / labels.h5 with axes (t, z, y, x); a file with a channel
+                  axis (intensity and labels in one stack) with meta.json's "channels"
+
+The voxel size and time step may come from the files (OME, ImageJ, NIfTI headers);
+where meta.json gives them too, they must agree (``period_ms`` is the time step times
+the frames).
 
 A voxel ``(k, j, i)`` sits at ``x = i dx, y = j dy, z = k dz`` in ``length_unit``;
 ``ends`` and ``inlet`` are points in those coordinates.
@@ -27,14 +34,18 @@ from ..errors import DatasetError, InputError
 from ..mesh.labels import (CURVATURE_PROPERTY, MeshOptions, WallMesh, frame_masks, mesh_wall,
                            mesh_walls)
 from ..mesh.topology import MeshError
-from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_voxel_size, is_number, natural_key,
-                      read_meta, read_meta_json)
+from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_period, check_voxel_size, is_number,
+                      natural_key, read_meta, read_meta_json)
 from .intensity import IntensitySeries, load_intensity
-from .labelfile import (HDF5_SUFFIXES, LabelSource, hdf5_channels, label_suffix,
+from .labelfile import (HDF5_SUFFIXES, LabelSource, channel_count, label_suffix,
                         list_label_sources, read_header, read_volume, series_file)
 from .meshfile import write_ply
 
-LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list, "classes": dict}
+LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list, "classes": dict, "channels": dict}
+CHANNEL_ROLES = ("labels", "intensity")     # what a stack's channels may hold
+# relative: a file's time step times the frames and meta.json's period_ms agree (a
+# step rounded to 3 digits is within it; a wrong one is not)
+TIME_TOLERANCE = 5e-3
 # a probability map's stored types, and the value that means 1
 PROBABILITY_SCALE = {"float16": 1.0, "float32": 1.0, "float64": 1.0, "uint8": 255.0,
                      "uint16": 65535.0}
@@ -157,6 +168,9 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     sources = list_label_sources(path / "labels", natural_key)
     raw = read_meta_json(path, LABEL_META_KEYS)
     meta = read_meta(path, LABEL_META_KEYS)
+    channels = _channels(path, raw)
+    if channels:
+        sources = [replace(s, channel=channels["labels"]) for s in sources]
     headers = [read_header(s) for s in sources]
     first = _check_headers(sources, headers)
     for source, header in zip(sources, headers):
@@ -167,10 +181,64 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     label_ids = _label_ids(path, raw, sources[0], first.dtype)
     label_ids = check_nesting(path / "labels", sources, label_ids, given="labels" in raw)
     ends = _ends(path, raw, first.shape, voxel)
+    stacked = ([replace(s, channel=channels["intensity"]) for s in sources]
+               if "intensity" in channels else None)
     intensity = load_intensity(path, len(sources), meta.length_unit, raw,
-                               labels_grid=(first.shape, voxel))
+                               labels_grid=(first.shape, voxel), sources=stacked)
+    meta = _with_time_step(meta, sources, headers, intensity)
     return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends,
                         intensity=intensity)
+
+
+def _channels(path: Path, raw: dict) -> dict:
+    """meta.json's ``channels`` (role -> channel of the labels/ files: ``labels``, and
+    ``intensity`` when the stack holds it), checked; {} when it gives none."""
+    channels = raw.get("channels")
+    if channels is None:
+        return {}
+    where = f"{path / 'meta.json'}: \"channels\""
+    unknown = sorted(set(channels) - set(CHANNEL_ROLES))
+    if unknown or "labels" not in channels:
+        raise DatasetError(f"{where} names {', '.join(unknown) or 'no labels'}; it says which "
+                           "channel of the labels/ files holds the labels (and the intensity),"
+                           " e.g. {\"intensity\": 0, \"labels\": 1}")
+    for role, channel in channels.items():
+        if not (isinstance(channel, int) and not isinstance(channel, bool) and channel >= 0):
+            raise DatasetError(f"{where} gives {role} channel {str(channel)[:20]}; a channel is "
+                               "a whole number from 0")
+    if len(set(channels.values())) < len(channels):
+        raise DatasetError(f"{where} gives two roles one channel ({channels}); each role has "
+                           "its own")
+    if "intensity" in channels and (path / "intensity").is_dir():
+        raise DatasetError(f"{where} takes the intensity from the labels' stack, and the "
+                           "dataset has intensity/ too; keep one")
+    return channels
+
+
+def _with_time_step(meta: Meta, sources, headers, intensity) -> Meta:
+    """``meta`` once the series files' own time steps (OME, ImageJ) agree with its
+    period (``period_ms`` = step x frames); a period from the file where meta.json
+    gives none. Raises one line naming both where they disagree."""
+    n = len(sources)
+    given = [(sources[0], headers[0].time_step_ms)]
+    if intensity is not None:
+        given.append((intensity.sources[0], read_header(intensity.sources[0]).time_step_ms))
+    for source, step in given:
+        if step is None:
+            continue
+        period = step * n
+        if meta.period_assumed:
+            check_period(f"{source.path} (its time step {step:g} ms x {n} frames)", period)
+            meta = replace(meta, period_ms=period, period_assumed=False,
+                           period_from=f"{Path(source.path).name}'s time step {step:g} ms x "
+                                       f"{n} frames")
+        elif not np.isclose(period, meta.period_ms, rtol=TIME_TOLERANCE, atol=0):
+            said = ("meta.json's period_ms" if meta.period_from == "meta.json"
+                    else f"the period from {meta.period_from}")
+            raise DatasetError(f"{source.path}: its time step {step:g} ms x {n} frames = "
+                               f"{period:g} ms disagrees with {said} {meta.period_ms:g} ms; "
+                               "correct one of them")
+    return meta
 
 
 def _load_probabilities(path: Path) -> LabelDataset:
@@ -190,9 +258,11 @@ def _load_probabilities(path: Path) -> LabelDataset:
                            f"per layer ({', '.join(f'{n}/' for n in LAYER_NAMES)}; myocardium/ "
                            "at least), each with one volume per frame")
     raw = read_meta_json(path, LABEL_META_KEYS)
-    if "labels" in raw:
-        raise DatasetError(f"{path / 'meta.json'}: \"labels\" gives label values; a "
-                           "probabilities dataset names its layers by its folders (remove it)")
+    for key in ("labels", "channels"):
+        if key in raw:
+            raise DatasetError(f"{path / 'meta.json'}: \"{key}\" is for labels/; a "
+                               "probabilities dataset names its layers by its folders (remove "
+                               "it)")
     meta = read_meta(path, LABEL_META_KEYS)
     per_layer = {layer: list_label_sources(folder / layer, natural_key) for layer in layers}
     counts = {layer: len(s) for layer, s in per_layer.items()}
@@ -216,6 +286,8 @@ def _probability_dataset(path, folder, meta, raw, per_layer: dict, first, voxel)
     label_ids = {layer: DEFAULT_LABEL_IDS[layer] for layer in layers}
     check_nesting(folder, sources, label_ids, given=True)
     intensity = load_intensity(path, n, meta.length_unit, raw, labels_grid=(first.shape, voxel))
+    myocardium = per_layer["myocardium"]
+    meta = _with_time_step(meta, myocardium, [read_header(myocardium[0])], intensity)
     return LabelDataset(path, meta, raw, sources, first.shape, voxel, label_ids, ends,
                         kind="probabilities", intensity=intensity)
 
@@ -241,7 +313,7 @@ def _load_hdf5_probabilities(path: Path, folder: Path, files: list[Path]) -> Lab
     frames = (list_label_sources(folder, natural_key, "probability volumes")
               if len(files) == 1 and files[0] == series_file(folder)
               else [LabelSource(str(p)) for p in files])
-    channels = hdf5_channels(Path(frames[0].path))
+    channels = channel_count(frames[0])
     classes = raw.get("classes") or {4: DEFAULT_LABEL_IDS, 2: {"myocardium": 1}}.get(channels)
     where = f"{path / 'meta.json'}: \"classes\""
     if classes is None:

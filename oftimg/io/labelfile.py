@@ -3,11 +3,14 @@ voxel size the file itself carries.
 
 Formats: one 3-D file per frame (TIFF or OME-TIFF, NIfTI through nibabel, ``.npy``),
 or one 4-D file for the whole series (``labels.tif`` with axes (t, z, y, x), as ImageJ
-writes a hyperstack; ``labels.ome.tif``, its axes and voxel size from its OME-XML; or a
-``labels.zarr`` array). Headers are read without the
-voxels, so that a whole series is checked before any frame is meshed; a frame's
-voxels are read when it is meshed (a TIFF page range, a memory map, a zarr chunk),
-so a worker holds one volume at a time.
+writes a hyperstack; ``labels.ome.tif``, its axes, voxel size and time step from its
+OME-XML; ``labels.ome.zarr``, an OME-Zarr image whose ``multiscales`` metadata gives
+them; a plain ``labels.zarr`` array; ``labels.h5``, ilastik's export with its axistags).
+A file with a channel axis (intensity and labels in one stack) is read one channel at a
+time (:attr:`LabelSource.channel`). Headers are read without the voxels, so that a
+whole series is checked before any frame is meshed; a frame's voxels are read when it
+is meshed (a TIFF page range, a memory map, a zarr chunk), so a worker holds one volume
+at a time.
 """
 from __future__ import annotations
 
@@ -21,15 +24,22 @@ import numpy as np
 from ..errors import DatasetError
 from .safefile import file_status
 
-PER_FRAME_SUFFIXES = (".tif", ".tiff", ".nii", ".nii.gz", ".npy", ".h5", ".hdf5")
-SERIES_NAMES = ("labels.tif", "labels.tiff", "labels.ome.tif", "labels.ome.tiff", "labels.zarr",
-                "labels.h5")
+PER_FRAME_SUFFIXES = (".tif", ".tiff", ".nii", ".nii.gz", ".npy", ".h5", ".hdf5", ".zarr")
+SERIES_SUFFIXES = (".tif", ".tiff", ".ome.tif", ".ome.tiff", ".ome.zarr", ".zarr", ".h5", ".hdf5")
+SERIES_NAMES = tuple("labels" + suffix for suffix in SERIES_SUFFIXES)
 HDF5_SUFFIXES = (".h5", ".hdf5")
+AXES_SUFFIXES = (*HDF5_SUFFIXES, ".zarr")     # arrays with named axes (_axes_array)
 ILASTIK_DATASET = "exported_data"          # where ilastik's export puts its array
 # length units as TIFF (ImageJ) and NIfTI headers spell them, in mm
 HEADER_UNITS_MM = {"mm": 1.0, "millimeter": 1.0, "um": 1e-3, "micron": 1e-3, "µm": 1e-3,
                    "\u00b5m": 1e-3, "\u03bcm": 1e-3, "microns": 1e-3, "micrometer": 1e-3,
-                   "nm": 1e-6, "meter": 1e3, "m": 1e3}
+                   "nm": 1e-6, "nanometer": 1e-6, "meter": 1e3, "m": 1e3,
+                   "centimeter": 10.0, "cm": 10.0}
+# time units as OME (UDUNITS-2 names, OME-XML symbols) and ImageJ spell them, in ms
+TIME_UNITS_MS = {"millisecond": 1.0, "ms": 1.0, "second": 1e3, "s": 1e3, "sec": 1e3,
+                 "microsecond": 1e-3, "us": 1e-3, "µs": 1e-3, "\u00b5s": 1e-3, "minute": 6e4,
+                 "min": 6e4}
+AXIS_NAMES = "tczyx"                      # the axes a volume file may have, OME's names
 
 
 @dataclass(frozen=True)
@@ -49,11 +59,27 @@ class LabelSource:
 @dataclass(frozen=True)
 class VolumeHeader:
     """What a file says about a frame without its voxels: ``shape (z, y, x)``, the
-    stored dtype, and its own voxel size ``(dx, dy, dz)`` in mm (None: it gives none)."""
+    stored dtype, its own voxel size ``(dx, dy, dz)`` in mm and, for a series file,
+    its time step in ms (None: it gives none)."""
 
     shape: tuple[int, int, int]
     dtype: np.dtype
     voxel_size_mm: tuple[float, float, float] | None
+    time_step_ms: float | None = None
+
+
+@dataclass(frozen=True)
+class AxesArray:
+    """An HDF5 or zarr volume array with named axes (a subset of ``tczyx`` in its
+    order), what its file says of its voxel size (mm) and time step (ms), and where
+    the axes came from (``said``) and what the file is (``format``)."""
+
+    data: object
+    axes: str
+    voxel_size_mm: tuple[float, float, float] | None
+    time_step_ms: float | None
+    said: str
+    format: str
 
 
 def label_suffix(path: Path) -> str:
@@ -65,8 +91,7 @@ def label_suffix(path: Path) -> str:
 def series_names(folder: Path) -> tuple[str, ...]:
     """The names a 4-D file may have in ``folder``: ``labels.tif`` ..., or the
     folder's own name (``intensity/intensity.zarr``)."""
-    own = tuple(folder.name + suffix for suffix in (".tif", ".tiff", ".ome.tif", ".ome.tiff",
-                                                    ".zarr", ".h5", ".hdf5"))
+    own = tuple(folder.name + suffix for suffix in SERIES_SUFFIXES)
     return tuple(dict.fromkeys(SERIES_NAMES + own))
 
 
@@ -102,7 +127,8 @@ def list_label_sources(folder: Path, natural_key, what: str = "label volumes"
 
 
 def read_header(source: LabelSource) -> VolumeHeader:
-    """The frame's shape, dtype and voxel size from its file's header."""
+    """The frame's shape, dtype and voxel size (and a series' time step) from its
+    file's header."""
     path = Path(source.path)
     _check_kind(path)
     with _read_as(source, "a volume"):
@@ -112,23 +138,25 @@ def read_header(source: LabelSource) -> VolumeHeader:
 def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
     """:func:`read_header` by the file's own reader (its errors unwrapped)."""
     kind = label_suffix(path)
-    if kind in HDF5_SUFFIXES:
-        with _hdf5(path) as data:
-            axes = hdf5_axes(data, path)
-            shape = tuple(int(data.shape[axes.index(a)]) for a in "zyx")
-            return VolumeHeader(shape, data.dtype, None)
-    if source.index is not None:
-        shape = _series_shape(path)
-        return VolumeHeader(tuple(shape[1:]), _series_dtype(path), _series_voxel(path))
-    if kind == ".npy":
-        arr = np.load(path, mmap_mode="r")
-        return VolumeHeader(_three_d(arr.shape, path), arr.dtype, None)
+    if kind in AXES_SUFFIXES:
+        with _axes_array(path) as arr:
+            _check_axes_frame(arr, source)
+            shape = tuple(int(arr.data.shape[arr.axes.index(a)]) for a in "zyx")
+            step = arr.time_step_ms if source.index is not None else None
+            return VolumeHeader(shape, np.dtype(arr.data.dtype), arr.voxel_size_mm, step)
     if kind in (".nii", ".nii.gz"):
         img = _nifti(path)
         shape = _three_d(img.shape, path)[::-1]                   # (x, y, z) -> (z, y, x)
         return VolumeHeader(shape, img.header.get_data_dtype(), _nifti_voxel(img))
+    if kind == ".npy":
+        arr = np.load(path, mmap_mode="r")
+        return VolumeHeader(_three_d(arr.shape, path), arr.dtype, None)
     import tifffile
     with tifffile.TiffFile(path) as tif:
+        if source.index is not None or _tiff_has_channels(tif):
+            shape = _tiff_series_layout(tif, source)[0]
+            step = _tiff_time_step(tif) if source.index is not None else None
+            return VolumeHeader(tuple(shape[1:]), tif.series[0].dtype, _tiff_voxel(tif), step)
         series = tif.series[0]
         return VolumeHeader(_three_d(series.shape, path), series.dtype, _tiff_voxel(tif))
 
@@ -136,29 +164,25 @@ def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
 def describe_format(source: LabelSource) -> dict:
     """What a frame's file is, for a person checking their input: ``format`` (its
     kind, one file per frame or one for the series), ``axes`` as the file gives them
-    (or as oftimg reads a format that gives none) and ``voxel_size`` (whether the
-    file carries one)."""
+    (or as oftimg reads a format that gives none), ``file_voxel_size`` (whether the
+    file carries one) and ``file_time_step`` (whether a series file carries its
+    frame interval)."""
     path = Path(source.path)
     kind = label_suffix(path)
     series = source.index is not None
     where = "one file for every frame" if series else "one file per frame"
-    carries = read_header(source).voxel_size_mm is not None
-    if kind in HDF5_SUFFIXES:
-        with _read_as(source, "an HDF5 volume"), _hdf5(path) as data:
-            name, axes = data.name.lstrip("/"), hdf5_axes(data, path)
-            tagged = "axistags" in data.attrs
-        return {"format": f"HDF5 ({name}), {where}",
-                "axes": f"{axes} ({'its axistags' if tagged else 'ilastik order, no axistags'})",
-                "file_voxel_size": False}
-    if kind == ".zarr":
-        return {"format": f"zarr, {where}", "axes": "tzyx (as oftimg reads zarr)",
-                "file_voxel_size": False}
+    header = read_header(source)
+    carries = {"file_voxel_size": header.voxel_size_mm is not None,
+               "file_time_step": header.time_step_ms is not None}
+    if kind in AXES_SUFFIXES:
+        with _read_as(source, "a volume"), _axes_array(path) as arr:
+            return {"format": f"{arr.format}, {where}", "axes": f"{arr.axes} ({arr.said})",
+                    **carries}
     if kind in (".nii", ".nii.gz"):
         return {"format": f"NIfTI, {where}", "axes": "xyz (its header), turned to zyx",
-                "file_voxel_size": carries}
+                **carries}
     if kind == ".npy":
-        return {"format": f"npy, {where}", "axes": "zyx (as oftimg reads npy)",
-                "file_voxel_size": False}
+        return {"format": f"npy, {where}", "axes": "zyx (as oftimg reads npy)", **carries}
     import tifffile
     with _read_as(source, "a TIFF"), tifffile.TiffFile(path) as tif:
         name = "OME-TIFF" if tif.is_ome else "ImageJ TIFF" if tif.is_imagej else "TIFF"
@@ -167,8 +191,7 @@ def describe_format(source: LabelSource) -> dict:
             said = "its OME-XML" if tif.is_ome else "its ImageJ metadata"
         else:                                   # tifffile's letters say nothing: Q, I
             axes, said = ("tzyx" if series else "zyx"), "as oftimg reads a plain TIFF"
-    return {"format": f"{name}, {where}", "axes": f"{axes} ({said})",
-            "file_voxel_size": carries}
+    return {"format": f"{name}, {where}", "axes": f"{axes} ({said})", **carries}
 
 
 def _check_kind(path: Path) -> None:
@@ -223,17 +246,10 @@ def read_volume(source: LabelSource) -> np.ndarray:
 
 def _read_volume(source: LabelSource, path: Path) -> np.ndarray:
     """:func:`read_volume` by the file's own reader (its errors unwrapped)."""
-    if label_suffix(path) in HDF5_SUFFIXES:
-        with _hdf5(path) as data:
-            return _hdf5_frame(data, hdf5_axes(data, path), source)
-    if source.index is not None:
-        if label_suffix(path) == ".zarr":
-            return np.asarray(_zarr(path)[source.index])
-        import tifffile
-        with tifffile.TiffFile(path) as tif:
-            shape, pages = _tiff_series_layout(tif)
-            return tif.asarray(key=pages[source.index].tolist()).reshape(shape[1:])
     kind = label_suffix(path)
+    if kind in AXES_SUFFIXES:
+        with _axes_array(path) as arr:
+            return _axes_frame(arr, source)
     if kind == ".npy":
         data = np.load(path, mmap_mode="r")
         return np.asarray(data).reshape(_three_d(data.shape, path))
@@ -241,7 +257,11 @@ def _read_volume(source: LabelSource, path: Path) -> np.ndarray:
         data = np.asanyarray(_nifti(path).dataobj)
         return np.ascontiguousarray(data.reshape(data.shape[:3]).transpose(2, 1, 0))
     import tifffile
-    data = tifffile.imread(path)
+    with tifffile.TiffFile(path) as tif:
+        if source.index is not None or _tiff_has_channels(tif):
+            shape, pages = _tiff_series_layout(tif, source)
+            return tif.asarray(key=pages[source.index or 0].tolist()).reshape(shape[1:])
+        data = tif.asarray()
     return data.reshape(_three_d(data.shape, path))
 
 
@@ -259,68 +279,118 @@ def _three_d(shape, path: Path) -> tuple[int, int, int]:
 
 def _series_shape(path: Path) -> tuple[int, int, int, int]:
     """``(t, z, y, x)`` of a 4-D file."""
-    if label_suffix(path) in HDF5_SUFFIXES:
-        with _hdf5(path) as data:
-            axes = hdf5_axes(data, path)
-            if "t" not in axes:
-                raise DatasetError(f"{path}: axes {axes} (its axistags) have no time; the "
+    if label_suffix(path) in AXES_SUFFIXES:
+        with _axes_array(path) as arr:
+            if "t" not in arr.axes:
+                raise DatasetError(f"{path}: axes {arr.axes} ({arr.said}) have no time; the "
                                    "series file holds every frame, axes t, z, y, x")
-            shape = tuple(int(data.shape[axes.index(a)]) for a in "tzyx")
-    elif label_suffix(path) == ".zarr":
-        shape = _zarr(path).shape
-    else:
-        import tifffile
-        with tifffile.TiffFile(path) as tif:
-            shape = _tiff_series_layout(tif)[0]
+            return tuple(int(arr.data.shape[arr.axes.index(a)]) for a in "tzyx")
+    import tifffile
+    with tifffile.TiffFile(path) as tif:
+        shape = _tiff_series_layout(tif, LabelSource(str(path), 0), probe=True)[0]  # any channel
     if len(shape) != 4:
         raise DatasetError(f"{path}: a {len(shape)}-D array of shape {tuple(shape)}; "
                            "the series file is 4-D, axes (t, z, y, x)")
     return tuple(int(n) for n in shape)
 
 
-def _tiff_series_layout(tif) -> tuple[tuple[int, ...], np.ndarray]:
-    """A 4-D TIFF's shape ``(t, z, y, x)`` and its pages, ``(t, z)`` page indices.
+def channel_count(source: LabelSource) -> int:
+    """How many channels the frame's file has (its c axis; 1 without one)."""
+    path = Path(source.path)
+    _check_kind(path)
+    with _read_as(source, "a volume"):
+        if label_suffix(path) in AXES_SUFFIXES:
+            with _axes_array(path) as arr:
+                return int(arr.data.shape[arr.axes.index("c")]) if "c" in arr.axes else 1
+        if label_suffix(path) in (".tif", ".tiff"):
+            import tifffile
+            with tifffile.TiffFile(path) as tif:
+                axes = tif.series[0].axes
+                return int(tif.series[0].shape[axes.index("C")]) if "C" in axes else 1
+    return 1
 
-    An OME-TIFF's axes come from its metadata (Fiji, Bio-Formats and microscope
-    software may store the planes z-major, ``DimensionOrder`` XYTZC): its pages are
-    taken in that order, never guessed from the shape. An ImageJ hyperstack or a
-    plain TIFF is (t, z, y, x) as stored; an ImageJ file of one frame, (z, y, x)."""
+
+def _tiff_has_channels(tif) -> bool:
+    return (tif.is_ome or tif.is_imagej) and "C" in tif.series[0].axes
+
+
+def _tiff_series_layout(tif, source: LabelSource, *, probe: bool = False
+                        ) -> tuple[tuple[int, ...], np.ndarray]:
+    """A TIFF's shape ``(t, z, y, x)`` and its pages, ``(t, z)`` page indices, for
+    channel ``source.channel``.
+
+    An OME-TIFF's or ImageJ hyperstack's axes come from its metadata (Fiji,
+    Bio-Formats and microscope software may store the planes z-major,
+    ``DimensionOrder`` XYTZC, and interleave channels): its pages are taken in that
+    order, never guessed from the shape. A plain TIFF is (t, z, y, x) as stored; an
+    ImageJ or OME file of one frame, (z, y, x). ``probe``: any shape is returned (the
+    caller names a wrong one)."""
     series = tif.series[0]
     shape, axes = tuple(int(n) for n in series.shape), series.axes
     path = tif.filehandle.path
-    if "C" in axes or "S" in axes:
-        raise DatasetError(f"{path}: has channels (axes {axes}); a label series has "
-                           "axes (t, z, y, x)")
-    if tif.is_ome and len(shape) == 4:
-        if sorted(axes) != sorted("TZYX") or axes[-2:] != "YX":
-            raise DatasetError(f"{path}: OME axes {axes}; a series is a time series of "
-                               "3-D volumes, axes T, Z, Y, X (in any order of T and Z)")
-        lead = axes[:2]
-        pages = np.arange(shape[0] * shape[1]).reshape(shape[:2])
-        if lead == "ZT":                                  # z-major planes
-            pages, shape = pages.T, (shape[1], shape[0], *shape[2:])
-        return shape, pages
-    if len(shape) == 3 and (tif.is_imagej or tif.is_ome):   # a single frame
-        shape = (1, *shape)
-    if len(shape) != 4:
-        return shape, np.zeros((0, 0), int)           # refused by the caller, named there
-    return shape, np.arange(shape[0] * shape[1]).reshape(shape[:2])
+    if "S" in axes:
+        raise DatasetError(f"{path}: has colour samples (axes {axes}); a volume holds one "
+                           "value per voxel")
+    if not (tif.is_ome or tif.is_imagej):
+        if len(shape) == 4:
+            return shape, np.arange(shape[0] * shape[1]).reshape(shape[:2])
+        if probe:
+            return shape, np.zeros((0, 0), int)
+        raise DatasetError(f"{path}: a {len(shape)}-D array of shape {shape}; the series file "
+                           "is 4-D, axes (t, z, y, x)")
+    lead = axes[:-2]
+    if axes[-2:] != "YX" or not set(lead) <= set("TZC") or "Z" not in lead:
+        raise DatasetError(f"{path}: axes {axes} ({'its OME-XML' if tif.is_ome else 'ImageJ'}); "
+                           "a volume has axes Z, Y, X (and T, C)")
+    pages = np.arange(int(np.prod(shape[:len(lead)]))).reshape(shape[:len(lead)])
+    if "C" in lead:
+        n_c, at = shape[lead.index("C")], lead.index("C")
+        channel = 0 if probe and source.channel is None else _channel(source, n_c, axes)
+        pages, lead = np.take(pages, channel, axis=at), lead.replace("C", "")
+    elif source.channel not in (None, 0):
+        raise DatasetError(f"{path}: has no channel axis (axes {axes}); channel "
+                           f"{source.channel} is not there")
+    if lead == "ZT":                                      # z-major planes
+        pages = pages.T
+    elif lead == "Z":                                     # a single frame
+        pages = pages[None]
+    return (*pages.shape, *shape[-2:]), pages
 
 
-def _series_dtype(path: Path) -> np.dtype:
-    if label_suffix(path) == ".zarr":
-        return np.dtype(_zarr(path).dtype)
-    import tifffile
-    with tifffile.TiffFile(path) as tif:
-        return tif.series[0].dtype
+def _channel(source: LabelSource, n_c: int, axes: str) -> int:
+    """The channel ``source`` reads of a file with ``n_c`` channels (its only one
+    when it names none), or the one-line error."""
+    if source.channel is None:
+        if n_c != 1:
+            raise DatasetError(f"{source.path}: has {n_c} channels (axes {axes}); meta.json's "
+                               "\"channels\" says which holds what, e.g. {\"intensity\": 0, "
+                               "\"labels\": 1} (ilastik's probabilities go in probabilities/)")
+        return 0
+    if not 0 <= source.channel < n_c:
+        raise DatasetError(f"{source.path}: has channels 0-{n_c - 1} (axes {axes}); channel "
+                           f"{source.channel} is not there")
+    return source.channel
 
 
-def _series_voxel(path: Path):
-    if label_suffix(path) == ".zarr":
-        return None
-    import tifffile
-    with tifffile.TiffFile(path) as tif:
-        return _tiff_voxel(tif)
+def _tiff_time_step(tif) -> float | None:
+    """A series TIFF's frame interval in ms: an OME-TIFF's ``TimeIncrement`` (in its
+    unit, seconds where none is given), an ImageJ hyperstack's ``finterval`` (s)."""
+    if tif.is_ome:
+        pixels = _ome_pixels(tif)
+        if pixels is None or pixels.get("TimeIncrement") is None:
+            return None
+        return _time_ms(tif.filehandle.path, "OME TimeIncrementUnit",
+                        float(pixels.get("TimeIncrement")), pixels.get("TimeIncrementUnit", "s"))
+    meta = tif.imagej_metadata or {}
+    return float(meta["finterval"]) * 1e3 if meta.get("finterval") else None
+
+
+def _time_ms(path, what: str, value: float, unit: str) -> float:
+    scale = TIME_UNITS_MS.get(str(unit).strip().lower())
+    if scale is None:
+        raise DatasetError(f"{path}: {what} {unit!r} is not a time oftimg knows "
+                           f"({', '.join(TIME_UNITS_MS)})")
+    return value * scale
 
 
 def _tiff_voxel(tif) -> tuple[float, float, float] | None:
@@ -342,8 +412,8 @@ def _tiff_voxel(tif) -> tuple[float, float, float] | None:
     return (dx * unit, dy * unit, float(meta["spacing"]) * unit)
 
 
-def _ome_voxel(tif) -> tuple[float, float, float] | None:
-    """An OME-TIFF's PhysicalSizeX, Y and Z in mm, or None unless all three are given."""
+def _ome_pixels(tif):
+    """The ``Pixels`` element of an OME-TIFF's OME-XML (None without one)."""
     import xml.etree.ElementTree as ET
 
     try:
@@ -351,7 +421,12 @@ def _ome_voxel(tif) -> tuple[float, float, float] | None:
     except ET.ParseError as exc:
         raise DatasetError(f"{tif.filehandle.path}: its OME-XML cannot be read ({exc})") \
             from None
-    pixels = next((e for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "Pixels"), None)
+    return next((e for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "Pixels"), None)
+
+
+def _ome_voxel(tif) -> tuple[float, float, float] | None:
+    """An OME-TIFF's PhysicalSizeX, Y and Z in mm, or None unless all three are given."""
+    pixels = _ome_pixels(tif)
     if pixels is None:
         return None
     sizes = []
@@ -366,6 +441,52 @@ def _ome_voxel(tif) -> tuple[float, float, float] | None:
                                f"is not a length oftimg knows ({', '.join(HEADER_UNITS_MM)})")
         sizes.append(float(value) * scale)
     return tuple(sizes)
+
+
+@contextlib.contextmanager
+def _axes_array(path: Path):
+    """The :class:`AxesArray` of an HDF5 file or a zarr store, open for as long as
+    the ``with`` lasts."""
+    if label_suffix(path) == ".zarr":
+        yield _zarr_array(path)
+        return
+    with _hdf5(path) as data:
+        tagged = "axistags" in data.attrs
+        yield AxesArray(data, hdf5_axes(data, path), None, None,
+                        "its axistags" if tagged else "ilastik order, no axistags",
+                        f"HDF5 ({data.name.lstrip('/')})")
+
+
+def _check_axes_frame(arr: AxesArray, source: LabelSource) -> None:
+    """Refuse a per-frame file holding several frames, or a channel it lacks, before
+    any voxel is read."""
+    if source.index is None and "t" in arr.axes and arr.data.shape[arr.axes.index("t")] != 1:
+        raise DatasetError(f"{source.path}: {arr.data.shape[arr.axes.index('t')]} frames in a "
+                           "file of one frame; a whole series is one file named as its folder "
+                           "(labels.ome.zarr, labels.h5)")
+    if "c" in arr.axes:
+        _channel(source, int(arr.data.shape[arr.axes.index("c")]), arr.axes)
+    elif source.channel not in (None, 0):
+        raise DatasetError(f"{source.path}: has no channel axis (axes {arr.axes}); channel "
+                           f"{source.channel} is not there")
+
+
+def _axes_frame(arr: AxesArray, source: LabelSource) -> np.ndarray:
+    """One frame's volume ``(z, y, x)`` of an array with named axes: frame
+    ``source.index`` along t, channel ``source.channel`` along c; only those voxels
+    are read."""
+    _check_axes_frame(arr, source)
+    where = []
+    for axis in arr.axes:
+        if axis == "t":
+            where.append(source.index or 0)
+        elif axis == "c":
+            where.append(source.channel or 0)
+        else:
+            where.append(slice(None))
+    kept = [a for a in arr.axes if a in "zyx"]
+    return np.ascontiguousarray(np.transpose(np.asarray(arr.data[tuple(where)]),
+                                             [kept.index(a) for a in "zyx"]))
 
 
 @contextlib.contextmanager
@@ -405,53 +526,84 @@ def hdf5_axes(data, path: Path) -> str:
                 from None
     else:
         axes = {3: "zyx", 4: "zyxc", 5: "tzyxc"}.get(data.ndim, "")
-    if len(axes) != data.ndim or not set("zyx") <= set(axes) or not set(axes) <= set("tzyxc"):
-        raise DatasetError(f"{path}: an array of shape {tuple(data.shape)} with axes "
+    return _checked_axes(axes, data.shape, path)
+
+
+def _checked_axes(axes: str, shape, path: Path) -> str:
+    """``axes`` once they name each of the array's axes once, z, y and x among them."""
+    if (len(axes) != len(shape) or not set("zyx") <= set(axes) or not set(axes) <= set(AXIS_NAMES)
+            or len(set(axes)) != len(axes)):
+        raise DatasetError(f"{path}: an array of shape {tuple(shape)} with axes "
                            f"{axes or 'not given'}; a volume has axes z, y, x (and t, c)")
     return axes
 
 
-def hdf5_channels(path: Path) -> int:
-    """How many channels an HDF5 volume file has (its c axis; 1 without one)."""
-    _check_kind(path)
-    with _read_as(path, "an HDF5 volume"), _hdf5(path) as data:
-        axes = hdf5_axes(data, path)
-        return int(data.shape[axes.index("c")]) if "c" in axes else 1
-
-
-def _hdf5_frame(data, axes: str, source: LabelSource) -> np.ndarray:
-    """One frame's volume ``(z, y, x)`` of an HDF5 array with ``axes``: frame
-    ``source.index`` along t, channel ``source.channel`` along c (a label export's one
-    channel when None)."""
-    where = []
-    for axis in axes:
-        if axis == "t":
-            n_t = data.shape[axes.index("t")]
-            if source.index is None and n_t != 1:
-                raise DatasetError(f"{source.path}: {n_t} frames in a file of one frame; a "
-                                   "whole series is one file named as its folder (labels.h5)")
-            where.append(source.index or 0)
-        elif axis == "c":
-            n_c = data.shape[axes.index("c")]
-            if source.channel is None and n_c != 1:
-                raise DatasetError(f"{source.path}: {n_c} channels; a label volume has one "
-                                   "(ilastik's probabilities go in probabilities/)")
-            where.append(source.channel or 0)
-        else:
-            where.append(slice(None))
-    kept = [a for a in axes if a in "zyx"]
-    return np.ascontiguousarray(np.transpose(data[tuple(where)],
-                                             [kept.index(a) for a in "zyx"]))
-
-
-def _zarr(path: Path):
-    """The zarr array at ``path``, opened read-only."""
+def _zarr_array(path: Path) -> AxesArray:
+    """A zarr store's volume: an OME-Zarr image (the first multiscale's full-resolution
+    array, its axes, voxel size and time step from the ``multiscales`` metadata of
+    OME-Zarr 0.4 or 0.5), or a plain array (axes t, z, y, x or z, y, x as oftimg
+    reads it)."""
     try:
         import zarr
     except ImportError:
         raise DatasetError(f"{path}: reading a zarr store needs zarr: pip install "
-                           "'oftimg[zarr]'") from None
-    return zarr.open(str(path), mode="r")
+                           f"'oftimg[{'ome' if path.name.endswith('.ome.zarr') else 'zarr'}]'"
+                           ) from None
+    node = zarr.open(str(path), mode="r")
+    if hasattr(node, "shape"):
+        axes = {3: "zyx", 4: "tzyx"}.get(len(node.shape), "")
+        return AxesArray(node, _checked_axes(axes, node.shape, path), None, None,
+                         "as oftimg reads a plain zarr array", "zarr array")
+    attrs = node.attrs.asdict()
+    ome = attrs.get("ome", attrs)
+    multiscales = ome.get("multiscales")
+    if not (isinstance(multiscales, list) and multiscales and isinstance(multiscales[0], dict)):
+        raise DatasetError(f"{path}: a zarr group without OME-Zarr \"multiscales\" metadata; "
+                           "oftimg reads an OME-Zarr image or one zarr array")
+    image = multiscales[0]
+    version = ome.get("version") or image.get("version", "")
+    try:
+        described = [a if isinstance(a, dict) else {"name": a} for a in image["axes"]]
+        level = image["datasets"][0]
+        data = node[level["path"]]
+    except (KeyError, IndexError, TypeError) as exc:
+        raise DatasetError(f"{path}: its OME-Zarr multiscales metadata lacks "
+                           f"{printable(exc) or 'axes or datasets'}") from None
+    letters = [_axis_letter(a) for a in described]
+    axes = _checked_axes("".join(letters) if all(letters) else
+                         ",".join(str(a.get("name")) for a in described), data.shape, path)
+    units = {letter: a.get("unit") for letter, a in zip(axes, described)}
+    scale = np.ones(len(axes))
+    for transforms in (level.get("coordinateTransformations", []),
+                       image.get("coordinateTransformations", [])):
+        for transform in transforms:
+            if transform.get("type") == "scale":
+                scale = scale * np.asarray(transform["scale"], float)
+    voxel = None
+    if all(units.get(a) for a in "xyz"):
+        voxel = tuple(float(scale[axes.index(a)]) * _length_mm(path, a, units[a]) for a in "xyz")
+    step = None
+    if "t" in axes and units.get("t"):
+        step = _time_ms(path, "OME-Zarr t axis unit", float(scale[axes.index("t")]), units["t"])
+    return AxesArray(data, axes, voxel, step, f"its OME-Zarr {version} multiscales".replace(
+        "  ", " "), f"OME-Zarr {version}".strip())
+
+
+def _axis_letter(axis: dict) -> str:
+    """An OME-Zarr axis as one of ``tczyx``: its name, or its type for a time or
+    channel axis named otherwise ("" for neither)."""
+    name = str(axis.get("name", "")).lower()
+    if name in AXIS_NAMES and len(name) == 1:
+        return name
+    return {"time": "t", "channel": "c"}.get(axis.get("type"), "")
+
+
+def _length_mm(path: Path, axis: str, unit: str) -> float:
+    scale = HEADER_UNITS_MM.get(str(unit).strip().lower())
+    if scale is None:
+        raise DatasetError(f"{path}: OME-Zarr {axis} axis unit {unit!r} is not a length oftimg "
+                           f"knows ({', '.join(HEADER_UNITS_MM)})")
+    return scale
 
 
 def _nifti(path: Path):

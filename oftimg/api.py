@@ -201,6 +201,9 @@ def validate_labels(path, *, quiet: bool = False, period_ms: float | None = None
     report["labels"] |= described | {"voxel_size_from": (
         "meta.json, the files' own agreeing" if lds.meta.voxel_size is not None and carried
         else "meta.json" if lds.meta.voxel_size is not None else "the files' headers")}
+    if lds.intensity is not None:
+        seen = describe_format(lds.intensity.sources[0])
+        report["labels"]["intensity_format"] = f"{seen['format']}; axes {seen['axes']}"
     return report
 
 

@@ -304,6 +304,8 @@ def _print_report(report: dict) -> None:
         if "format" in lab:
             print(f"  {lab['format']}; axes {lab['axes']}; voxel size from "
                   f"{lab['voxel_size_from']}")
+        if "intensity_format" in lab:
+            print(f"  intensity: {lab['intensity_format']}")
         if "channels" in lab:
             print("  channels: " + ", ".join(f"{role} {c}" for role, c in lab["channels"].items())
                   + " (meta.json)")

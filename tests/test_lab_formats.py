@@ -216,6 +216,40 @@ def test_a_file_disagreeing_with_meta_json_is_one_line_naming_both(textured, tmp
     assert expect[1] in err[0], err[0]
 
 
+def test_ome_zarr_probabilities_by_class_and_intensity_beside_them(textured, tmp_path,
+                                                                   capsys):
+    """probabilities/probabilities.ome.zarr with a channel per class (named in
+    "classes", as an ilastik export's are) and intensity/intensity.ome.zarr with its
+    frame interval: each layer's map and each frame's intensity as written, the period
+    from the files, and validate naming both inputs' formats."""
+    labels, intensity = frames_of(textured / "labels"), frames_of(textured / "intensity")
+    one_hot = np.stack([labels == k for k in range(4)], axis=1).astype(np.float32)
+    data = new_dataset(textured, tmp_path / "pm", drop=("voxel_size", "period_ms"),
+                       meta_changes={"classes": {"myocardium": 1, "jelly": 2, "lumen": 3}})
+    (data / "labels").rmdir()
+    (data / "probabilities").mkdir()
+    (data / "intensity").mkdir()
+    scale = [55.0, VOXEL_UM[2], VOXEL_UM[1], VOXEL_UM[0]]
+    ome_zarr_write(data / "probabilities" / "probabilities.ome.zarr", one_hot,
+                   [AXES_UM[0], {"name": "c", "type": "channel"}, *AXES_UM[1:]],
+                   [scale[0], 1.0, *scale[1:]], "0.5")
+    ome_zarr_write(data / "intensity" / "intensity.ome.zarr", intensity, AXES_UM, scale, "0.4")
+    read = load_label_dataset(data)
+    assert read.kind == "probabilities" and read.meta.period_ms == pytest.approx(PERIOD_MS)
+    assert read.voxel_size == pytest.approx(VOXEL_UM)
+    from oftimg.io.label_dataset import read_frame
+    maps = read_frame(read.sources[2])
+    for layer, k in (("myocardium", 1), ("jelly", 2), ("lumen", 3)):
+        assert np.array_equal(maps[layer], one_hot[2, k]), layer
+    assert np.array_equal(read.intensity.volume(4), intensity[4].astype(np.float32))
+    assert main(["validate", str(data)]) == 0
+    out = capsys.readouterr().out
+    assert ("OME-Zarr 0.5, one file for every frame; axes tczyx (its OME-Zarr 0.5 "
+            "multiscales); voxel size from the files' headers") in out
+    assert ("intensity: OME-Zarr 0.4, one file for every frame; axes tzyx (its OME-Zarr 0.4 "
+            "multiscales)") in out
+
+
 def test_validate_says_where_the_voxel_size_period_and_channels_came_from(textured, tmp_path,
                                                                          capsys):
     data = stack_dataset(textured, tmp_path / "st", "ome_tiff")

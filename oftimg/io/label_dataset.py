@@ -37,7 +37,7 @@ from ..mesh.topology import MeshError
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_period, check_voxel_size, is_number,
                       natural_key, read_meta, read_meta_json)
 from .intensity import IntensitySeries, load_intensity
-from .labelfile import (HDF5_SUFFIXES, LabelSource, channel_count, label_suffix,
+from .labelfile import (PER_FRAME_SUFFIXES, LabelSource, channel_count, label_suffix,
                         list_label_sources, read_header, read_volume, series_file)
 from .meshfile import write_ply
 
@@ -250,9 +250,9 @@ def _load_probabilities(path: Path) -> LabelDataset:
         raise DatasetError(f"{path}: holds both labels/ and probabilities/; keep the one to "
                            "mesh")
     layers = [layer for layer in LAYER_NAMES if (folder / layer).is_dir()]
-    exported = _hdf5_export(folder)
+    exported = _class_export(folder)
     if exported and not layers:
-        return _load_hdf5_probabilities(path, folder, exported)
+        return _load_class_probabilities(path, folder, exported)
     if "myocardium" not in layers:
         raise DatasetError(f"{folder}: no myocardium/ folder; probabilities/ holds a folder "
                            f"per layer ({', '.join(f'{n}/' for n in LAYER_NAMES)}; myocardium/ "
@@ -292,22 +292,23 @@ def _probability_dataset(path, folder, meta, raw, per_layer: dict, first, voxel)
                         kind="probabilities", intensity=intensity)
 
 
-def _hdf5_export(folder: Path) -> list[Path]:
-    """The HDF5 files of an ilastik export in ``folder``: its series file
-    (``probabilities.h5``) or one file per frame; [] when there are none."""
+def _class_export(folder: Path) -> list[Path]:
+    """The files of an export with a channel per class in ``folder`` (ilastik's HDF5,
+    an OME-Zarr or OME-TIFF with a c axis): its series file (``probabilities.h5``) or
+    one file per frame; [] when there are none."""
     series = series_file(folder)
-    if series is not None and label_suffix(series) in HDF5_SUFFIXES:
+    if series is not None:
         return [series]
-    return sorted((p for p in folder.iterdir() if label_suffix(p) in HDF5_SUFFIXES
+    return sorted((p for p in folder.iterdir() if label_suffix(p) in PER_FRAME_SUFFIXES
                    and not p.name.startswith(".")), key=lambda p: natural_key(p.name))
 
 
-def _load_hdf5_probabilities(path: Path, folder: Path, files: list[Path]) -> LabelDataset:
-    """A probabilities dataset from an HDF5 export with a channel per class (ilastik's
-    Pixel Classification, ``exported_data`` with its axistags): one 4-D series file or
-    one file per frame; meta.json's ``classes`` names the layers' channels (channel 0
-    the background), by default myocardium 1, jelly 2, lumen 3 of four channels, the
-    myocardium 1 of two."""
+def _load_class_probabilities(path: Path, folder: Path, files: list[Path]) -> LabelDataset:
+    """A probabilities dataset from an export with a channel per class (ilastik's
+    Pixel Classification, ``exported_data`` with its axistags; an OME-Zarr or OME-TIFF
+    with a c axis): one 4-D series file or one file per frame; meta.json's ``classes``
+    names the layers' channels (channel 0 the background), by default myocardium 1,
+    jelly 2, lumen 3 of four channels, the myocardium 1 of two."""
     raw = read_meta_json(path, LABEL_META_KEYS)
     meta = read_meta(path, LABEL_META_KEYS)
     frames = (list_label_sources(folder, natural_key, "probability volumes")

@@ -21,7 +21,7 @@ APT_INSTALL = SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo
 	  apt-get install -y -qq
 APT_DONE = ; } >"$$log" 2>&1 || { cat "$$log"; rm -f "$$log"; exit 1; }; rm -f "$$log"
 
-.PHONY: demo test test-lowest setup clean docs
+.PHONY: demo test test-lowest setup clean docs napari
 setup: $(STAMP)
 
 $(STAMP): pyproject.toml
@@ -40,6 +40,15 @@ demo: $(STAMP)
 # what Qt's xcb platform (napari's window under Xvfb) loads besides Qt itself
 QT_XCB_LIBS = libxcb-cursor0 libxkbcommon-x11-0 libxcb-icccm4 libxcb-image0 libxcb-keysyms1 \
   libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xinerama0 libxcb-xkb1
+
+# napari with its Qt, and the system libraries Qt's window needs (Debian / Ubuntu:
+# python -m oftimg.napari names them), then the check in one line
+napari: $(STAMP)
+	$(PIP) install --quiet -e '.[napari]'
+	@missing=$$($(PY) -m oftimg.napari --packages); [ -z "$$missing" ] || { \
+	  echo "napari's window needs $$missing: installing them with apt-get"; \
+	  $(APT_INSTALL) $$missing $(APT_DONE); }
+	@$(PY) -m oftimg.napari --check || [ -z "$$DISPLAY" ]
 
 test: $(STAMP)
 	@command -v chromium >/dev/null || { \

@@ -53,11 +53,13 @@ def test_a_results_folder_opens_as_three_walls_on_the_time_slider(viewer_with_re
 
     viewer, layers = viewer_with_results
     res = oftimg.load_results(run_out / "normal")
-    assert [layer.name for layer in layers] == ["normal: outer wall", "normal: inner wall",
-                                                "normal: lumen"]
-    assert all(layer._type_string == "surface" for layer in layers)
+    walls = [layer for layer in layers if layer._type_string == "surface"]
+    assert [layer.name for layer in walls] == ["normal: outer wall", "normal: inner wall",
+                                               "normal: lumen"]
+    assert layers[:3] == walls
     n_t = res["t_ms"].size
     assert viewer.dims.nsteps[0] == n_t                            # time first
+    assert viewer.dims.axis_labels == ("frame", "z (mm)", "y (mm)", "x (mm)")   # as the dock's
     outer = res["outer"]
     for t in (0, n_t // 2):
         viewer.dims.set_current_step(0, t)
@@ -92,7 +94,7 @@ def test_the_reader_takes_results_and_leaves_other_folders(run_out, tmp_path):
     assert napari_get_reader(str(run_out)) is results_layers       # a run's --out
     assert napari_get_reader(str(tmp_path)) is None
     assert napari_get_reader(str(run_out / "normal" / "arrays.npz")) is None
-    assert len(results_layers(run_out)) == 3
+    assert [kind for _, _, kind in results_layers(run_out)][:3] == ["surface"] * 3
 
 
 def test_oftimg_runs_without_napari():
@@ -269,3 +271,83 @@ def test_the_first_view_has_the_outlet_up_and_looks_at_the_bend():
     assert np.degrees(np.arcsin(-view @ up)) == pytest.approx(TILT_DEG, abs=0.5)
     side = view + np.sin(np.radians(TILT_DEG)) * up                 # its part off the axis
     assert abs(side[1]) == pytest.approx(np.cos(np.radians(TILT_DEG)), abs=0.02)  # along y
+
+
+def test_every_field_and_map_is_an_image_on_the_walls_time_slider(viewer_with_results,
+                                                                   run_out):
+    """Each wall's (u, v, t) fields as Image layers (t, 1, v, u): unrolled beside the
+    tube (v up, the outlet at the top), frame t of the slider showing the field's
+    frame t, named in words with units; the (v, t) area maps beside them with a
+    cursor column at the slider's frame; hidden until asked for, in the house's
+    colours, napari's own tools on them."""
+    import oftimg
+
+    viewer, layers = viewer_with_results
+    res = oftimg.load_results(run_out / "normal")
+    images = {layer.name: layer for layer in layers if layer._type_string == "image"}
+    field = images["normal: outer wall radial curvature (1/mm), unrolled"]
+    assert "normal: lumen mean curvature (1/mm), unrolled" in images
+    assert "normal: inner wall jelly thickness (mm), unrolled" in images
+    assert not any(layer.visible for layer in images.values())
+    n_u, n_v, n_t = res["radial_curvature_outer_per_mm"].shape
+    assert field.data.shape == (n_t, 1, n_v, n_u)
+    np.testing.assert_array_equal(field.data[5, 0, ::-1].T, res["radial_curvature_outer_per_mm"][
+        :, :, 5].astype(np.float32))                                # v up: the outlet row first
+    assert field.colormap.name == "RdBu_r"
+    walls_x = max(layer.extent.world[1][3] for layer in layers[:3])
+    assert field.extent.world[0][3] > walls_x                      # beside the tube, not in it
+    field.visible = True
+    viewer.dims.set_current_step(0, 5)
+    shown = np.asarray(field._slice.image.view)                     # what napari draws now
+    np.testing.assert_array_equal(np.squeeze(shown), field.data[5, 0])
+    area = images["normal: area outer (mm²) (v, t) map"]
+    np.testing.assert_array_equal(area.data[0], res["area_outer_mm2"][::-1].astype(np.float32))
+    assert area.extent.world[0][2] > field.extent.world[1][3]      # beside the fields (z, y, x)
+    cursor = images["normal: time on the (v, t) maps"]
+    assert cursor.data[5, 0, 0].tolist() == [int(k == 5) for k in range(n_t)]
+    np.testing.assert_allclose(cursor.scale[3], area.scale[2])       # columns on the map's
+    np.testing.assert_allclose(cursor.translate[3], area.translate[2])
+    field.visible = False
+
+
+def test_the_napari_check_says_in_one_line_what_is_missing(monkeypatch, capsys):
+    """``python -m oftimg.napari --check``: ready under Xvfb (the suite's screen);
+    a library Qt's xcb plugin lacks named with its Debian package; no screen said
+    with the way round it."""
+    from oftimg.napari import check
+    from oftimg.napari.__main__ import main
+
+    ldd = ("\tlinux-vdso.so.1 (0x00007ffd)\n"
+           "\tlibxcb-icccm.so.4 => not found\n"
+           "\tlibxcb-keysyms.so.1 => not found\n"
+           "\tlibxcb.so.1 => /lib/x86_64-linux-gnu/libxcb.so.1 (0x00007f)\n"
+           "\tlibxcb-icccm.so.4 => not found\n")
+    assert check.not_found(ldd) == ["libxcb-icccm.so.4", "libxcb-keysyms.so.1"]
+    assert [check.package_of(s) for s in ("libxcb-icccm.so.4", "libxcb-keysyms.so.1",
+                                          "libxkbcommon-x11.so.0", "libdbus-1.so.3",
+                                          "libEGL.so.1", "libxcb-render-util.so.0")] == [
+        "libxcb-icccm4", "libxcb-keysyms1", "libxkbcommon-x11-0", "libdbus-1-3", "libegl1",
+        "libxcb-render-util0"]
+    monkeypatch.setattr(check, "missing_libraries",
+                        lambda: (["libxcb-icccm.so.4", "libxcb-keysyms.so.1"], "PySide6 6.12"))
+    assert main(["--check"]) == 1
+    out = capsys.readouterr().out.strip().splitlines()
+    assert len(out) == 1 and out[0].endswith(
+        "lacks the system libraries libxcb-icccm.so.4, libxcb-keysyms.so.1: sudo apt-get "
+        "install libxcb-icccm4 libxcb-keysyms1 (Debian / Ubuntu; or `make napari`)"), out
+    assert main(["--packages"]) == 0
+    assert capsys.readouterr().out.strip() == "libxcb-icccm4 libxcb-keysyms1"
+    monkeypatch.undo()
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["--check"]) == 1
+    assert "no screen here (no DISPLAY): run napari under `xvfb-run -a napari`" in \
+        capsys.readouterr().out
+
+
+def test_one_qt_binding_is_installed():
+    """The napari extra and the test extra bring one binding (PySide6): two bindings
+    in one environment leave qtpy to choose between them."""
+    from oftimg.napari.check import installed_bindings
+
+    assert installed_bindings() == ["PySide6"]

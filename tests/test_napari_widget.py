@@ -26,18 +26,36 @@ def test_the_widget_opens_a_result_with_its_fields_and_follows_the_slider(widget
     import oftimg
 
     res = oftimg.load_results(run_out / "normal")
-    names = [widget.fields.itemText(k) for k in range(widget.fields.count())]
-    assert "strain_energy_outer" in names and "wall_thickness_mm" in names
-    assert widget.fields.currentText() == "radial_curvature_outer_per_mm"
+    items = [(widget.fields.itemText(k), widget.fields.itemData(k))
+             for k in range(widget.fields.count())]
+    headings = [text for text, data in items if data is None]
+    assert headings == ["outer wall", "inner wall", "lumen"]      # every wall, by its name
+    choices = {data: text.strip() for text, data in items if data is not None}
+    assert choices[("outer", "radial_curvature_outer_per_mm")] == "radial curvature (1/mm)"
+    assert choices[("outer", "strain_energy_outer")] == "strain energy (dimensionless)"
+    assert choices[("inner", "jelly_thickness_mm")] == "jelly thickness (mm)"
+    assert choices[("lumen", "mean_curvature_lumen_per_mm")] == "mean curvature (1/mm)"
+    assert ("inner", "wall_thickness_mm") in choices and ("outer", "wall_thickness_mm") in choices
+    assert widget.fields.currentData() == ("outer", "radial_curvature_outer_per_mm")
     assert {layer.name for layer in widget.viewer.layers} >= {"normal: outer wall",
                                                             "normal: lumen"}
     widget.viewer.dims.set_current_step(0, 6)
     assert widget.views.cursor.get_xdata()[0] == res["t_ms"][6]
-    widget.fields.setCurrentText("strain_energy_outer")          # as a user chooses it
-    assert widget.walls.layers["outer"].colormap.name == "viridis"
+    widget.fields.setCurrentIndex(widget.fields.findText("   strain energy (dimensionless)"))
+    assert widget.walls.layers["outer"].colormap.name == "viridis"   # as a user chose it
     np.testing.assert_array_equal(widget.views.image.get_array(),
                                   res["strain_energy_outer"][:, :, 6].T)
     assert "normal" in widget.status.text()
+    widget.select("mean_curvature_lumen_per_mm")                    # the lumen's own field
+    lumen = widget.walls.layers["lumen"]
+    assert lumen.metadata["oftimg"]["field"] == "mean_curvature_lumen_per_mm"
+    np.testing.assert_array_equal(lumen.data[2],
+                                  res["mean_curvature_lumen_per_mm"][:, :, 6].reshape(-1))
+    np.testing.assert_array_equal(widget.views.map_image.get_array(), res["area_lumen_mm2"])
+    assert widget.walls.layers["outer"].metadata["oftimg"]["field"] == "strain_energy_outer"
+    widget.select("wall_thickness_mm", "inner")                     # one wall, not both
+    assert widget.walls.layers["inner"].metadata["oftimg"]["field"] == "wall_thickness_mm"
+    assert widget.walls.layers["outer"].metadata["oftimg"]["field"] == "strain_energy_outer"
 
 
 def test_a_click_on_the_image_or_on_a_wall_picks_a_node(widget):

@@ -79,11 +79,11 @@ def test_the_window_draws_the_walls_in_the_chosen_field_s_colours(window):
     drawn, red, green = shown(viewer)
     assert drawn.mean() > 0.05
     assert red.mean() > 0.01 and green.mean() < 0.001          # curvature in RdBu
-    widget.fields.setCurrentText("strain_energy_outer")
+    widget.select("strain_energy_outer", "outer")
     settle()
     drawn, red, green = shown(viewer)
     assert green.mean() > 0.01 and red.mean() < 0.001          # strain energy in viridis
-    widget.fields.setCurrentText("radial_curvature_outer_per_mm")
+    widget.select("radial_curvature_outer_per_mm", "outer")
     for layer in widget.walls.layers.values():
         layer.visible = False
     settle()

@@ -38,10 +38,14 @@ def small_ticks(*axes) -> None:
         ax.tick_params(labelsize=7, width=0.6)
 
 
-def axis_label(results, name: str) -> str:
-    """``readable(name) (unit)``."""
+def words_with_unit(results, name: str, wall: str | None = None) -> str:
+    """An array's name as words with its unit, ``radial curvature (1/mm)``; under a
+    wall's heading (``wall``) without that wall's name."""
+    words = readable(name)
+    if wall is not None:
+        words = " ".join(w for w in words.split() if w != wall)
     unit = label_unit(results.info(name).get("unit", ""))
-    return f"{readable(name)} ({unit})" if unit else readable(name)
+    return f"{words} ({unit})" if unit else words
 
 
 class LinkedViews:
@@ -54,8 +58,7 @@ class LinkedViews:
     def __init__(self, results, field: str, wall: str = "outer"):
         self.results, self.wall = results, wall
         self.t_ms, self.s_mm = results["t_ms"], results["s_mm"]
-        self.area = results[f"area_{wall}_mm2"] if f"area_{wall}_mm2" in results \
-            else results["area_outer_mm2"]                              # (v, t)
+        self.area = self._area(wall)                                    # (v, t)
         # a Figure of its own, not pyplot's (which keeps every figure it made open):
         # a column beside napari's canvas
         self.figure = Figure(figsize=(COLUMN_MM * MM, 190 * MM), layout="constrained")
@@ -99,21 +102,45 @@ class LinkedViews:
         else:
             canvas.blit(self.figure.bbox)
 
+    def _area(self, wall: str) -> np.ndarray:
+        """``wall``'s (v, t) section areas (the outer wall's where it has none)."""
+        name = f"area_{wall}_mm2"
+        return self.results[name] if name in self.results else self.results["area_outer_mm2"]
+
     def _map(self) -> None:
         ax = self.ax_map
         step = self.t_ms[1] - self.t_ms[0] if len(self.t_ms) > 1 else 1.0
-        image = ax.imshow(self.area, origin="lower", aspect="auto",
-                          extent=[self.t_ms[0] - step / 2, self.t_ms[-1] + step / 2,
-                                  self.s_mm[0], self.s_mm[-1]], **colour_scale(self.area))
-        colour_bar(self.figure, image, ax, f"{self.wall} section area (mm$^2$)")
+        self.map_image = ax.imshow(self.area, origin="lower", aspect="auto",
+                                   extent=[self.t_ms[0] - step / 2, self.t_ms[-1] + step / 2,
+                                           self.s_mm[0], self.s_mm[-1]],
+                                   **colour_scale(self.area))
+        self.map_bar = colour_bar(self.figure, self.map_image, ax, self._map_label())
         self.cursor = ax.axvline(self.t_ms[0], color="w", lw=1.2, animated=True)
         small_ticks(ax, self.figure.axes[-1])                            # and its colour bar
         ax.set_xlabel("time since minimum volume (ms)")
         ax.set_ylabel("position along the tube s (mm)")
 
+    def _map_label(self) -> str:
+        return f"{'lumen' if self.wall == 'lumen' else self.wall + ' wall'} section area (mm$^2$)"
+
     @house_style
-    def set_field(self, field: str) -> None:
-        """Show ``field`` ``(n_u, n_v, n_t)`` in the (u, v) view and the node's course."""
+    def set_wall(self, wall: str) -> None:
+        """Show ``wall``'s section areas in the area map and beside a node's course."""
+        if wall == self.wall:
+            return
+        self.wall, self.area = wall, self._area(wall)
+        scale = colour_scale(self.area)
+        self.map_image.set_data(self.area)
+        self.map_image.set_cmap(scale["cmap"])
+        self.map_image.set_clim(scale.get("vmin", 0.0), scale.get("vmax", 1.0))
+        self.map_bar.set_label(bar_label(self.figure, self.ax_map, self._map_label()))
+
+    @house_style
+    def set_field(self, field: str, wall: str | None = None) -> None:
+        """Show ``field`` ``(n_u, n_v, n_t)`` in the (u, v) view and the node's course;
+        ``wall``: the wall it is on (its areas in the map)."""
+        if wall is not None:
+            self.set_wall(wall)
         self.field_name, self.field = field, self.results[field]
         scale = colour_scale(self.field)
         ax = self.ax_field
@@ -124,7 +151,7 @@ class LinkedViews:
                                    extent=[-0.5 / n_u, 1 - 0.5 / n_u,
                                            -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)],
                                    animated=True)
-            self.bar = colour_bar(self.figure, self.image, ax, axis_label(self.results, field))
+            self.bar = colour_bar(self.figure, self.image, ax, words_with_unit(self.results, field))
             ax.set_xlabel("u around the tube (0 and 1: the seam)")
             ax.set_ylabel("v along (0: inlet, 1: outlet)")
             self.marker, = ax.plot([], [], "k+", ms=9, mew=1.5, animated=True)
@@ -134,7 +161,7 @@ class LinkedViews:
         else:
             self.image.set_cmap(scale["cmap"])
             self.image.set_clim(scale.get("vmin", 0.0), scale.get("vmax", 1.0))
-            self.bar.set_label(bar_label(self.figure, ax, axis_label(self.results, field)))
+            self.bar.set_label(bar_label(self.figure, ax, words_with_unit(self.results, field)))
         self.set_frame(self.frame)
         if self.node is not None:
             self.pick(*self.node)
@@ -171,7 +198,7 @@ class LinkedViews:
         ax.clear()
         ax.set_axis_on()
         ax.plot(self.t_ms, self.field[i_u, i_v], color="k", lw=1.2)
-        ax.set_ylabel(axis_label(self.results, self.field_name))
+        ax.set_ylabel(words_with_unit(self.results, self.field_name))
         ax.set_xlabel("time since minimum volume (ms)")
         twin = getattr(self, "_twin", None) or ax.twinx()
         self._twin = twin
@@ -181,7 +208,7 @@ class LinkedViews:
         twin.tick_params(axis="x", bottom=False, labelbottom=False)   # ax's time axis shows
         twin.patch.set_visible(False)
         twin.plot(self.t_ms, self.area[i_v], color="#0072B2", lw=1.0, ls="--")
-        twin.set_ylabel("its row's area (mm$^2$)", color="#0072B2")
+        twin.set_ylabel(f"its row's {self.wall} area (mm$^2$)", color="#0072B2")
         ax.set_title(f"node u = {i_u / n_u:.2f}, v = {i_v / (n_v - 1):.2f}")
         self.now = ax.axvline(self.t_ms[self.frame], color="0.5", lw=0.8, animated=True)
         small_ticks(ax, twin)

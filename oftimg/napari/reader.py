@@ -19,6 +19,8 @@ from ..output.numbers import label_unit
 from ..output.style import colour_scale
 
 WALL_NAMES = {"outer": "outer wall", "inner": "inner wall", "lumen": "lumen"}
+# the world's axes: every layer names them (napari labels its sliders from its layers)
+AXIS_LABELS = ("frame", "z (mm)", "y (mm)", "x (mm)")
 # the field each wall is coloured by when none is asked for (the first it has)
 DEFAULT_FIELDS = {"outer": ("radial_curvature_outer_per_mm", "strain_energy_outer"),
                   "inner": ("radial_curvature_inner_per_mm", "strain_energy_inner"),
@@ -46,6 +48,17 @@ def wall_fields(results: Results, wall: str) -> list[str]:
     """The (u, v, t) fields on ``wall``'s grid nodes that a Surface can be coloured by."""
     return [n for n in node_field_names(results.described, wall)
             if results.info(n)["dims"] == ["u", "v", "t"]]
+
+
+def field_choices(results: Results) -> list[tuple[str, str, list[tuple[str, str]]]]:
+    """Every wall's fields as a person chooses them: ``[(wall, its name, [(field in
+    words with its unit, array name), ...]), ...]`` in the walls' order (outer, inner,
+    lumen); a field two walls carry (the wall thickness) under both."""
+    from .linked import words_with_unit
+
+    return [(w, WALL_NAMES.get(w, w), [(words_with_unit(results, f, wall=w), f)
+                                       for f in wall_fields(results, w)])
+            for w in WALLS if w in results and wall_fields(results, w)]
 
 
 def field_label(results: Results, name: str) -> str:
@@ -87,14 +100,17 @@ def wall_layer(results: Results, wall: str, field: str | None = None) -> tuple:
     """One wall as a napari layer-data tuple ``(data, kwargs, "surface")`` over all
     frames (:func:`surface_over_time`), coloured as :func:`wall_style` says."""
     values, kwargs = wall_style(results, wall, field)
-    return surface_over_time(results[wall], values), kwargs, "surface"
+    return (surface_over_time(results[wall], values), kwargs | {"axis_labels": AXIS_LABELS},
+            "surface")
 
 
 def results_layers(path, field: str | None = None) -> list[tuple]:
     """Every wall of every dataset's results under ``path`` (one results folder or a
     run's ``--out``) as napari layer-data tuples (:func:`wall_layer`), over the
     volumes of the dataset each was made from when it is still there
-    (:func:`~oftimg.napari.volumes.result_volumes`)."""
+    (:func:`~oftimg.napari.volumes.result_volumes`), with its fields and maps as
+    images beside them, hidden (:func:`~oftimg.napari.maps.map_layers`)."""
+    from .maps import map_layers
     from .volumes import result_volumes
 
     layers = []
@@ -102,6 +118,7 @@ def results_layers(path, field: str | None = None) -> list[tuple]:
         results = load_results(folder)
         layers += result_volumes(results)
         layers += [wall_layer(results, w, field) for w in WALLS if w in results]
+        layers += map_layers(results)
     return layers
 
 

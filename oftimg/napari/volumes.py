@@ -16,6 +16,7 @@ from ..io.label_dataset import is_label_dataset, load_label_dataset, read_frame
 from ..io.labelfile import read_header
 from ..io.meshfile import read_mesh_file
 from ..io.units import UNIT_TO_MM
+from .reader import AXIS_LABELS
 
 SURFACE_COLOURS = {"outer": "#E69F00", "inner": "#56B4E9", "lumen": "#CC79A7"}
 
@@ -86,6 +87,7 @@ def volume_layers(path, order=None, name: str | None = None) -> list[tuple]:
             data = lazy_frames(lambda t: read_frame(lds.sources[t]), lds.n_frames,
                                header.shape, header.dtype, order)
             layers.append((data, {"name": f"{name}: labels", "scale": scale, "opacity": 0.5,
+                                  "axis_labels": AXIS_LABELS,
                                   "visible": False}, "labels"))
         intensity = lds.intensity
     else:
@@ -98,6 +100,7 @@ def volume_layers(path, order=None, name: str | None = None) -> list[tuple]:
         dx, dy, dz = intensity.voxel_size_mm
         ox, oy, oz = intensity.origin_mm
         layers.append((data, {"name": f"{name}: intensity", "scale": (1.0, dz, dy, dx),
+                              "axis_labels": AXIS_LABELS,
                               "translate": (0.0, oz, oy, ox), "colormap": "gray",
                               "contrast_limits": (float(low), float(high)),
                               "rendering": "mip", "opacity": 0.6, "blending": "additive"},
@@ -120,6 +123,7 @@ def surfaces_over_time(path) -> list[tuple]:
             start += len(V)
         layers.append(((np.concatenate(vertices), np.concatenate(faces)),
                        {"name": f"{ds.meta.name}: {surface} (as meshed)", "shading": "smooth",
+                        "axis_labels": AXIS_LABELS,
                         "colormap": _one_colour(SURFACE_COLOURS[surface]), "opacity": 0.7},
                        "surface"))
     return layers

@@ -11,11 +11,11 @@ import numpy as np
 
 from ..mesh.strain import grid_triangles
 from ..output.results import Results, load_results
-from .reader import WALLS, field_colours, field_label, wall_fields, wall_style
+from .reader import AXIS_LABELS, WALLS, field_colours, field_label, wall_fields, wall_style
+from .maps import map_layers
 from .volumes import result_volumes
 
 
-AXIS_LABELS = ("frame", "z (mm)", "y (mm)", "x (mm)")
 TILT_DEG = 30.0         # the first view: from beside the tube's bend, this far from the outlet
 
 
@@ -42,7 +42,8 @@ class WallsOverTime:
     own, :data:`~oftimg.napari.reader.DEFAULT_FIELDS`); time is the viewer's first
     axis, in frames of the aligned cycle (``t_ms``)."""
 
-    def __init__(self, viewer, folder, field: str | None = None, volumes: bool = True):
+    def __init__(self, viewer, folder, field: str | None = None, volumes: bool = True,
+                 maps: bool = True):
         self.viewer = viewer            # folder: a results folder, or its Results already read
         self.results = folder if isinstance(folder, Results) else load_results(folder)
         self.t_ms = self.results["t_ms"]
@@ -53,7 +54,7 @@ class WallsOverTime:
         ends = np.zeros((2, 4))
         ends[1, 0] = len(self.t_ms) - 1
         self.clock = viewer.add_points(ends, name=f"{self.results.name}: frames",
-                                       visible=False, size=0)
+                                       visible=False, size=0, axis_labels=AXIS_LABELS)
         # the dataset's volumes under the walls, if it is still where it was read
         self.volumes = [getattr(viewer, f"add_{kind}")(data, **kwargs) for data, kwargs, kind
                         in (result_volumes(self.results) if volumes else [])]
@@ -73,6 +74,10 @@ class WallsOverTime:
                 # napari 0.9 moved the camera to viewer.scene
                 camera = viewer.scene.camera if hasattr(viewer, "scene") else viewer.camera
                 camera.set_view_direction(tuple(view), tuple(up))
+        # its fields and maps as images beside the tube, hidden until asked for (after
+        # the first view: it frames the walls)
+        self.maps = [viewer.add_image(data, **kwargs) for data, kwargs, _
+                     in (map_layers(self.results) if maps else [])]
         viewer.dims.events.current_step.connect(self.show_current)
         self.show_current()
 
@@ -98,12 +103,12 @@ class WallsOverTime:
                 layer.data = self._frame_data(w, t)
                 layer.metadata["oftimg"]["frame"] = t
 
-    def colour_by(self, field: str) -> list[str]:
-        """Colour every wall that has ``field`` by it (the others keep theirs);
-        returns the walls recoloured."""
+    def colour_by(self, field: str, wall: str | None = None) -> list[str]:
+        """Colour ``wall`` (default: every wall that has ``field``) by ``field`` (the
+        others keep theirs); returns the walls recoloured."""
         recoloured = []
         for w, layer in self.layers.items():
-            if field not in wall_fields(self.results, w):
+            if field not in wall_fields(self.results, w) or wall not in (None, w):
                 continue
             self.values[w] = self.results[field]
             layer.data = self._frame_data(w, self.frame)

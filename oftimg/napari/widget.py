@@ -17,7 +17,7 @@ from qtpy.QtWidgets import QComboBox, QFileDialog, QLabel, QPushButton, QVBoxLay
 from ..errors import InputError
 from ..output.results import load_results, result_folders
 from .linked import LinkedViews
-from .reader import wall_fields
+from .reader import field_choices, wall_fields
 from .run import RunPanel
 from .walls import WallsOverTime
 
@@ -33,8 +33,8 @@ class OftimgWidget(QWidget):
         self.setLayout(QVBoxLayout())
         self.open_button = QPushButton("Open results folder…")
         self.open_button.clicked.connect(self._choose_folder)
-        self.fields = QComboBox()
-        self.fields.currentTextChanged.connect(self.set_field)
+        self.fields = QComboBox()                   # every wall's fields, under its name
+        self.fields.currentIndexChanged.connect(self._chosen)
         self.status = QLabel("no results open")
         self.status.setWordWrap(True)
         self.run_panel = RunPanel(done=self.open)
@@ -57,31 +57,62 @@ class OftimgWidget(QWidget):
         self.close_results()
         results = load_results(folder)
         self.walls = WallsOverTime(self.viewer, results)   # the arrays read once
-        fields = wall_fields(results, "outer")
-        first = self.walls.layers["outer"].metadata["oftimg"]["field"] or fields[0]
-        self.views = LinkedViews(results, first)
+        wall = self.walls.walls[0]
+        first = (self.walls.layers[wall].metadata["oftimg"]["field"]
+                 or wall_fields(results, wall)[0])
+        self.views = LinkedViews(results, first, wall)
         self.canvas = FigureCanvasQTAgg(self.views.figure)
         self.canvas.mpl_connect("button_press_event", self._clicked_image)
         self.layout().addWidget(self.canvas)
         self.views.follow(self.walls)
         for layer in self.walls.layers.values():
             layer.mouse_drag_callbacks.append(self._clicked_wall)
-        self.fields.blockSignals(True)
-        self.fields.clear()
-        self.fields.addItems(fields)
-        self.fields.setCurrentText(first)
-        self.fields.blockSignals(False)
+        self._list_fields(results)
+        self.select(first, wall)
         folder = Path(folder)                       # the full path: the tooltip
         self.status.setText(f"{results.name}: {len(results['t_ms'])} frames, from "
                             f"{folder.parent.name}/{folder.name}")
         self.status.setToolTip(str(folder.resolve()))
 
-    def set_field(self, field: str) -> None:
-        """Colour the walls that have ``field`` and the (u, v) view by it."""
+    def _list_fields(self, results) -> None:
+        """The field list: each wall's name (not a choice), its fields below it in
+        words with their units, each item's data ``(wall, array name)``."""
+        self.fields.blockSignals(True)
+        self.fields.clear()
+        for wall, heading, entries in field_choices(results):
+            self.fields.addItem(heading)
+            item = self.fields.model().item(self.fields.count() - 1)
+            item.setEnabled(False)
+            font = item.font()
+            font.setBold(True)
+            item.setFont(font)
+            for words, field in entries:
+                self.fields.addItem(f"   {words}", (wall, field))
+        self.fields.blockSignals(False)
+
+    def select(self, field: str, wall: str | None = None) -> None:
+        """Choose ``field`` on ``wall`` (default: the first wall that has it) in the
+        field list, as a user would."""
+        for k in range(self.fields.count()):
+            data = self.fields.itemData(k)
+            if data is not None and data[1] == field and wall in (None, data[0]):
+                self.fields.setCurrentIndex(k)
+                self._chosen(k)
+                return
+        raise KeyError(f"no field {field!r}" + (f" on the {wall}" if wall else ""))
+
+    def _chosen(self, index: int) -> None:
+        data = self.fields.itemData(index)
+        if data is not None:
+            self.set_field(data[1], data[0])
+
+    def set_field(self, field: str, wall: str | None = None) -> None:
+        """Colour ``wall`` (default: every wall that has ``field``) and the (u, v) view
+        by ``field``; the area map shows that wall's areas."""
         if self.views is None or not field:
             return
-        self.walls.colour_by(field)
-        self.views.set_field(field)
+        self.walls.colour_by(field, wall)
+        self.views.set_field(field, wall)
         self.canvas.draw_idle()
 
     def _clicked_image(self, event) -> None:
@@ -110,7 +141,8 @@ class OftimgWidget(QWidget):
             return
         self.views.unfollow()
         self.walls.close()
-        for layer in [*self.walls.layers.values(), self.walls.clock, *self.walls.volumes]:
+        for layer in [*self.walls.layers.values(), self.walls.clock, *self.walls.volumes,
+                      *self.walls.maps]:
             if layer in self.viewer.layers:
                 self.viewer.layers.remove(layer)
         self.layout().removeWidget(self.canvas)

@@ -44,8 +44,8 @@ def headless(folder) -> None:
 
     viewer = ViewerModel(ndisplay=3)
     tick = time.perf_counter()
-    for data, kwargs, _ in results_layers(folder):
-        viewer.add_surface(data, **kwargs)
+    for data, kwargs, kind in results_layers(folder):
+        getattr(viewer, f"add_{kind}")(data, **kwargs)
     opened = time.perf_counter() - tick
     n_t = viewer.dims.nsteps[0]
     print(f"reader (every frame in each layer): open {opened:.2f} s, {n_t} frames; "
@@ -90,6 +90,13 @@ def window(folder) -> None:
     n_t = viewer.dims.nsteps[0]
     print(f"window: open {opened:.2f} s to the first frame drawn, {n_t} frames")
     print(f"window, three walls shown: a step redrawn in {summary(steps_ms(viewer, n_t, drawn))}")
+    if widget.walls.volumes:
+        for layer in widget.walls.volumes:
+            layer.visible = True
+        print(f"window, three walls and the volumes ({', '.join(layer.name for layer in widget.walls.volumes)}) "
+              f"shown: a step redrawn in {summary(steps_ms(viewer, n_t, drawn))}")
+        for layer in widget.walls.volumes:
+            layer.visible = False
     for wall in ("inner", "lumen"):
         widget.walls.layers[wall].visible = False
     print(f"window, the outer wall alone: a step redrawn in "

@@ -469,3 +469,25 @@ def test_an_ome_tiff_with_channels_or_an_odd_unit_is_named(tmp_path):
     with pytest.raises(DatasetError, match="odd.ome.tif: OME PhysicalSizeXUnit 's' is not a "
                                            "length"):
         read_header(LabelSource(str(odd)))
+
+
+def test_a_tiff_header_is_read_from_its_description_only_when_its_pages_agree(tmp_path):
+    """tifffile's "shaped" description gives a per-frame TIFF's shape without parsing
+    its pages (a dataset's headers are read for every frame); a description whose
+    shape the pages do not bear out is not believed."""
+    import tifffile
+
+    from oftimg.io.labelfile import LabelSource, _shaped_shape, read_header
+
+    good = tmp_path / "good.tif"
+    tifffile.imwrite(good, np.zeros((5, 7, 9), np.uint16))
+    lying = tmp_path / "lying.tif"
+    tifffile.imwrite(lying, np.zeros((5, 7, 9), np.uint8), description='{"shape": [4, 7, 9]}',
+                     metadata=None)
+    with tifffile.TiffFile(good) as tif:
+        assert _shaped_shape(tif) == (5, 7, 9)
+    with tifffile.TiffFile(lying) as tif:
+        assert _shaped_shape(tif) is None
+    assert read_header(LabelSource(str(good))).shape == (5, 7, 9)
+    assert read_header(LabelSource(str(good))).dtype == np.uint16
+    assert read_header(LabelSource(str(lying))).shape == (5, 7, 9)    # from its pages

@@ -15,6 +15,7 @@ at a time.
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -157,8 +158,28 @@ def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
             shape = _tiff_series_layout(tif, source)[0]
             step = _tiff_time_step(tif) if source.index is not None else None
             return VolumeHeader(tuple(shape[1:]), tif.series[0].dtype, _tiff_voxel(tif), step)
+        shaped = _shaped_shape(tif)
+        if shaped is not None:                         # tifffile's own: no page parsed
+            return VolumeHeader(_three_d(shaped, path), tif.pages.first.dtype, _tiff_voxel(tif))
         series = tif.series[0]
         return VolumeHeader(_three_d(series.shape, path), series.dtype, _tiff_voxel(tif))
+
+
+def _shaped_shape(tif) -> tuple[int, ...] | None:
+    """A TIFF's shape as tifffile's "shaped" description gives it, when its pages
+    agree (one plane a page): read without building every page, which takes ~3 ms a
+    file of 64 planes (a dataset's headers are read for every frame). None otherwise."""
+    if not tif.is_shaped or tif.is_ome or tif.is_imagej:
+        return None
+    first = tif.pages.first
+    try:
+        shape = tuple(int(n) for n in json.loads(first.description).get("shape", ()))
+    except (ValueError, TypeError, AttributeError):
+        return None
+    if (len(shape) < 2 or shape[-2:] != tuple(first.shape[:2]) or first.samplesperpixel != 1
+            or int(np.prod(shape[:-2])) != len(tif.pages)):
+        return None
+    return shape
 
 
 def describe_format(source: LabelSource) -> dict:
@@ -515,8 +536,6 @@ def hdf5_axes(data, path: Path) -> str:
     """An HDF5 array's axes, ``"tzyxc"`` or a part of it, from ilastik's ``axistags``
     attribute (never guessed from the shape where it is given); without it, ilastik's
     order by the number of axes (zyx, zyxc, tzyxc)."""
-    import json
-
     tags = data.attrs.get("axistags")
     if tags is not None:
         try:

@@ -300,7 +300,7 @@ def test_every_field_and_map_is_an_image_on_the_walls_time_slider(viewer_with_re
     viewer.dims.set_current_step(0, 5)
     shown = np.asarray(field._slice.image.view)                     # what napari draws now
     np.testing.assert_array_equal(np.squeeze(shown), field.data[5, 0])
-    area = images["normal: area outer (mm²) (v, t) map"]
+    area = images["normal: outer wall area (mm²), (v, t) map"]
     np.testing.assert_array_equal(area.data[0], res["area_outer_mm2"][::-1].astype(np.float32))
     assert area.extent.world[0][2] > field.extent.world[1][3]      # beside the fields (z, y, x)
     cursor = images["normal: time on the (v, t) maps"]

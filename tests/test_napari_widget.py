@@ -86,3 +86,68 @@ def test_opening_another_result_replaces_the_first(widget, run_out):
     layers_before = len(widget.viewer.layers)
     widget.open(run_out / "normal")
     assert len(widget.viewer.layers) == layers_before
+
+
+def test_the_field_and_its_area_map_as_image_layers_follow_the_choice(widget, run_out):
+    """The dock's check box puts the chosen field (unrolled, on the time slider), its
+    wall's (v, t) area map and the time cursor in the viewer as Image layers; another
+    field replaces them; unchecked, they go."""
+    import oftimg
+
+    res = oftimg.load_results(run_out / "normal")
+    before = len(widget.viewer.layers)
+    widget.images_box.setChecked(True)
+    names = [layer.name for layer in widget.images]
+    assert names == ["normal: outer wall radial curvature (1/mm), unrolled",
+                     "normal: outer wall area (mm²), (v, t) map", "normal: time on the (v, t) maps"]
+    assert len(widget.viewer.layers) == before + 3
+    widget.select("mean_curvature_lumen_per_mm")
+    field, area, _ = widget.images
+    assert field.name == "normal: lumen mean curvature (1/mm), unrolled"
+    np.testing.assert_array_equal(field.data[:, 0, ::-1].transpose(2, 1, 0),
+                                  res["mean_curvature_lumen_per_mm"].astype(np.float32))
+    np.testing.assert_array_equal(area.data[0, ::-1], res["area_lumen_mm2"].astype(np.float32))
+    widget.images_box.setChecked(False)
+    assert len(widget.viewer.layers) == before and widget.images == []
+
+
+def test_volumes_show_the_slider_s_frame_coarse_while_it_moves_and_full_at_rest(qtbot,
+                                                                                 tmp_path):
+    """VolumesOverTime: each volume layer holds the slider's frame (input frame
+    order[t]); in a Qt application a step shows every 4th voxel at 4 times the scale
+    (the same mm), and the full frame once the slider has rested; the frames ahead
+    are read in a thread."""
+    from napari.components import ViewerModel
+
+    from oftimg.io.label_dataset import load_label_dataset, read_frame
+    from oftimg.io.labelfile import read_volume
+    from oftimg.napari.volumes import (PROXY_STEP, REST_MS, VolumesOverTime, cycle_order,
+                                       volume_series)
+    from oftimg.synthetic.labels import write_label_phantom
+    from oftimg.synthetic.phantom import sample_params
+
+    path = tmp_path / "tex"
+    write_label_phantom(path, sample_params("normal", 0, n_frames=5), (8.0, 8.0, 16.0),
+                        intensity=True)
+    lds = load_label_dataset(path)
+    order = cycle_order(5, 2)
+    viewer = ViewerModel(ndisplay=3)
+    viewer.add_points(np.array([[0, 0, 0, 0], [4, 0, 0, 0]]), size=0)    # the time axis
+    volumes = VolumesOverTime(viewer, volume_series(path, order))
+    labels, intensity = volumes.layers
+    labels.visible = True
+    np.testing.assert_array_equal(labels.data, read_frame(lds.sources[2]))
+    assert intensity.data.dtype == np.uint8                         # as stored, not float
+    full_scale = np.asarray(labels.scale)
+    volumes.show(3)                                                 # the slider moved
+    np.testing.assert_array_equal(labels.data, read_frame(lds.sources[0])[::PROXY_STEP,
+                                                                          ::PROXY_STEP,
+                                                                          ::PROXY_STEP])
+    np.testing.assert_allclose(labels.scale, full_scale * PROXY_STEP)
+    qtbot.wait(REST_MS + 200)                                        # it rests
+    np.testing.assert_array_equal(labels.data, read_frame(lds.sources[0]))
+    np.testing.assert_allclose(labels.scale, full_scale)
+    np.testing.assert_array_equal(intensity.data, read_volume(lds.intensity.sources[0]))
+    volumes.reader.shutdown(wait=True)
+    assert volumes.series[0].read.cache_info().currsize >= 3          # frames 3, 4, 0 read
+    volumes.close()

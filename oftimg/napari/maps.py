@@ -82,7 +82,10 @@ def map_image(results, name: str, at: dict, *, visible: bool = False) -> tuple:
     z0, z_span = at["z"]
     scale = colour_scale(values) if values.dtype != bool else {"cmap": "gray", "vmin": 0,
                                                                "vmax": 1}
-    kwargs = _layer_kwargs(results, f"{words_with_unit(results, name)} (v, t) map", {
+    wall = next((w for w in WALLS if name.endswith(f"_{w}") or f"_{w}_" in name), None)
+    words = words_with_unit(results, name, wall=wall).replace(" (bool)", "")
+    title = f"{WALL_NAMES[wall]} {words}" if wall else words
+    kwargs = _layer_kwargs(results, f"{title}, (v, t) map", {
         "array": name, "dims": ["v", "t"],
         "rows": "v from the outlet (top) to the inlet (bottom)",
         "columns": "t, the frames of the cycle", "t_ms": results["t_ms"].tolist()}, visible)

@@ -116,7 +116,7 @@ def results_layers(path, field: str | None = None) -> list[tuple]:
     layers = []
     for folder in result_folders(path):
         results = load_results(folder)
-        layers += result_volumes(results)
+        layers += [v.layer_data() for v in result_volumes(results)]
         layers += [wall_layer(results, w, field) for w in WALLS if w in results]
         layers += map_layers(results)
     return layers

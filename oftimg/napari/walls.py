@@ -12,8 +12,7 @@ import numpy as np
 from ..mesh.strain import grid_triangles
 from ..output.results import Results, load_results
 from .reader import AXIS_LABELS, WALLS, field_colours, field_label, wall_fields, wall_style
-from .maps import map_layers
-from .volumes import result_volumes
+from .volumes import VolumesOverTime, result_volumes
 
 
 TILT_DEG = 30.0         # the first view: from beside the tube's bend, this far from the outlet
@@ -42,8 +41,7 @@ class WallsOverTime:
     own, :data:`~oftimg.napari.reader.DEFAULT_FIELDS`); time is the viewer's first
     axis, in frames of the aligned cycle (``t_ms``)."""
 
-    def __init__(self, viewer, folder, field: str | None = None, volumes: bool = True,
-                 maps: bool = True):
+    def __init__(self, viewer, folder, field: str | None = None, volumes: bool = True):
         self.viewer = viewer            # folder: a results folder, or its Results already read
         self.results = folder if isinstance(folder, Results) else load_results(folder)
         self.t_ms = self.results["t_ms"]
@@ -56,8 +54,9 @@ class WallsOverTime:
         self.clock = viewer.add_points(ends, name=f"{self.results.name}: frames",
                                        visible=False, size=0, axis_labels=AXIS_LABELS)
         # the dataset's volumes under the walls, if it is still where it was read
-        self.volumes = [getattr(viewer, f"add_{kind}")(data, **kwargs) for data, kwargs, kind
-                        in (result_volumes(self.results) if volumes else [])]
+        self.volume_frames = VolumesOverTime(viewer, result_volumes(self.results)
+                                             if volumes else [])
+        self.volumes = self.volume_frames.layers
         self.values, self.layers = {}, {}
         for w in self.walls:
             values, kwargs = wall_style(self.results, w, field)
@@ -74,10 +73,6 @@ class WallsOverTime:
                 # napari 0.9 moved the camera to viewer.scene
                 camera = viewer.scene.camera if hasattr(viewer, "scene") else viewer.camera
                 camera.set_view_direction(tuple(view), tuple(up))
-        # its fields and maps as images beside the tube, hidden until asked for (after
-        # the first view: it frames the walls)
-        self.maps = [viewer.add_image(data, **kwargs) for data, kwargs, _
-                     in (map_layers(self.results) if maps else [])]
         viewer.dims.events.current_step.connect(self.show_current)
         self.show_current()
 
@@ -98,6 +93,7 @@ class WallsOverTime:
         hidden wall gets its frame when it is shown: each wall's new frame costs vispy
         a shader rebuild, vispy/vispy#2568)."""
         t = self.frame
+        self.volume_frames.show(t)
         for w, layer in self.layers.items():
             if layer.visible and layer.metadata["oftimg"].get("frame") != t:
                 layer.data = self._frame_data(w, t)
@@ -122,5 +118,6 @@ class WallsOverTime:
     def close(self) -> None:
         """Stop following the time slider."""
         self.viewer.dims.events.current_step.disconnect(self.show_current)
+        self.volume_frames.close()
         for layer in self.layers.values():
             layer.events.visible.disconnect(self.show_current)

@@ -12,11 +12,13 @@ from pathlib import Path
 import numpy as np
 
 from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
-from qtpy.QtWidgets import QComboBox, QFileDialog, QLabel, QPushButton, QVBoxLayout, QWidget
+from qtpy.QtWidgets import (QCheckBox, QComboBox, QFileDialog, QLabel, QPushButton,
+                            QVBoxLayout, QWidget)
 
 from ..errors import InputError
 from ..output.results import load_results, result_folders
 from .linked import LinkedViews
+from .maps import field_image, map_image, placement, time_cursor
 from .reader import field_choices, wall_fields
 from .run import RunPanel
 from .walls import WallsOverTime
@@ -35,10 +37,15 @@ class OftimgWidget(QWidget):
         self.open_button.clicked.connect(self._choose_folder)
         self.fields = QComboBox()                   # every wall's fields, under its name
         self.fields.currentIndexChanged.connect(self._chosen)
+        self.images_box = QCheckBox("the field and the area map as image layers")
+        self.images_box.setToolTip("beside the tube, on the time slider: napari's own tools "
+                                   "(contrast, histogram, line profiles) work on them")
+        self.images_box.toggled.connect(self._show_images)
+        self.images = []
         self.status = QLabel("no results open")
         self.status.setWordWrap(True)
         self.run_panel = RunPanel(done=self.open)
-        for w in (self.open_button, self.run_panel, self.fields, self.status):
+        for w in (self.open_button, self.run_panel, self.fields, self.images_box, self.status):
             self.layout().addWidget(w)
 
     def _choose_folder(self) -> None:
@@ -114,6 +121,29 @@ class OftimgWidget(QWidget):
         self.walls.colour_by(field, wall)
         self.views.set_field(field, wall)
         self.canvas.draw_idle()
+        self.shown = (field, wall or next(w for w in self.walls.walls
+                                          if field in wall_fields(self.walls.results, w)))
+        if self.images_box.isChecked():
+            self._show_images(True)
+
+    def _show_images(self, on: bool) -> None:
+        """The chosen field unrolled, its wall's (v, t) area map and the time cursor
+        as napari Image layers beside the tube (:mod:`oftimg.napari.maps`); none when
+        ``on`` is False."""
+        for layer in self.images:
+            if layer in self.viewer.layers:
+                self.viewer.layers.remove(layer)
+        self.images = []
+        if not on or self.walls is None:
+            return
+        results = self.walls.results
+        field, wall = self.shown
+        at = placement(results)
+        area = f"area_{wall}_mm2" if f"area_{wall}_mm2" in results else "area_outer_mm2"
+        for data, kwargs, _ in (field_image(results, field, wall, at, visible=True),
+                                map_image(results, area, at, visible=True),
+                                time_cursor(results, at, visible=True)):
+            self.images.append(self.viewer.add_image(data, **kwargs))
 
     def _clicked_image(self, event) -> None:
         """A click on the (u, v) image picks its node; on the area map, moves the time
@@ -141,8 +171,8 @@ class OftimgWidget(QWidget):
             return
         self.views.unfollow()
         self.walls.close()
-        for layer in [*self.walls.layers.values(), self.walls.clock, *self.walls.volumes,
-                      *self.walls.maps]:
+        self._show_images(False)
+        for layer in [*self.walls.layers.values(), self.walls.clock, *self.walls.volumes]:
             if layer in self.viewer.layers:
                 self.viewer.layers.remove(layer)
         self.layout().removeWidget(self.canvas)

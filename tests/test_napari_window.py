@@ -192,3 +192,62 @@ def test_screenshots_and_a_scrubbing_gif_for_the_docs(window, tmp_path):
         os.makedirs(target, exist_ok=True)
         for name in ("window.png", "scrubbing.gif", "run_panel.png"):
             shutil.copy(out / name, os.path.join(target, name))
+
+
+def test_the_views_stay_readable_in_a_small_window(window):
+    """At a laptop's window (1024 x 640) the dock scrolls rather than squash the linked
+    views: they keep their least size, nothing in them overlaps or leaves the figure,
+    and the screenshot shows the (u, v) image taller than a strip."""
+    from test_figure_style import layout_problems
+
+    from oftimg.napari.widget import VIEWS_MIN_PX
+
+    viewer, widget = window
+    qt_window = viewer.window._qt_window
+    size = qt_window.size()
+    qt_window.resize(1024, 640)
+    settle(10)
+    try:
+        assert widget.canvas.width() >= VIEWS_MIN_PX[0] - 30          # the scroll bar's width
+        assert widget.canvas.height() >= VIEWS_MIN_PX[1]
+        assert widget.scroll.verticalScrollBar().maximum() > 0        # it scrolls instead
+        widget.canvas.draw()
+        assert layout_problems(widget.views.figure) == []
+        image = grab(widget.canvas)
+        box = widget.views.ax_field.get_window_extent()
+        ratio = widget.canvas.devicePixelRatioF()
+        assert box.height / ratio > 150 and box.width / ratio > 150
+        coloured = np.abs(image.astype(int) - image.mean(axis=-1, keepdims=True)).max(-1) > 40
+        assert coloured[:int(widget.canvas.height() / 2)].mean() > 0.1    # the field drawn
+    finally:
+        qt_window.resize(size)
+        settle()
+
+
+def test_a_field_as_an_image_layer_is_drawn_beside_the_tube(window):
+    """The dock's check box: the chosen field unrolled beside the tube in napari's
+    canvas (its reds right of the walls), gone when unchecked."""
+    viewer, widget = window
+
+    def red_bodies() -> tuple[int, np.ndarray]:
+        """How many red bodies lie side by side in the canvas (columns apart), and the
+        red mask."""
+        canvas = viewer.screenshot(canvas_only=True, flash=False)[..., :3].astype(int)
+        r, g, b = canvas[..., 0], canvas[..., 1], canvas[..., 2]
+        red = (r > b + 60) & (r > g + 40)
+        columns = np.nonzero(red.any(axis=0))[0]
+        return 1 + int((np.diff(columns) > 10).sum()), red
+
+    assert red_bodies()[0] == 1                                  # the tube alone
+    widget.images_box.setChecked(True)
+    viewer.reset_view()
+    settle()
+    try:
+        bodies, red = red_bodies()
+        assert bodies >= 2, "the field image is not drawn beside the tube"   # its stripes too
+        assert red[:, red.shape[1] // 2:].mean() > 0.02
+    finally:
+        widget.images_box.setChecked(False)
+        viewer.reset_view()
+        settle()
+    assert red_bodies()[0] == 1

@@ -118,7 +118,7 @@ class LinkedViews:
         self.cursor = ax.axvline(self.t_ms[0], color="w", lw=1.2, animated=True)
         small_ticks(ax, self.figure.axes[-1])                            # and its colour bar
         ax.set_xlabel("time since minimum volume (ms)")
-        ax.set_ylabel("position along the tube s (mm)")
+        ax.set_ylabel("s, from the inlet (mm)")
 
     def _map_label(self) -> str:
         return f"{'lumen' if self.wall == 'lumen' else self.wall + ' wall'} section area (mm$^2$)"
@@ -153,7 +153,7 @@ class LinkedViews:
                                    animated=True)
             self.bar = colour_bar(self.figure, self.image, ax, words_with_unit(self.results, field))
             ax.set_xlabel("u around the tube (0 and 1: the seam)")
-            ax.set_ylabel("v along (0: inlet, 1: outlet)")
+            ax.set_ylabel("v (0: inlet, 1: outlet)")
             self.marker, = ax.plot([], [], "k+", ms=9, mew=1.5, animated=True)
             self.time_title = ax.set_title(" ")          # the field and the time: moves
             self.time_title.set_animated(True)

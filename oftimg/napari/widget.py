@@ -13,7 +13,7 @@ import numpy as np
 
 from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
 from qtpy.QtWidgets import (QCheckBox, QComboBox, QFileDialog, QLabel, QPushButton,
-                            QVBoxLayout, QWidget)
+                            QScrollArea, QVBoxLayout, QWidget)
 
 from ..errors import InputError
 from ..output.results import load_results, result_folders
@@ -22,6 +22,11 @@ from .maps import field_image, map_image, placement, time_cursor
 from .reader import field_choices, wall_fields
 from .run import RunPanel
 from .walls import WallsOverTime
+
+
+# the linked views' least size on the screen (px): below it their labels overlap and the
+# (u, v) image becomes a strip, so a smaller dock scrolls instead
+VIEWS_MIN_PX = (300, 700)
 
 
 class OftimgWidget(QWidget):
@@ -70,7 +75,11 @@ class OftimgWidget(QWidget):
         self.views = LinkedViews(results, first, wall)
         self.canvas = FigureCanvasQTAgg(self.views.figure)
         self.canvas.mpl_connect("button_press_event", self._clicked_image)
-        self.layout().addWidget(self.canvas)
+        self.canvas.setMinimumSize(*VIEWS_MIN_PX)        # never squashed: the dock scrolls
+        self.scroll = QScrollArea()
+        self.scroll.setWidgetResizable(True)
+        self.scroll.setWidget(self.canvas)
+        self.layout().addWidget(self.scroll, stretch=1)
         self.views.follow(self.walls)
         for layer in self.walls.layers.values():
             layer.mouse_drag_callbacks.append(self._clicked_wall)
@@ -175,9 +184,9 @@ class OftimgWidget(QWidget):
         for layer in [*self.walls.layers.values(), self.walls.clock, *self.walls.volumes]:
             if layer in self.viewer.layers:
                 self.viewer.layers.remove(layer)
-        self.layout().removeWidget(self.canvas)
-        self.canvas.deleteLater()
-        self.walls = self.views = self.canvas = None
+        self.layout().removeWidget(self.scroll)
+        self.scroll.deleteLater()
+        self.walls = self.views = self.canvas = self.scroll = None
 
 
 def vertex_hit(layer, position, view_direction, dims_displayed) -> int | None:

@@ -210,7 +210,7 @@ def expected_outputs(walls: set, intensity: bool) -> tuple[set, set]:
 
 def run_to_the_end(dataset, work) -> dict:
     """``dataset`` through `oftimg run` (in this process, one job) and every export
-    (`oftimg paraview`, `oftimg tiff`, the napari reader), each checked to end with
+    (`oftimg paraview`, `oftimg tiff`, `oftimg ome-zarr`, the napari reader), each checked to end with
     exit 0 and complete outputs: every figure and video its walls and inputs give,
     each readable and not blank; every file the pages link there; no "nan" where a
     person reads (pages, tables, warnings). Returns the dataset's summary."""
@@ -263,9 +263,13 @@ def run_to_the_end(dataset, work) -> dict:
     assert any((work / "paraview").rglob("*.vt*"))
     assert main(["tiff", str(out), "--out", str(work / "tiff"), "--quiet"]) == 0
     assert any((work / "tiff").rglob("*.tif"))
+    assert main(["ome-zarr", str(out), "--out", str(work / "ome-zarr"), "--quiet"]) == 0
+    assert any((work / "ome-zarr").rglob("*.ome.zarr"))
     layers = results_layers(out)
     surfaces = [layer for layer in layers if layer[2] == "surface"]
     assert len(surfaces) == len(walls)
+    assert any(layer[1]["name"].endswith(", unrolled") for layer in layers)   # fields as images
     if (dataset / "labels").is_dir() or (dataset / "intensity").is_dir():
-        assert any(layer[2] in ("labels", "image") for layer in layers)  # its volumes too
+        assert any(layer[1]["name"].endswith((": labels", ": intensity"))
+                   for layer in layers)                                      # its volumes too
     return summary

@@ -3,7 +3,7 @@
 (:class:`~oftimg.napari.linked.LinkedViews`) move with the time slider; a click on the
 (u, v) image, or on a wall in the 3-D view, picks the node whose time course is
 plotted; a click on the area map moves the time slider there. Needs napari's Qt
-(``pip install "napari[all]"``).
+(``pip install "oftimg[napari]"``).
 """
 from __future__ import annotations
 

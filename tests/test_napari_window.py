@@ -251,3 +251,49 @@ def test_a_field_as_an_image_layer_is_drawn_beside_the_tube(window):
         viewer.reset_view()
         settle()
     assert red_bodies()[0] == 1
+
+
+def test_a_label_result_opened_from_another_folder_shows_its_volumes(tmp_path, monkeypatch):
+    """A result of labels + intensity, opened in the window from another working
+    folder: the intensity's projection drawn under the walls (grey pixels where there
+    were none), the labels when shown; the axes named as the dock names them."""
+    import napari
+
+    from oftimg.cli import main
+    from oftimg.napari.widget import OftimgWidget
+    from oftimg.synthetic.labels import write_label_phantom
+    from oftimg.synthetic.phantom import sample_params
+
+    project = tmp_path / "project"
+    write_label_phantom(project / "tex", sample_params("normal", 0, n_frames=5),
+                        (16.0, 16.0, 32.0), intensity=True)
+    monkeypatch.chdir(project)                                   # relative, as a lab runs
+    assert main(["run", "tex", "--out", "res", "--quiet", "--jobs", "1",
+                 "--numbers-only"]) == 0
+    monkeypatch.chdir(tmp_path)
+    viewer = napari.Viewer(ndisplay=3)
+    try:
+        widget = OftimgWidget(viewer)
+        viewer.window.add_dock_widget(widget, area="right")
+        widget.open("project/res/tex")
+        labels, intensity = widget.walls.volumes
+        assert viewer.dims.axis_labels == ("frame", "z (mm)", "y (mm)", "x (mm)")
+        for layer in widget.walls.layers.values():
+            layer.visible = False
+        settle()
+
+        def grey() -> float:
+            canvas = viewer.screenshot(canvas_only=True, flash=False)[..., :3].astype(int)
+            spread = canvas.max(axis=-1) - canvas.min(axis=-1)
+            return float(((canvas.mean(axis=-1) > 40) & (spread < 12)).mean())
+
+        assert grey() > 0.02                                      # the intensity drawn
+        intensity.visible = False
+        settle()
+        assert grey() < 0.002
+        labels.visible = True
+        settle()
+        assert viewer.screenshot(canvas_only=True, flash=False)[..., :3].sum(-1).astype(
+            bool).mean() > 0.02                                   # the labels drawn
+    finally:
+        viewer.close()

@@ -10,8 +10,8 @@ import pytest
 
 napari = pytest.importorskip("napari")
 
-from oftimg.napari.reader import (napari_get_reader, results_layers,  # noqa: E402
-                                  surface_over_time, wall_layer)
+from oftimg.napari.reader import napari_get_reader, results_layers  # noqa: E402
+from oftimg.napari.surfaces import surface_over_time, wall_layer  # noqa: E402
 
 
 def _cylinder(n_u=8, n_v=5, n_t=3):

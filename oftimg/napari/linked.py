@@ -15,37 +15,14 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ..output.numbers import label_unit
 from ..output.style import COLUMN_MM, MM, bar_label, colour_bar, colour_scale, house_style
-
-UNIT_SUFFIXES = ("_per_mm", "_mm2", "_mm", "_ms", "_um")
-
-
-def readable(name: str) -> str:
-    """An array's name as words, its unit suffix left to the unit:
-    ``radial_curvature_outer_per_mm`` -> ``radial curvature outer``."""
-    for suffix in UNIT_SUFFIXES:
-        if name.endswith(suffix):
-            name = name[:-len(suffix)]
-            break
-    return name.replace("_", " ")
-
+from .surfaces import readable, words_with_unit
 
 def small_ticks(*axes) -> None:
     """The house's 7 pt tick labels, kept when the figure is drawn later (by a Qt canvas,
     outside the house style: ticks are made when drawn)."""
     for ax in axes:
         ax.tick_params(labelsize=7, width=0.6)
-
-
-def words_with_unit(results, name: str, wall: str | None = None) -> str:
-    """An array's name as words with its unit, ``radial curvature (1/mm)``; under a
-    wall's heading (``wall``) without that wall's name."""
-    words = readable(name)
-    if wall is not None:
-        words = " ".join(w for w in words.split() if w != wall)
-    unit = label_unit(results.info(name).get("unit", ""))
-    return f"{words} ({unit})" if unit else words
 
 
 class LinkedViews:

@@ -17,8 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..output.style import colour_scale
-from .linked import words_with_unit
-from .reader import AXIS_LABELS, WALL_NAMES, WALLS, wall_fields
+from .surfaces import AXIS_LABELS, WALL_NAMES, WALLS, wall_fields, words_with_unit
 
 GAP = 0.15              # between the tube, the unrolled fields and the maps: of the tube's length
 MAP_PREFIXES = ("area_", "expanded_mask_75_")     # the (v, t) maps shown: areas, expansion

@@ -1,118 +1,26 @@
-"""A results folder (``oftimg run``'s ``OUT/<name>``, or a run's ``OUT``) as napari
-layers: each wall's grid as a Surface over time (vertices ``(t, z, y, x)`` mm, one set
-per frame, so that napari's time slider moves the wall), coloured by a (u, v, t) field
-in the house colour maps (viridis for a one-signed field, RdBu centred on 0 for a
-signed one). Pure functions of the stored arrays; napari is needed only to show them.
+"""A results folder (``oftimg run``'s ``OUT/<name>``, or a run's ``OUT``) or a dataset
+folder opened in napari (its reader hook): a result's walls over time
+(:mod:`oftimg.napari.surfaces`) over the volumes of the dataset it was made from
+(:mod:`oftimg.napari.volumes`), its fields and maps as images beside them
+(:mod:`oftimg.napari.maps`).
 """
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from ..io.dataset import is_dataset
-from ..mesh.strain import grid_triangles
-from ..output.export import WALLS
-from ..output.paraview import node_field_names
-from ..output.results import Results, load_results, result_folders
-from ..output.numbers import label_unit
-from ..output.style import colour_scale
-
-WALL_NAMES = {"outer": "outer wall", "inner": "inner wall", "lumen": "lumen"}
-# the world's axes: every layer names them (napari labels its sliders from its layers)
-AXIS_LABELS = ("frame", "z (mm)", "y (mm)", "x (mm)")
-# the field each wall is coloured by when none is asked for (the first it has)
-DEFAULT_FIELDS = {"outer": ("radial_curvature_outer_per_mm", "strain_energy_outer"),
-                  "inner": ("radial_curvature_inner_per_mm", "strain_energy_inner"),
-                  "lumen": ("mean_curvature_lumen_per_mm",)}
-
-
-def surface_over_time(grid: np.ndarray, values: np.ndarray | None = None
-                      ) -> tuple[np.ndarray, ...]:
-    """napari Surface data of a grid ``(n_u, n_v, n_t, 3)`` mm (x, y, z) over time:
-    vertices ``(n_t n_u n_v, 4)`` as (frame, z, y, x), faces ``(n_t F, 3)`` (each
-    frame's grid triangles, periodic in u), and with ``values (n_u, n_v, n_t)`` the
-    value of each vertex ``(n_t n_u n_v,)`` (NaN where the field has none)."""
-    n_u, n_v, n_t, _ = grid.shape
-    per_frame = np.moveaxis(grid, 2, 0).reshape(n_t, n_u * n_v, 3)[..., ::-1]   # z, y, x
-    frame = np.repeat(np.arange(n_t, dtype=float), n_u * n_v)[:, None]
-    vertices = np.concatenate([frame, per_frame.reshape(-1, 3)], axis=1)
-    triangles = grid_triangles(n_u, n_v)
-    faces = (triangles[None] + (n_u * n_v * np.arange(n_t))[:, None, None]).reshape(-1, 3)
-    if values is None:
-        return vertices, faces
-    return vertices, faces, np.moveaxis(values, 2, 0).reshape(-1).astype(float)
-
-
-def wall_fields(results: Results, wall: str) -> list[str]:
-    """The (u, v, t) fields on ``wall``'s grid nodes that a Surface can be coloured by."""
-    return [n for n in node_field_names(results.described, wall)
-            if results.info(n)["dims"] == ["u", "v", "t"]]
-
-
-def field_choices(results: Results) -> list[tuple[str, str, list[tuple[str, str]]]]:
-    """Every wall's fields as a person chooses them: ``[(wall, its name, [(field in
-    words with its unit, array name), ...]), ...]`` in the walls' order (outer, inner,
-    lumen); a field two walls carry (the wall thickness) under both."""
-    from .linked import words_with_unit
-
-    return [(w, WALL_NAMES.get(w, w), [(words_with_unit(results, f, wall=w), f)
-                                       for f in wall_fields(results, w)])
-            for w in WALLS if w in results and wall_fields(results, w)]
-
-
-def field_label(results: Results, name: str) -> str:
-    """A field's name with its unit, as a colour bar or a list names it."""
-    unit = label_unit(results.info(name).get("unit", ""))
-    return f"{name} ({unit})" if unit else name
-
-
-def wall_style(results: Results, wall: str, field: str | None = None
-               ) -> tuple[np.ndarray | None, dict]:
-    """What colours one wall: the field's values ``(n_u, n_v, n_t)`` (``field``, or
-    :data:`DEFAULT_FIELDS`'s first the wall has; None: one colour) and the Surface
-    layer's keywords (name, colour map and limits, wireframe hidden, metadata)."""
-    fields = wall_fields(results, wall)
-    if field is None or field not in fields:
-        field = next((f for f in DEFAULT_FIELDS.get(wall, ()) if f in fields), None)
-    kwargs = {"name": f"{results.name}: {WALL_NAMES.get(wall, wall)}", "shading": "smooth",
-              "wireframe": {"visible": False, "color": "black", "width": 0.5},
-              "metadata": {"oftimg": {"results": str(results.folder), "wall": wall,
-                                      "field": field, "fields": fields,
-                                      "t_ms": results["t_ms"].tolist()}}}
-    if field is None:
-        return None, kwargs
-    values = results[field]
-    kwargs.update(field_colours(values))
-    kwargs["metadata"]["oftimg"]["label"] = field_label(results, field)
-    return values, kwargs
-
-
-def field_colours(values: np.ndarray) -> dict:
-    """A Surface's colour map and contrast limits for ``values``: the house's
-    (:func:`~oftimg.output.style.colour_scale`)."""
-    scale = colour_scale(values)
-    return {"colormap": scale["cmap"],
-            "contrast_limits": (scale.get("vmin", 0.0), scale.get("vmax", 1.0))}
-
-
-def wall_layer(results: Results, wall: str, field: str | None = None) -> tuple:
-    """One wall as a napari layer-data tuple ``(data, kwargs, "surface")`` over all
-    frames (:func:`surface_over_time`), coloured as :func:`wall_style` says."""
-    values, kwargs = wall_style(results, wall, field)
-    return (surface_over_time(results[wall], values), kwargs | {"axis_labels": AXIS_LABELS},
-            "surface")
+from ..output.results import load_results, result_folders
+from .maps import map_layers
+from .surfaces import WALLS, wall_layer
+from .volumes import dataset_layers, result_volumes
 
 
 def results_layers(path, field: str | None = None) -> list[tuple]:
     """Every wall of every dataset's results under ``path`` (one results folder or a
-    run's ``--out``) as napari layer-data tuples (:func:`wall_layer`), over the
+    run's ``--out``) as napari layer-data tuples (:func:`~oftimg.napari.surfaces.wall_layer`), over the
     volumes of the dataset each was made from when it is still there
     (:func:`~oftimg.napari.volumes.result_volumes`), with its fields and maps as
     images beside them, hidden (:func:`~oftimg.napari.maps.map_layers`)."""
-    from .maps import map_layers
-    from .volumes import result_volumes
-
     layers = []
     for folder in result_folders(path):
         results = load_results(folder)
@@ -137,6 +45,5 @@ def napari_get_reader(path):
     if (path / "summary.json").is_file() or (path / "run.json").is_file():
         return results_layers
     if is_dataset(path):
-        from .volumes import dataset_layers
         return dataset_layers
     return None

@@ -18,7 +18,7 @@ from ..io.label_dataset import is_label_dataset, load_label_dataset, read_frame
 from ..io.labelfile import read_header, read_volume
 from ..io.meshfile import read_mesh_file
 from ..io.units import UNIT_TO_MM
-from .reader import AXIS_LABELS
+from .surfaces import AXIS_LABELS
 
 SURFACE_COLOURS = {"outer": "#E69F00", "inner": "#56B4E9", "lumen": "#CC79A7"}
 

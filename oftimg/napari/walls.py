@@ -11,7 +11,7 @@ import numpy as np
 
 from ..mesh.strain import grid_triangles
 from ..output.results import Results, load_results
-from .reader import AXIS_LABELS, WALLS, field_colours, field_label, wall_fields, wall_style
+from .surfaces import AXIS_LABELS, WALLS, field_colours, field_label, wall_fields, wall_style
 from .volumes import VolumesOverTime, result_volumes
 
 
@@ -38,7 +38,7 @@ def oblique_view(grid_zyx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class WallsOverTime:
     """One results folder's walls in ``viewer`` (a napari ``Viewer`` or
     ``ViewerModel``), coloured by ``field`` where a wall has it (default: each wall's
-    own, :data:`~oftimg.napari.reader.DEFAULT_FIELDS`); time is the viewer's first
+    own, :data:`~oftimg.napari.surfaces.DEFAULT_FIELDS`); time is the viewer's first
     axis, in frames of the aligned cycle (``t_ms``)."""
 
     def __init__(self, viewer, folder, field: str | None = None, volumes: bool = True):

@@ -19,7 +19,7 @@ from ..errors import InputError
 from ..output.results import load_results, result_folders
 from .linked import LinkedViews
 from .maps import field_image, map_image, placement, time_cursor
-from .reader import field_choices, wall_fields
+from .surfaces import field_choices, wall_fields
 from .run import RunPanel
 from .walls import WallsOverTime
 

@@ -24,6 +24,7 @@ from ..image.pca import contour_pca
 from .pullback import PullbackOptions, normal_shell, pullback, refine_factors, refined
 from .texture_tracking import texture_match_note
 from .tracking import follow, track_grid
+from .wave_fronts import wave_fronts
 from ..mesh.clip import clip_positions, clipped_grids
 from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
 from ..mesh.labels import MeshOptions
@@ -504,6 +505,14 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         arrays["surface_divergence_outer_per_s"] = divergence.astype(np.float32)
         blank_out_of_view(arrays, grid["outer"].shape[:3])
     timings["fields_s"] = time.perf_counter() - tick
+    # 6b. the wave's fronts on each wall: activation times, the velocity on the wall
+    if not options.warp:                # a warped cycle's frames are not equal times
+        tick = time.perf_counter()
+        walls = {w: grid[w] for w in st["walls"]}
+        wave_arrays, summary["wave_fronts"] = wave_fronts(walls, arrays["s_mm"],
+                                                          ds.meta.period_ms)
+        arrays.update(wave_arrays)
+        timings["wave_fronts_s"] = time.perf_counter() - tick
     # 7. the (v, t) area maps as images: derivatives, ridges, wave speeds, masks
     tick = time.perf_counter()
     map_arrays, map_summary = analyse_area_maps(

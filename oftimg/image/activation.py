@@ -25,13 +25,32 @@ NO_PROPAGATION_SPREAD = 4.0
 # a node moves when its first harmonic's amplitude is this many times its noise SD
 # (sigma sqrt(2 / n_t)): below it the phase is the noise's, not the wall's
 MOTION_SNR = 5.0
+# the noise is read from the harmonics from this one up: below it lies the beat's own
+# shape (a hump is no cosine), which a residual about the first harmonic counts as
+# noise (4 times the errors on the phantom)
+NOISE_HARMONIC = 6
 
 
 def radial_distance(grid: np.ndarray) -> np.ndarray:
-    """Each node's distance (mm) from its ring's centre (the mean of the ring's nodes)
-    at each frame: ``(n_u, n_v, n_t)`` of a grid ``(n_u, n_v, n_t, 3)``."""
-    centres = grid.mean(axis=0, keepdims=True)
+    """Each node's distance (mm) from its ring's centre over the cycle (the mean of the
+    ring's nodes over every frame): ``(n_u, n_v, n_t)`` of a grid ``(n_u, n_v, n_t,
+    3)``. Not the frame's own centre: a front that comes first on one side of the ring
+    moves that centre towards it, and a one-start helix is, to first order, a ring
+    moving sideways; from the frame's own centre both were lost (activation 14 and 90
+    ms off on the phantom). The price: a tube that swings sideways as a whole reads as
+    a front that comes first on one side (:func:`ring_swing`)."""
+    centres = grid.mean(axis=(0, 2), keepdims=True)
     return np.linalg.norm(grid - centres, axis=-1)
+
+
+def ring_swing(grid: np.ndarray) -> np.ndarray:
+    """How far each ring's centre moves over the cycle (mm, the first harmonic's
+    amplitude of its path, ``(n_v,)``): sideways swing of the tube, which
+    :func:`radial_distance` reads as a front that comes first on one side."""
+    centres = grid.mean(axis=0)                                    # (n_v, n_t, 3)
+    n_t = centres.shape[1]
+    first = np.exp(-2j * np.pi * np.arange(n_t) / n_t)
+    return np.linalg.norm(2.0 * np.abs(np.einsum("vtx,t->vx", centres, first)) / n_t, axis=-1)
 
 
 @dataclass(frozen=True)
@@ -52,9 +71,9 @@ class Activation:
 def activation_times(marker: np.ndarray, period_ms: float) -> Activation:
     """Activation of each node from its ``marker`` ``(n_u, n_v, n_t)`` over one
     periodic cycle of ``n_t`` equal frames: the time at which the marker's first
-    harmonic rises fastest. Noise: the residual about the fitted harmonic, its SD
-    sigma giving the phase's SD sigma / (A sqrt(n_t / 2)) (a harmonic's least-squares
-    fit), in ms."""
+    harmonic rises fastest. Noise: the frame-to-frame noise SD sigma
+    (:func:`noise_sd`) gives the phase's SD sigma / (A sqrt(n_t / 2)) (a harmonic's
+    least-squares fit), in ms."""
     n_t = marker.shape[-1]
     t = np.arange(n_t)
     first = np.exp(-2j * np.pi * t / n_t)
@@ -63,9 +82,7 @@ def activation_times(marker: np.ndarray, period_ms: float) -> Activation:
     phi = np.angle(coefficient)
     # A cos(w t + phi) rises fastest where w t + phi = -pi / 2
     time_frames = np.mod((-np.pi / 2 - phi) * n_t / (2 * np.pi), n_t)
-    fitted = (marker.mean(axis=-1, keepdims=True)
-              + amplitude[..., None] * np.cos(2 * np.pi * t / n_t + phi[..., None]))
-    residual_sd = np.sqrt(((marker - fitted) ** 2).sum(axis=-1) / max(n_t - 3, 1))
+    residual_sd = noise_sd(marker)
     with np.errstate(divide="ignore", invalid="ignore"):
         phase_sd = residual_sd / (amplitude * np.sqrt(n_t / 2.0))
     frame_ms = period_ms / n_t
@@ -73,6 +90,23 @@ def activation_times(marker: np.ndarray, period_ms: float) -> Activation:
     moving = amplitude > MOTION_SNR * residual_sd * np.sqrt(2.0 / n_t)
     return Activation(time_frames * frame_ms, phase_sd * period_ms / (2 * np.pi), amplitude,
                       moving, phase)
+
+
+def noise_sd(marker: np.ndarray) -> np.ndarray:
+    """Each node's frame-to-frame noise SD from the harmonics of its marker from
+    :data:`NOISE_HARMONIC` up to Nyquist (white noise of SD sigma puts n sigma^2 into
+    each |F_k|^2); with too few frames for that, from the residual about the first
+    harmonic."""
+    n_t = marker.shape[-1]
+    spectrum = np.fft.rfft(marker, axis=-1)
+    high = spectrum[..., NOISE_HARMONIC:(n_t - 1) // 2 + 1]
+    if high.shape[-1] >= 3:
+        return np.sqrt((np.abs(high) ** 2).mean(axis=-1) / n_t)
+    first = spectrum[..., 1]
+    t = np.arange(n_t)
+    fitted = marker.mean(axis=-1, keepdims=True) + 2.0 / n_t * np.real(
+        first[..., None] * np.exp(2j * np.pi * t / n_t))
+    return np.sqrt(((marker - fitted) ** 2).sum(axis=-1) / max(n_t - 3, 1))
 
 
 def unwrapped(time_ms: np.ndarray, period_ms: float) -> np.ndarray:

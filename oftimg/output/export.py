@@ -570,6 +570,22 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                     "description": f"principal stretches of the {w} grid against t = 0 "
                                    "(its nodes smoothed in time by summary.strain_smoothing_ms)"}
     per_wall = {
+        "activation_time_{w}_ms": (["u", "v"], "ms", "when the {w} wall at each node moves "
+                                   "outward fastest: the steepest rise of the first harmonic "
+                                   "of its distance from its ring's centre over the cycle "
+                                   "(sub-frame; the wave's arrival, as optical mapping's "
+                                   "activation time)"),
+        "activation_sd_{w}_ms": (["u", "v"], "ms", "SD of activation_time_{w}_ms from the "
+                                 "node's frame-to-frame noise (its high harmonics)"),
+        "wave_velocity_{w}_mm_s": (["u", "v", "along,around"], "mm/s",
+                                   "the wave's velocity on the {w} wall: the activation "
+                                   "times' gradient on the wall (its mean shape's metric, the "
+                                   "times smoothed over summary.wave_fronts.smoothing_nodes "
+                                   "nodes) turned into speed along it; components along the "
+                                   "tube (towards the outlet) and around it (towards "
+                                   "increasing u)"),
+        "phase_{w}": (["u", "v", "t"], "rad", "each node's phase of its motion in the "
+                      "cycle (0 at its activation, -pi to pi)"),
         "max_area_{w}_mm2": (["v"], "mm^2", "maximum over the cycle of the {w} area"),
         "expanded_fraction_75_{w}": (["v"], "1", "share of the cycle with {w} area >= 75 % of "
                                                  "its maximum"),

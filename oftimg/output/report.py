@@ -120,6 +120,21 @@ MEASUREMENT_COLUMNS = ID_COLUMNS + [
     Column("jelly_thickness_median_mm", ("jelly_thickness_median_mm",), "mm",
            "cardiac jelly thickness (inner wall to lumen), median"),
     Column("jelly_thickening", ("jelly_thickening",), "1", "its thickening, as wall_thickening"),
+    Column("front_speed_mm_s", ("wave_fronts", "outer", "speed_mm_s"), "mm/s",
+           "the wave's speed on the outer wall, median node: 1 / |gradient of the activation "
+           "times on the wall| (not in the paper; empty: no propagation)"),
+    Column("front_axial_speed_mm_s", ("wave_fronts", "outer", "axial_speed_mm_s"), "mm/s",
+           "its speed along the tube: 1 / median dt/ds of the activation times (beside the "
+           "ridge's speeds: they agree where the fronts are cross-sections)"),
+    Column("front_helix_angle_deg", ("wave_fronts", "outer", "helix_angle_deg"), "deg",
+           "median angle of the wave's direction on the outer wall to the tube's axis (0: "
+           "along it, 90: around it; the sign: towards increasing u)"),
+    Column("front_helix_angle_iqr_deg", ("wave_fronts", "outer", "helix_angle_iqr_deg"), "deg",
+           "its interquartile range over the wall's nodes"),
+    Column("front_earliest_s_mm", ("wave_fronts", "outer", "earliest_s_mm"), "mm",
+           "where along the tube the outer wall activates first"),
+    Column("front_slowest_s_mm", ("wave_fronts", "outer", "slowest_s_mm"), "mm",
+           "the row where the wave runs slowest on the outer wall (median node of the row)"),
 ]
 
 # quality checks and noise spreads: 0, 0 and about 0 on good data

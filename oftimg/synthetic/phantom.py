@@ -83,6 +83,9 @@ class PhantomParams:
     twist_deg: float = 0.0          # the tissue's largest turn about the axis, contracted
     twist_profile: str = "inlet"    # where the turn is largest: inlet, outlet or middle
     twist_phase: float = 0.0        # the turn's lag behind the slide, a share of the cycle
+    helix_starts: int = 0           # the wave's front winds this many times round the tube
+    side_lag_ms: float = 0.0        # the wave reaches the side opposite side_deg this late
+    side_deg: float = 0.0           # where round the tube (theta) the wave comes first
     lumen_fraction: float = 0.75
     folds: int = 5
     fold_contracted: float = 0.3
@@ -217,10 +220,21 @@ class Phantom:
         df_ds = (p.expand_fraction_outlet - p.expand_fraction) / p.length_mm
         return 1.0 / (1.0 / np.asarray(onset_mm_s) + 1e-3 * p.period_ms * df_ds)
 
-    def expansion(self, s, t_ms):
-        """Expansion state h(s, t) in [0, 1] (broadcasts s against t)."""
-        phi = (np.asarray(t_ms) - self.arrival_ms(s)) / self.p.period_ms
-        return _hump(phi, self.expand_fraction(s))
+    def front_lag_ms(self, theta):
+        """How much later than at its ring's first point the wave arrives at angle
+        ``theta`` (ms): a helical front winds ``helix_starts`` times round the tube
+        (a whole cycle each time round, so it joins itself), and a front that comes
+        first at ``side_deg`` reaches the opposite side ``side_lag_ms`` later."""
+        p = self.p
+        theta = np.asarray(theta, float)
+        return (p.helix_starts * p.period_ms * np.mod(theta, 2 * np.pi) / (2 * np.pi)
+                + p.side_lag_ms * 0.5 * (1 - np.cos(theta - np.radians(p.side_deg))))
+
+    def expansion(self, s, t_ms, theta=0.0):
+        """Expansion state h(s, theta, t) in [0, 1] (broadcasting; theta matters for a
+        helical or one-sided wave only)."""
+        arrival = self.arrival_ms(s) + self.front_lag_ms(theta)
+        return _hump((np.asarray(t_ms) - arrival) / self.p.period_ms, self.expand_fraction(s))
 
     def stretch(self, t_ms):
         """Longitudinal stretch lambda(t) >= 1 (tissue slides through the inlet)."""
@@ -232,7 +246,7 @@ class Phantom:
         """Radial distance rho of ``wall`` from the centreline, mm (broadcasting)."""
         p = self.p
         s = np.asarray(s, dtype=float)
-        h = self.expansion(s, t_ms)
+        h = self.expansion(s, t_ms, theta)
         m = 1.0 - p.contraction * (1.0 - self.band(s) * p.band_motion_block) * (1.0 - h)
         a_k = p.corner_contracted + (p.corner_expanded - p.corner_contracted) * h
         a_e = p.ellipse_contracted * (1.0 - h)

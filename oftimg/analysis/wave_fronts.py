@@ -1,0 +1,35 @@
+"""The wave's fronts on each wall of one dataset (:mod:`oftimg.image.activation` on
+its tracked grids): the arrays a run writes (activation times, their noise, the
+surface wave velocity, each node's phase) and the summary's ``wave_fronts``."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..image.activation import (VELOCITY_SMOOTHING_NODES, activation_times, radial_distance,
+                                ring_swing, surface_velocity, wave_summary)
+
+
+def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, dict]:
+    """``(arrays, summary)`` of the wave's fronts on each wall of ``grids`` (wall ->
+    grid ``(n_u, n_v, n_t, 3)`` mm over one cycle of equal frames): per wall
+    ``activation_time_<wall>_ms`` and ``activation_sd_<wall>_ms`` ``(n_u, n_v)``,
+    ``wave_velocity_<wall>_mm_s`` ``(n_u, n_v, 2)`` (along, around) and ``phase_<wall>``
+    ``(n_u, n_v, n_t)`` (radians, 0 at activation); the summary per wall
+    (:func:`~oftimg.image.activation.wave_summary`, with the rings' sideways swing,
+    which reads as a front on one side, and the activation's median noise SD)."""
+    arrays, summary = {}, {"marker": "first harmonic of each node's distance from its "
+                                     "ring's centre over the cycle; activation at its "
+                                     "steepest rise",
+                           "smoothing_nodes": VELOCITY_SMOOTHING_NODES}
+    for wall, grid in grids.items():
+        activation = activation_times(radial_distance(grid), period_ms)
+        velocity = surface_velocity(activation.time_ms, grid.mean(axis=2), period_ms)
+        arrays[f"activation_time_{wall}_ms"] = activation.time_ms.astype(np.float32)
+        arrays[f"activation_sd_{wall}_ms"] = activation.sd_ms.astype(np.float32)
+        arrays[f"wave_velocity_{wall}_mm_s"] = np.stack(
+            [velocity.along_mm_s, velocity.around_mm_s], axis=-1).astype(np.float32)
+        arrays[f"phase_{wall}"] = activation.phase.astype(np.float32)
+        summary[wall] = {**wave_summary(activation, velocity, s_mm, period_ms),
+                         "activation_sd_ms_median": float(np.nanmedian(activation.sd_ms)),
+                         "ring_swing_mm_median": float(np.median(ring_swing(grid)))}
+    return arrays, summary

@@ -216,6 +216,15 @@ def _parser() -> argparse.ArgumentParser:
     ph.add_argument("--expand-change", type=float, default=0.0,
                     help="growth of the expansion share of the cycle from inlet to outlet "
                          "(0.2: 20 percentage points); the ridge then runs at a speed of its own")
+    ph.add_argument("--helix-starts", type=int, default=0, metavar="K",
+                    help="the wave's front winds K times round the tube (a helix; K < 0 the "
+                         "other way round; default 0: fronts are cross-sections)")
+    ph.add_argument("--side-lag-ms", type=float, default=0.0, metavar="MS",
+                    help="the wave comes first on one side (--side-deg) and reaches the "
+                         "opposite side MS later (default 0)")
+    ph.add_argument("--side-deg", type=float, default=0.0, metavar="DEG",
+                    help="where round the tube the wave comes first (0: the inside of the "
+                         "bend; default 0)")
     ph.add_argument("--labels", action="store_true",
                     help="write label volumes (labels/, one TIFF per frame) instead of meshes: "
                          "the tube bent to a quarter circle, leaving the volume through two "
@@ -479,7 +488,9 @@ def _command(args) -> int:
               f"cohort table: {out / 'results' / 'cohort.csv'}\n"
               f"{_report_line(out / 'results')}")
     elif args.command == "phantom":
-        extra = {"noise_mm": args.noise_mm, "expand_change": args.expand_change}
+        extra = {"noise_mm": args.noise_mm, "expand_change": args.expand_change,
+                 "helix_starts": args.helix_starts, "side_lag_ms": args.side_lag_ms,
+                 "side_deg": args.side_deg}
         if args.vertices:
             extra.update(vertices_min=args.vertices[0], vertices_max=args.vertices[1])
         out = api.make_phantom(args.out, group=args.group, seed=args.seed,

@@ -230,6 +230,13 @@ class Phantom:
         return (p.helix_starts * p.period_ms * np.mod(theta, 2 * np.pi) / (2 * np.pi)
                 + p.side_lag_ms * 0.5 * (1 - np.cos(theta - np.radians(p.side_deg))))
 
+    def activation_ms(self, s, theta):
+        """When the wall at (s, theta) starts to expand (ms, in [0, period)): the wave's
+        arrival there; a node's activation time (the steepest rise of its motion's
+        first harmonic) follows it by one constant where the expansion share is the
+        same all along."""
+        return np.mod(self.arrival_ms(s) + self.front_lag_ms(theta), self.p.period_ms)
+
     def expansion(self, s, t_ms, theta=0.0):
         """Expansion state h(s, theta, t) in [0, 1] (broadcasting; theta matters for a
         helical or one-sided wave only)."""

@@ -15,8 +15,9 @@ import numpy as np  # noqa: E402
 
 from ..analysis.group_maps import groups_in_order  # noqa: E402
 from . import numbers  # noqa: E402
-from .style import (COLUMN_MM, DIVERGING, LINE_COLOURS, MM, PAGE_MM, SEQUENTIAL,  # noqa: E402
-                    colour_bar, house_style, new_figure, nothing_to_show, save, wrapped)
+from .style import (COLUMN_MM, CYCLIC, DIVERGING, LINE_COLOURS, MM, PAGE_MM,  # noqa: E402
+                    SEQUENTIAL, colour_bar, house_style, new_figure, nothing_to_show, save,
+                    wrapped)
 
 # Okabe-Ito colours (style.LINE_COLOURS), one per wall and layer
 WALL_COLOURS = {"outer": "#D55E00", "inner": "#E69F00", "lumen": "#0072B2",
@@ -181,6 +182,15 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
                                        title=f"{name}: t = 0 (minimum volume)"))
     if "ridge_t_ms" in arrays:
         written += map_figures(folder, name, arrays, summary, summary["period_ms"])
+    for wall, found in (summary.get("wave_fronts") or {}).items():
+        if isinstance(found, dict) and f"activation_time_{wall}_ms" in arrays:
+            how = (f"{found['speed_mm_s']:.1f} mm/s on the wall, helix angle "
+                   f"{found['helix_angle_deg'] + 0.0:.0f}°" if found["propagates"]
+                   else "no propagation: the wall moves at once")
+            written.append(activation_figure(
+                arrays[f"activation_time_{wall}_ms"], arrays[f"wave_velocity_{wall}_mm_s"],
+                grids[wall].mean(axis=2), summary["period_ms"],
+                folder / f"activation_{wall}.png", title=f"{name}: the wave's fronts on the {wall} wall ({how})"))
     if pullbacks:
         written.append(pullback_figure(pullbacks["pullback_outer_mean"],
                                        arrays.get("pathlines_uv"), t_ms,
@@ -200,6 +210,131 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
                                           f"{field_grid_note(summary)} (dots: maximum "
                                           "outer area)"))
     return written
+
+
+# ------------------------------------------------------------------ wave fronts
+ARROW_EVERY = (8, 5)       # a velocity arrow every 8 nodes around, 5 along
+
+
+def _isochrone_field(time_ms: np.ndarray, period_ms: float) -> np.ndarray:
+    """Activation times ``(n_u, n_v)`` unwrapped about their circular mean, with NaN
+    where two neighbours lie more than a third of the cycle apart (where a helical
+    front's times go round the cycle): contours do not bunch along that line."""
+    from ..image.activation import unwrapped
+
+    t = unwrapped(time_ms, period_ms)
+    jump = np.zeros(t.shape, bool)
+    for axis in (0, 1):
+        big = np.abs(np.diff(t, axis=axis)) > period_ms / 3
+        pad = [(0, 0), (0, 0)]
+        pad[axis] = (0, 1)
+        jump |= np.pad(big, pad)
+        pad[axis] = (1, 0)
+        jump |= np.pad(big, pad)
+    return np.where(jump, np.nan, t)
+
+
+def _time_colours(time_ms: np.ndarray, period_ms: float) -> tuple[np.ndarray, dict, str]:
+    """The activation times to colour by, their ``imshow`` keywords and their colour
+    bar's label: after the wall's earliest node in viridis when they span under half
+    the cycle (a wave along the tube), else the times in the cycle in a cyclic map (a
+    helical front's go once round the cycle)."""
+    from ..image.activation import unwrapped
+
+    t = unwrapped(time_ms, period_ms)
+    t = t - np.nanmin(t)
+    if np.nanpercentile(t, 99) < period_ms / 2:
+        return t, {"cmap": SEQUENTIAL, "vmin": 0.0, "vmax": float(np.nanpercentile(t, 99))}, \
+            "activation time (ms after the earliest node)"
+    return time_ms, {"cmap": CYCLIC, "vmin": 0.0, "vmax": float(period_ms)}, \
+        "activation time (ms after minimum volume; cyclic)"
+
+
+def _nice_step(span: float, count: int = 8) -> float:
+    """A round step (1, 2 or 5 times a power of ten) giving about ``count`` steps over
+    ``span``."""
+    raw = max(span / count, 1e-9)
+    power = 10 ** np.floor(np.log10(raw))
+    return float(min((m * power for m in (1, 2, 5, 10)), key=lambda x: abs(x - raw)))
+
+
+@house_style
+def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: np.ndarray,
+                      period_ms: float, path: Path, *, title: str = "") -> Path:
+    """One wall's activation: left the (u, v) plane (u across from the seam, v up from
+    the inlet) coloured by the activation time ``(n_u, n_v)`` (:func:`_time_colours`),
+    its isochrones at a round step (about 8 over the times' span) and arrows along the
+    wave's direction on the wall (``velocity_mm_s`` ``(n_u, n_v, 2)``, along and
+    around, each arrow the same length); right the wall's mean shape ``grid_mm``
+    ``(n_u, n_v, 3)`` in 3-D, coloured the same, the isochrones drawn on it."""
+    n_u, n_v = time_ms.shape
+    shown, scale, label = _time_colours(time_ms, period_ms)
+    fig = plt.figure(figsize=(PAGE_MM * MM, 80 * MM))
+    ax = fig.add_axes((0.08, 0.16, 0.4, 0.68))
+    extent = [-0.5 / n_u, 1 - 0.5 / n_u, -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)]
+    image = ax.imshow(shown.T, origin="lower", aspect="auto", extent=extent,
+                      interpolation="nearest", **scale)
+    u = np.arange(n_u) / n_u
+    v = np.arange(n_v) / (n_v - 1)
+    iso = _isochrone_field(time_ms, period_ms)
+    step = _nice_step(np.nanpercentile(iso, 99) - np.nanpercentile(iso, 1))
+    levels = np.arange(np.floor(np.nanmin(iso) / step), np.ceil(np.nanmax(iso) / step) + 1) * step
+    lines = ax.contour(u, v, iso.T, levels=levels, colors="k", linewidths=0.5,
+                       linestyles="solid")
+    along, around = velocity_mm_s[..., 0], velocity_mm_s[..., 1]
+    norm = np.hypot(along, around)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        du, dv = around / norm, along / norm
+    k, j = ARROW_EVERY
+    U, V = np.meshgrid(u[::k], v[::j], indexing="ij")
+    ax.quiver(U, V, du[::k, ::j], dv[::k, ::j], color="w", scale=28, width=0.004,
+              headwidth=4, pivot="mid")
+    ax.set_xlim(extent[:2])
+    ax.set_ylim(extent[2:])
+    ax.set_xlabel("u, around the tube from the seam")
+    ax.set_ylabel("v, along the tube (inlet 0)")
+    ax.set_title(f"isochrones every {step:g} ms; arrows: the wave's direction")
+    ax3 = fig.add_axes((0.52, 0.06, 0.3, 0.84), projection="3d")
+    ring = np.concatenate([grid_mm, grid_mm[:1]], axis=0)
+    values = np.concatenate([shown, shown[:1]], axis=0)
+    quads = 0.25 * (values[:-1, :-1] + values[1:, :-1] + values[:-1, 1:] + values[1:, 1:])
+    faces = plt.get_cmap(scale["cmap"])((quads - scale["vmin"])
+                                         / (scale["vmax"] - scale["vmin"]))
+    ax3.plot_surface(*np.moveaxis(ring, -1, 0), facecolors=faces, shade=False,
+                     rstride=1, cstride=1, linewidth=0, antialiased=False)
+    elev, azim = np.radians(25.0), np.radians(-60.0)
+    ax3.view_init(elev=25, azim=-60)
+    towards_eye = np.array([np.cos(elev) * np.cos(azim), np.cos(elev) * np.sin(azim),
+                            np.sin(elev)])
+    centre = grid_mm.mean(axis=0, keepdims=True)
+    outside = centre + 1.04 * (grid_mm - centre)        # the lines just off the wall
+    for segs in lines.allsegs:
+        for seg in segs:
+            if len(seg) < 2:
+                continue
+            points = _on_grid(outside, seg[:, 0], seg[:, 1])
+            facing = (points - _on_grid(centre.repeat(n_u, axis=0), seg[:, 0], seg[:, 1])) \
+                @ towards_eye > 0                     # the wall's far side: hidden
+            points[~facing] = np.nan
+            ax3.plot(*points.T, color="k", lw=0.6, zorder=5)
+    ax3.set_box_aspect(np.ptp(grid_mm.reshape(-1, 3), axis=0), zoom=1.3)
+    ax3.set_axis_off()
+    colour_bar(fig, image, [ax, ax3], label)
+    fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
+    return save(fig, path)
+
+
+def _on_grid(grid_mm: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Points ``(n, 3)`` of the surface ``grid_mm`` ``(n_u, n_v, 3)`` at (u, v) in
+    [0, 1) x [0, 1] (bilinear, periodic in u)."""
+    n_u, n_v, _ = grid_mm.shape
+    x, y = np.mod(u, 1.0) * n_u, np.clip(v, 0, 1) * (n_v - 1)
+    i0, j0 = np.floor(x).astype(int), np.minimum(np.floor(y).astype(int), n_v - 2)
+    fx, fy = (x - i0)[:, None], (y - j0)[:, None]
+    i1 = (i0 + 1) % n_u
+    i0 %= n_u
+    return ((1 - fx) * (1 - fy) * grid_mm[i0, j0] + fx * (1 - fy) * grid_mm[i1, j0]
+            + (1 - fx) * fy * grid_mm[i0, j0 + 1] + fx * fy * grid_mm[i1, j0 + 1])
 
 
 # ------------------------------------------------------------------ (v, t) maps

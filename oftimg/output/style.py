@@ -32,6 +32,7 @@ LINE_COLOURS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9"
                 "#F0E442")
 SEQUENTIAL = "viridis"    # one-signed quantities: area, thickness, strain energy
 DIVERGING = "RdBu_r"      # signed quantities, centred on 0: blue below, red above
+CYCLIC = "twilight"       # times and phases in the cycle: its end meets its start
 
 RC = {
     "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8, "xtick.labelsize": 7,

@@ -19,6 +19,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from . import numbers
 from .image_order import in_image_order
+from .style import CYCLIC
 
 
 @lru_cache(maxsize=None)
@@ -381,7 +382,7 @@ FIELD_VIDEOS = [
 # (:func:`oftimg.analysis.pipeline.analyse_dataset`'s ``on_aligned``): the slow 3-D renders;
 # the others need the shape fields
 EARLY_VIDEOS = ("area", "lumen_3d")
-LATER_VIDEOS = ("field",)
+LATER_VIDEOS = ("field", "phase_3d")
 
 
 def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
@@ -402,6 +403,9 @@ def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
     if grids is not None and h is not None and "lumen" in grids:
         tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms,
                                        length_mm=length_mm)))
+    if grids is not None and "phase_outer" in arrays:
+        tasks.append(("phase_3d", dict(grid=grids["outer"], phase=arrays["phase_outer"],
+                                       t_ms=t_ms, length_mm=length_mm)))
     tasks += [("field", dict(name=name, field=arrays[key], normalize=normalize, t_ms=t_ms,
                              options={"grid_note": grid_note, "length_mm": length_mm, **opts}))
               for name, key, normalize, opts in FIELD_VIDEOS if key in arrays]
@@ -437,6 +441,12 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
             movies["outer_wall_3d_area_map"] = surface_and_map_frames(
                 G, area_field, t_ms, cmap="viridis", flat=cursor(),
                 title="the outer wall coloured by its cross-sectional area (mm²)")
+    elif kind == "phase_3d":
+        movies = {"phase_outer_3d": surface_and_map_frames(
+            inputs["grid"], inputs["phase"], t_ms, cmap=CYCLIC, limits=(-np.pi, np.pi),
+            label="phase (rad; 0 at activation)",
+            title="the outer wall coloured by the phase of its motion (0: activation)",
+            length_mm=inputs.get("length_mm"))}
     elif kind == "lumen_3d":
         movies = {"lumen_mean_curvature_3d": surface_and_map_frames(
             inputs["grid"], inputs["h"], t_ms, label="mean curvature (1/mm)",
@@ -607,19 +617,20 @@ def _mark_ends(view: np.ndarray, camera: "SurfaceCamera", X: np.ndarray) -> None
 
 def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, *,
                            flat: np.ndarray | None = None, cmap: str | None = None,
-                           label: str = "", title: str = "", size: int = 480,
-                           length_mm: float | None = None):
+                           limits: tuple[float, float] | None = None, label: str = "",
+                           title: str = "", size: int = 480, length_mm: float | None = None):
     """Frames ``(rows, cols, 3)`` uint8, one at a time (a 195-frame video would hold
     ~190 MB), at least 1280 pixels wide: the 3-D grid surface coloured by ``values
     (n_u, n_v, n_t)``, with a scale bar, next to a flat picture (``flat``: frames in
     order, an array or one at a time; default the unfolded (u, v) map of the same
     values with its axes and colour bar), under a banner with ``title``, the time and
-    the phase in the beat. Drawn in order: each frame is taken when it is drawn."""
+    the phase in the beat; ``limits``: the colour scale's (default the house's for the
+    values). Drawn in order: each frame is taken when it is drawn."""
     from .style import colour_scale
 
     scale_ = colour_scale(values)
     cmap = cmap or scale_["cmap"]
-    lo, hi = scale_.get("vmin", 0.0), scale_.get("vmax", 1.0)
+    lo, hi = limits or (scale_.get("vmin", 0.0), scale_.get("vmax", 1.0))
     camera = SurfaceCamera(G, size=size)
     if flat is None:               # as tall as the 3-D view, so that its text is not resized
         flat = field_frames(values, t_ms, vmin=lo, vmax=hi, cmap=cmap, label=label,

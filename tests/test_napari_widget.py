@@ -151,3 +151,26 @@ def test_volumes_show_the_slider_s_frame_coarse_while_it_moves_and_full_at_rest(
     volumes.reader.shutdown(wait=True)
     assert volumes.series[0].read.cache_info().currsize >= 3          # frames 3, 4, 0 read
     volumes.close()
+
+
+def test_the_wave_s_phase_and_activation_colour_the_walls(widget, run_out):
+    """The phase of each node's motion colours a wall in a cyclic map from -pi to pi
+    (its ends one colour, as the cycle's), the activation time (a (u, v) map) the same
+    at every frame; both as images beside the tube too."""
+    import oftimg
+    from oftimg.napari.reader import results_layers
+
+    res = oftimg.load_results(run_out / "normal")
+    widget.select("phase_outer", "outer")
+    outer = widget.walls.layers["outer"]
+    assert outer.colormap.name == "twilight"
+    assert tuple(outer.contrast_limits) == pytest.approx((-np.pi, np.pi))
+    widget.viewer.dims.set_current_step(0, 4)
+    np.testing.assert_array_equal(outer.data[2], res["phase_outer"][:, :, 4].reshape(-1))
+    widget.select("activation_time_outer_ms", "outer")
+    for t in (1, 7):
+        widget.viewer.dims.set_current_step(0, t)
+        np.testing.assert_array_equal(outer.data[2],
+                                      res["activation_time_outer_ms"].reshape(-1))
+    names = [layer[1]["name"] for layer in results_layers(run_out / "normal")]
+    assert "normal: outer wall activation time (ms), unrolled" in names

@@ -16,7 +16,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..output.style import COLUMN_MM, MM, bar_label, colour_bar, colour_scale, house_style
-from .surfaces import readable, words_with_unit
+from .surfaces import field_values, readable, words_with_unit
 
 def small_ticks(*axes) -> None:
     """The house's 7 pt tick labels, kept when the figure is drawn later (by a Qt canvas,
@@ -118,7 +118,7 @@ class LinkedViews:
         ``wall``: the wall it is on (its areas in the map)."""
         if wall is not None:
             self.set_wall(wall)
-        self.field_name, self.field = field, self.results[field]
+        self.field_name, self.field = field, field_values(self.results, field)
         scale = colour_scale(self.field)
         ax = self.ax_field
         if getattr(self, "image", None) is None:

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..output.style import colour_scale
-from .surfaces import AXIS_LABELS, WALL_NAMES, WALLS, wall_fields, words_with_unit
+from ..output.style import CYCLIC, colour_scale
+from .surfaces import AXIS_LABELS, WALL_NAMES, WALLS, field_values, wall_fields, words_with_unit
 
 GAP = 0.15              # between the tube, the unrolled fields and the maps: of the tube's length
 MAP_PREFIXES = ("area_", "expanded_mask_75_")     # the (v, t) maps shown: areas, expansion
@@ -55,10 +55,11 @@ def field_image(results, field: str, wall: str, at: dict, *, visible: bool = Fal
     """``field`` ``(n_u, n_v, n_t)`` on ``wall`` as an Image layer-data tuple: the
     unrolled wall ``(n_t, 1, n_v, n_u)`` (v up, outlet at the top), in the house's
     colours, beside the tube (``at``: :func:`placement`)."""
-    values = results[field]
+    values = field_values(results, field)
     image = np.ascontiguousarray(np.transpose(values, (2, 1, 0))[:, None, ::-1, :],
                                  dtype=np.float32)
-    scale = colour_scale(values)
+    scale = (colour_scale(values) if results.info(field).get("unit") != "rad"
+             else {"cmap": CYCLIC, "vmin": -np.pi, "vmax": np.pi})
     z0, z_span = at["z"]
     words = words_with_unit(results, field, wall=wall)
     kwargs = _layer_kwargs(results, f"{WALL_NAMES[wall]} {words}, unrolled", {
@@ -108,13 +109,16 @@ def time_cursor(results, at: dict, *, visible: bool = False) -> tuple:
 
 
 def map_layers(results, shown: str | None = None) -> list[tuple]:
-    """Every wall's (u, v, t) fields unrolled (:func:`field_image`), the section-area
+    """Every wall's (u, v, t) fields and activation times unrolled (:func:`field_image`), the section-area
     and expansion (v, t) maps (:func:`map_image`) and their time cursor, as layer-data
     tuples; hidden, but for the field ``shown`` on the first wall that has it."""
     at = placement(results)
     layers = []
     for wall in (w for w in WALLS if w in results):
         for field in wall_fields(results, wall):
+            if (results.info(field)["dims"] != ["u", "v", "t"]
+                    and not field.startswith("activation_time_")):
+                continue                                # the phase maps: wall colours only
             if field == "wall_thickness_mm" and wall != "outer" and "outer" in results:
                 continue                                     # one image of the two walls'
             visible = field == shown

@@ -14,7 +14,7 @@ from ..output.export import WALLS
 from ..output.paraview import node_field_names
 from ..output.results import Results
 from ..output.numbers import label_unit
-from ..output.style import colour_scale
+from ..output.style import CYCLIC, colour_scale
 
 WALL_NAMES = {"outer": "outer wall", "inner": "inner wall", "lumen": "lumen"}
 # the world's axes: every layer names them (napari labels its sliders from its layers)
@@ -30,7 +30,16 @@ UNIT_SUFFIXES = ("_per_mm", "_mm2", "_mm", "_ms", "_um")
 
 def readable(name: str) -> str:
     """An array's name as words, its unit suffix left to the unit:
-    ``radial_curvature_outer_per_mm`` -> ``radial curvature outer``."""
+    ``radial_curvature_outer_per_mm`` -> ``radial curvature outer``,
+    ``phase_max_strain_energy_outer_ms`` -> ``time of maximum strain energy outer``."""
+    for which in ("max", "min"):
+        prefix = f"phase_{which}_"
+        if name.startswith(prefix) and name.endswith("_ms"):
+            return f"time of {which}imum {readable(name[len(prefix):-len('_ms')])}"
+    if name.startswith("activation_sd_"):
+        return "activation time SD " + readable(name[len("activation_sd_"):])
+    if name.startswith("phase_") and name.count("_") == 1:
+        return f"phase of the motion {name[len('phase_'):]}"
     for suffix in UNIT_SUFFIXES:
         if name.endswith(suffix):
             name = name[:-len(suffix)]
@@ -66,9 +75,21 @@ def surface_over_time(grid: np.ndarray, values: np.ndarray | None = None
 
 
 def wall_fields(results: Results, wall: str) -> list[str]:
-    """The (u, v, t) fields on ``wall``'s grid nodes that a Surface can be coloured by."""
-    return [n for n in node_field_names(results.described, wall)
-            if results.info(n)["dims"] == ["u", "v", "t"]]
+    """The fields on ``wall``'s grid nodes that a Surface can be coloured by: its
+    (u, v, t) fields, then its (u, v) maps (activation times, phase maps), the same at
+    every frame."""
+    names = node_field_names(results.described, wall)
+    return ([n for n in names if results.info(n)["dims"] == ["u", "v", "t"]]
+            + [n for n in names if results.info(n)["dims"] == ["u", "v"]])
+
+
+def field_values(results: Results, name: str) -> np.ndarray:
+    """A field ``(n_u, n_v, n_t)``: a (u, v, t) field as stored, a (u, v) map the same
+    at every frame (a view, not a copy)."""
+    values = results[name]
+    if values.ndim == 2:
+        values = np.broadcast_to(values[:, :, None], (*values.shape, len(results["t_ms"])))
+    return values
 
 
 def field_choices(results: Results) -> list[tuple[str, str, list[tuple[str, str]]]]:
@@ -101,15 +122,18 @@ def wall_style(results: Results, wall: str, field: str | None = None
                                       "t_ms": results["t_ms"].tolist()}}}
     if field is None:
         return None, kwargs
-    values = results[field]
-    kwargs.update(field_colours(values))
+    values = field_values(results, field)
+    kwargs.update(field_colours(values, results.info(field).get("unit", "")))
     kwargs["metadata"]["oftimg"]["label"] = field_label(results, field)
     return values, kwargs
 
 
-def field_colours(values: np.ndarray) -> dict:
+def field_colours(values: np.ndarray, unit: str = "") -> dict:
     """A Surface's colour map and contrast limits for ``values``: the house's
-    (:func:`~oftimg.output.style.colour_scale`)."""
+    (:func:`~oftimg.output.style.colour_scale`); a phase (``unit`` rad) in a cyclic map
+    from -pi to pi, its ends the same colour as the cycle's."""
+    if unit == "rad":
+        return {"colormap": CYCLIC, "contrast_limits": (-np.pi, np.pi)}
     scale = colour_scale(values)
     return {"colormap": scale["cmap"],
             "contrast_limits": (scale.get("vmin", 0.0), scale.get("vmax", 1.0))}

@@ -11,7 +11,8 @@ import numpy as np
 
 from ..mesh.strain import grid_triangles
 from ..output.results import Results, load_results
-from .surfaces import AXIS_LABELS, WALLS, field_colours, field_label, wall_fields, wall_style
+from .surfaces import (AXIS_LABELS, WALLS, field_colours, field_label, field_values,
+                       wall_fields, wall_style)
 from .volumes import VolumesOverTime, result_volumes
 
 
@@ -106,10 +107,10 @@ class WallsOverTime:
         for w, layer in self.layers.items():
             if field not in wall_fields(self.results, w) or wall not in (None, w):
                 continue
-            self.values[w] = self.results[field]
+            self.values[w] = field_values(self.results, field)
             layer.data = self._frame_data(w, self.frame)
             layer.metadata["oftimg"]["frame"] = self.frame
-            colours = field_colours(self.values[w])
+            colours = field_colours(self.values[w], self.results.info(field).get("unit", ""))
             layer.colormap, layer.contrast_limits = colours["colormap"], colours["contrast_limits"]
             layer.metadata["oftimg"].update(field=field, label=field_label(self.results, field))
             recoloured.append(w)

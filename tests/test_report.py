@@ -260,3 +260,24 @@ def test_a_page_wide_figure_spans_the_report(tmp_path, size, wide):
     path = tmp_path / "figure.png"
     Image.new("RGB", size, "white").save(path)
     assert ('class="wide"' in figure_html(path, "figure.png", "a figure")) == wide
+
+
+def test_the_wave_s_helix_angle_and_speed_are_tested_between_groups():
+    """Beyond Table 1, the wave's helix angle and speed on the outer wall are tested
+    (permutation, in the same Holm family); a dataset whose wall does not propagate
+    has no value there, not a zero."""
+    def fronts(angle, speed):
+        return {"outer": {"propagates": speed is not None, "speed_mm_s": speed,
+                          "helix_angle_deg": angle, "earliest_s_mm": 0.1}}
+    summaries = [{"name": f"n{k}", "group": "normal", "period_ms": 350.0,
+                  "wave_fronts": fronts(1.0 + k, 15.0 + k)} for k in range(4)]
+    summaries += [{"name": f"h{k}", "group": "helical", "period_ms": 350.0,
+                   "wave_fronts": fronts(40.0 + k, 3.0 + k)} for k in range(4)]
+    summaries.append({"name": "still", "group": "helical", "period_ms": 350.0,
+                      "wave_fronts": fronts(None, None)})
+    rows = {r["metric"]: r for r in group_comparison(summaries)}
+    assert rows["front_helix_angle_deg"]["p_value"] == pytest.approx(2 / 70)
+    assert rows["front_speed_mm_s"]["p_value"] == pytest.approx(2 / 70)
+    assert rows["front_helix_angle_deg"]["helical_n"] == 4
+    assert rows["front_helix_angle_deg"]["p_holm"] >= rows["front_helix_angle_deg"]["p_value"]
+    assert np.isnan(rows["front_earliest_s_mm"]["p_value"])            # shown, not tested

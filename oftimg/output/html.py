@@ -227,6 +227,36 @@ def figure_html(path: Path, href: str, caption: str) -> str:
             f'</a><figcaption class="small">{caption}</figcaption></figure>')
 
 
+def _wave_front_rows(fronts: dict) -> list[dict]:
+    """The wave on each wall (summary.wave_fronts), as the numbers table's rows: its
+    speed on the wall and along the tube, its helix angle, where it starts and where
+    it is slowest; "no propagation" for a wall that moves at once."""
+    rows = []
+    for wall, found in fronts.items():
+        if not isinstance(found, dict):
+            continue
+        if not found.get("propagates"):
+            rows.append({"quantity": f"the wave on the {wall} wall",
+                         "value": "no propagation (the wall moves at once, or not at all)"})
+            continue
+        noise = f"activation noise SD {numbers.number(found['activation_sd_ms_median'])} ms"
+        rows += [
+            {"quantity": f"the wave on the {wall} wall: speed on the wall, median node "
+                         f"({noise})", "unit": "mm/s", "value": numbers.number(found["speed_mm_s"])},
+            {"quantity": f"the wave on the {wall} wall: speed along the tube (1 / median "
+                         "dt/ds)", "unit": "mm/s", "value": numbers.number(found["axial_speed_mm_s"])},
+            {"quantity": f"the wave on the {wall} wall: helix angle to the axis, median "
+                         "(interquartile range)", "unit": "°",
+             "value": f"{numbers.number(found['helix_angle_deg'])} "
+                      f"({numbers.number(found['helix_angle_iqr_deg'])})"},
+            {"quantity": f"the wave on the {wall} wall: first at s; slowest at s (its speed)",
+             "unit": "mm, mm/s",
+             "value": f"{numbers.number(found['earliest_s_mm'])}; "
+                      f"{numbers.number(found['slowest_s_mm'])} "
+                      f"({numbers.number(found['slowest_speed_mm_s'])})"}]
+    return rows
+
+
 def dataset_page(folder: Path, summary: dict) -> Path:
     """``<name>/index.html``: the numbers, every figure and every video of one dataset."""
     figs = sorted((folder / "figures").glob("*.png"))
@@ -257,6 +287,7 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                      and numbers.is_finite_number(spread[k]) else numbers.mean_sd(v, None))
         rows.append({"quantity": f"wave speed, {SPEED_NAMES.get(k, k)}", "unit": "mm/s",
                      "value": value})
+    rows += _wave_front_rows(summary.get("wave_fronts") or {})
     checks = [{"check": "flipped triangles in the maps (0)",
                "value": summary.get("flipped_triangles")},
               {"check": "maps re-solved with clamped weights",

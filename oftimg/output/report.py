@@ -326,12 +326,18 @@ def _group_values(summaries: list[dict], column: Column, groups: list[str]) -> d
     return values
 
 
+# beyond Table 1, the measurements a group comparison tests: the wave's fronts
+TESTED_FRONTS = ("front_speed_mm_s", "front_helix_angle_deg")
+
+
 def group_comparison(summaries: list[dict]) -> list[dict]:
     """Per cohort metric and pair of groups (in name order): the table it is in, each
     group's n, mean and sd (in the column's unit), and for the Table 1 quantities
     alone the two-sided permutation p-value (``p_value``) and that p-value corrected
-    by Holm's method over all Table 1 quantities and pairs of groups (``p_holm``);
-    the other measurements and the quality checks are shown, not tested (NaN).
+    by Holm's method over all Table 1 quantities and pairs of groups (``p_holm``),
+    and so too the wave's speed and helix angle on the outer wall
+    (:data:`TESTED_FRONTS`, not in the paper, in the same Holm family); the other
+    measurements and the quality checks are shown, not tested (NaN).
     With one group: its n, mean and sd, no p-values."""
     from itertools import combinations
 
@@ -351,7 +357,7 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
                 stats[f"{g}_n"] = len(v)
                 stats[f"{g}_mean"] = float(v.mean()) if len(v) else float("nan")
                 stats[f"{g}_sd"] = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
-            tested = file == "table1.csv"
+            tested = file == "table1.csv" or column.name in TESTED_FRONTS
             for a, b in pairs or [(groups[0], None)]:
                 p = permutation_test(values[a], values[b]) if tested and b else float("nan")
                 out.append({**stats, "groups": a if b is None else f"{a} vs {b}",

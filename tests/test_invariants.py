@@ -167,10 +167,16 @@ def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_number
         # lumen's mean curvature, from a cotangent Laplacian, to 1e-3 of its range
         # (all but 1 in 1000 pixels; those next to a sliver triangle, which amplifies the
         # files' float32 rounding, to 1e-2: measured 2e-3 once in 32000 in voxels)
-        tol = 2.0 if key.startswith("phase_") else 1e-3 if key.startswith("mean_curv") else 1e-4
+        # the wave's velocity (the inverse of the activation times' gradient) and the times'
+        # noise SD (over their first harmonic's amplitude): the
+        # files' float32 rounding moves by up to 1.5e-4 of the largest where it is small
+        tol = (2.0 if key.startswith("phase_") and key.endswith("_ms") else
+               1e-3 if key.startswith(("mean_curv", "wave_velocity_", "activation_")) else 1e-4)
         finite = np.isfinite(x)             # (a spread on 8 frames is NaN throughout)
         error = np.abs(y - x)[finite] / max(1.0, np.abs(x[finite]).max(initial=0))
-        if key.startswith("mean_curv"):
+        if key.startswith("phase_") and not key.endswith("_ms"):      # radians: circular
+            error = np.abs(np.angle(np.exp(1j * (y - x))))[finite] / np.pi
+        if key.startswith(("mean_curv", "wave_velocity_", "activation_")):
             assert np.percentile(error, 99.9) <= tol and error.max() <= 10 * tol, key
         else:
             assert error.max(initial=0) <= tol, key

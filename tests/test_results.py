@@ -104,7 +104,8 @@ def test_xarray_dataset_on_labelled_axes(run_out):
     ds = res.to_xarray()
     n_u, n_v, n_t = res["outer"].shape[:3]
     assert dict(ds.sizes) == {"u": n_u, "v": n_v, "v_clipped": n_v, "t": n_t, "xyz": 3,
-                              "stretch": 2, "crossing": 2, "uv": 2}   # uv: pathlines_uv
+                              "stretch": 2, "crossing": 2, "uv": 2,   # uv: pathlines_uv
+                              "direction": 2}                          # the wave's velocity
     np.testing.assert_array_equal(ds["t"], res["t_ms"])
     np.testing.assert_array_equal(ds["s_mm"], res["s_mm"])
     np.testing.assert_allclose(ds["u"], np.arange(n_u) / n_u)

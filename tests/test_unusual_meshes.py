@@ -15,6 +15,9 @@ def test_an_unusual_mesh_dataset_runs_to_the_end(case, tmp_path):
     if case in ("rigid", "breathing"):              # no wave: said, not measured
         speeds = summary["wave_speed_mm_s"]
         assert speeds["rows_used"] == 0 and speeds["cycle"] is None     # null in JSON
+        for wall, found in summary["wave_fronts"].items():            # nor on the walls
+            if isinstance(found, dict):
+                assert found["propagates"] is False and found["speed_mm_s"] is None, wall
 
 
 def test_400_frames_run_to_the_end(tmp_path):

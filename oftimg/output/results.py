@@ -25,7 +25,8 @@ RESULT_FILES = ("arrays.npz", "grids.npz", "pca.npz", "pullbacks.npz")
 
 # dims whose entries have names: the xarray dim and its labels
 LABELLED_DIMS = {"xyz": ("xyz", ["x", "y", "z"]), "xy": ("xy", ["x", "y"]),
-                 "l1,l2": ("stretch", ["l1", "l2"]), "up/down": ("crossing", ["up", "down"])}
+                 "l1,l2": ("stretch", ["l1", "l2"]), "up/down": ("crossing", ["up", "down"]),
+                 "along,around": ("direction", ["along", "around"])}
 
 
 def source_paths(sources) -> list[Path]:
@@ -183,8 +184,9 @@ class Results:
         """An ``xarray.Dataset`` of ``names`` (default: every array of arrays.npz and
         grids.npz) on dims u (around, from the seam, u = i / n_u), v (along, inlet 0,
         outlet 1), v_clipped (the clipped grids': clipping plane 0, outlet 1), t (the
-        times ``t_ms``) and the labelled dims xyz, stretch (l1, l2) and crossing (up,
-        down); ``s_mm`` is a coordinate along v. Each variable's
+        times ``t_ms``) and the labelled dims xyz, stretch (l1, l2), crossing (up,
+        down) and direction (along, around: the wave's velocity); ``s_mm`` is a
+        coordinate along v. Each variable's
         attrs hold its ``units`` and ``description``. The PCA arrays, whose contour
         axes differ by row and phase, are read with ``results[name]``."""
         xr = _xarray("to_xarray")

@@ -300,8 +300,9 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     quads = 0.25 * (values[:-1, :-1] + values[1:, :-1] + values[:-1, 1:] + values[1:, 1:])
     faces = plt.get_cmap(scale["cmap"])((quads - scale["vmin"])
                                          / (scale["vmax"] - scale["vmin"]))
-    ax3.plot_surface(*np.moveaxis(ring, -1, 0), facecolors=faces, shade=False,
-                     rstride=1, cstride=1, linewidth=0, antialiased=False)
+    surface = ax3.plot_surface(*np.moveaxis(ring, -1, 0), facecolors=faces, shade=False,
+                               rstride=2, cstride=2, linewidth=0, antialiased=False)
+    surface.set_rasterized(True)        # a picture in the PDF: 2000 quads drawn once
     elev, azim = np.radians(25.0), np.radians(-60.0)
     ax3.view_init(elev=25, azim=-60)
     towards_eye = np.array([np.cos(elev) * np.cos(azim), np.cos(elev) * np.sin(azim),

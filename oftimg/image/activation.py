@@ -95,7 +95,7 @@ def activation_times(marker: np.ndarray, period_ms: float) -> Activation:
 def noise_sd(marker: np.ndarray) -> np.ndarray:
     """Each node's frame-to-frame noise SD from the harmonics of its marker from
     :data:`NOISE_HARMONIC` up to Nyquist (white noise of SD sigma puts n sigma^2 into
-    each |F_k|^2); with too few frames for that, from the residual about the first
+    each ``|F_k|^2``); with too few frames for that, from the residual about the first
     harmonic."""
     n_t = marker.shape[-1]
     spectrum = np.fft.rfft(marker, axis=-1)
@@ -120,7 +120,7 @@ def unwrapped(time_ms: np.ndarray, period_ms: float) -> np.ndarray:
 @dataclass(frozen=True)
 class SurfaceVelocity:
     """The wave's velocity on the wall at each node ``(n_u, n_v)``: ``speed_mm_s``
-    (1 / |grad t| on the wall), ``angle_deg`` of its direction to the tube's axis (0
+    (``1 / |grad t|`` on the wall), ``angle_deg`` of its direction to the tube's axis (0
     along from the inlet to the outlet, 90 around in the direction of u, 180 back
     towards the inlet), ``along_mm_s`` and ``around_mm_s`` its components (the
     velocity's, speed times the direction), and ``axial_slowness_ms_mm`` the time the

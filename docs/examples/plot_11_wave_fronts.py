@@ -39,5 +39,5 @@ for ax in axes:
 fig.suptitle(f"normal_0: {found['speed_mm_s']:.1f} mm/s on the wall, "
              f"{found['axial_speed_mm_s']:.1f} along the tube (ridge, whole cycle: "
              f"{res.summary['wave_speed_mm_s']['cycle']:.1f}), helix angle "
-             f"{found['helix_angle_deg'] + 0.0:.0f}°", fontsize=9)
+             f"{round(found['helix_angle_deg']):d}°", fontsize=9)
 plt.show()

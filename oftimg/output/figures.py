@@ -185,7 +185,7 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
     for wall, found in (summary.get("wave_fronts") or {}).items():
         if isinstance(found, dict) and f"activation_time_{wall}_ms" in arrays:
             how = (f"{found['speed_mm_s']:.1f} mm/s on the wall, helix angle "
-                   f"{found['helix_angle_deg'] + 0.0:.0f}°" if found["propagates"]
+                   f"{round(found['helix_angle_deg']):d}°" if found["propagates"]
                    else "no propagation: the wall moves at once")
             written.append(activation_figure(
                 arrays[f"activation_time_{wall}_ms"], arrays[f"wave_velocity_{wall}_mm_s"],

@@ -150,3 +150,18 @@ def test_the_phantom_s_fronts_are_found_on_its_walls(tmp_path, front):
     if "helix_starts" not in front:
         assert found["axial_speed_mm_s"] == pytest.approx(expected["axial_speed_mm_s"],
                                                           rel=0.05)
+
+
+def test_a_band_that_barely_moves_is_not_where_the_wave_starts():
+    """A band of rows moving a tenth as much, its timing early (its neighbours' pull):
+    the earliest node is the inlet's, where the wave starts, not the band's."""
+    u, s = node_coordinates()
+    arrival = s / 0.01 + 20.0
+    arrival[:, 24:28] -= 15.0                               # early, and barely moving
+    grid = beating(arrival)
+    r = radial_distance(grid)
+    r[:, 24:28] = RADIUS_MM + 0.1 * (r[:, 24:28] - RADIUS_MM)
+    act = activation_times(r, PERIOD_MS)
+    summary = wave_summary(act, surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS),
+                           s[0], PERIOD_MS)
+    assert summary["earliest_node"][1] <= 1                 # the inlet row

@@ -25,6 +25,8 @@ NO_PROPAGATION_SPREAD = 4.0
 # a node moves when its first harmonic's amplitude is this many times its noise SD
 # (sigma sqrt(2 / n_t)): below it the phase is the noise's, not the wall's
 MOTION_SNR = 5.0
+# the earliest node is sought among nodes moving at least this share of the median one
+EARLIEST_AMPLITUDE = 0.5
 # the noise is read from the harmonics from this one up: below it lies the beat's own
 # shape (a hump is no cosine), which a residual about the first harmonic counts as
 # noise (4 times the errors on the phantom)
@@ -203,7 +205,8 @@ def wave_summary(activation: Activation, velocity: SurfaceVelocity, s_mm: np.nda
     (mm/s); the axial speed (mm/s: the inverse of the median dt/ds, beside the paper's
     ridge speed); the helix angle's median and interquartile range (degrees, the
     velocity's angle to the axis folded into [-90, 90]: a front running back counts by
-    its slant); the earliest node ``(i_u, i_v)`` and its position ``s_mm``; the slowest
+    its slant); the earliest node ``(i_u, i_v)`` among those moving at least
+    :data:`EARLIEST_AMPLITUDE` of the median node, and its position ``s_mm``; the slowest
     band (the row whose median speed is least, its ``s_mm``, and that speed). Every
     number None where the wall does not propagate."""
     if not propagates(activation, period_ms):
@@ -214,7 +217,11 @@ def wave_summary(activation: Activation, velocity: SurfaceVelocity, s_mm: np.nda
     q1, median_angle, q3 = np.nanpercentile(angle, [25, 50, 75])
     slowness = np.nanmedian(velocity.axial_slowness_ms_mm)
     t = unwrapped(activation.time_ms, period_ms)
-    earliest = np.unravel_index(np.nanargmin(t), t.shape)
+    # where the wave starts: among nodes moving at least half as much as the median one
+    # (a band that barely moves takes its timing from its neighbours' pull, not the wave)
+    strong = activation.moving & (activation.amplitude >= EARLIEST_AMPLITUDE
+                                  * np.median(activation.amplitude[activation.moving]))
+    earliest = np.unravel_index(np.nanargmin(np.where(strong, t, np.nan)), t.shape)
     rows = np.nanmedian(velocity.speed_mm_s, axis=0)
     slowest = int(np.nanargmin(rows[2:-2])) + 2 if rows.size > 4 else int(np.nanargmin(rows))
     return {"propagates": True, "speed_mm_s": float(np.nanmedian(velocity.speed_mm_s)),

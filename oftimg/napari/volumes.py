@@ -182,10 +182,9 @@ class VolumesOverTime:
                 self._put(layer, v, scale, t, coarse=moving)
         if moving:
             self.timer.start()
-        for k in range(1, PREFETCH + 1):
-            ahead = (t + k * self.step) % max(1, self.series[0].n_frames) if self.series else 0
-            for v in self.series:
-                self.reader.submit(v.read, ahead)
+        for v in self.series:                       # the frames the slider goes towards
+            for k in range(1, PREFETCH + 1):
+                self.reader.submit(v.read, (t + k * self.step) % v.n_frames)
 
     def settle(self) -> None:
         """The full frames, once the slider has rested."""

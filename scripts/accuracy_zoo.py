@@ -2,7 +2,7 @@
 
     python scripts/accuracy_zoo.py [--draws 50] [--seed 0] [--kinds meshes labels ...]
                                    [--frames N] [--voxel-min-um U] [--jobs 2]
-                                   [--cache DIR] [--json FILE] [--no-pair]
+                                   [--cache DIR] [--json FILE] [--no-pair] [--fronts]
     python scripts/accuracy_zoo.py --tables FILE.json [...] [--markdown]
 
 Draws ``--draws`` scenarios per input kind (oftimg.synthetic.zoo: seeds S, S+1, ...,
@@ -16,7 +16,9 @@ drifts from the tissue along and around (scripts/texture_accuracy.py's drift). K
 how far material tracking's grid drifts from its tissue (the animation's truth).
 Prints per kind and metric the median, the 90th percentile and the worst |error| with
 the worst draw's seed (rerun it with --seed SEED --draws 1 --kinds KIND). ``--frames``
-and ``--voxel-min-um`` make quick draws (the rest of each draw unchanged).
+and ``--voxel-min-um`` make quick draws (the rest of each draw unchanged). ``--fronts``
+draws the same scenarios with helical or one-sided wave fronts
+(``draw_scenario(..., fronts=True)``) and tabulates the fronts' metrics alone.
 """
 from __future__ import annotations
 
@@ -71,7 +73,16 @@ HEADLINE = [
     ("real_drift_median_pct", "% L", "real shape, material tracking: drift (median node)"),
     ("real_drift_p90_pct", "% L", "real shape, material tracking: drift (90th pct node)"),
     ("real_speed_cycle_pct", "%", "real shape: wave speed over the cycle"),
+] + [
+    ("front_speed_pct", "%", "wave fronts, outer wall: speed on the wall (median node)"),
+    ("front_axial_speed_pct", "%", "wave fronts, outer wall: axial speed"),
+    ("front_helix_deg", "deg", "wave fronts, outer wall: helix angle (median)"),
+    ("front_activation_rms_ms", "ms", "wave fronts, outer wall: activation time, RMS"),
 ]
+# with --fronts (helical and one-sided fronts): the paper's numbers of the (v, t) area
+# map average a helix away, so only the fronts' metrics are tabulated
+FRONT_METRICS = [row for row in HEADLINE if row[0].startswith("front_")]
+FRONTS_TAG = " (fronts)"          # after the kind's name in the JSON and the tables
 # (key, what): the run's own error bars against the truth, % of nodes and frames (or
 # rows) whose error lies within the band the run reports (its noise: summary.json's
 # field_noise, the speeds' noise spreads); a calibrated band holds about 95 %
@@ -83,6 +94,7 @@ CALIBRATION = [
     ("jelly_thickness_within_95_pct", "jelly thickness within its 95 % band"),
     ("local_within_2_spreads_pct", "local wave speeds within 2 noise spreads"),
     ("ridge_within_2_spreads_pct", "ridge times within 2 noise spreads"),
+    ("front_activation_within_95_pct", "wave fronts: activation times within their 95 % band"),
 ]
 MIDGUT = Path(__file__).resolve().parent.parent / "tests" / "data" / "midgut_8k.ply"
 MIDGUT_SCALE_TO_MM = 0.2619e-3        # tests/data/README.md
@@ -99,10 +111,12 @@ def run_quietly(dataset: Path, out: Path, jobs: int) -> Path:
 
 
 def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs: int,
-                pair: bool) -> dict[str, float]:
-    """One draw written, run and compared with its truth: every metric's error."""
-    scenario = draw_scenario(seed, kind, n_frames=frames, voxel_um_min=voxel_min_um)
-    dataset = root / "data" / f"{kind.replace('+', '_')}_{seed}"
+                pair: bool, fronts: bool = False) -> dict[str, float]:
+    """One draw written, run and compared with its truth: every metric's error
+    (``fronts``: the draw with a helical or one-sided front, no meshes' pair)."""
+    scenario = draw_scenario(seed, kind, n_frames=frames, voxel_um_min=voxel_min_um,
+                             fronts=fronts)
+    dataset = root / "data" / f"{kind.replace('+', '_')}_{seed}{'_fronts' * fronts}"
     if not (dataset / "scenario.json").is_file():
         write_scenario(scenario, dataset, real_shape=MIDGUT,
                        real_scale_to_mm=MIDGUT_SCALE_TO_MM)
@@ -110,7 +124,7 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
     if kind == "real":
         return {**real_shape_errors(dataset, results), "draw": conditions(scenario)}
     errors = {**embryo_errors(dataset, results), "draw": conditions(scenario)}
-    if kind != "meshes" and pair:         # the same geometry as meshes: node by node
+    if kind != "meshes" and pair and not fronts:    # the same geometry as meshes
         meshes = root / "data" / f"{dataset.name}_meshes"
         if not (meshes / "truth.json").is_file():
             write_phantom(meshes, replace(label_params(scenario.phantom), noise_mm=0.0))
@@ -141,6 +155,8 @@ def conditions(scenario) -> dict:
     dataset's scenario.json)."""
     p, seg = scenario.phantom, scenario.segmentation
     out = {"frames": p.n_frames, "twist_deg": round(p.twist_deg, 1),
+           "front": (f"helix {p.helix_starts:+d}, " * bool(p.helix_starts)
+                     + f"side lag {p.side_lag_ms:.0f} ms at {p.side_deg:.0f} deg")
            "twist": f"{p.twist_profile}, phase {p.twist_phase:.2f}",
            "slide_pct": round(100 * p.stretch, 1)}
     if scenario.kind == "meshes":
@@ -236,7 +252,7 @@ def print_tables(every: dict[str, dict], markdown: bool = False) -> None:
         else:
             print(f"  {'metric':<62}{'unit':>6}{'median':>9}{'p90':>9}{'worst':>9}  seed    n"
                   + ("   shifted: median, p90, n" if biased else ""))
-        for key, unit, what in HEADLINE:
+        for key, unit, what in FRONT_METRICS if kind.endswith(FRONTS_TAG) else HEADLINE:
             d = distribution(clean, key)
             if d is None:
                 continue
@@ -315,6 +331,8 @@ def main() -> None:
     ap.add_argument("--tables", type=Path, nargs="+", default=None, metavar="JSON",
                     help="print the tables of earlier runs' --json files (merged), run nothing")
     ap.add_argument("--markdown", action="store_true", help="--tables as Markdown tables")
+    ap.add_argument("--fronts", action="store_true",
+                    help="draws with helical or one-sided wave fronts (their metrics only)")
     ap.add_argument("--no-pair", action="store_true",
                     help="label kinds without their meshes' run (no node-by-node metrics)")
     args = ap.parse_args()
@@ -330,20 +348,20 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         root = args.cache or Path(tmp)
         for kind in args.kinds:
-            every[kind] = {}
+            drawn = every[kind + FRONTS_TAG * args.fronts] = {}
             for seed in range(args.seed, args.seed + args.draws):
                 tick = time.perf_counter()
                 try:
-                    every[kind][seed] = draw_errors(seed, kind, root, frames=args.frames,
-                                                    voxel_min_um=args.voxel_min_um,
-                                                    jobs=args.jobs, pair=not args.no_pair)
+                    drawn[seed] = draw_errors(seed, kind, root, frames=args.frames,
+                                              voxel_min_um=args.voxel_min_um, jobs=args.jobs,
+                                              pair=not args.no_pair, fronts=args.fronts)
                 except oftimg.InputError as exc:     # refused: a fault of the zoo or of oftimg
-                    every[kind][seed] = {"refused": str(exc), "draw": conditions(
+                    drawn[seed] = {"refused": str(exc), "draw": conditions(
                         draw_scenario(seed, kind, n_frames=args.frames,
-                                      voxel_um_min=args.voxel_min_um))}
+                                      voxel_um_min=args.voxel_min_um, fronts=args.fronts))}
                 print(f"{kind} draw {seed}: {time.perf_counter() - tick:.0f} s"
-                      + (f", refused: {every[kind][seed]['refused']}"
-                         if "refused" in every[kind][seed] else ""), flush=True)
+                      + (f", refused: {drawn[seed]['refused']}" if "refused" in drawn[seed]
+                         else ""), flush=True)
                 if args.json:
                     args.json.write_text(json.dumps(every, indent=1, default=str))
     print(f"\n{sum(len(v) for v in every.values())} draws, {time.perf_counter() - started:.0f} s"

@@ -5,7 +5,7 @@ once and one that does not move."""
 import numpy as np
 import pytest
 
-from oftimg.image.activation import (activation_times, propagates, radial_distance,
+from oftimg.image.activation import (activation_times, propagates, normal_displacement,
                                      surface_velocity, unwrapped, wave_summary)
 
 PERIOD_MS = 360.0
@@ -47,10 +47,10 @@ def test_activation_is_the_steepest_rise_sub_frame_and_its_noise_is_calibrated()
     motion the errors' SD is the stated SD within 20 %."""
     u, s = node_coordinates()
     arrival = 7.3 * s + 100.0
-    act = activation_times(radial_distance(beating(arrival)), PERIOD_MS)
+    act = activation_times(normal_displacement(beating(arrival)), PERIOD_MS)
     expected = np.mod(arrival - PERIOD_MS / 4, PERIOD_MS)
     assert np.abs(act.time_ms - expected).max() < 0.05
-    noisy = activation_times(radial_distance(beating(arrival, noise_mm=0.001)), PERIOD_MS)
+    noisy = activation_times(normal_displacement(beating(arrival, noise_mm=0.001)), PERIOD_MS)
     error = unwrapped(noisy.time_ms - expected, PERIOD_MS)
     assert abs(np.std(error) / np.median(noisy.sd_ms) - 1) < 0.2
     assert noisy.phase.shape == (N_U, N_V, N_T)
@@ -68,7 +68,7 @@ def test_a_helical_wave_s_speed_and_angle_on_the_wall(k):
     c = 10.0 / 1e3                                                     # mm/ms
     arrival = s / c + k * PERIOD_MS * u
     grid = beating(arrival)
-    act = activation_times(radial_distance(grid), PERIOD_MS)
+    act = activation_times(normal_displacement(grid), PERIOD_MS)
     vel = surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS)
     around = k * PERIOD_MS / (2 * np.pi * RADIUS_MM)                   # ms/mm
     speed = 1e3 / np.hypot(1 / c, around)
@@ -91,7 +91,7 @@ def test_a_wave_that_starts_on_one_side_is_found_there():
     u, s = node_coordinates()
     arrival = s / 0.01 + 30.0 * (1 - np.cos(2 * np.pi * (u - 0.25)))
     grid = beating(arrival)
-    act = activation_times(radial_distance(grid), PERIOD_MS)
+    act = activation_times(normal_displacement(grid), PERIOD_MS)
     vel = surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS)
     summary = wave_summary(act, vel, s[0], PERIOD_MS)
     assert abs(summary["earliest_node"][0] - 20) <= 1 and summary["earliest_node"][1] <= 2
@@ -107,7 +107,7 @@ def test_a_tube_moving_at_once_or_not_at_all_has_no_propagation(case):
     u, s = node_coordinates()
     grid = beating(np.full((N_U, N_V), 50.0), noise_mm=0.001,
                    amplitude_mm=0.02 if case == "at_once" else 0.0)
-    act = activation_times(radial_distance(grid), PERIOD_MS)
+    act = activation_times(normal_displacement(grid), PERIOD_MS)
     assert not propagates(act, PERIOD_MS)
     assert act.moving.mean() > 0.99 if case == "at_once" else act.moving.mean() < 0.01
     summary = wave_summary(act, surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS),
@@ -143,7 +143,7 @@ def test_the_phantom_s_fronts_are_found_on_its_walls(tmp_path, front):
     inner = (slice(None), slice(4, -4))
     assert np.median(speed[inner] / truth.speed_mm_s[inner] - 1) == pytest.approx(0, abs=0.05)
     found = res["summary"]["wave_fronts"]["outer"]
-    expected = wave_summary(activation_times(radial_distance(grid), params.period_ms), truth,
+    expected = wave_summary(activation_times(normal_displacement(grid), params.period_ms), truth,
                             res["arrays"]["s_mm"], params.period_ms)
     assert found["propagates"]
     assert found["helix_angle_deg"] == pytest.approx(expected["helix_angle_deg"], abs=3.0)
@@ -159,8 +159,8 @@ def test_a_band_that_barely_moves_is_not_where_the_wave_starts():
     arrival = s / 0.01 + 20.0
     arrival[:, 24:28] -= 70.0                     # earlier than the inlet, and barely moving
     grid = beating(arrival)
-    r = radial_distance(grid)
-    r[:, 24:28] = RADIUS_MM + 0.1 * (r[:, 24:28] - RADIUS_MM)
+    r = normal_displacement(grid)
+    r[:, 24:28] *= 0.1
     act = activation_times(r, PERIOD_MS)
     summary = wave_summary(act, surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS),
                            s[0], PERIOD_MS)

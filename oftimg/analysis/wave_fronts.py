@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..image.activation import (VELOCITY_SMOOTHING_NODES, activation_times, radial_distance,
-                                ring_swing, surface_velocity, wave_summary)
+from ..image.activation import (VELOCITY_SMOOTHING_NODES, activation_times,
+                                normal_displacement, ring_swing, surface_velocity,
+                                wave_summary)
 
 
 def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, dict]:
@@ -17,12 +18,12 @@ def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, 
     ``(n_u, n_v, n_t)`` (radians, 0 at activation); the summary per wall
     (:func:`~oftimg.image.activation.wave_summary`, with the rings' sideways swing,
     which reads as a front on one side, and the activation's median noise SD)."""
-    arrays, summary = {}, {"marker": "first harmonic of each node's distance from its "
-                                     "ring's centre over the cycle; activation at its "
+    arrays, summary = {}, {"marker": "first harmonic of each node's motion along the "
+                                     "wall's outward normal; activation at its "
                                      "steepest rise",
                            "smoothing_nodes": VELOCITY_SMOOTHING_NODES}
     for wall, grid in grids.items():
-        activation = activation_times(radial_distance(grid), period_ms)
+        activation = activation_times(normal_displacement(grid), period_ms)
         velocity = surface_velocity(activation.time_ms, grid.mean(axis=2), period_ms)
         arrays[f"activation_time_{wall}_ms"] = activation.time_ms.astype(np.float32)
         arrays[f"activation_sd_{wall}_ms"] = activation.sd_ms.astype(np.float32)

@@ -4,7 +4,7 @@ the phase of each node's motion.
 
 Functions of arrays: a wall's grid ``(n_u, n_v, n_t, 3)`` mm over one periodic cycle
 (u around and periodic, v along from the inlet), times in ms. The marker is the
-first harmonic of each node's distance from its row's centre: its phase is read from
+first harmonic of each node's motion along the wall's normal: its phase is read from
 every frame at once, so it is sub-frame and robust to a node's frame-to-frame noise
 (the time of the steepest outward motion of that harmonic is the activation time).
 """
@@ -33,22 +33,33 @@ EARLIEST_AMPLITUDE = 0.5
 NOISE_HARMONIC = 6
 
 
-def radial_distance(grid: np.ndarray) -> np.ndarray:
-    """Each node's distance (mm) from its ring's centre over the cycle (the mean of the
-    ring's nodes over every frame): ``(n_u, n_v, n_t)`` of a grid ``(n_u, n_v, n_t,
-    3)``. Not the frame's own centre: a front that comes first on one side of the ring
-    moves that centre towards it, and a one-start helix is, to first order, a ring
-    moving sideways; from the frame's own centre both were lost (activation 14 and 90
-    ms off on the phantom). The price: a tube that swings sideways as a whole reads as
-    a front that comes first on one side (:func:`ring_swing`)."""
-    centres = grid.mean(axis=(0, 2), keepdims=True)
-    return np.linalg.norm(grid - centres, axis=-1)
+def normal_displacement(grid: np.ndarray) -> np.ndarray:
+    """Each node's displacement (mm) from its place over the cycle along the wall's
+    outward normal there: ``(n_u, n_v, n_t)`` of a grid ``(n_u, n_v, n_t, 3)`` (the
+    normal of the cycle's mean shape, outward from the tube's axis). Tissue that
+    slides within the wall (the twist round a wall that is not round, the slide along
+    a tapered tube) moves along it, not across it, to first order; its distance from
+    the ring's centre takes that slide for the wave (on the bench embryo as labels,
+    twisted 20 degrees round a cornered wall: activation 5.3 ms RMS off and the speed
+    on the wall 39 % low, against 1.0 ms and 1 % along the normal). No centre is taken
+    either: a front that comes first on one side moves any ring's centre towards it.
+    The price: a tube that swings sideways as a whole reads as a front that comes
+    first on one side (:func:`ring_swing`)."""
+    mean = grid.mean(axis=2)
+    e_u = 0.5 * (np.roll(mean, -1, axis=0) - np.roll(mean, 1, axis=0))
+    e_v = np.gradient(mean, axis=1)
+    normal = np.cross(e_u, e_v)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    outward = mean - mean.mean(axis=0, keepdims=True)      # from each ring's centre
+    if np.nansum(outward * normal) < 0:                     # u runs clockwise
+        normal = -normal
+    return ((grid - mean[:, :, None]) * normal[:, :, None]).sum(axis=-1)
 
 
 def ring_swing(grid: np.ndarray) -> np.ndarray:
     """How far each ring's centre moves over the cycle (mm, the first harmonic's
     amplitude of its path, ``(n_v,)``): sideways swing of the tube, which
-    :func:`radial_distance` reads as a front that comes first on one side."""
+    :func:`normal_displacement` reads as a front that comes first on one side."""
     centres = grid.mean(axis=0)                                    # (n_v, n_t, 3)
     n_t = centres.shape[1]
     first = np.exp(-2j * np.pi * np.arange(n_t) / n_t)

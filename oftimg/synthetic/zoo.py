@@ -50,6 +50,8 @@ RANGES = {
     # a real shape animated (oftimg.synthetic.animate): its wave, twist and shortening
     "real_speed_lengths_s": (2.0, 15.0), "real_amplitude": (0.1, 0.4),
     "real_shortening": (0.0, 0.15),
+    # with fronts=True: a one-sided front's lag to the far side, a share of the period
+    "side_lag_share": (0.05, 0.25),
 }
 BANDED_SHARE = 0.3          # of the draws: a band
 SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
@@ -57,6 +59,11 @@ DEFECT_SHARE = 0.3          # of the label draws: a defect in one or two frames
 OWN_VALUES_SHARE = 0.5      # of the label draws: values other than 1, 2, 3
 END_INSIDE_SHARE = 0.3      # of the label draws: the tube ends inside the volume at one end
 END_INSIDE_VOXELS = (4, 16)  # how far it goes on past the window's plane there
+# with fronts=True (the wave-front draws): a helical front in this share of the draws
+# (1 or 2 starts, either hand); a one-sided front in the others, and in this share of
+# the helical ones too
+HELIX_SHARE = 0.5
+HELIX_AND_SIDE_SHARE = 0.3
 
 
 @dataclass(frozen=True)
@@ -112,11 +119,13 @@ def _uniform(rng, name: str) -> float:
 
 
 def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = None,
-                  voxel_um_min: float | None = None) -> Scenario:
+                  voxel_um_min: float | None = None, fronts: bool = False) -> Scenario:
     """The scenario of ``seed`` (the same seed, the same draw): ``kind`` drawn from
     :data:`KINDS` unless given, every number from :data:`RANGES`. ``n_frames`` and
     ``voxel_um_min`` (the finest voxel side drawn) override the draw, for quick runs:
-    the rest of the draw is the same."""
+    the rest of the draw is the same. ``fronts``: the wave's fronts are not the
+    cross-sections but a helix (:data:`HELIX_SHARE`) or come first on one side, or
+    both (:func:`front_params`); the rest of the draw is the same."""
     rng = np.random.default_rng([seed, 72])
     drawn_kind = KINDS[int(rng.integers(len(KINDS)))]
     kind = drawn_kind if kind is None else kind
@@ -147,6 +156,8 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
         band_depth=_uniform(rng, "band_depth"),
         noise_mm=_uniform(rng, "noise_mm") if kind == "meshes" else 0.0,
         vertices_min=v_min, vertices_max=int(1.5 * v_min))
+    if fronts:
+        params = replace(params, **front_params(seed, params.period_ms))
     side = _uniform(rng, "voxel_um")
     if voxel_um_min is not None:
         side = max(side, voxel_um_min)
@@ -187,6 +198,22 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     return Scenario(seed, kind, params, voxel, segmentation,
                     texture if kind == "labels+intensity" else None,
                     end_inside=end_inside, end_inside_voxels=end_voxels)
+
+
+def front_params(seed: int, period_ms: float) -> dict:
+    """A wave-front draw's phantom parameters (a stream of its own: the rest of the
+    draw stays as it was): ``helix_starts`` (-2, -1, 1 or 2 in :data:`HELIX_SHARE` of
+    the draws, else 0), and a front that comes first at ``side_deg`` (any angle) and
+    reaches the far side ``side_lag_ms`` later (a share :data:`RANGES`
+    ``side_lag_share`` of the period) in every draw without a helix and in
+    :data:`HELIX_AND_SIDE_SHARE` of those with one."""
+    rng = np.random.default_rng([seed, 72, 2])
+    helix = int(rng.choice([-2, -1, 1, 2])) if rng.random() < HELIX_SHARE else 0
+    side = helix == 0 or rng.random() < HELIX_AND_SIDE_SHARE
+    lag = _uniform(rng, "side_lag_share") * period_ms
+    angle = float(rng.uniform(0.0, 360.0))
+    return {"helix_starts": helix, "side_lag_ms": lag if side else 0.0,
+            "side_deg": angle if side else 0.0}
 
 
 def write_scenario(scenario: Scenario, out: str | Path, *, real_shape=None,

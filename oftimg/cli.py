@@ -216,15 +216,7 @@ def _parser() -> argparse.ArgumentParser:
     ph.add_argument("--expand-change", type=float, default=0.0,
                     help="growth of the expansion share of the cycle from inlet to outlet "
                          "(0.2: 20 percentage points); the ridge then runs at a speed of its own")
-    ph.add_argument("--helix-starts", type=int, default=0, metavar="K",
-                    help="the wave's front winds K times round the tube (a helix; K < 0 the "
-                         "other way round; default 0: fronts are cross-sections)")
-    ph.add_argument("--side-lag-ms", type=float, default=0.0, metavar="MS",
-                    help="the wave comes first on one side (--side-deg) and reaches the "
-                         "opposite side MS later (default 0)")
-    ph.add_argument("--side-deg", type=float, default=0.0, metavar="DEG",
-                    help="where round the tube the wave comes first (0: the inside of the "
-                         "bend; default 0)")
+    _front_arguments(ph)
     ph.add_argument("--labels", action="store_true",
                     help="write label volumes (labels/, one TIFF per frame) instead of meshes: "
                          "the tube bent to a quarter circle, leaving the volume through two "
@@ -275,6 +267,7 @@ def _parser() -> argparse.ArgumentParser:
                          "from 0 at the inlet (degrees)")
     an.add_argument("--shortening", type=float, default=0.0,
                     help="longitudinal shortening towards the inlet at mid-cycle (0.15: 15 %%)")
+    _front_arguments(an)
     an.add_argument("--remesh", action="store_true", help="remesh every frame independently")
     an.add_argument("--texture", action="store_true",
                     help="intensity volumes too (intensity/, uint8 TIFF per frame): a texture "
@@ -418,6 +411,20 @@ def _nothing_written(args) -> str:
     return "; no results were written to --out" if getattr(args, "out", None) else ""
 
 
+def _front_arguments(parser) -> None:
+    """The wave's fronts of ``oftimg phantom`` and ``oftimg animate``: a helix, or a
+    front that comes first on one side."""
+    parser.add_argument("--helix-starts", type=int, default=0, metavar="K",
+                        help="the wave's front winds K times round the tube (a helix; K < 0 "
+                             "the other way round; default 0: fronts are cross-sections)")
+    parser.add_argument("--side-lag-ms", type=float, default=0.0, metavar="MS",
+                        help="the wave comes first on one side (--side-deg) and reaches the "
+                             "opposite side MS later (default 0)")
+    parser.add_argument("--side-deg", type=float, default=0.0, metavar="DEG",
+                        help="where round the tube the wave comes first (0: the inside of "
+                             "the bend; default 0)")
+
+
 def _mesh_arguments(parser) -> None:
     """How label volumes are meshed (``run`` and ``mesh``)."""
     from .mesh.labels import MeshOptions
@@ -511,7 +518,9 @@ def _command(args) -> int:
         from .progress import Progress
 
         anim = Animation(args.speed_mm_s, args.amplitude, args.period_ms, args.frames,
-                         twist_deg=args.twist_deg, shortening=args.shortening)
+                         twist_deg=args.twist_deg, shortening=args.shortening,
+                         helix_starts=args.helix_starts, side_lag_ms=args.side_lag_ms,
+                         side_deg=args.side_deg)
         to_mm = args.scale * (1e-3 if args.unit == "um" else 1.0)
         bar = Progress(args.frames, f"animate {args.out.name}", quiet=args.quiet)
         out = write_animation(args.mesh, args.out, anim, scale_to_mm=to_mm,

@@ -301,24 +301,37 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
     return {k: float(v) for k, v in e.items()}
 
 
+def wave_front_errors(dataset: Path, results: Path) -> dict[str, float]:
+    """:func:`front_errors` of one analysed phantom alone (a helical front: the (v, t)
+    area map's numbers have nothing to measure)."""
+    ph, truth = read_truth(dataset)
+    summ = json.loads((results / "summary.json").read_text())
+    grids = in_phantom_frame(dataset, np.load(results / "grids.npz"))
+    return front_errors(ph, np.load(results / "arrays.npz"), grids["outer"],
+                        summ["wave_fronts"]["outer"], truth["params"]["period_ms"])
+
+
 def front_errors(ph, arr, grid: np.ndarray, found: dict, period_ms: float) -> dict[str, float]:
     """The wave's fronts on the outer wall (summary.json's ``wave_fronts``) against
     the model's: its activation (``Phantom.activation_ms``) at each node's place over
     the cycle (the tracked ``grid (n_u, n_v, n_t, 3)``, mm in the phantom's frame),
-    through the same gradient on the same wall without smoothing; the median speed,
-    the axial speed and the helix angle (degrees, signed), the activation's RMS error
-    after its median (ms, the 4 end rows left out) and the share of nodes within 1.96
-    of their stated noise SD after it (%). ``front_propagates`` 0 where the run says the
-    wall does not propagate (then no other number)."""
+    through the same gradient on the same wall without smoothing, over the nodes the
+    run reads the wave at (its velocity finite there: the others barely move); the
+    median speed, the axial speed and the helix angle (degrees, signed), the
+    activation's RMS error after its median (ms, the 4 end rows left out) and the share
+    of nodes within 1.96 of their stated noise SD after it (%). ``front_propagates`` 0
+    where the run says the wall does not propagate (then no other number)."""
     mean = grid.mean(axis=2)
     true_ms = ph.activation_ms(*ph.window_coordinates(mean))
-    truth = surface_velocity(true_ms, mean, period_ms, smoothing_nodes=0)
+    reads = np.isfinite(arr["wave_velocity_outer_mm_s"][..., 0])
+    truth = surface_velocity(true_ms, mean, period_ms, smoothing_nodes=0, use=reads)
     if not found["propagates"]:
         return {"front_propagates": 0.0}
     slant = np.mod(truth.angle_deg + 90.0, 180.0) - 90.0
-    error = unwrapped(arr["activation_time_outer_ms"] - true_ms, period_ms)[:, 4:-4]
+    inner = reads[:, 4:-4]
+    error = unwrapped(arr["activation_time_outer_ms"] - true_ms, period_ms)[:, 4:-4][inner]
     error -= np.median(error)
-    sd = arr["activation_sd_outer_ms"][:, 4:-4]
+    sd = arr["activation_sd_outer_ms"][:, 4:-4][inner]
     return {"front_propagates": 1.0,
             "front_speed_pct": _relative_pct(found["speed_mm_s"],
                                              np.nanmedian(truth.speed_mm_s)),

@@ -42,7 +42,7 @@ from oftimg.synthetic.phantom import read_truth, write_phantom
 from oftimg.synthetic.zoo import KINDS, draw_scenario, volume_offset_um, write_scenario
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from accuracy import embryo_errors, pixel_differences  # noqa: E402
+from accuracy import embryo_errors, pixel_differences, wave_front_errors  # noqa: E402
 from texture_accuracy import drift  # noqa: E402
 
 # (key, unit, what): the headline metrics, in this order (|error| unless said)
@@ -123,6 +123,8 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
     results = run_quietly(dataset, root / "results" / dataset.name, jobs)
     if kind == "real":
         return {**real_shape_errors(dataset, results), "draw": conditions(scenario)}
+    if fronts:
+        return {**wave_front_errors(dataset, results), "draw": conditions(scenario)}
     errors = {**embryo_errors(dataset, results), "draw": conditions(scenario)}
     if kind != "meshes" and pair and not fronts:    # the same geometry as meshes
         meshes = root / "data" / f"{dataset.name}_meshes"
@@ -155,8 +157,9 @@ def conditions(scenario) -> dict:
     dataset's scenario.json)."""
     p, seg = scenario.phantom, scenario.segmentation
     out = {"frames": p.n_frames, "twist_deg": round(p.twist_deg, 1),
-           "front": (f"helix {p.helix_starts:+d}, " * bool(p.helix_starts)
-                     + f"side lag {p.side_lag_ms:.0f} ms at {p.side_deg:.0f} deg")
+           "front": ", ".join([f"helix {p.helix_starts:+d}"] * bool(p.helix_starts)
+                              + [f"side lag {p.side_lag_ms:.0f} ms at {p.side_deg:.0f} deg"]
+                              * bool(p.side_lag_ms)) or "cross-sections",
            "twist": f"{p.twist_profile}, phase {p.twist_phase:.2f}",
            "slide_pct": round(100 * p.stretch, 1)}
     if scenario.kind == "meshes":

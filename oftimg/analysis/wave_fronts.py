@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..image.activation import (VELOCITY_SMOOTHING_NODES, activation_times,
-                                normal_displacement, ring_swing, surface_velocity,
+                                normal_displacement, ring_swing, strong, surface_velocity,
                                 wave_summary)
 
 
@@ -17,14 +17,18 @@ def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, 
     ``wave_velocity_<wall>_mm_s`` ``(n_u, n_v, 2)`` (along, around) and ``phase_<wall>``
     ``(n_u, n_v, n_t)`` (radians, 0 at activation); the summary per wall
     (:func:`~oftimg.image.activation.wave_summary`, with the rings' sideways swing,
-    which reads as a front on one side, and the activation's median noise SD)."""
+    which reads as a front on one side, the activation's median noise SD and the share
+    of nodes that move enough to read the wave, :func:`~oftimg.image.activation.strong`:
+    the velocity is NaN at the others)."""
     arrays, summary = {}, {"marker": "first harmonic of each node's motion along the "
                                      "wall's outward normal; activation at its "
                                      "steepest rise",
                            "smoothing_nodes": VELOCITY_SMOOTHING_NODES}
     for wall, grid in grids.items():
         activation = activation_times(normal_displacement(grid), period_ms)
-        velocity = surface_velocity(activation.time_ms, grid.mean(axis=2), period_ms)
+        reads = strong(activation)
+        velocity = surface_velocity(activation.time_ms, grid.mean(axis=2), period_ms,
+                                    use=reads)
         arrays[f"activation_time_{wall}_ms"] = activation.time_ms.astype(np.float32)
         arrays[f"activation_sd_{wall}_ms"] = activation.sd_ms.astype(np.float32)
         arrays[f"wave_velocity_{wall}_mm_s"] = np.stack(
@@ -32,5 +36,6 @@ def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, 
         arrays[f"phase_{wall}"] = activation.phase.astype(np.float32)
         summary[wall] = {**wave_summary(activation, velocity, s_mm, period_ms),
                          "activation_sd_ms_median": float(np.nanmedian(activation.sd_ms)),
+                         "strong_share": float(reads.mean()),
                          "ring_swing_mm_median": float(np.median(ring_swing(grid)))}
     return arrays, summary

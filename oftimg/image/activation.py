@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter
 
 # Gaussian sigma (grid nodes) of the activation map's smoothing before its gradient:
 # the gradient of a noisy map is noisier still; 2 nodes is 1/40 of the way round and
@@ -25,8 +24,11 @@ NO_PROPAGATION_SPREAD = 4.0
 # a node moves when its first harmonic's amplitude is this many times its noise SD
 # (sigma sqrt(2 / n_t)): below it the phase is the noise's, not the wall's
 MOTION_SNR = 5.0
-# the earliest node is sought among nodes moving at least this share of the median one
-EARLIEST_AMPLITUDE = 0.5
+# a node whose first harmonic is under this share of the median moving node's is weak:
+# a band that barely moves takes its timing from its neighbours' pull, not the wave (on
+# a zoo draw whose band blocked its motion, rows moving 1/15 as much as the rest were up
+# to half a period off); weak nodes give no velocity, no summary and no earliest place
+STRONG_AMPLITUDE = 0.5
 # the noise is read from the harmonics from this one up: below it lies the beat's own
 # shape (a hump is no cosine), which a residual about the first harmonic counts as
 # noise (4 times the errors on the phantom)
@@ -79,6 +81,16 @@ class Activation:
     amplitude: np.ndarray
     moving: np.ndarray
     phase: np.ndarray
+
+
+def strong(activation: Activation) -> np.ndarray:
+    """The nodes ``(n_u, n_v)`` whose time reads the wave: moving, their first
+    harmonic at least :data:`STRONG_AMPLITUDE` of the median moving node's."""
+    moving = activation.moving
+    if not moving.any():
+        return moving
+    return moving & (activation.amplitude >= STRONG_AMPLITUDE
+                     * np.median(activation.amplitude[moving]))
 
 
 def activation_times(marker: np.ndarray, period_ms: float) -> Activation:
@@ -148,26 +160,20 @@ class SurfaceVelocity:
 
 
 def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float, *,
-                     smoothing_nodes: float = VELOCITY_SMOOTHING_NODES) -> SurfaceVelocity:
+                     smoothing_nodes: float = VELOCITY_SMOOTHING_NODES,
+                     use: np.ndarray | None = None) -> SurfaceVelocity:
     """The wave velocity on the wall from activation times ``(n_u, n_v)`` and the
     wall's shape ``grid_mm`` ``(n_u, n_v, 3)`` (the cycle's mean: each node's metric in
-    mm). The times are taken on the cycle's circle (a helical front's go once round
-    it), smoothed there by a Gaussian of ``smoothing_nodes`` (periodic around), and
-    differentiated on the grid (central differences of neighbours' times, each
-    difference within half a period; periodic in u); the gradient on the surface is
-    ``g^-1 (dt/du, dt/dv)`` in the grid's tangents, its length the slowness (ms/mm)."""
-    phasor = np.exp(2j * np.pi * time_ms / period_ms)         # times on the cycle's circle
-    if smoothing_nodes > 0:
-        phasor = (gaussian_filter(phasor.real, smoothing_nodes, mode=("wrap", "nearest"))
-                  + 1j * gaussian_filter(phasor.imag, smoothing_nodes, mode=("wrap", "nearest")))
-    t = np.angle(phasor) * period_ms / (2 * np.pi)
+    mm). The times' gradient on the grid is a local plane fitted to them about each
+    node (:func:`time_gradient`: weighted by a Gaussian of ``smoothing_nodes``, over the
+    nodes ``use``, bool ``(n_u, n_v)``, default all), as optical mapping fits its
+    activation maps; on the surface it is ``g^-1 (dt/du, dt/dv)`` in the grid's
+    tangents, its length the slowness (ms/mm). Every number is NaN at nodes outside
+    ``use`` and where too few of them lie near."""
+    use = np.ones(time_ms.shape, bool) if use is None else use
+    t_u, t_v = time_gradient(time_ms, period_ms, smoothing_nodes, use)
     e_u = 0.5 * (np.roll(grid_mm, -1, axis=0) - np.roll(grid_mm, 1, axis=0))
     e_v = np.gradient(grid_mm, axis=1)
-    t_u = 0.5 * _wrapped(np.roll(t, -1, axis=0) - np.roll(t, 1, axis=0), period_ms)
-    t_v = np.empty_like(t)                               # np.gradient's, on the circle
-    t_v[:, 1:-1] = 0.5 * _wrapped(t[:, 2:] - t[:, :-2], period_ms)
-    t_v[:, 0] = _wrapped(t[:, 1] - t[:, 0], period_ms)
-    t_v[:, -1] = _wrapped(t[:, -1] - t[:, -2], period_ms)
     g_uu = (e_u * e_u).sum(-1)
     g_uv = (e_u * e_v).sum(-1)
     g_vv = (e_v * e_v).sum(-1)
@@ -188,13 +194,55 @@ def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float,
         along_mm_s = 1e3 * g_along / slowness ** 2
         around_mm_s = 1e3 * g_around / slowness ** 2
         axial = t_v / np.linalg.norm(e_v, axis=-1)         # dt/ds along the grid's rows
-    return SurfaceVelocity(speed, angle, along_mm_s, around_mm_s, axial)
+    return SurfaceVelocity(*(np.where(use, x, np.nan) for x in
+                             (speed, angle, along_mm_s, around_mm_s, axial)))
 
 
-def _wrapped(difference: np.ndarray, period_ms: float) -> np.ndarray:
-    """A difference of two times on the cycle, in (-period/2, period/2]: a helical
-    front's times go once round the cycle on the way round the tube."""
-    return difference - period_ms * np.round(difference / period_ms)
+def time_gradient(time_ms: np.ndarray, period_ms: float, smoothing_nodes: float,
+                  use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(dt/du, dt/dv)`` (ms per node, ``(n_u, n_v)`` each) of activation times: at
+    each node the plane ``t0 + a du + b dv`` fitted by least squares to the times of
+    the nodes ``use`` within ``ceil(2 sigma)`` nodes (periodic in u, cut at the tube's
+    ends), weighted by a Gaussian of sigma = ``smoothing_nodes`` (0: the four nearest
+    nodes). Each neighbour's time is taken relative to the node's on the cycle's
+    circle (a helical front's times go once round it). Why a fitted plane rather than
+    the gradient of smoothed times: it is exact for a front of constant velocity
+    whatever the neighbours it has, next to the tube's ends or to nodes left out (a
+    smoothed map there leans towards the side that has them: 20-60 % off beside a band
+    left out, on an analytic tube). NaN where the fit has too few nodes."""
+    n_u, n_v = time_ms.shape
+    reach = max(1, int(np.ceil(2 * smoothing_nodes)))
+    phasor = np.where(use, np.exp(2j * np.pi * time_ms / period_ms), 0)
+    sums = {key: np.zeros((n_u, n_v)) for key in
+            ("w", "a", "b", "aa", "ab", "bb", "d", "ad", "bd")}
+    for db in range(-reach, reach + 1):
+        lo, hi = max(0, -db), min(n_v, n_v - db)       # nodes whose neighbour db exists
+        for da in range(-reach, reach + 1):
+            if smoothing_nodes > 0:
+                w = np.exp(-(da * da + db * db) / (2 * smoothing_nodes ** 2))
+            else:
+                w = float(abs(da) + abs(db) <= 1)
+            if w < 1e-6:
+                continue
+            other = np.roll(phasor, -da, axis=0)[:, lo + db:hi + db]
+            here = phasor[:, lo:hi]
+            weight = w * (np.abs(other) > 0) * (np.abs(here) > 0)
+            d = np.angle(other * np.conj(here)) * period_ms / (2 * np.pi)
+            for key, value in (("w", 1.0), ("a", da), ("b", db), ("aa", da * da),
+                               ("ab", da * db), ("bb", db * db)):
+                sums[key][:, lo:hi] += weight * value
+            sums["d"][:, lo:hi] += weight * d
+            sums["ad"][:, lo:hi] += weight * da * d
+            sums["bd"][:, lo:hi] += weight * db * d
+    normal = np.stack([np.stack([sums["w"], sums["a"], sums["b"]], -1),
+                       np.stack([sums["a"], sums["aa"], sums["ab"]], -1),
+                       np.stack([sums["b"], sums["ab"], sums["bb"]], -1)], -2)
+    right = np.stack([sums["d"], sums["ad"], sums["bd"]], -1)
+    solvable = np.abs(np.linalg.det(normal)) > 1e-9 * np.maximum(sums["w"], 1e-300) ** 3
+    normal[~solvable] = np.eye(3)
+    fitted = np.linalg.solve(normal, right[..., None])[..., 0]
+    fitted[~(solvable & use)] = np.nan
+    return fitted[..., 1], fitted[..., 2]
 
 
 def propagates(activation: Activation, period_ms: float) -> bool:
@@ -216,10 +264,10 @@ def wave_summary(activation: Activation, velocity: SurfaceVelocity, s_mm: np.nda
     (mm/s); the axial speed (mm/s: the inverse of the median dt/ds, beside the paper's
     ridge speed); the helix angle's median and interquartile range (degrees, the
     velocity's angle to the axis folded into [-90, 90]: a front running back counts by
-    its slant); the earliest node ``(i_u, i_v)`` among those moving at least
-    :data:`EARLIEST_AMPLITUDE` of the median node, and its position ``s_mm``; the slowest
-    band (the row whose median speed is least, its ``s_mm``, and that speed). Every
-    number None where the wall does not propagate."""
+    its slant); the earliest node ``(i_u, i_v)`` and its position ``s_mm``; the slowest
+    band (the row whose median speed is least, its ``s_mm``, and that speed). All over
+    the :func:`strong` nodes (``velocity`` NaN elsewhere, as :func:`surface_velocity`
+    gives it with ``use``). Every number None where the wall does not propagate."""
     if not propagates(activation, period_ms):
         return {"propagates": False, "speed_mm_s": None, "axial_speed_mm_s": None,
                 "helix_angle_deg": None, "helix_angle_iqr_deg": None, "earliest_node": None,
@@ -228,13 +276,13 @@ def wave_summary(activation: Activation, velocity: SurfaceVelocity, s_mm: np.nda
     q1, median_angle, q3 = np.nanpercentile(angle, [25, 50, 75])
     slowness = np.nanmedian(velocity.axial_slowness_ms_mm)
     t = unwrapped(activation.time_ms, period_ms)
-    # where the wave starts: among nodes moving at least half as much as the median one
-    # (a band that barely moves takes its timing from its neighbours' pull, not the wave)
-    strong = activation.moving & (activation.amplitude >= EARLIEST_AMPLITUDE
-                                  * np.median(activation.amplitude[activation.moving]))
-    earliest = np.unravel_index(np.nanargmin(np.where(strong, t, np.nan)), t.shape)
-    rows = np.nanmedian(velocity.speed_mm_s, axis=0)
-    slowest = int(np.nanargmin(rows[2:-2])) + 2 if rows.size > 4 else int(np.nanargmin(rows))
+    earliest = np.unravel_index(np.nanargmin(np.where(strong(activation), t, np.nan)), t.shape)
+    speed = velocity.speed_mm_s
+    rows = np.full(speed.shape[1], np.nan)         # rows at least half of whose nodes read
+    full = np.isfinite(speed).sum(axis=0) >= speed.shape[0] / 2
+    rows[full] = np.nanmedian(speed[:, full], axis=0)
+    inner = rows[2:-2] if rows.size > 4 and np.isfinite(rows[2:-2]).any() else rows
+    slowest = int(np.nanargmin(inner)) + (2 if inner.size < rows.size else 0)
     return {"propagates": True, "speed_mm_s": float(np.nanmedian(velocity.speed_mm_s)),
             "axial_speed_mm_s": float(1e3 / slowness) if slowness > 0 else None,
             "helix_angle_deg": float(median_angle), "helix_angle_iqr_deg": float(q3 - q1),

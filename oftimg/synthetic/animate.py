@@ -5,7 +5,11 @@ the outlet loop); the centroid of each h-slab gives a centre line whose arc
 length is s (mm). Every vertex moves away from its slab's centroid by the
 factor ``1 + A w(t - s / C)`` with the smooth periodic pulse
 ``w(phi) = sin^4(pi phi)`` (period T), so a section's area peaks when
-``t = s / C + T / 2``: the wave travels at C (mm/s) from inlet to outlet.
+``t = s / C + T / 2``: the wave travels at C (mm/s) from inlet to outlet. Its fronts
+may wind round the tube (a helix) or come first on one side, as the phantom's do
+(:func:`~oftimg.synthetic.phantom.front_lag_ms`), by the angle round the centre line
+from a frame carried along it without turning (0 towards the centre line's middle: the
+inside of a bend).
 
 On top of the wave, the tissue may slide within the surface as a beating heart's
 does: a twist about the centre line that grows from 0 at the inlet to
@@ -28,6 +32,7 @@ from ..errors import InputError
 from ..mesh.parameterize import harmonic_map, intrinsic_weights
 from ..mesh.topology import (MeshError, capped_signed_volume, check_tube, face_areas,
                              loop_centroid)
+from .phantom import front_lag_ms
 
 
 @dataclass(frozen=True)
@@ -40,6 +45,9 @@ class Animation:
     n_frames: int
     twist_deg: float = 0.0
     shortening: float = 0.0
+    helix_starts: int = 0           # the front winds this many times round the tube
+    side_lag_ms: float = 0.0        # the front reaches the side opposite side_deg this late
+    side_deg: float = 0.0           # where round the tube the front comes first
 
     def __post_init__(self):
         if self.speed_mm_s == 0 or not np.isfinite(self.speed_mm_s):
@@ -52,6 +60,15 @@ class Animation:
             raise InputError(f"twist_deg must be within ±180 degrees, found {self.twist_deg}")
         if not 0 <= self.shortening < 0.9:
             raise InputError(f"shortening must be in [0, 0.9), found {self.shortening}")
+        if self.helix_starts != int(self.helix_starts):
+            raise InputError(f"helix_starts must be a whole number, found {self.helix_starts}")
+        if not 0 <= self.side_lag_ms < self.period_ms:
+            raise InputError(f"side_lag_ms must be in [0, period_ms), found {self.side_lag_ms}")
+
+    def front_lag_ms(self, theta):
+        """How much later than at angle 0 the front reaches angle ``theta`` (ms)."""
+        return front_lag_ms(theta, self.period_ms, int(self.helix_starts), self.side_lag_ms,
+                            self.side_deg)
 
 
 def pulse(phi):
@@ -89,6 +106,42 @@ def axial_coordinates(V, F, inlet, outlet, *, n_slabs: int = 64):
     return h, cent, s, s_v, c_v
 
 
+def centre_line_frame(cent: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangents and normals ``(n_slabs, 3)`` of a centre line ``cent`` at arc
+    lengths ``s`` (mm): the normal carried along without turning about the tangent
+    (projected onto each next normal plane), starting towards the line's middle (the
+    inside of a bend; any normal of a straight line)."""
+    tangent = np.gradient(cent, s, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    start = cent[len(cent) // 2] - cent[0]
+    normal = start - (start @ tangent[0]) * tangent[0]
+    if np.linalg.norm(normal) < 1e-9 * max(s[-1], 1e-300):
+        normal = np.cross(tangent[0], np.eye(3)[np.argmin(np.abs(tangent[0]))])
+    normals = np.empty_like(cent)
+    for k in range(len(cent)):
+        normal = normal - (normal @ tangent[k]) * tangent[k]
+        normal /= np.linalg.norm(normal)
+        normals[k] = normal
+    return tangent, normals
+
+
+def around_angles(points: np.ndarray, s_points: np.ndarray, cent: np.ndarray,
+                  s: np.ndarray) -> np.ndarray:
+    """The angle (rad) round the centre line ``cent`` (at arc lengths ``s``) of
+    ``points (n, 3)`` mm lying at arc lengths ``s_points (n,)``: from
+    :func:`centre_line_frame`'s normal there, right-handed about the tangent."""
+    tangent, normals = centre_line_frame(cent, s)
+
+    def at(values):
+        return np.stack([np.interp(s_points, s, values[:, d]) for d in range(3)], axis=1)
+
+    t_p, n_p = at(tangent), at(normals)
+    n_p -= np.einsum("ij,ij->i", n_p, t_p)[:, None] * t_p / np.einsum("ij,ij->i", t_p, t_p)[:, None]
+    radial = points - at(cent)
+    b_p = np.cross(t_p, n_p)
+    return np.arctan2(np.einsum("ij,ij->i", radial, b_p), np.einsum("ij,ij->i", radial, n_p))
+
+
 def animate_frames(V, F, inlet, outlet, anim: Animation):
     """Yield ``(t_ms, V_t)`` for every frame (same connectivity ``F``)."""
     _, cent, s, s_v, c_v = axial_coordinates(V, F, inlet, outlet)
@@ -96,9 +149,10 @@ def animate_frames(V, F, inlet, outlet, anim: Animation):
     tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
     t_v = np.stack([np.interp(s_v, s, tangent[:, d]) for d in range(3)], axis=1)
     t_v /= np.linalg.norm(t_v, axis=1, keepdims=True)
+    lag_ms = anim.front_lag_ms(around_angles(V, s_v, cent, s))
     for k in range(anim.n_frames):
         t = k * anim.period_ms / anim.n_frames
-        phi = (t - 1e3 * s_v / anim.speed_mm_s) / anim.period_ms
+        phi = (t - 1e3 * s_v / anim.speed_mm_s - lag_ms) / anim.period_ms
         R = (V - c_v) * (1.0 + anim.amplitude * pulse(phi))[:, None]
         beat = pulse(t / anim.period_ms)
         if anim.twist_deg:
@@ -338,7 +392,8 @@ def grid_material_points(dataset, grid: np.ndarray, t0_frame: int) -> np.ndarray
 def wave_arrival_ms(dataset, points: np.ndarray) -> np.ndarray:
     """When the drawn wave reaches the static mesh's ``points (n, 3)`` mm of an animated
     ``dataset``: ``(n,)`` ms, not wrapped into the cycle (0 at the inlet, growing by
-    the period over each ``speed x period`` along the animation's centre line).
+    the period over each ``speed x period`` along the animation's centre line), plus
+    its front's lag round the tube (:meth:`Animation.front_lag_ms`).
 
     Measured against a run's own positions along the tube (one row's tissue, its
     ``s_mm``), this gives the wave's true speed in the run's coordinates: the
@@ -350,9 +405,11 @@ def wave_arrival_ms(dataset, points: np.ndarray) -> np.ndarray:
     truth = json.loads((Path(dataset) / "truth.json").read_text())
     tube = load_tube(Path(dataset) / "truth" / "static.ply")
     anim = Animation(**truth["animation"])
-    _, _, _, s_v, _ = axial_coordinates(tube.V, tube.F, tube.inlet, tube.outlet)
-    tri, bary, _ = static_points(tube.V, tube.F, tube.V, np.asarray(points, float))
-    return 1e3 * np.einsum("mk,mk->m", bary, s_v[tube.F[tri]]) / anim.speed_mm_s
+    _, cent, s, s_v, _ = axial_coordinates(tube.V, tube.F, tube.inlet, tube.outlet)
+    tri, bary, on_mesh = static_points(tube.V, tube.F, tube.V, np.asarray(points, float))
+    s_points = np.einsum("mk,mk->m", bary, s_v[tube.F[tri]])
+    lag_ms = anim.front_lag_ms(around_angles(on_mesh, s_points, cent, s))
+    return 1e3 * s_points / anim.speed_mm_s + lag_ms
 
 
 def tissue_positions(dataset, points: np.ndarray, t0_frame: int) -> np.ndarray:

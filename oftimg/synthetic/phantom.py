@@ -162,6 +162,18 @@ def _hump(phi, expand_fraction):
     return np.where(phi < f, rising, falling)
 
 
+def front_lag_ms(theta, period_ms: float, helix_starts: int = 0, side_lag_ms: float = 0.0,
+                 side_deg: float = 0.0):
+    """How much later than at angle 0 round its ring a wave's front reaches angle
+    ``theta`` (rad, broadcasting; ms): a helical front winds ``helix_starts`` times round
+    the tube (a whole period each time round, so that it joins itself; negative: the
+    other hand), and a front that comes first at ``side_deg`` reaches the opposite side
+    ``side_lag_ms`` later (half a cosine round the ring)."""
+    theta = np.asarray(theta, float)
+    return (helix_starts * period_ms * np.mod(theta, 2 * np.pi) / (2 * np.pi)
+            + side_lag_ms * 0.5 * (1 - np.cos(theta - np.radians(side_deg))))
+
+
 class Phantom:
     """The analytic model for one parameter set; all methods are vectorised."""
 
@@ -226,16 +238,28 @@ class Phantom:
         (a whole cycle each time round, so it joins itself), and a front that comes
         first at ``side_deg`` reaches the opposite side ``side_lag_ms`` later."""
         p = self.p
-        theta = np.asarray(theta, float)
-        return (p.helix_starts * p.period_ms * np.mod(theta, 2 * np.pi) / (2 * np.pi)
-                + p.side_lag_ms * 0.5 * (1 - np.cos(theta - np.radians(p.side_deg))))
+        return front_lag_ms(theta, p.period_ms, p.helix_starts, p.side_lag_ms, p.side_deg)
 
-    def activation_ms(self, s, theta):
+    def onset_ms(self, s, theta):
         """When the wall at (s, theta) starts to expand (ms, in [0, period)): the wave's
-        arrival there; a node's activation time (the steepest rise of its motion's
-        first harmonic) follows it by one constant where the expansion share is the
-        same all along."""
+        arrival there and its front's lag round the ring."""
         return np.mod(self.arrival_ms(s) + self.front_lag_ms(theta), self.p.period_ms)
+
+    def activation_ms(self, s, theta, samples: int = 256):
+        """The activation time at (s, theta) as oftimg defines it (ms, in [0, period)):
+        the steepest rise of the first harmonic of the wall's expansion there over the
+        cycle (its radius is linear in it), from ``samples`` instants. It follows the
+        onset (:meth:`onset_ms`) by one constant where the expansion share is the same
+        all along; where that share changes along the tube, by an amount that changes
+        with it (as the area's ridge does: a share from 0.38 to 0.28 over the tube moved
+        the times by as much as the wave took to cross it)."""
+        s, theta = np.broadcast_arrays(np.asarray(s, float), np.asarray(theta, float))
+        t = np.arange(samples) * self.p.period_ms / samples
+        h = self.expansion(s[..., None], t, theta[..., None])
+        first = (h * np.exp(-2j * np.pi * np.arange(samples) / samples)).sum(axis=-1)
+        # h ~ cos(w t + phi), phi = angle(first): rising fastest where w t + phi = -pi / 2
+        return np.mod((-np.pi / 2 - np.angle(first)) * self.p.period_ms / (2 * np.pi),
+                      self.p.period_ms)
 
     def expansion(self, s, t_ms, theta=0.0):
         """Expansion state h(s, theta, t) in [0, 1] (broadcasting; theta matters for a

@@ -13,7 +13,9 @@ from ..image.activation import (VELOCITY_SMOOTHING_NODES, activation_times,
 def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, dict]:
     """``(arrays, summary)`` of the wave's fronts on each wall of ``grids`` (wall ->
     grid ``(n_u, n_v, n_t, 3)`` mm over one cycle of equal frames): per wall
-    ``activation_time_<wall>_ms`` and ``activation_sd_<wall>_ms`` ``(n_u, n_v)``,
+    ``activation_time_<wall>_ms`` and ``activation_sd_<wall>_ms`` ``(n_u, n_v)`` (the
+    larger of the noise of the node's own motion and the times' scatter about the
+    plane the velocity fits round it),
     ``wave_velocity_<wall>_mm_s`` ``(n_u, n_v, 2)`` (along, around) and ``phase_<wall>``
     ``(n_u, n_v, n_t)`` (radians, 0 at activation); the summary per wall
     (:func:`~oftimg.image.activation.wave_summary`, with the rings' sideways swing,
@@ -30,12 +32,15 @@ def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, 
         velocity = surface_velocity(activation.time_ms, grid.mean(axis=2), period_ms,
                                     use=reads)
         arrays[f"activation_time_{wall}_ms"] = activation.time_ms.astype(np.float32)
-        arrays[f"activation_sd_{wall}_ms"] = activation.sd_ms.astype(np.float32)
+        # a node's error: its own motion's noise, or its times' scatter about the plane
+        # fitted round it where that is larger (errors unlike from node to node)
+        sd_ms = np.fmax(activation.sd_ms, velocity.scatter_ms)
+        arrays[f"activation_sd_{wall}_ms"] = sd_ms.astype(np.float32)
         arrays[f"wave_velocity_{wall}_mm_s"] = np.stack(
             [velocity.along_mm_s, velocity.around_mm_s], axis=-1).astype(np.float32)
         arrays[f"phase_{wall}"] = activation.phase.astype(np.float32)
         summary[wall] = {**wave_summary(activation, velocity, s_mm, period_ms),
-                         "activation_sd_ms_median": float(np.nanmedian(activation.sd_ms)),
+                         "activation_sd_ms_median": float(np.nanmedian(sd_ms)),
                          "strong_share": float(reads.mean()),
                          "ring_swing_mm_median": float(np.median(ring_swing(grid)))}
     return arrays, summary

@@ -150,13 +150,15 @@ class SurfaceVelocity:
     towards the inlet), ``along_mm_s`` and ``around_mm_s`` its components (the
     velocity's, speed times the direction), and ``axial_slowness_ms_mm`` the time the
     front takes a mm along the axis (dt/ds, the quantity the paper's ridge speed is
-    the inverse of)."""
+    the inverse of); ``scatter_ms`` the times' scatter about the plane fitted at each
+    node (:func:`time_gradient`)."""
 
     speed_mm_s: np.ndarray
     angle_deg: np.ndarray
     along_mm_s: np.ndarray
     around_mm_s: np.ndarray
     axial_slowness_ms_mm: np.ndarray
+    scatter_ms: np.ndarray
 
 
 def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float, *,
@@ -171,7 +173,7 @@ def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float,
     tangents, its length the slowness (ms/mm). Every number is NaN at nodes outside
     ``use`` and where too few of them lie near."""
     use = np.ones(time_ms.shape, bool) if use is None else use
-    t_u, t_v = time_gradient(time_ms, period_ms, smoothing_nodes, use)
+    t_u, t_v, scatter = time_gradient(time_ms, period_ms, smoothing_nodes, use)
     e_u = 0.5 * (np.roll(grid_mm, -1, axis=0) - np.roll(grid_mm, 1, axis=0))
     e_v = np.gradient(grid_mm, axis=1)
     g_uu = (e_u * e_u).sum(-1)
@@ -195,13 +197,14 @@ def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float,
         around_mm_s = 1e3 * g_around / slowness ** 2
         axial = t_v / np.linalg.norm(e_v, axis=-1)         # dt/ds along the grid's rows
     return SurfaceVelocity(*(np.where(use, x, np.nan) for x in
-                             (speed, angle, along_mm_s, around_mm_s, axial)))
+                             (speed, angle, along_mm_s, around_mm_s, axial, scatter)))
 
 
 def time_gradient(time_ms: np.ndarray, period_ms: float, smoothing_nodes: float,
-                  use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(dt/du, dt/dv)`` (ms per node, ``(n_u, n_v)`` each) of activation times: at
-    each node the plane ``t0 + a du + b dv`` fitted by least squares to the times of
+                  use: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(dt/du, dt/dv, scatter)`` (ms per node and ms, ``(n_u, n_v)`` each) of
+    activation times: at each node the plane ``t0 + a du + b dv`` fitted by least
+    squares to the times of
     the nodes ``use`` within ``ceil(2 sigma)`` nodes (periodic in u, cut at the tube's
     ends), weighted by a Gaussian of sigma = ``smoothing_nodes`` (0: the four nearest
     nodes). Each neighbour's time is taken relative to the node's on the cycle's
@@ -209,12 +212,16 @@ def time_gradient(time_ms: np.ndarray, period_ms: float, smoothing_nodes: float,
     the gradient of smoothed times: it is exact for a front of constant velocity
     whatever the neighbours it has, next to the tube's ends or to nodes left out (a
     smoothed map there leans towards the side that has them: 20-60 % off beside a band
-    left out, on an analytic tube). NaN where the fit has too few nodes."""
+    left out, on an analytic tube). ``scatter``: the times' weighted RMS about the
+    plane, for the 3 numbers fitted (over the effective count of nodes, sum(w)^2 /
+    sum(w^2)): a node's error where the errors are not alike from node to node, which
+    the noise of a node's own motion misses (a mesh's vertices, a lattice's voxels).
+    NaN where the fit has too few nodes."""
     n_u, n_v = time_ms.shape
     reach = max(1, int(np.ceil(2 * smoothing_nodes)))
     phasor = np.where(use, np.exp(2j * np.pi * time_ms / period_ms), 0)
     sums = {key: np.zeros((n_u, n_v)) for key in
-            ("w", "a", "b", "aa", "ab", "bb", "d", "ad", "bd")}
+            ("w", "ww", "a", "b", "aa", "ab", "bb", "d", "ad", "bd", "dd")}
     for db in range(-reach, reach + 1):
         lo, hi = max(0, -db), min(n_v, n_v - db)       # nodes whose neighbour db exists
         for da in range(-reach, reach + 1):
@@ -231,9 +238,11 @@ def time_gradient(time_ms: np.ndarray, period_ms: float, smoothing_nodes: float,
             for key, value in (("w", 1.0), ("a", da), ("b", db), ("aa", da * da),
                                ("ab", da * db), ("bb", db * db)):
                 sums[key][:, lo:hi] += weight * value
+            sums["ww"][:, lo:hi] += weight ** 2
             sums["d"][:, lo:hi] += weight * d
             sums["ad"][:, lo:hi] += weight * da * d
             sums["bd"][:, lo:hi] += weight * db * d
+            sums["dd"][:, lo:hi] += weight * d * d
     normal = np.stack([np.stack([sums["w"], sums["a"], sums["b"]], -1),
                        np.stack([sums["a"], sums["aa"], sums["ab"]], -1),
                        np.stack([sums["b"], sums["ab"], sums["bb"]], -1)], -2)
@@ -242,7 +251,12 @@ def time_gradient(time_ms: np.ndarray, period_ms: float, smoothing_nodes: float,
     normal[~solvable] = np.eye(3)
     fitted = np.linalg.solve(normal, right[..., None])[..., 0]
     fitted[~(solvable & use)] = np.nan
-    return fitted[..., 1], fitted[..., 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        residual = np.maximum(sums["dd"] - (fitted * right).sum(-1), 0.0) / sums["w"]
+        count = sums["w"] ** 2 / sums["ww"]
+        scatter = np.sqrt(residual * count / (count - 3.0))
+    scatter[~(np.isfinite(scatter) & (count > 3.0))] = np.nan
+    return fitted[..., 1], fitted[..., 2], scatter
 
 
 def propagates(activation: Activation, period_ms: float) -> bool:

@@ -8,8 +8,7 @@ factor ``1 + A w(t - s / C)`` with the smooth periodic pulse
 ``t = s / C + T / 2``: the wave travels at C (mm/s) from inlet to outlet. Its fronts
 may wind round the tube (a helix) or come first on one side, as the phantom's do
 (:func:`~oftimg.synthetic.phantom.front_lag_ms`), by the angle round the centre line
-from a frame carried along it without turning (0 towards the centre line's middle: the
-inside of a bend).
+from a frame carried along it without turning (0 towards the inside of a bend).
 
 On top of the wave, the tissue may slide within the surface as a beating heart's
 does: a twist about the centre line that grows from 0 at the inlet to
@@ -33,6 +32,11 @@ from ..mesh.parameterize import harmonic_map, intrinsic_weights
 from ..mesh.topology import (MeshError, capped_signed_volume, check_tube, face_areas,
                              loop_centroid)
 from .phantom import front_lag_ms
+
+
+# Gaussian sigma (slabs) of the centre line's smoothing before the frame that angles
+# round the tube are measured from is carried along it
+FRAME_SMOOTHING_SLABS = 2.0
 
 
 @dataclass(frozen=True)
@@ -108,28 +112,49 @@ def axial_coordinates(V, F, inlet, outlet, *, n_slabs: int = 64):
 
 def centre_line_frame(cent: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit tangents and normals ``(n_slabs, 3)`` of a centre line ``cent`` at arc
-    lengths ``s`` (mm): the normal carried along without turning about the tangent
-    (projected onto each next normal plane), starting towards the line's middle (the
-    inside of a bend; any normal of a straight line)."""
+    lengths ``s`` (mm), along :func:`smoothed_line`: the normal carried from the line's
+    middle towards either end without turning about the tangent (projected onto each
+    next normal plane), starting towards the midpoint of the line's ends (the inside of
+    a bend; any normal of a straight line). From the middle: the ends' centroids are
+    the least sure (a slab there may hold part of a ring)."""
+    cent = smoothed_line(cent)
     tangent = np.gradient(cent, s, axis=0)
     tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
-    start = cent[len(cent) // 2] - cent[0]
-    normal = start - (start @ tangent[0]) * tangent[0]
-    if np.linalg.norm(normal) < 1e-9 * max(s[-1], 1e-300):
-        normal = np.cross(tangent[0], np.eye(3)[np.argmin(np.abs(tangent[0]))])
+    middle = len(cent) // 2
+    start = 0.5 * (cent[0] + cent[-1]) - cent[middle]
+    normal = start - (start @ tangent[middle]) * tangent[middle]
+    if np.linalg.norm(normal) < 1e-6 * max(s[-1], 1e-300):
+        normal = np.cross(tangent[middle], np.eye(3)[np.argmin(np.abs(tangent[middle]))])
     normals = np.empty_like(cent)
-    for k in range(len(cent)):
-        normal = normal - (normal @ tangent[k]) * tangent[k]
-        normal /= np.linalg.norm(normal)
-        normals[k] = normal
+    for order in (range(middle, len(cent)), range(middle, -1, -1)):
+        carried = normal
+        for k in order:
+            carried = carried - (carried @ tangent[k]) * tangent[k]
+            carried /= np.linalg.norm(carried)
+            normals[k] = carried
     return tangent, normals
+
+
+def smoothed_line(cent: np.ndarray) -> np.ndarray:
+    """The slabs' centroids ``(n_slabs, 3)`` smoothed along the line (Gaussian of
+    :data:`FRAME_SMOOTHING_SLABS`, its ends kept by linear extrapolation): where the
+    harmonic coordinate's slabs cut the rings obliquely (a bend) the centroids zig-zag,
+    and a frame carried along a zig-zag turns at random."""
+    from scipy.ndimage import gaussian_filter1d
+
+    pad = int(4 * FRAME_SMOOTHING_SLABS)
+    ahead = cent[-1] + (cent[-1] - cent[-2]) * np.arange(1, pad + 1)[:, None]
+    behind = cent[0] - (cent[1] - cent[0]) * np.arange(pad, 0, -1)[:, None]
+    padded = np.concatenate([behind, cent, ahead])
+    return gaussian_filter1d(padded, FRAME_SMOOTHING_SLABS, axis=0)[pad:-pad]
 
 
 def around_angles(points: np.ndarray, s_points: np.ndarray, cent: np.ndarray,
                   s: np.ndarray) -> np.ndarray:
     """The angle (rad) round the centre line ``cent`` (at arc lengths ``s``) of
-    ``points (n, 3)`` mm lying at arc lengths ``s_points (n,)``: from
-    :func:`centre_line_frame`'s normal there, right-handed about the tangent."""
+    ``points (n, 3)`` mm lying at arc lengths ``s_points (n,)``: about
+    :func:`smoothed_line`, from :func:`centre_line_frame`'s normal there, right-handed
+    about the tangent."""
     tangent, normals = centre_line_frame(cent, s)
 
     def at(values):
@@ -137,7 +162,7 @@ def around_angles(points: np.ndarray, s_points: np.ndarray, cent: np.ndarray,
 
     t_p, n_p = at(tangent), at(normals)
     n_p -= np.einsum("ij,ij->i", n_p, t_p)[:, None] * t_p / np.einsum("ij,ij->i", t_p, t_p)[:, None]
-    radial = points - at(cent)
+    radial = points - at(smoothed_line(cent))
     b_p = np.cross(t_p, n_p)
     return np.arctan2(np.einsum("ij,ij->i", radial, b_p), np.einsum("ij,ij->i", radial, n_p))
 

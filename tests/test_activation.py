@@ -116,40 +116,35 @@ def test_a_tube_moving_at_once_or_not_at_all_has_no_propagation(case):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("front", [{"helix_starts": 2}, {"side_lag_ms": 40.0, "side_deg": 90.0},
-                                   {}], ids=["helix", "one_side", "cross_sections"])
-def test_the_phantom_s_fronts_are_found_on_its_walls(tmp_path, front):
-    """A phantom whose wave winds twice round the tube, comes first on one side, or
-    runs along it, through a run: on the outer wall the wave's speed (node by node,
-    against the truth's on the same wall) within 5 % at the median, the helix angle
-    within 3 degrees; the axial speed within 5 % of the truth's where the fronts run
-    along the tube (a two-start helix's fronts lie nearly along it: its axial speed
-    came out 6.6 % off, the around part of the gradient 14 times the along part)."""
+def test_a_phantom_s_helical_front_that_comes_first_on_one_side_is_found(tmp_path):
+    """A phantom whose wave winds once round the tube and comes first on one side, 40
+    ms before the far side (40 frames), through a run: on the outer wall the wave's
+    speed (node by node, against the truth's on the same wall) within 5 % at the
+    median and in the summary, the helix angle within 3 degrees (the zoo's random
+    fronts: tests/test_zoo_subset.py)."""
     from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
     from oftimg.io.dataset import load_dataset
     from oftimg.synthetic.phantom import Phantom, sample_params, write_phantom
 
-    params = sample_params("normal", 3, n_frames=64, **front)
+    params = sample_params("normal", 3, n_frames=40, helix_starts=1, side_lag_ms=40.0,
+                           side_deg=90.0)
     write_phantom(tmp_path / "ph", params)
     res = analyse_dataset(load_dataset(tmp_path / "ph"), PipelineOptions(), quiet=True)
     phantom = Phantom(params)
-    grid = res["grids"]["outer"]
-    mean = grid.mean(axis=2)
-    s_node, theta_node = phantom.window_coordinates(mean)
-    truth = surface_velocity(phantom.activation_ms(s_node, theta_node), mean, params.period_ms,
-                             smoothing_nodes=0)
+    mean = res["grids"]["outer"].mean(axis=2)
     along, around = np.moveaxis(res["arrays"]["wave_velocity_outer_mm_s"], -1, 0)
+    reads = np.isfinite(along)
+    assert reads.mean() > 0.9
+    truth = surface_velocity(phantom.activation_ms(*phantom.window_coordinates(mean)), mean,
+                             params.period_ms, smoothing_nodes=0, use=reads)
     speed = np.hypot(along, around)
     inner = (slice(None), slice(4, -4))
-    assert np.median(speed[inner] / truth.speed_mm_s[inner] - 1) == pytest.approx(0, abs=0.05)
+    assert np.nanmedian(speed[inner] / truth.speed_mm_s[inner] - 1) == pytest.approx(0, abs=0.05)
     found = res["summary"]["wave_fronts"]["outer"]
-    expected = wave_summary(activation_times(normal_displacement(grid), params.period_ms), truth,
-                            res["arrays"]["s_mm"], params.period_ms)
     assert found["propagates"]
-    assert found["helix_angle_deg"] == pytest.approx(expected["helix_angle_deg"], abs=3.0)
-    if "helix_starts" not in front:
-        assert found["axial_speed_mm_s"] == pytest.approx(expected["axial_speed_mm_s"],
-                                                          rel=0.05)
+    assert found["speed_mm_s"] == pytest.approx(np.nanmedian(truth.speed_mm_s), rel=0.05)
+    slant = np.mod(truth.angle_deg + 90.0, 180.0) - 90.0
+    assert found["helix_angle_deg"] == pytest.approx(np.nanmedian(slant), abs=3.0)
 
 
 def test_a_band_that_barely_moves_is_not_where_the_wave_starts_nor_its_speed():

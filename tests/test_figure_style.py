@@ -281,13 +281,15 @@ def _draw_every_figure(tmp_path) -> None:
     field = grid[..., 0] * 5                                    # signed: a diverging scale
     figures.field_pair(field, np.ones((12, 16)), tmp_path / "field_pair.png",
                        label="radial curvature (1/mm)", title="an embryo: radial curvature")
-    for kind, turns in (("along", 0), ("helix", 2)):            # both colour scales
+    for kind, turns in (("along", 0), ("helix", 2), ("band", 0)):    # both colour scales
         n_u, n_v = grid.shape[:2]
         u = np.arange(n_u)[:, None] / n_u
         v = np.arange(n_v)[None, :] / (n_v - 1)
         times = np.mod(60.0 * v + turns * 360.0 * u, 360.0)
         velocity = np.stack(np.broadcast_arrays(np.ones_like(times), turns * np.ones_like(
             times)), axis=-1)
+        if kind == "band":                     # rows too still to time: grey, said above
+            velocity[:, n_v // 2:n_v // 2 + 2] = np.nan
         figures.activation_figure(times, velocity, grid.mean(axis=2), 360.0,
                                   tmp_path / f"activation_{kind}.png",
                                   title="an embryo: the wave's fronts on the outer wall")

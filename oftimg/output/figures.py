@@ -266,9 +266,13 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     its isochrones at a round step (about 8 over the times' span) and arrows along the
     wave's direction on the wall (``velocity_mm_s`` ``(n_u, n_v, 2)``, along and
     around, each arrow the same length); right the wall's mean shape ``grid_mm``
-    ``(n_u, n_v, 3)`` in 3-D, coloured the same, the isochrones drawn on it."""
+    ``(n_u, n_v, 3)`` in 3-D, coloured the same, the isochrones drawn on it. Nodes
+    without a velocity (moving too little to time the wave) are grey."""
     n_u, n_v = time_ms.shape
+    timed = np.isfinite(velocity_mm_s[..., 0])
+    time_ms = np.where(timed, time_ms, np.nan)
     shown, scale, label = _time_colours(time_ms, period_ms)
+    scale["cmap"] = plt.get_cmap(scale["cmap"]).with_extremes(bad=BLANK_GREY)
     fig = plt.figure(figsize=(PAGE_MM * MM, 80 * MM))
     ax = fig.add_axes((0.08, 0.16, 0.4, 0.68))
     extent = [-0.5 / n_u, 1 - 0.5 / n_u, -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)]
@@ -293,7 +297,9 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     ax.set_ylim(extent[2:])
     ax.set_xlabel("u, around the tube from the seam")
     ax.set_ylabel("v, along the tube (inlet 0)")
-    ax.set_title(f"isochrones every {step:g} ms; arrows: the wave's direction")
+    ax.set_title(f"isochrones every {step:g} ms; arrows: the wave's direction"
+                 if timed.all() else
+                 f"isochrones every {step:g} ms; arrows: direction; grey: too still")
     ax3 = fig.add_axes((0.52, 0.06, 0.3, 0.84), projection="3d")
     ring = np.concatenate([grid_mm, grid_mm[:1]], axis=0)
     values = np.concatenate([shown, shown[:1]], axis=0)

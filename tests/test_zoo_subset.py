@@ -1,5 +1,5 @@
-"""The accuracy zoo in the suite (issue 72): a mesh draw and a label draw at a seed
-drawn afresh on every run (printed on failure, with the command that reruns it), each
+"""The accuracy zoo in the suite (issue 72): a mesh draw, a label draw and a mesh draw
+with a helical or one-sided wave front (issue 76) at a seed drawn afresh on every run (printed on failure, with the command that reruns it), each
 metric within its bound over the zoo at the same settings (docs/accuracy.md's tables,
 BOUNDS below). The label draw is one whose segmentation shifts no wall by a voxel (that
 error is the segmentation's, and the tables give it apart). OFTIMG_ZOO_SEED reruns one
@@ -37,6 +37,10 @@ BOUNDS = {
                "expand_pp": 3.5, "speed_cycle_pct": 15.0, "wall_thickness_pct": 4.7,
                "radial_curvature_outer_pct": 34.0, "radial_curvature_inner_pct": 35.0,
                "mean_curvature_lumen_pct": 80.0, "strain_energy_inner_pct": 18.0},
+    # a draw with a helical or one-sided front (draw_scenario(..., fronts=True)): 1.5 times
+    # the worst of 30 mesh draws (docs/accuracy.md, Wave fronts on the wall)
+    "meshes fronts": {"front_speed_pct": 4.6, "front_helix_deg": 6.3,
+                      "front_activation_rms_ms": 3.6},
 }
 SPEED_CROSSING_FRAMES = 3    # speeds checked where the wave takes this many frames or more
 
@@ -57,20 +61,23 @@ def crossing_frames(dataset: Path) -> float:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind", sorted(BOUNDS))
-def test_a_random_draw_is_within_the_zoos_bounds(tmp_path, kind):
+@pytest.mark.parametrize("drawn", sorted(BOUNDS))
+def test_a_random_draw_is_within_the_zoos_bounds(tmp_path, drawn):
+    kind, fronts = drawn.split()[0], drawn.endswith("fronts")
     seed = unshifted_seed(kind, FIRST)
     rerun = (f"rerun: python scripts/accuracy_zoo.py --seed {seed} --draws 1 --kinds {kind} "
-             f"--frames {FRAMES} --voxel-min-um {VOXEL_MIN_UM:g} --no-pair")
+             f"--frames {FRAMES} --voxel-min-um {VOXEL_MIN_UM:g} --no-pair"
+             + " --fronts" * fronts)
     try:
         errors = draw_errors(seed, kind, tmp_path, frames=FRAMES, voxel_min_um=VOXEL_MIN_UM,
-                             jobs=1, pair=False)
+                             jobs=1, pair=False, fronts=fronts)
     except InputError as exc:
-        pytest.fail(f"zoo draw {seed} ({kind}) refused: {exc}; {rerun}")
-    bounds = dict(BOUNDS[kind])
-    if crossing_frames(tmp_path / "data" / f"{kind}_{seed}") < SPEED_CROSSING_FRAMES:
+        pytest.fail(f"zoo draw {seed} ({drawn}) refused: {exc}; {rerun}")
+    bounds = dict(BOUNDS[drawn])
+    if not fronts and crossing_frames(tmp_path / "data" / f"{kind}_{seed}") < \
+            SPEED_CROSSING_FRAMES:
         bounds = {k: v for k, v in bounds.items() if "speed" not in k}  # the frames' limit
     beyond = {key: round(errors.get(key, float("nan")), 3) for key, bound in bounds.items()
               if not abs(errors.get(key, float("nan"))) <= bound}
-    assert not beyond, (f"zoo draw {seed} ({kind}; {errors['draw']}) beyond its bounds "
-                        f"{BOUNDS[kind]}: {beyond}; {rerun}")
+    assert not beyond, (f"zoo draw {seed} ({drawn}; {errors['draw']}) beyond its bounds "
+                        f"{BOUNDS[drawn]}: {beyond}; {rerun}")

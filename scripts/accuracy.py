@@ -66,7 +66,7 @@ from pathlib import Path
 import numpy as np
 
 import oftimg
-from oftimg.image.activation import surface_velocity, unwrapped
+from oftimg.image.activation import helix_angle, surface_velocity, unwrapped
 from oftimg.image.normalize import smooth_field_in_time
 from oftimg.mesh.strain import grid_strain
 from oftimg.analysis.pipeline import smoothed_strain, thickness_summary
@@ -327,7 +327,6 @@ def front_errors(ph, arr, grid: np.ndarray, found: dict, period_ms: float) -> di
     truth = surface_velocity(true_ms, mean, period_ms, smoothing_nodes=0, use=reads)
     if not found["propagates"]:
         return {"front_propagates": 0.0}
-    slant = np.mod(truth.angle_deg + 90.0, 180.0) - 90.0
     inner = reads[:, 4:-4]
     error = unwrapped(arr["activation_time_outer_ms"] - true_ms, period_ms)[:, 4:-4][inner]
     error -= np.median(error)
@@ -337,7 +336,7 @@ def front_errors(ph, arr, grid: np.ndarray, found: dict, period_ms: float) -> di
                                              np.nanmedian(truth.speed_mm_s)),
             "front_axial_speed_pct": _relative_pct(
                 found["axial_speed_mm_s"], 1e3 / np.nanmedian(truth.axial_slowness_ms_mm)),
-            "front_helix_deg": found["helix_angle_deg"] - float(np.nanmedian(slant)),
+            "front_helix_deg": found["helix_angle_deg"] - helix_angle(truth),
             "front_activation_rms_ms": float(np.sqrt(np.mean(error ** 2))),
             "front_activation_within_95_pct": float(100 * np.mean(np.abs(error) <= 1.96 * sd))}
 

@@ -1,9 +1,9 @@
 """The accuracy zoo in the suite (issue 72): a mesh draw, a label draw and a mesh draw
-with a helical or one-sided wave front (issue 76) at a seed drawn afresh on every run (printed on failure, with the command that reruns it), each
-metric within its bound over the zoo at the same settings (docs/accuracy.md's tables,
-BOUNDS below). The label draw is one whose segmentation shifts no wall by a voxel (that
-error is the segmentation's, and the tables give it apart). OFTIMG_ZOO_SEED reruns one
-seed."""
+with a helical or one-sided wave front (issue 76) at a seed drawn afresh on every run
+(printed on failure, with the command that reruns it), each metric within its bound
+over the zoo at the same settings (docs/accuracy.md's tables, BOUNDS below). The label
+draw is one whose segmentation shifts no wall by a voxel (that error is the
+segmentation's, and the tables give it apart). OFTIMG_ZOO_SEED reruns one seed."""
 import json
 import os
 import random

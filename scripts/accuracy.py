@@ -297,7 +297,8 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
     grids = in_phantom_frame(dataset, np.load(results / "grids.npz"))
     e.update(field_errors(ph, arr, grids, t_ms, summ, period, keep))
     if "wave_fronts" in summ:
-        e.update(front_errors(ph, arr, grids["outer"], summ["wave_fronts"]["outer"], period))
+        e.update(front_errors(ph, arr, grids["outer"], t_ms, summ["wave_fronts"]["outer"],
+                              period))
     return {k: float(v) for k, v in e.items()}
 
 
@@ -307,22 +308,26 @@ def wave_front_errors(dataset: Path, results: Path) -> dict[str, float]:
     ph, truth = read_truth(dataset)
     summ = json.loads((results / "summary.json").read_text())
     grids = in_phantom_frame(dataset, np.load(results / "grids.npz"))
-    return front_errors(ph, np.load(results / "arrays.npz"), grids["outer"],
+    t_ms = np.roll(np.array(truth["t_ms"]), -summ["t0_frame"])
+    return front_errors(ph, np.load(results / "arrays.npz"), grids["outer"], t_ms,
                         summ["wave_fronts"]["outer"], truth["params"]["period_ms"])
 
 
-def front_errors(ph, arr, grid: np.ndarray, found: dict, period_ms: float) -> dict[str, float]:
+def front_errors(ph, arr, grid: np.ndarray, t_ms: np.ndarray, found: dict,
+                 period_ms: float) -> dict[str, float]:
     """The wave's fronts on the outer wall (summary.json's ``wave_fronts``) against
-    the model's: its activation (``Phantom.activation_ms``) at each node's place over
-    the cycle (the tracked ``grid (n_u, n_v, n_t, 3)``, mm in the phantom's frame),
-    through the same gradient on the same wall without smoothing, over the nodes the
+    the model's: its activation along each node's path (``Phantom.activation_along``:
+    the tracked ``grid (n_u, n_v, n_t, 3)``, mm in the phantom's frame, at the phantom's
+    times ``t_ms (n_t,)``), through the same gradient on the same wall (its mean shape)
+    without smoothing, over the nodes the
     run reads the wave at (its velocity finite there: the others barely move); the
     median speed, the axial speed and the helix angle (degrees, signed), the
     activation's RMS error after its median (ms, the 4 end rows left out) and the share
     of nodes within 1.96 of their stated noise SD after it (%). ``front_propagates`` 0
     where the run says the wall does not propagate (then no other number)."""
     mean = grid.mean(axis=2)
-    true_ms = ph.activation_ms(*ph.window_coordinates(mean))
+    s_path, theta_path = ph.window_coordinates(grid)
+    true_ms = ph.activation_along(s_path, theta_path, t_ms)
     reads = np.isfinite(arr["wave_velocity_outer_mm_s"][..., 0])
     truth = surface_velocity(true_ms, mean, period_ms, smoothing_nodes=0, use=reads)
     if not found["propagates"]:

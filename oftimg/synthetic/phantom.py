@@ -255,10 +255,22 @@ class Phantom:
         the times by as much as the wave took to cross it)."""
         s, theta = np.broadcast_arrays(np.asarray(s, float), np.asarray(theta, float))
         t = np.arange(samples) * self.p.period_ms / samples
-        h = self.expansion(s[..., None], t, theta[..., None])
-        first = (h * np.exp(-2j * np.pi * np.arange(samples) / samples)).sum(axis=-1)
-        # h ~ cos(w t + phi), phi = angle(first): rising fastest where w t + phi = -pi / 2
-        return np.mod((-np.pi / 2 - np.angle(first)) * self.p.period_ms / (2 * np.pi),
+        return self.activation_along(s[..., None], theta[..., None], t)
+
+    def activation_along(self, s, theta, t_ms):
+        """The activation time (ms, in [0, period)) of points that move: at window
+        positions ``s`` and angles ``theta`` ``(..., n_t)`` at the instants ``t_ms``
+        ``(n_t,)``, equally spaced over one cycle (a node's path, which twists with its
+        tissue): the steepest rise of the first harmonic of the expansion met along
+        the way. Where the front runs round the tube (a helix), a node turned by the
+        twist meets it earlier or later; at its mean place it would be off by the turn
+        times the times' gradient round the tube."""
+        t_ms = np.asarray(t_ms, float)
+        h = self.expansion(s, t_ms, theta)
+        phase = 2 * np.pi * (t_ms - t_ms[0]) / self.p.period_ms
+        first = (h * np.exp(-1j * phase)).sum(axis=-1)
+        # h ~ cos(w (t - t0) + phi), phi = angle(first): rising fastest at w (t - t0) + phi = -pi/2
+        return np.mod(t_ms[0] + (-np.pi / 2 - np.angle(first)) * self.p.period_ms / (2 * np.pi),
                       self.p.period_ms)
 
     def expansion(self, s, t_ms, theta=0.0):

@@ -76,7 +76,7 @@ HEADLINE = [
 ] + [
     ("front_speed_pct", "%", "wave fronts, outer wall: speed on the wall (median node)"),
     ("front_axial_speed_pct", "%", "wave fronts, outer wall: axial speed"),
-    ("front_helix_deg", "deg", "wave fronts, outer wall: helix angle (median)"),
+    ("front_helix_deg", "deg", "wave fronts, outer wall: helix angle"),
     ("front_activation_rms_ms", "ms", "wave fronts, outer wall: activation time, RMS"),
 ]
 # with --fronts (helical and one-sided fronts): the paper's numbers of the (v, t) area

@@ -271,7 +271,11 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     n_u, n_v = time_ms.shape
     timed = np.isfinite(velocity_mm_s[..., 0])
     time_ms = np.where(timed, time_ms, np.nan)
-    shown, scale, label = _time_colours(time_ms, period_ms)
+    if timed.any():
+        shown, scale, label = _time_colours(time_ms, period_ms)
+    else:                                   # a wall that does not move: all grey
+        shown, scale, label = time_ms, {"cmap": SEQUENTIAL, "vmin": 0.0,
+                                        "vmax": float(period_ms)}, "activation time (ms)"
     scale["cmap"] = plt.get_cmap(scale["cmap"]).with_extremes(bad=BLANK_GREY)
     fig = plt.figure(figsize=(PAGE_MM * MM, 80 * MM))
     ax = fig.add_axes((0.08, 0.16, 0.4, 0.68))
@@ -280,11 +284,14 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
                       interpolation="nearest", **scale)
     u = np.arange(n_u) / n_u
     v = np.arange(n_v) / (n_v - 1)
-    iso = _isochrone_field(time_ms, period_ms)
-    step = _nice_step(np.nanpercentile(iso, 99) - np.nanpercentile(iso, 1))
-    levels = np.arange(np.floor(np.nanmin(iso) / step), np.ceil(np.nanmax(iso) / step) + 1) * step
-    lines = ax.contour(u, v, iso.T, levels=levels, colors="k", linewidths=0.5,
-                       linestyles="solid")
+    segments, step = [], None
+    if timed.sum() > 3:
+        iso = _isochrone_field(time_ms, period_ms)
+        step = _nice_step(np.nanpercentile(iso, 99) - np.nanpercentile(iso, 1))
+        levels = np.arange(np.floor(np.nanmin(iso) / step),
+                           np.ceil(np.nanmax(iso) / step) + 1) * step
+        segments = ax.contour(u, v, iso.T, levels=levels, colors="k", linewidths=0.5,
+                              linestyles="solid").allsegs
     along, around = velocity_mm_s[..., 0], velocity_mm_s[..., 1]
     norm = np.hypot(along, around)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -297,7 +304,8 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     ax.set_ylim(extent[2:])
     ax.set_xlabel("u, around the tube from the seam")
     ax.set_ylabel("v, along the tube (inlet 0)")
-    ax.set_title(f"isochrones every {step:g} ms; arrows: the wave's direction"
+    ax.set_title("grey: the wall too still to time anywhere" if step is None else
+                 f"isochrones every {step:g} ms; arrows: the wave's direction"
                  if timed.all() else
                  f"isochrones every {step:g} ms; arrows: direction; grey: too still")
     ax3 = fig.add_axes((0.52, 0.06, 0.3, 0.84), projection="3d")
@@ -315,7 +323,7 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
                             np.sin(elev)])
     centre = grid_mm.mean(axis=0, keepdims=True)
     outside = centre + 1.04 * (grid_mm - centre)        # the lines just off the wall
-    for segs in lines.allsegs:
+    for segs in segments:
         for seg in segs:
             if len(seg) < 2:
                 continue

@@ -245,10 +245,12 @@ def _wave_front_rows(fronts: dict) -> list[dict]:
                          f"({noise})", "unit": "mm/s", "value": numbers.number(found["speed_mm_s"])},
             {"quantity": f"the wave on the {wall} wall: speed along the tube (1 / median "
                          "dt/ds)", "unit": "mm/s", "value": numbers.number(found["axial_speed_mm_s"])},
-            {"quantity": f"the wave on the {wall} wall: helix angle to the axis, median "
-                         "(interquartile range)", "unit": "°",
+            {"quantity": f"the wave on the {wall} wall: helix angle to the axis (its "
+                         "nodes' interquartile range about it; their median slant either "
+                         "way)", "unit": "°",
              "value": f"{numbers.number(found['helix_angle_deg'])} "
-                      f"({numbers.number(found['helix_angle_iqr_deg'])})"},
+                      f"({numbers.number(found['helix_angle_iqr_deg'])}; "
+                      f"{numbers.number(found['obliquity_deg'])})"},
             {"quantity": f"the wave on the {wall} wall: first at s; slowest at s (its speed)",
              "unit": "mm, mm/s",
              "value": f"{numbers.number(found['earliest_s_mm'])}; "

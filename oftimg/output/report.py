@@ -127,10 +127,11 @@ MEASUREMENT_COLUMNS = ID_COLUMNS + [
            "its speed along the tube: 1 / median dt/ds of the activation times (beside the "
            "ridge's speeds: they agree where the fronts are cross-sections)"),
     Column("front_helix_angle_deg", ("wave_fronts", "outer", "helix_angle_deg"), "deg",
-           "median angle of the wave's direction on the outer wall to the tube's axis (0: "
-           "along it, 90: around it; the sign: towards increasing u)"),
+           "angle of the wave's mean direction on the outer wall to the tube's axis (the "
+           "mean slowness vector's; 0: along it, 90: around it; the sign: towards "
+           "increasing u)"),
     Column("front_helix_angle_iqr_deg", ("wave_fronts", "outer", "helix_angle_iqr_deg"), "deg",
-           "its interquartile range over the wall's nodes"),
+           "the interquartile range of the wall's nodes' angles about it"),
     Column("front_earliest_s_mm", ("wave_fronts", "outer", "earliest_s_mm"), "mm",
            "where along the tube the outer wall activates first"),
     Column("front_slowest_s_mm", ("wave_fronts", "outer", "slowest_s_mm"), "mm",

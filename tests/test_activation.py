@@ -58,6 +58,27 @@ def test_activation_is_the_steepest_rise_sub_frame_and_its_noise_is_calibrated()
     assert abs(noisy.phase[5, 10, frame]) < 2 * np.pi * 3.0 / PERIOD_MS   # 0 at activation
 
 
+def test_a_run_s_activation_sd_is_the_larger_of_the_node_s_noise_and_the_times_scatter():
+    """wave_fronts' SD: without noise, the floor (a share of the period); with 3 um of
+    noise on 20 um of motion, the nodes' own noise (the errors' SD within 20 %), the
+    times' scatter about the plane fitted round each node alike; the arrays' shapes."""
+    from oftimg.analysis.wave_fronts import wave_fronts
+    from oftimg.image.activation import ACTIVATION_FLOOR_SHARE
+
+    u, s = node_coordinates()
+    arrival = 7.3 * s + 100.0
+    arrays, summary = wave_fronts({"outer": beating(arrival)}, s[0], PERIOD_MS)
+    np.testing.assert_allclose(arrays["activation_sd_outer_ms"], ACTIVATION_FLOOR_SHARE
+                               * PERIOD_MS, rtol=1e-6)
+    arrays, summary = wave_fronts({"outer": beating(arrival, noise_mm=0.003)}, s[0], PERIOD_MS)
+    error = unwrapped(arrays["activation_time_outer_ms"] - (arrival - PERIOD_MS / 4), PERIOD_MS)
+    assert np.median(arrays["activation_sd_outer_ms"]) > ACTIVATION_FLOOR_SHARE * PERIOD_MS
+    assert abs(np.std(error) / np.median(arrays["activation_sd_outer_ms"]) - 1) < 0.2
+    assert arrays["wave_velocity_outer_mm_s"].shape == (N_U, N_V, 2)
+    assert arrays["phase_outer"].shape == (N_U, N_V, N_T)
+    assert summary["outer"]["strong_share"] == 1.0
+
+
 @pytest.mark.parametrize("k", [0, 1, -1])
 def test_a_helical_wave_s_speed_and_angle_on_the_wall(k):
     """A wave at c = 10 mm/s along the axis whose front winds k times round the tube

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..image.activation import (VELOCITY_SMOOTHING_NODES, activation_times,
-                                normal_displacement, ring_swing, strong, surface_velocity,
-                                wave_summary)
+from ..image.activation import (ACTIVATION_FLOOR_SHARE, VELOCITY_SMOOTHING_NODES,
+                                activation_times, normal_displacement, ring_swing, strong,
+                                surface_velocity, wave_summary)
 
 
 def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, dict]:
@@ -15,7 +15,8 @@ def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, 
     grid ``(n_u, n_v, n_t, 3)`` mm over one cycle of equal frames): per wall
     ``activation_time_<wall>_ms`` and ``activation_sd_<wall>_ms`` ``(n_u, n_v)`` (the
     larger of the noise of the node's own motion and the times' scatter about the
-    plane the velocity fits round it),
+    plane the velocity fits round it, and at least
+    :data:`~oftimg.image.activation.ACTIVATION_FLOOR_SHARE` of the period),
     ``wave_velocity_<wall>_mm_s`` ``(n_u, n_v, 2)`` (along, around) and ``phase_<wall>``
     ``(n_u, n_v, n_t)`` (radians, 0 at activation); the summary per wall
     (:func:`~oftimg.image.activation.wave_summary`, with the rings' sideways swing,
@@ -33,8 +34,10 @@ def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, 
                                     use=reads)
         arrays[f"activation_time_{wall}_ms"] = activation.time_ms.astype(np.float32)
         # a node's error: its own motion's noise, or its times' scatter about the plane
-        # fitted round it where that is larger (errors unlike from node to node)
-        sd_ms = np.fmax(activation.sd_ms, velocity.scatter_ms)
+        # fitted round it where that is larger (errors unlike from node to node), and no
+        # less than the floor the zoo finds
+        sd_ms = np.fmax(np.fmax(activation.sd_ms, velocity.scatter_ms),
+                        ACTIVATION_FLOOR_SHARE * period_ms)
         arrays[f"activation_sd_{wall}_ms"] = sd_ms.astype(np.float32)
         arrays[f"wave_velocity_{wall}_mm_s"] = np.stack(
             [velocity.along_mm_s, velocity.around_mm_s], axis=-1).astype(np.float32)

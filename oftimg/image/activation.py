@@ -29,6 +29,13 @@ MOTION_SNR = 5.0
 # a zoo draw whose band blocked its motion, rows moving 1/15 as much as the rest were up
 # to half a period off); weak nodes give no velocity, no summary and no earliest place
 STRONG_AMPLITUDE = 0.5
+# the activation time's SD is at least this share of the period: the errors a run cannot
+# see in its own data (where the grid lies round and along the tube, which a steep
+# front turns into time, smooth from node to node). On 30 zoo mesh draws with helical
+# and one-sided fronts the nodes within 1.96 SD went from a median 92 % (10th
+# percentile 71 %) without it to 96 % (87 %) with it; checked on other draws in
+# docs/accuracy.md
+ACTIVATION_FLOOR_SHARE = 0.002
 # the noise is read from the harmonics from this one up: below it lies the beat's own
 # shape (a hump is no cosine), which a residual about the first harmonic counts as
 # noise (4 times the errors on the phantom)

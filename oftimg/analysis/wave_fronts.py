@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..image.activation import (ACTIVATION_FLOOR_SHARE, VELOCITY_SMOOTHING_NODES,
-                                activation_times, normal_displacement, ring_swing, strong,
-                                surface_velocity, wave_summary)
+from ..image.activation import (ACTIVATION_FLOOR_SHARE, activation_times, auto_smoothing,
+                                normal_displacement, ring_swing, strong, surface_velocity,
+                                wave_summary)
 
 
 def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, dict]:
@@ -25,13 +25,13 @@ def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, 
     the velocity is NaN at the others)."""
     arrays, summary = {}, {"marker": "first harmonic of each node's motion along the "
                                      "wall's outward normal; activation at its "
-                                     "steepest rise",
-                           "smoothing_nodes": VELOCITY_SMOOTHING_NODES}
+                                     "steepest rise"}
     for wall, grid in grids.items():
         activation = activation_times(normal_displacement(grid), period_ms)
         reads = strong(activation)
+        sigma = auto_smoothing(activation.time_ms, period_ms, reads)
         velocity = surface_velocity(activation.time_ms, grid.mean(axis=2), period_ms,
-                                    use=reads)
+                                    smoothing_nodes=sigma, use=reads)
         arrays[f"activation_time_{wall}_ms"] = activation.time_ms.astype(np.float32)
         # a node's error: its own motion's noise, or its times' scatter about the plane
         # fitted round it where that is larger (errors unlike from node to node), and no
@@ -44,6 +44,6 @@ def wave_fronts(grids: dict, s_mm: np.ndarray, period_ms: float) -> tuple[dict, 
         arrays[f"phase_{wall}"] = activation.phase.astype(np.float32)
         summary[wall] = {**wave_summary(activation, velocity, s_mm, period_ms),
                          "activation_sd_ms_median": float(np.nanmedian(sd_ms)),
-                         "strong_share": float(reads.mean()),
+                         "strong_share": float(reads.mean()), "smoothing_nodes": sigma,
                          "ring_swing_mm_median": float(np.median(ring_swing(grid)))}
     return arrays, summary

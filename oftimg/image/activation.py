@@ -14,10 +14,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Gaussian sigma (grid nodes) of the activation map's smoothing before its gradient:
-# the gradient of a noisy map is noisier still; 2 nodes is 1/40 of the way round and
-# 1/25 of the tube's length
+# Gaussian sigma (grid nodes) of the weights of the plane fitted to the times about each
+# node, when given: 2 nodes is 1/40 of the way round and 1/25 of the tube's length
 VELOCITY_SMOOTHING_NODES = 2.0
+# the sigma chosen for a wall (:func:`auto_smoothing`): the smallest of this ladder at
+# which the times' scatter over the gradient per node, over sigma^2, is at most
+# AUTO_GRADIENT_NOISE (the widest where none is). A noisy gradient is a long one: the
+# speed comes out low (on 10 zoo mesh draws whose fronts are cross-sections, fast: 1-18 %
+# low at 2 nodes; at the chosen sigma 0.3-6 %), and more smoothing rounds a front that
+# comes first on one side (+8 % at 6 nodes where 2 gave +1 % and 4 gave +3 %)
+VELOCITY_SMOOTHING_LADDER = (2.0, 3.0, 4.0)
+AUTO_GRADIENT_NOISE = 0.03
 # activation spread (5th to 95th percentile over the wall) below this many times its
 # noise: the wall moves at once, and no propagation is reported
 NO_PROPAGATION_SPREAD = 4.0
@@ -205,6 +212,29 @@ def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float,
         axial = t_v / np.linalg.norm(e_v, axis=-1)         # dt/ds along the grid's rows
     return SurfaceVelocity(*(np.where(use, x, np.nan) for x in
                              (speed, angle, along_mm_s, around_mm_s, axial, scatter)))
+
+
+def auto_smoothing(time_ms: np.ndarray, period_ms: float, use: np.ndarray, *,
+                   ladder=VELOCITY_SMOOTHING_LADDER,
+                   target: float = AUTO_GRADIENT_NOISE) -> float:
+    """The sigma (grid nodes) of the plane fits for a wall's activation times ``(n_u,
+    n_v)`` over the nodes ``use``: the smallest of ``ladder`` at which x / sigma^2 is
+    at most ``target``, x the times' median scatter about planes fitted over 1 node
+    (:func:`time_gradient`) over the median length of their gradient per node (fitted
+    over the ladder's widest: the signal, little touched by the noise). The
+    gradient's noise falls as 1 / sigma^2 where the times' errors are alike from node
+    to node; a mesh's facets and a lattice's voxels make them alike over a few nodes,
+    so the target was set on the zoo (:data:`AUTO_GRADIENT_NOISE`). The first of the
+    ladder where nothing can be measured."""
+    if use.sum() < 10:
+        return float(ladder[0])
+    scatter = np.nanmedian(time_gradient(time_ms, period_ms, 1.0, use)[2])
+    t_u, t_v, _ = time_gradient(time_ms, period_ms, ladder[-1], use)
+    gradient = np.nanmedian(np.hypot(t_u, t_v))
+    if not (np.isfinite(scatter) and np.isfinite(gradient) and gradient > 0):
+        return float(ladder[0])
+    return float(next((sigma for sigma in ladder if scatter / gradient / sigma ** 2 <= target),
+                      ladder[-1]))
 
 
 def time_gradient(time_ms: np.ndarray, period_ms: float, smoothing_nodes: float,

@@ -69,7 +69,8 @@ def normal_displacement(grid: np.ndarray) -> np.ndarray:
     outward = mean - mean.mean(axis=0, keepdims=True)      # from each ring's centre
     if np.nansum(outward * normal) < 0:                     # u runs clockwise
         normal = -normal
-    return ((grid - mean[:, :, None]) * normal[:, :, None]).sum(axis=-1)
+    return (np.einsum("uvtx,uvx->uvt", grid, normal)
+            - np.einsum("uvx,uvx->uv", mean, normal)[:, :, None])
 
 
 def ring_swing(grid: np.ndarray) -> np.ndarray:

@@ -402,7 +402,7 @@ def main(argv: list[str] | None = None) -> int:
         _print_error("terminated (SIGTERM)" + _nothing_written(args), exc)
         return 143
     except Exception as exc:  # the CLI's one catch-all: a clear line, not a traceback
-        _print_error(f"internal error: {type(exc).__name__}: {exc}", exc)
+        _print_error(f"internal error: {type(exc).__name__}: {exc}{_where(exc)}", exc)
         return 1
 
 
@@ -580,6 +580,22 @@ def _validate(path: Path, *, as_json: bool, period_ms: float | None = None) -> i
               file=sys.stderr)
         return 2
     return 0
+
+
+def _where(exc: BaseException) -> str:
+    """Where in oftimg an unexpected exception came from (its innermost frame in the
+    package: file, line and function), for a report that can be acted on; empty when
+    none is oftimg's."""
+    import traceback
+
+    package = Path(__file__).resolve().parent
+    ours = [frame for frame in traceback.extract_tb(exc.__traceback__)
+            if Path(frame.filename).resolve().is_relative_to(package)]
+    if not ours:
+        return ""
+    frame = ours[-1]
+    where = Path(frame.filename).resolve().relative_to(package.parent)
+    return f" (at {where}:{frame.lineno} in {frame.name}; please report it)"
 
 
 def _print_error(line: str, exc: BaseException) -> None:

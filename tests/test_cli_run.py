@@ -299,6 +299,7 @@ def test_a_library_failing_is_an_internal_error_not_bad_input(tmp_path, monkeypa
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1"]) == 1
     err = capsys.readouterr().err
     assert "oftimg: internal error: TypeError: TiffWriter.write()" in err and not out.exists()
+    assert "(at oftimg/" in err and "please report it)" in err      # where, to act on
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--n-u", "2"]) == 2
     assert "oftimg: error: grid must be at least 3 x 2, found 2 x 50" in capsys.readouterr().err
 

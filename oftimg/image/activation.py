@@ -55,6 +55,14 @@ ACTIVATION_FLOOR_SHARE = 0.002
 NOISE_HARMONIC = 6
 
 
+def grid_tangents(grid_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The grid's tangents ``(e_u, e_v)`` (mm per node, ``(n_u, n_v, 3)`` each) of a
+    wall's shape ``(n_u, n_v, 3)``: central differences, periodic round the tube,
+    one-sided at its ends."""
+    return (0.5 * (np.roll(grid_mm, -1, axis=0) - np.roll(grid_mm, 1, axis=0)),
+            np.gradient(grid_mm, axis=1))
+
+
 def normal_displacement(grid: np.ndarray) -> np.ndarray:
     """Each node's displacement (mm) from its place over the cycle along the wall's
     outward normal there: ``(n_u, n_v, n_t)`` of a grid ``(n_u, n_v, n_t, 3)`` (the
@@ -68,9 +76,7 @@ def normal_displacement(grid: np.ndarray) -> np.ndarray:
     The price: a tube that swings sideways as a whole reads as a front that comes
     first on one side (:func:`ring_swing`)."""
     mean = grid.mean(axis=2)
-    e_u = 0.5 * (np.roll(mean, -1, axis=0) - np.roll(mean, 1, axis=0))
-    e_v = np.gradient(mean, axis=1)
-    normal = np.cross(e_u, e_v)
+    normal = np.cross(*grid_tangents(mean))
     normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
     outward = mean - mean.mean(axis=0, keepdims=True)      # from each ring's centre
     if np.nansum(outward * normal) < 0:                     # u runs clockwise
@@ -195,8 +201,7 @@ def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float,
     ``use`` and where too few of them lie near."""
     use = np.ones(time_ms.shape, bool) if use is None else use
     t_u, t_v, scatter = time_gradient(time_ms, period_ms, smoothing_nodes, use)
-    e_u = 0.5 * (np.roll(grid_mm, -1, axis=0) - np.roll(grid_mm, 1, axis=0))
-    e_v = np.gradient(grid_mm, axis=1)
+    e_u, e_v = grid_tangents(grid_mm)
     g_uu = (e_u * e_u).sum(-1)
     g_uv = (e_u * e_v).sum(-1)
     g_vv = (e_v * e_v).sum(-1)

@@ -238,9 +238,13 @@ def _time_colours(time_ms: np.ndarray, period_ms: float) -> tuple[np.ndarray, di
     """The activation times to colour by, their ``imshow`` keywords and their colour
     bar's label: after the wall's earliest node in viridis when they span under half
     the cycle (a wave along the tube), else the times in the cycle in a cyclic map (a
-    helical front's go once round the cycle)."""
+    helical front's go once round the cycle); all NaN (a wall too still to time) as
+    they are, on the cycle's scale."""
     from ..image.activation import unwrapped
 
+    if not np.isfinite(time_ms).any():
+        return time_ms, {"cmap": SEQUENTIAL, "vmin": 0.0, "vmax": float(period_ms)}, \
+            "activation time (ms)"
     t = unwrapped(time_ms, period_ms)
     t = t - np.nanmin(t)
     if np.nanpercentile(t, 99) < period_ms / 2:
@@ -271,11 +275,7 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     n_u, n_v = time_ms.shape
     timed = np.isfinite(velocity_mm_s[..., 0])
     time_ms = np.where(timed, time_ms, np.nan)
-    if timed.any():
-        shown, scale, label = _time_colours(time_ms, period_ms)
-    else:                                   # a wall that does not move: all grey
-        shown, scale, label = time_ms, {"cmap": SEQUENTIAL, "vmin": 0.0,
-                                        "vmax": float(period_ms)}, "activation time (ms)"
+    shown, scale, label = _time_colours(time_ms, period_ms)
     scale["cmap"] = plt.get_cmap(scale["cmap"]).with_extremes(bad=BLANK_GREY)
     fig = plt.figure(figsize=(PAGE_MM * MM, 80 * MM))
     ax = fig.add_axes((0.08, 0.16, 0.4, 0.68))

@@ -12,6 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from ..analysis.group_maps import groups_in_order  # noqa: E402
 from . import numbers  # noqa: E402
@@ -311,12 +312,12 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     ax3 = fig.add_axes((0.52, 0.06, 0.3, 0.84), projection="3d")
     ring = np.concatenate([grid_mm, grid_mm[:1]], axis=0)
     values = np.concatenate([shown, shown[:1]], axis=0)
-    quads = 0.25 * (values[:-1, :-1] + values[1:, :-1] + values[:-1, 1:] + values[1:, 1:])
-    faces = plt.get_cmap(scale["cmap"])((quads - scale["vmin"])
-                                         / (scale["vmax"] - scale["vmin"]))
-    surface = ax3.plot_surface(*np.moveaxis(ring, -1, 0), facecolors=faces, shade=False,
-                               rstride=2, cstride=2, linewidth=0, antialiased=False)
+    quads, colours = _surface_quads(ring, values, scale)
+    surface = Poly3DCollection(quads, facecolors=colours, edgecolors=colours, linewidths=0,
+                               antialiased=False)
     surface.set_rasterized(True)        # a picture in the PDF: 2000 quads drawn once
+    ax3.add_collection3d(surface)
+    ax3.auto_scale_xyz(*ring[np.isfinite(ring).all(axis=-1)].T)
     elev, azim = np.radians(25.0), np.radians(-60.0)
     ax3.view_init(elev=25, azim=-60)
     towards_eye = np.array([np.cos(elev) * np.cos(azim), np.cos(elev) * np.sin(azim),
@@ -337,6 +338,25 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     colour_bar(fig, image, [ax, ax3], label)
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
     return save(fig, path)
+
+
+def _surface_quads(ring_mm: np.ndarray, values: np.ndarray, scale: dict, every: int = 2):
+    """A surface's quads over every ``every``-th node of ``ring_mm`` ``(n_u + 1, n_v, 3)``
+    (its first row repeated at the end), the last row and column always among them, as
+    one array ``(n_quads, 4, 3)``, each coloured by its corner nodes' mean value
+    (``values`` ``(n_u + 1, n_v)`` through ``scale``: cmap, vmin, vmax), quads with a
+    corner out of view left out. Every quad has 4 corners: matplotlib's plot_surface
+    strides its last row into shorter polygons, and pads a ragged list with
+    uninitialised memory that it then projects (matplotlib issue 32272: an overflow
+    warning, one draw in about twelve, that stopped runs)."""
+    rows = np.unique(np.r_[np.arange(0, len(ring_mm), every), len(ring_mm) - 1])
+    cols = np.unique(np.r_[np.arange(0, ring_mm.shape[1], every), ring_mm.shape[1] - 1])
+    P, W = ring_mm[np.ix_(rows, cols)], values[np.ix_(rows, cols)]
+    quads = np.stack([P[:-1, :-1], P[1:, :-1], P[1:, 1:], P[:-1, 1:]], axis=2).reshape(-1, 4, 3)
+    mean = 0.25 * (W[:-1, :-1] + W[1:, :-1] + W[1:, 1:] + W[:-1, 1:]).ravel()
+    colours = plt.get_cmap(scale["cmap"])((mean - scale["vmin"]) / (scale["vmax"] - scale["vmin"]))
+    whole = np.isfinite(quads).all(axis=(1, 2))
+    return quads[whole], colours[whole]
 
 
 def _on_grid(grid_mm: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:

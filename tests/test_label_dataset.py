@@ -491,3 +491,33 @@ def test_a_tiff_header_is_read_from_its_description_only_when_its_pages_agree(tm
     assert read_header(LabelSource(str(good))).shape == (5, 7, 9)
     assert read_header(LabelSource(str(good))).dtype == np.uint16
     assert read_header(LabelSource(str(lying))).shape == (5, 7, 9)    # from its pages
+
+
+@pytest.mark.parametrize("kind", ["labels", "probabilities"])
+def test_um_voxels_given_as_mm_are_named_as_such(tmp_path, capsys, kind):
+    """Voxel sizes in µm with meta.json's length_unit "mm" (its "labels" given, as the
+    docs say: a label dataset's own keys): a tube 395 mm across is refused in one line
+    that names the volumes and the length unit to write, not "unknown key 'labels'"
+    (the tube-size check read meta.json with a mesh dataset's keys; issue 83, point 3)."""
+    import tifffile
+
+    data = tmp_path / "embryo"
+    tube = closed_cylinder((30, 48, 48), radius=22, ends=(0, 30)).astype(np.uint8)
+    if kind == "labels":
+        (data / "labels").mkdir(parents=True)
+        for t in range(6):
+            tifffile.imwrite(data / "labels" / f"f{t}.tif", tube)
+        meta = {"labels": {"myocardium": 1}}
+    else:
+        (data / "probabilities" / "myocardium").mkdir(parents=True)
+        for t in range(6):
+            tifffile.imwrite(data / "probabilities" / "myocardium" / f"f{t}.tif", tube * 255)
+        meta = {}
+    (data / "meta.json").write_text(json.dumps(
+        {**meta, "length_unit": "mm", "voxel_size": [9.0, 9.0, 9.0], "period_ms": 300}))
+    line = run_fails(capsys, ["run", str(data), "--out", str(tmp_path / "out"), "--quiet",
+                              "--jobs", "1"], tmp_path / "out")
+    assert "unknown key" not in line
+    assert line.startswith(f"oftimg: error: {data / kind}: a tube 39")
+    assert "meta.json's length_unit right? The voxel sizes look like um" in line
+    assert '"length_unit": "um"' in line

@@ -570,11 +570,16 @@ def check_tube_size(ds: Dataset, outer: dict) -> None:
     low_mm, high_mm = RADIUS_MM_RANGE
     if low_mm <= radius_mm <= high_mm:
         return
-    said = ("meta.json's length_unit" if "length_unit" in read_meta_json(ds.path)
+    # meta.json as it is (a label dataset's has keys a mesh dataset's has not)
+    raw = read_json_file(ds.path / "meta.json", optional=True) or {}
+    said = ("meta.json's length_unit" if "length_unit" in raw
             else "the length unit (mm when meta.json gives no length_unit)")
     unit = "um" if ds.meta.length_unit == "mm" else "mm"
+    volumes = ds.labels is not None            # meshed from label or probability volumes
+    where = ds.path / ds.labels["meshing"].get("kind", "labels") if volumes else ds.path / "outer"
     raise DatasetError(
-        f"{ds.path / 'outer'}: a tube {_length(2 * radius_mm)} across at its wider end: "
+        f"{where}: a tube {_length(2 * radius_mm)} across at its wider end: "
         f"no living tube is {'so thin' if radius_mm < low_mm else 'so wide'} "
-        f"({2 * low_mm * 1000:g} µm to {2 * high_mm:g} mm); is {said} right? The coordinates "
-        f"look like {unit}: set \"length_unit\": \"{unit}\" in meta.json")
+        f"({2 * low_mm * 1000:g} µm to {2 * high_mm:g} mm); is {said} right? The "
+        f"{'voxel sizes' if volumes else 'coordinates'} look like {unit}: set "
+        f"\"length_unit\": \"{unit}\" in meta.json")

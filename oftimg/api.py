@@ -26,7 +26,7 @@ from .output.export import (COHORT_OUTPUTS, Finished, check_output_location, che
 from .io.dataset import (Dataset, check_enough_frames, find_datasets, load_dataset, natural_key,
                          validate_dataset, with_period)
 from .io.labelfile import describe_format
-from .io.label_dataset import (LabelDataset, is_label_dataset, label_repairs_note,
+from .io.label_dataset import (LabelDataset, is_label_dataset, meshing_notes,
                                load_label_dataset, mesh_label_dataset)
 from .synthetic.labels import write_label_phantom
 from .synthetic.phantom import sample_params, write_phantom
@@ -876,9 +876,8 @@ def mesh(source, out, *, options: dict | None = None, jobs: int | None = None,
             folder.mkdir(parents=True, exist_ok=True)
             record = _mesh_with_bar(lds, folder, options, executor, quiet)
             write_json(folder / "meshing.json", record)
-            mended = label_repairs_note(lds.path, record["meshing"]["label_repairs"])
-            if mended:
-                warnings.warn(mended, OftimgWarning, stacklevel=2)
+            for note in meshing_notes(lds.path, record["meshing"]):
+                warnings.warn(note, OftimgWarning, stacklevel=2)
     return out
 
 

@@ -70,7 +70,7 @@ from oftimg.image.activation import helix_angle, surface_velocity, unwrapped
 from oftimg.image.normalize import smooth_field_in_time
 from oftimg.mesh.strain import grid_strain
 from oftimg.analysis.pipeline import smoothed_strain, thickness_summary
-from oftimg.synthetic.labels import NOISE, label_params, volume_frame, write_label_phantom
+from oftimg.synthetic.labels import NOISE, label_params, volume_transform, write_label_phantom
 from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
 from oftimg.synthetic.zoo import volume_offset_um
 
@@ -173,13 +173,11 @@ def make_cohort(folder: Path, seeds: int, frames: int, noise_mm: float,
 def in_phantom_frame(dataset: Path, npz, points=lambda key: True) -> dict:
     """The arrays of ``npz`` whose key ``points`` accepts, points (mm) along their
     last axis, in the phantom's own frame: a label phantom's volume is turned and
-    shifted (:func:`oftimg.synthetic.labels.volume_frame`)."""
+    shifted (:func:`oftimg.synthetic.labels.volume_transform`)."""
     arrays = {k: npz[k] for k in npz.files}
     if not ((dataset / "labels").is_dir() or (dataset / "probabilities").is_dir()):
         return arrays
-    ph, _ = read_truth(dataset)
-    meta = json.loads((dataset / "meta.json").read_text())
-    turn, shift = volume_frame(ph, meta["voxel_size"])
+    turn, shift = volume_transform(dataset)
     drawn = dataset / "scenario.json"           # a zoo draw: its tube may end inside
     if drawn.is_file():
         shift = shift + 1e-3 * volume_offset_um(json.loads(drawn.read_text()))
@@ -228,6 +226,11 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
     t0 = summ["t0_frame"]
     t_ms = np.roll(np.array(truth["t_ms"]), -t0)     # phantom time of each aligned frame
     s_mm = arr["s_mm"]
+    if summ["provenance"].get("meshing", {}).get("ends_squared"):
+        # ends cut square inside the window: each row at its own place, the truth of
+        # the part kept
+        s_mm = ph.window_coordinates(arr["centroid_outer_mm"])[0].mean(axis=1)
+        truth = {**truth, **ph.truth(s_range=(float(s_mm[0]), float(s_mm[-1])))}
     e = {"expand_pp": 100.0 * (summ["expand_fraction"] - truth["expand_fraction"]),
          "expand_ms": summ["expand_ms"] - truth["expand_ms"]}
     for k in ("min", "max", "mean", "cycle"):
@@ -246,8 +249,9 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
                                    if np.isfinite(local).any() else float("nan"))
     e["speed_proximal_pct"] = _relative_pct(two["speed_proximal_mm_s"], true_two["proximal"])
     e["speed_distal_pct"] = _relative_pct(two["speed_distal_mm_s"], true_two["distal"])
-    e["knee_mm"] = (two["knee_mm"] - p["speed_knee_mm"]) if two["knee_mm"] is not None \
-        else float("nan")
+    offset = float(s_mm[0] - arr["s_mm"][0])     # where the run's tube begins in the window
+    e["knee_mm"] = (two["knee_mm"] + offset - p["speed_knee_mm"]) \
+        if two["knee_mm"] is not None else float("nan")
     # the errors in units of the spread that the map's own noise gives (docs/accuracy.md)
     spread = summ["wave_speed_noise_sd_mm_s"]
     e["speed_cycle_spreads"] = _in_spreads(summ["wave_speed_mm_s"]["cycle"],
@@ -277,6 +281,9 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
                           - 1.0)
         e[f"area_{w}_median_pct"] = float(100.0 * np.nanmedian(area_rel))
         e[f"area_{w}_p95_pct"] = float(100.0 * np.nanpercentile(area_rel, 95))
+        # the first and last 5 rows: where a face that cuts the tube obliquely shows
+        ends = np.r_[area_rel[:5], area_rel[-5:]]
+        e[f"area_{w}_end_rows_p95_pct"] = float(100.0 * np.nanpercentile(ends, 95))
     e["myocardial_change_pp"] = 100.0 * (summ["myocardial_volume_change"]
                                          - truth["myocardial_volume_change"])
     jelly = np.subtract(truth["volume_mm3"]["inner"], truth["volume_mm3"]["lumen"])
@@ -292,7 +299,7 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
     e["expanded_75_pp"] = float(100.0 * frac[np.nanargmax(np.abs(frac))])
     if truth["band_position_mm"] is not None:
         found = summ["band_position_mm"]
-        e["band_mm"] = np.nan if found is None else found - truth["band_position_mm"]
+        e["band_mm"] = np.nan if found is None else found + offset - truth["band_position_mm"]
     e["corners_wrong"] = float(summ["corner_count"] != truth["corner_count"])
     grids = in_phantom_frame(dataset, np.load(results / "grids.npz"))
     e.update(field_errors(ph, arr, grids, t_ms, summ, period, keep))

@@ -3,6 +3,7 @@
     python scripts/accuracy_zoo.py [--draws 50] [--seed 0] [--kinds meshes labels ...]
                                    [--frames N] [--voxel-min-um U] [--jobs 2]
                                    [--cache DIR] [--json FILE] [--no-pair] [--fronts]
+                                   [--cut oblique|square]
     python scripts/accuracy_zoo.py --tables FILE.json [...] [--markdown]
 
 Draws ``--draws`` scenarios per input kind (oftimg.synthetic.zoo: seeds S, S+1, ...,
@@ -48,10 +49,13 @@ from texture_accuracy import drift  # noqa: E402
 # (key, unit, what): the headline metrics, in this order (|error| unless said)
 HEADLINE = [
     ("area_outer_p95_pct", "%", "section area, outer (95th percentile over v, t)"),
+    ("area_outer_end_rows_p95_pct", "%",
+     "section area, outer, the first and last 5 rows (95th percentile)"),
     ("volume_outer_pct", "%", "volume of the outer wall (worst frame)"),
     ("myocardial_change_pp", "pp", "myocardial volume change"),
     ("expand_pp", "pp", "expansion share of the cycle"),
     ("speed_cycle_pct", "%", "wave speed over the cycle"),
+    ("knee_mm", "mm", "the two-segment fit's knee (signed)"),
     ("local_speed_median_pct", "%", "local wave speeds, row by row (median)"),
     ("wall_thickness_pct", "%", "wall thickness"),
     ("radial_curvature_outer_pct", "%", "radial curvature, outer wall"),
@@ -83,6 +87,8 @@ HEADLINE = [
 # map average a helix away, so only the fronts' metrics are tabulated
 FRONT_METRICS = [row for row in HEADLINE if row[0].startswith("front_")]
 FRONTS_TAG = " (fronts)"          # after the kind's name in the JSON and the tables
+# with --cut: label draws cut obliquely or square by the volume's faces at both ends
+CUT_TAGS = {"oblique": " (oblique)", "square": " (square)"}
 # (key, what): the run's own error bars against the truth, % of nodes and frames (or
 # rows) whose error lies within the band the run reports (its noise: summary.json's
 # field_noise, the speeds' noise spreads); a calibrated band holds about 95 %
@@ -111,12 +117,16 @@ def run_quietly(dataset: Path, out: Path, jobs: int) -> Path:
 
 
 def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs: int,
-                pair: bool, fronts: bool = False) -> dict[str, float]:
+                pair: bool, fronts: bool = False, oblique: bool | None = None
+                ) -> dict[str, float]:
     """One draw written, run and compared with its truth: every metric's error
-    (``fronts``: the draw with a helical or one-sided front, no meshes' pair)."""
+    (``fronts``: the draw with a helical or one-sided front, no meshes' pair;
+    ``oblique``: the label draw cut obliquely (True) or square (False) by its volume's
+    faces at both ends, None as drawn)."""
     scenario = draw_scenario(seed, kind, n_frames=frames, voxel_um_min=voxel_min_um,
-                             fronts=fronts)
-    dataset = root / "data" / f"{kind.replace('+', '_')}_{seed}{'_fronts' * fronts}"
+                             fronts=fronts, oblique=oblique)
+    cut = {None: "", True: "_oblique", False: "_square"}[oblique]
+    dataset = root / "data" / f"{kind.replace('+', '_')}_{seed}{'_fronts' * fronts}{cut}"
     if not (dataset / "scenario.json").is_file():
         write_scenario(scenario, dataset, real_shape=MIDGUT,
                        real_scale_to_mm=MIDGUT_SCALE_TO_MM)
@@ -126,7 +136,9 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
     if fronts:
         return {**wave_front_errors(dataset, results), "draw": conditions(scenario)}
     errors = {**embryo_errors(dataset, results), "draw": conditions(scenario)}
-    if kind != "meshes" and pair and not fronts:    # the same geometry as meshes
+    if kind != "meshes" and pair and not fronts and not scenario.oblique_deg:
+        # the same geometry as meshes (not where the ends were cut square inside the
+        # window: the grids then span another part of the tube)
         meshes = root / "data" / f"{dataset.name}_meshes"
         if not (meshes / "truth.json").is_file():
             write_phantom(meshes, replace(label_params(scenario.phantom), noise_mm=0.0))
@@ -142,7 +154,7 @@ def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs:
         summary = json.loads((results / "summary.json").read_text())
         arrays = np.load(results / "arrays.npz")
         t_ms = np.roll(np.asarray(truth["t_ms"]), -summary["t0_frame"])
-        grid = LabelGrid(ph, scenario.voxel_um)
+        grid = LabelGrid(ph, scenario.voxel_um, oblique_deg=scenario.oblique_deg)
         G = np.load(results / "grids.npz")["outer"].astype(float)     # in the volume, mm
         G -= 1e-3 * volume_offset_um(json.loads((dataset / "scenario.json").read_text()))
         d = drift(ph, grid, G, t_ms,
@@ -168,6 +180,7 @@ def conditions(scenario) -> dict:
         out["voxel_um"] = [round(v, 2) for v in scenario.voxel_um]
         out["ends_inside"] = (f"{scenario.end_inside}, {scenario.end_inside_voxels} voxels on"
                               if scenario.end_inside else None)
+        out["oblique_deg"] = round(scenario.oblique_deg, 1)
     if seg is not None:
         out |= {"flip_pct": round(100 * seg.flip, 1), "islands": seg.islands,
                 "wall_shifted": (f"{seg.systematic[0]} {seg.systematic[1]:+d} voxel"
@@ -336,6 +349,9 @@ def main() -> None:
     ap.add_argument("--markdown", action="store_true", help="--tables as Markdown tables")
     ap.add_argument("--fronts", action="store_true",
                     help="draws with helical or one-sided wave fronts (their metrics only)")
+    ap.add_argument("--cut", choices=sorted(CUT_TAGS), default=None,
+                    help="label draws whose volume's faces cut the tube at both ends obliquely "
+                         "(20-50 deg) or square (the same draws otherwise: a paired comparison)")
     ap.add_argument("--no-pair", action="store_true",
                     help="label kinds without their meshes' run (no node-by-node metrics)")
     args = ap.parse_args()
@@ -347,21 +363,24 @@ def main() -> None:
         print_tables(every, args.markdown)
         return
     started = time.perf_counter()
+    oblique = {None: None, "oblique": True, "square": False}[args.cut]
     every = {}
     with tempfile.TemporaryDirectory() as tmp:
         root = args.cache or Path(tmp)
         for kind in args.kinds:
-            drawn = every[kind + FRONTS_TAG * args.fronts] = {}
+            drawn = every[kind + FRONTS_TAG * args.fronts + CUT_TAGS.get(args.cut, "")] = {}
             for seed in range(args.seed, args.seed + args.draws):
                 tick = time.perf_counter()
                 try:
                     drawn[seed] = draw_errors(seed, kind, root, frames=args.frames,
                                               voxel_min_um=args.voxel_min_um, jobs=args.jobs,
-                                              pair=not args.no_pair, fronts=args.fronts)
+                                              pair=not args.no_pair, fronts=args.fronts,
+                                              oblique=oblique)
                 except oftimg.InputError as exc:     # refused: a fault of the zoo or of oftimg
                     drawn[seed] = {"refused": str(exc), "draw": conditions(
                         draw_scenario(seed, kind, n_frames=args.frames,
-                                      voxel_um_min=args.voxel_min_um, fronts=args.fronts))}
+                                      voxel_um_min=args.voxel_min_um, fronts=args.fronts,
+                                      oblique=oblique))}
                 print(f"{kind} draw {seed}: {time.perf_counter() - tick:.0f} s"
                       + (f", refused: {drawn[seed]['refused']}" if "refused" in drawn[seed]
                          else ""), flush=True)

@@ -100,10 +100,12 @@ def label_phantom_area_errors(page, phantom_folder, n_frames: int, group: str = 
                               seed: int = 0) -> dict:
     """|area / truth - 1| ``(n_v, n_t)`` per wall of a run's results ``page`` (its
     summary.json and arrays.npz) of a label phantom written with ``sample_params(group,
-    seed, n_frames=n_frames)``, in the results' time order."""
+    seed, n_frames=n_frames)``, in the results' time order: each section against the
+    square one at its own place along the phantom (its centroid's; a run whose ends
+    were cut square begins past the window's inlet)."""
     import json
 
-    from oftimg.synthetic.labels import label_params
+    from oftimg.synthetic.labels import in_phantom_frame, label_params
     from oftimg.synthetic.phantom import Phantom, sample_params
 
     summary = json.loads((page / "summary.json").read_text())
@@ -111,8 +113,9 @@ def label_phantom_area_errors(page, phantom_folder, n_frames: int, group: str = 
     truth = json.loads((phantom_folder / "truth.json").read_text())
     ph = Phantom(label_params(sample_params(group, seed, n_frames=n_frames)))
     t_ms = np.roll(np.array(truth["t_ms"]), -summary["t0_frame"])
-    return {wall: np.abs(arrays[f"area_{wall}_mm2"]
-                         / ph.area_mm2(wall, arrays["s_mm"][:, None], t_ms[None, :]) - 1)
+    s_mm, _ = ph.window_coordinates(in_phantom_frame(phantom_folder,
+                                                     arrays["centroid_outer_mm"]))
+    return {wall: np.abs(arrays[f"area_{wall}_mm2"] / ph.area_mm2(wall, s_mm, t_ms[None, :]) - 1)
             for wall in ("outer", "inner", "lumen")}
 
 

@@ -2,6 +2,7 @@
 ranges they promise, and each kind writes a dataset that oftimg reads, with its truth
 and what was drawn."""
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -41,6 +42,15 @@ def test_draws_span_their_ranges():
     ending = [d.end_inside for d in labelled]
     assert {"inlet", "outlet", None} == set(ending)
     assert 0.15 < np.mean([e is not None for e in ending]) < 0.45
+    oblique = [d.oblique_deg for d in labelled if d.end_inside is None]
+    assert 0.35 < np.mean(np.array(oblique) > 0) < 0.65       # cut askew by the faces
+    assert min(o for o in oblique if o) < 23 and 47 < max(oblique) <= 50
+    assert all(d.oblique_deg == 0 for d in labelled if d.end_inside)
+    forced = [draw_scenario(seed, "labels", oblique=True) for seed in range(20)]
+    assert all(20 <= d.oblique_deg <= 50 and d.end_inside is None for d in forced)
+    square = [draw_scenario(seed, "labels", oblique=False) for seed in range(20)]
+    assert all(d.oblique_deg == 0 and d.end_inside is None for d in square)
+    assert [replace(d, oblique_deg=0.0) for d in forced] == square     # a pair but the cut
     assert any(d.segmentation.systematic for d in labelled)
     assert any(d.segmentation.defects for d in labelled)
     assert any(d.segmentation.values != {"myocardium": 1, "jelly": 2, "lumen": 3}

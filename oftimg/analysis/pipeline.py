@@ -13,7 +13,7 @@ from .. import __version__
 from ..errors import DatasetError, InputError, OftimgWarning
 from ..memory import release_freed
 from ..io.dataset import Dataset, check_enough_frames
-from ..io.label_dataset import label_repairs_note, listed_files
+from ..io.label_dataset import listed_files, meshing_notes
 from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
                            volume_change, wrap_step_ratio)
 from .maps import analyse_area_maps
@@ -547,9 +547,8 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         "dataset": {"path": str(Path(ds.path).resolve())}, "inputs": inputs}
     if ds.labels is not None:           # meshed from label volumes: those are the inputs
         summary["provenance"]["meshing"] = ds.labels["meshing"]
-        mended = label_repairs_note(ds.path, ds.labels["meshing"].get("label_repairs", []))
-        if mended:
-            warnings.warn(mended, OftimgWarning, stacklevel=2)
+        for note in meshing_notes(ds.path, ds.labels["meshing"]):
+            warnings.warn(note, OftimgWarning, stacklevel=2)
         warnings.warn(f"{ds.path}: curvature fields from label volumes are less exact than "
                       "their areas, speeds and volumes: the voxels leave an error fixed in "
                       "space, which the fields' noise share does not see (oftimg's "

@@ -31,15 +31,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DatasetError, InputError
+from ..mesh.ends import MARGIN_STEPS, cut_by_plane, largest_piece, square_ends
 from ..mesh.labels import (CURVATURE_PROPERTY, MeshOptions, WallMesh, frame_masks, mesh_wall,
                            mesh_walls)
-from ..mesh.topology import MeshError
+from ..mesh.topology import MeshError, boundary_loops
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_period, check_voxel_size, is_number,
                       natural_key, read_meta, read_meta_json)
 from .intensity import IntensitySeries, load_intensity
 from .labelfile import (PER_FRAME_SUFFIXES, LabelSource, channel_count, label_suffix,
                         list_label_sources, read_header, read_volume, series_file)
-from .meshfile import write_ply
+from .meshfile import read_mesh_file, read_vertex_values, write_ply
 
 LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list, "classes": dict, "channels": dict}
 CHANNEL_ROLES = ("labels", "intensity")     # what a stack's channels may hold
@@ -583,7 +584,16 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
             "pieces_dropped": {w: m.cleaned.pieces for w, m in meshes.items()},
             "step": {w: round(m.step, 6) for w, m in meshes.items()},
             "repairs": repairs,
-            "left_out": {w: why for w, why in walls.items() if isinstance(why, str)}}
+            "left_out": {w: why for w, why in walls.items() if isinstance(why, str)},
+            "rims": _rims(meshes.get("outer"))}
+
+
+def _rims(mesh: WallMesh | None) -> list[np.ndarray]:
+    """The outer wall's boundary loops (points ``(k, 3)`` each, float32): where the
+    volume's faces cut it, for :func:`square_the_ends`."""
+    if mesh is None:
+        return []
+    return [mesh.V[loop].astype(np.float32) for loop in boundary_loops(mesh.F)]
 
 
 def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, left: tuple,
@@ -623,7 +633,7 @@ def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, 
                             f"{t_before} and {t_after}, {exc}")
     _write_wall(out, wall, mesh_name, mesh)
     return {"vertices": len(mesh.V), "pieces_dropped": mesh.cleaned.pieces,
-            "step": round(mesh.step, 6),
+            "step": round(mesh.step, 6), "rims": _rims(mesh) if wall == "outer" else None,
             "voxels": int(np.count_nonzero((occupancy > 0.5) != own[wall]))}
 
 
@@ -650,6 +660,32 @@ def neighbours_to_fill_from(good: np.ndarray, t: int) -> tuple[int, int, float]:
     back = next(d for d in range(1, n) if good[(t - d) % n])
     ahead = next(d for d in range(1, n) if good[(t + d) % n])
     return (t - back) % n, (t + ahead) % n, back / (back + ahead)
+
+
+def meshing_notes(path: Path, meshing: dict) -> list[str]:
+    """What a user should know of how a label dataset at ``path`` was meshed
+    (``meshing``: :func:`mesh_label_dataset`'s record): its masks mended or filled
+    (:func:`label_repairs_note`) and its ends cut square (:func:`squared_ends_note`)."""
+    notes = [label_repairs_note(path, meshing.get("label_repairs", [])),
+             squared_ends_note(path, meshing)]
+    return [note for note in notes if note]
+
+
+def squared_ends_note(path: Path, meshing: dict) -> str | None:
+    """The line that says where the volume's faces cut the tube obliquely and how far
+    in its walls were cut square (``meshing``: :func:`mesh_label_dataset`'s record,
+    its ``ends_squared`` in its ``length_unit``); None where no end was."""
+    cut = [end for end in meshing.get("ends_squared") or () if end is not None]
+    if not cut:
+        return None
+    mm = UNIT_TO_MM[meshing["length_unit"]]
+    angles = " and ".join(f"{end['oblique_deg']:.0f}" for end in cut)
+    depths = " and ".join(f"{end['cut_in'] * mm:.3f}" for end in cut)
+    ends = "both ends" if len(cut) == 2 else "one end"
+    return (f"{path}: the volume's faces cut the tube obliquely at {ends} ({angles} degrees "
+            f"from square): every frame's walls were cut square to the centre line {depths} mm "
+            "in, past every frame's rim, so that each section is whole (summary.json "
+            "provenance.meshing.ends_squared; meta.json \"ends\" places the planes yourself)")
 
 
 def label_repairs_note(path: Path, repairs: list[dict]) -> str | None:
@@ -713,18 +749,72 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     repairs = [{"frame": t, "file": str(lds.sources[t]), **r}
                for t, result in enumerate(results) for r in result["repairs"]]
     repairs += _fill_left_out(lds, out, options, results, executor)
-    write_meshed_meta(lds, out)
     walls = [w for w in ("outer", "inner", "lumen") if w in results[0]["vertices"]]
+    squared = None if lds.ends is not None else square_the_ends(lds, out, walls, results,
+                                                                executor)
+    write_meshed_meta(lds, out)
     return {
         "inputs": {kind: listed_files(paths) for kind, paths in lds.inputs_by_kind().items()},
         "meshing": {"options": options.as_dict(), "voxel_size": list(lds.voxel_size),
                     "length_unit": lds.meta.length_unit, "shape_zyx": list(lds.shape),
                     "labels": lds.label_ids, "kind": lds.kind,
                     "ends": None if lds.ends is None else [list(map(list, e)) for e in lds.ends],
+                    "ends_squared": squared,
                     **{key: {w: [r[key][w] for r in results] for w in walls}
                        for key in ("vertices", "pieces_dropped", "step")},
                     "label_repairs": repairs,
                     "seconds": round(time.perf_counter() - tick, 2)}}
+
+
+def square_the_ends(lds: LabelDataset, out: Path, walls: list[str], results: list,
+                    executor) -> list[dict | None] | None:
+    """Where the volume's faces cut the tube obliquely (meta.json gives no "ends"),
+    every frame's walls in ``out`` cut at the planes square to the centre line past
+    every frame's rim (:func:`~oftimg.mesh.ends.square_ends`: the middle frame's
+    outer wall gives the centre line, ``results``' rims the reach), in ``executor``'s
+    workers. Returns per end (in the order of the middle frame's boundary loops) the
+    plane as the provenance records it (None where the face cuts square), or None
+    when no end needed it. Raises :class:`DatasetError` naming the frame whose wall is
+    no tube once cut."""
+    names = lds.mesh_names()
+    middle = len(names) // 2
+    reference = read_mesh_file(out / "outer" / names[middle])
+    step = float(np.median([r["step"]["outer"] for r in results]))
+    ends = square_ends(reference, [r["rims"] for r in results], MARGIN_STEPS * step)
+    if all(end is None for end in ends):
+        return None
+    planes = [(end.point, end.normal) for end in ends if end is not None]
+    n = len(names)
+    args = ([str(out)] * n, names, [walls] * n, [planes] * n)
+    cut = list(map(cut_frame, *args) if executor is None else executor.map(cut_frame, *args))
+    bad = [(t, why) for t, why in enumerate(cut) if why]
+    if bad:
+        t, why = bad[0]
+        raise DatasetError(f"{_frame_name(lds, t)} in {lds.folder}: cut square to the centre "
+                           f"line where the volume's face cuts the tube obliquely, {why}; give "
+                           "the two cutting planes in meta.json (\"ends\")")
+    return [None if end is None else end.as_dict() for end in ends]
+
+
+def cut_frame(out: str, mesh_name: str, walls: list[str], planes: list) -> str | None:
+    """Each wall's mesh ``out/<wall>/<mesh_name>`` cut at ``planes`` (``(point,
+    normal)`` each, the normal into the part kept) and rewritten, with its stored
+    curvature; the largest piece kept. Returns why a wall is no tube once cut (None
+    when every wall is)."""
+    for wall in walls:
+        path = Path(out) / wall / mesh_name
+        V, F = read_mesh_file(path)
+        H = read_vertex_values(path, CURVATURE_PROPERTY)
+        values = np.zeros(len(V)) if H is None else H.astype(float)
+        for point, normal in planes:
+            V, F, values = cut_by_plane(V, F, point, normal, values)
+        if len(F) == 0:
+            return f"nothing of its {wall} wall is left"
+        V, F, kept, _ = largest_piece(V, F)
+        if len(boundary_loops(F)) != 2:
+            return f"its {wall} wall has {len(boundary_loops(F))} open ends, not 2"
+        write_ply(path, V, F, None if H is None else {CURVATURE_PROPERTY: values[kept]})
+    return None
 
 
 def listed_files(paths: list[Path]) -> list[dict]:
@@ -782,6 +872,8 @@ def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: 
     for (t, wall, (before, after, _), _), record in zip(tasks, filled):
         for key in ("vertices", "pieces_dropped", "step"):
             results[t][key][wall] = record[key]
+        if record["rims"] is not None:
+            results[t]["rims"] = record["rims"]
         entries.append({"frame": t, "file": str(lds.sources[t]), "wall": wall,
                         "what": f"left out, filled from frames {before} and {after}",
                         "why": left[t][wall], "voxels": record["voxels"],

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import InputError
 from .curvature import taubin_smooth
+from .ends import cut_by_plane, largest_piece
 from .mask_topology import MaskRepair, solid_tube_mask
 from .topology import MeshError, boundary_loops, check_tube, repair
 
@@ -226,71 +227,10 @@ def _resampled(field: np.ndarray, n_out: int, axis: int) -> np.ndarray:
     return below + w * (np.take(field, low + 1, axis=axis) - below)
 
 
-def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal) -> tuple[np.ndarray, np.ndarray]:
-    """The part of a mesh on the side of the plane ``(point, normal)`` that the
-    normal points to, its triangles split where they cross the plane (new vertices
-    on the plane, shared by neighbouring triangles), so the cut leaves a boundary
-    loop lying in the plane."""
-    if len(F) == 0:                               # cut away whole by a plane before
-        return V, F
-    normal = np.asarray(normal, float) / np.linalg.norm(normal)
-    d = (V - np.asarray(point, float)) @ normal
-    d[np.abs(d) < 1e-12 * max(np.ptp(V), 1.0)] = 0.0
-    inside = d >= 0
-    n_in = inside[F].sum(axis=1)
-    keep = F[n_in == 3]
-    crossing = F[(n_in > 0) & (n_in < 3)]
-    # each crossing edge gets one new vertex, found by its (low, high) vertex pair
-    edges = np.concatenate([crossing[:, [0, 1]], crossing[:, [1, 2]], crossing[:, [2, 0]]])
-    edges = np.sort(edges, axis=1)
-    cut = inside[edges[:, 0]] != inside[edges[:, 1]]
-    pairs, index = np.unique(edges[cut], axis=0, return_inverse=True)
-    a, b = pairs[:, 0], pairs[:, 1]
-    w = (d[a] / (d[a] - d[b]))[:, None]
-    new_V = np.concatenate([V, V[a] + w * (V[b] - V[a])])
-    key = {tuple(p): len(V) + k for k, p in enumerate(pairs.tolist())}
-
-    def on_plane(i, j):
-        return key[(min(i, j), max(i, j))]
-
-    faces = [keep]
-    extra = []
-    for tri in crossing.tolist():
-        ins = [inside[v] for v in tri]
-        # rotate so that the lone vertex (the one on its side alone) comes first
-        lone = ins.index(True) if sum(ins) == 1 else ins.index(False)
-        p, q, r = tri[lone:] + tri[:lone]
-        pq, pr = on_plane(p, q), on_plane(p, r)
-        if sum(ins) == 1:
-            extra.append((p, pq, pr))
-        else:
-            extra += [(pq, q, r), (pq, r, pr)]
-    if extra:
-        faces.append(np.asarray(extra, dtype=np.int64))
-    F_out = np.concatenate(faces) if faces else np.empty((0, 3), np.int64)
-    used = np.zeros(len(new_V), bool)
-    used[F_out.ravel()] = True
-    remap = np.cumsum(used) - 1
-    return new_V[used], remap[F_out]
-
-
 def _largest_piece(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, Cleaned]:
     """The connected part of the mesh with the most faces, and what was dropped."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
-    n = len(V)
-    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
-    n_comp, label = connected_components(sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n)),
-                                         directed=False)
-    if n_comp == 1:
-        return V, F, Cleaned(0, 0)
-    face_label = label[F[:, 0]]
-    F = F[face_label == np.argmax(np.bincount(face_label))]
-    used = np.zeros(n, bool)
-    used[F.ravel()] = True
-    dropped = Cleaned(len(np.unique(label[~used])), int((~used).sum()))
-    return V[used], (np.cumsum(used) - 1)[F], dropped
+    V, F, kept, others = largest_piece(V, F)
+    return V, F, Cleaned(others, int((~kept).sum()))
 
 
 @dataclass(frozen=True)

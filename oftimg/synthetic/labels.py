@@ -30,18 +30,65 @@ def label_params(params: PhantomParams) -> PhantomParams:
     return replace(params, bend_radius_mm=2 * params.length_mm / np.pi)
 
 
-def volume_frame(phantom: Phantom, voxel_size_um) -> tuple[np.ndarray, np.ndarray]:
+def volume_frame(phantom: Phantom, voxel_size_um, oblique_deg: float = 0.0
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """The label volume's frame: ``(turn (3, 3), shift (3,) mm)`` with
     ``X_volume = X_phantom @ turn + shift``: turned about z so that the phantom's
     inlet (its angle alpha0 about the bend's centre) lies along the volume's x axis,
-    and raised so that the tube clears the face z = 0 by a few voxels."""
+    and raised so that the tube clears the face z = 0 by a few voxels. With
+    ``oblique_deg``, the volume's faces x = 0 and y = 0 cut the tube at that angle
+    (between the centre line and the face's normal) through the window's end
+    centres, as an OCT field of view cuts an outflow tract: the tube is turned about
+    the diagonal between its ends (both ends tilt alike, out of the bend's plane)
+    and moved so that each face passes through its end's centre."""
     p = phantom.p
     a = phantom.alpha0
     turn = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0],
                      [0.0, 0.0, 1.0]])
     reach = OUTER_REACH * max(p.radius_inlet_mm, p.radius_outlet_mm)
-    z0 = reach + MARGIN_VOXELS * float(voxel_size_um[2]) * 1e-3
-    return turn, np.array([0.0, 0.0, z0])
+    margin = MARGIN_VOXELS * float(voxel_size_um[2]) * 1e-3
+    if not oblique_deg:
+        return turn, np.array([0.0, 0.0, reach + margin])
+    if not 0 < oblique_deg < 70:
+        raise InputError(f"the oblique cut must lie in 0..70 degrees, found {oblique_deg}")
+    # about the diagonal d by gamma, an end's tangent (0, 1, 0) meets the face's normal
+    # at arccos(cos^2(gamma / 2))
+    gamma = 2 * np.arccos(np.sqrt(np.cos(np.radians(oblique_deg))))
+    d = np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+    K = np.array([[0, -d[2], d[1]], [d[2], 0, -d[0]], [-d[1], d[0], 0]])
+    tilt = np.eye(3) + np.sin(gamma) * K + (1 - np.cos(gamma)) * K @ K    # Rodrigues
+    turn = turn @ tilt.T
+    inlet = phantom.frame_axes(0.0)[0] @ turn
+    # the tube's surface (at its outer reach) near the box: z's range sets the lift
+    s = np.linspace(-0.5, 1.5, 201) * p.length_mm
+    theta = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+    c, N, B = phantom.frame_axes(s[:, None])
+    rho = OUTER_REACH * phantom.base_radius(np.clip(s, 0, p.length_mm))[:, None, None]
+    X = (c + rho * (np.cos(theta)[:, None] * N + np.sin(theta)[:, None] * B)) @ turn
+    X = X.reshape(-1, 3) - [inlet[1], inlet[1], 0.0]
+    X = X[(X[:, 0] >= 0) & (X[:, 1] >= 0)]
+    return turn, np.array([-inlet[1], -inlet[1], margin - X[:, 2].min()])
+
+
+def volume_transform(dataset: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(turn (3, 3), shift (3,) mm)`` of a label phantom's volume
+    (:func:`volume_frame`), as its truth.json records them (older files: recomputed
+    from meta.json's voxel size)."""
+    from .phantom import read_truth
+
+    ph, truth = read_truth(dataset)
+    if "volume" in truth:
+        return np.array(truth["volume"]["turn"]), np.array(truth["volume"]["shift_mm"])
+    meta = json.loads((Path(dataset) / "meta.json").read_text())
+    return volume_frame(ph, meta["voxel_size"])
+
+
+def in_phantom_frame(dataset: str | Path, points_mm: np.ndarray) -> np.ndarray:
+    """Points ``(..., 3)`` mm of a label phantom's volume (a run's grids, centroids) in
+    its phantom's own frame, where :class:`~oftimg.synthetic.phantom.Phantom` gives
+    their window coordinates (:func:`volume_transform`)."""
+    turn, shift = volume_transform(dataset)
+    return (np.asarray(points_mm, float) - shift) @ turn.T
 
 
 class LabelGrid:
@@ -49,17 +96,23 @@ class LabelGrid:
     ``(s, theta)`` and distance from the centre line (mm), for the voxels that can
     lie inside the outer wall; computed once, used for every frame. With
     ``offset_voxels`` (dx, dy, dz shares of a voxel), at points that far off the
-    centres, in the same volume."""
+    centres, in the same volume. ``oblique_deg``: the volume's faces cut the tube at
+    that angle (:func:`volume_frame`); the tube then goes on past the window's ends
+    (its model continued there) to the faces."""
 
-    def __init__(self, phantom: Phantom, voxel_size_um, offset_voxels=(0.0, 0.0, 0.0)):
+    def __init__(self, phantom: Phantom, voxel_size_um, offset_voxels=(0.0, 0.0, 0.0),
+                 oblique_deg: float = 0.0):
         p = phantom.p
         self.phantom = phantom
         self.voxel_mm = np.asarray(voxel_size_um, float) * 1e-3          # dx, dy, dz
-        self.turn, self.shift = volume_frame(phantom, voxel_size_um)
+        self.turn, self.shift = volume_frame(phantom, voxel_size_um, oblique_deg)
         reach = OUTER_REACH * max(p.radius_inlet_mm, p.radius_outlet_mm)
         R = p.bend_radius_mm
         margin = MARGIN_VOXELS * self.voxel_mm
-        extent = np.array([R + reach + margin[0], R + reach + margin[1], 2 * self.shift[2]])
+        if oblique_deg:
+            extent = self._oblique_extent(reach) + margin
+        else:
+            extent = np.array([R + reach + margin[0], R + reach + margin[1], 2 * self.shift[2]])
         self.shape = tuple(int(n) for n in (np.ceil(extent / self.voxel_mm).astype(int)
                                             + 1)[::-1])               # (z, y, x)
         nz, ny, nx = self.shape
@@ -67,20 +120,34 @@ class LabelGrid:
         ox, oy, oz = offset_voxels
         x = (np.arange(nx) + ox) * self.voxel_mm[0]
         y = (np.arange(ny) + oy) * self.voxel_mm[1]
-        z = (np.arange(nz) + oz) * self.voxel_mm[2] - self.shift[2]
-        rho_xy = np.hypot(x[None, :], y[:, None])                      # (y, x)
-        ring = (np.abs(rho_xy - R) < reach)
-        near = ring[None, :, :] & (np.abs(z) < reach)[:, None, None]
-        self.index = np.flatnonzero(near)
-        k, j, i = np.unravel_index(self.index, self.shape)
-        X = np.stack([x[i], y[j], z[k]], axis=-1) @ self.turn.T         # the phantom's frame
+        z = (np.arange(nz) + oz) * self.voxel_mm[2]
+        index, X = [], []
+        for k in range(nz):               # a plane at a time: the box may be large
+            P = np.stack(np.broadcast_arrays(x[None, :], y[:, None], z[k]), axis=-1)
+            P = (P.reshape(-1, 3) - self.shift) @ self.turn.T             # the phantom's frame
+            near = (np.abs(np.hypot(P[:, 0], P[:, 1]) - R) < reach) & (np.abs(P[:, 2]) < reach)
+            index.append(k * ny * nx + np.flatnonzero(near))
+            X.append(P[near])
+        self.index, X = np.concatenate(index), np.concatenate(X)
         self.s, self.theta = phantom.window_coordinates(X)
-        self.s = np.clip(self.s, 0.0, p.length_mm)
+        if not oblique_deg:
+            self.s = np.clip(self.s, 0.0, p.length_mm)
         c, _, _ = phantom.frame_axes(self.s)
         self.distance = np.linalg.norm(X - c, axis=-1)
         near = self.distance <= OUTER_REACH * phantom.base_radius(self.s)
         self.index, self.s, self.theta, self.distance = (
             a[near] for a in (self.index, self.s, self.theta, self.distance))
+
+    def _oblique_extent(self, reach: float) -> np.ndarray:
+        """The box (mm, x y z) that holds the tube between the faces x = 0 and y = 0."""
+        p = self.phantom.p
+        s = np.linspace(-0.5, 1.5, 401) * p.length_mm
+        theta = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+        c, N, B = self.phantom.frame_axes(s[:, None])
+        X = (c + reach * (np.cos(theta)[:, None] * N + np.sin(theta)[:, None] * B)
+             ) @ self.turn + self.shift
+        X = X.reshape(-1, 3)
+        return X[(X[:, 0] >= 0) & (X[:, 1] >= 0)].max(axis=0)
 
     def labels(self, t_ms: float) -> np.ndarray:
         """The frame's label volume ``(z, y, x)`` uint8 at time ``t_ms``."""
@@ -167,7 +234,7 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
                         *, noise: float | None = None, name: str | None = None,
                         progress=None, probabilities: bool = False,
                         intensity: bool = False, texture=None,
-                        islands: int = ISLANDS) -> Path:
+                        islands: int = ISLANDS, oblique_deg: float = 0.0) -> Path:
     """Write a label phantom dataset: ``meta.json``, ``labels/f000.tif ...`` (one
     zlib-compressed uint8 TIFF per frame, (z, y, x)) and ``truth.json``. ``noise``:
     the share of boundary voxels flipped (with specks, :func:`segmentation_noise`;
@@ -178,7 +245,10 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
     texture fixed in the tissue (:func:`~oftimg.synthetic.texture.intensity_volume`),
     looking as ``texture`` (:class:`~oftimg.synthetic.texture.TextureParams`, default
     the textured phantom's) says. ``islands``: the label noise's specks per frame.
-    ``params`` are bent by :func:`label_params`. Returns the folder."""
+    ``oblique_deg``: the volume's faces cut the tube at that angle through the
+    window's end centres (:func:`volume_frame`; truth.json's ``volume`` holds the
+    turn and shift into the volume). ``params`` are bent by :func:`label_params`.
+    Returns the folder."""
     import tifffile
 
     if noise is None:
@@ -194,11 +264,11 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
         raise FileExistsError(f"{out}: exists and is not empty")
     params = label_params(params)
     ph = Phantom(params)
-    grid = LabelGrid(ph, voxel)
+    grid = LabelGrid(ph, voxel, oblique_deg=oblique_deg)
     rng = np.random.default_rng([params.seed, 53])
     width = len(str(params.n_frames - 1))
     if probabilities:
-        grids = [LabelGrid(ph, voxel, (ox, oy, oz)) for ox in (-0.25, 0.25)
+        grids = [LabelGrid(ph, voxel, (ox, oy, oz), oblique_deg) for ox in (-0.25, 0.25)
                  for oy in (-0.25, 0.25) for oz in (-0.25, 0.25)]
         for layer in LABEL_VALUES:
             (out / "probabilities" / layer).mkdir(parents=True, exist_ok=True)
@@ -232,5 +302,7 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
             **({} if probabilities else {"labels": LABEL_VALUES}),
             "inlet": [round(float(x), 6) for x in inlet_um]}
     (out / "meta.json").write_text(json.dumps(meta, indent=2))
-    (out / "truth.json").write_text(json.dumps(ph.truth(), indent=1))
+    volume = {"oblique_deg": float(oblique_deg), "turn": grid.turn.tolist(),
+              "shift_mm": grid.shift.tolist()}
+    (out / "truth.json").write_text(json.dumps(ph.truth() | {"volume": volume}, indent=1))
     return out

@@ -195,8 +195,15 @@ class Phantom:
         return p.speed_proximal_mm_s + (p.speed_distal_mm_s - p.speed_proximal_mm_s) / (1 + np.exp(-z))
 
     def arrival_ms(self, s):
-        """Wave arrival time t*(s), ms (t* = 0 at the inlet)."""
-        return np.interp(s, self.s_fine, self._t_star_ms)
+        """Wave arrival time t*(s), ms (t* = 0 at the inlet); beyond the window's ends
+        (where a volume cut obliquely holds some of the tube) at the end's speed."""
+        s = np.asarray(s, dtype=float)
+        t = np.interp(s, self.s_fine, self._t_star_ms)
+        L = self.p.length_mm
+        if np.all((s >= 0) & (s <= L)):
+            return t
+        return np.where(s < 0, 1e3 * s / self.speed_mm_s(0.0),
+                        np.where(s > L, t + 1e3 * (s - L) / self.speed_mm_s(L), t))
 
     def band(self, s):
         p = self.p
@@ -394,13 +401,14 @@ class Phantom:
     def area_mm2(self, wall, s, t_ms):
         return self.section_moments(wall, s, t_ms)[0]
 
-    def volume_mm3(self, wall, t_ms, n_s: int = 241):
-        """Volume inside ``wall`` in the window at times ``t_ms (n,)``.
+    def volume_mm3(self, wall, t_ms, n_s: int = 241, s_range=None):
+        """Volume inside ``wall`` in the window (or between ``s_range`` ``(s_a, s_b)``
+        mm) at times ``t_ms (n,)``.
 
         Exact for the curved tube: the tube-coordinate Jacobian (1 - rho cos(theta) / R_bend)
         is integrated, not only the areas.
         """
-        s = np.linspace(0, self.p.length_mm, n_s)
+        s = np.linspace(*(s_range or (0, self.p.length_mm)), n_s)
         t = np.atleast_1d(np.asarray(t_ms, float))
         area, moment = self.section_moments(wall, s[:, None], t[None, :])
         integrand = area - moment / self.p.bend_radius_mm
@@ -491,20 +499,23 @@ class Phantom:
     def frame_times_ms(self):
         return np.arange(self.p.n_frames) * self.p.period_ms / self.p.n_frames
 
-    def truth(self, n_s: int = 121, n_t_fine: int = 720) -> dict:
-        """Ground truth from the analytic model (JSON-ready)."""
+    def truth(self, n_s: int = 121, n_t_fine: int = 720, s_range=None) -> dict:
+        """Ground truth from the analytic model (JSON-ready): of the window, or of the
+        part between ``s_range`` ``(s_a, s_b)`` mm (a tube whose ends were cut square
+        inside it), its positions still the window's."""
         p = self.p
-        s = np.linspace(0, p.length_mm, n_s)
+        s_range = s_range or (0.0, p.length_mm)
+        s = np.linspace(*s_range, n_s)
         t = self.frame_times_ms()
         t_fine = np.linspace(0, p.period_ms, n_t_fine, endpoint=False)
         areas = {w: self.area_mm2(w, s[:, None], t[None, :]) for w in WALLS}
-        vol = {w: self.volume_mm3(w, t) for w in WALLS}
-        vol_fine = self.volume_mm3("outer", t_fine)
+        vol = {w: self.volume_mm3(w, t, s_range=s_range) for w in WALLS}
+        vol_fine = self.volume_mm3("outer", t_fine, s_range=s_range)
         t_min = t_fine[np.argmin(vol_fine)]
         t_max = t_fine[np.argmax(vol_fine)]
         expand = ((t_max - t_min) % p.period_ms) / p.period_ms
         myo = vol["outer"] - vol["inner"]
-        myo_fine = vol_fine - self.volume_mm3("inner", t_fine)
+        myo_fine = vol_fine - self.volume_mm3("inner", t_fine, s_range=s_range)
         area_fine = self.area_mm2("outer", s[:, None], t_fine[None, :])
         frac75 = (area_fine >= 0.75 * area_fine.max(axis=1, keepdims=True)).mean(axis=1)
         max_area = {w: (area_fine if w == "outer" else
@@ -523,7 +534,7 @@ class Phantom:
             "ridge_t_ms": ridge.tolist(),
             "wave_speed_mm_s": {   # of the ridge, as oftimg measures them
                 "min": float(c.min()), "max": float(c.max()), "mean": float(c.mean()),
-                "cycle": float(p.length_mm / (ridge[-1] - ridge[0]) * 1e3),
+                "cycle": float((s[-1] - s[0]) / (ridge[-1] - ridge[0]) * 1e3),
             },
             "area_mm2": {w: areas[w].tolist() for w in WALLS},
             "max_area_mm2": {w: max_area[w].tolist() for w in WALLS},
@@ -537,7 +548,7 @@ class Phantom:
             "expand_ms": float(expand * p.period_ms),
             "contract_ms": float((1 - expand) * p.period_ms),
             "expanded_fraction_75": frac75.tolist(),
-            "tube_length_mm": p.length_mm,
+            "tube_length_mm": float(s[-1] - s[0]),
             "band_position_mm": p.band_position_mm,
             "corner_count": p.corners,
         }

@@ -12,9 +12,9 @@ shortening (its tissue traced in every frame), the texture and how it is imaged 
 change through the wall, speckle, attenuation), the voxel size and anisotropy, a
 segmentation's defects (boundary flips, islands, a wall eroded or dilated by a voxel,
 holes and handles in a few frames), the label values and the file format, the tube
-cut by the volume's faces at both ends or going on past one end and ending inside the
-volume (meta.json's "ends" then cut it), and for meshes their roughness and vertex
-counts. :func:`write_scenario` writes it as a
+cut by the volume's faces at both ends (square, or obliquely at 20-50 degrees) or going
+on past one end and ending inside the volume (meta.json's "ends" then cut it), and for
+meshes their roughness and vertex counts. :func:`write_scenario` writes it as a
 dataset folder with ``truth.json`` (the model's answers) and ``scenario.json`` (what
 was drawn).
 """
@@ -52,6 +52,8 @@ RANGES = {
     "real_shortening": (0.0, 0.15),
     # with fronts=True: a one-sided front's lag to the far side, a share of the period
     "side_lag_share": (0.05, 0.25),
+    # label draws cut obliquely by the volume's faces: the angle from square, degrees
+    "oblique_deg": (20.0, 50.0),
 }
 BANDED_SHARE = 0.3          # of the draws: a band
 SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
@@ -59,6 +61,7 @@ DEFECT_SHARE = 0.3          # of the label draws: a defect in one or two frames
 OWN_VALUES_SHARE = 0.5      # of the label draws: values other than 1, 2, 3
 END_INSIDE_SHARE = 0.3      # of the label draws: the tube ends inside the volume at one end
 END_INSIDE_VOXELS = (4, 16)  # how far it goes on past the window's plane there
+OBLIQUE_SHARE = 0.5         # of the other label draws: the faces cut the tube obliquely
 # with fronts=True (the wave-front draws): a helical front in this share of the draws
 # (1 or 2 starts, either hand); a one-sided front in the others, and in this share of
 # the helical ones too
@@ -104,6 +107,9 @@ class Scenario:
     # voxels it goes on; None: the volume's faces cut both ends
     end_inside: str | None = None
     end_inside_voxels: int = 0
+    # label kinds whose tube leaves the volume at both ends: the faces' angle to it
+    # there, from square (degrees; 0: the faces cut it square)
+    oblique_deg: float = 0.0
 
     def as_dict(self) -> dict:
         out = asdict(self)
@@ -119,13 +125,17 @@ def _uniform(rng, name: str) -> float:
 
 
 def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = None,
-                  voxel_um_min: float | None = None, fronts: bool = False) -> Scenario:
+                  voxel_um_min: float | None = None, fronts: bool = False,
+                  oblique: bool | None = None) -> Scenario:
     """The scenario of ``seed`` (the same seed, the same draw): ``kind`` drawn from
     :data:`KINDS` unless given, every number from :data:`RANGES`. ``n_frames`` and
     ``voxel_um_min`` (the finest voxel side drawn) override the draw, for quick runs:
     the rest of the draw is the same. ``fronts``: the wave's fronts are not the
     cross-sections but a helix (:data:`HELIX_SHARE`) or come first on one side, or
-    both (:func:`front_params`); the rest of the draw is the same."""
+    both (:func:`front_params`); the rest of the draw is the same. ``oblique``: a label
+    draw's volume cuts the tube at both ends obliquely (True: at its drawn angle,
+    :data:`RANGES` ``oblique_deg``) or square (False), none ending inside, the rest of
+    the draw the same (a pair for a paired comparison); None: as drawn."""
     rng = np.random.default_rng([seed, 72])
     drawn_kind = KINDS[int(rng.integers(len(KINDS)))]
     kind = drawn_kind if kind is None else kind
@@ -191,13 +201,19 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     end_inside = (str(more.choice(["inlet", "outlet"])) if more.random() < END_INSIDE_SHARE
                   else None)
     end_voxels = int(more.integers(*END_INSIDE_VOXELS)) if end_inside else 0
+    cut = np.random.default_rng([seed, 72, 3])
+    drawn_oblique = cut.random() < OBLIQUE_SHARE
+    angle = _uniform(cut, "oblique_deg")
+    if oblique is not None:
+        end_inside, end_voxels, drawn_oblique = None, 0, oblique
+    oblique = angle if drawn_oblique and not end_inside else 0.0
     if kind == "meshes":
         return Scenario(seed, kind, params)
     if kind == "real":
         return Scenario(seed, kind, params, animation=animation)
     return Scenario(seed, kind, params, voxel, segmentation,
                     texture if kind == "labels+intensity" else None,
-                    end_inside=end_inside, end_inside_voxels=end_voxels)
+                    end_inside=end_inside, end_inside_voxels=end_voxels, oblique_deg=oblique)
 
 
 def front_params(seed: int, period_ms: float) -> dict:
@@ -239,7 +255,7 @@ def write_scenario(scenario: Scenario, out: str | Path, *, real_shape=None,
                             noise=seg.probability_noise if probabilities else seg.flip,
                             probabilities=probabilities,
                             intensity=sc.kind == "labels+intensity", texture=sc.texture,
-                            islands=seg.islands)
+                            islands=seg.islands, oblique_deg=sc.oblique_deg)
         if sc.end_inside:
             _ending_inside(out, sc.end_inside, sc.end_inside_voxels, sc.voxel_um)
         if not probabilities:

@@ -521,3 +521,98 @@ def test_um_voxels_given_as_mm_are_named_as_such(tmp_path, capsys, kind):
     assert line.startswith(f"oftimg: error: {data / kind}: a tube 39")
     assert "meta.json's length_unit right? The voxel sizes look like um" in line
     assert '"length_unit": "um"' in line
+
+
+def transposed_copy(src, dst, meta, *, kind="tif"):
+    """The label dataset ``src`` with every frame saved (x, y, z), as ``kind`` (plain
+    TIFF or npy), and meta.json's entries ``meta`` (None: the key removed)."""
+    import tifffile
+
+    shutil.copytree(src, dst)
+    for path in sorted((dst / "labels").iterdir()):
+        volume = tifffile.imread(path).transpose(2, 1, 0)
+        path.unlink()
+        if kind == "tif":
+            tifffile.imwrite(path, volume)
+        else:
+            np.save(path.with_suffix(".npy"), volume)
+    raw = json.loads((dst / "meta.json").read_text())
+    for key, value in meta.items():
+        raw.pop(key, None) if value is None else raw.update({key: value})
+    (dst / "meta.json").write_text(json.dumps(raw))
+    return dst
+
+
+@pytest.mark.parametrize("kind", ["tif", "npy"])
+def test_volumes_that_name_no_axis_order_need_it_where_voxels_are_not_cubes(
+        label_phantom, tmp_path, capsys, kind):
+    """Frames saved (x, y, z) in files that name no order of their axes, with voxels of
+    8 x 8 x 16 um (issue 83, point 2: read as (z, y, x), a tube twice as long and a
+    speed 85 % high, exit 0): without meta.json's "axes" the run stops in one line that
+    names the file and what to write; with "axes": "xyz" the frames are read as they
+    are meant, the same volumes and areas as the phantom's own files give."""
+    bare = transposed_copy(label_phantom, tmp_path / "bare", {"axes": None}, kind=kind)
+    line = run_fails(capsys, ["run", str(bare), "--out", str(tmp_path / "o"), "--quiet"],
+                     tmp_path / "o")
+    assert line.startswith(f"oftimg: error: {bare / 'labels'}/") and "not cubes" in line
+    assert '"axes": "zyx"' in line and "stretched 4 times" in line
+    said = transposed_copy(label_phantom, tmp_path / "said", {"axes": "xyz"}, kind=kind)
+    assert main(["validate", str(said)]) == 0
+    out = capsys.readouterr().out
+    assert "label volumes (z, y, x) (36, 133, 133), voxel 8 x 8 x 16 um" in out
+    assert "xyz (meta.json" in out
+    assert main(["validate", str(label_phantom)]) == 0
+    own = capsys.readouterr().out
+    rows = [[line for line in text.splitlines() if line.startswith("  outer ")]
+            for text in (out, own)]
+    assert rows[0] == rows[1]
+
+
+def test_cubic_voxels_or_files_that_name_their_axes_need_no_axis_order(label_phantom,
+                                                                        tmp_path):
+    """Voxels that are cubes: a volume read in another order is the same tube mirrored
+    (every number the same); an ImageJ TIFF names its axes. Neither needs "axes"; an
+    "axes" that contradicts the file's own names is refused."""
+    import tifffile
+
+    from oftimg.io.label_dataset import load_label_dataset
+
+    cubes = transposed_copy(label_phantom, tmp_path / "cubes",
+                            {"axes": None, "voxel_size": [8.0, 8.0, 8.0]})
+    assert load_label_dataset(cubes).voxel_size == (8.0, 8.0, 8.0)
+    named = transposed_copy(label_phantom, tmp_path / "named", {"axes": None})
+    for path in sorted((named / "labels").iterdir()):
+        volume = tifffile.imread(path).transpose(2, 1, 0)           # back to (z, y, x)
+        tifffile.imwrite(path, volume, imagej=True, resolution=(1 / 8.0, 1 / 8.0),
+                         metadata={"spacing": 16.0, "unit": "um", "axes": "ZYX"})
+    assert load_label_dataset(named).voxel_size == (8.0, 8.0, 16.0)
+    raw = json.loads((named / "meta.json").read_text())
+    (named / "meta.json").write_text(json.dumps({**raw, "axes": "xyz"}))
+    with pytest.raises(DatasetError, match="names its own axes .* contradicts"):
+        load_label_dataset(named)
+
+
+def test_a_series_whose_file_names_its_axes_wrongly_is_refused_by_its_shape(label_phantom,
+                                                                           tmp_path, capsys):
+    """A (t, x, y, z) array written as an OME-TIFF with the axes TZYX (issue 83, point 2:
+    exit 0, a tube twice as long): read so, the tube's sections are 2-3 times longer
+    one way than the other, round read as (x, y, z); the run stops in one line that
+    says so. The same frames written in their true order pass."""
+    import tifffile
+
+    frames = np.stack([tifffile.imread(p) for p in sorted((label_phantom / "labels").iterdir())])
+    voxel = {"PhysicalSizeX": 8.0, "PhysicalSizeY": 8.0, "PhysicalSizeZ": 16.0,
+             **{f"PhysicalSize{a}Unit": "µm" for a in "XYZ"}}
+    for name, array in (("wrong", frames.transpose(0, 3, 2, 1)), ("right", frames)):
+        data = tmp_path / name
+        (data / "labels").mkdir(parents=True)
+        tifffile.imwrite(data / "labels" / "labels.ome.tif", array, ome=True,
+                         metadata={"axes": "TZYX", **voxel})
+        raw = json.loads((label_phantom / "meta.json").read_text())
+        (data / "meta.json").write_text(json.dumps(
+            {k: v for k, v in raw.items() if k not in ("axes", "voxel_size")}))
+    line = run_fails(capsys, ["run", str(tmp_path / "wrong"), "--out", str(tmp_path / "o"),
+                              "--quiet", "--jobs", "1"], tmp_path / "o")
+    assert line.startswith(f"oftimg: error: {tmp_path / 'wrong' / 'labels' / 'labels.ome.tif'}")
+    assert "read as (x, y, z)" in line and "save it with its axes in their true order" in line
+    assert main(["validate", str(tmp_path / "right")]) == 0

@@ -68,7 +68,8 @@ def load_intensity(path: str | Path, n_frames: int, length_unit: str, raw_meta: 
     if sources is None:
         if not folder.is_dir():
             return None
-        sources = list_label_sources(folder, natural_key, what="intensity volumes")
+        sources = list_label_sources(folder, natural_key, what="intensity volumes",
+                                     axes=raw_meta.get("axes"))
     else:
         folder = Path(sources[0].path).parent
     if len(sources) != n_frames:

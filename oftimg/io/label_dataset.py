@@ -31,18 +31,24 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DatasetError, InputError
-from ..mesh.ends import MARGIN_STEPS, cut_by_plane, largest_piece, square_ends
+from ..mesh.ends import (MARGIN_STEPS, cut_by_plane, largest_piece, section_aspects,
+                         square_ends)
 from ..mesh.labels import (CURVATURE_PROPERTY, MeshOptions, WallMesh, frame_masks, mesh_wall,
                            mesh_walls)
 from ..mesh.topology import MeshError, boundary_loops
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_period, check_voxel_size, is_number,
                       natural_key, read_meta, read_meta_json)
 from .intensity import IntensitySeries, load_intensity
-from .labelfile import (PER_FRAME_SUFFIXES, LabelSource, channel_count, label_suffix,
-                        list_label_sources, read_header, read_volume, series_file)
+from .labelfile import (AXIS_NAMES, PER_FRAME_SUFFIXES, LabelSource, channel_count,
+                        file_names_axes, label_suffix, list_label_sources, read_header,
+                        read_volume, series_file)
 from .meshfile import read_mesh_file, read_vertex_values, write_ply
 
-LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list, "classes": dict, "channels": dict}
+LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list, "classes": dict, "channels": dict,
+                   "axes": str}
+# voxels whose longest side is over this times their shortest: a volume read in the wrong
+# order of its axes is then stretched (this squared along one axis against another)
+CUBE_TOLERANCE = 1.02
 CHANNEL_ROLES = ("labels", "intensity")     # what a stack's channels may hold
 # relative: a file's time step times the frames and meta.json's period_ms agree (a
 # step rounded to 3 digits is within it; a wrong one is not)
@@ -166,8 +172,8 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     path = Path(path)
     if (path / "probabilities").is_dir():
         return _load_probabilities(path)
-    sources = list_label_sources(path / "labels", natural_key)
     raw = read_meta_json(path, LABEL_META_KEYS)
+    sources = list_label_sources(path / "labels", natural_key, axes=_axes(path, raw))
     meta = read_meta(path, LABEL_META_KEYS)
     channels = _channels(path, raw)
     if channels:
@@ -179,6 +185,7 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
             raise DatasetError(f"{source}: {header.dtype} labels; a label volume holds whole "
                                "numbers (0 background), as segmentation tools export it")
     voxel = _voxel_size(path / "labels", meta, raw, sources, headers)
+    check_axis_order(sources[0], voxel, meta.length_unit, raw)
     label_ids = _label_ids(path, raw, sources[0], first.dtype)
     label_ids = check_nesting(path / "labels", sources, label_ids, given="labels" in raw)
     ends = _ends(path, raw, first.shape, voxel)
@@ -189,6 +196,40 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     meta = _with_time_step(meta, sources, headers, intensity)
     return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends,
                         intensity=intensity)
+
+
+def _axes(path: Path, raw: dict) -> str | None:
+    """meta.json's ``axes``: the order of the volume files' axes where the files name
+    none (letters of t, c, z, y, x, each once, z, y and x among them), or None."""
+    axes = raw.get("axes")
+    if axes is None:
+        return None
+    if not (set("zyx") <= set(axes) <= set(AXIS_NAMES) and len(set(axes)) == len(axes)):
+        raise DatasetError(f"{path / 'meta.json'}: \"axes\" {axes[:20]!r}; it gives the order "
+                           "of the volume files' axes as stored, each of z, y, x once (and t, c "
+                           "for a series or a stack), e.g. \"zyx\" or \"xyz\"")
+    return axes
+
+
+def check_axis_order(source, voxel_size, length_unit: str, raw: dict) -> None:
+    """Refuse volumes whose voxels are not cubes in files that name no order of their
+    axes (a plain TIFF, npy, a zarr array, HDF5 without axistags), unless meta.json's
+    ``axes`` says it: read as (z, y, x), a volume saved (x, y, z) is a tube stretched by
+    the voxels' ratio squared along one axis against another, every area, length and
+    speed off, and no other sign (issue 83: a speed 85 % high, a tube twice as long).
+    ``source``: the first frame's (a probabilities frame: its first layer's)."""
+    source = source.layers[0][1] if isinstance(source, ProbabilitySource) else source
+    ratio = max(voxel_size) / min(voxel_size)
+    if "axes" in raw or ratio <= CUBE_TOLERANCE or file_names_axes(source):
+        return
+    sides = " x ".join(f"{d:g}" for d in voxel_size)
+    raise DatasetError(
+        f"{source.path}: its file names no order of its axes and the voxels are not cubes "
+        f"({sides} {length_unit}, x y z): oftimg reads (z, y, x), as napari, scikit-image and "
+        f"tifffile save; a volume saved in another order (x, y, z from MATLAB or ITK) would be "
+        f"a tube stretched {ratio ** 2:.3g} times along one axis against another with no "
+        "error; say the order stored in meta.json: \"axes\": \"zyx\" (or \"xyz\", ...; a "
+        "series file \"tzyx\")")
 
 
 def _channels(path: Path, raw: dict) -> dict:
@@ -265,7 +306,9 @@ def _load_probabilities(path: Path) -> LabelDataset:
                                "probabilities dataset names its layers by its folders (remove "
                                "it)")
     meta = read_meta(path, LABEL_META_KEYS)
-    per_layer = {layer: list_label_sources(folder / layer, natural_key) for layer in layers}
+    axes = _axes(path, raw)
+    per_layer = {layer: list_label_sources(folder / layer, natural_key, axes=axes)
+                 for layer in layers}
     counts = {layer: len(s) for layer, s in per_layer.items()}
     if len(set(counts.values())) > 1:
         raise DatasetError(f"{folder}: its layers have different numbers of frames ("
@@ -273,6 +316,7 @@ def _load_probabilities(path: Path) -> LabelDataset:
     flat, headers, first = _probability_headers(per_layer)
     n = counts["myocardium"]
     voxel = _voxel_size(folder / "myocardium", meta, raw, flat[:n], headers[:n])
+    check_axis_order(flat[0], voxel, meta.length_unit, raw)
     return _probability_dataset(path, folder, meta, raw, per_layer, first, voxel)
 
 
@@ -312,9 +356,10 @@ def _load_class_probabilities(path: Path, folder: Path, files: list[Path]) -> La
     jelly 2, lumen 3 of four channels, the myocardium 1 of two."""
     raw = read_meta_json(path, LABEL_META_KEYS)
     meta = read_meta(path, LABEL_META_KEYS)
-    frames = (list_label_sources(folder, natural_key, "probability volumes")
+    axes = _axes(path, raw)
+    frames = (list_label_sources(folder, natural_key, "probability volumes", axes=axes)
               if len(files) == 1 and files[0] == series_file(folder)
-              else [LabelSource(str(p)) for p in files])
+              else [LabelSource(str(p), axes=axes) for p in files])
     channels = channel_count(frames[0])
     classes = raw.get("classes") or {4: DEFAULT_LABEL_IDS, 2: {"myocardium": 1}}.get(channels)
     where = f"{path / 'meta.json'}: \"classes\""
@@ -336,6 +381,7 @@ def _load_class_probabilities(path: Path, folder: Path, files: list[Path]) -> La
     flat, headers, first = _probability_headers(per_layer)
     n = len(frames)
     voxel = _voxel_size(folder, meta, raw, flat[:n], headers[:n])
+    check_axis_order(flat[0], voxel, meta.length_unit, raw)
     return _probability_dataset(path, folder, meta, raw, per_layer, first, voxel)
 
 
@@ -752,6 +798,7 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     walls = [w for w in ("outer", "inner", "lumen") if w in results[0]["vertices"]]
     squared = None if lds.ends is not None else square_the_ends(lds, out, walls, results,
                                                                 executor)
+    check_axis_geometry(lds, out)
     write_meshed_meta(lds, out)
     return {
         "inputs": {kind: listed_files(paths) for kind, paths in lds.inputs_by_kind().items()},
@@ -794,6 +841,57 @@ def square_the_ends(lds: LabelDataset, out: Path, walls: list[str], results: lis
                            f"line where the volume's face cuts the tube obliquely, {why}; give "
                            "the two cutting planes in meta.json (\"ends\")")
     return [None if end is None else end.as_dict() for end in ends]
+
+
+# a volume is refused as read in the wrong order of its axes when another order makes its
+# outer wall's most stretched sections (their 10th percentile of minor over major axis)
+# rounder by this much, and those read are stretched beyond ROUND_ENOUGH
+ROUNDER_BY, ROUND_ENOUGH = 0.2, 0.7
+
+
+def check_axis_geometry(lds: LabelDataset, out: Path) -> None:
+    """Refuse a volume whose voxels are not cubes and whose tube is far rounder read in
+    another order of its axes than as its file names them (an OME-TIFF of a (t, x, y, z)
+    array written as TZYX: a tube twice as long, exit 0), unless meta.json's ``axes``
+    confirms the order: the middle frame's outer wall, and the same wall as each other
+    order of the array's axes would have placed it (:func:`reordered`), each measured by
+    the 10th percentile of its sections' minor over major axis
+    (:func:`~oftimg.mesh.ends.section_aspects`)."""
+    ratio = max(lds.voxel_size) / min(lds.voxel_size)
+    if "axes" in lds.raw_meta or ratio <= CUBE_TOLERANCE:
+        return
+    V, F = read_mesh_file(out / "outer" / lds.mesh_names()[lds.n_frames // 2])
+    given = _roundness(V, F)
+    others = {order: _roundness(reordered(V, lds.voxel_size, order), F)
+              for order in ("xyz", "yxz", "xzy", "yzx", "zxy")}       # the likeliest first
+    best = max(others.values())
+    order = next(o for o, r in others.items() if r >= best - 0.02)   # mirrors tie
+    if not (given < ROUND_ENOUGH and best > given + ROUNDER_BY):
+        return
+    raise DatasetError(
+        f"{lds.sources[0].path}: read as its file names its axes, the tube's sections are "
+        f"{1 / given:.2g} times longer one way than the other (10th percentile; {1 / best:.2g} "
+        f"read as ({', '.join(order)})), as a volume whose axes are named in the wrong order "
+        f"gives with voxels of {' x '.join(f'{d:g}' for d in lds.voxel_size)} "
+        f"{lds.meta.length_unit}: save it with its axes in their true order; if the order is "
+        f"right, say so in meta.json: \"axes\": \"zyx\"")
+
+
+def _roundness(V: np.ndarray, F: np.ndarray) -> float:
+    """The 10th percentile of a tube's sections' minor over major axis (1 for none)."""
+    aspects = section_aspects(V, F)
+    return float(np.percentile(aspects, 10)) if len(aspects) >= 4 else 1.0
+
+
+def reordered(V: np.ndarray, voxel_size, order: str) -> np.ndarray:
+    """Points ``V (n, 3)`` (x, y, z) of a volume read as (z, y, x) with voxels
+    ``voxel_size`` (dx, dy, dz), where they would lie had its array's axes been
+    ``order`` (a permutation of "zyx", the array's first axis first)."""
+    d = dict(zip("xyz", np.asarray(voxel_size, float)))
+    out = np.empty_like(V, dtype=float)
+    for read, true in zip("zyx", order):            # each array axis: read as, meant as
+        out[:, "xyz".index(true)] = V[:, "xyz".index(read)] / d[read] * d[true]
+    return out
 
 
 def cut_frame(out: str, mesh_name: str, walls: list[str], planes: list) -> str | None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +50,7 @@ class LabelSource:
     path: str
     index: int | None = None
     channel: int | None = None        # of an HDF5 export's channel axis (ilastik's classes)
+    axes: str | None = None           # meta.json's "axes": the file's, where it names none
 
     def __str__(self) -> str:
         where = [] if self.index is None else [f"frame {self.index}"]
@@ -102,17 +103,18 @@ def series_file(folder: Path) -> Path | None:
     return found[0] if found else None
 
 
-def list_label_sources(folder: Path, natural_key, what: str = "label volumes"
-                       ) -> list[LabelSource]:
+def list_label_sources(folder: Path, natural_key, what: str = "label volumes",
+                       axes: str | None = None) -> list[LabelSource]:
     """The frames of a ``labels/`` folder (or another of volumes, ``what`` they are)
     in time order: each frame of its 4-D file, or its per-frame files in natural
-    order (one format only)."""
+    order (one format only). ``axes``: meta.json's order of the files' axes, for files
+    that name none (:func:`file_names_axes`)."""
     series = series_file(folder)
     if series is not None:
         _check_kind(series)
         with _read_as(series, "a 4-D series"):
-            n_t = _series_shape(series)[0]
-        return [LabelSource(str(series), t) for t in range(n_t)]
+            n_t = _series_shape(series, axes)[0]
+        return [LabelSource(str(series), t, axes=axes) for t in range(n_t)]
     files = sorted((p for p in folder.iterdir() if not p.name.startswith(".")
                     and label_suffix(p) in PER_FRAME_SUFFIXES),
                    key=lambda p: natural_key(p.name))
@@ -124,7 +126,7 @@ def list_label_sources(folder: Path, natural_key, what: str = "label volumes"
     if len(kinds) > 1:
         raise DatasetError(f"{folder}: mixes {' and '.join(kinds)} files; a series is one "
                            "format, so that the frames' order is plain")
-    return [LabelSource(str(p)) for p in files]
+    return [LabelSource(str(p), axes=axes) for p in files]
 
 
 def read_header(source: LabelSource) -> VolumeHeader:
@@ -140,7 +142,7 @@ def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
     """:func:`read_header` by the file's own reader (its errors unwrapped)."""
     kind = label_suffix(path)
     if kind in AXES_SUFFIXES:
-        with _axes_array(path) as arr:
+        with _axes_array(path, source.axes) as arr:
             _check_axes_frame(arr, source)
             shape = tuple(int(arr.data.shape[arr.axes.index(a)]) for a in "zyx")
             step = arr.time_step_ms if source.index is not None else None
@@ -151,18 +153,25 @@ def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
         return VolumeHeader(shape, img.header.get_data_dtype(), _nifti_voxel(img))
     if kind == ".npy":
         arr = np.load(path, mmap_mode="r")
-        return VolumeHeader(_three_d(arr.shape, path), arr.dtype, None)
+        return VolumeHeader(_to_zyx(_three_d(arr.shape, path), _frame_axes(source, path)),
+                            arr.dtype, None)
     import tifffile
     with tifffile.TiffFile(path) as tif:
+        if tif.is_ome or tif.is_imagej:
+            _no_axes_given(source, tif.series[0].axes,
+                           "its OME-XML" if tif.is_ome else "its ImageJ metadata")
         if source.index is not None or _tiff_has_channels(tif):
             shape = _tiff_series_layout(tif, source)[0]
             step = _tiff_time_step(tif) if source.index is not None else None
-            return VolumeHeader(tuple(shape[1:]), tif.series[0].dtype, _tiff_voxel(tif), step)
+            return VolumeHeader(_to_zyx(shape[1:], _frame_axes(source, path)),
+                                tif.series[0].dtype, _tiff_voxel(tif), step)
         shaped = _shaped_shape(tif)
         if shaped is not None:                         # tifffile's own: no page parsed
-            return VolumeHeader(_three_d(shaped, path), tif.pages.first.dtype, _tiff_voxel(tif))
+            return VolumeHeader(_to_zyx(_three_d(shaped, path), _frame_axes(source, path)),
+                                tif.pages.first.dtype, _tiff_voxel(tif))
         series = tif.series[0]
-        return VolumeHeader(_three_d(series.shape, path), series.dtype, _tiff_voxel(tif))
+        return VolumeHeader(_to_zyx(_three_d(series.shape, path), _frame_axes(source, path)),
+                            series.dtype, _tiff_voxel(tif))
 
 
 def _shaped_shape(tif) -> tuple[int, ...] | None:
@@ -196,20 +205,24 @@ def describe_format(source: LabelSource) -> dict:
     carries = {"file_voxel_size": header.voxel_size_mm is not None,
                "file_time_step": header.time_step_ms is not None}
     if kind in AXES_SUFFIXES:
-        with _read_as(source, "a volume"), _axes_array(path) as arr:
+        with _read_as(source, "a volume"), _axes_array(path, source.axes) as arr:
             return {"format": f"{arr.format}, {where}", "axes": f"{arr.axes} ({arr.said})",
                     **carries}
     if kind in (".nii", ".nii.gz"):
         return {"format": f"NIfTI, {where}", "axes": "xyz (its header), turned to zyx",
                 **carries}
     if kind == ".npy":
-        return {"format": f"npy, {where}", "axes": "zyx (as oftimg reads npy)", **carries}
+        axes = (f"{source.axes} (meta.json), turned to zyx" if source.axes
+                else "zyx (as oftimg reads npy)")
+        return {"format": f"npy, {where}", "axes": axes, **carries}
     import tifffile
     with _read_as(source, "a TIFF"), tifffile.TiffFile(path) as tif:
         name = "OME-TIFF" if tif.is_ome else "ImageJ TIFF" if tif.is_imagej else "TIFF"
         if tif.is_ome or tif.is_imagej:
             axes = tif.series[0].axes.lower()
             said = "its OME-XML" if tif.is_ome else "its ImageJ metadata"
+        elif source.axes:
+            axes, said = source.axes, "meta.json"
         else:                                   # tifffile's letters say nothing: Q, I
             axes, said = ("tzyx" if series else "zyx"), "as oftimg reads a plain TIFF"
     return {"format": f"{name}, {where}", "axes": f"{axes} ({said})", **carries}
@@ -269,11 +282,12 @@ def _read_volume(source: LabelSource, path: Path) -> np.ndarray:
     """:func:`read_volume` by the file's own reader (its errors unwrapped)."""
     kind = label_suffix(path)
     if kind in AXES_SUFFIXES:
-        with _axes_array(path) as arr:
+        with _axes_array(path, source.axes) as arr:
             return _axes_frame(arr, source)
     if kind == ".npy":
         data = np.load(path, mmap_mode="r")
-        return np.asarray(data).reshape(_three_d(data.shape, path))
+        return _as_zyx(np.asarray(data).reshape(_three_d(data.shape, path)),
+                       _frame_axes(source, path))
     if kind in (".nii", ".nii.gz"):
         data = np.asanyarray(_nifti(path).dataobj)
         return np.ascontiguousarray(data.reshape(data.shape[:3]).transpose(2, 1, 0))
@@ -281,9 +295,70 @@ def _read_volume(source: LabelSource, path: Path) -> np.ndarray:
     with tifffile.TiffFile(path) as tif:
         if source.index is not None or _tiff_has_channels(tif):
             shape, pages = _tiff_series_layout(tif, source)
-            return tif.asarray(key=pages[source.index or 0].tolist()).reshape(shape[1:])
-        data = tif.asarray()
-    return data.reshape(_three_d(data.shape, path))
+            data = tif.asarray(key=pages[source.index or 0].tolist()).reshape(shape[1:])
+        else:
+            data = tif.asarray()
+            data = data.reshape(_three_d(data.shape, path))
+    return _as_zyx(data, _frame_axes(source, path))
+
+
+def _frame_axes(source: LabelSource, path: Path) -> str:
+    """The order of a frame's spatial axes as stored in a file that names none:
+    meta.json's ``axes`` (its z, y and x; a series file's t, if given, first), else
+    (z, y, x)."""
+    if source.axes is None:
+        return "zyx"
+    if "c" in source.axes or ("t" in source.axes and source.axes[0] != "t"):
+        raise DatasetError(f"{path}: meta.json's \"axes\" {source.axes!r} for a file that "
+                           "names none of its own: z, y, x in the order stored, a series' t "
+                           "first, e.g. \"xyz\" or \"txyz\"")
+    return _spatial(source.axes)
+
+
+def _spatial(axes: str) -> str:
+    """The order of z, y and x among ``axes``."""
+    return "".join(a for a in axes if a in "zyx")
+
+
+def _to_zyx(shape, stored: str) -> tuple[int, int, int]:
+    """A frame's ``shape`` in the ``stored`` order of its axes as ``(z, y, x)``."""
+    return tuple(int(shape[stored.index(a)]) for a in "zyx")
+
+
+def _as_zyx(volume: np.ndarray, stored: str) -> np.ndarray:
+    """A frame's volume in the ``stored`` order of its axes turned to ``(z, y, x)``."""
+    if stored == "zyx":
+        return volume
+    return np.ascontiguousarray(np.transpose(volume, [stored.index(a) for a in "zyx"]))
+
+
+def _no_axes_given(source: LabelSource, own: str, said: str) -> None:
+    """Refuse meta.json's ``axes`` for a file that names its own (``own``, as ``said``)
+    in another order of z, y and x."""
+    if source.axes is not None and _spatial(source.axes.lower()) != _spatial(own.lower()):
+        raise DatasetError(f"{source.path}: names its own axes ({said}: {own}), which "
+                           f"meta.json's \"axes\" {source.axes!r} contradicts; \"axes\" is for "
+                           "files that name none (a plain TIFF, npy, a zarr array, HDF5 "
+                           "without axistags): remove it")
+
+
+def file_names_axes(source: LabelSource) -> bool:
+    """Whether a frame's file says which of its axes is which: an OME-TIFF, an ImageJ
+    TIFF, NIfTI, an OME-Zarr image, HDF5 with ilastik's axistags; not a plain TIFF,
+    npy, a zarr array or HDF5 without axistags (oftimg takes (z, y, x) there)."""
+    path = Path(source.path)
+    kind = label_suffix(path)
+    if kind in (".nii", ".nii.gz"):
+        return True
+    if kind == ".npy":
+        return False
+    with _read_as(source, "a volume"):
+        if kind in AXES_SUFFIXES:
+            with _axes_array(path) as arr:
+                return not arr.said.startswith(_UNNAMED)
+        import tifffile
+        with tifffile.TiffFile(path) as tif:
+            return bool(tif.is_ome or tif.is_imagej)
 
 
 def _three_d(shape, path: Path) -> tuple[int, int, int]:
@@ -298,21 +373,22 @@ def _three_d(shape, path: Path) -> tuple[int, int, int]:
     return dims
 
 
-def _series_shape(path: Path) -> tuple[int, int, int, int]:
-    """``(t, z, y, x)`` of a 4-D file."""
+def _series_shape(path: Path, axes: str | None = None) -> tuple[int, int, int, int]:
+    """``(t, z, y, x)`` of a 4-D file (``axes``: meta.json's, where it names none)."""
     if label_suffix(path) in AXES_SUFFIXES:
-        with _axes_array(path) as arr:
+        with _axes_array(path, axes) as arr:
             if "t" not in arr.axes:
                 raise DatasetError(f"{path}: axes {arr.axes} ({arr.said}) have no time; the "
                                    "series file holds every frame, axes t, z, y, x")
             return tuple(int(arr.data.shape[arr.axes.index(a)]) for a in "tzyx")
     import tifffile
     with tifffile.TiffFile(path) as tif:
-        shape = _tiff_series_layout(tif, LabelSource(str(path), 0), probe=True)[0]  # any channel
+        source = LabelSource(str(path), 0, axes=axes)
+        shape = _tiff_series_layout(tif, source, probe=True)[0]      # any channel
     if len(shape) != 4:
         raise DatasetError(f"{path}: a {len(shape)}-D array of shape {tuple(shape)}; "
                            "the series file is 4-D, axes (t, z, y, x)")
-    return tuple(int(n) for n in shape)
+    return (int(shape[0]),) + _to_zyx(shape[1:], _frame_axes(source, path))
 
 
 def channel_count(source: LabelSource) -> int:
@@ -464,18 +540,35 @@ def _ome_voxel(tif) -> tuple[float, float, float] | None:
     return tuple(sizes)
 
 
+# an AxesArray's ``said`` where its file names no axes (oftimg's default order)
+_UNNAMED = ("as oftimg reads", "ilastik order")
+
+
 @contextlib.contextmanager
-def _axes_array(path: Path):
+def _axes_array(path: Path, given: str | None = None):
     """The :class:`AxesArray` of an HDF5 file or a zarr store, open for as long as
-    the ``with`` lasts."""
+    the ``with`` lasts; ``given``: meta.json's ``axes``, for an array that names none
+    (refused for one that does)."""
     if label_suffix(path) == ".zarr":
-        yield _zarr_array(path)
+        yield _given_axes(_zarr_array(path), given, path)
         return
     with _hdf5(path) as data:
         tagged = "axistags" in data.attrs
-        yield AxesArray(data, hdf5_axes(data, path), None, None,
-                        "its axistags" if tagged else "ilastik order, no axistags",
-                        f"HDF5 ({data.name.lstrip('/')})")
+        yield _given_axes(AxesArray(data, hdf5_axes(data, path), None, None,
+                                    "its axistags" if tagged else "ilastik order, no axistags",
+                                    f"HDF5 ({data.name.lstrip('/')})"), given, path)
+
+
+def _given_axes(arr: AxesArray, given: str | None, path: Path) -> AxesArray:
+    """``arr`` with meta.json's ``given`` axes where its file names none."""
+    if given is None:
+        return arr
+    if not arr.said.startswith(_UNNAMED):
+        _no_axes_given(LabelSource(str(path), axes=given), arr.axes, arr.said)
+        return arr
+    if len(given) + 1 == arr.data.ndim and "t" not in given:
+        given = "t" + given                                   # a series: its frames first
+    return replace(arr, axes=_checked_axes(given, arr.data.shape, path), said="meta.json")
 
 
 def _check_axes_frame(arr: AxesArray, source: LabelSource) -> None:

@@ -154,7 +154,7 @@ def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *,
         tangent = -tangent
     h = radius / 3
     for _ in range(rounds):
-        clear = float(np.max((rim - point) @ tangent)) + margin
+        clear = float(np.max((rim - point) @ tangent)) + margin + 0.01 * radius
         origins = point + tangent * (clear + h * np.arange(3)[:, None])
         contours = planes_contours(V, F, origins, np.stack([tangent] * 3))
         found = [_nearest_closed(c, o) for c, o in zip(contours, origins)]
@@ -225,3 +225,47 @@ def square_ends(reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.nda
         ends.append(SquareEnd(tuple(map(float, at)), tuple(map(float, tangent)), oblique,
                               reach + margin - meets))
     return ends
+
+
+def section_aspects(V: np.ndarray, F: np.ndarray, *, sections: int = 12) -> np.ndarray:
+    """How round an open tube is along its length: the minor over the major axis of
+    about ``sections`` sections square to its centre line, evenly along it from a rim
+    towards the other (from each section's second moments), ``(k,)`` in (0, 1]; fewer
+    where the tube is too bent to trace, none where no section comes whole. For telling
+    a volume read in the wrong order of its axes (its sections stretched along one
+    axis) from a true one.
+
+    The centre line is traced from each rim in turn (the longer trace kept): from its
+    first whole section (:func:`end_axis`) in steps of a twelfth of the rims' distance,
+    each section square to the line through the last two centroids."""
+    loops = [V[loop] for loop in boundary_loops(F)]
+    if len(loops) != 2:
+        return np.empty(0)
+    traces = [_traced(V, F, start, far, sections) for start, far in (loops, loops[::-1])]
+    return max(traces, key=len)
+
+
+def _traced(V, F, start: np.ndarray, far: np.ndarray, sections: int) -> np.ndarray:
+    """:func:`section_aspects` from the rim ``start`` towards the rim ``far``."""
+    axis = end_axis(V, F, start, 0.0)
+    if axis is None:
+        return np.empty(0)
+    point, tangent = axis
+    end = loop_centroid(far)
+    step = float(np.linalg.norm(end - point)) / sections
+    aspects, previous = [], None
+    for _ in range(2 * sections):
+        contours = planes_contours(V, F, point[None], tangent[None])[0]
+        closed = [C for C, whole in contours if whole and len(C) > 2]
+        if not closed:
+            break
+        C = min(closed, key=lambda c: float(np.linalg.norm(_area_centroid(c) - point)))
+        centre = _area_centroid(C)
+        moments = np.linalg.eigvalsh(np.cov((C - centre).T))[1:]      # in-plane pair
+        aspects.append(float(np.sqrt(max(moments[0], 0.0) / moments[1])))
+        if previous is not None:
+            tangent = (centre - previous) / np.linalg.norm(centre - previous)
+        previous, point = centre, centre + step * tangent
+        if float(np.linalg.norm(end - centre)) < 1.5 * step:
+            break
+    return np.array(aspects)

@@ -298,7 +298,7 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
             progress(k + 1)
     inlet_um = (ph.frame_axes(0.0)[0] @ grid.turn + grid.shift) * 1e3
     meta = {"name": name or out.name, "group": params.group, "period_ms": params.period_ms,
-            "length_unit": "um", "voxel_size": list(voxel),
+            "length_unit": "um", "voxel_size": list(voxel), "axes": "zyx",
             **({} if probabilities else {"labels": LABEL_VALUES}),
             "inlet": [round(float(x), 6) for x in inlet_um]}
     (out / "meta.json").write_text(json.dumps(meta, indent=2))

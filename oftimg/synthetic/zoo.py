@@ -348,6 +348,10 @@ def _segmented(folder: Path, seg: Segmentation, voxel_um) -> None:
         path.unlink()
     meta = json.loads((folder / "meta.json").read_text())
     meta["labels"] = dict(seg.values)
+    # the order of the files' axes where they name none (an ImageJ TIFF and NIfTI do)
+    meta.pop("axes", None)
+    meta.update({"tif": {"axes": "zyx"}, "npy": {"axes": "zyx"},
+                 "zarr": {"axes": "tzyx"}}.get(seg.file_format, {}))
     _write_labels(folder / "labels", volumes, seg.file_format, voxel_um,
                   [p.stem for p in frames])
     (folder / "meta.json").write_text(json.dumps(meta, indent=2))

@@ -598,3 +598,23 @@ def test_a_wave_faster_than_the_frames_is_said_to_be(speed, limited):
     notes = [n for n in summary["image_analysis_notes"] if "limit of the frame rate" in n]
     assert (len(notes) == 1) == limited
     assert (crossing < FRAME_LIMITED_CROSSING) == limited
+
+
+def test_a_map_whose_areas_barely_change_has_no_wave_to_time():
+    """A wave that moves the ring's parts in turn (a helix on the wall) leaves each
+    section's area all but constant: a map whose rows swing by 1 % holds no wave, even
+    where a ridge can be found in it (issue 83, point 4: a helical phantom gave -8.7 mm/s
+    and a 58 % expansion share); no speed, said in one note that points to the wall."""
+    s = np.linspace(0, 1.2, 40)
+    arrival = 1e3 * s / 12.0
+    travelling = hump_map(arrival, 360.0, 60)
+    flat = 1 + 0.01 * (travelling - travelling.min()) / np.ptp(travelling)    # 0.99 %
+    for area, moves in ((travelling, True), (flat, False)):
+        arrays, summary = analyse_area_maps({"outer": area}, s, 360.0)
+        assert summary["area_wave"] is moves
+        speeds = summary["wave_speed_mm_s"]
+        assert bool(np.isfinite(speeds["cycle"])) is moves
+        said = [n for n in summary["image_analysis_notes"] if "holds no wave" in n]
+        assert bool(said) is not moves
+    assert "change by 0.99 % over the beat" in said[0] and "wave_fronts" in said[0]
+    assert summary["area_swing"] == pytest.approx(0.01 / 1.01, rel=0.02)

@@ -281,3 +281,22 @@ def test_the_wave_s_helix_angle_and_speed_are_tested_between_groups():
     assert rows["front_helix_angle_deg"]["helical_n"] == 4
     assert rows["front_helix_angle_deg"]["p_holm"] >= rows["front_helix_angle_deg"]["p_value"]
     assert np.isnan(rows["front_earliest_s_mm"]["p_value"])            # shown, not tested
+
+
+def test_table1_says_why_an_embryo_without_an_area_wave_has_no_speed():
+    """An embryo whose sections' areas barely change (a helical wave) has its speeds and
+    expansion share blank in Table 1, and the note names it, says why and where its wave
+    is measured (issue 83, point 4)."""
+    def embryo(name, moves):
+        speed = 12.0 if moves else None
+        return {"name": name, "group": "normal", "period_ms": 300.0, "area_wave": moves,
+                "expand_fraction": 0.4 if moves else None,
+                "wave_speed_mm_s": {"min": speed, "max": speed, "mean": speed, "std": speed,
+                                    "cycle": speed}}
+    header, body, note = table1_layout([embryo("A", True), embryo("H", False)])
+    column = {name: k for k, name in enumerate(header)}
+    rows = {row[0]: row for row in body}
+    assert rows["H"][column["Speed cycle (mm/s)"]] == rows["H"][column["Expand (%)"]] == "–"
+    assert rows["A"][column["Speed cycle (mm/s)"]] != "–"
+    assert "H: the sections' areas change by under 2 % over the beat" in note
+    assert "A:" not in note and "front_speed_mm_s" in note

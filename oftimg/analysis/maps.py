@@ -7,8 +7,8 @@ import numpy as np
 
 from ..image.band import detect_band, neck_depth
 from ..image.gradient import area_rates
-from ..image.kymograph import (RESOLVED_ROW_SHARE, STILL_ROW_SHARE, auto_ridge_smoothing,
-                               noise_colour, speed_spread)
+from ..image.kymograph import (AREA_WAVE_MIN_SWING, RESOLVED_ROW_SHARE, STILL_ROW_SHARE,
+                               auto_ridge_smoothing, noise_colour, speed_spread)
 from ..image.masks import expanded_75, expanded_sigma
 from .uncertainty import speed_band_95
 
@@ -109,7 +109,13 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
               for w, k in filled.items() if k]
     expand_rate, contract_rate = area_rates(area["outer"], period_ms / n_t)
     knee, sd = speeds["knee"], spread["speeds"]
-    if spread["synchronous"]:
+    if spread["no_area_wave"]:
+        notes.append(f"the sections' areas change by {100 * spread['swing']:.2g} % over the "
+                     f"beat (median row), under {100 * AREA_WAVE_MIN_SWING:g} %: the area map "
+                     "holds no wave to time, so no wave speed and no expansion share are "
+                     "given from it (a helical wave leaves each section's area all but "
+                     "constant); the wave on the wall is in wave_fronts")
+    elif spread["synchronous"]:
         notes.append(f"the ridge's slope along the tube, {spread['ridge_slope_ms_per_mm']:.3g} "
                      f"± {spread['ridge_slope_noise_sd_ms_per_mm']:.2g} ms/mm, is consistent "
                      "with none within the map's noise: the tube contracts at once "
@@ -122,7 +128,7 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
                      "the wave speeds are given without their spread")
     still = int(np.count_nonzero(spread["still_rows"]))
     summary["ridge_rows_bridged"] = still
-    if still:
+    if still and not spread["no_area_wave"]:
         notes.append(f"{still} rows of the outer map barely move (area swing under "
                      f"{STILL_ROW_SHARE:.0%} of the median row's, as at a band's neck): their "
                      "time of maximum area is not the wave's, so the wave speeds bridge them "
@@ -149,6 +155,8 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     arrays["ridge_bridged"] = spread["still_rows"].astype(np.uint8)
     arrays["area_noise_sd_outer_mm2"] = spread["noise_sd"]
     summary["wave_synchronous_within_noise"] = spread["synchronous"]
+    summary["area_wave"] = not spread["no_area_wave"]
+    summary["area_swing"] = spread["swing"]
     summary["ridge_slope_ms_per_mm"] = spread["ridge_slope_ms_per_mm"]
     summary["ridge_slope_noise_sd_ms_per_mm"] = spread["ridge_slope_noise_sd_ms_per_mm"]
     summary["wave_speed_mm_s"] = speeds["summary"]

@@ -522,6 +522,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
     arrays.update(map_arrays)
     summary.update(map_summary)
+    if not map_summary["area_wave"]:     # the areas all but constant: no beat to share out
+        summary.update(dict.fromkeys(("expand_fraction", "contract_fraction",
+                                      "expand_contract_ratio", "expand_ms", "contract_ms")))
     # 8. the cross-sections' shape modes at maximum expansion
     tick = time.perf_counter()
     n_t = ds.n_frames

@@ -52,6 +52,11 @@ STILL_ROW_SHARE = 0.7
 # -338 +- 190 mm/s before this check)
 SYNCHRONOUS_SDS = 2.0
 SYNCHRONOUS_FRAMES = 0.25
+# a map whose median row swings over the cycle by under this share of its largest area
+# holds no wave to time: a helical wave on the wall moves the ring's parts in turn and
+# leaves each section's area all but constant (0.6 % on a helical phantom, whose ridge
+# gave -8.7 mm/s and a 58 % expansion share); the wave on the wall is timed instead
+AREA_WAVE_MIN_SWING = 0.02
 
 
 def _check_map(area: np.ndarray, s_mm: np.ndarray | None = None) -> np.ndarray:
@@ -369,6 +374,17 @@ def ridge_slope(s_mm: np.ndarray, ridge_t_ms: np.ndarray) -> float:
     return float((ds * (t - t.mean())).sum() / (ds * ds).sum())
 
 
+def area_swing(area: np.ndarray) -> float:
+    """How much a ``(n_v, n_t)`` map's rows change over the cycle: the median row's
+    (largest - smallest) / largest (0 for a map without finite rows)."""
+    a = np.asarray(area, float)
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)               # all-NaN rows
+        swing = (np.nanmax(a, axis=1) - np.nanmin(a, axis=1)) / np.nanmax(a, axis=1)
+    swing = swing[np.isfinite(swing)]
+    return float(np.median(swing)) if swing.size else 0.0
+
+
 def is_synchronous(slope: float, slope_sd: float, length_mm: float, frame_ms: float) -> bool:
     """Whether a ridge of ``slope`` (ms/mm) with noise ``slope_sd`` is consistent with
     no wave at all: within :data:`SYNCHRONOUS_SDS` SDs of 0, or the whole
@@ -420,7 +436,9 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     frame (a shape the grid follows badly) are not in the spread. ``synchronous``:
     the ridge's slope along the tube (``ridge_slope_ms_per_mm``, its spread
     ``ridge_slope_noise_sd_ms_per_mm``) is consistent with no wave
-    (:func:`is_synchronous`); every measured speed is then NaN. The speeds are
+    (:func:`is_synchronous`); every measured speed is then NaN, as where the map's
+    ``swing`` (:func:`area_swing`) is under :data:`AREA_WAVE_MIN_SWING` (``no_area_wave``:
+    no wave of the areas to time). The speeds are
     measured on the ridge with its ``still_rows (n_v,)`` (:func:`still_rows`: a neck
     that barely moves) bridged (:func:`bridged_ridge`); ``ridge`` is the map's own.
     ``resolved_rows
@@ -450,7 +468,9 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     s = np.asarray(s_mm, float)
     synchronous = is_synchronous(slope, slope_sd, float(s.max() - s.min()),
                                  period_ms / area.shape[1])
-    if synchronous:
+    swing = area_swing(area)
+    no_area_wave = swing < AREA_WAVE_MIN_SWING
+    if synchronous or no_area_wave:
         measured = no_wave(len(s))
     local_sd = _resolved_spread(np.array([d["local"] for d in draws_speeds]), measured["local"])
     # the statistics over the rows the noise resolves (all with a speed when the noise
@@ -462,6 +482,7 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     scalars = _speed_values(measured, rows)
     values = np.array([list(_speed_values(d, rows).values()) for d in draws_speeds])
     return {"ridge": ridge, "measured": measured, "synchronous": synchronous,
+            "swing": swing, "no_area_wave": no_area_wave,
             "ridge_slope_ms_per_mm": slope, "ridge_slope_noise_sd_ms_per_mm": slope_sd,
             "noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
             "local_speed_mm_s": local_sd, "resolved_rows": rows, "still_rows": still,
@@ -486,7 +507,7 @@ def auto_ridge_smoothing(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *
         spread = speed_spread(area, s_mm, period_ms, smoothing_ms=sigma)
         if not np.isfinite(spread["noise_sd"]).any():
             return float(ladder[0]), spread
-        if spread["synchronous"]:                     # no wave: no speeds to resolve
+        if spread["synchronous"] or spread["no_area_wave"]:   # no wave: no speeds to resolve
             break
         with np.errstate(divide="ignore", invalid="ignore"):
             relative = spread["local_speed_mm_s"] / np.abs(spread["measured"]["local"])

@@ -277,6 +277,11 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                      "value": summary["pullbacks"]})
     spread = summary.get("wave_speed_noise_sd_mm_s") or {}
     band = summary.get("wave_speed_band_95_mm_s") or {}
+    if summary.get("area_wave") is False:
+        rows.append({"quantity": "wave in the area map (its speeds, the expansion share)",
+                     "value": f"none to time: the sections' areas change by "
+                              f"{100 * summary['area_swing']:.2g} % over the beat (median row); "
+                              "the wave on the wall is below"})
     for k, v in (summary.get("wave_speed_mm_s") or {}).items():
         if k == "rows_used":
             rows.append({"quantity": "rows of the ridge whose local speed the noise resolves",

@@ -447,6 +447,15 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
         note += (" " if note else "") + POOR_NOTE.format(share=SPREAD_NOTE_SHARE)
     if blank:
         note += (" " if note else "") + NO_VALUE_NOTE
+    flat = [s["name"] for s in summaries if s.get("area_wave") is False]
+    if flat:
+        from ..image.kymograph import AREA_WAVE_MIN_SWING
+
+        note += (f" {', '.join(map(str, flat))}: the sections' areas change by under "
+                 f"{100 * AREA_WAVE_MIN_SWING:g} % over the beat (a helical wave moves the "
+                 "ring's parts in turn), so the area map holds no wave to time and the speeds "
+                 "and expansion share are blank; the wave on the wall is in cohort.csv "
+                 "(front_speed_mm_s, front_helix_angle_deg) and on the embryo's page.")
     note += (" " if note else "") + ROUNDING_NOTE
     return header, body, note
 

@@ -244,9 +244,9 @@ def test_ome_zarr_probabilities_by_class_and_intensity_beside_them(textured, tmp
     assert np.array_equal(read.intensity.volume(4), intensity[4].astype(np.float32))
     assert main(["validate", str(data)]) == 0
     out = capsys.readouterr().out
-    assert ("OME-Zarr 0.5, one file for every frame; axes tczyx (its OME-Zarr 0.5 "
+    assert ("OME-Zarr 0.5, one file holding every frame; axes tczyx (its OME-Zarr 0.5 "
             "multiscales); voxel size from the files' headers") in out
-    assert ("intensity: OME-Zarr 0.4, one file for every frame; axes tzyx (its OME-Zarr 0.4 "
+    assert ("intensity: OME-Zarr 0.4, one file holding every frame; axes tzyx (its OME-Zarr 0.4 "
             "multiscales)") in out
 
 
@@ -258,7 +258,7 @@ def test_validate_says_where_the_voxel_size_period_and_channels_came_from(textur
     (data / "meta.json").write_text(json.dumps(meta))
     assert main(["validate", str(data)]) == 0
     out = capsys.readouterr().out
-    assert ("OME-TIFF, one file for every frame; axes tzcyx (its OME-XML); voxel size from "
+    assert ("OME-TIFF, one file holding every frame; axes tzcyx (its OME-XML); voxel size from "
             "the files' headers") in out
     assert "channels: intensity 0, labels 1 (meta.json)" in out
     assert "period: 330 ms (labels.ome.tif's time step 55 ms x 6 frames)" in out

@@ -202,7 +202,7 @@ def test_validate_says_each_inputs_format_axes_and_voxel_size(maps, tmp_path, ca
     ilastik_export(maps, tmp_path / "pm", series=True)
     assert main(["validate", str(tmp_path / "pm")]) == 0
     out = capsys.readouterr().out
-    assert ("HDF5 (exported_data), one file for every frame; axes tzyxc (its axistags); "
+    assert ("HDF5 (exported_data), one file holding every frame; axes tzyxc (its axistags); "
             "voxel size from meta.json") in out
     assert main(["validate", str(maps)]) == 0
     assert "TIFF, one file per frame; axes zyx" in capsys.readouterr().out

@@ -57,7 +57,10 @@ def test_probability_maps_through_run(maps, tmp_path, capsys):
     assert main(["validate", str(maps)]) == 0
     assert "probability maps (z, y, x)" in capsys.readouterr().out
     out = tmp_path / "res"
-    assert main(["run", str(maps), "--out", str(out), "--quiet", "--jobs", "2"]) == 0
+    with pytest.warns(Warning) as caught:
+        assert main(["run", str(maps), "--out", str(out), "--quiet", "--jobs", "2"]) == 0
+    said = " ".join(str(w.message) for w in caught)          # its own kind, not labels'
+    assert "curvature fields from probability maps" in said and "label volumes" not in said
     summary = json.loads((out / "pm" / "summary.json").read_text())
     meshing = summary["provenance"]["meshing"]
     assert meshing["kind"] == "probabilities" and meshing["label_repairs"] == []
@@ -206,3 +209,31 @@ def test_validate_says_each_inputs_format_axes_and_voxel_size(maps, tmp_path, ca
             "voxel size from meta.json") in out
     assert main(["validate", str(maps)]) == 0
     assert "TIFF, one file per frame; axes zyx" in capsys.readouterr().out
+
+
+def test_an_ilastik_export_with_its_classes_first_and_no_axistags(maps, tmp_path, capsys):
+    """A file per frame of (c, z, y, x) with no axistags (issue 83, point 6: read in
+    ilastik's order, (z, y, x, c), as 133 classes and blamed on layer folders that do not
+    exist): one line that names the axis that looks like the classes and the "axes" to
+    write; with it, the maps read as the TIFF folders give them."""
+    import h5py
+
+    ilastik_export(maps, tmp_path / "pm", series=False)
+    for path in sorted((tmp_path / "pm" / "probabilities").iterdir()):
+        with h5py.File(path, "a") as f:
+            data = np.moveaxis(f["exported_data"][...], -1, 0)          # classes first
+            del f["exported_data"]
+            f["exported_data"] = data                                   # no axistags
+    meta = tmp_path / "pm" / "meta.json"
+    raw = {k: v for k, v in json.loads(meta.read_text()).items() if k != "axes"}
+    meta.write_text(json.dumps(raw))
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "pm"), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "frame_0.h5: read in ilastik order, no axistags (axes zyxc)" in err
+    assert 'looks like them: if so, write "axes": "czyx"' in err and "folder" not in err
+    meta.write_text(json.dumps({**raw, "axes": "czyx"}))
+    tiffs, h5 = load_label_dataset(maps), load_label_dataset(tmp_path / "pm")
+    fa, fb = read_frame(tiffs.sources[2]), read_frame(h5.sources[2])
+    for layer in fa:
+        np.testing.assert_allclose(fb[layer], fa[layer], atol=1e-6, err_msg=layer)

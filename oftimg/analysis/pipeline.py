@@ -552,10 +552,12 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         summary["provenance"]["meshing"] = ds.labels["meshing"]
         for note in meshing_notes(ds.path, ds.labels["meshing"]):
             warnings.warn(note, OftimgWarning, stacklevel=2)
-        warnings.warn(f"{ds.path}: curvature fields from label volumes are less exact than "
+        kind = {"labels": "label volumes", "probabilities": "probability maps"}[
+            ds.labels["meshing"].get("kind", "labels")]
+        warnings.warn(f"{ds.path}: curvature fields from {kind} are less exact than "
                       "their areas, speeds and volumes: the voxels leave an error fixed in "
                       "space, which the fields' noise share does not see (oftimg's "
-                      "docs/accuracy.md, from label volumes)", OftimgWarning, stacklevel=2)
+                      f"docs/accuracy.md, from {kind})", OftimgWarning, stacklevel=2)
     summary["timings_s"] = timings
     if pullbacks is not None:
         summary["pullbacks"] = {"shape_uvt": list(pullbacks["pullback_outer_mean"].shape),

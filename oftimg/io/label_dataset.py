@@ -515,12 +515,20 @@ def check_nesting(folder: Path, sources, label_ids: dict, *, given: bool) -> dic
     seen = _nesting_words(contacts, nesting_order(contacts, present))
     wanted = " around ".join(f"{layer} {v}" for layer, v in label_ids.items())
     if isinstance(sources[0], ProbabilitySource):
-        said = f"its folders say {' around '.join(f'{layer}/' for layer in label_ids)}"
+        channels = {layer: source.channel for layer, source in sources[0].layers}
+        if all(c is not None for c in channels.values()):     # one export, a class a channel
+            said = ("its channels say " + " around ".join(f"{layer} (channel {c})"
+                                                           for layer, c in channels.items()))
+            holds = ("meta.json's \"classes\" names the channels: the myocardium the "
+                     "outermost layer, the jelly the one inside it, the lumen the innermost")
+        else:
+            said = f"its folders say {' around '.join(f'{layer}/' for layer in label_ids)}"
+            holds = ("myocardium/ holds the outermost layer, jelly/ the one inside it, "
+                     "lumen/ the innermost")
         problem = (f"no voxel is most likely {', '.join(missing)}" if missing else
                    f"the layers do not nest as {said}")
         raise DatasetError(f"{folder}: {problem} (in {names}, each voxel's most likely layer "
-                           f"where one reaches 0.5: {found}; {seen}); myocardium/ holds the "
-                           "outermost layer, jelly/ the one inside it, lumen/ the innermost")
+                           f"where one reaches 0.5: {found}; {seen}); {holds}")
     if missing:
         problem = "no voxel holds " + ", ".join(f"{layer} {label_ids[layer]}"
                                                  for layer in missing)

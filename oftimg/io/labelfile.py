@@ -430,14 +430,37 @@ def _tiff(path: Path, *, series: bool = False):
             yield tif
 
 
+# a class or channel axis longer than this is an axis of space read as channels
+MAX_CLASSES = 16
+
+
+def _swapped(axes: str, other: str) -> str:
+    """``axes`` with ``c`` moved to where ``other`` is, the others in their order."""
+    rest = axes.replace("c", "")
+    at = axes.index(other)
+    return rest[:at] + "c" + rest[at:]
+
+
 def channel_count(source: LabelSource) -> int:
     """How many channels the frame's file has (its c axis; 1 without one)."""
     path = Path(source.path)
     _check_kind(path)
     with _read_as(source, "a volume"):
         if label_suffix(path) in AXES_SUFFIXES:
-            with _axes_array(path) as arr:
-                return int(arr.data.shape[arr.axes.index("c")]) if "c" in arr.axes else 1
+            with _axes_array(path, source.axes) as arr:
+                if "c" not in arr.axes:
+                    return 1
+                n_c = int(arr.data.shape[arr.axes.index("c")])
+                if n_c > MAX_CLASSES and arr.said.startswith(_UNNAMED):
+                    short = [a for a, n in zip(arr.axes, arr.data.shape) if n <= MAX_CLASSES]
+                    guess = (f"; its {short[0]} axis, {arr.data.shape[arr.axes.index(short[0])]}"
+                             f" long, looks like them: if so, write \"axes\": "
+                             f"\"{_swapped(arr.axes, short[0])}\" in meta.json") if short else ""
+                    raise DatasetError(
+                        f"{path}: read in {arr.said} (axes {arr.axes}), its c axis, {n_c} long, "
+                        f"would hold {n_c} classes{guess}; meta.json's \"axes\" gives the "
+                        "order of a file's axes where it has no axistags")
+                return n_c
         if label_suffix(path) in (".tif", ".tiff"):
             with _tiff(path, series=source.index is not None) as tif:
                 axes = tif.series[0].axes

@@ -390,3 +390,20 @@ def test_the_activation_figure_draws_its_surface_in_whole_quads(tmp_path, monkey
         figures.activation_figure(times, velocity, grid, 360.0, tmp_path / "activation.png")
     assert ragged and not any(ragged)
     assert iio.imread(tmp_path / "activation.png").std() > 1
+
+
+def test_a_helical_wave_s_times_are_averaged_round_the_cycle_on_the_3d_wall():
+    """A helical wave's activation times wrap from the period to 0 along a line round
+    the wall: a quad with corners at 355 and 5 ms is coloured as 0 ms on the cyclic map,
+    not as 180 ms (a strip of the cycle's far colour along the wrap: issue 83, point 6);
+    a wave along the tube (a sequential map) keeps the plain mean."""
+    import matplotlib.pyplot as plt
+
+    ring = np.zeros((3, 3, 3))
+    ring[..., 0], ring[..., 1] = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")
+    values = np.array([[355.0, 5.0, 5.0], [355.0, 5.0, 5.0], [355.0, 5.0, 5.0]])
+    cyclic = {"cmap": "twilight", "vmin": 0.0, "vmax": 360.0}
+    _, colours = figures._surface_quads(ring, values, cyclic, every=2, cyclic=True)
+    np.testing.assert_allclose(colours[0], plt.get_cmap("twilight")(0.0), atol=0.02)
+    _, plain = figures._surface_quads(ring, values, dict(cyclic, cmap="viridis"), every=2)
+    np.testing.assert_allclose(plain[0], plt.get_cmap("viridis")(0.5), atol=1e-6)

@@ -202,6 +202,22 @@ def test_a_mesh_dataset_opens_as_its_surfaces_over_time(phantom_normal):
     assert dataset_layers is not None
 
 
+def test_a_label_dataset_alone_opens_with_its_labels_shown(tmp_path):
+    """A label dataset folder without intensity volumes (drag and drop): its one layer,
+    the labels, shown (hidden, as under a result's walls, the canvas was black: issue
+    83, point 6); with intensity volumes, those shown and the labels hidden."""
+    from oftimg.synthetic.labels import write_label_phantom
+    from oftimg.synthetic.phantom import sample_params
+
+    for intensity in (False, True):
+        path = tmp_path / f"labels_{intensity}"
+        write_label_phantom(path, sample_params("normal", 0, n_frames=3), (12.0, 12.0, 12.0),
+                            intensity=intensity)
+        layers = napari_get_reader(str(path))(str(path))
+        shown = {kind: kwargs.get("visible", True) for _, kwargs, kind in layers}
+        assert shown == ({"labels": False, "image": True} if intensity else {"labels": True})
+
+
 def test_a_result_finds_its_dataset_and_its_volumes_come_in_the_cycle_s_order(
         run_out, phantom_normal, tmp_path):
     """The volumes under a result's walls: input frame (t + t0_frame) mod n at result

@@ -270,9 +270,12 @@ def _one_colour(colour: str):
 def dataset_layers(path) -> list[tuple]:
     """Everything napari shows of a dataset folder: its volumes
     (:func:`volume_layers`) and, for a mesh dataset, its surfaces
-    (:func:`surfaces_over_time`)."""
+    (:func:`surfaces_over_time`); the labels shown where nothing else is (hidden, as
+    under a result's walls, the canvas was black)."""
     path = Path(path)
     layers = volume_layers(path)
     if is_dataset(path) and not is_label_dataset(path):
         layers += surfaces_over_time(path)
+    if layers and not any(kwargs.get("visible", True) for _, kwargs, _ in layers):
+        layers[0][1]["visible"] = True      # alone, the labels are what there is to see
     return layers

@@ -153,6 +153,7 @@ class OftimgWidget(QWidget):
                                 map_image(results, area, at, visible=True),
                                 time_cursor(results, at, visible=True)):
             self.images.append(self.viewer.add_image(data, **kwargs))
+        self.viewer.reset_view()            # the tube and the images beside it, all in view
 
     def _clicked_image(self, event) -> None:
         """A click on the (u, v) image picks its node; on the area map, moves the time

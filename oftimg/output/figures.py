@@ -277,6 +277,7 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     timed = np.isfinite(velocity_mm_s[..., 0])
     time_ms = np.where(timed, time_ms, np.nan)
     shown, scale, label = _time_colours(time_ms, period_ms)
+    cyclic = scale["cmap"] == CYCLIC
     scale["cmap"] = plt.get_cmap(scale["cmap"]).with_extremes(bad=BLANK_GREY)
     fig = plt.figure(figsize=(PAGE_MM * MM, 80 * MM))
     ax = fig.add_axes((0.08, 0.16, 0.4, 0.68))
@@ -312,7 +313,7 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     ax3 = fig.add_axes((0.52, 0.06, 0.3, 0.84), projection="3d")
     ring = np.concatenate([grid_mm, grid_mm[:1]], axis=0)
     values = np.concatenate([shown, shown[:1]], axis=0)
-    quads, colours = _surface_quads(ring, values, scale)
+    quads, colours = _surface_quads(ring, values, scale, cyclic=cyclic)
     surface = Poly3DCollection(quads, facecolors=colours, edgecolors=colours, linewidths=0,
                                antialiased=False)
     surface.set_rasterized(True)        # a picture in the PDF: 2000 quads drawn once
@@ -340,21 +341,30 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
     return save(fig, path)
 
 
-def _surface_quads(ring_mm: np.ndarray, values: np.ndarray, scale: dict, every: int = 2):
+def _surface_quads(ring_mm: np.ndarray, values: np.ndarray, scale: dict, every: int = 2, *,
+                   cyclic: bool = False):
     """A surface's quads over every ``every``-th node of ``ring_mm`` ``(n_u + 1, n_v, 3)``
     (its first row repeated at the end), the last row and column always among them, as
     one array ``(n_quads, 4, 3)``, each coloured by its corner nodes' mean value
-    (``values`` ``(n_u + 1, n_v)`` through ``scale``: cmap, vmin, vmax), quads with a
-    corner out of view left out. Every quad has 4 corners: matplotlib's plot_surface
-    strides its last row into shorter polygons, and pads a ragged list with
-    uninitialised memory that it then projects (matplotlib issue 32272: an overflow
-    warning, one draw in about twelve, that stopped runs)."""
+    (``values`` ``(n_u + 1, n_v)`` through ``scale``: cmap, vmin, vmax; ``cyclic``: the
+    mean on the circle from vmin round to vmax, where a helical wave's times wrap: a
+    plain mean of 355 and 5 ms is 180, a strip of the cycle's far colour along the
+    wrap), quads with a corner out of view left out. Every quad has 4 corners:
+    matplotlib's plot_surface strides its last row into shorter polygons, and pads a
+    ragged list with uninitialised memory that it then projects (matplotlib issue
+    32272: an overflow warning, one draw in about twelve, that stopped runs)."""
     rows = np.unique(np.r_[np.arange(0, len(ring_mm), every), len(ring_mm) - 1])
     cols = np.unique(np.r_[np.arange(0, ring_mm.shape[1], every), ring_mm.shape[1] - 1])
     P, W = ring_mm[np.ix_(rows, cols)], values[np.ix_(rows, cols)]
     quads = np.stack([P[:-1, :-1], P[1:, :-1], P[1:, 1:], P[:-1, 1:]], axis=2).reshape(-1, 4, 3)
-    mean = 0.25 * (W[:-1, :-1] + W[1:, :-1] + W[1:, 1:] + W[:-1, 1:]).ravel()
-    colours = plt.get_cmap(scale["cmap"])((mean - scale["vmin"]) / (scale["vmax"] - scale["vmin"]))
+    corners = np.stack([W[:-1, :-1], W[1:, :-1], W[1:, 1:], W[:-1, 1:]], axis=-1).reshape(-1, 4)
+    low, span = scale["vmin"], scale["vmax"] - scale["vmin"]
+    if cyclic:
+        turn = np.exp(2j * np.pi * (corners - low) / span).mean(axis=1)
+        share = np.mod(np.angle(turn) / (2 * np.pi), 1.0)
+    else:
+        share = (corners.mean(axis=1) - low) / span
+    colours = plt.get_cmap(scale["cmap"])(share)
     whole = np.isfinite(quads).all(axis=(1, 2))
     return quads[whole], colours[whole]
 

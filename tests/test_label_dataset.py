@@ -645,7 +645,7 @@ def test_a_series_file_is_parsed_once_per_process(label_phantom, tmp_path, monke
         original(self, *args, **kwargs)
 
     monkeypatch.setattr(tifffile.TiffFile, "__init__", counted)
-    labelfile._OPEN_SERIES.clear()
+    labelfile.close_series_files()
     lds = load_label_dataset(data)
     volumes = [read_volume(source) for source in lds.sources]
     assert np.array_equal(np.stack(volumes), frames)

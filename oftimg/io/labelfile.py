@@ -14,6 +14,7 @@ at a time.
 """
 from __future__ import annotations
 
+import atexit
 import contextlib
 import json
 import logging
@@ -394,6 +395,16 @@ def _series_shape(path: Path, axes: str | None = None) -> tuple[int, int, int, i
 _OPEN_SERIES: OrderedDict = OrderedDict()
 _OPEN_SERIES_LOCK = threading.Lock()
 SERIES_KEPT_OPEN = 2
+
+
+@atexit.register
+def close_series_files() -> None:
+    """Close the series files this process keeps open (:func:`_tiff`)."""
+    with _OPEN_SERIES_LOCK:
+        while _OPEN_SERIES:
+            _, (tif, lock) = _OPEN_SERIES.popitem()
+            with lock:
+                tif.close()
 
 
 @contextlib.contextmanager

@@ -2,6 +2,8 @@
 datasets a run has finished (for --resume), JSON, npz."""
 from __future__ import annotations
 
+import warnings
+
 import contextlib
 import functools
 import hashlib
@@ -709,15 +711,36 @@ def _draw_figures_and_videos(folder: Path, result: dict, *, fps, executor, early
         grid_note=field_grid_note(result["summary"]))
     timings["videos_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
+    failed = []
     dataset_figures(folder / "figures", result["summary"], arrays, result["grids"],
-                    result.get("pullbacks"))
+                    result.get("pullbacks"), failed)
     if result.get("pca"):
-        from .figures import pca_figure
+        from .figures import attempt, pca_figure
 
-        pca_figure(result["pca"], result["summary"]["pca"], folder / "figures" / "shape_pca.png",
-                   title=f"{result['summary']['name']}: cross-section shape modes")
+        attempt(failed, pca_figure, result["pca"], result["summary"]["pca"],
+                folder / "figures" / "shape_pca.png",
+                title=f"{result['summary']['name']}: cross-section shape modes")
     timings["figures_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    save_videos(folder / "videos", videos)
+    save_videos(folder / "videos", videos, failed)
     timings["videos_s"] += time.perf_counter() - tick
+    _say_what_failed(result["summary"], failed)
+
+
+def _say_what_failed(summary: dict, failed: list) -> None:
+    """The figures and videos that could not be drawn: in the summary
+    (``drawings_failed``), its warnings (the page shows them) and as a warning now;
+    the numbers are written all the same."""
+    summary["drawings_failed"] = failed
+    if not failed:
+        return
+    from ..errors import OftimgWarning
+
+    named = "; ".join(f"{f.get('figure') or f.get('video')} ({f['error']})" for f in failed[:3])
+    text = (f"{len(failed)} figure{'s' * (len(failed) > 1)} or video{'s' * (len(failed) > 1)} "
+            f"could not be drawn and {'are' if len(failed) > 1 else 'is'} left out, the "
+            f"numbers written all the same: {named}{'; ...' if len(failed) > 3 else ''} "
+            "(summary.json drawings_failed; please report it)")
+    summary.setdefault("warnings", []).append(text)
+    warnings.warn(f"{summary['name']}: {text}", OftimgWarning, stacklevel=3)
 

@@ -103,6 +103,21 @@ def fit_axes(fig, ax, *, below, margin_px: float = 6.0, rounds: int = 6) -> None
                          pos.width * factor / fig.bbox.width, pos.height * factor / fig.bbox.height])
 
 
+def attempt(failed: list, draw, *args, **kwargs):
+    """``draw(*args, **kwargs)`` (a figure's path), or None with the failure recorded in
+    ``failed`` (``{"figure", "error"}``): a figure that cannot be drawn is data, as a
+    degenerate section is, and never stops a run whose numbers are made (a warning
+    inside matplotlib once ended whole runs)."""
+    try:
+        return draw(*args, **kwargs)
+    except Exception as exc:        # noqa: BLE001 -- any drawing's failure, recorded
+        plt.close("all")
+        path = next((a for a in args if isinstance(a, Path)), None)
+        failed.append({"figure": path.name if path else draw.__name__,
+                       "error": f"{type(exc).__name__}: {exc}"[:300]})
+        return None
+
+
 ZOOM_3D = 0.9          # the 3-D box's share of its axes: a thin tube's box is flat
 
 
@@ -160,9 +175,12 @@ def field_grid_note(summary: dict) -> str:
 
 
 def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
-                    pullbacks: dict | None = None) -> list[Path]:
+                    pullbacks: dict | None = None, failed: list | None = None) -> list[Path]:
     """All per-dataset figures into ``folder`` (``figures/``); ``pullbacks``: the
-    intensity pullbacks, when the dataset had intensity volumes."""
+    intensity pullbacks, when the dataset had intensity volumes. A figure that cannot
+    be drawn is left out and recorded in ``failed`` (:func:`attempt`): a drawing never
+    stops a run whose numbers are made."""
+    failed = [] if failed is None else failed
     name = summary["name"]
     t_ms = arrays["t_ms"]
     written = []
@@ -170,47 +188,47 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
                if f"volume_{w}_mm3" in arrays}
     volumes.update({layer: arrays[f"volume_{layer}_mm3"] for layer in LAYERS
                     if f"volume_{layer}_mm3" in arrays})
-    written.append(volume_over_cycle(t_ms, volumes, folder / "volume_over_cycle.png",
-                                     title=name))
+    written.append(attempt(failed, volume_over_cycle, t_ms, volumes,
+                           folder / "volume_over_cycle.png", title=name))
     if "trim_percent" in arrays:
-        written.append(trim_over_cycle(t_ms, arrays["trim_percent"],
-                                       arrays["volume_myocardium_mm3"],
-                                       folder / "trim_over_cycle.png", title=name))
+        written.append(attempt(failed, trim_over_cycle, t_ms, arrays["trim_percent"],
+                               arrays["volume_myocardium_mm3"],
+                               folder / "trim_over_cycle.png", title=name))
     contours = {w: arrays[f"contour_{w}_mm"][:, :, 0] for w in ("outer", "inner", "lumen")
                 if f"contour_{w}_mm" in arrays}
-    written.append(frame_with_contours(grids["outer"][:, :, 0], contours,
-                                       folder / "frame_t0_contours.png",
-                                       title=f"{name}: t = 0 (minimum volume)"))
+    written.append(attempt(failed, frame_with_contours, grids["outer"][:, :, 0], contours,
+                           folder / "frame_t0_contours.png",
+                           title=f"{name}: t = 0 (minimum volume)"))
     if "ridge_t_ms" in arrays:
-        written += map_figures(folder, name, arrays, summary, summary["period_ms"])
+        written += map_figures(folder, name, arrays, summary, summary["period_ms"], failed)
     for wall, found in (summary.get("wave_fronts") or {}).items():
         if isinstance(found, dict) and f"activation_time_{wall}_ms" in arrays:
             how = (f"{found['speed_mm_s']:.1f} mm/s on the wall, helix angle "
                    f"{round(found['helix_angle_deg']):d}°" if found["propagates"]
                    else "no propagation: the wall moves at once")
-            written.append(activation_figure(
-                arrays[f"activation_time_{wall}_ms"], arrays[f"wave_velocity_{wall}_mm_s"],
-                grids[wall].mean(axis=2), summary["period_ms"],
-                folder / f"activation_{wall}.png", title=f"{name}: the wave's fronts on the {wall} wall ({how})"))
+            written.append(attempt(
+                failed, activation_figure, arrays[f"activation_time_{wall}_ms"],
+                arrays[f"wave_velocity_{wall}_mm_s"], grids[wall].mean(axis=2),
+                summary["period_ms"], folder / f"activation_{wall}.png",
+                title=f"{name}: the wave's fronts on the {wall} wall ({how})"))
     if pullbacks:
-        written.append(pullback_figure(pullbacks["pullback_outer_mean"],
-                                       arrays.get("pathlines_uv"), t_ms,
-                                       folder / "pullback_outer.png",
-                                       title=f"{name}: the myocardium's intensity on the grid"))
+        written.append(attempt(failed, pullback_figure, pullbacks["pullback_outer_mean"],
+                               arrays.get("pathlines_uv"), t_ms, folder / "pullback_outer.png",
+                               title=f"{name}: the myocardium's intensity on the grid"))
     for layer, what in (("wall", "myocardial wall"), ("jelly", "cardiac jelly")):
         if f"{layer}_thickness_mm" in arrays:
             from ..analysis.pipeline import mean_around_tube
 
             rows_um = 1000 * mean_around_tube(arrays[f"{layer}_thickness_mm"])   # (n_v, n_t)
-            written.append(area_map(rows_um, arrays["s_mm"], t_ms,
-                                    folder / f"{layer}_thickness_map.png",
-                                    ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
-                                    label=f"{layer} thickness, mean around the tube (µm)",
-                                    blank="no value: tissue out of view",
-                                    title=f"{name}: {what} thickness, "
-                                          f"{field_grid_note(summary)} (dots: maximum "
-                                          "outer area)"))
-    return written
+            written.append(attempt(failed, area_map, rows_um, arrays["s_mm"], t_ms,
+                                   folder / f"{layer}_thickness_map.png",
+                                   ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
+                                   label=f"{layer} thickness, mean around the tube (µm)",
+                                   blank="no value: tissue out of view",
+                                   title=f"{name}: {what} thickness, "
+                                         f"{field_grid_note(summary)} (dots: maximum "
+                                         "outer area)"))
+    return [path for path in written if path is not None]
 
 
 # ------------------------------------------------------------------ wave fronts
@@ -580,37 +598,41 @@ def _bridges(bridged: np.ndarray, moving: np.ndarray) -> list[tuple[int, int]]:
     return spans
 
 
-def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms: float
-                ) -> list[Path]:
-    """The (v, t) map figures of one dataset."""
+def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms: float,
+                failed: list | None = None) -> list[Path]:
+    """The (v, t) map figures of one dataset (those that cannot be drawn recorded in
+    ``failed``: :func:`attempt`)."""
     from ..image.gradient import gradient_hsv
 
+    failed = [] if failed is None else failed
     s_mm, t_ms = arrays["s_mm"], arrays["t_ms"]
     area = arrays["area_outer_mm2"]
-    written = [area_map(area, s_mm, t_ms, folder / "area_map_outer.png",
-                        ridge_t_ms=arrays["ridge_t_ms"],
-                        crossings_75_ms=arrays["crossing_75_outer_ms"],
-                        sigma_ms=arrays["gaussian_sigma_outer_ms"],
-                        title=f"{name}: outer cross-sectional area")]
+    written = [attempt(failed, area_map, area, s_mm, t_ms, folder / "area_map_outer.png",
+                       ridge_t_ms=arrays["ridge_t_ms"],
+                       crossings_75_ms=arrays["crossing_75_outer_ms"],
+                       sigma_ms=arrays["gaussian_sigma_outer_ms"],
+                       title=f"{name}: outer cross-sectional area")]
     walls = [w for w in ("outer", "inner", "lumen") if f"max_area_{w}_mm2" in arrays]
-    written.append(max_area_profile(
-        s_mm, {w: arrays[f"max_area_{w}_mm2"] for w in walls}, folder / "max_area_profile.png",
-        title=name))
+    written.append(attempt(failed, max_area_profile, s_mm,
+                           {w: arrays[f"max_area_{w}_mm2"] for w in walls},
+                           folder / "max_area_profile.png", title=name))
     shares = {}
     for w in walls:
         shares[f"{w}, >= 75 % of max"] = arrays[f"expanded_fraction_75_{w}"]
         shares[f"{w}, within one sigma"] = arrays[f"expanded_fraction_sigma_{w}"]
-    written.append(time_expanded(s_mm, shares, folder / "time_expanded.png", title=name))
+    written.append(attempt(failed, time_expanded, s_mm, shares, folder / "time_expanded.png",
+                           title=name))
     rates = (summary["max_expansion_rate_mm2_ms"], summary["max_contraction_rate_mm2_ms"])
-    written.append(derivative_image(gradient_hsv(area), s_mm, t_ms,
-                                    folder / "area_derivative_outer.png", rates=rates,
-                                    title=f"{name}: derivative of the outer area map"))
-    written.append(ridge_plot(s_mm, arrays["ridge_t_ms"], folder / "ridge_speed.png",
-                              knee=summary["wave_two_segment"], speed=arrays["local_speed_mm_s"],
-                              ridge_sd_ms=arrays.get("ridge_t_noise_sd_ms"),
-                              speed_sd=arrays.get("local_speed_noise_sd_mm_s"),
-                              bridged=arrays.get("ridge_bridged"), title=name))
-    return written
+    written.append(attempt(failed, derivative_image, gradient_hsv(area), s_mm, t_ms,
+                           folder / "area_derivative_outer.png", rates=rates,
+                           title=f"{name}: derivative of the outer area map"))
+    written.append(attempt(failed, ridge_plot, s_mm, arrays["ridge_t_ms"],
+                           folder / "ridge_speed.png", knee=summary["wave_two_segment"],
+                           speed=arrays["local_speed_mm_s"],
+                           ridge_sd_ms=arrays.get("ridge_t_noise_sd_ms"),
+                           speed_sd=arrays.get("local_speed_noise_sd_mm_s"),
+                           bridged=arrays.get("ridge_bridged"), title=name))
+    return [path for path in written if path is not None]
 
 
 @house_style

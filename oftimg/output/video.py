@@ -8,6 +8,8 @@ picture (inlet at the bottom), u to the right.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from functools import lru_cache
 from pathlib import Path
 
@@ -471,18 +473,54 @@ def start_videos(arrays: dict, grids: dict | None = None, *, fps: float | None =
     tasks = [(kind, inputs, fps)
              for kind, inputs in video_tasks(arrays, grids, kinds, grid_note=grid_note)]
     if executor is None:
-        return [render_videos(*args) for args in tasks]
-    return [executor.submit(render_videos, *args) for args in tasks]
+        return [_rendered(*args) for args in tasks]
+    return [executor.submit(_rendered, *args) for args in tasks]
 
 
-def save_videos(folder: Path, pending: list) -> list[Path]:
-    """Write the videos of :func:`start_videos` into ``folder``; returns their paths."""
+def _rendered(kind: str, inputs, fps):
+    """:func:`render_videos`, or its failure (:class:`RenderFailed`), for
+    :func:`save_videos` to record."""
+    try:
+        return render_videos(kind, inputs, fps)
+    except Exception as exc:               # noqa: BLE001 -- recorded by save_videos
+        return RenderFailed(kind, f"{type(exc).__name__}: {exc}")
+
+
+def save_videos(folder: Path, pending: list, failed: list | None = None) -> list[Path]:
+    """Write the videos of :func:`start_videos` into ``folder``; returns their paths.
+    A video that could not be rendered is left out and recorded in ``failed``
+    (``{"video", "error"}``) when given (else its error is raised): a drawing never
+    stops a run whose numbers are made. A lost worker is raised all the same."""
+    from concurrent.futures import BrokenExecutor
+
     out = []
     for task in pending:
-        for name, data in (task.result() if hasattr(task, "result") else task):
+        if isinstance(task, RenderFailed):
+            rendered = task
+        else:
+            try:
+                rendered = task.result() if hasattr(task, "result") else task
+            except BrokenExecutor:
+                raise
+            except Exception as exc:       # noqa: BLE001 -- any rendering's failure
+                rendered = RenderFailed("a video", f"{type(exc).__name__}: {exc}")
+        if isinstance(rendered, RenderFailed):
+            if failed is None:
+                raise RuntimeError(f"{rendered.kind}: {rendered.error}")
+            failed.append({"video": rendered.kind, "error": rendered.error[:300]})
+            continue
+        for name, data in rendered:
             (folder / name).write_bytes(data)
             out.append(folder / name)
     return out
+
+
+@dataclass(frozen=True)
+class RenderFailed:
+    """A video task whose rendering failed in this process: its kind and the error."""
+
+    kind: str
+    error: str
 
 
 def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,

@@ -5,6 +5,7 @@
                                    [--cache DIR] [--json FILE] [--no-pair] [--fronts]
                                    [--cut oblique|square]
     python scripts/accuracy_zoo.py --tables FILE.json [...] [--markdown]
+    python scripts/accuracy_zoo.py --paired OBLIQUE.json SQUARE.json [--markdown]
 
 Draws ``--draws`` scenarios per input kind (oftimg.synthetic.zoo: seeds S, S+1, ...,
 the kind given), writes each as a dataset (kept in --cache), runs oftimg on it, and
@@ -332,6 +333,36 @@ def print_calibration(errors: dict[int, dict], markdown: bool = False) -> None:
               f"% of {len(relative)} draws; 95 % of them inside with {fitted:.1%}")
 
 
+def print_paired(first: dict, second: dict, markdown: bool = False) -> None:
+    """The same draws run two ways (``--cut oblique`` and ``--cut square``: their
+    ``--json`` files' one kind each): per headline metric, over the draws both have
+    whose segmentation shifted no wall, the first's and the second's median and worst
+    |error|, and the median and worst of the first's |error| less the second's (the
+    cost of what differs, draw by draw)."""
+    (name_a, a), (name_b, b) = next(iter(first.items())), next(iter(second.items()))
+    seeds = sorted(set(unshifted(a)) & set(unshifted(b)), key=int)
+    print(f"\n{name_a} against {name_b}: {len(seeds)} draws whose segmentation shifted no wall"
+          f" (seeds {seeds[0]}-{seeds[-1]})")
+    if markdown:
+        print(f"\n| metric | unit | {name_a}: median, worst | {name_b}: median, worst | "
+              "difference of |error|: median, worst |\n|---|---|---|---|---|")
+    for key, unit, what in HEADLINE:
+        pairs = np.array([(abs(a[s][key]), abs(b[s][key])) for s in seeds
+                          if np.isfinite(a[s].get(key, np.nan))
+                          and np.isfinite(b[s].get(key, np.nan))])
+        if not len(pairs):
+            continue
+        d = pairs[:, 0] - pairs[:, 1]
+        worst = d[np.argmax(np.abs(d))]
+        cells = (f"{np.median(pairs[:, 0]):.3g}, {pairs[:, 0].max():.3g}",
+                 f"{np.median(pairs[:, 1]):.3g}, {pairs[:, 1].max():.3g}",
+                 f"{np.median(d):+.3g}, {worst:+.3g}")
+        if markdown:
+            print(f"| {what} | {unit} | " + " | ".join(cells) + " |")
+        else:
+            print(f"  {what:<62}{unit:>6}  " + "   ".join(f"{c:>18}" for c in cells))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--draws", type=int, default=50, help="draws per input kind")
@@ -347,6 +378,9 @@ def main() -> None:
     ap.add_argument("--tables", type=Path, nargs="+", default=None, metavar="JSON",
                     help="print the tables of earlier runs' --json files (merged), run nothing")
     ap.add_argument("--markdown", action="store_true", help="--tables as Markdown tables")
+    ap.add_argument("--paired", type=Path, nargs=2, default=None, metavar="JSON",
+                    help="two --json files of the same draws run two ways (--cut oblique, "
+                         "--cut square): each metric's errors side by side, run nothing")
     ap.add_argument("--fronts", action="store_true",
                     help="draws with helical or one-sided wave fronts (their metrics only)")
     ap.add_argument("--cut", choices=sorted(CUT_TAGS), default=None,
@@ -355,6 +389,10 @@ def main() -> None:
     ap.add_argument("--no-pair", action="store_true",
                     help="label kinds without their meshes' run (no node-by-node metrics)")
     args = ap.parse_args()
+    if args.paired:
+        first, second = (json.loads(path.read_text()) for path in args.paired)
+        print_paired(first, second, args.markdown)
+        return
     if args.tables:
         every: dict[str, dict] = {}
         for path in args.tables:

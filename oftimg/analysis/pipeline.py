@@ -354,10 +354,13 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     near = (rows_min[:, None] + np.arange(-CORNER_FRAMES, CORNER_FRAMES + 1)) % n_t  # (n_v, 5)
     with warnings.catch_warnings():  # a row without contours: NaN, and 0 corners
         warnings.simplefilter("ignore", RuntimeWarning)
-        counts = np.array([count_corners(np.nanmean(k[:, j, near[j]], axis=1))
-                           for j in range(k.shape[1])])
+        averaged = [np.nanmean(k[:, j, near[j]], axis=1) for j in range(k.shape[1])]
+    counts = np.array([count_corners(a) for a in averaged])
     arrays["corner_count_per_row"] = counts
-    inner_rows = counts[1:-1][counts[1:-1] > 0]
+    # the rows' most common count, 0 too (a round tube's: its noise maxima counted as 7
+    # corners when only rows with corners voted); rows without a contour do not vote
+    voting = np.array([np.isfinite(a).all() for a in averaged])
+    inner_rows = counts[1:-1][voting[1:-1]]
     corners = None
     if len(inner_rows):
         values, freq = np.unique(inner_rows, return_counts=True)

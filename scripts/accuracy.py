@@ -396,12 +396,26 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float,
             grids["outer"][:, rows].astype(float), getattr(ph, f"{layer}_thickness"),
             f"{layer}_thickness_mm"))
     e = {}
+    # each node's phase: expanded where the wall there is past half its expansion
+    s_nodes, theta_nodes = ph.window_coordinates(grids["outer"][:, rows].astype(float))
+    expanded = ph.expansion(s_nodes, t, theta_nodes) > 0.5
     for name, (array, truth, truth_at_mean) in truths.items():
         measured = arr[array][:, rows]
         if keep is not None:
             keep[name] = (measured - truth_at_mean,
                           (field_noise.get(array) or {}).get("noise_sd_smoothed") or np.nan)
         e[f"{name}_pct"] = median_pct(measured, truth)
+        # the tail, node by node (issue 84): the 90th percentile of |error| over the
+        # median |truth|, in all, by phase and by feature (convex: the truth > 0)
+        scale = np.nanmedian(np.abs(truth))
+        error = np.abs(measured - truth)
+        e[f"{name}_p90_pct"] = float(100.0 * np.nanpercentile(error, 90) / scale)
+        for phase, at in (("expanded", expanded), ("contracted", ~expanded)):
+            for feature, where in (("convex", truth > 0), ("concave", truth < 0)):
+                picked = error[at & where]
+                e[f"{name}_{phase}_{feature}_p90_pct"] = (
+                    float(100.0 * np.nanpercentile(picked, 90) / scale)
+                    if np.isfinite(picked).sum() >= 20 else np.nan)
         e[f"{name}_mean_position_pct"] = median_pct(measured, truth_at_mean)
         noise = field_noise.get(array) or {}
         spread = np.nanmedian(np.nanstd(measured - truth_at_mean, axis=-1))

@@ -734,10 +734,10 @@ def squared_ends_note(path: Path, meshing: dict) -> str | None:
         return None
     mm = UNIT_TO_MM[meshing["length_unit"]]
     angles = " and ".join(f"{end['oblique_deg']:.0f}" for end in cut)
-    depths = " and ".join(f"{end['cut_in'] * mm:.3f}" for end in cut)
+    depths_mm = " and ".join(f"{end['cut_in'] * mm:.3f}" for end in cut)
     ends = "both ends" if len(cut) == 2 else "one end"
     return (f"{path}: the volume's faces cut the tube obliquely at {ends} ({angles} degrees "
-            f"from square): every frame's walls were cut square to the centre line {depths} mm "
+            f"from square): every frame's walls were cut square to the centre line {depths_mm} mm "
             "in, past every frame's rim, so that each section is whole (summary.json "
             "provenance.meshing.ends_squared; meta.json \"ends\" places the planes yourself)")
 

@@ -686,6 +686,7 @@ def write_dataset_results(folder: Path, result: dict, *, fps: float | None = Non
                                  early_videos=early_videos)
     else:
         result["summary"]["numbers_only"] = True
+        result["summary"]["drawings_failed"] = []         # none drawn, none failed
     if started is not None:
         timings["total_s"] = time.perf_counter() - started
     write_json(folder / "summary.json", result["summary"])

@@ -835,7 +835,11 @@ def square_the_ends(lds: LabelDataset, out: Path, walls: list[str], results: lis
     middle = len(names) // 2
     reference = read_mesh_file(out / "outer" / names[middle])
     step = float(np.median([r["step"]["outer"] for r in results]))
-    ends = square_ends(reference, [r["rims"] for r in results], MARGIN_STEPS * step)
+    try:
+        ends = square_ends(reference, [r["rims"] for r in results], MARGIN_STEPS * step)
+    except MeshError as exc:
+        raise DatasetError(f"{lds.folder}: the tube {exc}; give the two cutting planes in "
+                           "meta.json (\"ends\")") from None
     if all(end is None for end in ends):
         return None
     planes = [(end.point, end.normal) for end in ends if end is not None]

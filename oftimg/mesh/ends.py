@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .sections import planes_contours
-from .topology import boundary_loops, loop_centroid, loop_vector_area
+from .topology import MeshError, boundary_loops, loop_centroid, loop_vector_area
 
 # an end cut within this angle of square is left as it is (a section 3 degrees off
 # square has 0.14 % more area than the square one)
@@ -196,7 +196,8 @@ def square_ends(reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.nda
     the ends (in its loop order); ``rims``: every frame's boundary loops (points ``(k,
     3)`` each; a frame's are matched to the reference's ends by their centroids);
     ``margin``: how far inside every rim the plane lies (length unit). None for
-    both ends when the reference has not two loops or no section comes whole."""
+    both ends when the reference has not two loops. Raises :class:`MeshError` for an
+    end cut obliquely where no section past the cut comes whole."""
     V, F = reference
     loops = [V[loop] for loop in boundary_loops(F)]
     if len(loops) != 2:
@@ -204,13 +205,6 @@ def square_ends(reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.nda
     centres = np.array([loop.mean(axis=0) for loop in loops])
     ends = []
     for k, rim in enumerate(loops):
-        axis = end_axis(V, F, rim, margin)
-        if axis is None:
-            return [None, None]
-        point, tangent = axis
-        theirs = [r for frame in rims for r in frame
-                  if np.argmin(np.linalg.norm(centres - r.mean(axis=0), axis=1)) == k]
-        reach = max(float(np.max((r - point) @ tangent)) for r in theirs + [rim])
         face = loop_vector_area(rim)
         # the face's angle to the tube where it cuts it: the faces' axis there
         radius = np.sqrt(np.linalg.norm(face) / np.pi)
@@ -220,6 +214,15 @@ def square_ends(reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.nda
         if oblique < SQUARE_ENOUGH_DEG:
             ends.append(None)
             continue
+        axis = end_axis(V, F, rim, margin)
+        if axis is None:
+            raise MeshError(f"is cut by the volume's face {oblique:.0f} degrees from square, "
+                            "and no section square to its centre line past the cut comes "
+                            "whole")
+        point, tangent = axis
+        theirs = [r for frame in rims for r in frame
+                  if np.argmin(np.linalg.norm(centres - r.mean(axis=0), axis=1)) == k]
+        reach = max(float(np.max((r - point) @ tangent)) for r in theirs + [rim])
         at = point + tangent * (reach + margin)
         meets = float((loop_centroid(rim) - point) @ tangent)      # the rim's centre
         ends.append(SquareEnd(tuple(map(float, at)), tuple(map(float, tangent)), oblique,

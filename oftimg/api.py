@@ -190,7 +190,7 @@ def validate_labels(path, *, quiet: bool = False, period_ms: float | None = None
         report = validate_dataset(ds)
     report["labels"] = {k: ds.labels["meshing"][k]
                         for k in ("shape_zyx", "voxel_size", "length_unit", "labels",
-                                  "label_repairs", "kind")}
+                                  "label_repairs", "kind", "ends_squared")}
     first = lds.sources[0]
     first = first.layers[0][1] if hasattr(first, "layers") else first
     described = describe_format(first)

@@ -311,6 +311,11 @@ def _print_report(report: dict) -> None:
         if "channels" in lab:
             print("  channels: " + ", ".join(f"{role} {c}" for role, c in lab["channels"].items())
                   + " (meta.json)")
+        for end in lab.get("ends_squared") or ():
+            if end is not None:
+                print(f"  an end cut by the volume's face {end['oblique_deg']:.0f} degrees "
+                      f"from square: cut square to the centre line "
+                      f"{end['cut_in']:.4g} {lab['length_unit']} in")
         for r in lab["label_repairs"]:
             name = f"{'probabilities/*' if soft else 'labels'}/{Path(r['file']).name} {r['wall']}"
             if "filled_from" in r:

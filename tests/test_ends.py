@@ -97,9 +97,9 @@ def test_the_centre_line_past_a_rim_cut_square_is_the_tube_s_own():
 
 
 @pytest.mark.slow
-def test_a_label_phantom_cut_obliquely_by_the_volume_is_measured_square(tmp_path):
+def test_a_label_phantom_cut_obliquely_by_the_volume_is_measured_square(tmp_path, capsys):
     """The label phantom whose volume's faces cut it at 40 degrees (6 frames, 8 x 8 x 16
-    um): the run says so and records both ends (their angle within 5 degrees: the
+    um): the run and validate say so and record both ends (their angle within 5 degrees: the
     surface meets the volume's face square over the blur's reach), and
     the first and last rows' outer areas lie within 2 % of the square sections' truth
     at each row's own place (cut as the faces cut it: +24 %)."""
@@ -114,3 +114,8 @@ def test_a_label_phantom_cut_obliquely_by_the_volume_is_measured_square(tmp_path
     assert [e["oblique_deg"] for e in ends] == pytest.approx([40.0, 40.0], abs=5.0)
     error = label_phantom_area_errors(out / "oblique", data, 6)["outer"]
     assert np.median(error[[0, -1]], axis=1) == pytest.approx([0, 0], abs=0.02)
+    capsys.readouterr()
+    assert main(["validate", str(data)]) == 0                   # validate says so too
+    said = [line for line in capsys.readouterr().out.splitlines() if "cut square" in line]
+    assert len(said) == 2 and all("from square: cut square to the centre line" in line
+                                  for line in said)

@@ -105,7 +105,9 @@ def test_the_field_and_its_area_map_as_image_layers_follow_the_choice(widget, ru
     # centred on every visible layer, the images beside the tube among them
     shown = [layer.extent.world[:, -3:] for layer in widget.viewer.layers if layer.visible]
     low, high = np.min([e[0] for e in shown], axis=0), np.max([e[1] for e in shown], axis=0)
-    off = np.abs(np.asarray(widget.viewer.camera.center) - (low + high) / 2)
+    scene = getattr(widget.viewer, "scene", None)              # napari 0.9: scene.camera
+    camera = scene.camera if scene is not None else widget.viewer.camera
+    off = np.abs(np.asarray(camera.center) - (low + high) / 2)
     assert np.all(off <= 0.1 * (high - low) + 1e-6), (off, low, high)
     widget.select("mean_curvature_lumen_per_mm")
     field, area, _ = widget.images

@@ -431,6 +431,8 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float,
         e[f"{name}_noise_sd"] = noise.get("noise_sd_smoothed") or np.nan
         e[f"{name}_noise_share"] = noise.get("noise_share") or np.nan
         e[f"{name}_smoothing_ms"] = noise.get("smoothing_ms", np.nan)
+        if "scale" in noise:             # the radial curvature's scale (issue 84)
+            e[f"{name}_scale"] = noise["scale"]
     for w in ("outer", "inner"):
         e[f"strain_energy_{w}_error_share"] = strain_noise[f"strain_energy_{w}"]["error_share"]
         e[f"strain_energy_{w}_smoothing_ms"] = strain_noise[f"strain_energy_{w}"]["smoothing_ms"]

@@ -3,7 +3,7 @@
     python scripts/accuracy_zoo.py [--draws 50] [--seed 0] [--kinds meshes labels ...]
                                    [--frames N] [--voxel-min-um U] [--jobs 2]
                                    [--cache DIR] [--json FILE] [--no-pair] [--fronts]
-                                   [--cut oblique|square]
+                                   [--cut oblique|square] [--features]
     python scripts/accuracy_zoo.py --tables FILE.json [...] [--markdown]
     python scripts/accuracy_zoo.py --paired OBLIQUE.json SQUARE.json [--markdown]
 
@@ -21,6 +21,9 @@ the worst draw's seed (rerun it with --seed SEED --draws 1 --kinds KIND). ``--fr
 and ``--voxel-min-um`` make quick draws (the rest of each draw unchanged). ``--fronts``
 draws the same scenarios with helical or one-sided wave fronts
 (``draw_scenario(..., fronts=True)``) and tabulates the fronts' metrics alone.
+``--features`` draws the same scenarios with sharper corners or concave notches (3-6)
+and meshes of 40-200 vertices round the tube (``draw_scenario(..., features=True)``):
+where the node-by-node curvature is tested.
 """
 from __future__ import annotations
 
@@ -95,6 +98,7 @@ HEADLINE = [
 # map average a helix away, so only the fronts' metrics are tabulated
 FRONT_METRICS = [row for row in HEADLINE if row[0].startswith("front_")]
 FRONTS_TAG = " (fronts)"          # after the kind's name in the JSON and the tables
+FEATURES_TAG = " (features)"
 # with --cut: label draws cut obliquely or square by the volume's faces at both ends
 CUT_TAGS = {"oblique": " (oblique)", "square": " (square)"}
 # (key, what): the run's own error bars against the truth, % of nodes and frames (or
@@ -125,16 +129,18 @@ def run_quietly(dataset: Path, out: Path, jobs: int) -> Path:
 
 
 def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs: int,
-                pair: bool, fronts: bool = False, oblique: bool | None = None
-                ) -> dict[str, float]:
+                pair: bool, fronts: bool = False, oblique: bool | None = None,
+                features: bool = False) -> dict[str, float]:
     """One draw written, run and compared with its truth: every metric's error
     (``fronts``: the draw with a helical or one-sided front, no meshes' pair;
     ``oblique``: the label draw cut obliquely (True) or square (False) by its volume's
-    faces at both ends, None as drawn)."""
+    faces at both ends, None as drawn; ``features``: sharper corners, finer and coarser
+    meshes)."""
     scenario = draw_scenario(seed, kind, n_frames=frames, voxel_um_min=voxel_min_um,
-                             fronts=fronts, oblique=oblique)
+                             fronts=fronts, oblique=oblique, features=features)
     cut = {None: "", True: "_oblique", False: "_square"}[oblique]
-    dataset = root / "data" / f"{kind.replace('+', '_')}_{seed}{'_fronts' * fronts}{cut}"
+    dataset = root / "data" / (f"{kind.replace('+', '_')}_{seed}{'_fronts' * fronts}{cut}"
+                               f"{'_features' * features}")
     if not (dataset / "scenario.json").is_file():
         write_scenario(scenario, dataset, real_shape=MIDGUT,
                        real_scale_to_mm=MIDGUT_SCALE_TO_MM)
@@ -182,6 +188,7 @@ def conditions(scenario) -> dict:
                               * bool(p.side_lag_ms)) or "cross-sections",
            "twist": f"{p.twist_profile}, phase {p.twist_phase:.2f}",
            "slide_pct": round(100 * p.stretch, 1)}
+    out |= {"corners": p.corners, "corner_sharpness": round(p.corner_sharpness, 2)}
     if scenario.kind == "meshes":
         out |= {"roughness_um": round(1000 * p.noise_mm, 2), "vertices_min": p.vertices_min}
     if scenario.voxel_um is not None:
@@ -390,6 +397,9 @@ def main() -> None:
                          "--cut square): each metric's errors side by side, run nothing")
     ap.add_argument("--fronts", action="store_true",
                     help="draws with helical or one-sided wave fronts (their metrics only)")
+    ap.add_argument("--features", action="store_true",
+                    help="draws with sharper corners or concave notches (3-6) and meshes of "
+                         "40-200 vertices round the tube (the node-by-node curvature's test)")
     ap.add_argument("--cut", choices=sorted(CUT_TAGS), default=None,
                     help="label draws whose volume's faces cut the tube at both ends obliquely "
                          "(20-50 deg) or square (the same draws otherwise: a paired comparison)")
@@ -413,19 +423,20 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         root = args.cache or Path(tmp)
         for kind in args.kinds:
-            drawn = every[kind + FRONTS_TAG * args.fronts + CUT_TAGS.get(args.cut, "")] = {}
+            drawn = every[kind + FRONTS_TAG * args.fronts + CUT_TAGS.get(args.cut, "")
+                          + FEATURES_TAG * args.features] = {}
             for seed in range(args.seed, args.seed + args.draws):
                 tick = time.perf_counter()
                 try:
                     drawn[seed] = draw_errors(seed, kind, root, frames=args.frames,
                                               voxel_min_um=args.voxel_min_um, jobs=args.jobs,
                                               pair=not args.no_pair, fronts=args.fronts,
-                                              oblique=oblique)
+                                              oblique=oblique, features=args.features)
                 except oftimg.InputError as exc:     # refused: a fault of the zoo or of oftimg
                     drawn[seed] = {"refused": str(exc), "draw": conditions(
                         draw_scenario(seed, kind, n_frames=args.frames,
                                       voxel_um_min=args.voxel_min_um, fronts=args.fronts,
-                                      oblique=oblique))}
+                                      oblique=oblique, features=args.features))}
                 print(f"{kind} draw {seed}: {time.perf_counter() - tick:.0f} s"
                       + (f", refused: {drawn[seed]['refused']}" if "refused" in drawn[seed]
                          else ""), flush=True)

@@ -472,10 +472,12 @@ def test_field_noise_measures_white_noise_and_its_smoothing():
 @pytest.mark.slow
 def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_path):
     """Every vertex moved radially by 5 um (2.5 % of the radius): the corner count
-    used to come out as 10 for the phantom's 4. The curvature fields are then mostly
-    noise (each frame meshed on its own, and left rough: --rough-mesh-smoothing 0, as the
-    paper; tests/test_roughness.py smooths it): oftimg measures that noise as the
-    model's truth shows it, and says so."""
+    used to come out as 10 for the phantom's 4. Each frame meshed on its own, and left
+    rough (--rough-mesh-smoothing 0, as the paper; tests/test_roughness.py smooths it):
+    the curvature read at the scale the noise allows is off by a quarter of its size at
+    the median node (the 80-point resample's, before issue 84: by 120 %, all noise), the
+    noise it reports is part of that error (its spread over the beat, against the model
+    where the points are on average), and it says the field is still mostly noise."""
     from oftimg.errors import OftimgWarning
     from oftimg.io.dataset import load_dataset
     from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
@@ -496,11 +498,24 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
         name = f"radial_curvature_{wall}_per_mm"
         noise = result["summary"]["field_noise"][name]
         s, theta = ph.window_coordinates(result["arrays"][f"contour_{wall}_mm"][:, 2:-2])
-        error = result["arrays"][name][:, 2:-2] - ph.section_curvature(wall, s, theta, t_ms)
-        # measured 9.2 and 17.6 /mm against the truth's 9.1 and 17.7
-        assert noise["noise_sd_smoothed"] == pytest.approx(np.median(np.std(error, axis=-1)),
-                                                           rel=0.1)
-        assert noise["noise_share"] > 0.9
+        at_nodes = ph.section_curvature(wall, s, theta, t_ms)
+        error = result["arrays"][name][:, 2:-2] - at_nodes
+        # against the model where the contour points are on average over the smoothing
+        # (they slide along the wall from frame to frame; the field cannot follow them)
+        points = result["arrays"][f"contour_{wall}_mm"][:, 2:-2].astype(float)
+        mean_points = np.moveaxis(smooth_field_in_time(np.moveaxis(points, -1, 0),
+                                                       truth["params"]["period_ms"],
+                                                       noise["smoothing_ms"]), 0, -1)
+        s_m, theta_m = ph.window_coordinates(mean_points)
+        at_mean = result["arrays"][name][:, 2:-2] - ph.section_curvature(wall, s_m, theta_m, t_ms)
+        size = np.median(np.abs(at_nodes))
+        # measured 1.9 and 2.6 /mm off at the median node of 7.7 and 9.6 /mm; noise 0.62
+        # and 0.90 /mm of spreads 1.4 and 2.5 /mm (the rest: the scale's flattening of
+        # the corners, changing as they sharpen over the beat)
+        assert np.median(np.abs(error)) < 0.3 * size
+        spread = np.median(np.std(at_mean, axis=-1))
+        assert 0.2 * spread < noise["noise_sd_smoothed"] < spread
+        assert noise["noise_share"] > 0.3
         assert noise["smoothing_ms"] == 20.0       # auto: the most, and not enough (warned)
 
 

@@ -171,3 +171,36 @@ def test_phantom_cli_passes_every_option(tmp_path):
     assert params["expand_fraction_outlet"] == pytest.approx(params["expand_fraction"] + 0.1)
     assert (params["vertices_min"], params["vertices_max"]) == (900, 1000)
     assert params["band_position_mm"] is not None  # banded
+
+
+@pytest.mark.parametrize("sharpness", [-1.5, -0.4, 0.0, 0.7, 1.5])
+def test_sharper_corners_keep_the_areas_and_sharpen_the_curvature(sharpness):
+    """corner_profile: mean 0 and peak 1 at every sharpness (the inner wall's area formula
+    holds: its myocardial area is kept), the peak's curvature grows with |sharpness| (at
+    the corners for > 0, in the notches between for < 0), and a meshed section's area is
+    the truth's."""
+    from oftimg.synthetic.phantom import corner_profile, profile_power
+
+    phase = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
+    g = corner_profile(phase, sharpness)
+    assert abs(g.mean()) < 1e-12 and np.isclose(np.abs(g).max(), 1.0)
+    assert np.isclose((g ** 2).mean(), profile_power(sharpness), rtol=1e-9)
+    ph = Phantom(PhantomParams(n_frames=8, corners=5, corner_sharpness=sharpness))
+    s, t = 0.5 * ph.p.length_mm, 0.0
+    theta = np.linspace(-np.pi, np.pi, 4096, endpoint=False)
+    rho_out, rho_in = (ph.radius(w, s, theta, t) for w in ("outer", "inner"))
+    myocardium = 0.5 * np.mean(rho_out ** 2 - rho_in ** 2) * 2 * np.pi
+    assert np.isclose(myocardium, ph.p.myocardial_fraction * np.pi * ph.base_radius(s) ** 2
+                      / ph.stretch(t), rtol=1e-6)
+    kappa = ph.section_curvature("outer", s, theta, t)
+    cosine = Phantom(PhantomParams(n_frames=8, corners=5)).section_curvature("outer", s, theta, t)
+    if sharpness > 0:
+        assert kappa.max() > cosine.max() * (1 + 0.3 * sharpness)
+    elif sharpness < 0:
+        assert kappa.min() < cosine.min() - 3 * abs(sharpness)
+    rng = np.random.default_rng(0)
+    V, F = ph.mesh("outer", t, rng)
+    c, N, B = ph.frame_axes(s)
+    tangent = np.cross(B, N)
+    C = contour_around(plane_contours(V, F, c, tangent), c, tangent)
+    assert np.isclose(polygon_area(C, tangent), ph.area_mm2("outer", s, t), rtol=0.01)

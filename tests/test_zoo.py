@@ -147,3 +147,26 @@ def test_a_tube_that_ends_inside_the_volume_is_cut_at_the_windows_plane(tmp_path
         loops = check_tube(mesh.V, mesh.F).loops
         at_plane = [np.allclose(mesh.V[loop, axis], offset[axis], atol=1e-6) for loop in loops]
         assert sorted(at_plane) == [False, True], wall    # one end cut at the window's plane
+
+
+def test_feature_draws_sharpen_the_corners_and_span_coarse_to_fine_meshes():
+    """draw_scenario(features=True): 3-6 corners of any sharpness in RANGES (corners and
+    notches), meshes 40-200 vertices round the outer wall, the rest of the draw as it was."""
+    from oftimg.synthetic.phantom import Phantom
+
+    drawn = [draw_scenario(seed, "meshes", features=True) for seed in range(60)]
+    plain = [draw_scenario(seed, "meshes") for seed in range(60)]
+    corners = {d.phantom.corners for d in drawn}
+    assert corners == {3, 4, 5, 6}
+    sharp = np.array([d.phantom.corner_sharpness for d in drawn])
+    assert sharp.min() < -1.0 and sharp.max() > 1.0 and np.all(np.abs(sharp) <= 1.5)
+    keep = ("corners", "corner_sharpness", "vertices_min", "vertices_max")
+    assert all(replace(d.phantom, **{k: getattr(p.phantom, k) for k in keep}) == p.phantom
+               for d, p in zip(drawn, plain))
+    around = []
+    for d in drawn[:12]:
+        V, F = Phantom(d.phantom).mesh("outer", 0.0, np.random.default_rng(0))
+        # vertices on the first ring: those with the smallest window arc length
+        s, _ = Phantom(d.phantom).window_coordinates(V)
+        around.append(int(np.sum(s < 1e-9)))
+    assert 40 <= min(around) and max(around) <= 205 and max(around) - min(around) > 60

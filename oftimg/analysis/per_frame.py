@@ -105,7 +105,7 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     """
     n_c = options.n_u
     out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {},
-           "from_ring": {}, "cpu_s": {}, "smoothed": {}}
+           "from_ring": {}, "cpu_s": {}, "smoothed": {}, "radial_curvature": {}}
     clock = _Clock(out["cpu_s"])
     with clock("load"):
         tb, out["smoothed"]["outer"] = measured_tube(frame, "outer", options)
@@ -148,8 +148,10 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
                 out["lumen_outside"] = int((out["jelly_thickness"] < 0).sum())
     for wall, (tube, Xw, gw) in walls.items():
         with clock("sections"):
-            area, centroid, contour, from_ring = sections_of_mesh(tube.V, tube.F, origins,
-                                                                  normals, Xw, n_c)
+            area, centroid, contour, from_ring, *kappa = sections_of_mesh(
+                tube.V, tube.F, origins, normals, Xw, n_c, curvature=wall != "lumen")
+        if kappa:                   # (n_scales, n_u, n_v): chosen over the frames
+            out["radial_curvature"][wall] = kappa[0].astype(np.float32)
         out["grid"][wall] = Xw
         out["flipped"][wall] = gw.flipped if gw else 0
         out["repaired"][wall] = int(bool(gw and gw.flipped_before_repair))

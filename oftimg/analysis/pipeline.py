@@ -30,6 +30,7 @@ from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
 from ..mesh.labels import MeshOptions
 from ..mesh.sections import slab_thickness, volume_from_sections
 from ..mesh.curvature import contour_curvature, count_corners
+from .radial_curvature import UNMEASURED_SCALE, scale_chosen_curvature
 from ..mesh.strain import grid_strain, surface_kinematics
 from .per_frame import frame_seam_candidates, process_frame, rough_mesh_steps, with_warnings
 from .uncertainty import input_kind, with_bands
@@ -292,7 +293,8 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                  smoothing_ms: float | str = "auto", lumen_smoothed_ms: float = 0.0,
                  strain_smoothing_ms: float | str = "auto",
                  jelly_thickness: np.ndarray | None = None,
-                 coords: np.ndarray | None = None) -> dict:
+                 coords: np.ndarray | None = None,
+                 radial_curvature: dict | None = None) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
     Radial curvature of the outer and inner section contours and the myocardial
@@ -311,15 +313,28 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     ``RIDGE_SMOOTHING_MS`` in all (or by its own sigma if more). ``coords (n_u, n_v,
     n_t, 2)``: the tracked grid's pathlines (:func:`~oftimg.analysis.tracking.track_grid`),
     along which the section contours' curvature is read before it is smoothed in
-    time (the grids given are already tracked), or None.
+    time (the grids given are already tracked), or None. ``radial_curvature``: wall ->
+    each contour's curvature ``(n_u, n_v, n_t)`` 1/mm measured on the section's own
+    polygon (:func:`~oftimg.mesh.sections.sections_of_mesh`); where missing, from the
+    contour's points (:func:`contour_curvature`).
     """
     arrays, noise, strain_noise, unsmoothed = {}, {}, {}, {}
+    radial_curvature = radial_curvature or {}
     for w in ("outer", "inner"):
         if w in contour:
             name = f"radial_curvature_{w}_per_mm"
-            unsmoothed[w] = contour_curvature(contour[w], normals[None])
-            on_tissue = unsmoothed[w] if coords is None else follow(unsmoothed[w], coords)
-            arrays[name], noise[name] = smoothed_curvature(on_tissue, period_ms, smoothing_ms)
+            if w in radial_curvature:       # each node at the scale its noise allows
+                scales = radial_curvature[w]
+                if coords is not None:
+                    scales = np.stack([follow(k, coords) for k in scales])
+                arrays[name], noise[name], _ = scale_chosen_curvature(scales, period_ms,
+                                                                      smoothing_ms)
+                unsmoothed[w] = radial_curvature[w][UNMEASURED_SCALE]
+            else:
+                unsmoothed[w] = contour_curvature(contour[w], normals[None])
+                on_tissue = unsmoothed[w] if coords is None else follow(unsmoothed[w], coords)
+                arrays[name], noise[name] = smoothed_curvature(on_tissue, period_ms,
+                                                               smoothing_ms)
             energy, stretch, strain_noise[f"strain_energy_{w}"] = smoothed_strain(
                 grid[w], period_ms, strain_smoothing_ms)
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
@@ -698,6 +713,8 @@ def _stack_frames(frames: list[dict]) -> dict:
         "grid": {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls},
         "area": {w: np.stack([f["area"][w] for f in frames], axis=1) for w in walls},
         "contour": {w: np.stack([f["contour"][w] for f in frames], axis=2) for w in walls},
+        "radial_curvature": {w: np.stack([f["radial_curvature"][w] for f in frames], axis=3)
+                             for w in frames[0]["radial_curvature"]},
         "volume": {w: np.array([f["volume"][w] for f in frames]) for w in walls},
         "rows": {"origin": np.stack([f["origins"] for f in frames], axis=1),
                  "normal": np.stack([f["normals"] for f in frames], axis=1),
@@ -797,8 +814,9 @@ def _time_axis(ds: Dataset, options: PipelineOptions, st: dict, timing: dict, t0
         st["contour"], st["volume"], st["rows"])
     rows["normal"] /= np.linalg.norm(rows["normal"], axis=-1, keepdims=True)
     jelly = resample_time(st["jelly"], t_frames, axis=2) if st["jelly"] is not None else None
+    curvature = {w: resample_time(k, t_frames, axis=3) for w, k in st["radial_curvature"].items()}
     return t_frames, {**st, "grid": grid, "area": area, "contour": contour, "volume": volume,
-                      "rows": rows, "jelly": jelly}
+                      "rows": rows, "jelly": jelly, "radial_curvature": curvature}
 
 
 def _section_arrays(ds: Dataset, options: PipelineOptions, st: dict, t_frames: np.ndarray
@@ -892,7 +910,8 @@ def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H,
                           ds.meta.period_ms, options.field_smoothing_ms,
                           lumen_smoothed_ms=lumen_noise["smoothing_ms"] if H is not None else 0.0,
                           strain_smoothing_ms=options.strain_smoothing_ms,
-                          jelly_thickness=jelly, coords=coords)
+                          jelly_thickness=jelly, coords=coords,
+                          radial_curvature=st.get("radial_curvature"))
     arrays.update(fields.pop("arrays"))
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise

@@ -215,3 +215,92 @@ def _sum_at(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
         return np.bincount(index, values, minlength=n)
     return np.stack([np.bincount(index, values[:, c], minlength=n)
                      for c in range(values.shape[1])], axis=1)
+
+
+# -- radial curvature from a section's full-resolution polygon (issue 84) -----------
+# A polygon's edge direction, taken at each edge's midpoint (where a circle's tangent
+# has the chord's direction) and joined linearly between them, turns at a rate that is
+# the curvature at the polygon's own resolution; smoothed by a Gaussian along the arc
+# at each of these scales (in the polygon's mean vertex spacings) it is the curvature
+# at that scale. Which scale a wall takes is chosen later, over the frames, where each
+# scale's noise can be measured (oftimg.analysis.radial_curvature). The polygon's own
+# vertices, not a resample: the 80-point resample's Savitzky-Golay fit (before issue
+# 84) spans a fixed share of the contour whatever the mesh resolves. Exact on a circle
+# at every scale, however irregular its vertices (a polynomial in arc length bends a
+# circle's curvature by (scale / radius)^2, turning angles taken at the vertices make
+# an irregular polygon's curvature jump from gap to gap).
+CURVATURE_SCALES = (1.5, 2.0, 2.8, 4.0, 5.6, 8.0, 11.0)
+# the smoothing is done on a periodic grid of this many bins per contour point
+BINS_PER_POINT = 16
+
+
+def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: np.ndarray,
+                      target: np.ndarray, normals: np.ndarray, *, scales=CURVATURE_SCALES
+                      ) -> np.ndarray:
+    """Signed curvature (1/mm, positive where convex) of closed planar polygons at given
+    arc-length positions, at each of ``scales``: ``(n_scales, k, n)``.
+
+    ``P (N, 3)`` mm: the polygons' vertices one after another, each polygon turning
+    positively about its ``normals (k, 3)``; ``poly (N,)`` each vertex's polygon,
+    ``arc (N,)`` its arc length from its polygon's first vertex (mm), ``length (k,)``
+    the polygons' perimeters (mm), ``target (k, n)`` where to measure (mm of arc, from
+    ``target[:, 0]`` on round the polygon); ``scales``: the Gaussian's SDs in each
+    polygon's mean vertex spacings. The turning is integrated over :data:`BINS_PER_POINT`
+    x n bins round each polygon and smoothed there by FFT.
+    """
+    from .sections import interp_grouped
+
+    P, arc, length = np.asarray(P, float), np.asarray(arc, float), np.asarray(length, float)
+    target = np.asarray(target, float)
+    k, n = target.shape
+    counts = np.bincount(poly, minlength=k)
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    last = first + counts - 1
+    succ = np.arange(len(P)) + 1
+    succ[last] = first
+    pred = np.empty_like(succ)
+    pred[succ] = np.arange(len(P))
+    normals = np.asarray(normals, float)
+    normals = normals / np.linalg.norm(normals, axis=-1, keepdims=True)
+    edge = P[succ] - P
+    # each edge's direction at its midpoint, unwrapped round its polygon
+    arriving = edge[pred]
+    turn = np.arctan2(np.einsum("ij,ij->i", np.cross(arriving, edge), normals[poly]),
+                      np.einsum("ij,ij->i", arriving, edge))
+    total = np.bincount(poly, weights=turn, minlength=k)         # 2 pi for a simple polygon
+    turn[first] = 0.0                                    # the first edge's heading: 0
+    heading = np.cumsum(turn)
+    heading -= np.repeat(heading[first], counts)
+    middle = arc + 0.5 * np.linalg.norm(edge, axis=1)
+    # one lap before and after each polygon's midpoints: the heading is periodic up to
+    # its total turning; abscissae shifted by one perimeter (interp_grouped needs >= 0)
+    lap = np.repeat(np.arange(-1, 2), len(P))
+    xp = np.tile(middle, 3) + (lap + 1) * np.tile(length[poly], 3)
+    fp = np.tile(heading, 3) + lap * np.tile(total[poly], 3)
+    group = np.tile(poly, 3)
+    order = np.lexsort((xp, group))
+    m = BINS_PER_POINT * n
+    bounds = (target[:, :1] + np.arange(m + 1)[None, :] * (length[:, None] / m)
+              ) % length[:, None] + length[:, None]                                # (k, m + 1)
+    wrapped = np.diff(bounds, axis=1) < 0
+    angle = interp_grouped(bounds, xp[order], fp[order, None], group[order])[..., 0]
+    step = np.diff(angle, axis=1) + wrapped * total[:, None]
+    density = step * (m / length[:, None])                            # 1/mm, per bin
+    spectrum = np.fft.rfft(density, axis=1)
+    cycles = np.arange(m // 2 + 1)                                     # per perimeter
+    spacing = length / np.maximum(counts, 1)
+    # the targets on the bins' centres
+    where = ((target - target[:, :1]) % length[:, None]) / length[:, None] * m - 0.5
+    lo = np.floor(where).astype(int)
+    frac = where - lo
+    rows = np.arange(k)[:, None]
+    out = []
+    for scale in scales:
+        sigma = scale * spacing / length                               # perimeters
+        gauss = np.exp(-2 * (np.pi * sigma[:, None] * cycles[None, :]) ** 2)
+        # 2 G(sigma) - G(sqrt 2 sigma): the Gaussian's flattening (sigma^2 / 2 times the
+        # curvature's second derivative) cancelled, a fourth-order kernel
+        smooth = np.fft.irfft(spectrum * (2 * gauss - gauss ** 2), n=m, axis=1)
+        out.append(smooth[rows, lo % m] * (1 - frac) + smooth[rows, (lo + 1) % m] * frac)
+    return np.stack(out)
+

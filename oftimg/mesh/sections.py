@@ -229,7 +229,8 @@ def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n:
 
 
 def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray,
-                     rings: np.ndarray, n_points: int, *, max_offset: float = 0.5):
+                     rings: np.ndarray, n_points: int, *, max_offset: float = 0.5,
+                     curvature: bool = False):
     """Cut one frame's mesh with every plane; keep the contour that follows the grid ring.
 
     ``origins``, ``normals`` are ``(n_v, 3)``; ``rings (n_u, n_v, 3)`` is the
@@ -243,7 +244,9 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
 
     Returns ``area (n_v,)`` mm^2, ``centroid (n_v, 3)`` mm, ``contour
     (n_points, n_v, 3)`` mm and ``from_ring (n_v,)`` (True where the
-    projected ring was used).
+    projected ring was used); with ``curvature``, also each contour's radial curvature at
+    its points at each scale, ``(n_scales, n_points, n_v)`` 1/mm, from the section's own
+    polygon (:func:`~oftimg.mesh.curvature.polygon_curvature`).
     """
     n_v = len(origins)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
@@ -262,7 +265,8 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     chosen = _contours_around(all_contours, origins + shift, normals)
     from_ring = np.array([C is None for C in chosen])
     polygons = [flat[:, j] if C is None else C - shift[j] for j, C in enumerate(chosen)]
-    area, centroid, resampled = _measure_polygons(polygons, normals, rings[0], n_points)
+    area, centroid, resampled, *kappa = _measure_polygons(polygons, normals, rings[0], n_points,
+                                                          curvature=curvature)
     # symmetric Hausdorff distance of each (resampled) contour to its projected ring
     B = flat.transpose(1, 0, 2)                                         # (n_v, n_u, 3)
     d2 = (np.einsum("vpk,vpk->vp", resampled, resampled)[:, :, None]
@@ -272,9 +276,14 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     redo = np.nonzero(~from_ring & (offset > max_offset * radius))[0]
     if len(redo):
         from_ring[redo] = True
-        area[redo], centroid[redo], resampled[redo] = _measure_polygons(
-            [flat[:, j] for j in redo], normals[redo], rings[0, redo], n_points)
-    return area, centroid, resampled.transpose(1, 0, 2), from_ring
+        redone = _measure_polygons([flat[:, j] for j in redo], normals[redo], rings[0, redo],
+                                   n_points, curvature=curvature)
+        for whole, part in zip([area, centroid, resampled], redone):
+            whole[redo] = part
+        if curvature:
+            kappa[0][:, redo] = redone[3]
+    out = (area, centroid, resampled.transpose(1, 0, 2), from_ring)
+    return out + tuple(k.transpose(0, 2, 1) for k in kappa)
 
 
 def _closed_polygons(polygons: list[np.ndarray]):
@@ -321,13 +330,15 @@ def _contours_around(all_contours: list, centers: np.ndarray, normals: np.ndarra
 
 
 def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_near: np.ndarray,
-                      n: int):
+                      n: int, *, curvature: bool = False):
     """Area (mm^2), area centroid ``(k, 3)`` and ``n`` points evenly spaced by arc
     length ``(k, n, 3)`` of planar closed polygons, all at once.
 
     The points turn positively about the polygon's unit normal (``normals (k,
     3)``) and start at the polygon point nearest ``starts_near (k, 3)`` (the
-    seam).
+    seam). With ``curvature``, also the polygons' curvature at those points at each
+    scale of :func:`~oftimg.mesh.curvature.polygon_curvature`, ``(n_scales, k, n)``
+    1/mm, from the polygons' own vertices, not the resample.
     """
     P, starts, lengths, poly, succ = _closed_polygons(polygons)
     k = len(polygons)
@@ -365,7 +376,10 @@ def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_ne
     ends = starts + lengths                  # each polygon closed: its first point again
     resampled = interp_grouped(target, np.insert(s, ends, length),
                                np.insert(P, ends, P[starts], axis=0), np.insert(poly, ends, np.arange(k)))
-    return area, centroid, resampled
+    if not curvature:
+        return area, centroid, resampled
+    from .curvature import polygon_curvature
+    return area, centroid, resampled, polygon_curvature(P, poly, s, length, target, normals)
 
 
 def interp_grouped(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, group: np.ndarray

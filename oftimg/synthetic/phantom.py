@@ -19,7 +19,12 @@ The model (lengths in mm, times in ms):
 * **Outer wall**: ``rho = R0(s) * m * (1 + a_k cos(k theta) + a_e cos(2 theta))``
   with the tapered radius R0 (``radius_inlet_mm`` to ``radius_outlet_mm``), the
   contraction factor ``m = 1 - contraction (1 - h(phi))`` and ``k`` =
-  ``corners`` rounded corners, sharper (and a slight ellipse) when contracted.
+  ``corners`` rounded corners, sharper (and a slight ellipse) when contracted;
+  ``corner_sharpness`` kappa != 0 replaces cos(k theta) by a von Mises profile of the
+  same mean (0) and peak (1), :func:`corner_profile`: kappa > 0 sharpens the corners
+  with flatter sides between, kappa < 0 cuts sharp concave notches between bulging
+  sides (the peak's curvature grows about as kappa / (1 - exp(-2 kappa)) times the
+  cosine's).
 * **Inner wall**: the outer contour scaled so that the myocardial area
   ``myocardial_fraction * pi R0(s)^2 / lambda(t)`` is kept over the beat
   (thicker when contracted).
@@ -77,6 +82,7 @@ class PhantomParams:
     corners: int = 4
     corner_contracted: float = 0.08
     corner_expanded: float = 0.03
+    corner_sharpness: float = 0.0   # kappa of corner_profile: > 0 corners, < 0 notches
     ellipse_contracted: float = 0.03
     myocardial_fraction: float = 0.3
     stretch: float = 0.17
@@ -153,6 +159,32 @@ def sample_params(group: str = "normal", seed: int = 0, *, expand_change: float 
 
 
 # --------------------------------------------------------------------------- model
+def corner_profile(phase, sharpness: float = 0.0):
+    """The corners' shape round the section at ``phase`` = k theta (rad, broadcasting):
+    cos(phase) for ``sharpness`` 0; else a von Mises bump exp(kappa (cos - 1)) moved and
+    scaled to mean 0 and peak 1 (kappa = |sharpness|), peaked at phase 0 (corners) for
+    sharpness > 0 and turned into a notch at phase pi for sharpness < 0. Tends to
+    cos(phase) as sharpness -> 0 from either side."""
+    kappa = abs(float(sharpness))
+    if kappa < 1e-3:
+        return np.cos(phase)
+    sign = 1.0 if sharpness > 0 else -1.0
+    shifted = phase if sign > 0 else np.asarray(phase) + np.pi
+    mean = np.exp(-kappa) * np.i0(kappa)           # the bump's mean over a period
+    bump = np.exp(kappa * (np.cos(shifted) - 1.0))
+    return sign * (bump - mean) / (1.0 - mean)
+
+
+def profile_power(sharpness: float = 0.0) -> float:
+    """The mean of :func:`corner_profile` squared over a period (1/2 for the cosine)."""
+    kappa = abs(float(sharpness))
+    if kappa < 1e-3:
+        return 0.5
+    mean = np.exp(-kappa) * np.i0(kappa)
+    mean_sq = np.exp(-2 * kappa) * np.i0(2 * kappa)
+    return float((mean_sq - mean ** 2) / (1.0 - mean) ** 2)
+
+
 def _hump(phi, expand_fraction):
     """Expansion state h(phi) in [0, 1]: 0 contracted (phi = 0), 1 at phi = f_e."""
     phi = np.mod(phi, 1.0)
@@ -300,7 +332,8 @@ class Phantom:
         m = 1.0 - p.contraction * (1.0 - self.band(s) * p.band_motion_block) * (1.0 - h)
         a_k = p.corner_contracted + (p.corner_expanded - p.corner_contracted) * h
         a_e = p.ellipse_contracted * (1.0 - h)
-        shape = 1.0 + a_k * np.cos(p.corners * theta) + a_e * np.cos(2 * theta)
+        shape = (1.0 + a_k * corner_profile(p.corners * theta, p.corner_sharpness)
+                 + a_e * np.cos(2 * theta))
         rho = self.base_radius(s) * m * shape
         if wall == "outer":
             return rho
@@ -317,7 +350,8 @@ class Phantom:
         """Scale of the inner contour relative to the outer one (keeps myocardial area)."""
         p = self.p
         R0 = self.base_radius(s)
-        shape_area = 1.0 + 0.5 * a_k ** 2 + 0.5 * a_e ** 2  # (1/2pi) * int shape^2
+        # (1/2pi) int shape^2 (corners >= 3: the profile and cos 2 theta are orthogonal)
+        shape_area = 1.0 + profile_power(p.corner_sharpness) * a_k ** 2 + 0.5 * a_e ** 2
         area_out = np.pi * (R0 * m) ** 2 * shape_area
         area_myo = p.myocardial_fraction * np.pi * R0 ** 2 / self.stretch(t_ms)
         return np.sqrt(np.clip(1.0 - area_myo / area_out, 0.01, None))

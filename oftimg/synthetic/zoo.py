@@ -54,6 +54,9 @@ RANGES = {
     "side_lag_share": (0.05, 0.25),
     # label draws cut obliquely by the volume's faces: the angle from square, degrees
     "oblique_deg": (20.0, 50.0),
+    # with features=True: sharper corners or concave notches (phantom corner_profile's
+    # kappa), 3 to 6 of them, and meshes from coarse to fine (vertices round the outer wall)
+    "corners": (3, 6), "corner_sharpness": (-1.5, 1.5), "vertices_around": (40, 200),
 }
 BANDED_SHARE = 0.3          # of the draws: a band
 SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
@@ -126,7 +129,7 @@ def _uniform(rng, name: str) -> float:
 
 def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = None,
                   voxel_um_min: float | None = None, fronts: bool = False,
-                  oblique: bool | None = None) -> Scenario:
+                  oblique: bool | None = None, features: bool = False) -> Scenario:
     """The scenario of ``seed`` (the same seed, the same draw): ``kind`` drawn from
     :data:`KINDS` unless given, every number from :data:`RANGES`. ``n_frames`` and
     ``voxel_um_min`` (the finest voxel side drawn) override the draw, for quick runs:
@@ -135,7 +138,9 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     both (:func:`front_params`); the rest of the draw is the same. ``oblique``: a label
     draw's volume cuts the tube at both ends obliquely (True: at its drawn angle,
     :data:`RANGES` ``oblique_deg``) or square (False), none ending inside, the rest of
-    the draw the same (a pair for a paired comparison); None: as drawn."""
+    the draw the same (a pair for a paired comparison); None: as drawn. ``features``:
+    the section's corners drawn sharper or as concave notches and 3-6 of them, and the
+    meshes 40-200 vertices round the tube (:func:`feature_params`); the rest the same."""
     rng = np.random.default_rng([seed, 72])
     drawn_kind = KINDS[int(rng.integers(len(KINDS)))]
     kind = drawn_kind if kind is None else kind
@@ -168,6 +173,8 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
         vertices_min=v_min, vertices_max=int(1.5 * v_min))
     if fronts:
         params = replace(params, **front_params(seed, params.period_ms))
+    if features:
+        params = replace(params, **feature_params(seed, params))
     side = _uniform(rng, "voxel_um")
     if voxel_um_min is not None:
         side = max(side, voxel_um_min)
@@ -214,6 +221,21 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     return Scenario(seed, kind, params, voxel, segmentation,
                     texture if kind == "labels+intensity" else None,
                     end_inside=end_inside, end_inside_voxels=end_voxels, oblique_deg=oblique)
+
+
+def feature_params(seed: int, params: PhantomParams) -> dict:
+    """A feature draw's phantom parameters (a stream of its own: the rest of the draw
+    stays as it was): ``corners`` and ``corner_sharpness`` from :data:`RANGES`, and
+    ``vertices_min``/``max`` such that a mesh has :data:`RANGES` ``vertices_around``
+    vertices round its outer wall (the phantom's meshes put sqrt(n aspect) round it)."""
+    rng = np.random.default_rng([seed, 72, 4])
+    low, high = RANGES["corners"]
+    around = _uniform(rng, "vertices_around")
+    aspect = np.pi * (params.radius_inlet_mm + params.radius_outlet_mm) / params.length_mm
+    vertices = int(round(around ** 2 / aspect))
+    return {"corners": int(rng.integers(low, high + 1)),
+            "corner_sharpness": _uniform(rng, "corner_sharpness"),
+            "vertices_min": vertices, "vertices_max": vertices}
 
 
 def front_params(seed: int, period_ms: float) -> dict:

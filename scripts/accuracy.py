@@ -428,6 +428,19 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float,
         # what a calibrated band would need: the error's 95th percentile (the field's
         # unit) beside the noise the run reports
         e[f"{name}_error_p95"] = float(np.nanpercentile(np.abs(measured - truth_at_mean), 95))
+        # each node's own band (issue 84), against the model at the node
+        node_band = arr.get(array.replace("_per_mm", "_band95_per_mm")) if "_per_mm" in array \
+            else None
+        if node_band is not None:
+            band = node_band[:, rows].astype(float)
+            inside = np.abs(measured - truth) <= band
+            known = np.isfinite(measured - truth) & np.isfinite(band)
+            e[f"{name}_node_band_within_pct"] = float(100 * inside[known].mean())
+            for phase, at in (("expanded", expanded), ("contracted", ~expanded)):
+                e[f"{name}_node_band_within_{phase}_pct"] = float(100 * inside[known & at].mean())
+            e[f"{name}_node_band_ratio_p95"] = float(np.nanpercentile(
+                np.abs(measured - truth)[known] / band[known], 95))
+            e[f"{name}_band95_wide_share"] = noise.get("band95_wide_share", np.nan)
         e[f"{name}_noise_sd"] = noise.get("noise_sd_smoothed") or np.nan
         e[f"{name}_noise_share"] = noise.get("noise_share") or np.nan
         e[f"{name}_smoothing_ms"] = noise.get("smoothing_ms", np.nan)

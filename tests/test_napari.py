@@ -82,6 +82,11 @@ def test_each_wall_is_coloured_by_a_field_in_the_house_colour_maps(viewer_with_r
     low, high = layers[0].contrast_limits
     assert low == pytest.approx(-high)
     assert "strain_energy_outer" in meta["fields"] and "wall_thickness_mm" in meta["fields"]
+    # each node's error bar, a field of its own (issue 84)
+    assert "radial_curvature_outer_band95_per_mm" in meta["fields"]
+    from oftimg.napari.surfaces import readable
+    assert readable("radial_curvature_outer_band95_per_mm") == \
+        "95 % band of radial curvature outer"
     data, kwargs, kind = wall_layer(res, "outer", "strain_energy_outer")  # one-signed
     assert kind == "surface" and kwargs["colormap"] == "viridis"
     assert kwargs["contrast_limits"][0] >= 0

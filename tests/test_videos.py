@@ -183,3 +183,34 @@ def test_the_map_cursor_sits_at_the_time_its_axis_gives():
         cursor = MARGIN_LEFT + np.flatnonzero(inside.max(axis=-1) < 60)
         assert len(cursor) == 1
         assert np.abs(ticks - cursor[0]).min() == 0, (k, cursor, ticks)
+
+
+def test_nodes_whose_band_is_wide_are_greyed_and_the_title_says_so():
+    """A curvature of 10 /mm whose 95 % band is 2 /mm but 8 /mm over a block of nodes (over
+    half the value): those nodes fade towards grey, the others keep their colour, the
+    title says what grey means, and the per-pixel normalised video is not greyed."""
+    from oftimg.output.video import UNCERTAIN_GREY, uncertain_nodes, video_tasks
+
+    n_u, n_v, n_t = 80, 50, 4
+    curvature = np.full((n_u, n_v, n_t), 10.0) + np.linspace(-3, 3, n_u)[:, None, None]
+    band = np.full_like(curvature, 2.0)
+    band[10:20, 5:15] = 8.0
+    arrays = {"radial_curvature_outer_per_mm": curvature, "t_ms": np.arange(n_t) * 10.0,
+              "radial_curvature_outer_band95_per_mm": band, "s_mm": np.linspace(0, 1.2, n_v),
+              "area_outer_mm2": np.ones((n_v, n_t))}
+    marks = uncertain_nodes(arrays, "radial_curvature_outer_per_mm")
+    assert marks["uncertain"].sum() == 10 * 10 * n_t and "grey" in marks["uncertain_note"]
+    assert uncertain_nodes(arrays, "strain_energy_outer") == {}
+    options = dict(vmin=-13, vmax=13, cmap="RdBu_r", annotate=False)
+    plain = field_frames(curvature, arrays["t_ms"], **options)[1]
+    greyed = field_frames(curvature, arrays["t_ms"], **options, **marks)[1]
+    changed = np.any(plain != greyed, axis=-1)
+    assert changed.sum() == 10 * 10 * FIELD_SCALE ** 2               # those nodes' pixels only
+    assert np.all(np.abs(greyed[changed].astype(int) - UNCERTAIN_GREY)
+                  <= np.abs(plain[changed].astype(int) - UNCERTAIN_GREY))
+    titled = [field_frames(curvature, arrays["t_ms"], vmin=-13, vmax=13, title="outer wall",
+                           **extra)[1] for extra in ({}, marks)]
+    assert not np.array_equal(titled[0][:30], titled[1][:30])        # the note in the banner
+    tasks = {t[1]["name"]: t[1]["options"] for t in video_tasks(arrays, kinds=["field"])}
+    assert "uncertain" in tasks["radial_curvature_outer"]
+    assert "uncertain" not in tasks["radial_curvature_outer_normalized"]

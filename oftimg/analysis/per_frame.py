@@ -105,7 +105,8 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     """
     n_c = options.n_u
     out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {},
-           "from_ring": {}, "cpu_s": {}, "smoothed": {}, "radial_curvature": {}}
+           "from_ring": {}, "cpu_s": {}, "smoothed": {}, "radial_curvature": {},
+           "vertex_spacing": {}}
     clock = _Clock(out["cpu_s"])
     with clock("load"):
         tb, out["smoothed"]["outer"] = measured_tube(frame, "outer", options)
@@ -152,6 +153,7 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
                 tube.V, tube.F, origins, normals, Xw, n_c, curvature=wall != "lumen")
         if kappa:                   # (n_scales, n_u, n_v): chosen over the frames
             out["radial_curvature"][wall] = kappa[0].astype(np.float32)
+            out["vertex_spacing"][wall] = kappa[1]
         out["grid"][wall] = Xw
         out["flipped"][wall] = gw.flipped if gw else 0
         out["repaired"][wall] = int(bool(gw and gw.flipped_before_repair))

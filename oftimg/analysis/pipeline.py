@@ -30,10 +30,10 @@ from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
 from ..mesh.labels import MeshOptions
 from ..mesh.sections import slab_thickness, volume_from_sections
 from ..mesh.curvature import contour_curvature, count_corners
-from .radial_curvature import UNMEASURED_SCALE, scale_chosen_curvature
+from .radial_curvature import UNMEASURED_SCALE, node_band_95, scale_chosen_curvature
 from ..mesh.strain import grid_strain, surface_kinematics
 from .per_frame import frame_seam_candidates, process_frame, rough_mesh_steps, with_warnings
-from .uncertainty import input_kind, with_bands
+from .uncertainty import NODE_BAND_FACTORS, input_kind, wide_band_share, with_bands
 from ..progress import FramePasses, Progress
 
 
@@ -294,7 +294,8 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                  strain_smoothing_ms: float | str = "auto",
                  jelly_thickness: np.ndarray | None = None,
                  coords: np.ndarray | None = None,
-                 radial_curvature: dict | None = None) -> dict:
+                 radial_curvature: dict | None = None, vertex_spacing: dict | None = None,
+                 kind: str = "meshes") -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
     Radial curvature of the outer and inner section contours and the myocardial
@@ -316,7 +317,10 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     time (the grids given are already tracked), or None. ``radial_curvature``: wall ->
     each contour's curvature ``(n_u, n_v, n_t)`` 1/mm measured on the section's own
     polygon (:func:`~oftimg.mesh.sections.sections_of_mesh`); where missing, from the
-    contour's points (:func:`contour_curvature`).
+    contour's points (:func:`contour_curvature`), with ``vertex_spacing``: wall -> each
+    section polygon's mean vertex spacing ``(n_v, n_t)`` mm; with it, each node's 95 % band beside
+    each radial curvature (``radial_curvature_<wall>_band95_per_mm``), widened as
+    calibrated for input ``kind`` ("meshes", "labels" or "probabilities").
     """
     arrays, noise, strain_noise, unsmoothed = {}, {}, {}, {}
     radial_curvature = radial_curvature or {}
@@ -327,8 +331,12 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                 scales = radial_curvature[w]
                 if coords is not None:
                     scales = np.stack([follow(k, coords) for k in scales])
-                arrays[name], noise[name], _ = scale_chosen_curvature(scales, period_ms,
-                                                                      smoothing_ms)
+                arrays[name], noise[name], node_sd, unresolved = scale_chosen_curvature(
+                    scales, period_ms, smoothing_ms, vertex_spacing[w], contour[w])
+                band = node_band_95(node_sd, unresolved,
+                                    NODE_BAND_FACTORS[kind][f"radial_curvature_{w}"])
+                arrays[f"radial_curvature_{w}_band95_per_mm"] = band
+                noise[name]["band95_wide_share"] = wide_band_share(band, arrays[name])
                 unsmoothed[w] = radial_curvature[w][UNMEASURED_SCALE]
             else:
                 unsmoothed[w] = contour_curvature(contour[w], normals[None])
@@ -356,7 +364,7 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     smoothed_ms["mean_curvature_lumen_per_mm"] = lumen_smoothed_ms
     smoothed_ms.update({name: n["smoothing_ms"] for name, n in strain_noise.items()})
     phased = ("radial", "strain", "mean_curv", "wall", "jelly")
-    for name in [n for n in arrays if n.startswith(phased)]:
+    for name in [n for n in arrays if n.startswith(phased) and "_band95" not in n]:
         # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
         rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothed_ms.get(name, 0.0) ** 2))
         t_max, t_min = phase_maps(arrays[name], period_ms, smoothing_ms=rest_ms)
@@ -715,6 +723,8 @@ def _stack_frames(frames: list[dict]) -> dict:
         "contour": {w: np.stack([f["contour"][w] for f in frames], axis=2) for w in walls},
         "radial_curvature": {w: np.stack([f["radial_curvature"][w] for f in frames], axis=3)
                              for w in frames[0]["radial_curvature"]},
+        "vertex_spacing": {w: np.stack([f["vertex_spacing"][w] for f in frames], axis=1)
+                           for w in frames[0]["vertex_spacing"]},
         "volume": {w: np.array([f["volume"][w] for f in frames]) for w in walls},
         "rows": {"origin": np.stack([f["origins"] for f in frames], axis=1),
                  "normal": np.stack([f["normals"] for f in frames], axis=1),
@@ -815,8 +825,10 @@ def _time_axis(ds: Dataset, options: PipelineOptions, st: dict, timing: dict, t0
     rows["normal"] /= np.linalg.norm(rows["normal"], axis=-1, keepdims=True)
     jelly = resample_time(st["jelly"], t_frames, axis=2) if st["jelly"] is not None else None
     curvature = {w: resample_time(k, t_frames, axis=3) for w, k in st["radial_curvature"].items()}
+    spacing = {w: resample_time(d, t_frames, axis=1) for w, d in st["vertex_spacing"].items()}
     return t_frames, {**st, "grid": grid, "area": area, "contour": contour, "volume": volume,
-                      "rows": rows, "jelly": jelly, "radial_curvature": curvature}
+                      "rows": rows, "jelly": jelly, "radial_curvature": curvature,
+                      "vertex_spacing": spacing}
 
 
 def _section_arrays(ds: Dataset, options: PipelineOptions, st: dict, t_frames: np.ndarray
@@ -911,7 +923,9 @@ def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H,
                           lumen_smoothed_ms=lumen_noise["smoothing_ms"] if H is not None else 0.0,
                           strain_smoothing_ms=options.strain_smoothing_ms,
                           jelly_thickness=jelly, coords=coords,
-                          radial_curvature=st.get("radial_curvature"))
+                          radial_curvature=st.get("radial_curvature"),
+                          vertex_spacing=st.get("vertex_spacing"),
+                          kind=input_kind(ds.inputs_by_kind()))
     arrays.update(fields.pop("arrays"))
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise

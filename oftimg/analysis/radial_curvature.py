@@ -33,15 +33,21 @@ ALONG_ROWS = 2.0
 UNMEASURED_SCALE = 2
 
 
-def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float | str
-                           ) -> tuple[np.ndarray, dict, np.ndarray]:
+def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float | str,
+                           vertex_spacing: np.ndarray, contour: np.ndarray
+                           ) -> tuple[np.ndarray, dict, np.ndarray, np.ndarray]:
     """The radial curvature ``(n_u, n_v, n_t)`` float32 (1/mm) from its estimates at each
     scale ``K (n_scales, n_u, n_v, n_t)`` (finest first, each node the same tissue in
-    every frame): averaged along the tube, smoothed in time, at the scale of least
+    every frame; ``vertex_spacing (n_v, n_t)`` mm each section polygon's, the scales'
+    unit; ``contour (n_u, n_v, n_t, 3)`` mm its points): averaged along the tube,
+    smoothed in time, at the scale of least
     estimated error (:func:`least_error_scale`); its noise
     (:func:`~oftimg.image.normalize.field_noise`'s entries, ``smoothing_ms`` and the
-    ``scale`` index taken) and each node's noise SD after the smoothing ``(n_u, n_v,
-    n_t)`` (1/mm, its row's; NaN where not measurable).
+    ``scale`` index taken), each node's noise SD after the smoothing ``(n_u, n_v,
+    n_t)`` (1/mm, its row's; NaN where not measurable) and what the scale may not
+    resolve there ``(n_u, n_v, n_t)`` (1/mm: a Gaussian's flattening, s^2 / 2 times the
+    curvature's second derivative along the contour, estimated from the field's second
+    difference round the section; :func:`node_band_95`).
 
     ``smoothing_ms``: a Gaussian sigma in ms, or "auto": the smallest of
     ``RIDGE_SMOOTHING_LADDER_MS`` after which the field's noise share is at most
@@ -61,9 +67,28 @@ def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float 
         if not noise["noise_share"] > FIELD_NOISE_TARGET:         # NaN: not measurable
             break
     node_sd = np.broadcast_to(sd[scale], K.shape[1:])
-    return (smoothed[scale].astype(np.float32),
-            {**noise, "smoothing_ms": float(sigma), "scale": scale},
-            node_sd.astype(np.float32))
+    field = smoothed[scale]
+    # what the scale may flatten: s^2 / 2 times the curvature's second derivative along
+    # the contour, from the field's second difference round the section over the nodes'
+    # spacing h (large at a corner or a notch, small on a flat side; a finer scale's
+    # difference from it was mostly that scale's noise)
+    from ..mesh.curvature import CURVATURE_SCALES
+
+    node_step = np.linalg.norm(np.roll(contour, -1, axis=0) - contour, axis=-1).mean(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = (CURVATURE_SCALES[scale] * vertex_spacing / node_step) ** 2      # (n_v, n_t)
+    second = np.abs(np.roll(field, -1, axis=0) - 2 * field + np.roll(field, 1, axis=0))
+    unresolved = 0.5 * ratio[None] * second
+    return (field.astype(np.float32), {**noise, "smoothing_ms": float(sigma), "scale": scale},
+            node_sd.astype(np.float32), unresolved.astype(np.float32))
+
+
+def node_band_95(node_sd: np.ndarray, unresolved: np.ndarray, factor: float) -> np.ndarray:
+    """Each node's 95 % band (half its width, the field's unit) ``1.96 factor sqrt(sd^2 +
+    unresolved^2)``: the noise the frames show and what the scale may not resolve there
+    (a corner flattened), widened by ``factor`` as calibrated on the zoo
+    (:data:`~oftimg.analysis.uncertainty.NODE_BAND_FACTORS`)."""
+    return (1.96 * factor * np.hypot(node_sd, unresolved)).astype(np.float32)
 
 
 def least_error_scale(estimates: np.ndarray, sd: np.ndarray) -> int:

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sections import interp_grouped, slab_volumes
+from .sections import slab_volumes
+from .topology import interp_grouped
 
 
 def cumulative_from_outlet(area_mm2: np.ndarray, thickness_mm: np.ndarray) -> np.ndarray:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .parameterize import corner_terms
+from .topology import interp_grouped
 
 
 def contour_curvature(C: np.ndarray, normal: np.ndarray, *, window: int = 7) -> np.ndarray:
@@ -236,9 +237,10 @@ BINS_PER_POINT = 16
 
 def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: np.ndarray,
                       target: np.ndarray, normals: np.ndarray, *, scales=CURVATURE_SCALES
-                      ) -> np.ndarray:
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """Signed curvature (1/mm, positive where convex) of closed planar polygons at given
-    arc-length positions, at each of ``scales``: ``(n_scales, k, n)``.
+    arc-length positions, at each of ``scales``: ``(n_scales, k, n)``, and each polygon's
+    mean vertex spacing ``(k,)`` mm (the scales' unit).
 
     ``P (N, 3)`` mm: the polygons' vertices one after another, each polygon turning
     positively about its ``normals (k, 3)``; ``poly (N,)`` each vertex's polygon,
@@ -248,8 +250,6 @@ def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: 
     polygon's mean vertex spacings. The turning is integrated over :data:`BINS_PER_POINT`
     x n bins round each polygon and smoothed there by FFT.
     """
-    from .sections import interp_grouped
-
     P, arc, length = np.asarray(P, float), np.asarray(arc, float), np.asarray(length, float)
     target = np.asarray(target, float)
     k, n = target.shape
@@ -302,5 +302,5 @@ def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: 
         # curvature's second derivative) cancelled, a fourth-order kernel
         smooth = np.fft.irfft(spectrum * (2 * gauss - gauss ** 2), n=m, axis=1)
         out.append(smooth[rows, lo % m] * (1 - frac) + smooth[rows, (lo + 1) % m] * frac)
-    return np.stack(out)
+    return np.stack(out), spacing
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .topology import cross3, loop_vector_area
+from .topology import cross3, interp_grouped, loop_vector_area
 
 
 def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.ndarray
@@ -246,7 +246,8 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     (n_points, n_v, 3)`` mm and ``from_ring (n_v,)`` (True where the
     projected ring was used); with ``curvature``, also each contour's radial curvature at
     its points at each scale, ``(n_scales, n_points, n_v)`` 1/mm, from the section's own
-    polygon (:func:`~oftimg.mesh.curvature.polygon_curvature`).
+    polygon (:func:`~oftimg.mesh.curvature.polygon_curvature`), and each polygon's mean
+    vertex spacing ``(n_v,)`` mm.
     """
     n_v = len(origins)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
@@ -281,9 +282,9 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
         for whole, part in zip([area, centroid, resampled], redone):
             whole[redo] = part
         if curvature:
-            kappa[0][:, redo] = redone[3]
+            kappa[0][:, redo], kappa[1][redo] = redone[3], redone[4]
     out = (area, centroid, resampled.transpose(1, 0, 2), from_ring)
-    return out + tuple(k.transpose(0, 2, 1) for k in kappa)
+    return out + ((kappa[0].transpose(0, 2, 1), kappa[1]) if curvature else ())
 
 
 def _closed_polygons(polygons: list[np.ndarray]):
@@ -338,7 +339,8 @@ def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_ne
     3)``) and start at the polygon point nearest ``starts_near (k, 3)`` (the
     seam). With ``curvature``, also the polygons' curvature at those points at each
     scale of :func:`~oftimg.mesh.curvature.polygon_curvature`, ``(n_scales, k, n)``
-    1/mm, from the polygons' own vertices, not the resample.
+    1/mm, from the polygons' own vertices, not the resample, and their mean vertex
+    spacing ``(k,)`` mm.
     """
     P, starts, lengths, poly, succ = _closed_polygons(polygons)
     k = len(polygons)
@@ -379,22 +381,7 @@ def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_ne
     if not curvature:
         return area, centroid, resampled
     from .curvature import polygon_curvature
-    return area, centroid, resampled, polygon_curvature(P, poly, s, length, target, normals)
-
-
-def interp_grouped(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, group: np.ndarray
-                   ) -> np.ndarray:
-    """``np.interp`` of each row k of ``x (k, n)`` on the sample points of group k.
-
-    ``xp (m,)`` >= 0, increasing within each group; ``fp (m, d)`` the values;
-    ``group (m,)`` sorted, 0 to k - 1. Returns ``(k, n, d)``. One call per
-    column for all groups: each group's abscissae are shifted past the previous one's.
-    """
-    spacing = 2.0 * float(max(xp.max(), x.max())) + 1.0
-    xs = xp + spacing * group
-    xq = (x + spacing * np.arange(len(x))[:, None]).ravel()
-    out = np.stack([np.interp(xq, xs, fp[:, c]) for c in range(fp.shape[1])], axis=-1)
-    return out.reshape(x.shape + (fp.shape[1],))
+    return (area, centroid, resampled, *polygon_curvature(P, poly, s, length, target, normals))
 
 
 def slab_thickness(centroid: np.ndarray, normals: np.ndarray) -> np.ndarray:

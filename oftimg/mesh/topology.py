@@ -409,3 +409,18 @@ def _fill_holes(V, F, loops, length_unit: str = "mm"):
             for i, k in enumerate(holes)]                   # (b, a, c) for each half-edge a -> b
     return (np.concatenate([V, centres]), np.concatenate([F, *fans]),
             [loops[k] for k in ends], len(holes), int(sum(len(loops[k]) for k in holes)))
+
+
+def interp_grouped(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, group: np.ndarray
+                   ) -> np.ndarray:
+    """``np.interp`` of each row k of ``x (k, n)`` on the sample points of group k.
+
+    ``xp (m,)`` >= 0, increasing within each group; ``fp (m, d)`` the values;
+    ``group (m,)`` sorted, 0 to k - 1. Returns ``(k, n, d)``. One call per
+    column for all groups: each group's abscissae are shifted past the previous one's.
+    """
+    spacing = 2.0 * float(max(xp.max(), x.max())) + 1.0
+    xs = xp + spacing * group
+    xq = (x + spacing * np.arange(len(x))[:, None]).ravel()
+    out = np.stack([np.interp(xq, xs, fp[:, c]) for c in range(fp.shape[1])], axis=-1)
+    return out.reshape(x.shape + (fp.shape[1],))

@@ -31,11 +31,14 @@ UNIT_SUFFIXES = ("_per_mm", "_mm2", "_mm", "_ms", "_um")
 def readable(name: str) -> str:
     """An array's name as words, its unit suffix left to the unit:
     ``radial_curvature_outer_per_mm`` -> ``radial curvature outer``,
-    ``phase_max_strain_energy_outer_ms`` -> ``time of maximum strain energy outer``."""
+    ``phase_max_strain_energy_outer_ms`` -> ``time of maximum strain energy outer``,
+    ``radial_curvature_outer_band95_per_mm`` -> ``95 % band of radial curvature outer``."""
     for which in ("max", "min"):
         prefix = f"phase_{which}_"
         if name.startswith(prefix) and name.endswith("_ms"):
             return f"time of {which}imum {readable(name[len(prefix):-len('_ms')])}"
+    if "_band95" in name:
+        return "95 % band of " + readable(name.replace("_band95", ""))
     if name.startswith("activation_sd_"):
         return "activation time SD " + readable(name[len("activation_sd_"):])
     if name.startswith("phase_") and name.count("_") == 1:

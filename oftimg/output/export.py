@@ -536,8 +536,14 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                 "around it, smoothed over 1/40 of the contour)"}
     fields = {
         "radial_curvature_{w}_per_mm": ("1/mm", "signed in-plane curvature of the {w} section "
-                                                "contours (Savitzky-Golay, 7 points; smoothed "
-                                                "in time by summary.field_smoothing_ms)"),
+                                                "contours (each section's own polygon at the "
+                                                "scale summary.field_noise names; smoothed in "
+                                                "time by summary.field_smoothing_ms)"),
+        "radial_curvature_{w}_band95_per_mm": ("1/mm", "half the width of each node's 95 % "
+                                                       "band of radial_curvature_{w}_per_mm: "
+                                                       "the noise the frames show and what its "
+                                                       "scale may not resolve there, widened as "
+                                                       "calibrated on the phantom zoo"),
         "strain_energy_{w}": ("1", "(l1-1)^2 + (l2-1)^2 of the {w} grid against t = 0 (its "
                                    "nodes smoothed in time by summary.strain_smoothing_ms)"),
         "wall_thickness_mm": ("mm", "myocardial wall thickness: distance from each outer grid "

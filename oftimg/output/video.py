@@ -212,7 +212,8 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
                  label="", scale: int = FIELD_SCALE, per_frame: bool = False, grid_note: str = "",
                  title: str = "", period_ms: float | None = None,
                  length_mm: float | None = None, reference_frame: int | None = None,
-                 annotate: bool = True, stream: bool = False):
+                 annotate: bool = True, stream: bool = False,
+                 uncertain: np.ndarray | None = None, uncertain_note: str = ""):
     """Video frames ``(n_t, rows, cols, 3)`` uint8 of a ``(n_u, n_v, n_t)`` field (with
     ``stream``, the frames one at a time: an encoder needs no more, and a 195-frame
     field video holds ~200 MB).
@@ -225,7 +226,9 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
     the seam and the ends, the tube's length ``length_mm``, the colour bar with
     ``label`` (quantity and unit), and on each frame its time, its phase in the
     beat (``period_ms``) and, at ``reference_frame``, that the field is 0 there
-    by definition (strain against t = 0).
+    by definition (strain against t = 0). ``uncertain (n_u, n_v, n_t)`` bool: nodes drawn
+    greyed (their colour faded two thirds of the way to grey), said by ``uncertain_note``
+    under the title.
     """
     from .style import colour_scale
 
@@ -236,6 +239,8 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
     n_u, n_v, n_t = field.shape
     period = period_ms or (t_ms[-1] + (t_ms[1] - t_ms[0]) if len(t_ms) > 1 else 1.0)
     heading = ", ".join(x for x in (title or label, grid_note) if x)
+    if uncertain is not None and uncertain_note:
+        heading = f"{heading}; {uncertain_note}"
     canvas = None if per_frame or not annotate else field_canvas(
         n_u, n_v, scale, vmin=lo, vmax=hi, cmap=cmap, label=label, title=heading,
         length_mm=length_mm)
@@ -246,8 +251,11 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
         if per_frame:
             f = img[np.isfinite(img)]
             a, b = (f.min(), f.max()) if f.size else (0.0, 1.0)
-        rgb = cv2.resize(to_rgb(img, a, b, cmap), None, fx=scale, fy=scale,
-                         interpolation=cv2.INTER_NEAREST)
+        colours = to_rgb(img, a, b, cmap)
+        if uncertain is not None:
+            marked, _ = in_image_order(uncertain[:, :, t], ["u", "v"])
+            colours[marked] = (colours[marked] / 3 + 2 / 3 * UNCERTAIN_GREY).astype(np.uint8)
+        rgb = cv2.resize(colours, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
         if not annotate:
             return _even(rgb)
         frame = (canvas if canvas is not None else field_canvas(
@@ -342,6 +350,10 @@ def write_mp4(path: Path, frames, *, fps: float) -> Path:
     return path
 
 
+# the grey a node fades towards where its 95 % band is wider than BAND_WIDE_SHARE of its value
+UNCERTAIN_GREY = 200
+
+
 # (file, array, per-pixel normalized?, field_frames options): the (u, v) field videos;
 # signed fields get a diverging colour map centred on 0, one-signed ones a sequential one
 _STRAIN = dict(cmap="viridis", reference_frame=0)     # as the figures: one-signed, viridis
@@ -387,6 +399,23 @@ EARLY_VIDEOS = ("area", "lumen_3d")
 LATER_VIDEOS = ("field", "phase_3d")
 
 
+def uncertain_nodes(arrays: dict, key: str) -> dict:
+    """:func:`field_frames`' ``uncertain`` and ``uncertain_note`` for the field ``key`` of
+    ``arrays``: its nodes whose 95 % band (``<field>_band95_<unit>``) is wider than
+    :data:`~oftimg.analysis.uncertainty.BAND_WIDE_SHARE` of the value's size; {} for a
+    field without bands."""
+    from ..analysis.uncertainty import BAND_WIDE_SHARE
+
+    stem, _, unit = key.rpartition("_per_")
+    band = arrays.get(f"{stem}_band95_per_{unit}") if stem else None
+    if band is None:
+        return {}
+    with np.errstate(invalid="ignore"):
+        marked = np.asarray(band) > BAND_WIDE_SHARE * np.abs(np.asarray(arrays[key]))
+    return {"uncertain": marked,
+            "uncertain_note": f"grey: 95 % band over {100 * BAND_WIDE_SHARE:.0f} % of the value"}
+
+
 def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
                 grid_note: str = "") -> list[tuple]:
     """The videos of one dataset as independent ``(kind, inputs)`` tasks for
@@ -409,7 +438,8 @@ def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
         tasks.append(("phase_3d", dict(grid=grids["outer"], phase=arrays["phase_outer"],
                                        t_ms=t_ms, length_mm=length_mm)))
     tasks += [("field", dict(name=name, field=arrays[key], normalize=normalize, t_ms=t_ms,
-                             options={"grid_note": grid_note, "length_mm": length_mm, **opts}))
+                             options={"grid_note": grid_note, "length_mm": length_mm, **opts,
+                                      **({} if normalize else uncertain_nodes(arrays, key))}))
               for name, key, normalize, opts in FIELD_VIDEOS if key in arrays]
     return tasks
 

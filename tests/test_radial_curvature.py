@@ -152,3 +152,15 @@ def test_each_node_band_adds_what_its_scale_may_not_resolve(noisy_frames):
     assert wide_band_share(np.array([0.4, 1.2, 1.0, 1.0]) * BAND_WIDE_SHARE / 0.5, value) \
         == pytest.approx(1 / 3)
     assert wide_band_share(np.full(2, np.nan), np.ones(2)) is None
+
+
+def test_the_corners_are_counted_on_the_field_as_read(noisy_frames):
+    """Four notched corners: counted as 4 on every row of the scale-chosen field (five
+    frames averaged, as the run counts them); two zoo draws with three broad lobes
+    counted 0 on the raw frames of the usual scale (their noise floor over the lobes)."""
+    from oftimg.mesh.curvature import count_corners
+
+    K, _, _, period, spacing, contour = noisy_frames
+    field, *_ = scale_chosen_curvature(K, period, "auto", spacing, contour)
+    counts = [count_corners(field[:, j, :5].mean(axis=1)) for j in range(field.shape[1])]
+    assert counts == [4] * field.shape[1]

@@ -30,7 +30,7 @@ from ..mesh.grid import GridOptions, continuous_seam_ends, signed_thickness
 from ..mesh.labels import MeshOptions
 from ..mesh.sections import slab_thickness, volume_from_sections
 from ..mesh.curvature import contour_curvature, count_corners
-from .radial_curvature import UNMEASURED_SCALE, node_band_95, scale_chosen_curvature
+from .radial_curvature import node_band_95, scale_chosen_curvature
 from ..mesh.strain import grid_strain, surface_kinematics
 from .per_frame import frame_seam_candidates, process_frame, rough_mesh_steps, with_warnings
 from .uncertainty import NODE_BAND_FACTORS, input_kind, wide_band_share, with_bands
@@ -337,7 +337,6 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                                     NODE_BAND_FACTORS[kind][f"radial_curvature_{w}"])
                 arrays[f"radial_curvature_{w}_band95_per_mm"] = band
                 noise[name]["band95_wide_share"] = wide_band_share(band, arrays[name])
-                unsmoothed[w] = radial_curvature[w][UNMEASURED_SCALE]
             else:
                 unsmoothed[w] = contour_curvature(contour[w], normals[None])
                 on_tissue = unsmoothed[w] if coords is None else follow(unsmoothed[w], coords)
@@ -370,7 +369,11 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
         t_max, t_min = phase_maps(arrays[name], period_ms, smoothing_ms=rest_ms)
         arrays[f"phase_max_{name}_ms"] = t_max.astype(np.float32)
         arrays[f"phase_min_{name}_ms"] = t_min.astype(np.float32)
-    k = unsmoothed["outer"]             # the corners' own average over frames (validated so)
+    # the corners' own average over frames, of the field as read (scale chosen, smoothed:
+    # a fine scale's raw frames lifted the corners' noise floor over 3 broad corners), or
+    # of the contour's raw curvature without a scale to choose
+    k = (arrays["radial_curvature_outer_per_mm"] if "outer" in radial_curvature
+         else unsmoothed["outer"])
     a = np.where(np.isfinite(area["outer"]), area["outer"], np.inf)
     rows_min = np.argmin(a, axis=1)          # a row without any contour gives 0 corners
     n_t = k.shape[2]

@@ -162,7 +162,7 @@ def sample_params(group: str = "normal", seed: int = 0, *, expand_change: float 
 def corner_profile(phase, sharpness: float = 0.0):
     """The corners' shape round the section at ``phase`` = k theta (rad, broadcasting):
     cos(phase) for ``sharpness`` 0; else a von Mises bump exp(kappa (cos - 1)) moved and
-    scaled to mean 0 and peak 1 (kappa = |sharpness|), peaked at phase 0 (corners) for
+    scaled to mean 0 and peak 1 (kappa the absolute sharpness), peaked at phase 0 (corners) for
     sharpness > 0 and turned into a notch at phase pi for sharpness < 0. Tends to
     cos(phase) as sharpness -> 0 from either side."""
     kappa = abs(float(sharpness))

@@ -20,9 +20,10 @@ import warnings
 
 import numpy as np
 
-from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS, map_noise_sd
-from ..image.normalize import (FIELD_NOISE_TARGET, field_noise, smooth_field_in_time,
-                               smoothing_kernel)
+from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS
+from ..image.normalize import (FIELD_NOISE_TARGET, field_noise, pixel_noise,
+                               smooth_field_in_time, smoothing_kernel)
+from ..mesh.curvature import CURVATURE_SCALES
 
 # every scale's estimate is first averaged along the tube by a Gaussian of this many grid
 # rows' SD: a corner or a notch runs along the tube, its noise does not, and the fine
@@ -72,8 +73,6 @@ def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float 
     # the contour, from the field's second difference round the section over the nodes'
     # spacing h (large at a corner or a notch, small on a flat side; a finer scale's
     # difference from it was mostly that scale's noise)
-    from ..mesh.curvature import CURVATURE_SCALES
-
     node_step = np.linalg.norm(np.roll(contour, -1, axis=0) - contour, axis=-1).mean(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = (CURVATURE_SCALES[scale] * vertex_spacing / node_step) ** 2      # (n_v, n_t)
@@ -127,11 +126,10 @@ def _row_noise(k: np.ndarray) -> np.ndarray:
     the median over the row's nodes of each node's (one node's, from a few of its
     harmonics, is itself noisy); ``(1, n_v, 1)``, NaN under 10 frames."""
     n_u, n_v, n_t = k.shape
-    pixels = k.reshape(-1, n_t).astype(float)
-    sd = np.full(len(pixels), np.nan)
-    whole = np.isfinite(pixels).all(axis=1)
-    if whole.any() and n_t >= 10:
-        sd[whole] = map_noise_sd(pixels[whole])
+    whole, noise = pixel_noise(k)          # each node's, as field_noise measures it
+    sd = np.full(n_u * n_v, np.nan)
+    if noise is not None:
+        sd[whole] = noise
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)          # a row without a value: NaN
         return np.nanmedian(sd.reshape(n_u, n_v), axis=0)[None, :, None]

@@ -84,10 +84,10 @@ def field_noise(field: np.ndarray, smoothed: np.ndarray, period_ms: float, sigma
     that variance that is noise (0 to 1, flat pixels left out; above 0.25 the
     noise is over half the change the per-pixel views show). NaN for under 10 frames.
     """
-    return _noise_after(*_pixel_noise(field), smoothed, period_ms, sigma_ms)
+    return _noise_after(*pixel_noise(field), smoothed, period_ms, sigma_ms)
 
 
-def _pixel_noise(field: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+def pixel_noise(field: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     """Which pixels of ``field (..., n_t)`` have a value in every frame (flat mask),
     and their frame-to-frame noise SD (None for under 10 frames)."""
     n_t = field.shape[-1]
@@ -100,7 +100,7 @@ def _pixel_noise(field: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
 
 def _noise_after(whole: np.ndarray, noise: np.ndarray | None, smoothed: np.ndarray,
                  period_ms: float, sigma_ms: float) -> dict:
-    """:func:`field_noise` from :func:`_pixel_noise`'s pixels and noise."""
+    """:func:`field_noise` from :func:`pixel_noise`'s pixels and noise."""
     keys = ("noise_sd", "noise_sd_smoothed", "temporal_sd", "noise_share")
     if noise is None:
         return dict.fromkeys(keys, float("nan"))
@@ -126,7 +126,7 @@ def smooth_field(field: np.ndarray, period_ms: float, sigma_ms: float | str
     cannot be measured, as on under 10 frames).
     """
     ladder = RIDGE_SMOOTHING_LADDER_MS if sigma_ms == "auto" else (float(sigma_ms),)
-    pixels = _pixel_noise(field)                       # measured once for every sigma
+    pixels = pixel_noise(field)                       # measured once for every sigma
     for sigma in ladder:
         smoothed = smooth_field_in_time(field, period_ms, sigma)
         noise = _noise_after(*pixels, smoothed, period_ms, sigma)

@@ -21,6 +21,7 @@ import numpy as np
 
 from oftimg.image.gradient import gradient_hsv
 from oftimg.output import figures, style
+from oftimg.output.video import uncertain_nodes
 
 
 def inside(path: Path, folder: Path) -> bool:
@@ -79,11 +80,13 @@ def draw_all(results: Path, out: Path) -> list[Path]:
         written.append(figures.field_pair(
             a["radial_curvature_outer_per_mm"], a["area_outer_mm2"],
             f("fig05_radial_curvature"), label="radial curvature (1/mm)",
-            title=f"{name}: outer wall's radial curvature"))
+            title=f"{name}: outer wall's radial curvature",
+            **uncertain_nodes(a, "radial_curvature_outer_per_mm")))
         written.append(figures.field_pair(
             a["strain_energy_outer"], a["area_outer_mm2"], f("fig06_strain_energy"),
             label="strain energy against t = 0 (1)",
-            title=f"{name}: outer wall's strain energy"))
+            title=f"{name}: outer wall's strain energy",
+            **uncertain_nodes(a, "strain_energy_outer")))
         if "trim_percent" in a:
             written.append(figures.trim_over_cycle(t, a["trim_percent"],
                                                    a["volume_myocardium_mm3"],
@@ -107,7 +110,8 @@ def draw_all(results: Path, out: Path) -> list[Path]:
             written.append(figures.field_pair(
                 a["mean_curvature_lumen_per_mm"], a["area_outer_mm2"],
                 f("fig13_lumen_mean_curvature"), label="mean curvature (1/mm)",
-                title=f"{name}: lumen's mean curvature"))
+                title=f"{name}: lumen's mean curvature",
+                **uncertain_nodes(a, "mean_curvature_lumen_per_mm")))
     if len({s["group"] for s in summaries}) >= 2:
         tmp = out / "groups"
         tmp.mkdir(exist_ok=True)

@@ -637,13 +637,16 @@ def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms:
 
 @house_style
 def field_pair(field: np.ndarray, area_mm2: np.ndarray, path: Path, *, label: str,
-               title: str = "") -> Path:
+               title: str = "", uncertain: np.ndarray | None = None,
+               uncertain_note: str = "") -> Path:
     """Two (u, v) frames of a field ``(n_u, n_v, n_t)``, at maximum contraction (t = 0)
     and at the frame of largest total area ``area_mm2 (n_v, n_t)`` (the paper's
     Figs. 5, 6 and 13): a diverging colour map centred on 0 for a signed field,
     sequential for a one-signed one, one shared bar labelled ``label`` (quantity
-    and unit); u across from the seam, v up from the inlet."""
-    from .style import colour_scale
+    and unit); u across from the seam, v up from the inlet. ``uncertain (n_u, n_v, n_t)``
+    bool: nodes faded towards grey, as the videos fade them
+    (:func:`~oftimg.output.video.uncertain_nodes`), ``uncertain_note`` saying why."""
+    from .style import UNCERTAIN_GREY, colour_scale
 
     t_exp = int(np.argmax(np.nansum(area_mm2, axis=0)))
     scale = colour_scale(field)
@@ -652,10 +655,18 @@ def field_pair(field: np.ndarray, area_mm2: np.ndarray, path: Path, *, label: st
     for ax, t, when in zip(axes, (0, t_exp), ("maximum contraction", "maximum expansion")):
         image = ax.imshow(field[:, :, t].T, origin="lower", aspect="auto", extent=[0, 1, 0, 1],
                           interpolation="nearest", **scale)
+        if uncertain is not None:        # two thirds of the way to grey, as in the videos
+            grey = np.zeros((*field.shape[1::-1], 4))
+            grey[..., :3] = UNCERTAIN_GREY / 255
+            grey[..., 3] = np.where(uncertain[:, :, t].T, 2 / 3, 0.0)
+            ax.imshow(grey, origin="lower", aspect="auto", extent=[0, 1, 0, 1],
+                      interpolation="nearest")
         ax.set_xlabel("u, around the tube from the seam")
         ax.set_title(f"{when} (frame {t})")
     axes[0].set_ylabel("v, along the tube (inlet 0)")
     colour_bar(fig, image, list(axes), label, signed=signed)
+    if uncertain is not None and uncertain_note:
+        title = f"{title} ({uncertain_note})" if title else uncertain_note
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
     return save(fig, path)
 

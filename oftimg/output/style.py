@@ -33,6 +33,9 @@ LINE_COLOURS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9"
 SEQUENTIAL = "viridis"    # one-signed quantities: area, thickness, strain energy
 DIVERGING = "RdBu_r"      # signed quantities, centred on 0: blue below, red above
 CYCLIC = "twilight"       # times and phases in the cycle: its end meets its start
+# the grey (0-255) a node fades two thirds of the way towards in a field's figures and
+# videos where its 95 % band is wider than BAND_WIDE_SHARE of its value
+UNCERTAIN_GREY = 200
 
 RC = {
     "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8, "xtick.labelsize": 7,

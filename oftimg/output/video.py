@@ -21,7 +21,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from . import numbers
 from .image_order import in_image_order
-from .style import CYCLIC
+from .style import CYCLIC, UNCERTAIN_GREY
 
 
 @lru_cache(maxsize=None)
@@ -350,10 +350,6 @@ def write_mp4(path: Path, frames, *, fps: float) -> Path:
     return path
 
 
-# the grey a node fades towards where its 95 % band is wider than BAND_WIDE_SHARE of its value
-UNCERTAIN_GREY = 200
-
-
 # (file, array, per-pixel normalized?, field_frames options): the (u, v) field videos;
 # signed fields get a diverging colour map centred on 0, one-signed ones a sequential one
 _STRAIN = dict(cmap="viridis", reference_frame=0)     # as the figures: one-signed, viridis
@@ -407,7 +403,7 @@ def uncertain_nodes(arrays: dict, key: str) -> dict:
     from ..analysis.uncertainty import BAND_WIDE_SHARE
 
     stem, _, unit = key.rpartition("_per_")
-    band = arrays.get(f"{stem}_band95_per_{unit}") if stem else None
+    band = arrays.get(f"{stem}_band95_per_{unit}" if stem else f"{key}_band95")
     if band is None:
         return {}
     with np.errstate(invalid="ignore"):

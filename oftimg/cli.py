@@ -155,11 +155,6 @@ def _parser() -> argparse.ArgumentParser:
                         "they do not share, 3 %% of the edge length or more), none on a "
                         "smooth one; 0: never (the paper). summary.json: "
                         "frames_smoothed_as_rough counts them")
-    r.add_argument("--lumen-smoothing-steps", type=int, default=0, metavar="N",
-                   help="Taubin smoothing steps on each lumen mesh before its mean curvature "
-                        "(default 0: none, as the paper); for rough segmentations, whose "
-                        "curvature is otherwise noise (see oftimg's docs/accuracy.md); label "
-                        "datasets read it from the volume instead (--lumen-curvature-blur)")
 
     results_help = "one dataset's results (a folder with summary.json) or a folder of them " \
                    "(a run's --out)"
@@ -460,7 +455,6 @@ def _command(args) -> int:
     if args.command == "run":
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
                    "seam_method": args.seam_method, "warp": args.warp,
-                   "lumen_smoothing_steps": args.lumen_smoothing_steps,
                    "rough_mesh_smoothing": args.rough_mesh_smoothing,
                    "map_positions": args.map_positions,
                    "ridge_smoothing_ms": args.ridge_smoothing_ms,

@@ -467,6 +467,29 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float,
                         ("strain_energy_inner_mean_position_pct", mean_G)):
         s, theta = ph.window_coordinates(points)
         e[key] = median_pct(measured, grid_strain(ph.point("inner", s, theta, t))[0][:, rows])
+    # each wall's energy against the model's at the outer nodes' own positions: its median
+    # bias (issue 84: a square, lifted by the nodes' noise) and its nodes' 95 % bands
+    s, theta = ph.window_coordinates(G)
+    for w in ("outer", "inner"):
+        measured = arr[f"strain_energy_{w}"][:, rows].astype(float)
+        truth = grid_strain(ph.point(w, s, theta, t))[0][:, rows]
+        scale = np.nanmedian(np.abs(truth))
+        e[f"strain_energy_{w}_bias_pct"] = float(100 * np.nanmedian(measured - truth) / scale)
+        e[f"strain_energy_{w}_p90_pct"] = float(
+            100 * np.nanpercentile(np.abs(measured - truth), 90) / scale)
+        e[f"strain_energy_{w}_bias_removed"] = strain_noise[f"strain_energy_{w}"].get(
+            "bias_removed", np.nan)
+        band = arr.get(f"strain_energy_{w}_band95")
+        if band is not None:
+            band = band[:, rows].astype(float)
+            known = np.isfinite(measured - truth) & np.isfinite(band)
+            inside = np.abs(measured - truth) <= band
+            e[f"strain_energy_{w}_node_band_within_pct"] = float(100 * inside[known].mean())
+            for phase, at in (("expanded", expanded), ("contracted", ~expanded)):
+                e[f"strain_energy_{w}_node_band_within_{phase}_pct"] = float(
+                    100 * inside[known & at].mean())
+            e[f"strain_energy_{w}_node_band_ratio_p95"] = float(np.nanpercentile(
+                np.abs(measured - truth)[known] / band[known], 95))
     return e
 
 
@@ -547,8 +570,6 @@ def main() -> None:
     ap.add_argument("--vertices", type=int, default=None,
                     help="mesh every frame with 0.75 to 1.25 times this many vertices "
                          "(default: 4000-8000)")
-    ap.add_argument("--lumen-smoothing-steps", type=int, default=0,
-                    help="oftimg run --lumen-smoothing-steps")
     ap.add_argument("--field-smoothing-ms", default="auto",
                     help="oftimg run --field-smoothing-ms")
     ap.add_argument("--strain-smoothing-ms", default="auto",
@@ -604,8 +625,7 @@ def main() -> None:
                            options={"map_positions": positions,
                                     "ridge_smoothing_ms": smoothing,
                                     "field_smoothing_ms": args.field_smoothing_ms,
-                                    "strain_smoothing_ms": args.strain_smoothing_ms,
-                                    "lumen_smoothing_steps": args.lumen_smoothing_steps})
+                                    "strain_smoothing_ms": args.strain_smoothing_ms})
                 errors = {d.name: embryo_errors(d, results / d.name)
                           for d in sorted(cohort.iterdir()) if (d / "truth.json").exists()}
                 if noise == 0:

@@ -163,7 +163,7 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
                  "--period-ms", "400", "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
                  "--authalic-weight", "0.25", "--seam-method", "heat",
                  "--map-positions", "fixed", "--field-smoothing-ms", "7",
-                 "--lumen-smoothing-steps", "3", "--strain-smoothing-ms", "2.5",
+                 "--strain-smoothing-ms", "2.5",
                  "--cluster-alpha", "0.2", "--tracking", "none"]) == 0
     assert json.loads((out / "run.json").read_text())["cluster_alpha"] == 0.2
     assert np.load(out / "cohort_maps.npz")["cluster_alpha"] == 0.2
@@ -186,7 +186,6 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
         assert described[f"area_rows_{wall}_mm2"]["unit"] == "mm^2"
     assert summary["provenance"]["options"]["grid"]["authalic_weight"] == 0.25
     assert summary["provenance"]["options"]["grid"]["seam_method"] == "heat"
-    assert summary["provenance"]["options"]["grid"]["lumen_smoothing_steps"] == 3
     assert summary["provenance"]["options"]["tracking"] == "none"
     assert summary["tracking"] == {"grid": "per-frame"}
     assert "on the per-frame grid" in (out / "tiny" / "index.html").read_text()

@@ -131,14 +131,6 @@ def test_taubin_steps_take_roughness_off_a_cylinder_and_keep_its_shape():
     assert np.array_equal(taubin_smooth(rough, topo.F, 0), rough)
 
 
-@pytest.mark.parametrize("bad", [-1, 2.5, "3", None, 1001])
-def test_lumen_smoothing_steps_are_checked(bad):
-    from oftimg.errors import InputError
-    from oftimg.mesh.grid import GridOptions
-
-    with pytest.raises(InputError, match="lumen_smoothing_steps must be a whole number"):
-        GridOptions(lumen_smoothing_steps=bad)
-
 
 def _areas(V, F):
     cots, l2 = corner_terms(V, F)
@@ -240,10 +232,12 @@ def waving_tube(u, v, t):
 def test_strain_from_a_rough_grid_smoothed_in_time_is_the_walls():
     """A cylinder whose radius beats by 20 % over 195 frames of 1.85 ms, every node
     moved by 0.5 % of the radius at random in every frame (as a mesh segmented on
-    its own moves it): the strain energy (circumferential stretch r / r0, none along;
-    a square, so the roughness biases it up) came out 59-62 % off unsmoothed and
-    8-9 % after 5 ms of smoothing the nodes in time; without the roughness 5 ms
-    costs 0.8 % on this beat."""
+    its own moves it): the strain energy (circumferential stretch r / r0, none along)
+    is a square, so the roughness lifts it: +58 % in the median unsmoothed and +5 % after
+    5 ms of smoothing the nodes in time before the lift was measured and taken off
+    (issue 84), -3 % and -0.4 % since; its median |error| 29 % and 7 % (59 % and 8 %
+    before). Without the roughness 5 ms costs 0.8 % on this beat, and unsmoothed the lift
+    measured takes 0.4 % off (the beat's own fastest part read as noise)."""
     from oftimg.analysis.pipeline import smoothed_strain
 
     n_t, period, r0 = 195, 360.0, 0.2
@@ -253,22 +247,25 @@ def test_strain_from_a_rough_grid_smoothed_in_time_is_the_walls():
     rough = smooth + 0.005 * r0 * np.random.default_rng(1).standard_normal(smooth.shape)
     truth = np.broadcast_to((radius / r0 - 1) ** 2, (40, 20, n_t))[:, 1:-1, 20:]
 
-    def off(G, sigma):          # median |error| over the median truth, where it strains
-        energy = smoothed_strain(G, period, sigma)[0][:, 1:-1, 20:]
-        return np.median(np.abs(energy - truth)) / np.median(truth)
+    def errors(G, sigma):        # over the median truth, where it strains: median |.|, bias
+        error = smoothed_strain(G, period, sigma)[0][:, 1:-1, 20:] - truth
+        return np.median(np.abs(error)) / np.median(truth), np.median(error) / np.median(truth)
 
-    assert off(rough, 0.0) > 0.45
-    assert off(rough, 5.0) < 0.12
-    assert off(smooth, 0.0) < 1e-6 and off(smooth, 5.0) < 0.012
-    assert np.array_equal(smoothed_strain(smooth, period, 0.0)[0], grid_strain(smooth)[0])
+    off, bias = errors(rough, 0.0)
+    assert off > 0.2 and abs(bias) < 0.06                 # noisy, but not lifted
+    off, bias = errors(rough, 5.0)
+    assert off < 0.09 and abs(bias) < 0.01
+    assert errors(smooth, 0.0)[0] < 0.006 and errors(smooth, 5.0)[0] < 0.012
+    assert np.array_equal(smoothed_strain(smooth, period, 0.0, noise_seed=None)[0],
+                          grid_strain(smooth)[0])              # nothing measured: as it is
 
 
 def test_strain_noise_is_the_change_the_roughness_makes():
     """The beating cylinder above, its nodes moved at random by 0.2 %, 0.5 % or 1 % of
     the radius: the share by which oftimg says the noise moves the strain energy
-    against the change it makes (rough minus smooth grid's energy, median |.| over the
-    median energy; measured 0.85-1.14x of it where it is under 0.35, as on the
-    phantoms; 0.45 for 0.78 unsmoothed at 0.5 %: large shares come out low)."""
+    against the change it makes (rough minus smooth grid's energy before the lift is
+    taken off, median |.| over the median energy; measured 0.85-1.14x of it where it is
+    under 0.35, as on the phantoms)."""
     from oftimg.analysis.pipeline import NOISY_STRAIN_SHARE, smoothed_strain
 
     n_t, period, r0 = 195, 360.0, 0.2
@@ -278,8 +275,10 @@ def test_strain_noise_is_the_change_the_roughness_makes():
     jitter = np.random.default_rng(1).standard_normal(smooth.shape)
     for size, sigma in ((0.002, 0.0), (0.002, 5.0), (0.005, 5.0), (0.005, 10.0),
                         (0.01, 10.0)):
-        energy, stretch, noise = smoothed_strain(smooth + size * r0 * jitter, period, sigma)
-        clean, clean_stretch, _ = smoothed_strain(smooth, period, sigma)
+        rough = smooth + size * r0 * jitter
+        _, stretch, noise, _ = smoothed_strain(rough, period, sigma)
+        energy = smoothed_strain(rough, period, sigma, noise_seed=None)[0]  # lift and all
+        clean, clean_stretch, _, _ = smoothed_strain(smooth, period, sigma, noise_seed=None)
         change = np.median(np.abs(energy - clean)) / np.median(clean)
         assert 0.8 * change < noise["error_share"] < 1.25 * change
         stretch_change = np.median(np.abs(stretch - clean_stretch))     # what arrays.npz's
@@ -315,17 +314,17 @@ def test_strain_smoothing_auto_takes_the_least_sigma_its_noise_allows():
     def off(energy):
         return np.median(np.abs(energy[:, 1:-1, 20:] - truth)) / np.median(truth)
 
-    energy, stretch, noise = smoothed_strain(smooth, period, "auto")
+    energy, stretch, noise, _ = smoothed_strain(smooth, period, "auto")
     fixed = smoothed_strain(smooth, period, LADDER[0])
     assert noise["smoothing_ms"] == LADDER[0]
     assert np.array_equal(energy, fixed[0]) and np.array_equal(stretch, fixed[1])
     rough = smooth + 0.005 * r0 * jitter
-    energy, _, noise = smoothed_strain(rough, period, "auto")
+    energy, _, noise, _ = smoothed_strain(rough, period, "auto")
     k = LADDER.index(noise["smoothing_ms"])
     assert k > 0 and noise["error_share"] <= STRAIN_NOISE_TARGET
     assert smoothed_strain(rough, period, LADDER[k - 1])[2]["error_share"] > STRAIN_NOISE_TARGET
     assert np.array_equal(energy, smoothed_strain(rough, period, LADDER[k])[0])
-    assert off(energy) < 0.7 * off(smoothed_strain(rough, period, LADDER[0])[0])
+    assert off(energy) < 0.85 * off(smoothed_strain(rough, period, LADDER[0])[0])  # 0.74
 
 
 def test_strain_does_not_depend_on_which_way_the_grid_runs():

@@ -79,18 +79,23 @@ def test_inner_grid_strain_is_that_of_the_smooth_walls(normal_grids):
 
 
 def test_lumen_mean_curvature_is_the_models(normal_grids, analysed_normal):
-    """The lumen's mean curvature at its grid nodes (cotangent Laplacian on each
-    frame's mesh, sampled like the positions) against the model's folded lumen at
-    the nodes' own positions. The end rows take their neighbours' values and are
-    left out; the fold crests (up to ~200 /mm) are finer than the meshes."""
+    """The lumen's mean curvature at its grid nodes (half its sections' normal curvature,
+    each section's own polygon at the scale its noise allows, and the normal curvature
+    across them) against the model's folded lumen at the nodes' own positions, the end
+    rows left out: median |error| 6.1 % of the median |truth| (10.3 % with the cotangent
+    Laplacian on each frame's mesh before issue 84), correlation 0.944 (0.96: the fold
+    crests, up to ~200 /mm, are finer than the meshes, and the vertex-level Laplacian on
+    this clean phantom follows them further), 91 % of nodes inside their 95 % band."""
     (ph, truth), grids, _ = normal_grids
     H = analysed_normal[2]["arrays"]["mean_curvature_lumen_per_mm"][:, 2:-2]
     s, theta = ph.window_coordinates(grids["lumen"][:, 2:-2])
     t_ms = np.asarray(truth["t_ms"])
     model = ph.mean_curvature("lumen", s, theta, t_ms[None, None, :])
     off = np.abs(H - model)
-    assert np.median(off) < 0.13 * np.median(np.abs(model))           # measured 0.103
-    assert np.corrcoef(H.ravel(), model.ravel())[0, 1] > 0.94          # measured 0.96
+    assert np.median(off) < 0.08 * np.median(np.abs(model))           # measured 0.061
+    assert np.corrcoef(H.ravel(), model.ravel())[0, 1] > 0.93          # measured 0.944
+    band = analysed_normal[2]["arrays"]["mean_curvature_lumen_band95_per_mm"][:, 2:-2]
+    assert band.shape == H.shape and np.mean(off <= band) > 0.85       # measured 0.91
 
 
 @pytest.mark.parametrize("which", ["normal", "banded"])

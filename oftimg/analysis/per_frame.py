@@ -14,8 +14,8 @@ import numpy as np
 from ..errors import DatasetError
 from ..io.dataset import Frame
 from ..io.tube import Tube
-from ..mesh.curvature import (fill_boundary, smoothing_steps, steps_for_roughness,
-                              taubin_smooth, vertex_mean_curvature, vertex_roughness)
+from ..mesh.curvature import (across_section_terms, smoothing_steps, steps_for_roughness,
+                              taubin_smooth, vertex_roughness)
 from ..mesh.grid import (GridOptions, SeamCandidates, grid_frame, project_towards_axis,
                          seam_candidates, signed_thickness)
 from ..mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
@@ -130,17 +130,14 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     if "lumen" in frame.surfaces:
         with clock("load"):
             tl, out["smoothed"]["lumen"] = measured_tube(frame, "lumen", options)
-        with clock("fields"):
-            H = frame.stored_mean_curvature("lumen", tl)    # from a label volume's level sets
-            if H is None:
-                rim = np.concatenate([tl.inlet, tl.outlet])
-                V = taubin_smooth(tl.V, tl.F, options.lumen_smoothing_steps, fixed=rim)
-                H = fill_boundary(vertex_mean_curvature(V, tl.F, rim), tl.F, rim)
+        with clock("fields"):      # a label volume's meshing stores it from its level sets
+            stored = frame.stored_mean_curvature("lumen", tl)
         with clock("grid"):
             gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
-                        options, values=H)
+                        options, values=stored)
         walls["lumen"] = (tl, gl.X, gl)
-        out["mean_curvature_lumen"] = gl.values
+        if stored is not None:     # one scale: the level sets' own
+            out["mean_curvature_lumen"] = gl.values[:, :, None].astype(np.float32)
         if "inner" in walls:
             with clock("grid"):   # the cardiac jelly: inner node on along its line to the lumen
                 Xj, out["jelly_at_closest"] = project_towards_axis(
@@ -149,11 +146,16 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
                 out["lumen_outside"] = int((out["jelly_thickness"] < 0).sum())
     for wall, (tube, Xw, gw) in walls.items():
         with clock("sections"):
-            area, centroid, contour, from_ring, *kappa = sections_of_mesh(
-                tube.V, tube.F, origins, normals, Xw, n_c, curvature=wall != "lumen")
-        if kappa:                   # (n_scales, n_u, n_v): chosen over the frames
-            out["radial_curvature"][wall] = kappa[0].astype(np.float32)
-            out["vertex_spacing"][wall] = kappa[1]
+            lumen = wall == "lumen"
+            area, centroid, contour, from_ring, kappa, spacing = sections_of_mesh(
+                tube.V, tube.F, origins, normals, Xw, n_c, curvature=True,
+                curvature_at=Xw if lumen else None)
+        out["vertex_spacing"][wall] = spacing
+        if not lumen:               # (n_scales, n_u, n_v): chosen over the frames
+            out["radial_curvature"][wall] = kappa.astype(np.float32)
+        elif "mean_curvature_lumen" not in out:
+            with clock("fields"):
+                out["mean_curvature_lumen"] = lumen_mean_curvature(kappa, Xw, normals)
         out["grid"][wall] = Xw
         out["flipped"][wall] = gw.flipped if gw else 0
         out["repaired"][wall] = int(bool(gw and gw.flipped_before_repair))
@@ -173,3 +175,26 @@ def frame_seam_candidates(frame: Frame, method: str,
     outer wall as it is measured (``rough_mesh_smoothing``: :func:`measured_tube`)."""
     tb, _ = measured_tube(frame, "outer", GridOptions(rough_mesh_smoothing=rough_mesh_smoothing))
     return _named(tb, seam_candidates, tb.V, tb.F, tb.inlet, tb.outlet, method=method)
+
+
+# the normal curvature across the sections is averaged over this many grid rows' SD along
+# the tube and nodes' round it (a second derivative along the grid's rows, several um
+# of each frame's roughness in it; a tube's shape changes slowly along it)
+ACROSS_ROWS, ACROSS_NODES = 3.0, 1.0
+
+
+def lumen_mean_curvature(kappa: np.ndarray, X: np.ndarray, plane_normals: np.ndarray
+                         ) -> np.ndarray:
+    """The lumen's mean curvature ``(n_u, n_v, n_scales)`` 1/mm, float32, at its grid's
+    nodes ``X (n_u, n_v, 3)`` mm: half the sum of its sections' normal curvature, their
+    polygons' curvature at each scale ``kappa (n_scales, n_u, n_v)`` read at the nodes
+    times Meusnier's factor, and the normal curvature across the sections
+    (:func:`~oftimg.mesh.curvature.across_section_terms`, averaged over
+    :data:`ACROSS_ROWS` and :data:`ACROSS_NODES`). A fold of the lumen runs along the
+    tube: round the section it needs the polygon's own resolution, as a corner does."""
+    from scipy.ndimage import gaussian_filter
+
+    meusnier, across = across_section_terms(X, plane_normals)
+    across = gaussian_filter(np.nan_to_num(across), (ACROSS_NODES, ACROSS_ROWS),
+                             mode=("wrap", "nearest"))
+    return (0.5 * (kappa * meusnier[None] + across[None])).transpose(1, 2, 0).astype(np.float32)

@@ -19,7 +19,7 @@ from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_seg
 from .maps import analyse_area_maps
 from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, at_fixed_positions
 from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
-                               smoothing_kernel)
+                               smoothing_kernel, time_flattening)
 from ..image.pca import contour_pca
 from .pullback import PullbackOptions, normal_shell, pullback, refine_factors, refined
 from .texture_tracking import texture_match_note
@@ -217,10 +217,20 @@ def _smoothed_grid(G: np.ndarray, period_ms: float, smoothing_ms: float) -> np.n
 
 
 def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, *,
-                    noise_seed: int | None = 0) -> tuple[np.ndarray, np.ndarray, dict]:
+                    noise_seed: int | None = 0
+                    ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
     """Strain energy ``(n_u, n_v, n_t)`` and principal stretches ``(n_u, n_v, n_t, 2)``
     of a grid ``G (n_u, n_v, n_t, 3)`` (mm) against t = 0, from its node positions
-    smoothed in time by ``smoothing_ms``, and how far the nodes' noise moves the energy.
+    smoothed in time by ``smoothing_ms``, how far the nodes' noise moves the energy, and
+    each node's noise SD in the energy ``(n_u, n_v)`` (NaN where not measured).
+
+    The energy is a square of stretches, themselves not linear in the nodes' positions, so
+    the nodes' noise moves its mean (up where the tissue is stretched; where it is
+    compressed, noise lengthens its edges and may take it either way): that lift,
+    measured node by node as the mean change the noise makes when added once more (below;
+    over the frames, then a node either side), is taken off (``bias_removed``: its median
+    over the median energy; not held at 0 or above, which would bias it), and the energy
+    held at 0 or above.
 
     ``smoothing_ms``: a Gaussian sigma in ms (0: none), or "auto": the least of
     ``RIDGE_SMOOTHING_LADDER_MS`` after which the noise moves the energy by at most
@@ -241,7 +251,8 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
     over the grid kept), smoothed by the sigma and added once more to the
     smoothed grid. Its ``error_share`` is the median absolute change of the energy with it over
     the median absolute energy (every ``STRAIN_NOISE_EVERY``-th frame): the share by which
-    the noise alone moves the field, a square that noise biases up;
+    the noise alone moves the field, its lift included (the sigma is chosen on it: on the
+    zoo's label draws a sigma chosen without the lift left the fields 10-50 % further off);
     ``stretch_noise_median`` the median absolute change of the principal stretches. On the phantoms
     and a jittered cylinder it came out 0.85-1.2x the change the roughness made where
     that was under 0.4, and low above (about 0.5x for changes of 0.6-1.5). ``node_noise_mm`` is the
@@ -251,10 +262,11 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
     n_t = G.shape[2]
     ladder = RIDGE_SMOOTHING_LADDER_MS if smoothing_ms == "auto" else (float(smoothing_ms),)
     noise = {"error_share": float("nan"), "node_noise_mm": float("nan"),
-             "stretch_noise_median": float("nan")}
+             "stretch_noise_median": float("nan"), "bias_removed": float("nan")}
     if n_t < 10 or noise_seed is None:
         smoothed = _smoothed_grid(G, period_ms, ladder[0])
-        return (*grid_strain(smoothed), {**noise, "smoothing_ms": ladder[0]})
+        return (*grid_strain(smoothed), {**noise, "smoothing_ms": ladder[0]},
+                np.full(G.shape[:2], np.nan))
     apart_ms = max(RIDGE_SMOOTHING_MS, period_ms / n_t)      # at least a frame
     kernel = smoothing_kernel(n_t, period_ms, apart_ms)
     whole, whole_ms = _smoothed_grid(G, period_ms, apart_ms), apart_ms
@@ -273,13 +285,35 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
         again = _smoothed_grid(residual, period_ms, sigma)[:, :, frames] + whole[:, :, frames]
         energy_again, stretch_again = grid_strain(again)
         del again                                # a grid's copies: ~7 MB each
-        change = np.abs(energy_again - energy)
-        noise["error_share"] = float(np.nanmedian(change) / np.nanmedian(np.abs(energy)))
+        change = energy_again[:, :, 1:] - energy[:, :, 1:]          # the reference: 0 in both
+        noise["error_share"] = float(np.nanmedian(np.abs(change))
+                                     / np.nanmedian(np.abs(energy[:, :, 1:])))
         noise["stretch_noise_median"] = float(np.nanmedian(np.abs(stretch_again - stretch)))
         if not noise["error_share"] > STRAIN_NOISE_TARGET:
             break
     del residual
-    return (*(fields or grid_strain(whole)), {**noise, "smoothing_ms": sigma})
+    energy, stretch = fields or grid_strain(whole)
+    lift, node_sd = _noise_lift(change)      # the lift taken off (the sigma chosen with it)
+    noise["bias_removed"] = float(np.nanmedian(lift) / np.nanmedian(np.abs(energy[:, :, 1:])))
+    energy[:, :, 1:] = np.maximum(energy[:, :, 1:] - lift[:, :, None], 0.0)
+    return energy, stretch, {**noise, "smoothing_ms": sigma}, node_sd
+
+
+def _noise_lift(change: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The mean ``(n_u, n_v)`` of the change noise added once more makes to a strain
+    energy at some frames ``change (n_u, n_v, n_frames)`` (the reference left out: 0
+    there), averaged with a node either side (u round the tube), and its SD over
+    the frames ``(n_u, n_v)``; NaN where a node has none."""
+    from scipy.ndimage import gaussian_filter
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)          # all-NaN nodes
+        mean, sd = np.nanmean(change, axis=-1), np.nanstd(change, axis=-1)
+    known = np.isfinite(mean)
+    total = gaussian_filter(np.where(known, mean, 0.0), 1.0, mode=("wrap", "nearest"))
+    weight = gaussian_filter(known.astype(float), 1.0, mode=("wrap", "nearest"))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(known, total / weight, np.nan), sd
 
 
 # strain noise: frames the energy is compared on (every this many, from the reference)
@@ -342,8 +376,15 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
                 on_tissue = unsmoothed[w] if coords is None else follow(unsmoothed[w], coords)
                 arrays[name], noise[name] = smoothed_curvature(on_tissue, period_ms,
                                                                smoothing_ms)
-            energy, stretch, strain_noise[f"strain_energy_{w}"] = smoothed_strain(
+            energy, stretch, strain_noise[f"strain_energy_{w}"], strain_sd = smoothed_strain(
                 grid[w], period_ms, strain_smoothing_ms)
+            band = node_band_95(np.broadcast_to(strain_sd[:, :, None], energy.shape),
+                                time_flattening(energy, period_ms, strain_noise[
+                                    f"strain_energy_{w}"]["smoothing_ms"]),
+                                NODE_BAND_FACTORS[kind][f"strain_energy_{w}"])
+            arrays[f"strain_energy_{w}_band95"] = band
+            strain_noise[f"strain_energy_{w}"]["band95_wide_share"] = wide_band_share(
+                band, energy)
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
             arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
             release_freed()             # the noise's grid copies, before the next wall's
@@ -514,9 +555,15 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         jelly = follow(jelly, coords) if jelly is not None else None
         timings["tracking_s"] = time.perf_counter() - tick
     lumen_noise = None
-    if H is not None:
-        H, lumen_noise = smoothed_curvature(H, ds.meta.period_ms, options.field_smoothing_ms)
+    if H is not None:           # each scale's (n_u, n_v, n_t, n_scales): one chosen
+        H, lumen_noise, node_sd, unresolved = scale_chosen_curvature(
+            np.moveaxis(H, -1, 0), ds.meta.period_ms, options.field_smoothing_ms,
+            st["vertex_spacing"]["lumen"], grid["lumen"])
         arrays["mean_curvature_lumen_per_mm"] = H
+        band = node_band_95(node_sd, unresolved, NODE_BAND_FACTORS[input_kind(
+            ds.inputs_by_kind())]["mean_curvature_lumen"])
+        arrays["mean_curvature_lumen_band95_per_mm"] = band
+        lumen_noise["band95_wide_share"] = wide_band_share(band, H)
     if on_aligned is not None:
         on_aligned(arrays, grid)
     summary = _cycle_summary(ds, timing, t0, arrays["s_mm"], options.warp)
@@ -941,14 +988,12 @@ def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H,
                                      for name, noise in fields["strain_noise"].items()}
     for name, noise in fields["field_noise"].items():
         if noise["noise_share"] > NOISY_FIELD_SHARE:
-            helps = ("--lumen-smoothing-steps 20" if name.startswith("mean_curvature_lumen")
-                     else "a larger --field-smoothing-ms")
             warnings.warn(
                 f"{ds.path}: {name} is mostly noise: after {noise['smoothing_ms']:g} ms of "
                 f"smoothing, {100 * noise['noise_share']:.0f} % of each pixel's variance over "
                 "the cycle is frame-to-frame noise (median pixel; summary.json: field_noise), "
                 "so its per-pixel normalised video and phase maps show noise more than the "
-                f"beat; smoother surfaces, finer meshes or {helps} help "
+                "beat; smoother surfaces, finer meshes or a larger --field-smoothing-ms help "
                 "(oftimg's docs/accuracy.md)",
                 OftimgWarning, stacklevel=3)
     for name, noise in fields["strain_noise"].items():

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS
 from ..image.normalize import (FIELD_NOISE_TARGET, field_noise, pixel_noise,
-                               smooth_field_in_time, smoothing_kernel)
+                               smooth_field_in_time, smoothing_kernel, time_flattening)
 from ..mesh.curvature import CURVATURE_SCALES
 
 # every scale's estimate is first averaged along the tube by a Gaussian of this many grid
@@ -48,7 +48,8 @@ def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float 
     n_t)`` (1/mm, its row's; NaN where not measurable) and what the scale may not
     resolve there ``(n_u, n_v, n_t)`` (1/mm: a Gaussian's flattening, s^2 / 2 times the
     curvature's second derivative along the contour, estimated from the field's second
-    difference round the section; :func:`node_band_95`).
+    difference round the section, and the smoothing in time's likewise,
+    :func:`~oftimg.image.normalize.time_flattening`; :func:`node_band_95`).
 
     ``smoothing_ms``: a Gaussian sigma in ms, or "auto": the smallest of
     ``RIDGE_SMOOTHING_LADDER_MS`` after which the field's noise share is at most
@@ -77,7 +78,8 @@ def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float 
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = (CURVATURE_SCALES[scale] * vertex_spacing / node_step) ** 2      # (n_v, n_t)
     second = np.abs(np.roll(field, -1, axis=0) - 2 * field + np.roll(field, 1, axis=0))
-    unresolved = 0.5 * ratio[None] * second
+    # and what the smoothing in time flattens (a fold deepening fast at contraction)
+    unresolved = np.hypot(0.5 * ratio[None] * second, time_flattening(field, period_ms, sigma))
     return (field.astype(np.float32), {**noise, "smoothing_ms": float(sigma), "scale": scale},
             node_sd.astype(np.float32), unresolved.astype(np.float32))
 

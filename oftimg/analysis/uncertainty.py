@@ -33,16 +33,24 @@ SPEED_SYSTEMATIC_SHARE = 0.05
 BAND_FACTORS["probabilities"] = {"radial_curvature_outer": 3.62, "radial_curvature_inner": 3.79,
                                  "mean_curvature_lumen": 14.66, "wall_thickness": 1.84,
                                  "jelly_thickness": 4.36}
-# node by node (issue 84): each radial curvature node's band is 1.96 k sqrt(noise^2 +
-# unresolved^2) (oftimg.analysis.radial_curvature.node_band_95); k by input kind, the
-# median over the zoo's feature draws (meshes: seeds 0-4, labels 0-2, 40 frames;
-# 2026-12-06) of the factor that makes each draw's band hold 95 % of its nodes; the
-# draws' own factors spread from 1.0 to 3.8 (meshes) and 1.5 to 7.6 (labels): where a
-# sharp notch is not resolved at all its band still falls short (docs/accuracy.md).
-# Probability maps: the labels' (not yet fitted on their own)
+# node by node (issue 84): each curvature node's band is 1.96 k sqrt(noise^2 +
+# unresolved^2) (oftimg.analysis.radial_curvature.node_band_95: the noise the frames show,
+# what the scale and the smoothing in time may flatten), each strain energy node's 1.96 k
+# sqrt(noise^2 + flattened in time^2) (its nodes' noise added once more); k by input kind,
+# the median over the zoo's feature draws (meshes: seeds 0-4, labels 0-2, 40 frames;
+# 2026-12-06) of the factor that makes each draw's band hold 95 % of its nodes. The
+# draws' own factors spread widely (meshes / labels: radial curvature 1.0-3.7 / 1.5-8.1,
+# the lumen's 1.3-2.6 / 3.3-9.7, strain energy 1.4-12 / 2.0-10): where a fold or a notch
+# is sharper than anything the mesh or the voxels resolve, or the grid slides along the
+# wall, the band still falls short (docs/accuracy.md). Probability maps: the labels' (not
+# fitted on their own)
 NODE_BAND_FACTORS = {
-    "meshes": {"radial_curvature_outer": 1.39, "radial_curvature_inner": 1.34},
-    "labels": {"radial_curvature_outer": 3.02, "radial_curvature_inner": 2.75},
+    "meshes": {"radial_curvature_outer": 1.33, "radial_curvature_inner": 1.29,
+               "mean_curvature_lumen": 2.0, "strain_energy_outer": 4.2,
+               "strain_energy_inner": 2.1},
+    "labels": {"radial_curvature_outer": 2.78, "radial_curvature_inner": 2.45,
+               "mean_curvature_lumen": 8.4, "strain_energy_outer": 8.3,
+               "strain_energy_inner": 3.5},
 }
 NODE_BAND_FACTORS["probabilities"] = dict(NODE_BAND_FACTORS["labels"])
 # a node whose band is wider than this share of its value's size is marked (greyed in the

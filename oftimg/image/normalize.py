@@ -60,6 +60,17 @@ def smooth_field_in_time(field: np.ndarray, period_ms: float, sigma_ms: float) -
     return smooth_in_time(np.reshape(field, (-1, n_t)), period_ms, sigma_ms).reshape(field.shape)
 
 
+def time_flattening(field: np.ndarray, period_ms: float, sigma_ms: float) -> np.ndarray:
+    """What smoothing in time by a Gaussian of ``sigma_ms`` takes off each pixel of a
+    (smoothed) ``field (..., n_t)`` over one periodic cycle, as estimated from it:
+    sigma^2 / 2 times the size of its second derivative in time (a peak of the beat
+    flattened; the field's unit, same shape; NaN stays NaN)."""
+    n_t = field.shape[-1]
+    step_ms = period_ms / n_t
+    second = np.roll(field, -1, axis=-1) - 2 * field + np.roll(field, 1, axis=-1)
+    return 0.5 * (sigma_ms / step_ms) ** 2 * np.abs(second)
+
+
 def smoothing_kernel(n_t: int, period_ms: float, sigma_ms: float) -> np.ndarray:
     """The weights ``(n_t,)`` that :func:`smooth_field_in_time` gives frames 0, 1, ...
     (wrapping around) in frame 0's smoothed value: white noise of SD s comes out

@@ -304,3 +304,45 @@ def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: 
         out.append(smooth[rows, lo % m] * (1 - frac) + smooth[rows, (lo + 1) % m] * frac)
     return np.stack(out), spacing
 
+
+
+def across_section_terms(X: np.ndarray, plane_normals: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """What a wall's mean curvature needs beyond its sections' curvature, at each node of
+    its grid ``X (n_u, n_v, 3)`` mm (u round the tube, periodic; rows ``j`` near the
+    section planes of unit normals ``plane_normals (n_v, 3)``).
+
+    Returns Meusnier's factor ``(n_u, n_v)``, by which a section's curvature is the
+    surface's normal curvature along the section (the sine of the angle between the
+    surface's normal and the plane's normal: 1 where the plane cuts the wall square),
+    and the normal curvature ``(n_u, n_v)`` 1/mm across the section (the surface's
+    direction at right angles to the section's tangent), from the grid's fundamental
+    forms by finite differences (its second derivative along the tube over two rows).
+    The mean curvature is half their sum with the section's: the normal curvatures of
+    any two orthogonal directions add up to twice it (Euler), and across the sections of a
+    tube it changes slowly, where round them a fold or a corner needs the polygon's
+    resolution (:func:`polygon_curvature`). Positive where convex, as a cylinder.
+    """
+    X = np.asarray(X, float)
+    Xu = 0.5 * (np.roll(X, -1, axis=0) - np.roll(X, 1, axis=0))
+    Xv = np.gradient(X, axis=1)
+    Xuu = np.roll(X, -1, axis=0) - 2 * X + np.roll(X, 1, axis=0)
+    Xvv = np.gradient(Xv, axis=1)
+    Xuv = np.gradient(Xu, axis=1)
+    n = np.cross(Xu, Xv)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    outward = np.einsum("uvk,uvk->uv", n, X - X.mean(axis=0))
+    n *= np.sign(np.median(outward)) or 1.0              # the grid's own turning, once
+    nu = np.asarray(plane_normals, float)
+    nu = nu / np.linalg.norm(nu, axis=-1, keepdims=True)
+    across_plane = np.einsum("uvk,vk->uv", n, nu)
+    meusnier = np.sqrt(np.clip(1.0 - across_plane ** 2, 0.0, 1.0))
+    tangent = np.cross(n, nu[None])                      # the section's, at each node
+    tangent /= np.maximum(np.linalg.norm(tangent, axis=-1, keepdims=True), 1e-300)
+    across = np.cross(n, tangent)
+    E, F, G = (np.einsum("uvk,uvk->uv", a, b) for a, b in ((Xu, Xu), (Xu, Xv), (Xv, Xv)))
+    pu, pv = np.einsum("uvk,uvk->uv", across, Xu), np.einsum("uvk,uvk->uv", across, Xv)
+    det = np.where(np.abs(E * G - F * F) > 1e-300, E * G - F * F, np.nan)
+    alpha, beta = (G * pu - F * pv) / det, (E * pv - F * pu) / det   # across = a Xu + b Xv
+    e, f, g = (np.einsum("uvk,uvk->uv", a, n) for a in (Xuu, Xuv, Xvv))
+    return meusnier, -(alpha ** 2 * e + 2 * alpha * beta * f + beta ** 2 * g)

@@ -27,7 +27,6 @@ class GridOptions:
     respace: bool = True
     seam_smoothing_frames: float = 1.0
     seam_method: str = "graph"
-    lumen_smoothing_steps: int = 0      # Taubin steps before the lumen's mean curvature
     # Taubin steps on every wall's mesh before anything is measured on it: "auto" takes
     # ROUGH_STEPS where the mesh is rough at its vertices (curvature.vertex_roughness over
     # the median edge at least ROUGH_SHARE) and none elsewhere; 0: never (the paper); a
@@ -37,10 +36,6 @@ class GridOptions:
     def __post_init__(self):
         if self.n_u < 3 or self.n_v < 2:
             raise InputError(f"grid must be at least 3 x 2, found {self.n_u} x {self.n_v}")
-        if not (isinstance(self.lumen_smoothing_steps, (int, np.integer))
-                and 0 <= self.lumen_smoothing_steps <= 1000):
-            raise InputError("lumen_smoothing_steps must be a whole number from 0 to 1000, "
-                             f"found {self.lumen_smoothing_steps!r}")
         steps = self.rough_mesh_smoothing
         if not (steps == "auto" or isinstance(steps, dict) or (
                 isinstance(steps, (int, np.integer)) and not isinstance(steps, bool)

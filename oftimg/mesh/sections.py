@@ -230,7 +230,7 @@ def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n:
 
 def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray,
                      rings: np.ndarray, n_points: int, *, max_offset: float = 0.5,
-                     curvature: bool = False):
+                     curvature: bool = False, curvature_at: np.ndarray | None = None):
     """Cut one frame's mesh with every plane; keep the contour that follows the grid ring.
 
     ``origins``, ``normals`` are ``(n_v, 3)``; ``rings (n_u, n_v, 3)`` is the
@@ -247,9 +247,12 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     projected ring was used); with ``curvature``, also each contour's radial curvature at
     its points at each scale, ``(n_scales, n_points, n_v)`` 1/mm, from the section's own
     polygon (:func:`~oftimg.mesh.curvature.polygon_curvature`), and each polygon's mean
-    vertex spacing ``(n_v,)`` mm.
+    vertex spacing ``(n_v,)`` mm; with ``curvature_at (m, n_v, 3)`` mm too, the curvature
+    at the polygon's points nearest these points instead, ``(n_scales, m, n_v)`` (the
+    lumen's mean curvature is read at its own grid's nodes).
     """
     n_v = len(origins)
+    at = None if curvature_at is None else np.asarray(curvature_at, float).transpose(1, 0, 2)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     # The end planes lie on the mesh's boundary loops: cut 5 % of a row inside,
     # and move what is found back onto the plane.
@@ -267,7 +270,7 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     from_ring = np.array([C is None for C in chosen])
     polygons = [flat[:, j] if C is None else C - shift[j] for j, C in enumerate(chosen)]
     area, centroid, resampled, *kappa = _measure_polygons(polygons, normals, rings[0], n_points,
-                                                          curvature=curvature)
+                                                          curvature=curvature, at=at)
     # symmetric Hausdorff distance of each (resampled) contour to its projected ring
     B = flat.transpose(1, 0, 2)                                         # (n_v, n_u, 3)
     d2 = (np.einsum("vpk,vpk->vp", resampled, resampled)[:, :, None]
@@ -278,7 +281,8 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     if len(redo):
         from_ring[redo] = True
         redone = _measure_polygons([flat[:, j] for j in redo], normals[redo], rings[0, redo],
-                                   n_points, curvature=curvature)
+                                   n_points, curvature=curvature,
+                                   at=None if at is None else at[redo])
         for whole, part in zip([area, centroid, resampled], redone):
             whole[redo] = part
         if curvature:
@@ -331,7 +335,7 @@ def _contours_around(all_contours: list, centers: np.ndarray, normals: np.ndarra
 
 
 def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_near: np.ndarray,
-                      n: int, *, curvature: bool = False):
+                      n: int, *, curvature: bool = False, at: np.ndarray | None = None):
     """Area (mm^2), area centroid ``(k, 3)`` and ``n`` points evenly spaced by arc
     length ``(k, n, 3)`` of planar closed polygons, all at once.
 
@@ -340,7 +344,8 @@ def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_ne
     seam). With ``curvature``, also the polygons' curvature at those points at each
     scale of :func:`~oftimg.mesh.curvature.polygon_curvature`, ``(n_scales, k, n)``
     1/mm, from the polygons' own vertices, not the resample, and their mean vertex
-    spacing ``(k,)`` mm.
+    spacing ``(k,)`` mm; with ``at (k, m, 3)`` mm, the curvature at each polygon's points
+    nearest these, ``(n_scales, k, m)``, instead.
     """
     P, starts, lengths, poly, succ = _closed_polygons(polygons)
     k = len(polygons)
@@ -381,7 +386,26 @@ def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_ne
     if not curvature:
         return area, centroid, resampled
     from .curvature import polygon_curvature
+    if at is not None:
+        target = _nearest_arc(P, AB, seg, s, starts, lengths, at)
     return (area, centroid, resampled, *polygon_curvature(P, poly, s, length, target, normals))
+
+
+def _nearest_arc(P: np.ndarray, AB: np.ndarray, seg: np.ndarray, s: np.ndarray,
+                 starts: np.ndarray, lengths: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """The arc length ``(k, m)`` (mm from each polygon's first point) of the point of each
+    of ``k`` closed polygons nearest each of its ``at (k, m, 3)`` points: ``P (N, 3)`` the
+    polygons' points one after another, ``AB`` each edge's vector to the next point,
+    ``seg`` its length, ``s`` each point's arc length."""
+    target = np.empty(at.shape[:2])
+    for j, (a, b) in enumerate(zip(starts, starts + lengths)):
+        rel = at[j][:, None, :] - P[None, a:b]                              # (m, n_j, 3)
+        along = np.clip(np.einsum("mpk,pk->mp", rel, AB[a:b])
+                        / np.maximum(seg[a:b] ** 2, 1e-300), 0.0, 1.0)
+        gap = rel - along[..., None] * AB[None, a:b]
+        best = np.argmin(np.einsum("mpk,mpk->mp", gap, gap), axis=1)
+        target[j] = s[a + best] + along[np.arange(len(best)), best] * seg[a + best]
+    return target
 
 
 def slab_thickness(centroid: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -545,7 +545,13 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                                                        "scale may not resolve there, widened as "
                                                        "calibrated on the phantom zoo"),
         "strain_energy_{w}": ("1", "(l1-1)^2 + (l2-1)^2 of the {w} grid against t = 0 (its "
-                                   "nodes smoothed in time by summary.strain_smoothing_ms)"),
+                                   "nodes smoothed in time by summary.strain_smoothing_ms; "
+                                   "the lift its nodes' noise gives a square taken off: "
+                                   "summary.strain_noise.bias_removed)"),
+        "strain_energy_{w}_band95": ("1", "half the width of each node's 95 % band of "
+                                          "strain_energy_{w}: its nodes' noise, as measured "
+                                          "by adding it once more, widened as calibrated on "
+                                          "the phantom zoo"),
         "wall_thickness_mm": ("mm", "myocardial wall thickness: distance from each outer grid "
                                     "node to its inner node (carried towards the row's "
                                     "centre), negative where the inner wall lies outside the "
@@ -555,9 +561,15 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                                      "node on along the line from its outer node to the "
                                      "lumen, negative where the lumen lies outside the inner "
                                      "wall; smoothed in time by summary.field_smoothing_ms"),
-        "mean_curvature_lumen_per_mm": ("1/mm", "mean curvature of the lumen (cotangent "
-                                                "Laplacian; rim vertices: mean of neighbours; "
-                                                "smoothed in time by summary.field_smoothing_ms)"),
+        "mean_curvature_lumen_per_mm": ("1/mm", "mean curvature of the lumen at its grid's "
+                                                "nodes: half its sections' normal curvature "
+                                                "(each section's own polygon at the scale "
+                                                "summary.field_noise names) and the normal "
+                                                "curvature across them; smoothed in time by "
+                                                "summary.field_smoothing_ms"),
+        "mean_curvature_lumen_band95_per_mm": ("1/mm", "half the width of each node's 95 % "
+                                                       "band of mean_curvature_lumen_per_mm, "
+                                                       "as the radial curvatures' bands"),
     }
     for w in WALLS:
         for pattern, (unit, text) in fields.items():

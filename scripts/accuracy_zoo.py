@@ -289,7 +289,7 @@ def print_tables(every: dict[str, dict], markdown: bool = False) -> None:
               + (f", refused: {refused}" if refused else "")
               + (f"; no wave speed given: {no_speed}" if no_speed else "")
               + (f"; {len(biased)} with a wall shifted by a voxel" if biased else ""))
-        apart = f" | shifted: median | 90th percentile | draws" if biased else ""
+        apart = " | shifted: median | 90th percentile | draws" if biased else ""
         if markdown:
             print(f"\n| metric | unit | median | 90th percentile | worst | its seed | draws"
                   f"{apart} |\n|---|---|---|---|---|---|---" + "|---" * (3 * bool(biased))

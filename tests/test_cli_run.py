@@ -1,6 +1,5 @@
 """End to end through the command line on a small phantom: the output contract."""
 import csv
-import html
 import json
 import re
 from pathlib import Path

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from oftimg.cli import main
-from oftimg.errors import DatasetError
 from oftimg.io.label_dataset import load_label_dataset
 from oftimg.io.labelfile import read_volume
 from oftimg.synthetic.labels import write_label_phantom

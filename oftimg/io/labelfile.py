@@ -36,13 +36,13 @@ HDF5_SUFFIXES = (".h5", ".hdf5")
 AXES_SUFFIXES = (*HDF5_SUFFIXES, ".zarr")     # arrays with named axes (_axes_array)
 ILASTIK_DATASET = "exported_data"          # where ilastik's export puts its array
 # length units as TIFF (ImageJ) and NIfTI headers spell them, in mm
-HEADER_UNITS_MM = {"mm": 1.0, "millimeter": 1.0, "um": 1e-3, "micron": 1e-3, "µm": 1e-3,
+HEADER_UNITS_MM = {"mm": 1.0, "millimeter": 1.0, "um": 1e-3, "micron": 1e-3,
                    "\u00b5m": 1e-3, "\u03bcm": 1e-3, "microns": 1e-3, "micrometer": 1e-3,
                    "nm": 1e-6, "nanometer": 1e-6, "meter": 1e3, "m": 1e3,
                    "centimeter": 10.0, "cm": 10.0}
 # time units as OME (UDUNITS-2 names, OME-XML symbols) and ImageJ spell them, in ms
 TIME_UNITS_MS = {"millisecond": 1.0, "ms": 1.0, "second": 1e3, "s": 1e3, "sec": 1e3,
-                 "microsecond": 1e-3, "us": 1e-3, "µs": 1e-3, "\u00b5s": 1e-3, "minute": 6e4,
+                 "microsecond": 1e-3, "us": 1e-3, "\u00b5s": 1e-3, "minute": 6e4,
                  "min": 6e4}
 AXIS_NAMES = "tczyx"                      # the axes a volume file may have, OME's names
 

@@ -153,8 +153,8 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
         out["vertex_spacing"][wall] = spacing
         if not lumen:               # (n_scales, n_u, n_v): chosen over the frames
             out["radial_curvature"][wall] = kappa.astype(np.float32)
-        elif "mean_curvature_lumen" not in out:
-            with clock("fields"):
+        elif "mean_curvature_lumen" not in out:     # (a label volume's: its level sets'
+            with clock("fields"):                  # stored; its polygons' spacing kept)
                 out["mean_curvature_lumen"] = lumen_mean_curvature(kappa, Xw, normals)
         out["grid"][wall] = Xw
         out["flipped"][wall] = gw.flipped if gw else 0

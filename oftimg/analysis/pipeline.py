@@ -783,7 +783,7 @@ def _stack_frames(frames: list[dict]) -> dict:
                     for w in walls},
                  **{f"from_ring_{w}": np.stack([f["from_ring"][w] for f in frames],
                                                axis=1).astype(float) for w in walls}},
-        "H": optional("mean_curvature_lumen"),                  # (n_u, n_v, n_t)
+        "H": optional("mean_curvature_lumen"),           # (n_u, n_v, n_t, n_scales)
         "jelly": optional("jelly_thickness"),                   # (n_u, n_v, n_t)
         "flipped": {w: int(sum(f["flipped"][w] for f in frames)) for w in walls},
         "repaired": {w: int(sum(f["repaired"][w] for f in frames)) for w in walls},

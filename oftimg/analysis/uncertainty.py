@@ -37,17 +37,17 @@ BAND_FACTORS["probabilities"] = {"radial_curvature_outer": 3.62, "radial_curvatu
 # unresolved^2) (oftimg.analysis.radial_curvature.node_band_95: the noise the frames show,
 # what the scale and the smoothing in time may flatten), each strain energy node's 1.96 k
 # sqrt(noise^2 + flattened in time^2) (its nodes' noise added once more); k by input kind,
-# the median over the zoo's feature draws (meshes: seeds 0-4, labels 0-2, 40 frames;
-# 2026-12-06) of the factor that makes each draw's band hold 95 % of its nodes. The
-# draws' own factors spread widely (meshes / labels: radial curvature 1.0-3.7 / 1.5-8.1,
-# the lumen's 1.3-2.6 / 3.3-9.7, strain energy 1.4-12 / 2.0-10): where a fold or a notch
-# is sharper than anything the mesh or the voxels resolve, or the grid slides along the
-# wall, the band still falls short (docs/accuracy.md). Probability maps: the labels' (not
-# fitted on their own)
+# the median over the zoo's feature draws of the factor that makes each draw's band hold
+# 95 % of its nodes: meshes on seeds 100-124 (held out: 125-149), labels on 0-2 (held
+# out: 3-5), 40 frames, 2026-12-06. The draws' own factors spread widely (meshes / labels:
+# radial curvature 0.7-3.2 / 1.5-8.1, the lumen's 0.9-2.7 / 3.3-9.7, strain energy
+# 0.5-9.5 / 2.0-10): where a fold or a notch is sharper than anything the mesh or the
+# voxels resolve, or the grid slides along the wall, the band still falls short
+# (docs/accuracy.md). Probability maps: the labels' (not fitted on their own)
 NODE_BAND_FACTORS = {
-    "meshes": {"radial_curvature_outer": 1.33, "radial_curvature_inner": 1.29,
-               "mean_curvature_lumen": 2.0, "strain_energy_outer": 4.2,
-               "strain_energy_inner": 2.1},
+    "meshes": {"radial_curvature_outer": 1.26, "radial_curvature_inner": 1.19,
+               "mean_curvature_lumen": 1.44, "strain_energy_outer": 3.76,
+               "strain_energy_inner": 1.80},
     "labels": {"radial_curvature_outer": 2.78, "radial_curvature_inner": 2.45,
                "mean_curvature_lumen": 8.4, "strain_energy_outer": 8.3,
                "strain_energy_inner": 3.5},

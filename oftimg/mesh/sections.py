@@ -396,16 +396,35 @@ def _nearest_arc(P: np.ndarray, AB: np.ndarray, seg: np.ndarray, s: np.ndarray,
     """The arc length ``(k, m)`` (mm from each polygon's first point) of the point of each
     of ``k`` closed polygons nearest each of its ``at (k, m, 3)`` points: ``P (N, 3)`` the
     polygons' points one after another, ``AB`` each edge's vector to the next point,
-    ``seg`` its length, ``s`` each point's arc length."""
-    target = np.empty(at.shape[:2])
-    for j, (a, b) in enumerate(zip(starts, starts + lengths)):
-        rel = at[j][:, None, :] - P[None, a:b]                              # (m, n_j, 3)
-        along = np.clip(np.einsum("mpk,pk->mp", rel, AB[a:b])
-                        / np.maximum(seg[a:b] ** 2, 1e-300), 0.0, 1.0)
-        gap = rel - along[..., None] * AB[None, a:b]
-        best = np.argmin(np.einsum("mpk,mpk->mp", gap, gap), axis=1)
-        target[j] = s[a + best] + along[np.arange(len(best)), best] * seg[a + best]
-    return target
+    ``seg`` its length, ``s`` each point's arc length. Looked for on the two edges at each
+    of the :data:`NEAREST_VERTICES` vertices of its own polygon nearest it (a k-d tree,
+    each polygon apart from the others in a fourth coordinate)."""
+    from scipy.spatial import cKDTree
+
+    k, m = at.shape[:2]
+    poly = np.repeat(np.arange(k), lengths)
+    apart = 10.0 * (np.ptp(P, axis=0).max() + np.ptp(at.reshape(-1, 3), axis=0).max() + 1.0)
+    tree = cKDTree(np.column_stack([P, poly * apart]))
+    points = at.reshape(-1, 3)
+    _, near = tree.query(np.column_stack([points, np.repeat(np.arange(k), m) * apart]),
+                         k=NEAREST_VERTICES)                              # (k m, n)
+    first = starts[poly]
+    before = np.where(np.arange(len(P)) == first, first + lengths[poly] - 1,
+                      np.arange(len(P)) - 1)            # the edge arriving at each point
+    edges = np.concatenate([near, before[near]], axis=1)                  # (k m, 2 n)
+    rel = points[:, None, :] - P[edges]
+    along = np.clip(np.einsum("ijk,ijk->ij", rel, AB[edges])
+                    / np.maximum(seg[edges] ** 2, 1e-300), 0.0, 1.0)
+    gap = rel - along[..., None] * AB[edges]
+    best = np.argmin(np.einsum("ijk,ijk->ij", gap, gap), axis=1)
+    rows = np.arange(len(points))
+    edge = edges[rows, best]
+    return (s[edge] + along[rows, best] * seg[edge]).reshape(k, m)
+
+
+# the polygon's vertices nearest a point whose two edges are searched for its nearest point
+# (3 missed one point in 1300 at a deep fold's valley, where the far wall is as near)
+NEAREST_VERTICES = 6
 
 
 def slab_thickness(centroid: np.ndarray, normals: np.ndarray) -> np.ndarray:

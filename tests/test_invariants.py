@@ -173,6 +173,8 @@ def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_number
         tol = (2.0 if key.startswith("phase_") and key.endswith("_ms") else
                1e-3 if key.startswith(("mean_curv", "wave_velocity_", "activation_")) else 1e-4)
         finite = np.isfinite(x)             # (a spread on 8 frames is NaN throughout)
+        if not finite.any():                # (and a band: its noise needs 10 frames)
+            continue
         error = np.abs(y - x)[finite] / max(1.0, np.abs(x[finite]).max(initial=0))
         if key.startswith("phase_") and not key.endswith("_ms"):      # radians: circular
             error = np.abs(np.angle(np.exp(1j * (y - x))))[finite] / np.pi
@@ -289,8 +291,13 @@ def test_a_tube_25_times_larger_gives_every_number_in_proportion(embryo, tmp_pat
             (p for unit, p in units if key.endswith(unit) or unit + "_" in key), 0)
         expected = x.astype(float) * k ** power
         assert np.array_equal(np.isnan(y), np.isnan(expected)), key
-        assert np.nanmax(np.abs(y - expected), initial=0) <= 1e-3 * max(
-            np.nanmax(np.abs(expected), initial=0), 1e-12), key
+        bound = 1e-3 * max(np.nanmax(np.abs(expected), initial=0), 1e-12)
+        if key.startswith("phase_") and np.isfinite(expected).any():
+            # a pixel whose field has two all but equal extrema over the beat may take either
+            # (the lumen's mean curvature from its sections: 1 pixel in 4000 moved 200 ms)
+            assert np.nanpercentile(np.abs(y - expected), 99.9) <= bound, key
+            continue
+        assert np.nanmax(np.abs(y - expected), initial=0) <= bound, key
     for key in ("mean", "median", "cycle"):
         assert b["summary"]["wave_speed_mm_s"][key] == pytest.approx(
             k * a["summary"]["wave_speed_mm_s"][key], rel=1e-5)

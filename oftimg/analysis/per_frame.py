@@ -149,7 +149,7 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
             lumen = wall == "lumen"
             area, centroid, contour, from_ring, kappa, spacing = sections_of_mesh(
                 tube.V, tube.F, origins, normals, Xw, n_c, curvature=True,
-                curvature_at=Xw if lumen else None)
+                curvature_at=Xw if lumen and "mean_curvature_lumen" not in out else None)
         out["vertex_spacing"][wall] = spacing
         if not lumen:               # (n_scales, n_u, n_v): chosen over the frames
             out["radial_curvature"][wall] = kappa.astype(np.float32)

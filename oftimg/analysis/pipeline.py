@@ -33,6 +33,7 @@ from ..mesh.curvature import contour_curvature, count_corners
 from .radial_curvature import node_band_95, scale_chosen_curvature
 from ..mesh.strain import grid_strain, surface_kinematics
 from .per_frame import frame_seam_candidates, process_frame, rough_mesh_steps, with_warnings
+from .cushions import cushion_measures
 from .uncertainty import NODE_BAND_FACTORS, input_kind, wide_band_share, with_bands
 from ..progress import FramePasses, Progress
 
@@ -574,6 +575,12 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     tick = time.perf_counter()
     summary.update(_field_stage(ds, options, grid, st, H, lumen_noise, jelly, coords, arrays))
     release_freed()                     # the strain noise's grid copies
+    if "lumen" in st["walls"]:          # 6a. the cushions: the lumen's closure, ellipticity
+        cushion_arrays, summary["cushions"] = cushion_measures(
+            st["area"]["lumen"], st["contour"]["lumen"], st["rows"]["normal"],
+            st["rows"]["centroid_lumen"], arrays["s_mm"], ds.meta.period_ms,
+            jelly=arrays.get("jelly_thickness_mm"), inner_grid=grid.get("inner"))
+        arrays.update(cushion_arrays)
     if tracking == "texture":           # the tissue's motion within the surface
         speed, divergence = surface_kinematics(grid["outer"], arrays["principal_stretch_outer"],
                                                ds.meta.period_ms)

@@ -502,6 +502,22 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                                             "volume"),
         "area_jelly_mm2": (["v", "t"], "mm^2", "the cardiac jelly's section area: "
                                                "area_inner_mm2 minus area_lumen_mm2"),
+        "lumen_closed": (["v", "t"], "bool", "the lumen closed: its section's area at most 2 % "
+                         "of its row's largest over the cycle (the cushions apposed)"),
+        "lumen_aspect_ratio": (["v", "t"], "1", "the lumen section's minor over major axis, "
+                               "from its area's second moments; NaN where closed"),
+        "lumen_major_axis_deg": (["v", "t"], "deg", "the lumen section's major axis, in [0, "
+                                 "180) from its seam (u = 0) turning as u does; NaN where "
+                                 "closed"),
+        "lumen_close_ms": (["v"], "ms", "when each row's lumen closes (its longest closure; "
+                           "NaN in rows that never close)"),
+        "lumen_open_ms": (["v"], "ms", "when each row's lumen opens again after it"),
+        "lumen_closed_share": (["v"], "1", "the share of the cycle each row's lumen is closed"),
+        "jelly_at_cushions_mm": (["v", "t"], "mm", "the cardiac jelly's thickness at the "
+                                 "cushions: jelly_thickness_mm's mean over the inner nodes "
+                                 "within 22.5 deg of the lumen's minor axis"),
+        "jelly_between_cushions_mm": (["v", "t"], "mm", "the same about the lumen's major "
+                                      "axis (between the cushions)"),
         "centroid_outer_mm": (["v", "t", "xyz"], "mm", "centroids of the outer section contours"),
         "plane_origin_mm": (["v", "t", "xyz"], "mm", "a point of each cross-section plane"),
         "plane_normal": (["v", "t", "xyz"], "1", "unit normal of each cross-section plane, "

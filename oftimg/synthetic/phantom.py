@@ -57,6 +57,8 @@ from ..errors import InputError
 
 WALLS = ("outer", "inner", "lumen")
 # the twist's share along the tube (x = s / L), by where it is largest
+# values evaluated at once by the analytic truth's integrals (a chunk's arrays ~8 MB)
+TRUTH_CHUNK = 1 << 20
 TWIST_PROFILES = {"inlet": lambda x: 1.0 - x, "outlet": lambda x: x,
                   "middle": lambda x: np.sin(np.pi * x)}
 
@@ -96,6 +98,17 @@ class PhantomParams:
     folds: int = 5
     fold_contracted: float = 0.3
     fold_expanded: float = 0.05
+    # the endocardial cushions (issue 85): the lumen's section an ellipse (times the
+    # folds) whose minor over major axis falls from cushion_aspect_expanded to
+    # cushion_aspect_contracted as the wall contracts, fully between cushion_from_mm and
+    # cushion_to_mm and tapering to none over cushion_taper_mm outside; at or below 0 the
+    # cushions appose and the lumen is closed (area 0). Its major axis at theta cushion_deg.
+    cushion_aspect_expanded: float = 1.0
+    cushion_aspect_contracted: float = 1.0
+    cushion_deg: float = 0.0
+    cushion_from_mm: float = 0.0
+    cushion_to_mm: float | None = None        # None: the window's end
+    cushion_taper_mm: float = 0.1
     band_position_mm: float | None = None
     band_depth: float = 0.35
     band_width_mm: float = 0.06
@@ -122,6 +135,9 @@ class PhantomParams:
             raise InputError("need 100 <= vertices_min <= vertices_max")
         if not (np.isfinite(self.noise_mm) and self.noise_mm >= 0):
             raise InputError(f"noise_mm must be >= 0, found {self.noise_mm}")
+        if not 0 < self.cushion_aspect_expanded <= 1 or self.cushion_aspect_contracted > 1:
+            raise InputError("cushion aspects must be <= 1 (expanded > 0), found "
+                             f"{self.cushion_aspect_expanded}, {self.cushion_aspect_contracted}")
         if self.twist_profile not in TWIST_PROFILES:
             raise InputError(f"twist_profile must be one of {', '.join(TWIST_PROFILES)}, "
                              f"found {self.twist_profile!r}")
@@ -343,8 +359,56 @@ class Phantom:
         if wall == "lumen":
             depth = p.fold_contracted + (p.fold_expanded - p.fold_contracted) * h
             fold = 1.0 - depth * (0.5 + 0.5 * np.cos(p.folds * theta + np.pi)) ** 2
-            return rho * q * p.lumen_fraction * fold
+            return rho * q * p.lumen_fraction * fold * self._cushion_scale(s, theta, h)
         raise InputError(f"wall must be one of {WALLS}, found {wall!r}")
+
+    def cushion_aspect(self, s, t_ms):
+        """The cushions' ellipse's minor over major axis at (s, t) (broadcasting), 0 where
+        they appose and the lumen is closed (the model's aspect before the folds)."""
+        return self._cushion_aspect(np.asarray(s, float), self.expansion(s, t_ms))
+
+    def _cushion_aspect(self, s, h):
+        p = self.p
+        if p.cushion_aspect_expanded == 1.0 and p.cushion_aspect_contracted == 1.0:
+            return np.ones_like(s * h)
+        to = p.length_mm if p.cushion_to_mm is None else p.cushion_to_mm
+        outside = np.maximum(np.maximum(p.cushion_from_mm - s, s - to), 0.0)
+        width = np.maximum(p.cushion_taper_mm, 1e-9)
+        along = np.where(outside < width, 0.5 + 0.5 * np.cos(np.pi * outside / width), 0.0)
+        drop = (p.cushion_aspect_expanded - p.cushion_aspect_contracted) * (1.0 - h) * along
+        return np.clip(p.cushion_aspect_expanded - drop, 0.0, 1.0)
+
+    def _cushion_scale(self, s, theta, h):
+        """The lumen's radius scale from the cushions: an ellipse of semi-axes 1 and the
+        aspect, its major axis at ``cushion_deg`` (0 everywhere once closed)."""
+        p = self.p
+        if p.cushion_aspect_expanded == 1.0 and p.cushion_aspect_contracted == 1.0:
+            return 1.0                                 # no cushions: a round lumen
+        a = self._cushion_aspect(s, h)
+        d = np.asarray(theta) - np.radians(self.p.cushion_deg)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = a / np.sqrt((a * np.cos(d)) ** 2 + np.sin(d) ** 2)
+        return np.where(a > 0, np.nan_to_num(r, nan=1.0), 0.0)
+
+    def section_ellipse(self, wall, s, t_ms, n_theta: int = 720):
+        """Aspect ratio (minor over major) and major-axis direction (theta, degrees in
+        [0, 180)) of ``wall``'s sections at (s, t) (broadcasting) from the area's second
+        moments (oftimg measures the same), NaN where the section has no area."""
+        th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
+        s_, t_ = np.broadcast_arrays(np.asarray(s, float), np.asarray(t_ms, float))
+        rho = self.radius(wall, s_[..., None], th, t_[..., None])
+        m = lambda k, f: ((rho ** k) * f).mean(axis=-1) * 2 * np.pi          # noqa: E731
+        area = m(2, 1.0) / 2
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mx, my = m(3, np.cos(th)) / 3 / area, m(3, np.sin(th)) / 3 / area
+            ixx = m(4, np.cos(th) ** 2) / 4 / area - mx ** 2
+            iyy = m(4, np.sin(th) ** 2) / 4 / area - my ** 2
+            ixy = m(4, np.cos(th) * np.sin(th)) / 4 / area - mx * my
+            half_diff, mid = np.hypot((ixx - iyy) / 2, ixy), (ixx + iyy) / 2
+            aspect = np.sqrt(np.clip((mid - half_diff) / (mid + half_diff), 0, 1))
+            major = np.degrees(0.5 * np.arctan2(2 * ixy, ixx - iyy)) % 180.0
+        closed = ~(area > 1e-12)
+        return np.where(closed, np.nan, aspect), np.where(closed, np.nan, major)
 
     def _inner_scale(self, s, t_ms, h, m, a_k, a_e):
         """Scale of the inner contour relative to the outer one (keeps myocardial area)."""
@@ -427,10 +491,16 @@ class Phantom:
         """
         th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
         s_, t_ = np.broadcast_arrays(np.asarray(s, float), np.asarray(t_ms, float))
-        rho = self.radius(wall, s_[..., None], th, t_[..., None])
-        area = 0.5 * (rho ** 2).mean(axis=-1) * 2 * np.pi
-        moment = ((rho ** 3 / 3.0) * np.cos(th)).mean(axis=-1) * 2 * np.pi
-        return area, moment
+        shape = s_.shape
+        s_, t_ = s_.reshape(-1), t_.reshape(-1)
+        area, moment = np.empty(len(s_)), np.empty(len(s_))
+        # in pieces of ~1M values: arrays of 100s of MB cost more in page faults than sums
+        step = max(1, TRUTH_CHUNK // n_theta)
+        for a in range(0, len(s_), step):
+            rho = self.radius(wall, s_[a:a + step, None], th, t_[a:a + step, None])
+            area[a:a + step] = 0.5 * (rho ** 2).mean(axis=-1) * 2 * np.pi
+            moment[a:a + step] = ((rho ** 3 / 3.0) * np.cos(th)).mean(axis=-1) * 2 * np.pi
+        return area.reshape(shape), moment.reshape(shape)
 
     def area_mm2(self, wall, s, t_ms):
         return self.section_moments(wall, s, t_ms)[0]

@@ -60,7 +60,7 @@ test: $(STAMP)
 	@command -v xvfb-run >/dev/null || { \
 	  echo "napari's window tests need a virtual screen: installing xvfb with apt-get"; \
 	  $(APT_INSTALL) xvfb xauth $(QT_XCB_LIBS) $(APT_DONE); }
-	xvfb-run -a -s "-screen 0 1600x1000x24" $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
+	xvfb-run -a -s "-screen 0 1600x1000x24" $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --durations=30
 
 # The suite against the oldest releases pyproject.toml allows (uv's lowest-direct
 # resolution), in .venv-lowest: checks that those lower bounds are true.

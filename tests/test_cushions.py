@@ -113,3 +113,41 @@ def test_the_phantoms_cushions_make_its_lumen_an_ellipse_that_closes():
     np.testing.assert_allclose(major[open_], 30.0, atol=1e-6)
     assert np.isnan(aspect[~open_]).all() and (~open_[1]).any() and open_[0].all()
     assert (P.area_mm2("lumen", s[1], t[~open_[1]]) == 0).all()
+
+
+def _tube_masks(gap=(20, 30), n=(50, 40, 40)):
+    """A straight lumen (radius 6 voxels) along z inside an inner wall's mask (radius 12),
+    the lumen closed (no voxel) between z = gap[0] and gap[1]."""
+    z, y, x = np.indices(n)
+    r2 = (y - n[1] / 2) ** 2 + (x - n[2] / 2) ** 2
+    inner = r2 <= 12 ** 2
+    lumen = (r2 <= 6 ** 2) & ~((z >= gap[0]) & (z < gap[1]))
+    return lumen, inner
+
+
+def test_a_lumen_in_two_pieces_is_bridged_through_the_closed_stretch_only():
+    from oftimg.mesh.closure import bridged_lumen, lumen_pieces
+
+    lumen, inner = _tube_masks()
+    assert lumen_pieces(lumen)[1] == 2
+    whole, bridge = bridged_lumen(lumen, inner, (4.0, 4.0, 4.0))
+    assert lumen_pieces(whole)[1] == 1
+    z = np.nonzero(bridge)[0]
+    # the gap's voxels and, beside the pieces' ends, within the bridge's radius of them
+    assert z.min() >= 18 and z.max() < 32 and bridge.sum() < 0.05 * lumen.sum()
+    assert not (bridge & lumen).any() and not (bridge & ~inner).any()
+    assert bridged_lumen(lumen | bridge, inner, (4.0, 4.0, 4.0)) is None   # one piece
+
+
+def test_a_bridged_lumen_is_meshed_as_one_tube_whose_bridge_is_flagged():
+    from oftimg.mesh.labels import MeshOptions, closed_lumen_mesh
+    from oftimg.mesh.topology import boundary_loops
+
+    lumen, inner = _tube_masks()
+    mesh = closed_lumen_mesh(lumen, inner, (4.0, 4.0, 4.0), MeshOptions(), None)
+    assert mesh is not None and len(boundary_loops(mesh.F)) == 2
+    z_um = mesh.V[mesh.closed, 2]
+    # the gap (z 80-116 um) and the pieces' ends the level set's blur rounds into it
+    assert mesh.closed.any() and z_um.min() >= 16 * 4 and z_um.max() <= 33 * 4
+    assert (mesh.V[mesh.closed, 2] > 19 * 4).mean() > 0.8
+    assert mesh.closure["pieces"] == 2

@@ -12,6 +12,11 @@ import warnings
 import numpy as np
 
 
+# a section whose minor axis is this share of its major or more is round: it has no major
+# axis to speak of (its direction would turn with any rounding)
+ROUND_ASPECT = 0.95
+
+
 def section_ellipse(contour: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Aspect ratio and major-axis direction of each section, from its area's second
     moments (the ellipse with the same moments: exact for an ellipse, for any other
@@ -22,7 +27,8 @@ def section_ellipse(contour: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray
     seam (u = 0). Returns ``aspect (...)``, minor over major axis in (0, 1], and
     ``major_deg (...)``, the major axis's direction in [0, 180) degrees from the seam's
     direction (section centroid to point 0), positive turning as u does. Both NaN
-    where the polygon has no area (a closed lumen) or is not finite.
+    where the polygon has no area (a closed lumen) or is not finite; the direction NaN
+    too where the section is round (aspect over :data:`ROUND_ASPECT`).
     """
     C = np.asarray(contour, float)
     n = np.asarray(normal, float)
@@ -47,7 +53,8 @@ def section_ellipse(contour: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray
         aspect = np.sqrt(np.clip((mid - half_diff) / (mid + half_diff), 0, 1))
         major_deg = np.degrees(0.5 * np.arctan2(2 * ixy, ixx - iyy)) % 180.0
     bad = ~(np.isfinite(area) & (np.abs(area) > 0) & np.isfinite(aspect))
-    return np.where(bad, np.nan, aspect), np.where(bad, np.nan, major_deg)
+    round_ = bad | ~(aspect <= ROUND_ASPECT)
+    return np.where(bad, np.nan, aspect), np.where(round_, np.nan, major_deg)
 
 
 # a lumen section is closed when its area is at most this share of its row's largest over
@@ -110,20 +117,33 @@ def closure_times(area: np.ndarray, period_ms: float, share: float = LUMEN_CLOSE
     return close, reopen, closed_share
 
 
+# a slit under a voxel or two across is lost to the voxels before it closes: the closing
+# is extrapolated this many frames at most past the last frame that shows it open
+MAX_EXTRAPOLATED_FRAMES = 3
+
+
 def _crossing(x: np.ndarray, level: float, k: np.ndarray, step: int) -> np.ndarray:
-    """How far (frames, in [0, 1]) from open frames ``k`` towards ``k + step`` the periodic
+    """How far (frames, >= 0) from open frames ``k`` towards ``k + step`` the periodic
     series ``x (n_t,)`` (area less ``level``; > 0 open) closes: where it crosses 0, linear
-    between the two frames; or, where the closed frame sits at the floor (a section closed
-    to nothing), where the line through ``k - step`` and ``k`` reaches area 0 (the
-    apposition itself, not the level)."""
+    between the two frames (at most 1); or, where the closed frame sits at the floor (a
+    section closed to nothing), where the line through ``k - step`` and ``k`` reaches
+    area 0 (the apposition itself, not the level), up to :data:`MAX_EXTRAPOLATED_FRAMES`
+    frames on while the frames there stay closed."""
     n_t = len(x)
     here, there, before = x[k], x[(k + step) % n_t], x[(k - step) % n_t]
     floor = x.min()
+    # how many frames on from k stay at the floor: the extrapolation stays within them
+    reach = np.ones(len(k))
+    for i, kk in enumerate(np.atleast_1d(k)):
+        n = 1
+        while n < min(MAX_EXTRAPOLATED_FRAMES, n_t - 2) and x[(kk + (n + 1) * step) % n_t] <= floor:
+            n += 1
+        reach[i] = n
     with np.errstate(invalid="ignore", divide="ignore"):
         between = here / (here - there)
-        extrapolated = (here + level) / (before - here)
+        extrapolated = np.minimum((here + level) / (before - here), reach)
     use = (there <= floor) & (before > here)
-    return np.clip(np.where(use, extrapolated, between), 0.0, 1.0)
+    return np.clip(np.where(use, extrapolated, np.clip(between, 0.0, 1.0)), 0.0, None)
 
 
 # nodes within this angle (degrees) of the lumen's minor axis are at the cushions, within it

@@ -136,12 +136,16 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
             gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
                         options, values=stored)
         walls["lumen"] = (tl, gl.X, gl)
+        with clock("grid"):       # rows on the bridge laid across where the lumen is closed
+            out["lumen_closed_rows"] = closed_rows(frame.stored_closed("lumen", tl), tl.V,
+                                                   gl.X)
         if stored is not None:     # one scale: the level sets' own
             out["mean_curvature_lumen"] = gl.values[:, :, None].astype(np.float32)
         if "inner" in walls:
             with clock("grid"):   # the cardiac jelly: inner node on along its line to the lumen
                 Xj, out["jelly_at_closest"] = project_towards_axis(
-                    tl.V, tl.F, tl.inlet, tl.outlet, walls["inner"][1], centre=X.mean(axis=0))
+                    tl.V, tl.F, tl.inlet, tl.outlet, walls["inner"][1], centre=X.mean(axis=0),
+                    uncounted_rows=out["lumen_closed_rows"])
                 out["jelly_thickness"] = signed_thickness(walls["inner"][1], Xj, X.mean(axis=0))
                 out["lumen_outside"] = int((out["jelly_thickness"] < 0).sum())
     for wall, (tube, Xw, gw) in walls.items():
@@ -166,6 +170,18 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
         with clock("volumes"):
             out["volume"][wall] = capped_signed_volume(tube.V, tube.F, [tube.inlet, tube.outlet])
     return out
+
+
+def closed_rows(flags: np.ndarray | None, V: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """``(n_v,)`` bool: the rows of the lumen grid ``X (n_u, n_v, 3)`` most of whose
+    nodes lie on the bridge across a closed lumen (``flags (n_vert,)`` at the mesh's
+    vertices ``V``, each node taking its nearest vertex's); all False without flags."""
+    if flags is None or not flags.any():
+        return np.zeros(X.shape[1], bool)
+    from scipy.spatial import cKDTree
+
+    _, nearest = cKDTree(V).query(X.reshape(-1, 3))
+    return flags[nearest].reshape(X.shape[:2]).mean(axis=0) > 0.5
 
 
 def frame_seam_candidates(frame: Frame, method: str,

@@ -33,7 +33,7 @@ from ..mesh.curvature import contour_curvature, count_corners
 from .radial_curvature import node_band_95, scale_chosen_curvature
 from ..mesh.strain import grid_strain, surface_kinematics
 from .per_frame import frame_seam_candidates, process_frame, rough_mesh_steps, with_warnings
-from .cushions import cushion_measures
+from .cushions import closed_map, cushion_measures
 from .uncertainty import NODE_BAND_FACTORS, input_kind, wide_band_share, with_bands
 from ..progress import FramePasses, Progress
 
@@ -526,15 +526,20 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                                    [(t0 + k) % ds.n_frames for k in range(ds.n_frames)],
                                    options.pullback, executor=executor)
         timings["pullbacks_s"] = time.perf_counter() - tick
-    from_ring = {w: int(st["rows"][f"from_ring_{w}"].sum()) for w in st["walls"]}
+    from_ring = {w: int(((st["rows"][f"from_ring_{w}"] > 0) & ~(
+        st["rows"].get("lumen_closed", 0.0) > 0.5 if w == "lumen" else False)).sum())
+        for w in st["walls"]}
     # 3. the time axis (warped or not) and the per-row series on it
     t_frames, st = _time_axis(ds, options, st, timing, t0)
     if pullbacks is not None and options.warp:
         pullbacks = {k: resample_time(v, t_frames, axis=2) for k, v in pullbacks.items()}
+    shut = _closed_lumen(st)
     arrays, maps, thickness = _section_arrays(ds, options, st, t_frames)
     grid, H, jelly = st["grid"], st["H"], st["jelly"]
     if H is not None and options.warp:
         H = resample_time(H, t_frames, axis=2)
+    if H is not None and shut is not None:      # no curvature where there is no lumen
+        H = np.where(shut[None, :, :, None], np.nan, H)
     # 4. the grid follows the tissue
     coords = None
     tracking = tracking_mode(ds, options.tracking, pullbacks is not None)
@@ -789,7 +794,10 @@ def _stack_frames(frames: list[dict]) -> dict:
                  **{f"centroid_{w}": np.stack([f["centroid_" + w] for f in frames], axis=1)
                     for w in walls},
                  **{f"from_ring_{w}": np.stack([f["from_ring"][w] for f in frames],
-                                               axis=1).astype(float) for w in walls}},
+                                               axis=1).astype(float) for w in walls},
+                 **({"lumen_closed": np.stack([f["lumen_closed_rows"] for f in frames],
+                                              axis=1).astype(float)}
+                    if "lumen_closed_rows" in frames[0] else {})},
         "H": optional("mean_curvature_lumen"),           # (n_u, n_v, n_t, n_scales)
         "jelly": optional("jelly_thickness"),                   # (n_u, n_v, n_t)
         "flipped": {w: int(sum(f["flipped"][w] for f in frames)) for w in walls},
@@ -820,7 +828,9 @@ def _warn_about_frames(ds: Dataset, st: dict) -> None:
                           f"more in {n_bad} of {n_t} frames: are {in_w}/ and {out_w}/ swapped?",
                           OftimgWarning, stacklevel=3)
     for w in walls:
-        from_ring = st["rows"][f"from_ring_{w}"]
+        from_ring = st["rows"][f"from_ring_{w}"] > 0
+        if w == "lumen" and "lumen_closed" in st["rows"]:   # the bridge's sections: no lumen
+            from_ring = from_ring & ~(st["rows"]["lumen_closed"] > 0.5)
         if from_ring.any():
             warnings.warn(f"{ds.path}: {int(from_ring.sum())} of {from_ring.size} {w} sections "
                           "had no clean closed contour (none, or one merged with another part "
@@ -886,6 +896,21 @@ def _time_axis(ds: Dataset, options: PipelineOptions, st: dict, timing: dict, t0
     return t_frames, {**st, "grid": grid, "area": area, "contour": contour, "volume": volume,
                       "rows": rows, "jelly": jelly, "radial_curvature": curvature,
                       "vertex_spacing": spacing}
+
+
+def _closed_lumen(st: dict) -> np.ndarray | None:
+    """``(n_v, n_t)`` bool where the cushions close the lumen: its rows on the bridge a
+    label dataset's meshing laid across, and its sections of at most
+    :data:`~oftimg.analysis.cushions.LUMEN_CLOSED_SHARE` of their row's largest area;
+    its area there set to 0 in ``st`` (the bridge's own section is no lumen). None
+    without a lumen or a closure."""
+    if "lumen" not in st["area"]:
+        return None
+    shut = closed_map(st["area"]["lumen"]) | (st["rows"].get("lumen_closed", 0.0) > 0.5)
+    if not shut.any():
+        return None
+    st["area"]["lumen"] = np.where(shut, 0.0, st["area"]["lumen"])
+    return shut
 
 
 def _section_arrays(ds: Dataset, options: PipelineOptions, st: dict, t_frames: np.ndarray

@@ -231,16 +231,31 @@ class Frame:
         ``tube``'s vertices, found by position: the reading may merge some), as the
         meshing of a label dataset stores the lumen's from its level sets; None when
         the file has none (or its coordinates are scaled per axis)."""
-        from scipy.spatial import cKDTree
-
         from ..mesh.labels import CURVATURE_PROPERTY
 
-        values = read_vertex_values(self.files[surface], CURVATURE_PROPERTY)
+        values = self._stored(surface, tube, CURVATURE_PROPERTY)
+        return None if values is None else values / self.unit_scale
+
+    def stored_closed(self, surface: str, tube: Tube) -> np.ndarray | None:
+        """``(n_vert,)`` bool at ``tube``'s vertices: True on the bridge the meshing of a
+        label dataset laid across a stretch where the cushions close the lumen
+        (:func:`~oftimg.mesh.labels.closed_lumen_mesh`); None when the file has none."""
+        from ..mesh.labels import CLOSED_PROPERTY
+
+        values = self._stored(surface, tube, CLOSED_PROPERTY)
+        return None if values is None else values > 0.5
+
+    def _stored(self, surface: str, tube: Tube, name: str) -> np.ndarray | None:
+        """The vertex property ``name`` of ``surface``'s file at ``tube``'s vertices
+        (found by position: the reading may merge some), or None."""
+        from scipy.spatial import cKDTree
+
+        values = read_vertex_values(self.files[surface], name)
         if values is None or not np.isscalar(self.unit_scale):
             return None
         V, _ = read_mesh_file(self.files[surface])
         _, nearest = cKDTree(V * self.unit_scale).query(tube.V)
-        return values[nearest] / self.unit_scale
+        return values[nearest]
 
 
 @dataclass

@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import DatasetError, InputError
 from ..mesh.ends import (MARGIN_STEPS, cut_by_plane, largest_piece, section_aspects,
                          square_ends)
-from ..mesh.labels import (CURVATURE_PROPERTY, MeshOptions, WallMesh, frame_masks, mesh_wall,
+from ..mesh.labels import (CLOSED_PROPERTY, CURVATURE_PROPERTY, MeshOptions, WallMesh, frame_masks, mesh_wall,
                            mesh_walls)
 from ..mesh.topology import MeshError, boundary_loops
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_period, check_voxel_size, is_number,
@@ -639,6 +639,7 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
             "step": {w: round(m.step, 6) for w, m in meshes.items()},
             "repairs": repairs,
             "left_out": {w: why for w, why in walls.items() if isinstance(why, str)},
+            "closures": {w: m.closure for w, m in meshes.items() if m.closure is not None},
             "rims": _rims(meshes.get("outer"))}
 
 
@@ -700,10 +701,13 @@ def _frame_name(lds: LabelDataset, t: int) -> str:
 
 def _write_wall(out: str, wall: str, mesh_name: str, mesh: WallMesh) -> None:
     """``out/<wall>/<mesh_name>`` as binary PLY, with the level sets' mean curvature
-    as a vertex property when there is one."""
+    and a closed lumen's bridge flags (1 on the bridge) as vertex properties when there
+    are."""
     (Path(out) / wall).mkdir(parents=True, exist_ok=True)
-    values = None if mesh.mean_curvature is None else {CURVATURE_PROPERTY: mesh.mean_curvature}
-    write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F, values)
+    values = {} if mesh.mean_curvature is None else {CURVATURE_PROPERTY: mesh.mean_curvature}
+    if mesh.closed is not None:
+        values[CLOSED_PROPERTY] = mesh.closed.astype(np.float32)
+    write_ply(Path(out) / wall / mesh_name, mesh.V, mesh.F, values or None)
 
 
 def neighbours_to_fill_from(good: np.ndarray, t: int) -> tuple[int, int, float]:
@@ -721,8 +725,22 @@ def meshing_notes(path: Path, meshing: dict) -> list[str]:
     (``meshing``: :func:`mesh_label_dataset`'s record): its masks mended or filled
     (:func:`label_repairs_note`) and its ends cut square (:func:`squared_ends_note`)."""
     notes = [label_repairs_note(path, meshing.get("label_repairs", [])),
-             squared_ends_note(path, meshing)]
+             squared_ends_note(path, meshing), closures_note(path, meshing)]
     return [note for note in notes if note]
+
+
+def closures_note(path: Path, meshing: dict) -> str | None:
+    """The line that says in how many frames the lumen was closed over a stretch and
+    bridged (:func:`~oftimg.mesh.labels.closed_lumen_mesh`), or None."""
+    closures = meshing.get("lumen_closures") or []
+    if not closures:
+        return None
+    n_t = len(next(iter(meshing["vertices"].values())))
+    return (f"{path}: the lumen is closed over a stretch of the tube (no lumen voxel: the "
+            f"cushions apposed) in {len(closures)} of {n_t} frames; its pieces were joined "
+            "by a thin bridge to grid it, and its rows there are measured as closed (area 0, "
+            "no curvature: lumen_closed in arrays.npz; summary.json provenance.meshing."
+            "lumen_closures)")
 
 
 def squared_ends_note(path: Path, meshing: dict) -> str | None:
@@ -803,6 +821,9 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     repairs = [{"frame": t, "file": str(lds.sources[t]), **r}
                for t, result in enumerate(results) for r in result["repairs"]]
     repairs += _fill_left_out(lds, out, options, results, executor)
+    closures = [{"frame": t, "file": str(lds.sources[t]), **closure}
+                for t, result in enumerate(results)
+                for closure in result.get("closures", {}).values()]
     walls = [w for w in ("outer", "inner", "lumen") if w in results[0]["vertices"]]
     squared = None if lds.ends is not None else square_the_ends(lds, out, walls, results,
                                                                 executor)
@@ -817,7 +838,7 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
                     "ends_squared": squared,
                     **{key: {w: [r[key][w] for r in results] for w in walls}
                        for key in ("vertices", "pieces_dropped", "step")},
-                    "label_repairs": repairs,
+                    "label_repairs": repairs, "lumen_closures": closures,
                     "seconds": round(time.perf_counter() - tick, 2)}}
 
 
@@ -914,8 +935,10 @@ def cut_frame(out: str, mesh_name: str, walls: list[str], planes: list) -> str |
     for wall in walls:
         path = Path(out) / wall / mesh_name
         V, F = read_mesh_file(path)
-        H = read_vertex_values(path, CURVATURE_PROPERTY)
-        values = np.zeros(len(V)) if H is None else H.astype(float)
+        stored = {name: read_vertex_values(path, name)
+                  for name in (CURVATURE_PROPERTY, CLOSED_PROPERTY)}
+        stored = {name: v.astype(float) for name, v in stored.items() if v is not None}
+        values = np.stack([*stored.values(), np.zeros(len(V))], axis=1)
         for point, normal in planes:
             V, F, values = cut_by_plane(V, F, point, normal, values)
         if len(F) == 0:
@@ -923,7 +946,7 @@ def cut_frame(out: str, mesh_name: str, walls: list[str], planes: list) -> str |
         V, F, kept, _ = largest_piece(V, F)
         if len(boundary_loops(F)) != 2:
             return f"its {wall} wall has {len(boundary_loops(F))} open ends, not 2"
-        write_ply(path, V, F, None if H is None else {CURVATURE_PROPERTY: values[kept]})
+        write_ply(path, V, F, {name: values[kept, k] for k, name in enumerate(stored)} or None)
     return None
 
 

@@ -29,7 +29,7 @@ def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal, values: np.ndarray
     normal points to, its triangles split where they cross the plane (new vertices
     on the plane, shared by neighbouring triangles), so the cut leaves a boundary
     loop lying in the plane. Returns ``(V, F)``, or ``(V, F, values)`` when per-vertex
-    ``values (n,)`` are given (interpolated along the cut edges)."""
+    ``values (n,)`` or ``(n, k)`` are given (interpolated along the cut edges)."""
     if len(F) == 0:                               # cut away whole by a plane before
         return (V, F) if values is None else (V, F, values)
     normal = np.asarray(normal, float) / np.linalg.norm(normal)
@@ -48,7 +48,7 @@ def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal, values: np.ndarray
     w = d[a] / (d[a] - d[b])
     new_V = np.concatenate([V, V[a] + w[:, None] * (V[b] - V[a])])
     new_values = None if values is None else np.concatenate(
-        [values, values[a] + w * (values[b] - values[a])])
+        [values, values[a] + w.reshape(-1, *[1] * (values.ndim - 1)) * (values[b] - values[a])])
     key = {tuple(p): len(V) + k for k, p in enumerate(pairs.tolist())}
 
     def on_plane(i, j):

@@ -287,8 +287,8 @@ def trim_to_loops(chain: np.ndarray, inlet: np.ndarray, outlet: np.ndarray) -> n
 
 
 def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndarray,
-                         X: np.ndarray, centre: np.ndarray | None = None
-                         ) -> tuple[np.ndarray, int]:
+                         X: np.ndarray, centre: np.ndarray | None = None, *,
+                         uncounted_rows: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """The grid ``X (n_u, n_v, 3)`` of the outer wall carried onto the inner wall
     ``(V, F)`` (paper section 4.1): each node along the line towards its row's
     centre (``centre (n_v, 3)`` mm; by default the mean of the row's nodes), to
@@ -310,7 +310,8 @@ def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet
     segmentation's inner wall outside its outer one; :func:`signed_thickness` is
     then negative); one that meets no wall either way takes the closest point.
     Returns the positions ``(n_u, n_v, 3)`` mm and how many nodes took the
-    closest point.
+    closest point (not counting those in ``uncounted_rows (n_v,)`` bool: rows where the
+    lumen is closed, whose thin bridge the lines may miss).
     """
     import open3d as o3d
 
@@ -341,6 +342,8 @@ def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet
     if not found.all():
         near = scene.compute_closest_points(o3d.core.Tensor(q[~found].astype(np.float32)))
         out[~found] = near["points"].numpy()
+    if uncounted_rows is not None:         # rows whose misses are expected (no lumen there)
+        found[:, np.asarray(uncounted_rows, bool)] = True
     return out + mid, int((~found).sum())
 
 

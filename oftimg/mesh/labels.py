@@ -98,6 +98,7 @@ class Cleaned:
 
 LEVEL = 0.5             # the smoothed mask's level that is the wall
 CURVATURE_PROPERTY = "oftimg_mean_curvature"   # a lumen PLY's stored curvature, per unit
+CLOSED_PROPERTY = "oftimg_lumen_closed"   # a lumen PLY's vertices on a closure's bridge (1)
 ANTI_ALIAS = 0.4        # the blur's sigma as a share of the sampling step, at least
 
 
@@ -245,6 +246,8 @@ class WallMesh:
     repair: MaskRepair | None = None     # the mask's topology mended first (or not)
     mean_curvature: np.ndarray | None = None   # (n,) per length unit, from the level sets
     nested: int | None = None            # voxels cut to keep it inside a mended wall
+    closed: np.ndarray | None = None     # (n,) bool: on the bridge across a closed lumen
+    closure: dict | None = None          # how the closed lumen's pieces were joined
 
 
 def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptions(),
@@ -328,6 +331,7 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
             return f"no voxel labelled {layer} ({label_ids[layer]})"
     walls: dict[str, WallMesh | str] = {}
     enclosing = None                 # the mended mask of the wall around this one, if any
+    inner = None                     # the inner wall's mask as meshed: it holds the lumen
     for wall, mask in masks.items():
         # a wall's surface is its outermost layer's (one named layer: the outer wall's)
         layer = next(la for la in WALL_LAYERS[wall] if la in label_ids)
@@ -340,12 +344,65 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
         nested = None
         if enclosing is not None:       # nested by the labels' design, unless one was mended
             mask, nested = keep_inside(mask, enclosing)
-        walls[wall], enclosing = _mesh_or_mend(wall, mask, voxel_size_xyz, options, ends,
-                                               curvature=wall == "lumen",
-                                               length_unit=length_unit)
+        closed = None
+        if wall == "lumen" and inner is not None:      # in pieces: the cushions closed it
+            closed = closed_lumen_mesh(mask, inner, voxel_size_xyz, options, ends,
+                                       openings=(0, 1, 2, 3), length_unit=length_unit)
+        if closed is not None:
+            walls[wall] = closed
+        else:
+            walls[wall], enclosing = _mesh_or_mend(wall, mask, voxel_size_xyz, options, ends,
+                                                   curvature=wall == "lumen",
+                                                   length_unit=length_unit)
+        if wall == "lumen" and isinstance(walls[wall], str) and inner is not None:
+            # one piece, but its slit closing through a sieve of voxels: opened, bridged
+            walls[wall] = closed_lumen_mesh(mask, inner, voxel_size_xyz, options, ends,
+                                            openings=(1, 2, 3), length_unit=length_unit
+                                            ) or walls[wall]
         if nested is not None and isinstance(walls[wall], WallMesh):
             walls[wall] = replace(walls[wall], nested=nested)
+        if wall == "inner":
+            inner = enclosing if enclosing is not None else (
+                mask if mask.dtype == bool else mask > LEVEL)
     return walls
+
+
+def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
+                      options: MeshOptions, ends, *, openings=(0, 1, 2),
+                      length_unit: str = "um") -> WallMesh | None:
+    """The lumen's wall where the cushions close it over a stretch: its mask (boolean,
+    or an occupancy in [0, 1]) in pieces joined by a thin bridge
+    (:func:`~oftimg.mesh.closure.bridged_lumen`, inside the boolean ``inner`` mask) and
+    meshed as one tube, each vertex flagged when it lies on the bridge
+    (``WallMesh.closed``). A slit thinner than a segmentation holds open comes as a
+    sieve of voxels: each of ``openings`` (in the smallest voxel side; 0 none) is tried
+    in turn, the mask opened by a ball of that radius first, until one gives a tube. None when the lumen is not in pieces
+    under any, or no bridged mask can be meshed as a tube."""
+    from scipy import ndimage
+
+    from .closure import bridge_flags, bridged_lumen, lumen_pieces
+
+    inside = mask if mask.dtype == bool else mask > LEVEL
+    for radius in openings:
+        opened = inside if radius == 0 else ndimage.binary_opening(
+            inside, _ball_um(radius * min(voxel_size_xyz), voxel_size_xyz))
+        joined = bridged_lumen(opened, inner, voxel_size_xyz)
+        if joined is None:
+            continue
+        whole, bridge = joined
+        if mask.dtype != bool:          # an occupancy: its own values where it is kept
+            whole = np.where(bridge, 1.0, np.where(opened, mask, np.minimum(mask, 0.25))
+                             ).astype(np.float32)
+        try:
+            mesh = mesh_wall(whole, voxel_size_xyz, options, ends, curvature=True,
+                             length_unit=length_unit)
+        except MeshError:
+            continue
+        return replace(mesh, closed=bridge_flags(mesh.V, bridge, opened, voxel_size_xyz),
+                       closure={"pieces": lumen_pieces(opened)[1], "bridge_voxels": int(bridge.sum()),
+                                "opened_voxels": radius,
+                                "opened_away": int(np.count_nonzero(inside & ~opened))})
+    return None
 
 
 # voxels: the blur tried when a wall's surface is no tube although its mask is one (or
@@ -395,6 +452,19 @@ def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOpti
                 repair.euler_before if repair else 1)), solid
     return f"the {wall} wall {failed}" + (
         f" (after its mask's {repair.what})" if repair else ""), None
+
+
+def _ball_um(radius: float, voxel_size_xyz) -> np.ndarray:
+    """A ball of ``radius`` (the voxels' length unit) as a boolean structuring element
+    ``(z, y, x)`` on voxels of ``voxel_size_xyz``: an opening by it removes what is
+    thinner than its diameter alike along every axis, however long the voxels."""
+    size = np.asarray(voxel_size_xyz, float)[::-1]
+    reach = np.floor(radius / size + 1e-9).astype(int)
+    offsets = np.indices(2 * reach + 1).reshape(3, -1).T - reach
+    inside = ((offsets * size) ** 2).sum(axis=1) <= radius ** 2 + 1e-9
+    ball = np.zeros(tuple(2 * reach + 1), bool)
+    ball[tuple((offsets[inside] + reach).T)] = True
+    return ball
 
 
 def keep_inside(mask: np.ndarray, enclosing: np.ndarray) -> tuple[np.ndarray, int | None]:

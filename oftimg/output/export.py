@@ -508,7 +508,7 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                                "from its area's second moments; NaN where closed"),
         "lumen_major_axis_deg": (["v", "t"], "deg", "the lumen section's major axis, in [0, "
                                  "180) from its seam (u = 0) turning as u does; NaN where "
-                                 "closed"),
+                                 "closed or round (aspect over 0.95)"),
         "lumen_close_ms": (["v"], "ms", "when each row's lumen closes (its longest closure; "
                            "NaN in rows that never close)"),
         "lumen_open_ms": (["v"], "ms", "when each row's lumen opens again after it"),

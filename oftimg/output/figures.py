@@ -215,6 +215,15 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
         written.append(attempt(failed, pullback_figure, pullbacks["pullback_outer_mean"],
                                arrays.get("pathlines_uv"), t_ms, folder / "pullback_outer.png",
                                title=f"{name}: the myocardium's intensity on the grid"))
+    if "lumen_aspect_ratio" in arrays:
+        share = summary.get("cushions", {}).get("closed_share_max", 0.0)
+        how = (f"closed up to {100 * share:.0f} % of the cycle" if share else
+               "never closed")
+        written.append(attempt(failed, cushion_map, arrays["lumen_aspect_ratio"],
+                               arrays["lumen_closed"], arrays["lumen_close_ms"],
+                               arrays["lumen_open_ms"], arrays["s_mm"], t_ms,
+                               folder / "lumen_cushions.png",
+                               title=f"{name}: the lumen's ellipticity and closure ({how})"))
     for layer, what in (("wall", "myocardial wall"), ("jelly", "cardiac jelly")):
         if f"{layer}_thickness_mm" in arrays:
             from ..analysis.pipeline import mean_around_tube
@@ -436,6 +445,41 @@ def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Pat
         for sign in (-1, 1):                                  # beneath the crosses it meets
             ax.plot(np.mod(ridge_t_ms + sign * sigma_ms, period), s_mm, zorder=2, **star)
         ax.plot([], [], label="maximum ± σ (Gaussian fit)", **star)
+    ax.set_xlabel("time since minimum volume (ms)")
+    ax.set_ylabel("position along the tube s (mm)")
+    ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
+    ax.set_title(wrapped(plain_text(title), COLUMN_MM))
+    if ax.get_legend_handles_labels()[0]:
+        fig.legend(loc="outside lower center", ncol=2, fontsize=7, columnspacing=1.0)
+    return save(fig, path)
+
+
+@house_style
+def cushion_map(aspect: np.ndarray, closed: np.ndarray, close_ms: np.ndarray,
+                open_ms: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Path, *,
+                title: str = "") -> Path:
+    """Where and when the cushions close the lumen: the lumen's aspect ratio ``(n_v,
+    n_t)`` (minor over major axis) as colour, v up, t to the right, its closed cells
+    ``(n_v, n_t)`` bool in black, and each row's closing and opening times ``(n_v,)`` ms
+    (the apposition's own, between frames) as markers."""
+    period = t_ms[-1] + (t_ms[1] - t_ms[0])
+    fig, ax = new_figure(COLUMN_MM, 78)
+    shown = np.where(closed, np.nan, aspect)
+    im = ax.imshow(shown, origin="lower", aspect="auto", vmin=0.0, vmax=1.0,
+                   cmap=matplotlib.colormaps[SEQUENTIAL].with_extremes(bad=BLANK_GREY),
+                   extent=_map_extent(s_mm, t_ms), interpolation="nearest")
+    if closed.any():
+        ax.imshow(np.where(closed, 1.0, np.nan), origin="lower", aspect="auto",
+                  cmap=matplotlib.colors.ListedColormap(["black"]),
+                  extent=_map_extent(s_mm, t_ms), interpolation="nearest")
+        ax.fill_between([], [], color="black", label="closed (the cushions apposed)")
+    if (np.isnan(shown) & ~closed).any():
+        ax.fill_between([], [], color=BLANK_GREY, label="no value")
+    colour_bar(fig, im, ax, "lumen aspect ratio (minor / major axis)")
+    for times, marker, what in ((close_ms, "v", "closes"), (open_ms, "^", "opens")):
+        if np.isfinite(times).any():
+            ax.plot(np.mod(times, period), s_mm, ls="none", marker=marker, ms=3.5,
+                    color="w", mec="k", mew=0.4, label=f"lumen {what}")
     ax.set_xlabel("time since minimum volume (ms)")
     ax.set_ylabel("position along the tube s (mm)")
     ax.set_xlim(_map_extent(s_mm, t_ms)[:2])

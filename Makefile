@@ -21,7 +21,7 @@ APT_INSTALL = SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo
 	  apt-get install -y -qq
 APT_DONE = ; } >"$$log" 2>&1 || { cat "$$log"; rm -f "$$log"; exit 1; }; rm -f "$$log"
 
-.PHONY: demo test test-lowest setup clean docs napari
+.PHONY: demo test test-long test-system test-lowest setup clean docs napari
 setup: $(STAMP)
 
 $(STAMP): pyproject.toml
@@ -50,7 +50,9 @@ napari: $(STAMP)
 	  $(APT_INSTALL) $$missing $(APT_DONE); }
 	@$(PY) -m oftimg.napari --check || [ -z "$$DISPLAY" ]
 
-test: $(STAMP)
+# what the tests need besides the Python packages: a headless browser (the report test),
+# Qt's system libraries (the napari widget) and a virtual screen (napari's window)
+test-system: $(STAMP)
 	@command -v chromium >/dev/null || { \
 	  echo "the report test needs a headless browser: installing chromium with apt-get"; \
 	  $(APT_INSTALL) chromium $(APT_DONE); }
@@ -60,7 +62,20 @@ test: $(STAMP)
 	@command -v xvfb-run >/dev/null || { \
 	  echo "napari's window tests need a virtual screen: installing xvfb with apt-get"; \
 	  $(APT_INSTALL) xvfb xauth $(QT_XCB_LIBS) $(APT_DONE); }
-	xvfb-run -a -s "-screen 0 1600x1000x24" $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --durations=30
+
+PYTEST = xvfb-run -a -s "-screen 0 1600x1000x24" $(PY) -m pytest -n $(TEST_WORKERS) \
+  --dist loadfile --durations=30
+# the gallery's example cohort, made once for the long tests and the docs (.ci/run runs both)
+EXAMPLE_CACHE := $(CURDIR)/.cache/oftimg
+
+# the suite but its long tests (~13 min on 2 cores)
+test: test-system
+	$(PYTEST) -m "not long"
+
+# the long tests: accuracy (the zoo's random draws, known motions), rendering (the report in
+# a browser, napari's window, the gallery examples) and whole-cohort runs (~15 min on 2 cores)
+test-long: test-system
+	OFTIMG_CACHE=$(EXAMPLE_CACHE) $(PYTEST) -m long
 
 # The suite against the oldest releases pyproject.toml allows (uv's lowest-direct
 # resolution), in .venv-lowest: checks that those lower bounds are true.
@@ -72,11 +87,11 @@ test-lowest: $(STAMP)
 	.venv-lowest/bin/python -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 clean:
-	rm -rf $(VENV) .venv-lowest $(DEMO_OUT)
+	rm -rf $(VENV) .venv-lowest $(DEMO_OUT) .cache
 
 # The documentation site (Sphinx, its gallery executed) into docs/_build/html; warnings
 # are errors
 docs: $(STAMP)
 	$(PIP) install --quiet -e '.[docs]'
-	$(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
+	OFTIMG_CACHE=$(EXAMPLE_CACHE) $(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
 	$(PY) scripts/check_api_reference.py docs/_build/html

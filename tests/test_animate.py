@@ -12,6 +12,8 @@ from oftimg.io.meshfile import write_ply
 from oftimg.mesh.topology import check_tube
 from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
+pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+
 
 def test_pulse_and_axial_coordinate_of_a_cylinder():
     assert pulse(0.5) == pytest.approx(1.0) and pulse(0.0) == pytest.approx(0.0)

@@ -13,7 +13,7 @@ from oftimg.analysis.group_maps import AROUND_TUBE_MAPS, TESTED_MAPS
 from oftimg.errors import DatasetError
 from oftimg.synthetic.phantom import sample_params, write_phantom
 
-pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
+pytestmark = [pytest.mark.long, pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 
 @pytest.fixture(scope="module")

@@ -15,6 +15,8 @@ import pytest
 
 import oftimg
 
+pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+
 GUIDE = Path(__file__).resolve().parent.parent / "docs" / "guide.md"
 
 
@@ -41,8 +43,11 @@ EXAMPLES = sorted((GUIDE.parent / "examples").glob("plot_*.py"))
 @pytest.fixture(scope="module")
 def cache(tmp_path_factory):
     """A cache folder holding the examples' cohort (2 embryos per group of 12 frames,
-    enough for the group comparison's tests and figures), made once here."""
-    folder = tmp_path_factory.mktemp("cache")
+    enough for the group comparison's tests and figures), made once here; ``make
+    test-long`` names one in $OFTIMG_CACHE that the docs' build then reuses (2 min)."""
+    given = os.environ.get("OFTIMG_CACHE")
+    folder = Path(given) if given else tmp_path_factory.mktemp("cache")
+    folder.mkdir(parents=True, exist_ok=True)
     results = oftimg.example_results(folder)
     assert sorted(p.name for p in results.iterdir() if (p / "summary.json").is_file()) == [
         "banded_0", "banded_1", "normal_0", "normal_1"]

@@ -12,7 +12,7 @@ import pytest
 from oftimg.cli import main
 from oftimg.analysis.group_maps import TESTED_MAPS
 
-pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
+pytestmark = [pytest.mark.long, pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -19,7 +19,7 @@ from oftimg.synthetic.texture import LEVEL, TWIST_DEG, TissueTexture
 
 from helpers import tube_mesh, write_series
 
-pytestmark = pytest.mark.usefixtures("png_figures_only")
+pytestmark = [pytest.mark.long, pytest.mark.usefixtures("png_figures_only")]
 
 VOXEL_UM = (4.0, 4.0, 8.0)
 N_FRAMES = 6

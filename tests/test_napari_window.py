@@ -9,6 +9,8 @@ import shutil
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+
 pytest.importorskip("napari")
 pytest.importorskip("qtpy.QtWidgets")
 if not os.environ.get("DISPLAY") or os.environ.get("QT_QPA_PLATFORM") == "offscreen":

@@ -13,7 +13,7 @@ from oftimg.io.meshfile import read_mesh_file, write_ply
 from oftimg.synthetic.phantom import sample_params, write_phantom
 from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
-pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
+pytestmark = [pytest.mark.long, pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 
 def test_two_workers_equal_serial(tmp_path):

@@ -5,7 +5,7 @@ import pytest
 
 from helpers import UNUSUAL_DATASETS, run_to_the_end
 
-pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
+pytestmark = [pytest.mark.long, pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 
 @pytest.mark.parametrize("case", ["rigid", "breathing", "outer_alone", "outer_and_lumen",

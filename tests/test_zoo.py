@@ -12,6 +12,8 @@ from oftimg.io.label_dataset import load_label_dataset, read_frame
 from oftimg.synthetic.zoo import (FORMATS, KINDS, RANGES, Scenario, draw_scenario, grown,
                                   write_scenario)
 
+pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+
 
 def test_the_same_seed_draws_the_same_scenario_and_others_differ():
     assert draw_scenario(7) == draw_scenario(7)

@@ -19,6 +19,8 @@ from oftimg.synthetic.zoo import draw_scenario
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 from accuracy_zoo import draw_errors  # noqa: E402
 
+pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+
 FRAMES, VOXEL_MIN_UM = 30, 6.0          # the zoo's settings in docs/accuracy.md
 FIRST = int(os.environ.get("OFTIMG_ZOO_SEED") or random.SystemRandom().randrange(10 ** 6))
 
@@ -28,10 +30,13 @@ FIRST = int(os.environ.get("OFTIMG_ZOO_SEED") or random.SystemRandom().randrange
 # crosses the tube in 3 frames or more, as checked below). A random draw lies beyond the
 # worst of n draws about once in n + 1 runs (on 11 label draws, seed 871832 came out at
 # 1.02 times the bound in a suite run); half as much again beyond it, rarely, and a method that
-# became half again as bad is caught.
+# became half again as bad is caught. The expansion share's bound is the label draws' for
+# every kind: its tail is the frames' (3.3 pp a frame at 30), whatever the input (the worst
+# of 138 draws of three kinds 2.36 pp; mesh seed 479233 came out at 2.96 pp in a suite run,
+# 1.8 times the mesh draws' worst, at this and the previous session's code alike).
 BOUNDS = {
     "meshes": {"area_outer_p95_pct": 6.9, "volume_outer_pct": 1.2, "myocardial_change_pp": 2.0,
-               "expand_pp": 2.5, "speed_cycle_pct": 8.6, "wall_thickness_pct": 5.9,
+               "expand_pp": 3.5, "speed_cycle_pct": 8.6, "wall_thickness_pct": 5.9,
                "radial_curvature_outer_pct": 20.0, "radial_curvature_inner_pct": 24.0,
                "mean_curvature_lumen_pct": 66.0, "strain_energy_inner_pct": 39.0},
     "labels": {"area_outer_p95_pct": 4.3, "volume_outer_pct": 1.6, "myocardial_change_pp": 5.3,

@@ -86,4 +86,6 @@ def test_the_closure_times_and_the_sections_ellipse_are_measured(closing):
     measured = np.isfinite(a["lumen_aspect_ratio"]) & (phantom.cushion_aspect(s_rows, t) > 0.05)
     assert np.median(np.abs(a["lumen_aspect_ratio"][measured] / aspect[measured] - 1)) < 0.03
     off = (a["lumen_major_axis_deg"] - (major - np.degrees(seam)) + 90) % 180 - 90
-    assert np.median(np.abs(off[measured & (aspect < 0.8)])) < 5.0
+    elliptic = measured & (aspect < 0.8)
+    assert np.isfinite(off[elliptic]).mean() > 0.97      # (a few taken for round: > 0.95)
+    assert np.nanmedian(np.abs(off[elliptic])) < 5.0

@@ -389,14 +389,21 @@ def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
         joined = bridged_lumen(opened, inner, voxel_size_xyz)
         if joined is None:
             continue
-        whole, bridge = joined
-        if mask.dtype != bool:          # an occupancy: its own values where it is kept
-            whole = np.where(bridge, 1.0, np.where(opened, mask, np.minimum(mask, 0.25))
-                             ).astype(np.float32)
-        try:
-            mesh = mesh_wall(whole, voxel_size_xyz, options, ends, curvature=True,
-                             length_unit=length_unit)
-        except MeshError:
+        _, bridge = joined
+        mesh = None
+        for kept in _kept_of_opening(inside, opened, bridge, voxel_size_xyz):
+            whole = kept | bridge
+            if mask.dtype != bool:      # an occupancy: its own values where it is kept
+                whole = np.where(bridge, 1.0, np.where(kept, mask, np.minimum(mask, 0.25))
+                                 ).astype(np.float32)
+            try:
+                mesh = mesh_wall(whole, voxel_size_xyz, options, ends, curvature=True,
+                                 length_unit=length_unit)
+            except MeshError:
+                continue
+            opened = kept
+            break
+        if mesh is None:
             continue
         return replace(mesh, closed=bridge_flags(mesh.V, bridge, opened, voxel_size_xyz),
                        closure={"pieces": lumen_pieces(opened)[1], "bridge_voxels": int(bridge.sum()),
@@ -452,6 +459,27 @@ def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOpti
                 repair.euler_before if repair else 1)), solid
     return f"the {wall} wall {failed}" + (
         f" (after its mask's {repair.what})" if repair else ""), None
+
+
+# the voxels an opening took that lie this far (um per smallest voxel side) from the
+# bridge are given back: the slit's sieve is where it closes, not all along the tube
+KEPT_FROM_BRIDGE_VOXELS = 4.0
+
+
+def _kept_of_opening(inside: np.ndarray, opened: np.ndarray, bridge: np.ndarray,
+                     voxel_size_xyz) -> list[np.ndarray]:
+    """The lumen's masks to try beside a bridge: its opened mask with what the opening
+    took further than :data:`KEPT_FROM_BRIDGE_VOXELS` from the bridge given back (a slit
+    still open there, thin but no sieve), then the opened mask itself."""
+    from scipy import ndimage
+
+    took = inside & ~opened
+    if not took.any():
+        return [opened]
+    size_zyx = np.asarray(voxel_size_xyz, float)[::-1]
+    far = ndimage.distance_transform_edt(~bridge, sampling=size_zyx) > (
+        KEPT_FROM_BRIDGE_VOXELS * size_zyx.min())
+    return [opened | (took & far), opened]
 
 
 def _ball_um(radius: float, voxel_size_xyz) -> np.ndarray:

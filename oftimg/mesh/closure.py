@@ -27,15 +27,28 @@ def lumen_pieces(mask: np.ndarray) -> tuple[np.ndarray, int]:
     pieces numbered 1..count from the largest."""
     from scipy import ndimage
 
-    labels, n = ndimage.label(mask, structure=np.ones((3, 3, 3), bool))
-    if n == 0:
-        return labels.astype(np.int32), 0
+    out = np.zeros(mask.shape, np.int32)
+    box = _box(mask)
+    if box is None:
+        return out, 0
+    labels, n = ndimage.label(mask[box], structure=np.ones((3, 3, 3), bool))
     sizes = np.bincount(labels.ravel())[1:]
     keep = np.flatnonzero(sizes >= PIECE_MIN_SHARE * sizes.max())
     keep = keep[np.argsort(-sizes[keep], kind="stable")]
     renumber = np.zeros(n + 1, np.int32)
     renumber[keep + 1] = np.arange(1, len(keep) + 1)
-    return renumber[labels], len(keep)
+    out[box] = renumber[labels]
+    return out, len(keep)
+
+
+def _box(mask: np.ndarray) -> tuple[slice, ...] | None:
+    """The slices of the smallest box holding ``mask``'s True voxels (None: none): the
+    lumen fills a few % of an OCT volume, and labelling only its box is 5-10x faster."""
+    where = [np.flatnonzero(mask.any(axis=tuple(a for a in range(3) if a != k)))
+             for k in range(3)]
+    if not len(where[0]):
+        return None
+    return tuple(slice(int(w[0]), int(w[-1]) + 1) for w in where)
 
 
 def _surface_voxels(piece: np.ndarray) -> np.ndarray:

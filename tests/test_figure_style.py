@@ -11,6 +11,8 @@ import pytest
 from oftimg.output import figures, style
 from test_figures import cohort_results, figure_cases, fixed_map
 
+pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+
 UNIT = re.compile(r"\(([^()]+)\)")          # "quantity (unit)"
 
 

@@ -13,6 +13,8 @@ napari = pytest.importorskip("napari")
 from oftimg.napari.reader import napari_get_reader, results_layers  # noqa: E402
 from oftimg.napari.surfaces import surface_over_time, wall_layer  # noqa: E402
 
+pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+
 
 def _cylinder(n_u=8, n_v=5, n_t=3):
     u = np.linspace(0, 2 * np.pi, n_u, endpoint=False)[:, None, None]

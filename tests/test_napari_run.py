@@ -10,6 +10,8 @@ pytest.importorskip("pytestqt")
 
 from oftimg.napari.run import default_out, read_progress, run_arguments  # noqa: E402
 
+pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+
 RUN_S = 240_000          # ms: a small phantom's run, on a busy machine
 
 

@@ -195,11 +195,12 @@ def cushion_measures(area: np.ndarray, contour: np.ndarray, normal: np.ndarray,
     ``lumen_major_axis_deg`` (:func:`section_ellipse`; NaN where closed),
     ``lumen_close_ms``, ``lumen_open_ms``, ``lumen_closed_share`` (:func:`closure_times`).
     Summary: the rows that close and their largest closed share, the closure's speed along
-    the tube (its close times' slope, as a wave's ridge; NaN unless 3 rows close), the
+    the tube (the Theil-Sen slope of their close times, robust to the closed stretch's end
+    rows, which close briefly and late; NaN unless 3 rows close), the
     median row's aspect ratio at its narrowest and widest (each row's 10th and 90th
     percentile over the cycle), and the median of the jelly at over between the cushions.
     """
-    from ..image.kymograph import cycle_speed, unwrap_robust
+    from ..image.kymograph import unwrap_robust
 
     closed = closed_map(area)
     aspect, major = section_ellipse(contour, normal)
@@ -211,9 +212,12 @@ def cushion_measures(area: np.ndarray, contour: np.ndarray, normal: np.ndarray,
               "lumen_closed_share": closed_share}
     closing = np.isfinite(close_ms)
     speed = np.nan
-    if closing.sum() >= 3:
+    if closing.sum() >= 3:                 # Theil-Sen: the stretch's end rows close briefly
+        from scipy.stats import theilslopes
+
         ridge = unwrap_robust(close_ms[closing], period_ms)
-        speed = cycle_speed(np.asarray(s_mm, float)[closing], ridge)
+        slope = theilslopes(ridge, np.asarray(s_mm, float)[closing]).slope     # ms/mm
+        speed = 1e3 / slope if slope != 0 else np.inf
     with warnings.catch_warnings():            # rows closed throughout: all NaN
         warnings.simplefilter("ignore", RuntimeWarning)
         narrow = np.nanpercentile(aspect, 10, axis=1)

@@ -120,6 +120,21 @@ MEASUREMENT_COLUMNS = ID_COLUMNS + [
     Column("jelly_thickness_median_mm", ("jelly_thickness_median_mm",), "mm",
            "cardiac jelly thickness (inner wall to lumen), median"),
     Column("jelly_thickening", ("jelly_thickening",), "1", "its thickening, as wall_thickening"),
+    Column("lumen_aspect_ratio_narrowest", ("cushions", "aspect_ratio_narrowest"), "1",
+           "the lumen's minor over major axis at its narrowest (each row's 10th percentile "
+           "over the cycle, open sections; median row): the cushions' ellipse"),
+    Column("lumen_aspect_ratio_widest", ("cushions", "aspect_ratio_widest"), "1",
+           "the same at its widest (90th percentile)"),
+    Column("lumen_closed_rows", ("cushions", "closed_rows"), "1",
+           "rows where the lumen closes at some time in the cycle (the cushions appose)"),
+    Column("lumen_closed_share_max", ("cushions", "closed_share_max"), "1",
+           "the largest share of the cycle a row's lumen is closed"),
+    Column("lumen_closure_speed_mm_s", ("cushions", "closure_speed_mm_s"), "mm/s",
+           "how fast the closure travels along the tube: the slope of the rows' closing "
+           "times (empty: under 3 rows close)"),
+    Column("jelly_at_over_between_cushions", ("cushions", "jelly_at_over_between_cushions"),
+           "1", "the cardiac jelly's thickness about the lumen's minor axis (the cushions) "
+           "over that about its major axis, median row and frame"),
     Column("front_speed_mm_s", ("wave_fronts", "outer", "speed_mm_s"), "mm/s",
            "the wave's speed on the outer wall, median node: 1 / |gradient of the activation "
            "times on the wall| (not in the paper; empty: no propagation)"),

@@ -20,7 +20,10 @@ from ..output.style import CYCLIC, colour_scale
 from .surfaces import AXIS_LABELS, WALL_NAMES, WALLS, field_values, wall_fields, words_with_unit
 
 GAP = 0.15              # between the tube, the unrolled fields and the maps: of the tube's length
-MAP_PREFIXES = ("area_", "expanded_mask_75_")     # the (v, t) maps shown: areas, expansion
+# the (v, t) maps shown: areas, expansion, the cushions (the lumen's closure, ellipticity
+# and the jelly at and between them)
+MAP_PREFIXES = ("area_", "expanded_mask_75_", "lumen_closed", "lumen_aspect_ratio",
+                "jelly_at_cushions", "jelly_between_cushions")
 
 
 def placement(results) -> dict:

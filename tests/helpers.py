@@ -193,7 +193,8 @@ FIGURES = {"outer": {"area_derivative_outer", "area_map_outer", "frame_t0_contou
                      "max_area_profile", "ridge_speed", "shape_pca", "time_expanded",
                      "volume_over_cycle"},
            "inner": {"trim_over_cycle", "wall_thickness_map"},
-           "jelly": {"jelly_thickness_map"}, "intensity": {"pullback_outer"}}
+           "lumen": {"lumen_cushions"}, "jelly": {"jelly_thickness_map"},
+           "intensity": {"pullback_outer"}}
 VIDEOS = {"outer": {"area_map_cursor", "outer_wall_3d_area_map", "radial_curvature_outer",
                     "radial_curvature_outer_normalized", "strain_energy_outer",
                     "strain_energy_outer_per_frame"},

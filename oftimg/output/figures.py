@@ -416,6 +416,18 @@ def _map_extent(s_mm, t_ms):
     return [t_ms[0] - dt / 2, t_ms[-1] + dt / 2, s_mm[0], s_mm[-1]]
 
 
+def _saved_map(fig, ax, s_mm, t_ms, title: str, path: Path) -> Path:
+    """A (v, t) map's axes labelled (time across, position up), its title and legend
+    below it, saved to ``path``."""
+    ax.set_xlabel("time since minimum volume (ms)")
+    ax.set_ylabel("position along the tube s (mm)")
+    ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
+    ax.set_title(wrapped(plain_text(title), COLUMN_MM))
+    if ax.get_legend_handles_labels()[0]:
+        fig.legend(loc="outside lower center", ncol=2, fontsize=7, columnspacing=1.0)
+    return save(fig, path)
+
+
 @house_style
 def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Path, *,
              ridge_t_ms=None, crossings_75_ms=None, sigma_ms=None, title: str = "",
@@ -445,13 +457,7 @@ def area_map(area_mm2: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, path: Pat
         for sign in (-1, 1):                                  # beneath the crosses it meets
             ax.plot(np.mod(ridge_t_ms + sign * sigma_ms, period), s_mm, zorder=2, **star)
         ax.plot([], [], label="maximum ± σ (Gaussian fit)", **star)
-    ax.set_xlabel("time since minimum volume (ms)")
-    ax.set_ylabel("position along the tube s (mm)")
-    ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
-    ax.set_title(wrapped(plain_text(title), COLUMN_MM))
-    if ax.get_legend_handles_labels()[0]:
-        fig.legend(loc="outside lower center", ncol=2, fontsize=7, columnspacing=1.0)
-    return save(fig, path)
+    return _saved_map(fig, ax, s_mm, t_ms, title, path)
 
 
 @house_style
@@ -480,13 +486,7 @@ def cushion_map(aspect: np.ndarray, closed: np.ndarray, close_ms: np.ndarray,
         if np.isfinite(times).any():
             ax.plot(np.mod(times, period), s_mm, ls="none", marker=marker, ms=3.5,
                     color="w", mec="k", mew=0.4, label=f"lumen {what}")
-    ax.set_xlabel("time since minimum volume (ms)")
-    ax.set_ylabel("position along the tube s (mm)")
-    ax.set_xlim(_map_extent(s_mm, t_ms)[:2])
-    ax.set_title(wrapped(plain_text(title), COLUMN_MM))
-    if ax.get_legend_handles_labels()[0]:
-        fig.legend(loc="outside lower center", ncol=2, fontsize=7, columnspacing=1.0)
-    return save(fig, path)
+    return _saved_map(fig, ax, s_mm, t_ms, title, path)
 
 
 @house_style

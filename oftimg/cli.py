@@ -379,8 +379,28 @@ def _report_line(out: Path) -> str:
     return f"report: {out / 'index.html'} (open it in a browser: {what})"
 
 
+def _parsed(argv: list[str] | None) -> argparse.Namespace:
+    """The command line parsed; an option the command does not have is refused with the
+    command's own usage and the nearest option it does have (``--period_ms``: did you
+    mean ``--period-ms``?), not the top-level usage alone."""
+    import difflib
+
+    parser = _parser()
+    args, unknown = parser.parse_known_args(argv)
+    if not unknown:
+        return args
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    command = sub.choices[args.command]
+    options = [o for a in command._actions for o in a.option_strings if o.startswith("--")]
+    word = next((u for u in unknown if u.startswith("-")), unknown[0])
+    guess = difflib.get_close_matches(word.split("=")[0].replace("_", "-"), options, n=1)
+    hint = f": did you mean {guess[0]}?" if guess else f" (oftimg {args.command} --help)"
+    command.error(f"unrecognized argument{'s' * (len(unknown) > 1)} "
+                  f"{' '.join(unknown)}{hint}")
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    args = _parsed(argv)
     from .errors import InputError, OftimgWarning
     from .workers import WorkerLost
 

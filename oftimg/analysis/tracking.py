@@ -40,19 +40,34 @@ def _wrapped(steps: np.ndarray, n: int) -> np.ndarray:
 
 def sample(field: np.ndarray, coords: np.ndarray) -> np.ndarray:
     """A frame's field ``(n_u, n_v)`` read at ``coords (..., 2)`` grid steps (around,
-    along): cubic, periodic around, held at the end rows along. (Padded by 12 steps
+    along): cubic, periodic around, held at the end rows along; NaN where a NaN cell
+    (a closed lumen's rows) is among the point's linear neighbours. (Padded by 12 steps
     around: the cubic spline's prefilter then sees the wrap to 1e-7, the same
-    whichever way the tube is entered.)"""
+    whichever way the tube is entered. Its prefilter is global: a NaN would reach
+    every point, so NaN cells are given their nearest known value first.)"""
+    from scipy import ndimage
+
     pad = 12
     wrapped = np.pad(field, ((pad, pad), (0, 0)), mode="wrap")
     i = np.mod(coords[..., 0], field.shape[0]) + pad
-    return map_coordinates(wrapped, [i, coords[..., 1]], order=3, mode="nearest")
+    unknown = ~np.isfinite(wrapped)
+    if not unknown.any():
+        return map_coordinates(wrapped, [i, coords[..., 1]], order=3, mode="nearest")
+    if unknown.all():
+        return np.full(coords.shape[:-1], np.nan, np.result_type(field.dtype, np.float32))
+    nearest = ndimage.distance_transform_edt(unknown, return_distances=False,
+                                             return_indices=True)
+    out = map_coordinates(wrapped[tuple(nearest)], [i, coords[..., 1]], order=3,
+                          mode="nearest")
+    near_unknown = map_coordinates(unknown.astype(np.float32), [i, coords[..., 1]], order=1,
+                                   mode="nearest")
+    return np.where(near_unknown > 0, np.nan, out)
 
 
 def follow(field: np.ndarray, coords: np.ndarray) -> np.ndarray:
     """A field ``(n_u, n_v, n_t, ...)`` (a grid's positions, a curvature, a thickness)
     read along the pathlines ``coords (n_u, n_v, n_t, 2)``: each node the same tissue
-    in every frame (:func:`sample`; a NaN cell spreads to its cubic neighbours)."""
+    in every frame (:func:`sample`; NaN next to a NaN cell)."""
     n_u, n_v, n_t = field.shape[:3]
     flat = field.reshape(n_u, n_v, n_t, -1)
     out = np.empty(flat.shape, dtype=np.result_type(field.dtype, np.float32))

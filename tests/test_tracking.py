@@ -108,3 +108,20 @@ def test_the_grid_follows_a_twisted_shortening_gut(twisted_midgut):
     assert summary["tracking"]["grid"] == "tracked"
     truth = json.loads((twisted_midgut / "truth.json").read_text())
     assert truth["animation"]["twist_deg"] == 20.0
+
+
+def test_a_field_with_nan_rows_is_followed_with_nan_only_beside_them():
+    """A closed lumen's rows are NaN in its curvature: following the field along the
+    pathlines keeps them to their neighbours (the cubic spline's prefilter is global:
+    unguarded, one NaN made the whole frame NaN)."""
+    from oftimg.analysis.tracking import sample
+
+    rng = np.random.default_rng(3)
+    field = rng.random((80, 50))
+    shut = field.copy()
+    shut[:, 20:25] = np.nan
+    at = np.stack(np.meshgrid(np.arange(80) + 0.3, np.arange(50) + 0.2, indexing="ij"), -1)
+    read = sample(shut, at)
+    assert np.flatnonzero(np.isnan(read).any(axis=0)).tolist() == [19, 20, 21, 22, 23, 24]
+    far = np.r_[0:12, 33:50]          # 8 rows on: the spline feels them 0.27^8 as much
+    assert np.allclose(read[:, far], sample(field, at)[:, far], atol=1e-3)

@@ -33,8 +33,8 @@ import numpy as np
 from ..errors import DatasetError, InputError
 from ..mesh.ends import (MARGIN_STEPS, cut_by_plane, largest_piece, section_aspects,
                          square_ends)
-from ..mesh.labels import (CLOSED_PROPERTY, CURVATURE_PROPERTY, MeshOptions, WallMesh, frame_masks, mesh_wall,
-                           mesh_walls)
+from ..mesh.labels import (CLOSED_PROPERTY, CURVATURE_PROPERTY, MeshOptions, WallMesh,
+                           closed_lumen_mesh, frame_masks, mesh_wall, mesh_walls)
 from ..mesh.topology import MeshError, boundary_loops
 from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_period, check_voxel_size, is_number,
                       natural_key, read_meta, read_meta_json)
@@ -684,12 +684,19 @@ def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, 
         mesh = mesh_wall(occupancy, voxel_size, options, ends, curvature=wall == "lumen",
                          length_unit=length_unit)
     except MeshError as exc:
-        return DatasetError(f"{sources[t]}: the {wall} wall, left out, filled from frames "
-                            f"{t_before} and {t_after}, {exc}")
+        # a lumen the cushions close in the frames around: their blend, in pieces or a
+        # slit's sieve, bridged as a closed lumen of this frame's own
+        mesh = closed_lumen_mesh(occupancy, own["inner"], voxel_size, options, ends,
+                                 openings=(0, 1, 2, 3), length_unit=length_unit
+                                 ) if wall == "lumen" and "inner" in own else None
+        if mesh is None:
+            return DatasetError(f"{sources[t]}: the {wall} wall, left out, filled from "
+                                f"frames {t_before} and {t_after}, {exc}")
     _write_wall(out, wall, mesh_name, mesh)
     return {"vertices": len(mesh.V), "pieces_dropped": mesh.cleaned.pieces,
             "step": round(mesh.step, 6), "rims": _rims(mesh) if wall == "outer" else None,
-            "voxels": int(np.count_nonzero((occupancy > 0.5) != own[wall]))}
+            "voxels": int(np.count_nonzero((occupancy > 0.5) != own[wall])),
+            "closure": mesh.closure}
 
 
 def _frame_name(lds: LabelDataset, t: int) -> str:
@@ -818,6 +825,7 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
         if progress:
             progress()
     _raise_for_bad_files(results, n)
+    _gaps_left_out(lds, out, results)
     repairs = [{"frame": t, "file": str(lds.sources[t]), **r}
                for t, result in enumerate(results) for r in result["repairs"]]
     repairs += _fill_left_out(lds, out, options, results, executor)
@@ -967,6 +975,37 @@ def _raise_for_bad_files(results: list, n: int) -> None:
         raise bad[0]
 
 
+def _gaps_left_out(lds: LabelDataset, out: Path, results: list) -> None:
+    """A lumen closed in one frame alone where the frames either side are wide open
+    there (:func:`~oftimg.mesh.closure.is_one_frame_gap`) is the segmentation's gap, not
+    the cushions: its closure dropped from the frame's record in ``results`` and its
+    lumen left out, to be filled from the frames around it like any wall that cannot
+    be meshed (:func:`_fill_left_out`)."""
+    from ..mesh.closure import is_one_frame_gap
+
+    n = lds.n_frames
+    names = lds.mesh_names()
+    closed = [t for t, r in enumerate(results) if "lumen" in r.get("closures", {})]
+    gaps = []
+    for t in closed:
+        around = ((t - 1) % n, (t + 1) % n)
+        if any("lumen" in results[f]["left_out"] for f in around):
+            continue
+        path = out / "lumen" / names[t]
+        V, _ = read_mesh_file(path)
+        bridge = V[read_vertex_values(path, CLOSED_PROPERTY) > 0.5]
+        lumen, before, after = (frame_masks(read_frame(lds.sources[f]), lds.label_ids)["lumen"]
+                                for f in (t, *around))
+        if is_one_frame_gap(bridge, lumen, before, after, lds.voxel_size):
+            gaps.append(t)
+    for t in gaps:
+        del results[t]["closures"]["lumen"]
+        results[t]["left_out"]["lumen"] = ("its lumen closed over a stretch in this frame "
+                                           "alone, wide open there in the frames either "
+                                           "side: a gap in the segmentation, not the "
+                                           "cushions")
+
+
 def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: list,
                    executor) -> list[dict]:
     """Fill every wall left out in a frame from the frames around it, into ``out`` and
@@ -1007,6 +1046,8 @@ def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: 
             results[t][key][wall] = record[key]
         if record["rims"] is not None:
             results[t]["rims"] = record["rims"]
+        if record["closure"] is not None:
+            results[t]["closures"][wall] = record["closure"]
         entries.append({"frame": t, "file": str(lds.sources[t]), "wall": wall,
                         "what": f"left out, filled from frames {before} and {after}",
                         "why": left[t][wall], "voxels": record["voxels"],

@@ -126,3 +126,46 @@ def bridge_flags(V: np.ndarray, bridge: np.ndarray, lumen: np.ndarray, voxel_siz
     is_bridge = np.r_[np.zeros(len(own), bool), np.ones(len(joined), bool)]
     _, nearest = cKDTree(points).query(V)
     return is_bridge[nearest]
+
+
+# a closure seen in one frame alone is a gap in the segmentation (the lumen labelled as
+# jelly over a stretch), not the cushions, when the frames either side are open there at
+# least this share of the frame's own widest lumen (half-widths): the cushions close a
+# lumen that narrows to a slit over the frames before and after
+GAP_OPEN_SHARE = 0.5
+
+
+def half_widths(mask: np.ndarray, voxel_size_xyz) -> np.ndarray:
+    """Each voxel's distance to the nearest voxel outside the boolean ``mask (z, y, x)``
+    (the same length unit as ``voxel_size_xyz``; 0 outside): a lumen's local half-width
+    on its middle line."""
+    from scipy import ndimage
+
+    out = np.zeros(mask.shape, np.float32)
+    box = _box(mask)
+    if box is not None:
+        padded = np.pad(mask[box], 1)
+        out[box] = ndimage.distance_transform_edt(
+            padded, sampling=np.asarray(voxel_size_xyz, float)[::-1])[1:-1, 1:-1, 1:-1]
+    return out
+
+
+def is_one_frame_gap(bridge_xyz: np.ndarray, lumen: np.ndarray, before: np.ndarray,
+                     after: np.ndarray, voxel_size_xyz) -> bool:
+    """Whether a frame's closure is a segmentation's gap: the lumen masks ``(z, y, x)``
+    of the frame ``before`` and the frame ``after`` it are both, within half the frame's
+    widest half-width of the middle of its bridge (``bridge_xyz (k, 3)``: the bridge's
+    vertices, voxel index times side, x y z), at least :data:`GAP_OPEN_SHARE` as wide as
+    the frame's own ``lumen`` mask is at its widest: wide open where it closed. A closure
+    the neighbours share or approach (a slit a few voxels across) is the cushions'."""
+    if not len(bridge_xyz):
+        return False
+    widest = float(half_widths(lumen, voxel_size_xyz).max())
+    size_xyz = np.asarray(voxel_size_xyz, float)
+    middle = bridge_xyz[np.argmin(np.linalg.norm(bridge_xyz - np.median(bridge_xyz, axis=0),
+                                                 axis=1))]
+    reach = np.ceil(0.5 * widest / size_xyz).astype(int)[::-1]            # z y x
+    centre = np.rint(middle / size_xyz).astype(int)[::-1]
+    box = tuple(slice(max(c - r, 0), c + r + 1) for c, r in zip(centre, reach))
+    return all(float(half_widths(other, voxel_size_xyz)[box].max(initial=0.0))
+               >= GAP_OPEN_SHARE * widest for other in (before, after))

@@ -69,3 +69,19 @@ def inject(labels: np.ndarray, defect: str) -> np.ndarray:
         box = (slice(k - 3, k + 4), slice(j - 3, j + 4), slice(far_myo.min(), far_myo.max() + 2))
         out[box] = np.where(out[box] == LABELS["myocardium"], LABELS["jelly"], out[box])
     return out
+
+
+def lumen_gap(labels: np.ndarray, share: float = 0.3) -> np.ndarray:
+    """A copy of ``labels`` ``(z, y, x)`` whose lumen is labelled as jelly over the
+    middle ``share`` of its extent along the volume's axis where it is longest: a
+    segmentation that lost the lumen over a stretch of one frame (what the cushions'
+    closure looks like in that frame alone; not in :data:`DEFECTS`, whose draws the
+    zoo's seeds keep)."""
+    out = labels.copy()
+    lumen = labels == LABELS["lumen"]
+    where = np.nonzero(lumen)
+    axis = int(np.argmax([np.ptp(w) for w in where]))
+    low, high = np.percentile(where[axis], [50 - 50 * share, 50 + 50 * share])
+    index = np.arange(labels.shape[axis]).reshape([-1 if a == axis else 1 for a in range(3)])
+    out[lumen & (index >= low) & (index <= high)] = LABELS["jelly"]
+    return out

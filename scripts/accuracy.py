@@ -75,6 +75,7 @@ from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
 from oftimg.synthetic.zoo import volume_offset_um
 
 WALLS = ("outer", "inner", "lumen")
+SLIT_AREA = 0.05        # a section under this share of its row's largest: a slit
 # the fields smoothed in time as their noise asks
 CURVATURES = [("radial_curvature_outer", "radial curvature, outer"),
               ("radial_curvature_inner", "radial curvature, inner"),
@@ -277,8 +278,12 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
     for w in WALLS:
         rel = arr[f"volume_{w}_mm3"] / np.roll(truth["volume_mm3"][w], -t0) - 1.0
         e[f"volume_{w}_pct"] = float(100.0 * rel[np.argmax(np.abs(rel))])
-        area_rel = np.abs(arr[f"area_{w}_mm2"] / ph.area_mm2(w, s_mm[:, None], t_ms[None, :])
-                          - 1.0)
+        true_area = ph.area_mm2(w, s_mm[:, None], t_ms[None, :])
+        # relative where the section is open: a slit closing between the cushions
+        # (under SLIT_AREA of its row's largest) has the cushions' own metrics
+        true_area = np.where(true_area >= SLIT_AREA * true_area.max(axis=1, keepdims=True),
+                             true_area, np.nan)
+        area_rel = np.abs(arr[f"area_{w}_mm2"] / true_area - 1.0)
         e[f"area_{w}_median_pct"] = float(100.0 * np.nanmedian(area_rel))
         e[f"area_{w}_p95_pct"] = float(100.0 * np.nanpercentile(area_rel, 95))
         # the first and last 5 rows: where a face that cuts the tube obliquely shows
@@ -306,7 +311,77 @@ def embryo_errors(dataset: Path, results: Path, keep: dict | None = None) -> dic
     if "wave_fronts" in summ:
         e.update(front_errors(ph, arr, grids["outer"], t_ms, summ["wave_fronts"]["outer"],
                               period))
+    if p.get("cushion_aspect_expanded", 1.0) < 1.0:
+        e.update(cushion_errors(ph, arr, t_ms, period))
     return {k: float(v) for k, v in e.items()}
+
+
+# the sections whose aspect and axis are compared: open by this much in the model
+# (a slit about to close is a few voxels across), and elliptic for the axis
+CUSHION_OPEN_ASPECT = 0.02
+CUSHION_AXIS_ASPECT = 0.8
+CUSHION_END_ROWS = 2            # rows left out at each end (their sections are cut)
+FINE_CLOCK = 3600               # the truth's closing and opening times on this clock
+
+
+def cushion_errors(ph, arr, t_ms: np.ndarray, period_ms: float) -> dict[str, float]:
+    """The cushions' measures (:mod:`oftimg.analysis.cushions`) against the model's:
+    per row the closing and opening times (circular error, % of the period: median and
+    worst over the rows that close in both), the closed share (percentage points),
+    the rows that close in one and not the other (% of the rows), the aspect ratio
+    (%, median over the open sections) and the major axis's angle (deg, median over the
+    elliptic ones), rows :data:`CUSHION_END_ROWS` from each end left out. ``arr``: the
+    run's arrays in the phantom's frame; ``t_ms (n_t,)``: the model's time of each
+    aligned frame."""
+    inner = slice(CUSHION_END_ROWS, -CUSHION_END_ROWS)
+    s_row, _ = ph.window_coordinates(arr["centroid_outer_mm"])              # (n_v, n_t)
+    s_v = np.nanmedian(s_row, axis=1)
+    _, seam = ph.window_coordinates(arr["contour_lumen_mm"][0])            # (n_v, n_t)
+    aspect, major = ph.section_ellipse("lumen", s_row, t_ms[None, :])
+    model = ph.cushion_aspect(s_row, t_ms[None, :])
+    fine = np.linspace(0.0, period_ms, FINE_CLOCK, endpoint=False)         # run's clock
+    shut = ph.cushion_aspect(s_v[:, None], fine[None, :] + t_ms[0]) <= 0
+    close, opened = np.full(len(s_v), np.nan), np.full(len(s_v), np.nan)
+    for j, row in enumerate(shut):
+        if row.any() and not row.all():
+            falls = np.flatnonzero(~row & np.roll(row, -1))[0]
+            rises = np.flatnonzero(row & ~np.roll(row, -1))[0]
+            close[j] = fine[(falls + 1) % FINE_CLOCK]
+            opened[j] = fine[(rises + 1) % FINE_CLOCK]
+
+    def circular_pct(measured, true):
+        d = np.abs((measured - true + period_ms / 2) % period_ms - period_ms / 2)
+        return 100.0 * d / period_ms
+
+    e = {}
+    found = np.isfinite(arr["lumen_close_ms"])[inner]
+    truth_closes = np.isfinite(close)[inner]
+    e["cushion_rows_wrong_pct"] = float(100.0 * np.mean(found != truth_closes))
+    both = found & truth_closes
+    if both.any():
+        for key, measured, true in (("close", arr["lumen_close_ms"], close),
+                                    ("open", arr["lumen_open_ms"], opened)):
+            err = circular_pct(measured[inner][both], true[inner][both])
+            e[f"cushion_{key}_median_pct"] = float(np.median(err))
+            e[f"cushion_{key}_worst_pct"] = float(err.max())
+    share = np.abs(arr["lumen_closed_share"] - shut.mean(axis=1))[inner]
+    e["cushion_closed_share_median_pp"] = float(100.0 * np.median(share))
+    e["cushion_closed_share_worst_pp"] = float(100.0 * share.max())
+    e["cushion_closed_cells_wrong_pct"] = float(
+        100.0 * np.mean((arr["lumen_closed"] != (model <= 0))[inner]))
+    open_ = (model > CUSHION_OPEN_ASPECT) & np.isfinite(arr["lumen_aspect_ratio"])
+    open_[:CUSHION_END_ROWS], open_[-CUSHION_END_ROWS:] = False, False
+    if open_.any():
+        rel = 100.0 * np.abs(arr["lumen_aspect_ratio"] / aspect - 1.0)[open_]
+        e["cushion_aspect_median_pct"] = float(np.median(rel))
+        e["cushion_aspect_p90_pct"] = float(np.percentile(rel, 90))
+        relative = (major - np.degrees(seam)) % 180.0      # the run's angle: from the seam
+        axis = np.abs((arr["lumen_major_axis_deg"] - relative + 90.0) % 180.0 - 90.0)
+        elliptic = open_ & (aspect < CUSHION_AXIS_ASPECT) & np.isfinite(axis)
+        if elliptic.any():
+            e["cushion_axis_median_deg"] = float(np.median(axis[elliptic]))
+            e["cushion_axis_p90_deg"] = float(np.percentile(axis[elliptic], 90))
+    return e
 
 
 def wave_front_errors(dataset: Path, results: Path) -> dict[str, float]:
@@ -440,7 +515,8 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float,
                 e[f"{name}_node_band_within_{phase}_pct"] = float(100 * inside[known & at].mean())
             e[f"{name}_node_band_ratio_p95"] = float(np.nanpercentile(
                 np.abs(measured - truth)[known] / band[known], 95))
-            e[f"{name}_band95_wide_share"] = noise.get("band95_wide_share", np.nan)
+            wide = noise.get("band95_wide_share")          # None: no node with a band
+            e[f"{name}_band95_wide_share"] = np.nan if wide is None else wide
         e[f"{name}_noise_sd"] = noise.get("noise_sd_smoothed") or np.nan
         e[f"{name}_noise_share"] = noise.get("noise_share") or np.nan
         e[f"{name}_smoothing_ms"] = noise.get("smoothing_ms", np.nan)

@@ -3,7 +3,7 @@
     python scripts/accuracy_zoo.py [--draws 50] [--seed 0] [--kinds meshes labels ...]
                                    [--frames N] [--voxel-min-um U] [--jobs 2]
                                    [--cache DIR] [--json FILE] [--no-pair] [--fronts]
-                                   [--cut oblique|square] [--features]
+                                   [--cut oblique|square] [--features] [--cushions]
     python scripts/accuracy_zoo.py --tables FILE.json [...] [--markdown]
     python scripts/accuracy_zoo.py --paired OBLIQUE.json SQUARE.json [--markdown]
 
@@ -23,7 +23,10 @@ draws the same scenarios with helical or one-sided wave fronts
 (``draw_scenario(..., fronts=True)``) and tabulates the fronts' metrics alone.
 ``--features`` draws the same scenarios with sharper corners or concave notches (3-6)
 and meshes of 40-200 vertices round the tube (``draw_scenario(..., features=True)``):
-where the node-by-node curvature is tested.
+where the node-by-node curvature is tested. ``--cushions`` draws them with an
+elliptical lumen that falls towards a slit and, in label kinds, closes over a stretch of
+the tube for part of the beat (``draw_scenario(..., cushions=True)``), and adds the
+cushions' metrics (closing and opening times, closed share, aspect ratio, axis).
 """
 from __future__ import annotations
 
@@ -113,6 +116,23 @@ HEADLINE = [
 # with --fronts (helical and one-sided fronts): the paper's numbers of the (v, t) area
 # map average a helix away, so only the fronts' metrics are tabulated
 FRONT_METRICS = [row for row in HEADLINE if row[0].startswith("front_")]
+# with --cushions: the cushions' measures against the model's (scripts/accuracy.py's
+# cushion_errors), after the headline's
+CUSHION_METRICS = [
+    ("cushion_close_median_pct", "% T", "cushions: closing time (median row)"),
+    ("cushion_close_worst_pct", "% T", "cushions: closing time (worst row)"),
+    ("cushion_open_median_pct", "% T", "cushions: opening time (median row)"),
+    ("cushion_open_worst_pct", "% T", "cushions: opening time (worst row)"),
+    ("cushion_closed_share_median_pp", "pp", "cushions: closed share (median row)"),
+    ("cushion_closed_share_worst_pp", "pp", "cushions: closed share (worst row)"),
+    ("cushion_rows_wrong_pct", "%", "cushions: rows closing in one of run and truth"),
+    ("cushion_closed_cells_wrong_pct", "%", "cushions: (v, t) cells closed in one of them"),
+    ("cushion_aspect_median_pct", "%", "cushions: lumen aspect ratio (median section)"),
+    ("cushion_aspect_p90_pct", "%", "cushions: lumen aspect ratio (90th pct section)"),
+    ("cushion_axis_median_deg", "deg", "cushions: major axis (median section)"),
+    ("cushion_axis_p90_deg", "deg", "cushions: major axis (90th pct section)"),
+]
+CUSHIONS_TAG = " (cushions)"
 FRONTS_TAG = " (fronts)"          # after the kind's name in the JSON and the tables
 FEATURES_TAG = " (features)"
 # with --cut: label draws cut obliquely or square by the volume's faces at both ends
@@ -164,17 +184,18 @@ def run_quietly(dataset: Path, out: Path, jobs: int) -> Path:
 
 def draw_errors(seed: int, kind: str, root: Path, *, frames, voxel_min_um, jobs: int,
                 pair: bool, fronts: bool = False, oblique: bool | None = None,
-                features: bool = False) -> dict[str, float]:
+                features: bool = False, cushions: bool = False) -> dict[str, float]:
     """One draw written, run and compared with its truth: every metric's error
     (``fronts``: the draw with a helical or one-sided front, no meshes' pair;
     ``oblique``: the label draw cut obliquely (True) or square (False) by its volume's
     faces at both ends, None as drawn; ``features``: sharper corners, finer and coarser
-    meshes)."""
+    meshes; ``cushions``: an elliptical lumen, closing in label kinds)."""
     scenario = draw_scenario(seed, kind, n_frames=frames, voxel_um_min=voxel_min_um,
-                             fronts=fronts, oblique=oblique, features=features)
+                             fronts=fronts, oblique=oblique, features=features,
+                             cushions=cushions)
     cut = {None: "", True: "_oblique", False: "_square"}[oblique]
     dataset = root / "data" / (f"{kind.replace('+', '_')}_{seed}{'_fronts' * fronts}{cut}"
-                               f"{'_features' * features}")
+                               f"{'_features' * features}{'_cushions' * cushions}")
     if not (dataset / "scenario.json").is_file():
         write_scenario(scenario, dataset, real_shape=MIDGUT,
                        real_scale_to_mm=MIDGUT_SCALE_TO_MM)
@@ -223,6 +244,10 @@ def conditions(scenario) -> dict:
            "twist": f"{p.twist_profile}, phase {p.twist_phase:.2f}",
            "slide_pct": round(100 * p.stretch, 1)}
     out |= {"corners": p.corners, "corner_sharpness": round(p.corner_sharpness, 2)}
+    if p.cushion_aspect_expanded < 1.0:
+        out["cushions"] = (f"aspect {p.cushion_aspect_expanded:.2f} -> "
+                           f"{p.cushion_aspect_contracted:.2f} at {p.cushion_deg:.0f} deg, "
+                           f"{p.cushion_from_mm:.2f}-{p.cushion_to_mm:.2f} mm")
     if scenario.kind == "meshes":
         out |= {"roughness_um": round(1000 * p.noise_mm, 2), "vertices_min": p.vertices_min}
     if scenario.voxel_um is not None:
@@ -317,7 +342,9 @@ def print_tables(every: dict[str, dict], markdown: bool = False) -> None:
         else:
             print(f"  {'metric':<62}{'unit':>6}{'median':>9}{'p90':>9}{'worst':>9}  seed    n"
                   + ("   shifted: median, p90, n" if biased else ""))
-        for key, unit, what in FRONT_METRICS if kind.endswith(FRONTS_TAG) else HEADLINE:
+        metrics = (FRONT_METRICS if kind.endswith(FRONTS_TAG) else
+                   HEADLINE + CUSHION_METRICS * kind.endswith(CUSHIONS_TAG))
+        for key, unit, what in metrics:
             d = distribution(clean, key)
             if d is None:
                 continue
@@ -434,6 +461,10 @@ def main() -> None:
     ap.add_argument("--features", action="store_true",
                     help="draws with sharper corners or concave notches (3-6) and meshes of "
                          "40-200 vertices round the tube (the node-by-node curvature's test)")
+    ap.add_argument("--cushions", action="store_true",
+                    help="draws whose elliptical lumen falls towards a slit and (label kinds) "
+                         "closes over a stretch for part of the beat, with the cushions' "
+                         "metrics")
     ap.add_argument("--cut", choices=sorted(CUT_TAGS), default=None,
                     help="label draws whose volume's faces cut the tube at both ends obliquely "
                          "(20-50 deg) or square (the same draws otherwise: a paired comparison)")
@@ -458,19 +489,21 @@ def main() -> None:
         root = args.cache or Path(tmp)
         for kind in args.kinds:
             drawn = every[kind + FRONTS_TAG * args.fronts + CUT_TAGS.get(args.cut, "")
-                          + FEATURES_TAG * args.features] = {}
+                          + FEATURES_TAG * args.features + CUSHIONS_TAG * args.cushions] = {}
             for seed in range(args.seed, args.seed + args.draws):
                 tick = time.perf_counter()
                 try:
                     drawn[seed] = draw_errors(seed, kind, root, frames=args.frames,
                                               voxel_min_um=args.voxel_min_um, jobs=args.jobs,
                                               pair=not args.no_pair, fronts=args.fronts,
-                                              oblique=oblique, features=args.features)
+                                              oblique=oblique, features=args.features,
+                                              cushions=args.cushions)
                 except oftimg.InputError as exc:     # refused: a fault of the zoo or of oftimg
                     drawn[seed] = {"refused": str(exc), "draw": conditions(
                         draw_scenario(seed, kind, n_frames=args.frames,
                                       voxel_um_min=args.voxel_min_um, fronts=args.fronts,
-                                      oblique=oblique, features=args.features))}
+                                      oblique=oblique, features=args.features,
+                                      cushions=args.cushions))}
                 print(f"{kind} draw {seed}: {time.perf_counter() - tick:.0f} s"
                       + (f", refused: {drawn[seed]['refused']}" if "refused" in drawn[seed]
                          else ""), flush=True)

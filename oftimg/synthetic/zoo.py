@@ -57,6 +57,13 @@ RANGES = {
     # with features=True: sharper corners or concave notches (phantom corner_profile's
     # kappa), 3 to 6 of them, and meshes from coarse to fine (vertices round the outer wall)
     "corners": (3, 6), "corner_sharpness": (-1.5, 1.5), "vertices_around": (40, 200),
+    # with cushions=True: the lumen an ellipse whose minor over major axis falls from the
+    # expanded aspect to the contracted one (at or below 0: closed, label kinds only;
+    # meshes stay open) over a stretch of the tube (a share of its length), its major
+    # axis at any angle
+    "cushion_aspect_expanded": (0.5, 0.95), "cushion_aspect_contracted": (-0.6, 0.2),
+    "cushion_aspect_contracted_meshes": (0.15, 0.4), "cushion_stretch": (0.2, 0.5),
+    "cushion_taper_mm": (0.05, 0.15),
 }
 BANDED_SHARE = 0.3          # of the draws: a band
 SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
@@ -129,7 +136,8 @@ def _uniform(rng, name: str) -> float:
 
 def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = None,
                   voxel_um_min: float | None = None, fronts: bool = False,
-                  oblique: bool | None = None, features: bool = False) -> Scenario:
+                  oblique: bool | None = None, features: bool = False,
+                  cushions: bool = False) -> Scenario:
     """The scenario of ``seed`` (the same seed, the same draw): ``kind`` drawn from
     :data:`KINDS` unless given, every number from :data:`RANGES`. ``n_frames`` and
     ``voxel_um_min`` (the finest voxel side drawn) override the draw, for quick runs:
@@ -140,7 +148,9 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     :data:`RANGES` ``oblique_deg``) or square (False), none ending inside, the rest of
     the draw the same (a pair for a paired comparison); None: as drawn. ``features``:
     the section's corners drawn sharper or as concave notches and 3-6 of them, and the
-    meshes 40-200 vertices round the tube (:func:`feature_params`); the rest the same."""
+    meshes 40-200 vertices round the tube (:func:`feature_params`); the rest the same.
+    ``cushions``: the lumen elliptical, falling towards a slit and in label kinds often
+    closing over a stretch of the tube for part of the beat (:func:`cushion_params`)."""
     rng = np.random.default_rng([seed, 72])
     drawn_kind = KINDS[int(rng.integers(len(KINDS)))]
     kind = drawn_kind if kind is None else kind
@@ -175,6 +185,8 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
         params = replace(params, **front_params(seed, params.period_ms))
     if features:
         params = replace(params, **feature_params(seed, params))
+    if cushions:
+        params = replace(params, **cushion_params(seed, params, kind))
     side = _uniform(rng, "voxel_um")
     if voxel_um_min is not None:
         side = max(side, voxel_um_min)
@@ -236,6 +248,23 @@ def feature_params(seed: int, params: PhantomParams) -> dict:
     return {"corners": int(rng.integers(low, high + 1)),
             "corner_sharpness": _uniform(rng, "corner_sharpness"),
             "vertices_min": vertices, "vertices_max": vertices}
+
+
+def cushion_params(seed: int, params: PhantomParams, kind: str) -> dict:
+    """A cushion draw's phantom parameters (a stream of its own: the rest of the draw
+    stays as it was): the lumen's aspect expanded and contracted, its major axis's
+    angle and the stretch where the cushions act, from :data:`RANGES`. Mesh draws stay
+    open (a mesh series whose lumen closes is not read yet); in label kinds the
+    contracted aspect at or below 0 closes the lumen over part of the stretch and beat."""
+    rng = np.random.default_rng([seed, 72, 5])
+    contracted = "cushion_aspect_contracted" + "_meshes" * (kind == "meshes")
+    share = _uniform(rng, "cushion_stretch")
+    start = float(rng.uniform(0.1, 0.9 - share)) * params.length_mm
+    return {"cushion_aspect_expanded": _uniform(rng, "cushion_aspect_expanded"),
+            "cushion_aspect_contracted": _uniform(rng, contracted),
+            "cushion_deg": float(rng.uniform(0.0, 180.0)),
+            "cushion_from_mm": start, "cushion_to_mm": start + share * params.length_mm,
+            "cushion_taper_mm": _uniform(rng, "cushion_taper_mm")}
 
 
 def front_params(seed: int, period_ms: float) -> dict:

@@ -100,7 +100,9 @@ def test_table1_in_the_papers_units_and_rounding(tmp_path):
     assert "| mean ± SD | banded (n=2) | 40.3 ± 5.8 |" in text  # to the SD's 2 digits
     assert "| p | banded vs normal | 0.67 |" in text    # 2 vs 2: 4 of 6 relabellings as far
     assert "| p (Holm) | banded vs normal | 1.0 | 1.0 |" in text    # 13 tests, 2 digits
-    assert "Holm-corrected over the 13 quantities tested" in text
+    assert "p (Holm): corrected over these 13 quantities." in text
+    assert "the smallest p it can give, 2 banded against 2 normal: 0.33" in text
+    assert "the 13 Table 1 quantities;" in text
     assert "†" not in text                            # no speed's noise given: none marked
 
 
@@ -300,3 +302,33 @@ def test_table1_says_why_an_embryo_without_an_area_wave_has_no_speed():
     assert rows["A"][column["Speed cycle (mm/s)"]] != "–"
     assert "H: the sections' areas change by under 2 % over the beat" in note
     assert "A:" not in note and "front_speed_mm_s" in note
+
+
+def test_the_cushions_valve_action_is_tested_and_the_note_says_what_was(tmp_path):
+    """Issue 85/87: the lumen's narrowest aspect ratio and largest closed share are tested
+    with Table 1 (one Holm family), the note names what was tested and the smallest p
+    3 against 3 can give (0.10); groups.csv leaves a cell empty where there is no value."""
+    from oftimg.output.report import statistics_note, write_groups_table
+
+    def embryo(name, group, aspect, shut, period):
+        return {"name": name, "group": group, "period_ms": period,
+                "cushions": {"aspect_ratio_narrowest": aspect, "closed_share_max": shut,
+                             "closure_speed_mm_s": None}}
+
+    summaries = [embryo(f"n{k}", "normal", 0.5 + 0.01 * k, 0.3 + 0.01 * k, 350.0 + k)
+                 for k in range(3)]
+    summaries += [embryo(f"b{k}", "banded", 0.2 + 0.01 * k, 0.6 + 0.01 * k, 400.0 + k)
+                  for k in range(3)]
+    comparison = group_comparison(summaries)
+    rows = {r["metric"]: r for r in comparison}
+    for tested in ("lumen_aspect_ratio_narrowest", "lumen_closed_share_max", "period_ms"):
+        assert rows[tested]["p_value"] == pytest.approx(0.1), tested     # 2 of 20
+        assert rows[tested]["p_holm"] == pytest.approx(0.3), tested
+    assert "lumen_closure_speed_mm_s" not in rows           # no embryo has one
+    note = statistics_note(comparison)
+    assert ("the smallest p it can give, 3 banded against 3 normal: 0.10), for the 1 Table 1 "
+            "quantity and lumen_aspect_ratio_narrowest, lumen_closed_share_max (cohort.csv)"
+            in note), note
+    assert "corrected over these 3 quantities." in note
+    text = write_groups_table(tmp_path, summaries, comparison).read_text()
+    assert "nan" not in text.lower()

@@ -48,8 +48,9 @@ def test_the_cycle_speeds_band_adds_the_zoos_share_to_its_noise():
 
 
 def test_table1_shows_the_cycle_speeds_band():
-    """Table 1's cycle speed cell: the value ± half its band, to the band's 2 digits, and
-    the note says what the ± is; without a band the value alone."""
+    """Table 1's cycle speed cell: the value and its band in brackets, to the band's 2
+    digits, and the note says so (± is a group's SD alone); without a band the value
+    alone."""
     from oftimg.output.report import table1_markdown
 
     summary = {"name": "A", "group": "normal", "expand_fraction": 0.38, "contract_fraction": 0.62,
@@ -59,7 +60,7 @@ def test_table1_shows_the_cycle_speeds_band():
                "wave_speed_band_95_mm_s": {"cycle": 0.7134},
                "myocardial_volume_change": 0.1675, "clipped_myocardial_volume_mm3": 0.0241}
     text = table1_markdown([summary])
-    assert "| 8.96 | 3.42 | 6.81 ± 0.71 | 16.8 |" in text, text
-    assert "Speed cycle ± half its 95 % band" in text
+    assert "| 8.96 | 3.42 | 6.81 (6.10–7.53) | 16.8 |" in text, text
+    assert "followed by its 95 % band in brackets" in text and "± is a group's SD" in text
     plain = table1_markdown([{**summary, "wave_speed_band_95_mm_s": {"cycle": None}}])
     assert "| 3.42 | 6.81 | 16.8 |" in plain and "95 % band" not in plain, plain

@@ -10,8 +10,8 @@ from pathlib import Path
 
 from . import numbers
 from .style import PAGE_MM, PNG_DPI
-from .report import (CORRECTION, MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparison, table1_layout,
-                     table_rows)
+from .report import (CORRECTION, MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparison,
+                     statistics_note, table1_layout, table_rows)
 
 STYLE = """
 body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1320px;padding:0 1em;color:#222}
@@ -423,10 +423,9 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
     if comp and len({s["group"] for s in summaries}) >= 2:
         ccols = [c for c in comp[0] if c not in ("table", "unit")]
         body += ["<details><summary>Groups, every measurement (groups.csv)</summary>"
-                 "<p class=\"small\">n, mean and SD per group; p only for the Table 1 "
-                 f"quantities (p_holm: {CORRECTION}-corrected over them and the pairs of "
-                 "groups; below 0.05 shaded); the other measurements and the checks are "
-                 "shown, not tested</p>",
+                 "<p class=\"small\">n, mean and SD per group. "
+                 f"{html.escape(statistics_note(comp))} p_holm below 0.05 shaded; the other "
+                 "measurements and the checks are shown, not tested (no p).</p>",
                  _wide_table(comp, ccols, highlight=lambda r: r["p_holm"] == r["p_holm"]
                              and r["p_holm"] < 0.05), "</details>"]
     body.append(_cohort_warnings(summaries))

@@ -93,6 +93,21 @@ def mean_sd(mean, sd, decimals: int | None = None) -> str:
             f"{with_decimals(sd / 10.0 ** scale, places)}) × {power_of_ten(scale)}")
 
 
+def with_interval(value, half_width, decimals: int | None = None) -> str:
+    """``"value (low–high)"``: a value and the interval ``value ± half_width`` in brackets
+    (a 95 % band; ± in the same table is a group's SD), all to the half-width's
+    :data:`SD_SIGNIFICANT` digits (never finer than ``decimals``); the value alone
+    (:func:`mean_sd`'s rounding) without a finite half-width."""
+    if not is_finite_number(value) or not is_finite_number(half_width):
+        return mean_sd(value, float("nan"), decimals)
+    places = (SD_SIGNIFICANT - 1 - leading_decimal(half_width)) if half_width > 0 else (
+        decimals or 0)
+    if decimals is not None:
+        places = min(places, decimals)
+    return (f"{with_decimals(value, places)} ({with_decimals(value - half_width, places)}–"
+            f"{with_decimals(value + half_width, places)})")
+
+
 def label_unit(text: str) -> str:
     """A unit as an axis or colour bar names it: :func:`unit`, and "dimensionless" for
     a pure number ("1"), which a label never gives as "(1)"."""

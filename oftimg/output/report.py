@@ -243,8 +243,9 @@ NO_VALUE = numbers.DASH
 ROUNDING_NOTE = ("Rounded as the paper rounds, or to 3 digits where it gives more; a group's "
                  "mean to the decimal of its SD, given to 2 digits, and no finer than its rows; "
                  "p to 2 digits; table1.csv keeps the paper's rounding.")
-BAND_NOTE = ("Speed cycle ± half its 95 % band: the run's own noise and the share the "
-             "accuracy zoo found beyond it (qc.csv speed_cycle_band_95_mm_s).")
+BAND_NOTE = ("An embryo's Speed cycle is followed by its 95 % band in brackets: the run's "
+             "own noise and the share the accuracy zoo found beyond it (qc.csv "
+             "speed_cycle_band_95_mm_s); ± is a group's SD.")
 POOR_MARK = " †"
 POOR_NOTE = ("†: a wave speed whose spread from the map's frame-to-frame noise alone is over "
              "{share:.0%} of it (qc.csv *_noise_sd_mm_s; the embryo's notes give it).")
@@ -342,8 +343,10 @@ def _group_values(summaries: list[dict], column: Column, groups: list[str]) -> d
     return values
 
 
-# beyond Table 1, the measurements a group comparison tests: the wave's fronts
+# beyond Table 1, the measurements a group comparison tests: the wave's fronts, and the
+# cushions' valve action (how elliptical the lumen at its narrowest, how long it closes)
 TESTED_FRONTS = ("front_speed_mm_s", "front_helix_angle_deg")
+TESTED_CUSHIONS = ("lumen_aspect_ratio_narrowest", "lumen_closed_share_max")
 
 
 def group_comparison(summaries: list[dict]) -> list[dict]:
@@ -352,7 +355,8 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
     alone the two-sided permutation p-value (``p_value``) and that p-value corrected
     by Holm's method over all Table 1 quantities and pairs of groups (``p_holm``),
     and so too the wave's speed and helix angle on the outer wall
-    (:data:`TESTED_FRONTS`, not in the paper, in the same Holm family); the other
+    (:data:`TESTED_FRONTS`) and the lumen's narrowest aspect ratio and largest closed
+    share (:data:`TESTED_CUSHIONS`), not in the paper, in the same Holm family; the other
     measurements and the quality checks are shown, not tested (NaN).
     With one group: its n, mean and sd, no p-values."""
     from itertools import combinations
@@ -373,7 +377,7 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
                 stats[f"{g}_n"] = len(v)
                 stats[f"{g}_mean"] = float(v.mean()) if len(v) else float("nan")
                 stats[f"{g}_sd"] = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
-            tested = file == "table1.csv" or column.name in TESTED_FRONTS
+            tested = file == "table1.csv" or column.name in TESTED_FRONTS + TESTED_CUSHIONS
             for a, b in pairs or [(groups[0], None)]:
                 p = permutation_test(values[a], values[b]) if tested and b else float("nan")
                 out.append({**stats, "groups": a if b is None else f"{a} vs {b}",
@@ -382,6 +386,36 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
     for row, p_adjusted in zip(tested_rows, holm([r["p_value"] for r in tested_rows])):
         row["p_holm"] = p_adjusted
     return out
+
+
+def statistics_note(comparison: list[dict]) -> str:
+    """What the p-values of ``comparison`` (:func:`group_comparison`'s rows) are, said
+    from what was tested: the test, the smallest p it can give the groups' sizes, the
+    quantities tested (Table 1's and those beyond it by name) and the correction over
+    them and the pairs of groups; "" when nothing was tested."""
+    from ..analysis.stats import smallest_permutation_p
+
+    tested = [r for r in comparison if np.isfinite(r["p_value"])]
+    if not tested:
+        return ""
+    metrics = list(dict.fromkeys(r["metric"] for r in tested))
+    in_table1 = [m for m in metrics if any(r["table"] == "table1.csv" and r["metric"] == m
+                                           for r in tested)]
+    beyond = [m for m in metrics if m not in in_table1]
+    pairs = list(dict.fromkeys(r["groups"] for r in tested))
+    floors = []
+    for pair in pairs:
+        a, b = pair.split(" vs ")
+        rows = [r for r in tested if r["groups"] == pair]
+        n, m = max(r[f"{a}_n"] for r in rows), max(r[f"{b}_n"] for r in rows)
+        floors.append(f"{n} {a} against {m} {b}: {numbers.p_value(smallest_permutation_p(n, m))}")
+    what = (f"the {len(in_table1)} Table 1 quantit{'y' if len(in_table1) == 1 else 'ies'}"
+            if in_table1 else "") + (
+        (" and " if in_table1 else "") + ", ".join(beyond) + " (cohort.csv)" if beyond else "")
+    return (f"p: two-sided permutation test of the difference of means (exact for up to 10 "
+            f"embryos per group; the smallest p it can give, {'; '.join(floors)}), for "
+            f"{what}; p ({CORRECTION}): corrected over these {len(metrics)} quantities"
+            + (f" and the {len(pairs)} pairs of groups" if len(pairs) > 1 else "") + ".")
 
 
 def _cell(x, column: Column | None = None) -> str:
@@ -447,13 +481,8 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
                              numbers.p_value(r[key]) + (" *" if key == "p_holm"
                                                         and r[key] < 0.05 else ""))
             body.append([label, _cell(pair)] + cells)
-    n_tested = len({r["metric"] for rows in by_metric.values() for r in rows
-                    if np.isfinite(r["p_value"])})
-    note = (f"p: two-sided permutation test of the difference of means (exact for up to 10 "
-            f"per group), {CORRECTION}-corrected over the {n_tested} quantities tested"
-            + (" and the pairs of groups" if len(pairs) > 1 else "")
-            + f"; * {CORRECTION}-corrected p < 0.05. Each column is described in columns.csv."
-            if pairs else "")
+    note = (statistics_note(comparison) + f" *: {CORRECTION}-corrected p < 0.05. Each "
+            "column is described in columns.csv." if pairs else "")
     if banded:
         note += (" " if note else "") + BAND_NOTE
     if poor:
@@ -476,8 +505,8 @@ def table1_layout(summaries: list[dict], comparison: list[dict] | None = None
 
 
 def _with_band(value, column: Column, summary: dict) -> str:
-    """A Table 1 cell of one embryo: its value, for the cycle speed ± half its 95 %
-    band (:func:`~oftimg.analysis.uncertainty.speed_band_95`) when the run has one (no
+    """A Table 1 cell of one embryo: its value, for the cycle speed with its 95 % band
+    in brackets (:func:`~oftimg.analysis.uncertainty.speed_band_95`) when the run has one (no
     finer than the other rows), and :data:`POOR_MARK` after a speed whose noise spread
     is over :data:`~oftimg.analysis.maps.SPREAD_NOTE_SHARE` of it (the run's notes
     name it: the cell says so too)."""
@@ -485,7 +514,7 @@ def _with_band(value, column: Column, summary: dict) -> str:
     if not numbers.is_finite_number(value):
         return _cell(value, column)
     if column.name == "speed_cycle_mm_s" and band is not None:
-        text = numbers.mean_sd(value, band, numbers.decimals_of(value))
+        text = numbers.with_interval(value, band, numbers.decimals_of(value))
     else:
         text = _cell(value, column)
     return text + (POOR_MARK if _poorly_resolved(value, column, summary) else "")
@@ -601,12 +630,15 @@ def map_comparison_rows(maps: dict, alpha: float = 0.05) -> list[dict]:
 
 def write_groups_table(folder: Path, summaries: list[dict],
                        comparison: list[dict] | None = None) -> Path | None:
-    """``groups.csv``: :func:`group_comparison`'s rows (two groups or more);
+    """``groups.csv``: :func:`group_comparison`'s rows (two groups or more), an empty
+    cell where there is no value (no p: not tested; no SD: one embryo);
     ``comparison``: :func:`group_comparison` of ``summaries`` if already made."""
     rows = group_comparison(summaries) if comparison is None else comparison
     if not rows or len({s["group"] for s in summaries}) < 2:
         return None
-    return _write_csv(Path(folder) / "groups.csv", list(rows[0]), rows)
+    blank = [{k: "" if isinstance(v, float) and not np.isfinite(v) else v   # not "nan"
+              for k, v in row.items()} for row in rows]
+    return _write_csv(Path(folder) / "groups.csv", list(rows[0]), blank)
 
 
 def mean_curve(curves: list[tuple], x: np.ndarray, *, period: float | None = None,

@@ -160,7 +160,7 @@ def test_group_figures_draw_a_layers_thickness_and_its_thickening_along_the_tube
         arrays[f"{layer}_thickness_mm"] = np.broadcast_to(
             base[:, None] * (1 + amp[:, None] * beat), (8, len(s), 20)).copy()
         np.savez(path, **arrays)
-        expected[summ["name"]] = (1000 * base, 100 * (2 * amp / (1 - amp)))
+        expected[summ["name"]] = (base, 100 * (2 * amp / (1 - amp)))      # mm, %
     drawn = {}
     monkeypatch.setattr(figures, "save", lambda fig, path: drawn.setdefault(path.name, fig)
                         and path)

@@ -122,11 +122,14 @@ def test_every_field_video_title_fits_its_frame_and_types_its_units():
 
 
 def test_field_videos_give_a_field_in_the_figures_unit():
-    """Thickness in µm in its video as in its figures (it was mm in one, µm in the
-    other); one-signed strain in viridis, as the figures draw it."""
+    """Thickness in its video in the unit of every figure and table (oftimg.output.units:
+    mm); one-signed strain in viridis, as the figures draw it."""
+    from oftimg.output import units
+
     options = {name: opts for name, _, _, opts in video.FIELD_VIDEOS}
     for name in ("wall_thickness", "jelly_thickness"):
-        assert options[name]["label"].endswith("(µm)") and options[name]["times"] == 1000.0
+        assert options[name]["label"].endswith("(mm)")
+        assert options[name]["times"] == units.THICKNESS.scale == 1.0
     assert {options[n]["cmap"] for n in options if n.startswith("strain")} == {"viridis"}
     arrays = {"t_ms": np.arange(4) * 10.0, "s_mm": np.linspace(0, 1.2, 50),
               "area_outer_mm2": 0.1 + 0.01 * _field(n_t=4)[0],

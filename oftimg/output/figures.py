@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from ..analysis.group_maps import groups_in_order  # noqa: E402
-from . import numbers  # noqa: E402
+from . import numbers, units  # noqa: E402
 from .style import (COLUMN_MM, CYCLIC, DIVERGING, LINE_COLOURS, MM, PAGE_MM,  # noqa: E402
                     SEQUENTIAL, colour_bar, house_style, new_figure, nothing_to_show, save,
                     wrapped)
@@ -228,11 +228,13 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
         if f"{layer}_thickness_mm" in arrays:
             from ..analysis.pipeline import mean_around_tube
 
-            rows_um = 1000 * mean_around_tube(arrays[f"{layer}_thickness_mm"])   # (n_v, n_t)
-            written.append(attempt(failed, area_map, rows_um, arrays["s_mm"], t_ms,
+            rows = units.THICKNESS.scale * mean_around_tube(
+                arrays[f"{layer}_thickness_mm"])                               # (n_v, n_t)
+            written.append(attempt(failed, area_map, rows, arrays["s_mm"], t_ms,
                                    folder / f"{layer}_thickness_map.png",
                                    ridge_t_ms=arrays.get("ridge_t_ms"), cmap="viridis",
-                                   label=f"{layer} thickness, mean around the tube (µm)",
+                                   label=units.label(f"{layer} thickness, mean around the "
+                                                     "tube", "thickness"),
                                    blank="no value: tissue out of view",
                                    title=f"{name}: {what} thickness, "
                                          f"{field_grid_note(summary)} (dots: maximum "
@@ -550,10 +552,11 @@ def derivative_image(rgb: np.ndarray, s_mm, t_ms, path: Path, *, rates=None,
     wax.set_title("key: hue = direction\n(d/dt right, d/ds up),\nbrightness = size",
                   fontsize=7)
     if rates is not None:
-        expand_um2, contract_um2 = (numbers.number(1e6 * r) for r in rates)   # no 1e-04
-        wax.text(0.5, -0.08, f"max expansion\n{expand_um2} µm²/ms\nmax contraction\n"
-                 f"{contract_um2} µm²/ms", fontsize=7, ha="center", va="top",
-                 transform=wax.transAxes)
+        rate = units.AREA_RATE
+        expand, contract = (numbers.number(rate.scale * r) for r in rates)
+        wax.text(0.5, -0.08, f"max expansion\n{expand} {numbers.unit(rate.unit)}\nmax "
+                 f"contraction\n{contract} {numbers.unit(rate.unit)}", fontsize=7,
+                 ha="center", va="top", transform=wax.transAxes)
     return save(fig, path)
 
 
@@ -797,12 +800,12 @@ GROUP_PROFILES = [
     ("ridge_t_ms", "time of maximum area (ms)", "group_ridge_time.png"),
     ("time_expanded_percent", "time expanded, one sigma (% of cycle)",
      "group_time_expanded.png"),
-    ("wall_thickness_um", "wall thickness, mean over the cycle (µm)",
+    ("wall_thickness", units.label("wall thickness, mean over the cycle", "thickness"),
      "group_wall_thickness.png"),
     ("wall_thickening_percent", "wall thickening over the beat (%)",
      "group_wall_thickening.png"),
-    ("jelly_thickness_um", "cardiac jelly thickness, mean over the cycle (µm)",
-     "group_jelly_thickness.png"),
+    ("jelly_thickness", units.label("cardiac jelly thickness, mean over the cycle",
+                                     "thickness"), "group_jelly_thickness.png"),
     ("jelly_thickening_percent", "cardiac jelly thickening over the beat (%)",
      "group_jelly_thickening.png"),
 ]
@@ -822,8 +825,8 @@ def _group_profiles(path: Path) -> dict:
         for layer in ("wall", "jelly"):
             if f"{layer}_thickness_mm" in arrays.files:
                 mean, thickening = thickness_by_row(arrays[f"{layer}_thickness_mm"])
-                out[f"{layer}_thickness_um"] = 1000 * mean
-                out[f"{layer}_thickening_percent"] = 100 * thickening
+                out[f"{layer}_thickness"] = units.THICKNESS.scale * mean
+                out[f"{layer}_thickening_percent"] = units.THICKENING.scale * thickening
     return out
 
 
@@ -833,9 +836,11 @@ GROUP_MAPS = [
     ("area_outer_normalized", "outer area, each row over its maximum", "group_area_maps.png",
      (0.0, 1.0), "area / row maximum (0-1)", 1.0),
     ("wall_thickness_mm", "myocardial wall thickness, mean around the tube",
-     "group_wall_thickness_maps.png", None, "wall thickness (µm)", 1000.0),
+     "group_wall_thickness_maps.png", None, units.label("wall thickness", "thickness"),
+     units.THICKNESS.scale),
     ("jelly_thickness_mm", "cardiac jelly thickness, mean around the tube",
-     "group_jelly_thickness_maps.png", None, "jelly thickness (µm)", 1000.0),
+     "group_jelly_thickness_maps.png", None, units.label("jelly thickness", "thickness"),
+     units.THICKNESS.scale),
     ("strain_energy_outer", "outer wall's strain energy against t = 0, mean around the tube",
      "group_strain_energy_maps.png", None, "strain energy (dimensionless)", 1.0),
 ]
@@ -852,7 +857,7 @@ def group_maps_figure(maps: dict, path: Path, *, key: str = "area_outer_normaliz
     with the clusters (solid) and the single pixels (dashed) where it is significant
     over the whole map (``*_p_cluster``, ``*_p_fwer`` below ``alpha``) outlined;
     ``unit_label`` names the colour bars' quantity and unit, ``times`` takes the map
-    into it (1000: mm to µm, as thickness is given everywhere else).
+    into it (:mod:`oftimg.output.units`: as the quantity is given everywhere else).
     Embryos without the map (all NaN) are left out."""
     from ..analysis.group_maps import group_mean_maps
 
@@ -1040,13 +1045,13 @@ def pca_figure(pca: dict, pca_summary: dict, path: Path, *, title: str = "",
                              f"{100 * expl[m]:.0f} %")
             ax = axes[-1][col]
             for m in modes:
-                ax.plot(np.linalg.norm(disp[m], axis=1) * 1e3,
+                ax.plot(np.linalg.norm(disp[m], axis=1) * units.DISPLACEMENT.scale,
                         label=f"mode {m + 1}" if col == 0 else None)
             ax.set_xlabel("point")
             if col:
                 ax.sharey(axes[-1][0])
                 ax.tick_params(labelleft=False)
-    axes[-1][0].set_ylabel("|displacement| (µm)")
+    axes[-1][0].set_ylabel(units.label("|displacement|", "displacement"))
     fig.legend(loc="outside lower center", ncol=len(modes), fontsize=7)
     fig.suptitle(wrapped(plain_text(title) + " (arrows: each mode's shape change, the "
                          "longest 15 % of the contour's size; points counted around the "

@@ -10,7 +10,8 @@ from pathlib import Path
 
 from . import numbers
 from .style import PAGE_MM, PNG_DPI
-from .report import (CORRECTION, MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparison,
+from .units import KINDS
+from .report import (MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparison,
                      statistics_note, table1_layout, table_rows)
 
 STYLE = """
@@ -169,6 +170,13 @@ def _warnings(summary: dict) -> list[str]:
     return [text.removeprefix(path) for text in summary.get("warnings") or []]
 
 
+
+
+def _shown_as(kind: str) -> tuple[str, float]:
+    """A kind's unit and scale (:data:`oftimg.output.units.KINDS`), as a row below."""
+    return KINDS[kind].unit, KINDS[kind].scale
+
+
 # files that show a per-pixel (u, v, t) field, whose captions name the grid it is on
 # the dataset page's quantities: summary.json key, what it is, unit, scale to that unit
 # (None: a setting, shown as set)
@@ -177,17 +185,20 @@ QUANTITIES = [
     ("n_frames", "frames", "", 1),
     ("period_ms", "period of the cycle", "ms", 1),
     ("t0_frame", "input frame at t = 0 (the outer wall's smallest volume)", "", 1),
-    ("expand_fraction", "expansion: share of the cycle", "%", 100),
-    ("contract_fraction", "contraction: share of the cycle", "%", 100),
+    ("expand_fraction", "expansion: share of the cycle", *_shown_as("share_of_cycle")),
+    ("contract_fraction", "contraction: share of the cycle", *_shown_as("share_of_cycle")),
     ("expand_ms", "expansion time", "ms", 1),
     ("contract_ms", "contraction time", "ms", 1),
     ("tube_length_mm", "tube length (centroid line, time average)", "mm", 1),
-    ("myocardial_volume_change", "myocardial volume change over the cycle", "%", 100),
-    ("jelly_volume_change", "cardiac jelly volume change over the cycle", "%", 100),
-    ("wall_thickness_median_mm", "wall thickness, median", "um", 1000),
-    ("wall_thickening", "wall thickening over the cycle (median row)", "%", 100),
-    ("jelly_thickness_median_mm", "cardiac jelly thickness, median", "um", 1000),
-    ("jelly_thickening", "cardiac jelly thickening over the cycle (median row)", "%", 100),
+    ("myocardial_volume_change", "myocardial volume change over the cycle",
+     *_shown_as("volume_change")),
+    ("jelly_volume_change", "cardiac jelly volume change over the cycle",
+     *_shown_as("volume_change")),
+    ("wall_thickness_median_mm", "wall thickness, median", *_shown_as("thickness")),
+    ("wall_thickening", "wall thickening over the cycle (median row)", *_shown_as("thickening")),
+    ("jelly_thickness_median_mm", "cardiac jelly thickness, median", *_shown_as("thickness")),
+    ("jelly_thickening", "cardiac jelly thickening over the cycle (median row)",
+     *_shown_as("thickening")),
     ("band_position_mm", "band (narrowest section at maximum area) from the inlet", "mm", 1),
     ("corner_count", "corners of the outer section at maximum expansion", "", 1),
     ("ridge_smoothing_ms", "ridge smoothing in time (Gaussian sigma)", "ms", None),

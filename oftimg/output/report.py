@@ -12,6 +12,7 @@ import numpy as np
 
 from ..analysis.group_maps import TESTED_MAPS
 from ..analysis.stats import holm, permutation_test
+from .units import THICKENING, VOLUME_CHANGE
 from . import numbers
 
 
@@ -110,16 +111,18 @@ MEASUREMENT_COLUMNS = ID_COLUMNS + [
            "corners of the outer section contour at maximum expansion (curvature peaks)"),
     Column("tube_length_mm", ("tube_length_mm",), "mm",
            "length of the outer contours' centroid line, time average"),
-    Column("jelly_volume_change", ("jelly_volume_change",), "1",
+    Column("jelly_volume_change_percent", ("jelly_volume_change",), VOLUME_CHANGE.unit,
            "the cardiac jelly's (inner minus lumen) volume change, (largest - smallest) / "
-           "smallest"),
+           "smallest", scale=VOLUME_CHANGE.scale),
     Column("wall_thickness_median_mm", ("wall_thickness_median_mm",), "mm",
            "myocardial wall thickness (outer to inner wall), median over pixels and cycle"),
-    Column("wall_thickening", ("wall_thickening",), "1",
-           "rows' mean wall thickness, largest over smallest in the cycle, minus 1; median row"),
+    Column("wall_thickening_percent", ("wall_thickening",), THICKENING.unit,
+           "rows' mean wall thickness, largest over smallest in the cycle, minus 1; median row",
+           scale=THICKENING.scale),
     Column("jelly_thickness_median_mm", ("jelly_thickness_median_mm",), "mm",
            "cardiac jelly thickness (inner wall to lumen), median"),
-    Column("jelly_thickening", ("jelly_thickening",), "1", "its thickening, as wall_thickening"),
+    Column("jelly_thickening_percent", ("jelly_thickening",), THICKENING.unit,
+           "its thickening, as wall_thickening_percent", scale=THICKENING.scale),
     Column("lumen_aspect_ratio_narrowest", ("cushions", "aspect_ratio_narrowest"), "1",
            "the lumen's minor over major axis at its narrowest (each row's 10th percentile "
            "over the cycle, open sections; median row): the cushions' ellipse"),

@@ -19,7 +19,7 @@ import numpy as np
 from matplotlib import colormaps, font_manager
 from PIL import Image, ImageDraw, ImageFont
 
-from . import numbers
+from . import numbers, units
 from .image_order import in_image_order
 from .style import CYCLIC, UNCERTAIN_GREY
 
@@ -369,12 +369,12 @@ FIELD_VIDEOS = [
      dict(label="radial curvature (1/mm)", title="inner wall: radial curvature")),
     ("strain_energy_inner", "strain_energy_inner", False,
      dict(_STRAIN, label="strain energy (dimensionless)", title="inner wall: strain energy against t = 0")),
-    ("wall_thickness", "wall_thickness_mm", False,
-     dict(cmap="viridis", label="wall thickness (µm)", title="myocardial wall thickness",
-          times=1000.0)),                                     # µm, as the figures give it
+    ("wall_thickness", "wall_thickness_mm", False,          # as every figure gives it
+     dict(cmap="viridis", label=units.label("wall thickness", "thickness"),
+          title="myocardial wall thickness", times=units.THICKNESS.scale)),
     ("jelly_thickness", "jelly_thickness_mm", False,
-     dict(cmap="viridis", label="jelly thickness (µm)", title="cardiac jelly thickness",
-          times=1000.0)),
+     dict(cmap="viridis", label=units.label("jelly thickness", "thickness"),
+          title="cardiac jelly thickness", times=units.THICKNESS.scale)),
     ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", False,
      dict(label="mean curvature (1/mm)", title="lumen: mean curvature")),
     ("surface_speed_outer", "surface_speed_outer_mm_s", False,
@@ -705,7 +705,7 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
     px_per_mm = size / (2 * camera.distance * np.tan(np.radians(camera.fov) / 2))  # at its centre
     # the longest round length whose bar fits in a third of the picture
     bar_mm = next((x for x in (2.0, 1.0, 0.5, 0.2, 0.1, 0.05) if x * px_per_mm < size / 3), 0.05)
-    bar_text = f"{bar_mm:g} mm" if bar_mm >= 1 else f"{1000 * bar_mm:g} µm"
+    bar_text = f"{bar_mm:g} mm"
 
     def draw(t):
         view = camera.render(G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap)

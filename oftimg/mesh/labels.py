@@ -376,39 +376,58 @@ def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
     meshed as one tube, each vertex flagged when it lies on the bridge
     (``WallMesh.closed``). A slit thinner than a segmentation holds open comes as a
     sieve of voxels: each of ``openings`` (in the smallest voxel side; 0 none) is tried
-    in turn, the mask opened by a ball of that radius first, until one gives a tube. None when the lumen is not in pieces
-    under any, or no bridged mask can be meshed as a tube."""
+    in turn, the mask opened by a ball of that radius first, until one gives a tube;
+    then each again with the level set blurred by :data:`WIDER_BLUR` (the slit's
+    fragments beside the bridge can close handles under the usual blur, as for any
+    wall: :func:`_mesh_or_mend`). None when the lumen is not in pieces under any, or no
+    bridged mask can be meshed as a tube."""
     from scipy import ndimage
 
-    from .closure import bridge_flags, bridged_lumen, lumen_pieces
+    from .closure import bridged_lumen
 
     inside = mask if mask.dtype == bool else mask > LEVEL
-    for radius in openings:
-        opened = inside if radius == 0 else ndimage.binary_opening(
-            inside, _ball_um(radius * min(voxel_size_xyz), voxel_size_xyz))
-        joined = bridged_lumen(opened, inner, voxel_size_xyz)
-        if joined is None:
+    joined = {}                     # opening radius -> (opened mask, bridge), or None
+    blurs = [options] + [replace(options, smoothing=WIDER_BLUR)] * (
+        options.smoothing < WIDER_BLUR)
+    for blur in blurs:
+        for radius in openings:
+            if radius not in joined:
+                opened = inside if radius == 0 else ndimage.binary_opening(
+                    inside, _ball_um(radius * min(voxel_size_xyz), voxel_size_xyz))
+                bridged = bridged_lumen(opened, inner, voxel_size_xyz)
+                joined[radius] = None if bridged is None else (opened, bridged[1])
+            if joined[radius] is not None:
+                mesh = _bridged_mesh(mask, inside, *joined[radius], voxel_size_xyz, blur,
+                                     ends, length_unit)
+                if mesh is not None:
+                    return replace(mesh, closure={**mesh.closure, "opened_voxels": radius,
+                                                  "blur_voxels": blur.smoothing})
+    return None
+
+
+def _bridged_mesh(mask: np.ndarray, inside: np.ndarray, opened: np.ndarray,
+                  bridge: np.ndarray, voxel_size_xyz, options: MeshOptions, ends,
+                  length_unit: str) -> WallMesh | None:
+    """The lumen ``mask`` (``inside`` its boolean) as opened, joined by ``bridge``,
+    meshed with its bridge's vertices flagged (:func:`closed_lumen_mesh`): the opening's
+    voxels away from the bridge given back first (:func:`_kept_of_opening`), then not;
+    None when neither is a tube."""
+    from .closure import bridge_flags, lumen_pieces
+
+    for kept in _kept_of_opening(inside, opened, bridge, voxel_size_xyz):
+        whole = kept | bridge
+        if mask.dtype != bool:      # an occupancy: its own values where it is kept
+            whole = np.where(bridge, 1.0, np.where(kept, mask, np.minimum(mask, 0.25))
+                             ).astype(np.float32)
+        try:
+            mesh = mesh_wall(whole, voxel_size_xyz, options, ends, curvature=True,
+                             length_unit=length_unit)
+        except MeshError:
             continue
-        _, bridge = joined
-        mesh = None
-        for kept in _kept_of_opening(inside, opened, bridge, voxel_size_xyz):
-            whole = kept | bridge
-            if mask.dtype != bool:      # an occupancy: its own values where it is kept
-                whole = np.where(bridge, 1.0, np.where(kept, mask, np.minimum(mask, 0.25))
-                                 ).astype(np.float32)
-            try:
-                mesh = mesh_wall(whole, voxel_size_xyz, options, ends, curvature=True,
-                                 length_unit=length_unit)
-            except MeshError:
-                continue
-            opened = kept
-            break
-        if mesh is None:
-            continue
-        return replace(mesh, closed=bridge_flags(mesh.V, bridge, opened, voxel_size_xyz),
-                       closure={"pieces": lumen_pieces(opened)[1], "bridge_voxels": int(bridge.sum()),
-                                "opened_voxels": radius,
-                                "opened_away": int(np.count_nonzero(inside & ~opened))})
+        return replace(mesh, closed=bridge_flags(mesh.V, bridge, kept, voxel_size_xyz),
+                       closure={"pieces": lumen_pieces(kept)[1],
+                                "bridge_voxels": int(bridge.sum()),
+                                "opened_away": int(np.count_nonzero(inside & ~kept))})
     return None
 
 

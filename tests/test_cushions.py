@@ -151,3 +151,49 @@ def test_a_bridged_lumen_is_meshed_as_one_tube_whose_bridge_is_flagged():
     assert mesh.closed.any() and z_um.min() >= 16 * 4 and z_um.max() <= 33 * 4
     assert (mesh.V[mesh.closed, 2] > 19 * 4).mean() > 0.8
     assert mesh.closure["pieces"] == 2
+
+
+def _bent_tube(shape=(40, 120, 120), bend_voxels=60.0, radius=8.0):
+    """Boolean masks (z, y, x) of a tube bent round a circle of ``bend_voxels`` (a
+    quarter of it, from the face y = 0 to the face x = 0 ... as the phantom's): the
+    solid ``inner`` (radius ``radius``) and its angle at each voxel (rad)."""
+    z, y, x = np.indices(shape)
+    r = np.hypot(y - shape[1], x - shape[2])          # about the far corner
+    angle = np.arctan2(shape[1] - y, shape[2] - x)
+    inner = np.hypot(r - bend_voxels, z - shape[0] / 2) <= radius
+    return inner, angle
+
+
+def test_a_lumen_in_pieces_round_a_bend_is_bridged_through_the_middle_of_the_inner_wall():
+    """The pieces of a lumen closed over a long stretch of a bent tube: a straight chord
+    between them leaves the inner wall and, kept inside it, falls in two (zoo cushion
+    draw 402); the bridge follows the inner wall's middle and joins them."""
+    from oftimg.mesh.closure import bridged_lumen, lumen_pieces
+
+    inner, angle = _bent_tube()
+    z, y, x = np.indices(inner.shape)
+    core = np.hypot(np.hypot(y - 120, x - 120) - 60.0, z - 20) <= 4.0
+    lumen = core & ((angle < 0.25) | (angle > np.pi / 2 - 0.25))      # closed between
+    assert lumen_pieces(lumen)[1] == 2
+    mask, bridge = bridged_lumen(lumen, inner, (4.0, 4.0, 4.0))
+    assert lumen_pieces(mask)[1] == 1 and bridge.any()
+    assert not (bridge & ~inner).any()
+
+
+def test_a_lumen_closed_up_to_the_tubes_end_is_bridged_to_it():
+    """A lumen closed from one end of the tube over a stretch reaches one face only: with
+    the tube's ends (its inner wall's patches on the volume's faces) it is bridged to
+    the other; without a closure it is left as it is."""
+    from oftimg.mesh.closure import bridged_lumen, tube_ends
+
+    inner, angle = _bent_tube()
+    z, y, x = np.indices(inner.shape)
+    core = np.hypot(np.hypot(y - 120, x - 120) - 60.0, z - 20) <= 4.0
+    ends = tube_ends(inner, (4.0, 4.0, 4.0))
+    assert len(ends) == 2
+    assert bridged_lumen(core, inner, (4.0, 4.0, 4.0), ends=ends) is None     # open
+    lumen = core & (angle > 0.5)                   # closed from one end for 0.5 rad
+    mask, bridge = bridged_lumen(lumen, inner, (4.0, 4.0, 4.0), ends=ends)
+    for end in ends:                               # the joined lumen reaches both faces
+        assert mask[tuple(end.T)].any()
+    assert bridged_lumen(lumen, inner, (4.0, 4.0, 4.0)) is None        # ends not asked

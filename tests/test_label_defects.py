@@ -164,3 +164,21 @@ def test_a_lumen_lost_over_a_stretch_in_one_frame_is_filled_not_called_a_closure
     error = label_phantom_area_errors(page, phantom, FRAMES)["lumen"]
     frame = (6 - summary["t0_frame"]) % FRAMES
     assert np.median(error[:, frame]) < 0.06
+
+
+def test_a_wall_is_filled_from_a_neighbour_whose_mending_cannot_be_redone(phantom, tmp_path,
+                                                                         monkeypatch):
+    """A neighbour meshed after a wider blur counts as mended but has no mended mask to
+    redo (solid_tube_mask gives None): the fill blends its mask as read (it was an
+    internal error, on a zoo draw)."""
+    import oftimg.mesh.mask_topology as topology
+    from oftimg.io.label_dataset import fill_wall
+    from oftimg.mesh.labels import MeshOptions
+
+    lds = load_label_dataset(phantom)
+    monkeypatch.setattr(topology, "solid_tube_mask", lambda mask, **_: (None, None))
+    record = fill_wall(tuple(lds.sources), 14, "lumen", (13, 15, 0.5), (True, True), ("lumen",),
+                       str(tmp_path), lds.mesh_names()[14], lds.label_ids, lds.voxel_size,
+                       MeshOptions(), lds.ends, lds.meta.length_unit)
+    assert isinstance(record, dict) and record["vertices"] > 100, record
+    assert (tmp_path / "lumen" / lds.mesh_names()[14]).is_file()

@@ -669,7 +669,9 @@ def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, 
     masks = []
     for frame, was_mended in zip((t_before, t_after), mended):
         mask = frame_masks(read_frame(sources[frame]), label_ids)[wall]
-        masks.append(solid_tube_mask(mask)[0] if was_mended else core(mask))
+        # mended again as it was; a frame meshed after a wider blur has no mended mask
+        solid = solid_tube_mask(mask)[0] if was_mended else None
+        masks.append(core(mask) if solid is None else solid)
     own = frame_masks(read_frame(sources[t]), label_ids)
     order = list(own)
     k = order.index(wall)
@@ -687,7 +689,7 @@ def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, 
         # a lumen the cushions close in the frames around: their blend, in pieces or a
         # slit's sieve, bridged as a closed lumen of this frame's own
         mesh = closed_lumen_mesh(occupancy, own["inner"], voxel_size, options, ends,
-                                 openings=(0, 1, 2, 3), length_unit=length_unit
+                                 openings=(0, 1, 2, 3), to_ends=True, length_unit=length_unit
                                  ) if wall == "lumen" and "inner" in own else None
         if mesh is None:
             return DatasetError(f"{sources[t]}: the {wall} wall, left out, filled from "

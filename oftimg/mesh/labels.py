@@ -355,10 +355,11 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
                                                    curvature=wall == "lumen",
                                                    length_unit=length_unit)
         if wall == "lumen" and isinstance(walls[wall], str) and inner is not None:
-            # one piece, but its slit closing through a sieve of voxels: opened, bridged
+            # one piece, but its slit closing through a sieve of voxels (opened, bridged),
+            # or closed up to an end of the tube (bridged to it)
             walls[wall] = closed_lumen_mesh(mask, inner, voxel_size_xyz, options, ends,
-                                            openings=(1, 2, 3), length_unit=length_unit
-                                            ) or walls[wall]
+                                            openings=(0, 1, 2, 3), to_ends=True,
+                                            length_unit=length_unit) or walls[wall]
         if nested is not None and isinstance(walls[wall], WallMesh):
             walls[wall] = replace(walls[wall], nested=nested)
         if wall == "inner":
@@ -369,7 +370,7 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
 
 def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
                       options: MeshOptions, ends, *, openings=(0, 1, 2),
-                      length_unit: str = "um") -> WallMesh | None:
+                      to_ends: bool = False, length_unit: str = "um") -> WallMesh | None:
     """The lumen's wall where the cushions close it over a stretch: its mask (boolean,
     or an occupancy in [0, 1]) in pieces joined by a thin bridge
     (:func:`~oftimg.mesh.closure.bridged_lumen`, inside the boolean ``inner`` mask) and
@@ -379,11 +380,16 @@ def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
     in turn, the mask opened by a ball of that radius first, until one gives a tube;
     then each again with the level set blurred by :data:`WIDER_BLUR` (the slit's
     fragments beside the bridge can close handles under the usual blur, as for any
-    wall: :func:`_mesh_or_mend`). None when the lumen is not in pieces under any, or no
+    wall: :func:`_mesh_or_mend`). ``to_ends``: a lumen closed up to a tube's end (the
+    volume's face or a cutting plane of ``ends``) is bridged to it too
+    (:func:`~oftimg.mesh.closure.tube_ends`); for a lumen that cannot be meshed as it
+    is. None when the lumen is not in pieces (nor short of an end) under any, or no
     bridged mask can be meshed as a tube."""
     from scipy import ndimage
 
-    from .closure import bridged_lumen
+    from .closure import bridged_lumen, tube_ends
+
+    tube = tube_ends(inner, voxel_size_xyz, ends) if to_ends else None
 
     inside = mask if mask.dtype == bool else mask > LEVEL
     joined = {}                     # opening radius -> (opened mask, bridge), or None
@@ -394,7 +400,7 @@ def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
             if radius not in joined:
                 opened = inside if radius == 0 else ndimage.binary_opening(
                     inside, _ball_um(radius * min(voxel_size_xyz), voxel_size_xyz))
-                bridged = bridged_lumen(opened, inner, voxel_size_xyz)
+                bridged = bridged_lumen(opened, inner, voxel_size_xyz, ends=tube)
                 joined[radius] = None if bridged is None else (opened, bridged[1])
             if joined[radius] is not None:
                 mesh = _bridged_mesh(mask, inside, *joined[radius], voxel_size_xyz, blur,

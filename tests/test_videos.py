@@ -217,3 +217,39 @@ def test_nodes_whose_band_is_wide_are_greyed_and_the_title_says_so():
     tasks = {t[1]["name"]: t[1]["options"] for t in video_tasks(arrays, kinds=["field"])}
     assert "uncertain" in tasks["radial_curvature_outer"]
     assert "uncertain" not in tasks["radial_curvature_outer_normalized"]
+
+
+def test_a_video_colour_map_runs_its_whole_length():
+    """Issue 87: the videos' colour table runs each map from its start to its end
+    (twilight's 510-entry table was indexed 0-255: its first half alone)."""
+    from matplotlib import colormaps
+
+    for name in ("twilight", "viridis", "RdBu_r"):
+        lut = video._lut(name)
+        ends = np.round(colormaps[name]([0.0, 1.0])[:, :3] * 255)
+        assert np.abs(lut[[0, -1]] - ends).max() <= 1, name
+
+
+def test_a_phase_wrapping_across_the_wall_is_drawn_without_a_seam():
+    """Issue 87: a phase near +-pi on neighbouring nodes is one colour (twilight's ends
+    meet); averaging the corners' values ran through 0, twilight's black middle, along
+    every wrap. Nodes too still to time are grey, as the activation figure has them."""
+    n_u, n_v = 40, 20
+    u = np.linspace(0, 2 * np.pi, n_u, endpoint=False)[:, None]
+    v = np.linspace(0, 1, n_v)[None, :]
+    r = 0.15 + 0 * u * v
+    grid = np.stack(np.broadcast_arrays(r * np.cos(u), 2 * v - 1, r * np.sin(u)), axis=-1)
+    camera = video.SurfaceCamera(grid[:, :, None], size=160)
+    phase = np.where((np.arange(n_u)[:, None] + np.arange(n_v)[None, :]) % 2, 3.1, -3.1)
+    shown = {cyclic: camera.render(grid, phase, vmin=-np.pi, vmax=np.pi, cmap="twilight",
+                                   cyclic=cyclic) for cyclic in (False, True)}
+    tube = shown[True].min(axis=-1) < 250                  # the tube's pixels, not the white
+    # twilight's ends are white (226 at most in any channel, at least 0.35 of it shaded:
+    # 79); its middle is dark (54 at most)
+    assert np.percentile(shown[True][tube].max(axis=-1), 5) > 75
+    assert np.percentile(shown[False][tube].max(axis=-1), 5) < 60
+    arrays = {"phase_outer": np.zeros((n_u, n_v, 3), np.float32),
+              "wave_velocity_outer_mm_s": np.where(np.arange(n_u)[:, None, None] < 10,
+                                                   np.nan, 1.0) * np.ones((n_u, n_v, 2))}
+    timed = video.timed_phase(arrays)
+    assert np.isnan(timed[:10]).all() and not np.isnan(timed[10:]).any()

@@ -26,8 +26,10 @@ from .style import CYCLIC, UNCERTAIN_GREY
 
 @lru_cache(maxsize=None)
 def _lut(cmap: str) -> np.ndarray:
-    """The colour map's 256 entries as uint8 RGB ``(256, 3)``."""
-    return np.round(colormaps[cmap](np.arange(256))[:, :3] * 255).astype(np.uint8)
+    """The colour map sampled at 256 even steps from its start to its end, uint8 RGB
+    ``(256, 3)``. (By floats: integers index a map's own table, and twilight's has 510
+    entries: 0-255 were its first half, the phase video's -pi..pi drawn white to black.)"""
+    return np.round(colormaps[cmap](np.linspace(0.0, 1.0, 256))[:, :3] * 255).astype(np.uint8)
 
 
 def to_rgb(values: np.ndarray, vmin: float, vmax: float, cmap: str = "jet") -> np.ndarray:
@@ -431,7 +433,7 @@ def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
         tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms,
                                        length_mm=length_mm)))
     if grids is not None and "phase_outer" in arrays:
-        tasks.append(("phase_3d", dict(grid=grids["outer"], phase=arrays["phase_outer"],
+        tasks.append(("phase_3d", dict(grid=grids["outer"], phase=timed_phase(arrays),
                                        t_ms=t_ms, length_mm=length_mm)))
     tasks += [("field", dict(name=name, field=arrays[key], normalize=normalize, t_ms=t_ms,
                              options={"grid_note": grid_note, "length_mm": length_mm, **opts,
@@ -473,7 +475,8 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
         movies = {"phase_outer_3d": surface_and_map_frames(
             inputs["grid"], inputs["phase"], t_ms, cmap=CYCLIC, limits=(-np.pi, np.pi),
             label="phase (rad; 0 at activation)",
-            title="the outer wall coloured by the phase of its motion (0: activation)",
+            title="the outer wall coloured by the phase of its motion (0: activation; "
+                  "grey: too still to time)",
             length_mm=inputs.get("length_mm"))}
     elif kind == "lumen_3d":
         movies = {"lumen_mean_curvature_3d": surface_and_map_frames(
@@ -488,6 +491,17 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
             path = write_mp4(Path(tmp) / f"{name}.mp4", frames, fps=fps)
             out.append((path.name, path.read_bytes()))
     return out
+
+
+def timed_phase(arrays: dict) -> np.ndarray:
+    """The outer wall's phase ``(n_u, n_v, n_t)`` (rad) where it moves enough to time the
+    wave (its velocity finite), NaN (grey) elsewhere: as the activation figure greys
+    them, not the speckle of a still node's random phase."""
+    phase = arrays["phase_outer"]
+    velocity = arrays.get("wave_velocity_outer_mm_s")
+    if velocity is None:
+        return phase
+    return np.where(np.isfinite(velocity[..., 0])[..., None], phase, np.nan)
 
 
 def start_videos(arrays: dict, grids: dict | None = None, *, fps: float | None = None,
@@ -622,10 +636,12 @@ class SurfaceCamera:
         return tips @ row_step / (row_step @ row_step), tips @ col_step / (col_step @ col_step)
 
     def render(self, X: np.ndarray, values: np.ndarray, *, vmin: float, vmax: float,
-               cmap: str = "coolwarm") -> np.ndarray:
+               cmap: str = "coolwarm", cyclic: bool = False) -> np.ndarray:
         """RGB uint8 ``(size, size, 3)`` of the grid surface ``X (n_u, n_v, 3)`` (a frame of
         the camera's ``G``) coloured by ``values (n_u, n_v)`` with simple Lambert shading
-        on a white background."""
+        on a white background. ``cyclic``: [vmin, vmax) wraps (a phase), and a pixel's
+        value is its triangle's corners' circular mean (their plain mean runs through
+        the middle of the scale where a front wraps: a black seam in twilight)."""
         import open3d as o3d
 
         F = self._F
@@ -641,7 +657,13 @@ class SurfaceCamera:
         tri = F[prim[ok]]
         b = hit["primitive_uvs"].numpy()[ok].astype(float)
         w = np.column_stack([1 - b.sum(axis=1), b])
-        val = np.einsum("ij,ij->i", w, values.reshape(-1)[tri])
+        corners = values.reshape(-1)[tri]
+        if cyclic:
+            turn = 2 * np.pi / (vmax - vmin)
+            mean = np.einsum("ij,ij->i", w, np.exp(1j * turn * (corners - vmin)))
+            val = vmin + np.mod(np.angle(mean), 2 * np.pi) / turn
+        else:
+            val = np.einsum("ij,ij->i", w, corners)
         normals = hit["primitive_normals"].numpy()[ok]
         shade = 0.35 + 0.65 * np.abs(normals @ self.light)
         rgb = to_rgb(val, vmin, vmax, cmap).astype(float) * shade[:, None]
@@ -708,7 +730,8 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
     bar_text = f"{bar_mm:g} mm"
 
     def draw(t):
-        view = camera.render(G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap)
+        view = camera.render(G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap,
+                             cyclic=cmap == CYCLIC)
         cv2.line(view, (16, size - 20), (16 + int(round(bar_mm * px_per_mm)), size - 20),
                  (0, 0, 0), 3)
         _text(view, f"{bar_text} (at the tube's centre)", (16, size - 30), scale=0.45)

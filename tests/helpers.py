@@ -196,8 +196,7 @@ FIGURES = {"outer": {"area_derivative_outer", "area_map_outer", "frame_t0_contou
            "lumen": {"lumen_cushions"}, "jelly": {"jelly_thickness_map"},
            "intensity": {"pullback_outer"}}
 VIDEOS = {"outer": {"area_map_cursor", "outer_wall_3d_area_map", "radial_curvature_outer",
-                    "radial_curvature_outer_normalized", "strain_energy_outer",
-                    "strain_energy_outer_per_frame"},
+                    "radial_curvature_outer_normalized", "strain_energy_outer"},
           "inner": {"radial_curvature_inner", "strain_energy_inner", "wall_thickness"},
           "lumen": {"mean_curvature_lumen", "lumen_mean_curvature_3d"},
           "jelly": {"jelly_thickness"},

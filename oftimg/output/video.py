@@ -211,7 +211,7 @@ def _stamp(img: np.ndarray, t_ms: float, phase: float, right: int, note: str = "
 
 
 def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, cmap=None,
-                 label="", scale: int = FIELD_SCALE, per_frame: bool = False, grid_note: str = "",
+                 label="", scale: int = FIELD_SCALE, grid_note: str = "",
                  title: str = "", period_ms: float | None = None,
                  length_mm: float | None = None, reference_frame: int | None = None,
                  annotate: bool = True, stream: bool = False,
@@ -222,8 +222,8 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
 
     One colour range for the whole cycle (``vmin``/``vmax``, default
     :func:`oftimg.output.style.colour_scale`'s: symmetric about 0 on a diverging
-    map for a signed field, the 1st to 99th percentile on a sequential one), or
-    with ``per_frame`` each frame's own. Around the field (``annotate``): the
+    map for a signed field, the 1st to 99th percentile on a sequential one): the
+    house has one fixed scale over a video's frames. Around the field (``annotate``): the
     ``title`` with ``grid_note`` (which grid the field is on), the u and v axes,
     the seam and the ends, the tube's length ``length_mm``, the colour bar with
     ``label`` (quantity and unit), and on each frame its time, its phase in the
@@ -243,26 +243,20 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
     heading = ", ".join(x for x in (title or label, grid_note) if x)
     if uncertain is not None and uncertain_note:
         heading = f"{heading}; {uncertain_note}"
-    canvas = None if per_frame or not annotate else field_canvas(
+    canvas = None if not annotate else field_canvas(
         n_u, n_v, scale, vmin=lo, vmax=hi, cmap=cmap, label=label, title=heading,
         length_mm=length_mm)
 
     def draw(t):
         img, _ = in_image_order(field[:, :, t], ["u", "v"])  # rows: v, inlet at the bottom
-        a, b = lo, hi
-        if per_frame:
-            f = img[np.isfinite(img)]
-            a, b = (f.min(), f.max()) if f.size else (0.0, 1.0)
-        colours = to_rgb(img, a, b, cmap)
+        colours = to_rgb(img, lo, hi, cmap)
         if uncertain is not None:
             marked, _ = in_image_order(uncertain[:, :, t], ["u", "v"])
             colours[marked] = (colours[marked] / 3 + 2 / 3 * UNCERTAIN_GREY).astype(np.uint8)
         rgb = cv2.resize(colours, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
         if not annotate:
             return _even(rgb)
-        frame = (canvas if canvas is not None else field_canvas(
-            n_u, n_v, scale, vmin=a, vmax=b, cmap=cmap, label=label,
-            title=heading + " (each frame its own colour range)", length_mm=length_mm)).copy()
+        frame = canvas.copy()
         frame[BANNER:BANNER + rgb.shape[0], MARGIN_LEFT:MARGIN_LEFT + rgb.shape[1]] = rgb
         note = ("reference frame: 0 by definition (strain against t = 0)"
                 if t == reference_frame else "")
@@ -364,9 +358,6 @@ FIELD_VIDEOS = [
                 "max 1)")),
     ("strain_energy_outer", "strain_energy_outer", False,
      dict(_STRAIN, label="strain energy (dimensionless)", title="outer wall: strain energy against t = 0")),
-    ("strain_energy_outer_per_frame", "strain_energy_outer", False,
-     dict(_STRAIN, per_frame=True, label="strain energy (dimensionless)",
-          title="outer wall: strain energy against t = 0")),
     ("radial_curvature_inner", "radial_curvature_inner_per_mm", False,
      dict(label="radial curvature (1/mm)", title="inner wall: radial curvature")),
     ("strain_energy_inner", "strain_energy_inner", False,

@@ -46,8 +46,9 @@ def volume_over_cycle(t_ms: np.ndarray, volumes_mm3: dict[str, np.ndarray], path
         ax.set_ylabel("volume (mm$^3$)")
         ax.set_title(what, fontsize=9)
         ax.ticklabel_format(axis="y", useOffset=False)   # no "+1.25e2" above the axis
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:       # below the axes: never on a curve
+            ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.25), ncol=3,
+                      frameon=False, handlelength=1.5, columnspacing=1.2)
         ax.grid(alpha=0.3)
     if not any(name in LAYERS for name in volumes_mm3):
         nothing_to_show(axes[1], "one wall only: no layer between walls (the dataset has no "

@@ -23,10 +23,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from oftimg.output.figures import WALL_COLOURS as COLOURS  # noqa: E402  (one per wall)
 from oftimg.synthetic.phantom import Phantom, PhantomParams  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
-COLOURS = {"outer": "#c0392b", "inner": "#e59866", "lumen": "#2e86c1"}
 
 
 def phantom_frame(path: Path) -> None:
@@ -100,27 +100,28 @@ def midgut(results: Path, path: Path) -> None:
         ax.plot(*ring.T, color="#333", lw=0.4)
     for i in range(0, X.shape[0], 4):
         ax.plot(*X[i].T, color="#999", lw=0.4)
-    ax.plot(*X[0].T, color="#1f4e9c", lw=2.0, label="seam u = 0")
+    ax.plot(*X[0].T, color="#0072B2", lw=2.0, label="seam u = 0")
     ax.set_box_aspect(np.ptp(X.reshape(-1, 3), axis=0))
     ax.set_axis_off()
-    ax.legend(loc="upper left", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.02), fontsize=8, frameon=False)
     ax.set_title("Drosophila midgut (Mitchell et al. 2022, CC BY 4.0):\n"
                  "80 x 50 grid, frame 0", fontsize=9)
     ax2 = fig.add_subplot(1, 2, 2)
-    area, s, t = arr["area_outer_mm2"], arr["s_mm"] * 1e3, arr["t_ms"]
+    area, s, t = arr["area_outer_mm2"], arr["s_mm"], arr["t_ms"]
     norm = area / np.nanmax(area, axis=1, keepdims=True)
     dt = t[1] - t[0]
-    im = ax2.imshow(norm, origin="lower", aspect="auto", cmap="jet",
+    im = ax2.imshow(norm, origin="lower", aspect="auto", cmap="viridis",
                     extent=(t[0] - dt / 2, t[-1] + dt / 2, s[0], s[-1]), interpolation="nearest")
-    fig.colorbar(im, ax=ax2, label="area / row maximum")
+    fig.colorbar(im, ax=ax2, label="area / row maximum (0-1)")
     period = t[-1] + dt
-    ax2.plot(np.mod(arr["ridge_t_ms"], period), s, "k.", ms=3, label="maximum area")
+    ax2.plot(np.mod(arr["ridge_t_ms"], period), s, "o", ms=2.5, mfc="w", mec="k", mew=0.4,
+             label="maximum area")
     ax2.set_xlabel("time since minimum volume (ms)")
-    ax2.set_ylabel("position along the tube s (um)")
+    ax2.set_ylabel("position along the tube s (mm)")
     summary = __import__("json").loads((name / "summary.json").read_text())
     ax2.set_title(f"animated wave 1.5 mm/s; recovered {summary['wave_speed_mm_s']['cycle']:.2f} "
                   "mm/s", fontsize=9)
-    ax2.legend(fontsize=7, loc="upper right", framealpha=0.6)
+    ax2.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

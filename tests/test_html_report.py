@@ -48,10 +48,13 @@ def test_every_link_resolves_and_tables_are_there(cohort_out):
     assert "clusters of uncorrected p &le; 0.05" in text              # the default
     # area, wall and jelly thickness, strain energy
     assert text.count("<td>banded - normal</td>") == len(TESTED_MAPS) == 4
-    for figure in sorted((cohort_out / "figures").glob("*.png")):   # each named below it
+    from oftimg.output.html import CAPTIONS, caption
+
+    for figure in sorted((cohort_out / "figures").glob("*.png")):   # each said below it
+        assert figure.stem in CAPTIONS, figure.stem
         assert (f'<a href="figures/{figure.name}"><img src="figures/{figure.name}" '
-                f'alt="{figure.stem}"></a><figcaption class="small">{figure.stem}</figcaption>'
-                ) in text                                         # opens full size on click
+                f'alt="{figure.stem}"></a><figcaption class="small">{caption(figure.stem)}'
+                '</figcaption>') in text                          # opens full size on click
     pages = [index] + sorted(cohort_out.glob("*/index.html"))
     assert len(pages) == 3
     for page in pages[1:]:

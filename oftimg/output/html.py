@@ -11,7 +11,7 @@ from pathlib import Path
 from . import numbers
 from .style import PAGE_MM, PNG_DPI
 from .units import KINDS
-from .report import (MEASUREMENT_COLUMNS, QC_COLUMNS, group_comparison,
+from .report import (MEASUREMENT_COLUMNS, QC_COLUMNS, column_header, group_comparison,
                      statistics_note, table1_layout, table_rows)
 
 STYLE = """
@@ -212,6 +212,81 @@ SPEED_NAMES = {"min": "minimum of the rows", "max": "maximum of the rows",
 PER_PIXEL = ("curvature", "strain", "thickness", "phase")
 
 
+# what each figure and video shows, as its caption says it (the guide's list of files)
+CAPTIONS = {
+    "volume_over_cycle": "Volume inside each wall and of the layers between them over the "
+                         "aligned cycle",
+    "trim_over_cycle": "The myocardium's volume and the clipping plane that keeps it constant",
+    "frame_t0_contours": "The grid and the section contours at t = 0",
+    "area_map_outer": "The outer wall's (v, t) area map with its ridge (maximum area) and "
+                      "the 75 % and one-sigma expansion masks",
+    "area_derivative_outer": "The area map's Sobel-HSV derivative image (hue: direction, "
+                             "brightness: size) and the largest expansion and contraction "
+                             "rates",
+    "max_area_profile": "Each wall's largest section area along the tube",
+    "time_expanded": "Share of the cycle each position is expanded",
+    "ridge_speed": "The ridge's time along the tube, the local wave speeds and the "
+                   "two-segment fit",
+    "wall_thickness_map": "Myocardial wall thickness, mean around the tube, over (v, t)",
+    "jelly_thickness_map": "Cardiac jelly thickness, mean around the tube, over (v, t)",
+    "lumen_cushions": "The lumen's aspect ratio over (v, t) and where the cushions close it",
+    "shape_pca": "Cross-section shape modes, expansion and contraction",
+    "activation_outer": "The wave on the outer wall: activation times, isochrones and "
+                        "direction",
+    "activation_inner": "The wave on the inner wall: activation times, isochrones and "
+                        "direction",
+    "activation_lumen": "The wave on the lumen's wall: activation times, isochrones and "
+                        "direction",
+    "pullback_outer": "The intensity across the myocardium pulled back onto the grid",
+    "area_map_cursor": "The area map with a moving time cursor",
+    "outer_wall_3d_area_map": "The outer wall in 3-D coloured by its section area, beside "
+                              "the area map",
+    "lumen_mean_curvature_3d": "The lumen in 3-D coloured by its mean curvature",
+    "phase_outer_3d": "The outer wall coloured by the phase of its motion",
+    "radial_curvature_outer": "Outer wall: radial curvature over (u, v), one beat",
+    "radial_curvature_outer_normalized": "Outer wall: radial curvature, each node scaled "
+                                         "to its own range over the beat",
+    "radial_curvature_inner": "Inner wall: radial curvature over (u, v), one beat",
+    "strain_energy_outer": "Outer wall: strain energy against t = 0, one beat",
+    "strain_energy_inner": "Inner wall: strain energy against t = 0, one beat",
+    "wall_thickness": "Myocardial wall thickness over (u, v), one beat",
+    "jelly_thickness": "Cardiac jelly thickness over (u, v), one beat",
+    "mean_curvature_lumen": "Lumen: mean curvature over (u, v), one beat",
+    "surface_speed_outer": "Outer wall: the tissue's speed on the wall, one beat",
+    "surface_divergence_outer": "Outer wall: the tissue's surface divergence, one beat",
+    # the cohort's
+    "group_area_maps": "Each group's mean outer area map (each row over its maximum) and "
+                       "where the groups differ",
+    "group_wall_thickness_maps": "Each group's mean wall thickness map and where the "
+                                 "groups differ",
+    "group_jelly_thickness_maps": "Each group's mean cardiac jelly thickness map and where "
+                                  "the groups differ",
+    "group_strain_energy_maps": "Each group's mean outer strain energy map and where the "
+                                "groups differ",
+    "group_max_area": "Largest outer section area along the tube, each embryo by group",
+    "group_ridge_time": "The ridge's time along the tube, each embryo by group",
+    "group_time_expanded": "Share of the cycle expanded along the tube, each embryo by group",
+    "group_wall_thickness": "Mean wall thickness along the tube, each embryo by group",
+    "group_wall_thickening": "Wall thickening over the beat along the tube, by group",
+    "group_jelly_thickness": "Mean cardiac jelly thickness along the tube, by group",
+    "group_jelly_thickening": "Cardiac jelly thickening over the beat along the tube, by "
+                              "group",
+    "group_volume": "Volumes over the aligned cycle, by group",
+    "group_pca_expansion": "Cross-section shape modes in expansion, one embryo per group",
+    "group_pca_contraction": "Cross-section shape modes in contraction, one embryo per group",
+}
+
+
+def caption(stem: str, grid_note: str = "") -> str:
+    """A figure's or video's caption: what it shows (:data:`CAPTIONS`), the grid a
+    per-pixel field lies on, and its file name; the file name alone for one not
+    listed."""
+    what = CAPTIONS.get(stem)
+    if what is None:
+        return html.escape(stem)
+    return f"{html.escape(what + _on_grid(stem, grid_note))} <code>({html.escape(stem)})</code>"
+
+
 def _on_grid(stem: str, grid_note: str) -> str:
     """``", on the <grid>"`` for a figure or video of a per-pixel field, else ""."""
     return f", on the {grid_note}" if any(k in stem for k in PER_PIXEL) else ""
@@ -224,6 +299,23 @@ def png_size(path: Path) -> tuple[int, int]:
     if head[:8] != b"\x89PNG\r\n\x1a\n":
         return 0, 0
     return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+
+
+def provenance_line(summary: dict) -> str:
+    """One line of where a dataset's numbers came from: its folder, its input files
+    counted by kind, the oftimg version (the files themselves: summary.json)."""
+    prov = summary.get("provenance") or {}
+    counts = []
+    for kind, files in (prov.get("inputs") or {}).items():   # meshes by wall, volumes as a list
+        for part, listed in (files.items() if isinstance(files, dict) else [(kind, files)]):
+            counts.append(f"{len(listed)} {part}" + (f" {kind}" if part != kind else ""))
+    counts = ", ".join(counts)
+    dataset = prov.get("dataset")
+    where = dataset.get("path", "") if isinstance(dataset, dict) else (dataset or "")
+    version = prov.get("oftimg_version", "")
+    parts = [f"from {where}" if where else "", f"input files: {counts}" if counts else "",
+             f"oftimg {version}" if version else ""]
+    return "; ".join(p for p in parts if p) or "see summary.json"
 
 
 def figure_html(path: Path, href: str, caption: str) -> str:
@@ -367,16 +459,18 @@ def dataset_page(folder: Path, summary: dict) -> Path:
                     "arrays.npz, summary.json and the tables hold every number.</p><div>")
     else:
         body.append("<h2>Figures</h2><div class=\"grid\">")
-        body += [figure_html(f, f"figures/{f.name}", f.stem + _on_grid(f.stem, grid_note))
+        body += [figure_html(f, f"figures/{f.name}", caption(f.stem, grid_note))
                  for f in figs]
         body.append("</div><h2>Videos</h2><div class=\"grid\">")
         body += [f'<figure><video src="videos/{v.name}" controls muted loop preload="metadata">'
-                 f'</video><figcaption class="small">{v.stem}{_on_grid(v.stem, grid_note)}'
+                 f'</video><figcaption class="small">{caption(v.stem, grid_note)}'
                  '</figcaption></figure>' for v in vids]
-    body.append("</div><h2>Provenance</h2><pre class=\"small\">"
+    body.append(f"</div><h2>Provenance</h2><p class=\"small\">"
+                f"{html.escape(provenance_line(summary))}</p><details><summary>every input "
+                "file, the options and the timings (summary.json)</summary><pre class=\"small\">"
                 + html.escape(json.dumps({k: summary.get(k) for k in
                                           ("provenance", "timings_s")}, indent=1)[:20000])
-                + "</pre>")
+                + "</pre></details>")
     path = folder / "index.html"
     _write_new(path, _page(summary["name"], "".join(body)))
     return path
@@ -427,10 +521,12 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
     link = {"link": lambda r: _page_of(r["name"])}
     body += ["<details><summary>Other measurements (cohort.csv)</summary>",
              _wide_table(table_rows(summaries, MEASUREMENT_COLUMNS),
-                         [c.name for c in MEASUREMENT_COLUMNS], **link),
+                         [c.name for c in MEASUREMENT_COLUMNS], **link,
+                         names={c.name: column_header(c) for c in MEASUREMENT_COLUMNS}),
              "</details><details><summary>Quality checks and noise (qc.csv)</summary>",
              _wide_table(table_rows(summaries, QC_COLUMNS), [c.name for c in QC_COLUMNS],
-                         **link), "</details>"]
+                         **link, names={c.name: column_header(c) for c in QC_COLUMNS}),
+             "</details>"]
     if comp and len({s["group"] for s in summaries}) >= 2:
         ccols = [c for c in comp[0] if c not in ("table", "unit")]
         body += ["<details><summary>Groups, every measurement (groups.csv)</summary>"
@@ -456,7 +552,8 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                                for k in map_rows[0] if k.startswith("share_in_clusters")}})]
     if group_figs:
         body.append("<div class=\"grid\">")
-        body += [figure_html(p, p.relative_to(out).as_posix(), p.stem) for p in group_figs]
+        body += [figure_html(p, p.relative_to(out).as_posix(), caption(p.stem))
+                 for p in group_figs]
         body.append("</div>")
     body.append("<h2>Run</h2><pre class=\"small\">"
                 + html.escape(json.dumps(run_info, indent=1)) + "</pre>")

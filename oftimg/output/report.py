@@ -391,6 +391,24 @@ def group_comparison(summaries: list[dict]) -> list[dict]:
     return out
 
 
+# a column name's unit suffix, longest first, as a header writes it in brackets
+_UNIT_SUFFIXES = ("_mm2_ms", "_mm_s", "_per_mm", "_percent", "_mm3", "_mm2", "_deg", "_ms",
+                  "_mm", "_um")
+
+
+def column_header(column: Column) -> str:
+    """A column's header as a person reads it: its name in words without the unit
+    suffix, the unit typeset in brackets ("wall thickness median (mm)" for
+    ``wall_thickness_median_mm``); the CSV keeps the name."""
+    name = column.name
+    for suffix in _UNIT_SUFFIXES:
+        if name.endswith(suffix):
+            name = name[: -len(suffix)]
+            break
+    shown = numbers.unit(column.unit)
+    return name.replace("_", " ") + (f" ({shown})" if shown else "")
+
+
 def statistics_note(comparison: list[dict]) -> str:
     """What the p-values of ``comparison`` (:func:`group_comparison`'s rows) are, said
     from what was tested: the test, the smallest p it can give the groups' sizes, the

@@ -978,8 +978,9 @@ def _raise_for_bad_files(results: list, n: int) -> None:
 
 
 def _gaps_left_out(lds: LabelDataset, out: Path, results: list) -> None:
-    """A lumen closed in one frame alone where the frames either side are wide open
-    there (:func:`~oftimg.mesh.closure.is_one_frame_gap`) is the segmentation's gap, not
+    """A lumen closed in one frame alone (neither frame either side closed) where the
+    frames either side are wide open there
+    (:func:`~oftimg.mesh.closure.is_one_frame_gap`) is the segmentation's gap, not
     the cushions: its closure dropped from the frame's record in ``results`` and its
     lumen left out, to be filled from the frames around it like any wall that cannot
     be meshed (:func:`_fill_left_out`)."""
@@ -991,7 +992,8 @@ def _gaps_left_out(lds: LabelDataset, out: Path, results: list) -> None:
     gaps = []
     for t in closed:
         around = ((t - 1) % n, (t + 1) % n)
-        if any("lumen" in results[f]["left_out"] for f in around):
+        # a neighbour closed too, or not meshed: no wide-open frame either side to judge by
+        if any("lumen" in results[f]["left_out"] or f in closed for f in around):
             continue
         path = out / "lumen" / names[t]
         V, _ = read_mesh_file(path)

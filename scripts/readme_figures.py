@@ -81,6 +81,8 @@ def grid_frame(results: Path, path: Path) -> None:
         ax.plot(*ring.T, color="#333", lw=0.5)
     ax.plot(*X[0].T, color="#1f4e9c", lw=2.5, label="seam u = 0 (shortest geodesic)")
     ax.set_box_aspect((1, 1, 0.45))
+    for axis, letter in zip((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel), "xyz"):
+        axis(f"{letter} (mm)", fontsize=8)
     ax.legend(loc="upper left", fontsize=8)
     ax.set_title(f"{name.name}: 80 x 50 grid of the outer wall, frame t = 0", fontsize=9)
     fig.tight_layout()

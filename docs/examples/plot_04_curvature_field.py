@@ -18,7 +18,7 @@ results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed onc
 res = oftimg.load_results(results / "normal_0")
 k = res["radial_curvature_outer_per_mm"]       # (u, v, t) 1/mm
 t = k.shape[2] // 3
-frames = {"radial curvature (1/mm)": (k[:, :, t], "PuOr_r", None),
+frames = {"radial curvature (1/mm)": (k[:, :, t], "RdBu_r", None),   # as oftimg draws it
           "normalised over the cycle (0-1)": (per_pixel_normalize(k)[:, :, t], "gray", (0, 1))}
 
 fig, axes = plt.subplots(1, 2, figsize=(7.1, 2.8), layout="constrained")

@@ -29,10 +29,12 @@ fig, axes = plt.subplots(1, 2, figsize=(7.1, 2.9), layout="constrained")
 im = axes[0].imshow(act.T, origin="lower", aspect="auto", extent=[0, 1, 0, 1])
 axes[0].contour(np.linspace(0, 1, act.shape[0]), np.linspace(0, 1, act.shape[1]), act.T,
                 levels=8, colors="k", linewidths=0.5)
-fig.colorbar(im, ax=axes[0], label="activation (ms after the earliest node)")
+fig.colorbar(im, ax=axes[0], label="activation time (ms)")
+axes[0].set_title("activation, 0 at the earliest node; isochrones", fontsize=8)
 im = axes[1].imshow(speed.T, origin="lower", aspect="auto", extent=[0, 1, 0, 1],
                     vmin=0, vmax=np.nanpercentile(speed, 95))
-fig.colorbar(im, ax=axes[1], label="speed on the wall (mm/s)")
+fig.colorbar(im, ax=axes[1], label="speed (mm/s)")
+axes[1].set_title("the wave's speed on the wall", fontsize=8)
 for ax in axes:
     ax.set_xlabel("u, around the tube (0: seam)")
     ax.set_ylabel("v, along (0: inlet)")

@@ -84,7 +84,7 @@ def draw_all(results: Path, out: Path) -> list[Path]:
             **uncertain_nodes(a, "radial_curvature_outer_per_mm")))
         written.append(figures.field_pair(
             a["strain_energy_outer"], a["area_outer_mm2"], f("fig06_strain_energy"),
-            label="strain energy against t = 0 (1)",
+            label="strain energy against t = 0 (dimensionless)", against_t0=True,
             title=f"{name}: outer wall's strain energy",
             **uncertain_nodes(a, "strain_energy_outer")))
         if "trim_percent" in a:

@@ -407,3 +407,17 @@ def test_a_helical_wave_s_times_are_averaged_round_the_cycle_on_the_3d_wall():
     np.testing.assert_allclose(colours[0], plt.get_cmap("twilight")(0.0), atol=0.02)
     _, plain = figures._surface_quads(ring, values, dict(cyclic, cmap="viridis"), every=2)
     np.testing.assert_allclose(plain[0], plt.get_cmap("viridis")(0.5), atol=1e-6)
+
+
+def test_a_field_against_t0_is_not_drawn_at_t0(monkeypatch, tmp_path):
+    """Issue 87: strain against t = 0 is 0 there by definition; its pair of frames shows
+    half-way to maximum expansion and maximum expansion, not an empty first panel."""
+    drawn = {}
+    monkeypatch.setattr(figures, "save", lambda fig, path: drawn.setdefault("fig", fig) and path)
+    t = np.arange(16)
+    area = np.broadcast_to(1 + np.sin(np.pi * t / 16)[None, :], (12, 16))   # largest at 8
+    field = np.broadcast_to((t / 15.0)[None, None, :], (10, 12, 16)).copy()
+    figures.field_pair(field, area, tmp_path / "f.png", label="strain energy (dimensionless)",
+                       against_t0=True)
+    titles = [ax.get_title() for ax in drawn["fig"].axes[:2]]
+    assert titles == ["half-way to maximum expansion (frame 4)", "maximum expansion (frame 8)"]

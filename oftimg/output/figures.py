@@ -686,12 +686,14 @@ def map_figures(folder: Path, name: str, arrays: dict, summary: dict, period_ms:
 @house_style
 def field_pair(field: np.ndarray, area_mm2: np.ndarray, path: Path, *, label: str,
                title: str = "", uncertain: np.ndarray | None = None,
-               uncertain_note: str = "") -> Path:
+               uncertain_note: str = "", against_t0: bool = False) -> Path:
     """Two (u, v) frames of a field ``(n_u, n_v, n_t)``, at maximum contraction (t = 0)
     and at the frame of largest total area ``area_mm2 (n_v, n_t)`` (the paper's
     Figs. 5, 6 and 13): a diverging colour map centred on 0 for a signed field,
     sequential for a one-signed one, one shared bar labelled ``label`` (quantity
-    and unit); u across from the seam, v up from the inlet. ``uncertain (n_u, n_v, n_t)``
+    and unit); u across from the seam, v up from the inlet. ``against_t0``: a field
+    measured against t = 0 (strain), 0 there by definition: half-way to maximum
+    expansion instead of an empty t = 0. ``uncertain (n_u, n_v, n_t)``
     bool: nodes faded towards grey, as the videos fade them
     (:func:`~oftimg.output.video.uncertain_nodes`), ``uncertain_note`` saying why."""
     from .style import UNCERTAIN_GREY, colour_scale
@@ -699,8 +701,10 @@ def field_pair(field: np.ndarray, area_mm2: np.ndarray, path: Path, *, label: st
     t_exp = int(np.argmax(np.nansum(area_mm2, axis=0)))
     scale = colour_scale(field)
     signed = scale["cmap"] == DIVERGING
+    first = (t_exp // 2, "half-way to maximum expansion") if against_t0 else (
+        0, "maximum contraction")
     fig, axes = new_figure(PAGE_MM, 70, ncols=2, sharey=True)
-    for ax, t, when in zip(axes, (0, t_exp), ("maximum contraction", "maximum expansion")):
+    for ax, t, when in zip(axes, (first[0], t_exp), (first[1], "maximum expansion")):
         image = ax.imshow(field[:, :, t].T, origin="lower", aspect="auto", extent=[0, 1, 0, 1],
                           interpolation="nearest", **scale)
         if uncertain is not None:        # two thirds of the way to grey, as in the videos

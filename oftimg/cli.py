@@ -11,6 +11,7 @@ import argparse
 import json
 import signal
 import sys
+import textwrap
 import threading
 import warnings
 from contextlib import contextmanager
@@ -46,6 +47,19 @@ def _sigterm_unwinds():
         signal.signal(signal.SIGTERM, previous)
 
 
+RUN_EXAMPLES = """examples:
+  oftimg run embryo1 --out results              one dataset (meshes, labels/ or probabilities/)
+  oftimg run cohort --out results               a folder of datasets: tables, groups, report
+  oftimg run cohort --out results --jobs 8 --numbers-only
+                                                numbers, tables and pages, no figures or videos
+  oftimg run embryo1 --out results --period-ms 420
+                                                a dataset whose meta.json gives no period
+  oftimg run cohort --out results --resume      go on after a failed or interrupted run
+  oftimg run cohort --out results --scheduler tcp://host:8786
+                                                on a Dask cluster
+every option and output: docs/guide.md"""
+
+
 def _parser() -> argparse.ArgumentParser:
     # long, and kept whole: the command line read top to bottom as --help prints it
     # (docs/cli.rst renders the same parser)
@@ -57,45 +71,56 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"oftimg {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    r = sub.add_parser("run", help="process a dataset or a cohort folder")
-    r.add_argument("source", type=Path, help="dataset folder (with outer/, or labels/ or "
+    r = sub.add_parser(
+        "run", help="process a dataset or a cohort folder",
+        description=textwrap.fill(
+            "Process a dataset (one embryo's frames: meshes, label volumes or probability "
+            "maps) or a cohort folder of them into OUT: per dataset arrays.npz, "
+            "summary.json, figures, videos and a page; per cohort the tables, the group "
+            "comparison and the report (OUT/index.html).", 79),
+        epilog=RUN_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    inp = r.add_argument_group("input")
+    ana = r.add_argument_group("analysis")
+    out = r.add_argument_group("outputs")
+    perf = r.add_argument_group("performance")
+    inp.add_argument("source", type=Path, help="dataset folder (with outer/, or labels/ or "
                                              "probabilities/ to mesh frame by frame) or "
                                              "cohort folder")
-    r.add_argument("--out", type=Path, required=True, help="results folder (created)")
-    r.add_argument("--period-ms", type=float, default=None, metavar="MS",
+    out.add_argument("--out", type=Path, required=True, help="results folder (created)")
+    inp.add_argument("--period-ms", type=float, default=None, metavar="MS",
                    help="the beat's length in ms for datasets whose meta.json gives no "
                         "period_ms (without either, such a dataset is refused: its times and "
                         "speeds would be a guess)")
-    r.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
-    r.add_argument("--resume", action="store_true",
+    out.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
+    out.add_argument("--resume", action="store_true",
                    help="reuse the datasets a failed or interrupted run into the same --out "
                         "finished (when their inputs, options and oftimg are unchanged)")
-    r.add_argument("--quiet", action="store_true", help="no progress bars")
-    r.add_argument("--jobs", type=int, default=None,
+    out.add_argument("--quiet", action="store_true", help="no progress bars")
+    perf.add_argument("--jobs", type=int, default=None,
                    help="worker processes (default: all cores this job may use)")
-    r.add_argument("--scheduler", default=None, metavar="ADDRESS",
+    perf.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the work on a Dask cluster (e.g. tcp://host:8786)")
-    r.add_argument("--parallel", choices=["auto", "frames", "embryos"], default="auto",
+    perf.add_argument("--parallel", choices=["auto", "frames", "embryos"], default="auto",
                    help="what the workers share out: each dataset's frames, or whole "
                         "datasets (auto: datasets when there are at least twice as many "
                         "as workers)")
-    r.add_argument("--n-u", type=int, default=80, help="grid nodes around (default 80)")
-    r.add_argument("--n-v", type=int, default=50, help="grid nodes along (default 50)")
-    r.add_argument("--authalic-weight", type=float, default=0.5,
+    ana.add_argument("--n-u", type=int, default=80, help="grid nodes around (default 80)")
+    ana.add_argument("--n-v", type=int, default=50, help="grid nodes along (default 50)")
+    ana.add_argument("--authalic-weight", type=float, default=0.5,
                    help="Desbrun blend: 0 conformal, 1 authalic (default 0.5)")
-    r.add_argument("--seam-method", default="graph", metavar="METHOD",
+    ana.add_argument("--seam-method", default="graph", metavar="METHOD",
                    help="seed of the shortest-seam search: graph (Dijkstra, default), heat "
                         "(heat method), exact (MMP distances, 5x slower; a cross-check)")
-    r.add_argument("--fps", type=float, default=None,
+    out.add_argument("--fps", type=float, default=None,
                    help="frames per second of the videos (default: one beat in 4 s)")
-    r.add_argument("--numbers-only", action="store_true",
+    out.add_argument("--numbers-only", action="store_true",
                    help="no figures or videos: arrays, summaries, tables and pages only "
                         "(sweeps and batches; 2-3x faster on short datasets)")
-    r.add_argument("--log", type=Path, default=None, metavar="FILE",
+    out.add_argument("--log", type=Path, default=None, metavar="FILE",
                    help="keep a full log (progress, warnings, timings) in FILE")
-    r.add_argument("--warp", action="store_true",
+    ana.add_argument("--warp", action="store_true",
                    help="resample time in two segments so maximum expansion is at mid-cycle")
-    r.add_argument("--tracking", choices=("auto", "material", "texture", "none"),
+    ana.add_argument("--tracking", choices=("auto", "material", "texture", "none"),
                    default="auto",
                    help="the grid of the per-pixel fields (curvature, thickness, strain, "
                         "phase maps): material, each row turned about the tube with the "
@@ -103,31 +128,31 @@ def _parser() -> argparse.ArgumentParser:
                         "intensity volumes' texture (intensity/), along the tube too; none, "
                         "each frame's own grid, as in the paper; auto (default): texture "
                         "where a dataset has intensity/, else material")
-    r.add_argument("--pullback-layers", type=int, default=5, metavar="N",
+    ana.add_argument("--pullback-layers", type=int, default=5, metavar="N",
                    help="with intensity/: depths sampled across the myocardium (or the "
                         "shell) for the pullbacks (default 5)")
-    r.add_argument("--pullback-shell-um", type=float, nargs=2, default=(-10.0, 10.0),
+    ana.add_argument("--pullback-shell-um", type=float, nargs=2, default=(-10.0, 10.0),
                    metavar=("INSIDE", "OUTSIDE"),
                    help="with intensity/: the shell about a wall along its outward normal, "
                         "um (default -10 10; the outer wall with an inner wall: the "
                         "myocardium)")
-    r.add_argument("--pullback-walls", nargs="+", choices=("outer", "inner", "lumen"),
+    ana.add_argument("--pullback-walls", nargs="+", choices=("outer", "inner", "lumen"),
                    default=["outer"], metavar="WALL",
                    help="with intensity/: the walls pulled back (outer, inner, lumen; "
                         "default outer, the myocardium)")
-    r.add_argument("--map-positions", choices=("rows", "fixed"), default="rows",
+    ana.add_argument("--map-positions", choices=("rows", "fixed"), default="rows",
                    help="rows of the (v, t) area maps: the grid rows, as in the paper "
                         "(default; they drift along the tube as its shape changes), or fixed "
                         "fractions of the centroid line in every frame (more accurate next to "
                         "a band: see oftimg's docs/accuracy.md)")
-    r.add_argument("--ridge-smoothing-ms", default="auto", metavar="MS",
+    ana.add_argument("--ridge-smoothing-ms", default="auto", metavar="MS",
                    help="Gaussian sigma (ms) with which each row of the outer area map is "
                         "smoothed in time before its maximum (the ridge, hence the wave "
                         "speeds) is found; auto (default): the least of "
                         f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms that "
                         "leaves the local speeds' noise spread under "
                         f"{100 * AUTO_SPREAD_TARGET:g} %%; 0: none (see oftimg's docs/accuracy.md)")
-    r.add_argument("--field-smoothing-ms", default="auto", metavar="MS",
+    ana.add_argument("--field-smoothing-ms", default="auto", metavar="MS",
                    help="Gaussian sigma (ms) with which every pixel of each curvature field "
                         "and of the wall thickness is smoothed in time (each frame's surface "
                         "carries its own noise, which a curvature multiplies); auto "
@@ -136,7 +161,7 @@ def _parser() -> argparse.ArgumentParser:
                         f"which at most {100 * FIELD_NOISE_TARGET:g} %% of each pixel's change "
                         "over the cycle is noise; 0: none. summary.json: field_noise says how "
                         "much of each field is noise and the sigma taken")
-    r.add_argument("--strain-smoothing-ms", default="auto", metavar="MS",
+    ana.add_argument("--strain-smoothing-ms", default="auto", metavar="MS",
                    help="Gaussian sigma (ms) with which every grid node's position is smoothed "
                         "in time before the strain fields (each frame's grid moves along the "
                         "wall with its own mesh's roughness, which a strain takes for stretch); "
@@ -146,8 +171,8 @@ def _parser() -> argparse.ArgumentParser:
                         f"{100 * STRAIN_NOISE_TARGET:g} %% of its median; 0: none. "
                         "summary.json: strain_noise says how much that noise still moves "
                         "each field and the sigma taken")
-    _mesh_arguments(r)
-    r.add_argument("--rough-mesh-smoothing", default="auto", metavar="STEPS",
+    _mesh_arguments(inp)
+    inp.add_argument("--rough-mesh-smoothing", default="auto", metavar="STEPS",
                    type=lambda x: x if x == "auto" else int(x),
                    help="Taubin smoothing steps on every wall's mesh before anything is "
                         "measured on it; auto (default): 30 on a mesh rough at its own "
@@ -163,7 +188,7 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("results", type=Path, nargs="+", help=results_help)
     c.add_argument("--out", type=Path, required=True, help="cohort folder (created)")
     c.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
-    for parser in (r, c):
+    for parser in (ana, c):
         parser.add_argument("--cluster-alpha", type=float, default=0.05, metavar="P",
                             help="cluster-forming threshold of the cohort maps' cluster test: "
                                  "pixels of uncorrected p <= P form clusters (default 0.05; "
@@ -187,7 +212,13 @@ def _parser() -> argparse.ArgumentParser:
                                  "(default: all cores this job may use)")
         ex.add_argument("--quiet", action="store_true", help="no progress bar")
 
-    d = sub.add_parser("demo", help="make the built-in phantom cohort and process it")
+    d = sub.add_parser(
+        "demo", help="make the built-in phantom cohort and process it",
+        description="Write the built-in phantom cohort (3 normal and 3 banded beating "
+                    "tubes of 24 frames, their truth beside them) and run it as `oftimg run` "
+                    "would: every file a run writes, on data whose answers are known (about "
+                    "two minutes on 2 cores; --full: the paper's 4 + 4 embryos of 195 "
+                    "frames).")
     d.add_argument("--out", type=Path, default=Path("oftimg-demo"), help="results folder")
     d.add_argument("--full", action="store_true", help="4 normal + 4 banded, 195 frames")
     d.add_argument("--overwrite", action="store_true", help="replace an --out that oftimg wrote")
@@ -247,14 +278,21 @@ def _parser() -> argparse.ArgumentParser:
                     help="worker processes (default: all cores this job may use)")
     me.add_argument("--quiet", action="store_true", help="no progress bar")
 
-    an = sub.add_parser("animate", help="turn a static open tube into a dataset with a known wave")
+    an = sub.add_parser(
+        "animate", help="turn a static open tube into a dataset with a known wave",
+        description="Turn one static open tube (a mesh file: a vessel, a gut, your own "
+                    "OFT) into a beating dataset whose wave, twist and shortening are known "
+                    "(truth.json): the truth for oftimg's measures on your own shape.")
     an.add_argument("mesh", type=Path, help="a mesh file of one open tube")
     an.add_argument("out", type=Path, help="dataset folder to create")
     an.add_argument("--speed-mm-s", type=float, required=True, help="wave speed (mm/s)")
-    an.add_argument("--amplitude", type=float, default=0.3, help="relative radial change")
-    an.add_argument("--period-ms", type=float, default=360.0)
-    an.add_argument("--frames", type=int, default=60)
-    an.add_argument("--unit", choices=["mm", "um"], default="mm", help="unit after --scale")
+    an.add_argument("--amplitude", type=float, default=0.3,
+                    help="the wave's radial change, a share of the radius (default 0.3)")
+    an.add_argument("--period-ms", type=float, default=360.0,
+                    help="the beat's length in ms (default 360)")
+    an.add_argument("--frames", type=int, default=60, help="frames over one beat (default 60)")
+    an.add_argument("--unit", choices=["mm", "um"], default="mm",
+                    help="the coordinates' unit after --scale (default mm)")
     an.add_argument("--scale", type=float, default=1.0,
                     help="multiply the file's coordinates by this (e.g. 0.2619 um per voxel)")
     an.add_argument("--twist-deg", type=float, default=0.0,
@@ -263,12 +301,15 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--shortening", type=float, default=0.0,
                     help="longitudinal shortening towards the inlet at mid-cycle (0.15: 15 %%)")
     _front_arguments(an)
-    an.add_argument("--remesh", action="store_true", help="remesh every frame independently")
+    an.add_argument("--remesh", action="store_true",
+                    help="remesh every frame on its own, as a lab's per-frame segmentation "
+                         "would be (default: the same mesh moved)")
     an.add_argument("--texture", action="store_true",
                     help="intensity volumes too (intensity/, uint8 TIFF per frame): a texture "
                          "fixed in the tissue, which twists and shortens with it")
-    an.add_argument("--seed", type=int, default=0)
-    an.add_argument("--quiet", action="store_true")
+    an.add_argument("--seed", type=int, default=0,
+                    help="the remeshing's and the texture's random draw (default 0)")
+    an.add_argument("--quiet", action="store_true", help="no progress bar")
 
     v = sub.add_parser("validate", help="check a dataset, or every dataset of a cohort, and "
                                         "print a per-surface report")

@@ -21,3 +21,23 @@ def test_a_mistyped_option_is_named_with_the_nearest_one(tmp_path, capsys, argv,
     assert err[-1].startswith(f"oftimg {argv[0]}: error: unrecognized argument")
     assert err[-1].endswith(said) and argv[-2 if argv[-1].isdigit() else -1] in err[-1]
     assert not any(tmp_path.iterdir())                      # nothing written
+
+
+def test_run_help_is_grouped_with_examples_and_every_option_says_what_it_does(capsys):
+    """Issue 87: run --help in groups (input, analysis, outputs, performance) ending with
+    examples; demo and animate say what they do and every option has help."""
+    from oftimg.cli import _parser
+
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = capsys.readouterr().out
+    headings = [line for line in text.splitlines() if line.endswith(":") and
+                not line.startswith(" ")]
+    assert headings[-5:] == ["input:", "analysis:", "outputs:", "performance:", "examples:"]
+    assert "oftimg run cohort --out results --resume" in text
+    sub = next(a for a in _parser()._actions if a.dest == "command")
+    for name in ("demo", "animate", "run"):
+        command = sub.choices[name]
+        assert command.description, name
+        for action in command._actions:
+            assert action.help, f"{name} {action.option_strings or action.dest}"

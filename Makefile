@@ -1,11 +1,13 @@
 # Two entry points for a fresh machine: `make demo` and `make test` (and `make docs`,
 # the documentation site, which CI builds too).
-# Both create .venv, install oftimg with its test extras, and install the
-# system library open3d needs (libusb-1.0-0) when `import open3d` fails;
-# `make test` also installs Debian's chromium for the HTML report test.
+# Both create .venv and install oftimg (`make demo` with what the demo needs alone, `make
+# test` with the test extras: napari, Qt, vtk, dask), and the system library open3d
+# needs (libusb-1.0-0) when `import open3d` fails; `make test` also installs Debian's
+# chromium for the HTML report test.
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
+BASE_STAMP := $(VENV)/.oftimg-base
 STAMP  := $(VENV)/.oftimg-installed
 DEMO_OUT ?= oftimg-demo
 # pytest-xdist processes for the suite, each taking whole test files (their module
@@ -24,17 +26,23 @@ APT_DONE = ; } >"$$log" 2>&1 || { cat "$$log"; rm -f "$$log"; exit 1; }; rm -f "
 .PHONY: demo test test-long test-system test-lowest setup clean docs napari
 setup: $(STAMP)
 
-$(STAMP): pyproject.toml
+# oftimg and what it needs to run (the demo's set-up)
+$(BASE_STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
-	$(PIP) install --quiet -e '.[test]'
+	$(PIP) install --quiet -e .
 	@$(PY) -c "import open3d" 2>/dev/null || { \
 	  echo "open3d cannot load libusb-1.0: installing libusb-1.0-0 with apt-get"; \
 	  $(APT_INSTALL) libusb-1.0-0 $(APT_DONE); }
 	$(PY) -c "import open3d"
+	touch $(BASE_STAMP)
+
+# and the test extras
+$(STAMP): $(BASE_STAMP)
+	$(PIP) install --quiet -e '.[test]'
 	touch $(STAMP)
 
-demo: $(STAMP)
+demo: $(BASE_STAMP)
 	$(VENV)/bin/oftimg demo --out $(DEMO_OUT) --overwrite
 
 # what Qt's xcb platform (napari's window under Xvfb) loads besides Qt itself

@@ -11,8 +11,8 @@ from pathlib import Path
 from . import numbers
 from .style import PAGE_MM, PNG_DPI
 from .units import KINDS
-from .report import (MEASUREMENT_COLUMNS, QC_COLUMNS, column_header, group_comparison,
-                     statistics_note, table1_layout, table_rows)
+from .report import (CORRECTION, MEASUREMENT_COLUMNS, QC_COLUMNS, column_header,
+                     group_comparison, statistics_note, table1_layout, table_rows)
 
 STYLE = """
 body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1320px;padding:0 1em;color:#222}
@@ -534,7 +534,10 @@ def cohort_page(out: Path, summaries: list[dict], run_info: dict, group_figs: li
                  f"{html.escape(statistics_note(comp))} p_holm below 0.05 shaded; the other "
                  "measurements and the checks are shown, not tested (no p).</p>",
                  _wide_table(comp, ccols, highlight=lambda r: r["p_holm"] == r["p_holm"]
-                             and r["p_holm"] < 0.05), "</details>"]
+                             and r["p_holm"] < 0.05, names={
+                                 **{c: c.replace("_", " ") for c in ccols},
+                                 "p_value": "p", "p_holm": f"p ({CORRECTION})"}),
+                 "</details>"]
     body.append(_cohort_warnings(summaries))
     if map_rows:
         body += ["<h2>Where the groups differ on the maps</h2><p class=\"small\">"

@@ -23,7 +23,7 @@ APT_INSTALL = SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo
 	  apt-get install -y -qq
 APT_DONE = ; } >"$$log" 2>&1 || { cat "$$log"; rm -f "$$log"; exit 1; }; rm -f "$$log"
 
-.PHONY: demo test test-long test-system test-lowest setup clean docs napari
+.PHONY: demo test test-long test-system test-lowest setup clean docs napari lint
 setup: $(STAMP)
 
 # oftimg and what it needs to run (the demo's set-up)
@@ -41,6 +41,10 @@ $(BASE_STAMP): pyproject.toml
 $(STAMP): $(BASE_STAMP)
 	$(PIP) install --quiet -e '.[test]'
 	touch $(STAMP)
+
+# ruff's checks (pyproject.toml [tool.ruff]; .pre-commit-config.yaml runs them per commit)
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
 
 demo: $(BASE_STAMP)
 	$(VENV)/bin/oftimg demo --out $(DEMO_OUT) --overwrite

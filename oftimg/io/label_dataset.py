@@ -463,7 +463,7 @@ def _label_ids(path: Path, raw: dict, first: LabelSource, dtype: np.dtype) -> di
             or len(set(values)) != len(values)):
         raise DatasetError(f"{meta_file}: each layer's label is a distinct whole number "
                            f"above 0 (0 is the background), found {ids}")
-    top = 1 if dtype == bool else int(np.iinfo(dtype).max)
+    top = 1 if np.dtype(dtype).kind == "b" else int(np.iinfo(dtype).max)
     if max(values) > top:
         raise DatasetError(f"{meta_file}: label {max(values)} cannot occur in {first}'s "
                            f"{np.dtype(dtype)} voxels (at most {top}); is labels right?")
@@ -983,7 +983,8 @@ def _gaps_left_out(lds: LabelDataset, out: Path, results: list) -> None:
     (:func:`~oftimg.mesh.closure.is_one_frame_gap`) is the segmentation's gap, not
     the cushions: its closure dropped from the frame's record in ``results`` and its
     lumen left out, to be filled from the frames around it like any wall that cannot
-    be meshed (:func:`_fill_left_out`)."""
+    be meshed (:func:`_fill_left_out`), when the frames to fill stay within
+    :data:`FILLED_SHARE` (else they are kept as the closures they were bridged as)."""
     from ..mesh.closure import is_one_frame_gap
 
     n = lds.n_frames
@@ -1002,6 +1003,9 @@ def _gaps_left_out(lds: LabelDataset, out: Path, results: list) -> None:
                                 for f in (t, *around))
         if is_one_frame_gap(bridge, lumen, before, after, lds.voxel_size):
             gaps.append(t)
+    left = sum(bool(r["left_out"]) for r in results)
+    if left + len(gaps) > int(FILLED_SHARE * n):     # not to be filled: kept as closures
+        return
     for t in gaps:
         del results[t]["closures"]["lumen"]
         results[t]["left_out"]["lumen"] = ("its lumen closed over a stretch in this frame "

@@ -54,14 +54,24 @@ BOUNDS = {
     "meshes features": {"radial_curvature_outer_p90_pct": 220.0,
                         "mean_curvature_lumen_p90_pct": 290.0,
                         "strain_energy_inner_p90_pct": 111.0},
+    # the same as label volumes (4-8 um voxels; 1.5 times the worst of the 29 of 50 draws
+    # whose segmentation shifts no wall, seeds 300-349, 2026-12-07)
+    "labels features": {"radial_curvature_outer_p90_pct": 500.0,
+                        "mean_curvature_lumen_p90_pct": 435.0,
+                        "strain_energy_inner_p90_pct": 182.0},
 }
 # the share of nodes inside their own 95 % band (issue 84), at least: 1.5 times the worst
 # of those 50 draws' shortfall from 100 % below 100 % (radial curvature 82 %, the lumen's
 # 79 %, the strain energy's 84 %, with the factors of oftimg.analysis.uncertainty)
 FLOORS = {"meshes features": {"radial_curvature_outer_node_band_within_pct": 73.0,
                               "mean_curvature_lumen_node_band_within_pct": 68.0,
-                              "strain_energy_inner_node_band_within_pct": 76.0}}
-FEATURE_FRAMES = 40          # the feature draws' frames in docs/accuracy.md
+                              "strain_energy_inner_node_band_within_pct": 76.0},
+          # the label draws' (lowest 69, 82 and 87 %)
+          "labels features": {"radial_curvature_outer_node_band_within_pct": 53.0,
+                              "mean_curvature_lumen_node_band_within_pct": 73.0,
+                              "strain_energy_inner_node_band_within_pct": 80.0}}
+FEATURE_FRAMES = 40          # the feature and cushion draws' frames in docs/accuracy.md
+FEATURE_VOXEL_MIN_UM = 4.0   # and their finest voxels
 SPEED_CROSSING_FRAMES = 3    # speeds checked where the wave takes this many frames or more
 
 
@@ -83,21 +93,23 @@ def crossing_frames(dataset: Path) -> float:
 @pytest.mark.slow
 @pytest.mark.parametrize("drawn", sorted(BOUNDS))
 def test_a_random_draw_is_within_the_zoos_bounds(tmp_path, drawn):
-    kind, fronts, features = drawn.split()[0], drawn.endswith("fronts"), drawn.endswith(
-        "features")
-    frames = FEATURE_FRAMES if features else FRAMES
+    kind, fronts, features, cushions = (drawn.split()[0], drawn.endswith("fronts"),
+                                        drawn.endswith("features"), drawn.endswith("cushions"))
+    frames = FEATURE_FRAMES if features or cushions else FRAMES
+    voxel_min = FEATURE_VOXEL_MIN_UM if features or cushions else VOXEL_MIN_UM
     seed = unshifted_seed(kind, FIRST)
     rerun = (f"rerun: python scripts/accuracy_zoo.py --seed {seed} --draws 1 --kinds {kind} "
-             f"--frames {frames} --voxel-min-um {VOXEL_MIN_UM:g} --no-pair"
-             + " --fronts" * fronts + " --features" * features)
+             f"--frames {frames} --voxel-min-um {voxel_min:g} --no-pair"
+             + " --fronts" * fronts + " --features" * features + " --cushions" * cushions)
     try:
-        errors = draw_errors(seed, kind, tmp_path, frames=frames, voxel_min_um=VOXEL_MIN_UM,
-                             jobs=1, pair=False, fronts=fronts, features=features)
+        errors = draw_errors(seed, kind, tmp_path, frames=frames, voxel_min_um=voxel_min,
+                             jobs=1, pair=False, fronts=fronts, features=features,
+                             cushions=cushions)
     except InputError as exc:
         pytest.fail(f"zoo draw {seed} ({drawn}) refused: {exc}; {rerun}")
     bounds = dict(BOUNDS[drawn])
-    if not (fronts or features) and crossing_frames(tmp_path / "data" / f"{kind}_{seed}") < \
-            SPEED_CROSSING_FRAMES:
+    plain = not (fronts or features or cushions)
+    if plain and crossing_frames(tmp_path / "data" / f"{kind}_{seed}") < SPEED_CROSSING_FRAMES:
         bounds = {k: v for k, v in bounds.items() if "speed" not in k}  # the frames' limit
     beyond = {key: round(errors.get(key, float("nan")), 3) for key, bound in bounds.items()
               if not abs(errors.get(key, float("nan"))) <= bound}

@@ -150,14 +150,19 @@ def test_colour_bar_ticks_are_round_values_to_one_decimal(lo, hi, ticks):
     assert all(lo <= v <= hi for v in values)
 
 
+def _straight_tube(n_u: int, n_v: int) -> np.ndarray:
+    """A straight tube's grid ``(n_u, n_v, 3)``: radius 0.15, from y = -1 to 1."""
+    u = np.linspace(0, 2 * np.pi, n_u, endpoint=False)[:, None]
+    v = np.linspace(0, 1, n_v)[None, :]
+    r = 0.15 + 0 * u * v
+    return np.stack(np.broadcast_arrays(r * np.cos(u), 2 * v - 1, r * np.sin(u)), axis=-1)
+
+
 def test_the_3d_view_marks_the_inlet_and_the_outlet():
     """'inlet' and 'outlet' written beyond the first and the last ring of the 3-D view,
     where the camera projects them."""
     n_u, n_v = 40, 20
-    u = np.linspace(0, 2 * np.pi, n_u, endpoint=False)[:, None]
-    v = np.linspace(0, 1, n_v)[None, :]
-    r = 0.15 + 0 * u * v
-    grid = np.stack(np.broadcast_arrays(r * np.cos(u), 2 * v - 1, r * np.sin(u)), axis=-1)
+    grid = _straight_tube(n_u, n_v)
     camera = video.SurfaceCamera(grid[:, :, None], size=320)
     row, col = camera.project(np.array([grid[:, 0].mean(0), grid[:, -1].mean(0)]))
     view = np.full((320, 320, 3), 255, np.uint8)
@@ -235,10 +240,7 @@ def test_a_phase_wrapping_across_the_wall_is_drawn_without_a_seam():
     meet); averaging the corners' values ran through 0, twilight's black middle, along
     every wrap. Nodes too still to time are grey, as the activation figure has them."""
     n_u, n_v = 40, 20
-    u = np.linspace(0, 2 * np.pi, n_u, endpoint=False)[:, None]
-    v = np.linspace(0, 1, n_v)[None, :]
-    r = 0.15 + 0 * u * v
-    grid = np.stack(np.broadcast_arrays(r * np.cos(u), 2 * v - 1, r * np.sin(u)), axis=-1)
+    grid = _straight_tube(n_u, n_v)
     camera = video.SurfaceCamera(grid[:, :, None], size=160)
     phase = np.where((np.arange(n_u)[:, None] + np.arange(n_v)[None, :]) % 2, 3.1, -3.1)
     shown = {cyclic: camera.render(grid, phase, vmin=-np.pi, vmax=np.pi, cmap="twilight",

@@ -22,7 +22,7 @@ from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, sm
                                smoothing_kernel, time_flattening)
 from ..image.pca import contour_pca
 from .pullback import PullbackOptions, normal_shell, pullback, refine_factors, refined
-from .texture_tracking import texture_match_note
+from .texture_tracking import fallback_note, texture_match_note
 from .tracking import follow, track_grid
 from .wave_fronts import wave_fronts
 from ..mesh.clip import clip_positions, clipped_grids
@@ -545,16 +545,20 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     tracking = tracking_mode(ds, options.tracking, pullbacks is not None)
     if tracking != "none":
         tick = time.perf_counter()
-        if tracking == "texture":
-            coords, tracked = _texture_pathlines(pullbacks, grid["outer"].shape[:2])
-            note = texture_match_note(tracked["forward_backward_gap_steps"]["median"])
-            if note:
-                warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
+        coords, tracked = track_grid(grid["outer"])
+        tracked = {"kind": "material", **tracked}
+        if tracking == "texture":           # the texture's motion beyond the shape's
+            coords, texture = _texture_pathlines(pullbacks, coords)
+            tracked = {**texture, "shape": tracked}
+            arrays["texture_support"] = tracked.pop("support")
+            arrays["texture_fallback"] = tracked.pop("fallback")
+            for note in (texture_match_note(tracked["forward_backward_gap_steps"]["median"]),
+                         fallback_note(tracked["fallback_share"])):
+                if note:
+                    warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
+            tracked["support_median"] = float(np.median(arrays["texture_support"]))
             arrays["grid_in_view"] = (coords[..., 1] >= 0) & (coords[..., 1] <= grid[
                 "outer"].shape[1] - 1)
-        else:
-            coords, tracked = track_grid(grid["outer"])
-            tracked = {"kind": "material", **tracked}
         arrays["pathlines_uv"] = coords.astype(np.float32)
         grid = {w: follow(g, coords) for w, g in grid.items()}
         H = follow(H, coords) if H is not None else None
@@ -688,15 +692,16 @@ def tracking_mode(ds: Dataset, asked: str, has_pullbacks: bool) -> str:
     return asked
 
 
-def _texture_pathlines(pullbacks: dict, grid_shape: tuple) -> tuple[np.ndarray, dict]:
+def _texture_pathlines(pullbacks: dict, shape_coords: np.ndarray) -> tuple[np.ndarray, dict]:
     """:func:`~oftimg.analysis.texture_tracking.texture_pathlines` of the mean
-    myocardium pullback, for an analysis grid of ``grid_shape (n_u, n_v)``."""
+    myocardium pullback beyond the shape's pathlines ``shape_coords (n_u, n_v, n_t,
+    2)``."""
     from .texture_tracking import texture_pathlines
 
     mean = pullbacks["pullback_outer_mean"]
-    n_u, n_v = grid_shape
+    n_u, n_v = shape_coords.shape[:2]
     factors = (mean.shape[0] // n_u, (mean.shape[1] - 1) // (n_v - 1))
-    return texture_pathlines(mean, factors, n_u, n_v)
+    return texture_pathlines(mean, factors, shape_coords)
 
 
 def wall_pullbacks(series, grids: dict, frames: list[int],

@@ -1,14 +1,18 @@
 """Texture tracking: the grid moved with the tissue's texture, along the tube as well as
 around it.
 
-The shape alone cannot show the tissue sliding along the tube (the shape's features
-travel with the wave; :mod:`oftimg.analysis.tracking`). The intensity can: each
-frame's myocardium pullback (:mod:`oftimg.analysis.pullback`) is an image of the
-tissue's texture on that frame's own grid, and dense optical flow between
-pullbacks (OpenCV's DIS, periodic around the tube) gives where each pixel's
-tissue lies in another frame's grid. Each analysis grid node of frame 0 is carried
-to every frame by the flows between frame 0 and that frame, both ways
-(:func:`texture_pathlines`).
+The shape alone cannot show the tissue sliding along the tube or twisting about it
+(the shape's features travel with the wave; :mod:`oftimg.analysis.tracking`). The
+intensity can: each frame's myocardium pullback (:mod:`oftimg.analysis.pullback`) is
+an image of the tissue's texture on that frame's own grid, and dense optical flow
+between pullbacks (OpenCV's DIS, periodic around the tube) gives where each pixel's
+tissue lies in another frame's grid. OCT's speckle is as strong as the texture (its
+contrast about 1) and renewed as the tissue moves, so no two frames are matched to
+each other in the end: every frame is matched to a template, the whole beat seen in
+frame 0's pixels and averaged, where the speckle averages out and the texture stays
+(:func:`texture_pathlines`). The shape's own pathlines are the prior: the texture
+says how far the tissue moved beyond them, smoothly over nodes and frames, and only
+where the images support it (each node's support and fallback are returned).
 
 Images are ``(n_u, n_v)``: u around (rows, periodic), v along (columns). Positions are
 in fine pixels ``(around, along)`` or in grid steps (:mod:`oftimg.analysis.tracking`).
@@ -21,13 +25,30 @@ import numpy as np
 WRAP_PAD = 24               # fine pixels of the image repeated beyond u's ends for the flow
 NORMALISE_PX = 6.0          # the local mean and contrast taken out: Gaussian sigma, pixels
 CLIP_SD = 3.0               # normalised intensities beyond this many local SDs clipped
-SMOOTH_STEPS = 1.0          # the displacements' smoothing over nodes (Gaussian sigma, steps)
-INVERSE_STEPS = 5           # fixed-point steps inverting the flow back to frame 0
+INVERSE_STEPS = 5           # fixed-point steps inverting the flow back to the template
+# the texture's motion beyond the shape's, smoothed over nodes (Gaussian sigma, steps)
+# and frames (a share of the cycle): the tissue's slide and twist are smooth, a node's
+# own flow error is strain to the fields (on the speckled zoo's tuning draws 500-507,
+# 48 frames: 1 step and no frames left the strain energy's median node error 1.2-2.7
+# times the shape's on the draws of faint texture, 3 steps and 2 % of the cycle
+# 0.7-1.6 times; 5 steps blurred the twist of the others)
+SMOOTH_STEPS = 3.0
+SMOOTH_CYCLE = 0.02
+# each component (along, around) of that motion kept where it makes the template match
+# frame t better than without it by this much correlation, judged over this window
+# (Gaussian sigma, steps and share of the cycle); elsewhere the node follows the shape
+SUPPORT_MARGIN = 0.01
+SUPPORT_STEPS = 4.0
+SUPPORT_CYCLE = 0.05
+# a node has fallen back where the motion it left out is over this (grid steps)
+FALLBACK_STEPS = 0.1
 # the forward-backward gap (median, grid steps) above which a run warns: over the accuracy
 # zoo's 49 labels-with-intensity draws the grid's drift from the tissue rose with it (log-log
 # correlation 0.97): at or under 0.15 steps (38 draws) at most 0.27 % of the length along
 # and 0.020 rad around, above it (11 draws) 0.23-1.9 % and 0.021-0.20 rad (docs/accuracy.md)
 GAP_WARN_STEPS = 0.15
+# the share of nodes and frames that fell back to the shape above which a run warns
+FALLBACK_WARN_SHARE = 0.25
 
 
 def normalised(image: np.ndarray) -> np.ndarray:
@@ -82,68 +103,196 @@ def _at(field: np.ndarray, points: np.ndarray) -> np.ndarray:
                                      mode="nearest") for k in range(field.shape[-1])], axis=-1)
 
 
-def _smoothed_displacements(coords: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-    """Pathlines ``(n_u, n_v, n_t, 2)`` whose displacements from their ``nodes (n_u,
-    n_v, 2)`` are smoothed over neighbouring nodes (:data:`SMOOTH_STEPS`, periodic
-    around): a node's own flow error is strain to the fields (on the textured phantom,
-    48 frames, the strain energy's median came out 10 % high without it, 6 % with it,
-    both before the flows started from the frame before's)."""
+def _warped(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
+    """``image (n_u, n_v)`` read at each pixel plus ``flow (n_u, n_v, 2)`` fine pixels
+    (around, along): linear, periodic around, held at the ends along. The image of
+    frame t seen in frame 0's pixels, for the flow from frame 0 to frame t."""
+    from scipy.ndimage import map_coordinates
+
+    n_u, n_v = image.shape
+    i, j = np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float),
+                       indexing="ij")
+    wrapped = np.concatenate([image, image[:1]], axis=0)
+    return map_coordinates(wrapped.astype(np.float32),
+                           [np.mod(i + flow[..., 0], n_u), j + flow[..., 1]],
+                           order=1, mode="nearest")
+
+
+def _dense(displacement: np.ndarray, shape: tuple, f: np.ndarray) -> np.ndarray:
+    """Node displacements ``(n_u, n_v, 2)`` grid steps as a dense flow ``shape + (2,)``
+    fine pixels (linear between nodes, periodic around)."""
+    i, j = np.meshgrid(np.arange(shape[0]) / f[0], np.arange(shape[1]) / f[1], indexing="ij")
+    return _at(displacement * f, np.stack([i, j], axis=-1))
+
+
+def _local_ncc(a: np.ndarray, b: np.ndarray, sigma: tuple) -> np.ndarray:
+    """The normalised cross-correlation of images ``a`` and ``b`` ``(n_u, n_v)`` in a
+    Gaussian window of ``sigma`` pixels (around, along) about each pixel, periodic
+    around: 1 where they match, about 0 where they do not."""
     from scipy import ndimage
 
-    moved = coords - nodes[:, :, None]
-    moved = ndimage.gaussian_filter(moved, (SMOOTH_STEPS, SMOOTH_STEPS, 0, 0),
-                                    mode=("wrap", "nearest", "nearest", "nearest"))
-    return nodes[:, :, None] + moved
+    mode = ("wrap", "nearest")
+
+    def mean(x):
+        return ndimage.gaussian_filter(x, sigma, mode=mode)
+
+    a = a - mean(a)
+    b = b - mean(b)
+    return mean(a * b) / np.sqrt(np.maximum(mean(a * a) * mean(b * b), 1e-12))
 
 
-def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int], n_u: int, n_v: int
-                      ) -> tuple[np.ndarray, dict]:
+def _nodes(n_u: int, n_v: int) -> np.ndarray:
+    """The grid's nodes ``(n_u, n_v, 2)`` in grid steps (around, along)."""
+    return np.stack(np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float),
+                                indexing="ij"), axis=-1)
+
+
+def _wrapped_steps(step: np.ndarray, n_u: int) -> np.ndarray:
+    """Differences of positions ``(..., 2)`` grid steps, around taken the short way."""
+    out = step.copy()
+    out[..., 0] = (out[..., 0] + n_u / 2) % n_u - n_u / 2
+    return out
+
+
+def _smoothed(field: np.ndarray, steps: float, cycle: float) -> np.ndarray:
+    """A field ``(n_u, n_v, n_t[, k])`` smoothed over nodes (``steps``, periodic around,
+    held at the ends along) and frames (``cycle`` of the cycle, periodic)."""
+    from scipy import ndimage
+
+    sigma = (steps, steps, cycle * field.shape[2]) + (0,) * (field.ndim - 3)
+    mode = ("wrap", "nearest", "wrap") + ("nearest",) * (field.ndim - 3)
+    return ndimage.gaussian_filter(field, sigma, mode=mode)
+
+
+def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int],
+                      shape_coords: np.ndarray) -> tuple[np.ndarray, dict]:
     """Pathlines ``(n_u, n_v, n_t, 2)`` grid steps (around, along) that carry each node
     of the analysis grid of frame 0 with the texture of ``pullbacks (n_u f_u, (n_v - 1)
     f_v + 1, n_t)`` (each frame's on its own grid refined by ``factors (f_u, f_v)``)
-    through the cycle.
+    through the cycle, beyond the shape's own pathlines ``shape_coords (n_u, n_v, n_t,
+    2)`` (:func:`~oftimg.analysis.tracking.track_grid`: the grid's turns from frame to
+    frame, which the texture must not be asked to find again).
 
-    Each frame is registered to frame 0 directly, not through the frames between, each
-    flow starting from the one found for the frame before (DIS's initial flow: the
-    deformation grows from frame to frame, and the pyramid then need not find it
-    afresh; on 195 frames the strain energy's median came out 12 % high without it,
-    right with it): the flow from frame 0 to frame t carries the nodes there, and the
-    flow from frame t back to frame 0, inverted at the nodes (a fixed point: q +
-    flow(q) = node), gives a second estimate; their mean, its displacements smoothed over neighbouring nodes
-    (:func:`_smoothed_displacements`), is the pathline. Chained frame to frame, the flows'
-    sub-pixel errors add up over the cycle (on the textured phantom, 48 frames: 0.12 %
-    of the length along and 0.016 rad around, against 0.07 % and 0.006 rad directly),
-    and the cycle closes by itself. Also returns the diagnostics: the gap between the
-    two estimates (grid steps, median and largest over nodes and frames: where it is
-    large, the texture did not match) and the share of nodes and frames whose tissue
-    lies within the grid along the tube (``in_view``)."""
-    n_t = pullbacks.shape[2]
+    1. Each frame registered to frame 0 directly, each flow starting from the one found
+       for the frame before (DIS's initial flow: the deformation grows from frame to
+       frame); 2. the template: every frame seen in frame 0's pixels along those flows
+       and averaged (the speckle, renewed from frame to frame, averages out over the
+       beat; on the speckled zoo's tuning draws the drift fell by 10-35 %); 3. each
+       frame registered to the template, starting from step 1's flow: each node carried
+       by the flow from the template, and by the flow back inverted at the nodes (a
+       fixed point: q + flow(q) = node), the mean of the two; registered to one
+       reference, the cycle closes by itself; 4. the motion beyond the shape's smoothed
+       (:data:`SMOOTH_STEPS`, :data:`SMOOTH_CYCLE`); 5. each of its components kept where
+       the texture supports it (:func:`_supported`), the shape's elsewhere.
+
+    Returns the pathlines and the diagnostics: ``forward_backward_gap_steps`` (the
+    gap between step 3's two estimates, median and largest: where it is large the
+    texture did not match), ``support`` ``(n_u, n_v, n_t)`` (each node's local
+    correlation of the template with frame t along its pathline: 1 a perfect match,
+    about 0 none), ``fallback`` ``(n_u, n_v, n_t)`` bool (the node follows the shape
+    along or around), its share ``fallback_share`` and by component, and ``in_view``
+    (the share of nodes and frames whose tissue lies within the grid along the tube)."""
+    n_u, n_v, n_t = shape_coords.shape[:3]
     f = np.array(factors, float)
-    images = [normalised(pullbacks[:, :, t]) for t in range(n_t)]
+    images = [normalised(pullbacks[:, :, t]).astype(np.float32) for t in range(n_t)]
     dis = dis_flow()
-    nodes = np.stack(np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float),
-                                 indexing="ij"), axis=-1) * f                # fine pixels
-    tracked = np.empty((n_t, n_u, n_v, 2))
-    tracked[0] = nodes
+    nodes = _nodes(n_u, n_v) * f                                          # fine pixels
+    flows = [np.zeros(images[0].shape + (2,), np.float32)]
+    ahead = None
+    for t in range(1, n_t):                              # 1. to frame 0 itself
+        ahead = flow_between(images[0].astype(np.uint8), images[t].astype(np.uint8), dis,
+                             ahead)
+        flows.append(ahead)
+    seen = [_warped(images[t], flows[t]) for t in range(n_t)]
+    total = np.sum(seen, axis=0)
+    references = [normalised((total - seen[t]) / max(n_t - 1, 1))   # 2. the beat's
+                  for t in range(n_t)]                             # template, frame t left out
+    del seen
+    tracked = np.empty((n_u, n_v, n_t, 2))
     gaps = []
-    ahead = back = None                       # each flow starts from the frame before's
-    for t in range(1, n_t):
-        ahead = flow_between(images[0], images[t], dis, ahead)
+    back = None
+    for t in range(n_t):                                 # 3. to the template
+        frame = images[t].astype(np.uint8)
+        ahead = flow_between(references[t], frame, dis, flows[t])
         there = nodes + _at(ahead, nodes)
-        back = flow_between(images[t], images[0], dis, back)
+        back = flow_between(frame, references[t], dis, back)
         inverse = there.copy()
-        for _ in range(INVERSE_STEPS):              # q + back(q) = node
+        for _ in range(INVERSE_STEPS):                   # q + back(q) = node
             inverse = nodes - _at(back, inverse)
-        tracked[t] = 0.5 * (there + inverse)
+        tracked[:, :, t] = 0.5 * (there + inverse) / f
         gaps.append(np.linalg.norm((there - inverse) / f, axis=-1))
-    coords = np.moveaxis(tracked, 0, 2) / f                                 # grid steps
-    coords = _smoothed_displacements(coords, nodes / f)
-    gap = np.array(gaps) if gaps else np.zeros(1)
+    beyond = _smoothed(_wrapped_steps(tracked - shape_coords, n_u),     # 4. smoothed
+                       SMOOTH_STEPS, SMOOTH_CYCLE)
+    keep, support = _supported(beyond, shape_coords, references, images, f)
+    coords = shape_coords + keep * beyond                # 5. where the texture says so
+    gap = np.array(gaps)
+    ignored = np.abs((1 - keep) * beyond) > FALLBACK_STEPS
+    fallback = ignored.any(axis=-1)
     in_view = (coords[..., 1] >= 0) & (coords[..., 1] <= n_v - 1)
     return coords, {"kind": "texture",
                     "forward_backward_gap_steps": {"median": float(np.median(gap)),
                                                    "max": float(gap.max())},
+                    "support": support.astype(np.float32), "fallback": fallback,
+                    "fallback_share": float(fallback.mean()),
+                    "fallback_share_along": float(ignored[..., 1].mean()),
+                    "fallback_share_around": float(ignored[..., 0].mean()),
                     "in_view": float(in_view.mean())}
+
+
+def _support(coords: np.ndarray, references: list, images: list, f: np.ndarray
+             ) -> np.ndarray:
+    """The texture's support ``(n_u, n_v, n_t)`` for pathlines ``coords (n_u, n_v, n_t,
+    2)`` grid steps: the local correlation (:func:`_local_ncc`, a grid step's Gaussian
+    window) of frame t's template (``references[t]``) with its image (``images[t]``)
+    seen along them."""
+    n_u, n_v, n_t, _ = coords.shape
+    nodes = _nodes(n_u, n_v)
+    out = np.empty((n_u, n_v, n_t))
+    for t in range(n_t):
+        template = references[t].astype(np.float32)
+        seen = _warped(images[t], _dense(coords[:, :, t] - nodes, template.shape, f))
+        out[:, :, t] = _at(_local_ncc(template, seen, tuple(f))[..., None], nodes * f)[..., 0]
+    return out
+
+
+def _supported(beyond: np.ndarray, shape: np.ndarray, references: list, images: list,
+               f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How much of the texture's motion ``beyond (n_u, n_v, n_t, 2)`` the shape's
+    pathlines ``shape`` each node keeps, around and along ``(n_u, n_v, n_t, 2)`` in
+    [0, 1], and the support of the kept pathlines ``(n_u, n_v, n_t)``.
+
+    The four candidates (both components, around alone, along alone, neither) are
+    scored by their support (:func:`_support`) averaged over :data:`SUPPORT_STEPS` and
+    :data:`SUPPORT_CYCLE`; a component is kept where its best candidate beats the best
+    without it by :data:`SUPPORT_MARGIN` (where they tie, the shape's: the texture's
+    sub-voxel guess adds noise, not tissue), the choice smoothed over the same window
+    (a hard edge would be strain)."""
+    scores = {keep: _smoothed(_support(shape + beyond * np.array(keep, float), references,
+                                       images, f), SUPPORT_STEPS, SUPPORT_CYCLE)
+              for keep in ((1, 1), (1, 0), (0, 1), (0, 0))}
+
+    def kept(k: int) -> np.ndarray:
+        with_it = np.maximum(*(v for c, v in scores.items() if c[k]))
+        without = np.maximum(*(v for c, v in scores.items() if not c[k]))
+        return _smoothed((with_it > without + SUPPORT_MARGIN).astype(float),
+                         SUPPORT_STEPS, SUPPORT_CYCLE)
+
+    keep = np.stack([kept(0), kept(1)], axis=-1)
+    support = _support(shape + keep * beyond, references, images, f)
+    return keep, support
+
+
+def fallback_note(share: float) -> str | None:
+    """A warning when more than :data:`FALLBACK_WARN_SHARE` of the nodes and frames
+    fell back to the shape (the texture did not support its own motion there); else
+    None."""
+    if not share > FALLBACK_WARN_SHARE:
+        return None
+    return (f"{100 * share:.0f} % of the nodes and frames follow the shape alone along or "
+            "around the tube: there the texture did not match better with its own motion "
+            "than without it (faint texture under speckle, or texture finer than the "
+            "voxels); texture_fallback in arrays.npz shows where, pullback_outer.png the "
+            "texture")
 
 
 def texture_match_note(gap_median_steps: float) -> str | None:

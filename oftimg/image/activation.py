@@ -10,6 +10,8 @@ every frame at once, so it is sub-frame and robust to a node's frame-to-frame no
 """
 from __future__ import annotations
 
+import warnings
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -242,9 +244,12 @@ def auto_smoothing(time_ms: np.ndarray, period_ms: float, use: np.ndarray, *,
     measured."""
     if use.sum() < 10:
         return float(ladder[0])
-    scatter = np.nanmedian(time_gradient(time_ms, period_ms, 1.0, use)[2])
-    length = {sigma: np.nanmedian(np.hypot(*time_gradient(time_ms, period_ms, sigma, use)[:2]))
-              for sigma in ladder}
+    with warnings.catch_warnings():     # no plane fits anywhere (a still tube): NaN, below
+        warnings.simplefilter("ignore", RuntimeWarning)
+        scatter = np.nanmedian(time_gradient(time_ms, period_ms, 1.0, use)[2])
+        length = {sigma: np.nanmedian(np.hypot(*time_gradient(time_ms, period_ms, sigma,
+                                                              use)[:2]))
+                  for sigma in ladder}
     gradient = length[ladder[-1]]
     if not (np.isfinite(scatter) and np.isfinite(gradient) and gradient > 0):
         return float(ladder[0])

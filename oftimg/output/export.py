@@ -468,6 +468,14 @@ def describe_array(name: str, *, map_positions: str = "rows") -> dict:
                          "where each tracked node's tissue lies in each frame's own grid "
                          "(around from the seam, along from the inlet; around not wrapped): "
                          "the tracked fields are each frame's read there"),
+        "texture_support": (["u", "v", "t"], "1",
+                            "texture tracking: the local correlation of the beat's template "
+                            "with each frame's texture along the node's pathline (1 a "
+                            "perfect match, about 0 none): the node's confidence"),
+        "texture_fallback": (["u", "v", "t"], "bool",
+                             "texture tracking: the node follows the shape alone along or "
+                             "around the tube in that frame (the texture did not match "
+                             "better with its own motion than without it)"),
         "grid_in_view": (["u", "v", "t"], "bool",
                          "texture tracking: the node's tissue lies within the imaged part of "
                          "the tube in that frame (outside it, and one node beside it along "

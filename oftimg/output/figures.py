@@ -5,6 +5,8 @@ house style (:mod:`oftimg.output.style`): a PNG at that path, a PDF and an SVG b
 """
 from __future__ import annotations
 
+import warnings
+
 from pathlib import Path
 
 import matplotlib
@@ -215,7 +217,9 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
     if pullbacks:
         written.append(attempt(failed, pullback_figure, pullbacks["pullback_outer_mean"],
                                arrays.get("pathlines_uv"), t_ms, folder / "pullback_outer.png",
-                               title=f"{name}: the myocardium's intensity on the grid"))
+                               title=f"{name}: the myocardium's intensity on the grid",
+                               support=arrays.get("texture_support"),
+                               fallback=arrays.get("texture_fallback")))
     if "lumen_aspect_ratio" in arrays:
         share = summary.get("cushions", {}).get("closed_share_max", 0.0)
         how = (f"closed up to {100 * share:.0f} % of the cycle" if share else
@@ -728,13 +732,17 @@ PATHLINE_EVERY = (10, 7)     # the nodes (around, along) whose pathlines the fig
 
 @house_style
 def pullback_figure(pullback: np.ndarray, pathlines: np.ndarray | None, t_ms: np.ndarray,
-                    path: Path, *, title: str = "") -> Path:
+                    path: Path, *, title: str = "", support: np.ndarray | None = None,
+                    fallback: np.ndarray | None = None) -> Path:
     """The myocardium's intensity ``(u_fine, v_fine, n_t)`` at t = 0 and at the frame
     where the tracked nodes lie farthest from where they started, each on its own
     grid (grey, 1st-99th percentile); with the tracking's ``pathlines (n_u, n_v, n_t,
     2)`` (grid steps), every :data:`PATHLINE_EVERY` node's path through the cycle drawn
     on the first, its place in that frame marked on the second: where the tissue went
-    in the grid's (u, v)."""
+    in the grid's (u, v). With texture tracking's ``support`` and ``fallback`` ``(n_u,
+    n_v, n_t)``, a third panel: each node's support over the cycle (median) and the
+    nodes that followed the shape alone in at least a quarter of the frames outlined:
+    where to trust the grid."""
     lo, hi = np.nanpercentile(pullback, [1, 99])
     n_u, n_v = (pathlines.shape[:2] if pathlines is not None else (1, 2))
     if pathlines is not None:
@@ -742,7 +750,10 @@ def pullback_figure(pullback: np.ndarray, pathlines: np.ndarray | None, t_ms: np
         t_far = int(np.argmax(np.median(moved, axis=(0, 1))))
     else:
         t_far = pullback.shape[2] // 2
-    fig, axes = new_figure(PAGE_MM, 80, ncols=2, sharey=True)
+    confidence = support is not None and fallback is not None
+    fig, axes = new_figure(PAGE_MM, 80, ncols=3 if confidence else 2, sharey=True)
+    if confidence:
+        axes, trust_ax = axes[:2], axes[2]
     notes = (("nodes' paths over the cycle", "the same nodes")
              if pathlines is not None else ("", ""))
     for ax, t, note in zip(axes, (0, t_far), notes):
@@ -765,6 +776,22 @@ def pullback_figure(pullback: np.ndarray, pathlines: np.ndarray | None, t_ms: np
         ax.set_xlim(0, 1)
         ax.set_ylim(0, 1)
     colour_bar(fig, image, list(axes), "intensity, mean across the wall")
+    if confidence:
+        with warnings.catch_warnings():         # nodes out of view in every frame
+            warnings.simplefilter("ignore", RuntimeWarning)
+            typical = np.nanmedian(support, axis=2)
+        trust = trust_ax.imshow(typical.T, origin="lower", aspect="auto", cmap="viridis",
+                                vmin=0, vmax=1, extent=[0, 1, 0, 1], interpolation="nearest")
+        shape_led = fallback.mean(axis=2) >= 0.25
+        if shape_led.any() and not shape_led.all():
+            u = (np.arange(shape_led.shape[0]) + 0.5) / shape_led.shape[0]
+            v = np.linspace(0, 1, shape_led.shape[1])
+            trust_ax.contour(u, v, shape_led.T.astype(float), levels=[0.5], colors="white",
+                             linewidths=0.8)
+        trust_ax.set_xlabel("u, around the tube from the seam")
+        trust_ax.set_title(f"texture's support; outlined: shape alone "
+                           f"({100 * fallback.mean():.0f} % of nodes and frames)")
+        colour_bar(fig, trust, [trust_ax], "correlation with the beat's template")
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
     return save(fig, path)
 

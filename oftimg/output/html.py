@@ -432,7 +432,9 @@ def dataset_page(folder: Path, summary: dict) -> Path:
               {"check": "tracking: how well the frames registered (material: consecutive "
                         "rings, and the closure miss over one cycle before it was spread; "
                         "texture: the gap between the flows' two estimates in grid steps, "
-                        "and the share of nodes whose tissue stayed in view)",
+                        "the share of nodes whose tissue stayed in view, the texture's "
+                        "median support (correlation, 0 to 1) and the share of nodes and "
+                        "frames that followed the shape alone, along or around)",
                "value": {k: v for k, v in (summary.get("tracking") or {}).items()
                          if k != "grid"} or None},
               {"check": "section planes still crossing (0)",

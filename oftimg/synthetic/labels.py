@@ -275,11 +275,15 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
     else:
         (out / "labels").mkdir(parents=True, exist_ok=True)
     if intensity:
-        from .texture import TextureParams, TissueTexture, intensity_volume
+        from .texture import (SPECKLE_VOXELS, TextureParams, TissueSpeckle, TissueTexture,
+                              intensity_volume)
 
         texture = TissueTexture(ph, np.random.default_rng([params.seed, 59]),
                                 texture or TextureParams())
         speckle_rng = np.random.default_rng([params.seed, 61])
+        borne = texture.params.speckle_decorrelation_um
+        speckle = (TissueSpeckle(ph, np.random.default_rng([params.seed, 63]),
+                                 SPECKLE_VOXELS * min(voxel), borne) if borne > 0 else None)
         (out / "intensity").mkdir(parents=True, exist_ok=True)
     for k, t in enumerate(ph.frame_times_ms()):
         frame = f"f{k:0{width}d}.tif"
@@ -293,7 +297,8 @@ def write_label_phantom(out: str | Path, params: PhantomParams, voxel_size_um,
             tifffile.imwrite(out / "labels" / frame, labels, compression="zlib")
         if intensity:
             tifffile.imwrite(out / "intensity" / frame,
-                             intensity_volume(grid, texture, t, speckle_rng), compression="zlib")
+                             intensity_volume(grid, texture, t, speckle_rng, speckle),
+                             compression="zlib")
         if progress is not None:
             progress(k + 1)
     inlet_um = (ph.frame_axes(0.0)[0] @ grid.turn + grid.shift) * 1e3

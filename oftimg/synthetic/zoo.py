@@ -64,6 +64,13 @@ RANGES = {
     "cushion_aspect_expanded": (0.5, 0.95), "cushion_aspect_contracted": (-0.6, 0.2),
     "cushion_aspect_contracted_meshes": (0.15, 0.4), "cushion_stretch": (0.2, 0.5),
     "cushion_taper_mm": (0.05, 0.15),
+    # with speckled=True (labels + intensity): the instrument's look and the tissue's
+    # motion widened: fully developed speckle carried by the tissue and renewed as it
+    # moves (over a step of this many voxels), texture grain from under a voxel to coarse
+    # (Gaussian sigma in voxels), slide and twist larger
+    "speckled_speckle": (0.15, 1.0), "speckled_decorrelation_voxels": (0.5, 4.0),
+    "speckled_grain_voxels": (0.4, 3.0), "speckled_contrast": (0.15, 0.5),
+    "speckled_slide": (0.0, 0.2), "speckled_twist_deg": (0.0, 40.0),
 }
 BANDED_SHARE = 0.3          # of the draws: a band
 SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
@@ -137,7 +144,7 @@ def _uniform(rng, name: str) -> float:
 def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = None,
                   voxel_um_min: float | None = None, fronts: bool = False,
                   oblique: bool | None = None, features: bool = False,
-                  cushions: bool = False) -> Scenario:
+                  cushions: bool = False, speckled: bool = False) -> Scenario:
     """The scenario of ``seed`` (the same seed, the same draw): ``kind`` drawn from
     :data:`KINDS` unless given, every number from :data:`RANGES`. ``n_frames`` and
     ``voxel_um_min`` (the finest voxel side drawn) override the draw, for quick runs:
@@ -150,7 +157,9 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     the section's corners drawn sharper or as concave notches and 3-6 of them, and the
     meshes 40-200 vertices round the tube (:func:`feature_params`); the rest the same.
     ``cushions``: the lumen elliptical, falling towards a slit and in label kinds often
-    closing over a stretch of the tube for part of the beat (:func:`cushion_params`)."""
+    closing over a stretch of the tube for part of the beat (:func:`cushion_params`).
+    ``speckled``: labels with intensity as the instrument images them, the tissue's
+    slide and twist larger (:func:`speckled_params`); the rest the same."""
     rng = np.random.default_rng([seed, 72])
     drawn_kind = KINDS[int(rng.integers(len(KINDS)))]
     kind = drawn_kind if kind is None else kind
@@ -226,6 +235,10 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     if oblique is not None:
         end_inside, end_voxels, drawn_oblique = None, 0, oblique
     oblique = angle if drawn_oblique and not end_inside else 0.0
+    if speckled:
+        motion, texture = speckled_params(seed, side)
+        params = replace(params, **motion)
+        animation["twist_deg"] = float(params.twist_deg * np.sign(animation["twist_deg"]))
     if kind == "meshes":
         return Scenario(seed, kind, params)
     if kind == "real":
@@ -248,6 +261,25 @@ def feature_params(seed: int, params: PhantomParams) -> dict:
     return {"corners": int(rng.integers(low, high + 1)),
             "corner_sharpness": _uniform(rng, "corner_sharpness"),
             "vertices_min": vertices, "vertices_max": vertices}
+
+
+def speckled_params(seed: int, voxel_side_um: float) -> tuple[dict, TextureParams]:
+    """A speckled draw's motion (``stretch``, ``twist_deg``: the phantom's) and look (a
+    stream of its own: the rest of the draw stays as it was), from :data:`RANGES`
+    ``speckled_*``: a fully developed speckle carried by the tissue and renewed as it
+    moves, the texture's grain in voxels of ``voxel_side_um``."""
+    rng = np.random.default_rng([seed, 72, 6])
+    motion = {"stretch": _uniform(rng, "speckled_slide"),
+              "twist_deg": _uniform(rng, "speckled_twist_deg")}
+    texture = TextureParams(
+        blob_um=_uniform(rng, "speckled_grain_voxels") * voxel_side_um,
+        contrast=_uniform(rng, "speckled_contrast"),
+        depth_sigma=_uniform(rng, "depth_sigma"),
+        speckle=_uniform(rng, "speckled_speckle"),
+        attenuation_mm=_uniform(rng, "attenuation_mm"),
+        speckle_decorrelation_um=_uniform(rng, "speckled_decorrelation_voxels")
+        * voxel_side_um)
+    return motion, texture
 
 
 def cushion_params(seed: int, params: PhantomParams, kind: str) -> dict:

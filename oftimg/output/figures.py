@@ -754,12 +754,13 @@ def pullback_figure(pullback: np.ndarray, pathlines: np.ndarray | None, t_ms: np
     fig, axes = new_figure(PAGE_MM, 80, ncols=3 if confidence else 2, sharey=True)
     if confidence:
         axes, trust_ax = axes[:2], axes[2]
-    notes = (("nodes' paths over the cycle", "the same nodes")
+    notes = (("paths over the cycle", "the same nodes")
              if pathlines is not None else ("", ""))
     for ax, t, note in zip(axes, (0, t_far), notes):
         image = ax.imshow(pullback[:, :, t].T, origin="lower", aspect="auto", cmap="gray",
                           extent=[0, 1, 0, 1], vmin=lo, vmax=hi, interpolation="nearest")
-        ax.set_xlabel("u, around the tube from the seam")
+        if not confidence or ax is axes[1]:
+            ax.set_xlabel("u, around the tube from the seam")
         ax.set_title(f"t = {t_ms[t]:.0f} ms" + (f": {note}" if note else ""))
     axes[0].set_ylabel("v, along the tube (inlet 0)")
     if pathlines is not None:
@@ -780,7 +781,9 @@ def pullback_figure(pullback: np.ndarray, pathlines: np.ndarray | None, t_ms: np
         with warnings.catch_warnings():         # nodes out of view in every frame
             warnings.simplefilter("ignore", RuntimeWarning)
             typical = np.nanmedian(support, axis=2)
-        trust = trust_ax.imshow(typical.T, origin="lower", aspect="auto", cmap="viridis",
+        viridis = plt.get_cmap("viridis").copy()
+        viridis.set_bad("0.8")                  # grey: the tissue left the grid
+        trust = trust_ax.imshow(typical.T, origin="lower", aspect="auto", cmap=viridis,
                                 vmin=0, vmax=1, extent=[0, 1, 0, 1], interpolation="nearest")
         shape_led = fallback.mean(axis=2) >= 0.25
         if shape_led.any() and not shape_led.all():
@@ -788,10 +791,10 @@ def pullback_figure(pullback: np.ndarray, pathlines: np.ndarray | None, t_ms: np
             v = np.linspace(0, 1, shape_led.shape[1])
             trust_ax.contour(u, v, shape_led.T.astype(float), levels=[0.5], colors="white",
                              linewidths=0.8)
-        trust_ax.set_xlabel("u, around the tube from the seam")
-        trust_ax.set_title(f"texture's support; outlined: shape alone "
-                           f"({100 * fallback.mean():.0f} % of nodes and frames)")
-        colour_bar(fig, trust, [trust_ax], "correlation with the beat's template")
+        trust_ax.set_title("support; outlined: shape alone")
+        colour_bar(fig, trust, [trust_ax], "texture's correlation with the beat's template")
+        title = (f"{title} (texture's support: median over the cycle; shape alone at "
+                 f"{100 * fallback.mean():.0f} % of nodes and frames)")
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
     return save(fig, path)
 

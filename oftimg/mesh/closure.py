@@ -22,16 +22,17 @@ MAX_PIECES = 6
 
 
 def lumen_pieces(mask: np.ndarray) -> tuple[np.ndarray, int]:
-    """The pieces of a lumen's boolean ``mask (z, y, x)`` (26-connected), specks under
-    :data:`PIECE_MIN_SHARE` of the largest dropped: ``(labels (z, y, x) int32, count)``,
-    pieces numbered 1..count from the largest."""
+    """The pieces of a lumen's boolean ``mask (z, y, x)`` (6-connected: voxels that
+    touch only at an edge or a corner are apart to marching cubes, whose surface parts
+    there), specks under :data:`PIECE_MIN_SHARE` of the largest dropped: ``(labels (z,
+    y, x) int32, count)``, pieces numbered 1..count from the largest."""
     from scipy import ndimage
 
     out = np.zeros(mask.shape, np.int32)
     box = _box(mask)
     if box is None:
         return out, 0
-    labels, n = ndimage.label(mask[box], structure=np.ones((3, 3, 3), bool))
+    labels, n = ndimage.label(mask[box])
     sizes = np.bincount(labels.ravel())[1:]
     keep = np.flatnonzero(sizes >= PIECE_MIN_SHARE * sizes.max())
     keep = keep[np.argsort(-sizes[keep], kind="stable")]
@@ -163,7 +164,8 @@ def centred_path(start: np.ndarray, end: np.ndarray, inner: np.ndarray,
 
 
 def bridged_lumen(lumen: np.ndarray, inner: np.ndarray, voxel_size_xyz, *,
-                  ends: list[np.ndarray] | None = None
+                  ends: list[np.ndarray] | None = None,
+                  radius_voxels: float = BRIDGE_RADIUS_VOXELS
                   ) -> tuple[np.ndarray, np.ndarray] | None:
     """A lumen's boolean mask ``(z, y, x)`` in pieces joined into one tube, with the
     bridge's voxels: ``(mask, bridge)``; None when the lumen is not in pieces (and, with
@@ -171,8 +173,9 @@ def bridged_lumen(lumen: np.ndarray, inner: np.ndarray, voxel_size_xyz, *,
 
     Pieces are joined nearest first (each time the two groups with the closest
     surface voxels, in um), by :func:`centred_path` thickened to
-    :data:`BRIDGE_RADIUS_VOXELS` and kept inside the ``inner`` mask (the inner wall's,
-    which holds the lumen). With ``ends`` (:func:`tube_ends`), an end the lumen does
+    ``radius_voxels`` (at least the level set's sampling step, or the bridge falls
+    between its samples) and kept inside the ``inner`` mask (the inner wall's, which
+    holds the lumen; its middle line kept 6-connected where that mask pinches it). With ``ends`` (:func:`tube_ends`), an end the lumen does
     not reach (closed up to the volume's face or the cutting plane) is bridged to as
     well, from the lumen's nearest voxel to the end's middle voxel.
     """
@@ -210,11 +213,15 @@ def bridged_lumen(lumen: np.ndarray, inner: np.ndarray, voxel_size_xyz, *,
         middle = end[np.argmin(np.linalg.norm((end - end.mean(axis=0)) * zyx, axis=1))]
         start = every[tree.query(middle * zyx)[1]]
         path[tuple(centred_path(start, middle, inner, zyx).T)] = True
-    radius = BRIDGE_RADIUS_VOXELS
+    radius = radius_voxels
     reach = np.ceil(radius).astype(int)
     offsets = np.stack(np.meshgrid(*[np.arange(-reach, reach + 1)] * 3, indexing="ij"), -1)
     ball = (offsets ** 2).sum(-1) <= radius ** 2
-    bridge = ndimage.binary_dilation(path, structure=ball) & inner & ~(labels > 0)
+    # the bridge inside the inner wall's mask, and its middle line made 6-connected
+    # wherever that mask pinches it (beside a slit): a bridge that met a piece only at
+    # a voxel's edge would leave marching cubes two surfaces
+    core = ndimage.binary_dilation(path, structure=ndimage.generate_binary_structure(3, 1))
+    bridge = ((ndimage.binary_dilation(path, structure=ball) & inner) | core) & ~(labels > 0)
     return (labels > 0) | bridge, bridge
 
 

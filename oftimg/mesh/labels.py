@@ -387,11 +387,15 @@ def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
     bridged mask can be meshed as a tube."""
     from scipy import ndimage
 
-    from .closure import bridged_lumen, tube_ends
+    from .closure import BRIDGE_RADIUS_VOXELS, bridged_lumen, tube_ends
 
     tube = tube_ends(inner, voxel_size_xyz, ends) if to_ends else None
 
     inside = mask if mask.dtype == bool else mask > LEVEL
+    # the bridge as thick as the level set's sampling: thinner, it falls between samples
+    radius = max(BRIDGE_RADIUS_VOXELS, sample_step(inside, voxel_size_xyz,
+                                                   options.target_vertices)
+                 / min(voxel_size_xyz))
     joined = {}                     # opening radius -> (opened mask, bridge), or None
     blurs = [options] + [replace(options, smoothing=WIDER_BLUR)] * (
         options.smoothing < WIDER_BLUR)
@@ -400,7 +404,8 @@ def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
             if radius not in joined:
                 opened = inside if radius == 0 else ndimage.binary_opening(
                     inside, _ball_um(radius * min(voxel_size_xyz), voxel_size_xyz))
-                bridged = bridged_lumen(opened, inner, voxel_size_xyz, ends=tube)
+                bridged = bridged_lumen(opened, inner, voxel_size_xyz, ends=tube,
+                                        radius_voxels=radius)
                 joined[radius] = None if bridged is None else (opened, bridged[1])
             if joined[radius] is not None:
                 mesh = _bridged_mesh(mask, inside, *joined[radius], voxel_size_xyz, blur,

@@ -153,6 +153,27 @@ def test_a_bridged_lumen_is_meshed_as_one_tube_whose_bridge_is_flagged():
     assert mesh.closure["pieces"] == 2
 
 
+def test_pieces_meeting_at_a_corner_are_two_and_their_bridge_survives_the_sampling():
+    """Zoo cushion draw 417: a lumen whose pieces meet only at a voxel's corner is one
+    piece to a 26-connected count but two surfaces to marching cubes; counted
+    6-connected it is bridged, and the bridge, as thick as the level set's sampling
+    (here 2-3 voxels), is meshed as one tube."""
+    from oftimg.mesh.closure import lumen_pieces
+    from oftimg.mesh.labels import MeshOptions, closed_lumen_mesh
+    from oftimg.mesh.topology import boundary_loops
+
+    lumen, inner = _tube_masks(gap=(20, 21))
+    lumen[20] = False
+    lumen[20, 21, 21] = True                    # a corner's contact with z = 19's (20, 20)
+    lumen[19] = False
+    lumen[19, 14:27, 14:27] = _tube_masks()[0][0, 14:27, 14:27]
+    lumen[19, 21, 21] = lumen[19, 21, 20] = lumen[19, 20, 21] = False
+    assert lumen_pieces(lumen)[1] == 2
+    mesh = closed_lumen_mesh(lumen, inner, (4.0, 4.0, 4.0), MeshOptions(target_vertices=2000),
+                             None)
+    assert mesh is not None and len(boundary_loops(mesh.F)) == 2 and mesh.closed.any()
+
+
 def _bent_tube(shape=(40, 120, 120), bend_voxels=60.0, radius=8.0):
     """Boolean masks (z, y, x) of a tube bent round a circle of ``bend_voxels`` (a
     quarter of it, from the face y = 0 to the face x = 0 ... as the phantom's): the

@@ -26,10 +26,6 @@ WRAP_PAD = 24               # fine pixels of the image repeated beyond u's ends 
 NORMALISE_PX = 6.0          # the local mean and contrast taken out: Gaussian sigma, pixels
 CLIP_SD = 3.0               # normalised intensities beyond this many local SDs clipped
 INVERSE_STEPS = 5           # fixed-point steps inverting the flow back to the template
-# the template built this many times, each frame registered to the last before the next
-# (on the speckled zoo's tuning draws the second took the drift a further 0-12 % down,
-# a third 0-9 % more for a third more time)
-TEMPLATE_PASSES = 2
 # the texture's motion beyond the shape's, smoothed over nodes (Gaussian sigma, steps)
 # and frames (a share of the cycle): the tissue's slide and twist are smooth, a node's
 # own flow error is strain to the fields (on the speckled zoo's tuning draws 500-507,
@@ -191,8 +187,7 @@ def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int],
        for the frame before (DIS's initial flow: the deformation grows from frame to
        frame); 2. the template: every frame seen in frame 0's pixels along those flows
        and averaged (the speckle, renewed from frame to frame, averages out over the
-       beat; on the speckled zoo's tuning draws the drift fell by 10-35 %), each frame
-       registered to it and the template built again (:data:`TEMPLATE_PASSES`); 3. each
+       beat; on the speckled zoo's tuning draws the drift fell by 10-35 %); 3. each
        frame registered to the template, starting from step 1's flow: each node carried
        by the flow from the template, and by the flow back inverted at the nodes (a
        fixed point: q + flow(q) = node), the mean of the two; registered to one
@@ -218,11 +213,11 @@ def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int],
         ahead = flow_between(images[0].astype(np.uint8), images[t].astype(np.uint8), dis,
                              ahead)
         flows.append(ahead)
-    for rebuilt in range(TEMPLATE_PASSES):               # 2. the beat's template
-        references = _templates(images, flows)
-        if rebuilt < TEMPLATE_PASSES - 1:                # each frame to it, and again
-            flows = [flow_between(references[t], images[t].astype(np.uint8), dis, flows[t])
-                     for t in range(n_t)]
+    seen = [_warped(images[t], flows[t]) for t in range(n_t)]
+    total = np.sum(seen, axis=0)
+    references = [normalised((total - seen[t]) / max(n_t - 1, 1))   # 2. the beat's
+                  for t in range(n_t)]                             # template, frame t left out
+    del seen
     tracked = np.empty((n_u, n_v, n_t, 2))
     gaps = []
     back = None
@@ -252,15 +247,6 @@ def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int],
                     "fallback_share_along": float(ignored[..., 1].mean()),
                     "fallback_share_around": float(ignored[..., 0].mean()),
                     "in_view": float(in_view.mean())}
-
-
-def _templates(images: list, flows: list) -> list:
-    """Each frame's template (8-bit, :func:`normalised`): every other frame of ``images``
-    seen in the reference's pixels along its flow of ``flows`` (the reference to it),
-    averaged. Frame t is left out of its own: its speckle would pull its flow to it."""
-    seen = [_warped(image, flow) for image, flow in zip(images, flows)]
-    total = np.sum(seen, axis=0)
-    return [normalised((total - one) / max(len(seen) - 1, 1)) for one in seen]
 
 
 def _support(coords: np.ndarray, references: list, images: list, f: np.ndarray

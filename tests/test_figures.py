@@ -421,3 +421,24 @@ def test_a_field_against_t0_is_not_drawn_at_t0(monkeypatch, tmp_path):
                        against_t0=True)
     titles = [ax.get_title() for ax in drawn["fig"].axes[:2]]
     assert titles == ["half-way to maximum expansion (frame 4)", "maximum expansion (frame 8)"]
+
+
+def test_isochrones_are_whole_fronts_round_the_seam_without_fragments():
+    """The activation figure's isochrones (issue 87): a front across the tube is one
+    line over the whole turn (periodic: not cut or doubled at the seam), a speck of
+    scattered times (a band's edge) draws no fragment, and v is a share of the length."""
+    n_u, n_v = 80, 50
+    u = np.arange(n_u)[:, None] / n_u
+    v = np.arange(n_v)[None, :] / (n_v - 1)
+    times = 100.0 * v + 0 * u
+    times[40:43, 24:27] += 9.0                     # a speck: a closed loop 3 nodes across
+    lines = figures.isochrones(times, 10.0)
+    levels = [round(float(np.interp(line[:, 1].mean(), [0, 1], [0, 100]))) for line in lines]
+    assert sorted(levels) == list(range(10, 91, 10))          # one line a level, no speck
+    for line in lines:
+        assert line[:, 0].min() < 0.02 and line[:, 0].max() > 0.97    # the whole turn
+        assert np.all((line[:, 0] >= 0) & (line[:, 0] <= 1))
+    helix = np.mod(360.0 * u + 60.0 * v, 360.0)            # fronts winding round the tube
+    from oftimg.output.figures import _isochrone_field
+    pieces = figures.isochrones(_isochrone_field(helix, 360.0), 30.0)
+    assert len(pieces) >= 12 and all(np.ptp(p[:, 1]) > 0.49 for p in pieces)   # cut at the seam only

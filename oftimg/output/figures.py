@@ -19,7 +19,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 from ..analysis.group_maps import groups_in_order  # noqa: E402
 from . import numbers, units  # noqa: E402
 from .style import (COLUMN_MM, CYCLIC, DIVERGING, LINE_COLOURS, MM, PAGE_MM,  # noqa: E402
-                    SEQUENTIAL, colour_bar, house_style, new_figure, nothing_to_show, save,
+                    SEQUENTIAL, bar_label, colour_bar, house_style, new_figure, nothing_to_show, save,
                     wrapped)
 
 # Okabe-Ito colours (style.LINE_COLOURS), one per wall and layer
@@ -213,7 +213,14 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
                 failed, activation_figure, arrays[f"activation_time_{wall}_ms"],
                 arrays[f"wave_velocity_{wall}_mm_s"], grids[wall].mean(axis=2),
                 summary["period_ms"], folder / f"activation_{wall}.png",
+                s_mm=arrays["s_mm"],
                 title=f"{name}: the wave's fronts on the {wall} wall ({how})"))
+            if found["propagates"]:
+                written.append(attempt(
+                    failed, wave_speed_figure, arrays[f"wave_velocity_{wall}_mm_s"],
+                    arrays["s_mm"], folder / f"wave_speed_{wall}.png",
+                    title=f"{name}: the wave's speed on the {wall} wall (median "
+                          f"{found['speed_mm_s']:.1f} mm/s)"))
     if pullbacks:
         written.append(attempt(failed, pullback_figure, pullbacks["pullback_outer_mean"],
                                arrays.get("pathlines_uv"), t_ms, folder / "pullback_outer.png",
@@ -299,52 +306,61 @@ def _nice_step(span: float, count: int = 8) -> float:
 
 @house_style
 def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: np.ndarray,
-                      period_ms: float, path: Path, *, title: str = "") -> Path:
-    """One wall's activation: left the (u, v) plane (u across from the seam, v up from
-    the inlet) coloured by the activation time ``(n_u, n_v)`` (:func:`_time_colours`),
-    its isochrones at a round step (about 8 over the times' span) and arrows along the
+                      period_ms: float, path: Path, *, s_mm: np.ndarray | None = None,
+                      title: str = "") -> Path:
+    """One wall's activation: left the (u, s) plane (u across from the seam, s up from
+    the inlet in mm, ``s_mm (n_v,)``; v as a share of the length without it) coloured
+    by the activation time ``(n_u, n_v)`` (:func:`_time_colours`), its isochrones at a
+    round step (about 8 over the times' span; :func:`isochrones`) and arrows along the
     wave's direction on the wall (``velocity_mm_s`` ``(n_u, n_v, 2)``, along and
     around, each arrow the same length); right the wall's mean shape ``grid_mm``
-    ``(n_u, n_v, 3)`` in 3-D, coloured the same, the isochrones drawn on it. Nodes
-    without a velocity (moving too little to time the wave) are grey."""
+    ``(n_u, n_v, 3)`` in 3-D, coloured the same, the isochrones drawn on it, its inlet
+    and outlet named and a scale bar. Nodes without a velocity (moving too little to
+    time the wave) are grey."""
     n_u, n_v = time_ms.shape
     timed = np.isfinite(velocity_mm_s[..., 0])
     time_ms = np.where(timed, time_ms, np.nan)
     shown, scale, label = _time_colours(time_ms, period_ms)
     cyclic = scale["cmap"] == CYCLIC
     scale["cmap"] = plt.get_cmap(scale["cmap"]).with_extremes(bad=BLANK_GREY)
+    along_tube = (np.asarray(s_mm, float) if s_mm is not None
+                  else np.arange(n_v) / (n_v - 1))
     fig = plt.figure(figsize=(PAGE_MM * MM, 80 * MM))
     ax = fig.add_axes((0.08, 0.16, 0.4, 0.68))
-    extent = [-0.5 / n_u, 1 - 0.5 / n_u, -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)]
+    half = 0.5 * (along_tube[1] - along_tube[0])
+    extent = [-0.5 / n_u, 1 - 0.5 / n_u, along_tube[0] - half, along_tube[-1] + half]
     image = ax.imshow(shown.T, origin="lower", aspect="auto", extent=extent,
                       interpolation="nearest", **scale)
     u = np.arange(n_u) / n_u
-    v = np.arange(n_v) / (n_v - 1)
-    segments, step = [], None
+    lines, step = [], None
     if timed.sum() > 3:
         iso = _isochrone_field(time_ms, period_ms)
         step = _nice_step(np.nanpercentile(iso, 99) - np.nanpercentile(iso, 1))
-        levels = np.arange(np.floor(np.nanmin(iso) / step),
-                           np.ceil(np.nanmax(iso) / step) + 1) * step
-        segments = ax.contour(u, v, iso.T, levels=levels, colors="k", linewidths=0.5,
-                              linestyles="solid").allsegs
+        lines = isochrones(iso, step)
+        for line in lines:                      # (u, v) in [0, 1): v to the plot's axis
+            ax.plot(line[:, 0], np.interp(line[:, 1] * (n_v - 1), np.arange(n_v),
+                                          along_tube), color="k", lw=0.5)
     along, around = velocity_mm_s[..., 0], velocity_mm_s[..., 1]
     norm = np.hypot(along, around)
     with np.errstate(invalid="ignore", divide="ignore"):
         du, dv = around / norm, along / norm
     k, j = ARROW_EVERY
-    U, V = np.meshgrid(u[::k], v[::j], indexing="ij")
-    ax.quiver(U, V, du[::k, ::j], dv[::k, ::j], color="w", scale=28, width=0.004,
-              headwidth=4, pivot="mid")
+    picked = (slice(k // 2, None, k), slice(j // 2, None, j))   # off the panel's edges
+    U, V = np.meshgrid(u[picked[0]], along_tube[picked[1]], indexing="ij")
+    drawn = np.isfinite(du[picked]) & np.isfinite(dv[picked])     # none where too still
+    if drawn.any():
+        ax.quiver(U[drawn], V[drawn], du[picked][drawn], dv[picked][drawn], color="w",
+                  scale=28, width=0.004, headwidth=4, pivot="mid")
     ax.set_xlim(extent[:2])
     ax.set_ylim(extent[2:])
     ax.set_xlabel("u, around the tube from the seam")
-    ax.set_ylabel("v, along the tube (inlet 0)")
+    ax.set_ylabel("distance along the tube from the inlet (mm)" if s_mm is not None
+                  else "v, along the tube (inlet 0)")
     ax.set_title("grey: the wall too still to time anywhere" if step is None else
                  f"isochrones every {step:g} ms; arrows: the wave's direction"
                  if timed.all() else
                  f"isochrones every {step:g} ms; arrows: direction; grey: too still")
-    ax3 = fig.add_axes((0.52, 0.06, 0.3, 0.84), projection="3d")
+    ax3 = fig.add_axes((0.5, 0.06, 0.3, 0.84), projection="3d")
     ring = np.concatenate([grid_mm, grid_mm[:1]], axis=0)
     values = np.concatenate([shown, shown[:1]], axis=0)
     quads, colours = _surface_quads(ring, values, scale, cyclic=cyclic)
@@ -359,19 +375,129 @@ def activation_figure(time_ms: np.ndarray, velocity_mm_s: np.ndarray, grid_mm: n
                             np.sin(elev)])
     centre = grid_mm.mean(axis=0, keepdims=True)
     outside = centre + 1.04 * (grid_mm - centre)        # the lines just off the wall
-    for segs in segments:
-        for seg in segs:
-            if len(seg) < 2:
-                continue
-            points = _on_grid(outside, seg[:, 0], seg[:, 1])
-            facing = (points - _on_grid(centre.repeat(n_u, axis=0), seg[:, 0], seg[:, 1])) \
-                @ towards_eye > 0                     # the wall's far side: hidden
-            points[~facing] = np.nan
-            ax3.plot(*points.T, color="k", lw=0.6, zorder=5)
+    for line in lines:
+        points = _on_grid(outside, line[:, 0], line[:, 1])
+        facing = (points - _on_grid(centre.repeat(n_u, axis=0), line[:, 0], line[:, 1])) \
+            @ towards_eye > 0                           # the wall's far side: hidden
+        points[~facing] = np.nan
+        ax3.plot(*points.T, color="k", lw=0.6, zorder=5)
     ax3.set_box_aspect(np.ptp(grid_mm.reshape(-1, 3), axis=0), zoom=1.3)
     ax3.set_axis_off()
-    colour_bar(fig, image, [ax, ax3], label)
+    _orientation_3d(ax3, grid_mm, elev, azim)
+    bar = fig.colorbar(image, cax=fig.add_axes((0.8, 0.2, 0.015, 0.6)))
+    bar.set_label(bar_label(fig, ax, label))
+    bar.outline.set_linewidth(0.5)
     fig.suptitle(wrapped(plain_text(title), PAGE_MM, 9))
+    return save(fig, path)
+
+
+# isochrone pieces shorter than this many grid nodes are left out: a front's fragment
+# at a band's edge or where the times scatter, not a front
+ISOCHRONE_MIN_NODES = 6.0
+
+
+def isochrones(field: np.ndarray, step: float) -> list[np.ndarray]:
+    """The isochrones of activation times ``field (n_u, n_v)`` (ms, NaN where not
+    timed) at multiples of ``step`` ms: polylines ``(k, 2)`` in (u, v), u in [0, 1) from
+    the seam (periodic: traced on the field repeated a quarter turn either side, kept
+    where they start in the turn itself), v in [0, 1] from the inlet; the field lightly
+    smoothed first where timed (a node's Gaussian), pieces under
+    :data:`ISOCHRONE_MIN_NODES` long left out. scikit-image's marching squares."""
+    from scipy import ndimage
+    from skimage.measure import find_contours
+
+    n_u, n_v = field.shape
+    known = np.isfinite(field)
+    mode = ("wrap", "nearest")
+    weight = ndimage.gaussian_filter(known.astype(float), 1.0, mode=mode)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        smooth = ndimage.gaussian_filter(np.where(known, field, 0.0), 1.0, mode=mode) / weight
+    pad = n_u // 4
+    wrapped_field = np.pad(np.where(known, smooth, np.nan), ((pad, pad), (0, 0)), mode="wrap")
+    mask = np.isfinite(wrapped_field)
+    filled = np.where(mask, wrapped_field, np.nanmean(field))
+    out = []
+    for level in np.arange(np.floor(np.nanmin(field) / step),
+                           np.ceil(np.nanmax(field) / step) + 1) * step:
+        for line in find_contours(filled, level, mask=mask):
+            if np.linalg.norm(np.diff(line, axis=0), axis=1).sum() < ISOCHRONE_MIN_NODES:
+                continue
+            inside = (line[:, 0] >= pad) & (line[:, 0] <= pad + n_u)     # the turn itself
+            runs = np.split(np.arange(len(line)), np.flatnonzero(np.diff(inside)) + 1)
+            out += [np.column_stack([(line[r, 0] - pad) / n_u, line[r, 1] / (n_v - 1)])
+                    for r in runs if inside[r[0]] and len(r) > 1]
+    return out
+
+
+def _orientation_3d(ax3, grid_mm: np.ndarray, elev: float, azim: float) -> None:
+    """The 3-D view's inlet and outlet named just beyond the wall's ends as drawn, and a
+    scale bar of a round length (about a third of the tube's) in the panel's lower left
+    corner, as long as that length across the view at the tube's middle. In the view's
+    own 2-D coordinates (its projection), so that they stay in the panel however the
+    tube lies."""
+    from matplotlib.lines import Line2D
+    from mpl_toolkits.mplot3d import proj3d
+
+    fig = ax3.figure
+    projection = ax3.get_proj()
+
+    def in_panel(points: np.ndarray) -> np.ndarray:      # (n, 3) mm -> (n, 2) axes fraction
+        x, y, _ = proj3d.proj_transform(*points.T, projection)
+        return ax3.transAxes.inverted().transform(ax3.transData.transform(np.c_[x, y]))
+
+    inlet, outlet = grid_mm[:, 0].mean(axis=0), grid_mm[:, -1].mean(axis=0)
+    middle = grid_mm.reshape(-1, 3).mean(axis=0)
+    flat = in_panel(np.stack([inlet, outlet, middle]))
+    for k, name in enumerate(("inlet", "outlet")):
+        away = flat[k] - flat[2]
+        away /= np.linalg.norm(away) + 1e-12
+        ax3.annotate(name, xy=tuple(np.clip(flat[k], 0.05, 0.95)), xycoords="axes fraction",
+                     xytext=tuple(12 * away), textcoords="offset points", fontsize=7,
+                     ha="center", va="center")
+    length = _nice_step(0.35 * np.linalg.norm(outlet - inlet), count=1)
+    across = np.array([-np.sin(azim), np.cos(azim), 0.0])     # the view's horizontal
+    ends = in_panel(np.stack([middle, middle + length * across]))
+    span = float(np.linalg.norm(ends[1] - ends[0]))
+    fig.add_artist(Line2D([0.05, 0.05 + span], [0.04, 0.04], transform=ax3.transAxes,
+                          color="k", lw=1.2))
+    fig.text(0.05 + span / 2, 0.06, f"{length:g} mm", transform=ax3.transAxes, fontsize=7,
+             ha="center", va="bottom")
+
+
+@house_style
+def wave_speed_figure(velocity_mm_s: np.ndarray, s_mm: np.ndarray, path: Path, *,
+                      title: str = "") -> Path:
+    """The wave's speed on one wall (``velocity_mm_s`` ``(n_u, n_v, 2)``, along and
+    around, mm/s) over (u, s): how fast the front crosses the wall at each node, grey
+    where the wall moves too little to time it; the colours on a log scale (a distal
+    segment several times faster than the proximal one, both seen) from the 2nd to the
+    98th percentile (a node where the front barely turns, whose speed grows without
+    bound, does not take the scale)."""
+    n_u, n_v = velocity_mm_s.shape[:2]
+    speed = np.hypot(velocity_mm_s[..., 0], velocity_mm_s[..., 1])
+    fig, ax = new_figure(COLUMN_MM, 70)
+    half = 0.5 * (s_mm[1] - s_mm[0])
+    extent = [-0.5 / n_u, 1 - 0.5 / n_u, s_mm[0] - half, s_mm[-1] + half]
+    if not np.isfinite(speed).any():
+        nothing_to_show(ax, "the wall moves too little to time its wave anywhere")
+    else:
+        from matplotlib.colors import LogNorm
+
+        lo, hi = np.nanpercentile(speed, [2, 98])
+        cmap = plt.get_cmap("viridis").with_extremes(bad=BLANK_GREY)
+        image = ax.imshow(speed.T, origin="lower", aspect="auto", extent=extent, cmap=cmap,
+                          norm=LogNorm(max(lo, 1e-3), max(hi, 2e-3)),
+                          interpolation="nearest")
+        ax.set_xlabel("u, around the tube from the seam")
+        ax.set_ylabel("distance along the tube from the inlet (mm)")
+        bar = colour_bar(fig, image, ax, "the wave's speed on the wall (mm/s, log scale)")
+        low, high = image.norm.vmin, image.norm.vmax
+        ticks = [m * 10.0 ** k for k in range(int(np.floor(np.log10(low))),
+                                              int(np.ceil(np.log10(high))) + 1)
+                 for m in (1, 2, 5) if low <= m * 10.0 ** k <= high]
+        bar.ax.minorticks_off()
+        bar.set_ticks(ticks, labels=[f"{t:g}" for t in ticks])
+    fig.suptitle(wrapped(plain_text(title), COLUMN_MM, 9))
     return save(fig, path)
 
 

@@ -237,7 +237,11 @@ CAPTIONS = {
                         "direction",
     "activation_lumen": "The wave on the lumen's wall: activation times, isochrones and "
                         "direction",
-    "pullback_outer": "The intensity across the myocardium pulled back onto the grid",
+    "wave_speed_outer": "The wave's speed on the outer wall, node by node",
+    "wave_speed_inner": "The wave's speed on the inner wall, node by node",
+    "wave_speed_lumen": "The wave's speed on the lumen's wall, node by node",
+    "pullback_outer": "The intensity across the myocardium pulled back onto the grid, "
+                      "and where texture tracking could trust it",
     "area_map_cursor": "The area map with a moving time cursor",
     "outer_wall_3d_area_map": "The outer wall in 3-D coloured by its section area, beside "
                               "the area map",

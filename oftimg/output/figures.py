@@ -435,6 +435,7 @@ def _orientation_3d(ax3, grid_mm: np.ndarray, elev: float, azim: float) -> None:
     corner, as long as that length across the view at the tube's middle. In the view's
     own 2-D coordinates (its projection), so that they stay in the panel however the
     tube lies."""
+    from matplotlib import patheffects
     from matplotlib.lines import Line2D
     from mpl_toolkits.mplot3d import proj3d
 
@@ -453,7 +454,8 @@ def _orientation_3d(ax3, grid_mm: np.ndarray, elev: float, azim: float) -> None:
         away /= np.linalg.norm(away) + 1e-12
         ax3.annotate(name, xy=tuple(np.clip(flat[k], 0.05, 0.95)), xycoords="axes fraction",
                      xytext=tuple(12 * away), textcoords="offset points", fontsize=7,
-                     ha="center", va="center")
+                     ha="center", va="center",          # readable on the wall's colours
+                     path_effects=[patheffects.withStroke(linewidth=2, foreground="w")])
     length = _nice_step(0.35 * np.linalg.norm(outlet - inlet), count=1)
     across = np.array([-np.sin(azim), np.cos(azim), 0.0])     # the view's horizontal
     ends = in_panel(np.stack([middle, middle + length * across]))

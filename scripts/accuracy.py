@@ -428,6 +428,19 @@ def front_errors(ph, arr, grid: np.ndarray, t_ms: np.ndarray, found: dict,
             "front_activation_within_95_pct": float(100 * np.mean(np.abs(error) <= 1.96 * sd))}
 
 
+def on_tissue(contour: np.ndarray, arr) -> np.ndarray:
+    """Each frame's section contour points ``(n_u, n_v, n_t, 3)`` read along the run's
+    pathlines (``pathlines_uv`` in ``arr``, where the grid was tracked): where the
+    tracked curvature fields were read. (Before 2026-12-07 the zoo took the truth at
+    each frame's own contour points: with texture tracking, whose nodes slide along
+    the tube, the radial curvature's error was the model's change between the two.)"""
+    from oftimg.analysis.tracking import follow
+
+    if "pathlines_uv" not in arr:
+        return contour
+    return follow(contour, np.asarray(arr["pathlines_uv"], float))
+
+
 def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float,
                  keep: dict | None = None) -> dict[str, float]:
     """The shape fields' errors against the model, away from the end rows; each
@@ -460,7 +473,7 @@ def field_errors(ph, arr, grids, t_ms: np.ndarray, summ: dict, period_ms: float,
     for w in ("outer", "inner"):
         array = f"radial_curvature_{w}_per_mm"
         truths[f"radial_curvature_{w}"] = (array, *truth_at(
-            arr[f"contour_{w}_mm"][:, rows].astype(float),
+            on_tissue(arr[f"contour_{w}_mm"].astype(float), arr)[:, rows],
             lambda s, theta, t, w=w: ph.section_curvature(w, s, theta, t), array))
     truths["mean_curvature_lumen"] = ("mean_curvature_lumen_per_mm", *truth_at(
         grids["lumen"][:, rows].astype(float),

@@ -45,6 +45,7 @@ $(STAMP): $(BASE_STAMP)
 # ruff's checks (pyproject.toml [tool.ruff]; .pre-commit-config.yaml runs them per commit)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
+	$(VENV)/bin/python -m mypy
 
 demo: $(BASE_STAMP)
 	$(VENV)/bin/oftimg demo --out $(DEMO_OUT) --overwrite

@@ -188,6 +188,7 @@ def validate_labels(path, *, quiet: bool = False, period_ms: float | None = None
     with tempfile.TemporaryDirectory(prefix="oftimg-validate-") as tmp:
         ds = _meshed(lds, Path(tmp) / "meshes", MeshOptions(), None, quiet)
         report = validate_dataset(ds)
+    assert ds.labels is not None                  # meshed from the label volumes
     report["labels"] = {k: ds.labels["meshing"][k]
                         for k in ("shape_zyx", "voxel_size", "length_unit", "labels",
                                   "label_repairs", "kind", "ends_squared")}
@@ -234,7 +235,7 @@ def _check_names(named: list[tuple[str, Path]], fix: str) -> None:
     """Each dataset's results go to ``out/<name>``: the names of ``(name, folder)``
     must differ and must not be those of the cohort's own outputs; ``fix`` says
     how to rename one."""
-    seen = {}
+    seen: dict[str, Path] = {}
     for name, path in named:
         if name in COHORT_OUTPUTS:
             raise InputError(f"{path}: the dataset name {name!r} is that of the cohort's "
@@ -408,7 +409,7 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
     summaries = {}
     error = None
     waiting = list(datasets)
-    running = set()
+    running: set = set()
 
     def top_up():                                        # none started after a failure
         while waiting and len(running) < at_once and error is None:
@@ -497,7 +498,7 @@ class _Reports:
 def _drain(queue, bar: Progress) -> None:
     """Take each report on ``queue`` (:func:`_show_report`) until None, or until the
     queue is gone (its manager killed): the bar then stops, the run goes on."""
-    running = {}
+    running: dict = {}
     try:
         for report in iter(queue.get, None):
             _show_report(report, bar, running)
@@ -533,7 +534,7 @@ def _frame_counter(executor, bar: Progress):
     client = getattr(executor, "_client", None)  # Dask's ClientExecutor
     if client is not None:
         topic = f"oftimg-frames-{uuid.uuid4().hex}"
-        running = {}
+        running: dict = {}
         client.subscribe_topic(topic, lambda event: _show_report(event[1], bar, running))
         try:
             yield _DaskTopic(topic)
@@ -860,7 +861,7 @@ def mesh(source, out, *, options: dict | None = None, jobs: int | None = None,
     is written when a frame cannot be meshed."""
     from .mesh.labels import MeshOptions
 
-    options = MeshOptions(**(options or {}))
+    meshing = MeshOptions(**(options or {}))
     out = Path(out)
     paths = [p for p in _as_dataset_paths(source) if is_label_dataset(p)]
     if not paths:
@@ -874,7 +875,7 @@ def mesh(source, out, *, options: dict | None = None, jobs: int | None = None,
         for lds in datasets:
             folder = tmp if single else tmp / lds.meta.name
             folder.mkdir(parents=True, exist_ok=True)
-            record = _mesh_with_bar(lds, folder, options, executor, quiet)
+            record = _mesh_with_bar(lds, folder, meshing, executor, quiet)
             write_json(folder / "meshing.json", record)
             for note in meshing_notes(lds.path, record["meshing"]):
                 warnings.warn(note, OftimgWarning, stacklevel=2)

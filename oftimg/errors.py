@@ -12,7 +12,10 @@ class InputError(ValueError):
 
 
 class DatasetError(InputError):
-    """Bad input data: the message names the file and the problem."""
+    """Bad input data: the message names the file and the problem; ``problems``, where
+    several files were checked, each bad file and its own message."""
+
+    problems: list[tuple] = []
 
 
 class OftimgWarning(UserWarning):

@@ -201,6 +201,8 @@ def with_period(datasets: list, period_ms: float | None) -> list:
             f"{where}{more}: oftimg gives times in ms and speeds in mm/s, which need the "
             "beat's length; add \"period_ms\" to meta.json or run with --period-ms MS (the "
             f"frame interval times the {first.n_frames} frames of one beat)")
+    if period_ms is None:                           # none missing: each keeps its own
+        return list(datasets)
     return [replace(d, meta=replace(d.meta, period_ms=float(period_ms), period_assumed=False,
                                     period_from="--period-ms"))
             if d.meta.period_assumed else d for d in datasets]
@@ -281,7 +283,7 @@ class Dataset:
         if self.labels:
             return {kind: [Path(f["file"]) for f in files]
                     for kind, files in self.labels["inputs"].items()}
-        inputs = {"meshes": dict(self.frames)}
+        inputs: dict[str, list[Path] | dict[str, list[Path]]] = {"meshes": dict(self.frames)}
         if self.intensity is not None:
             inputs["intensity"] = list(dict.fromkeys(Path(s.path)
                                                      for s in self.intensity.sources))
@@ -311,7 +313,8 @@ class Dataset:
     def frame(self, t: int) -> Frame:
         """The files of frame ``t``, as sent to worker processes."""
         return Frame({s: str(files[t]) for s, files in self.frames.items()}, self.unit_scale,
-                     tuple(float(x) for x in self.inlet_mm),
+                     (float(self.inlet_mm[0]), float(self.inlet_mm[1]),
+                      float(self.inlet_mm[2])),
                      {s: self.checked[s, t] for s in self.frames if (s, t) in self.checked},
                      self.validated)
 
@@ -499,7 +502,7 @@ def validate_dataset(ds: Dataset, *, executor=None, progress=None) -> dict:
     warning per surface; reading the frames again does not repeat them.
     ``progress()`` is called after each mesh.
     """
-    report = {"name": ds.meta.name, "path": str(ds.path), "n_frames": ds.n_frames,
+    report: dict = {"name": ds.meta.name, "path": str(ds.path), "n_frames": ds.n_frames,
               "inlet_mm": [round(float(x), 6) for x in ds.inlet_mm],
               "inlet_from": "meta.json" if ds.meta.inlet_mm is not None else "larger end loop",
               "period_ms": None if ds.meta.period_assumed else ds.meta.period_ms,
@@ -587,11 +590,12 @@ def check_tube_size(ds: Dataset, outer: dict) -> None:
         return
     # meta.json as it is (a label dataset's has keys a mesh dataset's has not)
     raw = read_json_file(ds.path / "meta.json", optional=True) or {}
-    said = ("meta.json's length_unit" if "length_unit" in raw
+    said = ("meta.json's length_unit" if isinstance(raw, dict) and "length_unit" in raw
             else "the length unit (mm when meta.json gives no length_unit)")
     unit = "um" if ds.meta.length_unit == "mm" else "mm"
     volumes = ds.labels is not None            # meshed from label or probability volumes
-    where = ds.path / ds.labels["meshing"].get("kind", "labels") if volumes else ds.path / "outer"
+    where = (ds.path / ds.labels["meshing"].get("kind", "labels") if ds.labels is not None
+             else ds.path / "outer")
     raise DatasetError(
         f"{where}: a tube {_length(2 * radius_mm)} across at its wider end: "
         f"no living tube is {'so thin' if radius_mm < low_mm else 'so wide'} "

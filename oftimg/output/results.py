@@ -142,7 +142,7 @@ class Results:
             places.append(Path(os.path.normpath(self.folder.resolve() / dataset["from_results"])))
         if not places:
             inputs = provenance.get("inputs", {})
-            files = next(iter(inputs.values()), [])
+            files: list | dict = next(iter(inputs.values()), [])
             files = next(iter(files.values()), []) if isinstance(files, dict) else files
             if files:
                 places += list(Path(files[0]["file"]).parents)[1:3]

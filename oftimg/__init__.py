@@ -12,7 +12,8 @@ __version__ = "0.1.0"
 # orchestration of runs (API, worker pools), and the command line (python -m oftimg
 # too) and the napari plugin on top
 LAYERS = (("errors", "progress", "memory"), ("mesh",), ("io",), ("image",), ("analysis",),
-          ("output",), ("synthetic",), ("api", "workers"), ("cli", "napari", "__main__"))
+          ("output",), ("synthetic",), ("api", "cohorts", "demo", "exports", "inputs", "workers"),
+          ("cli", "napari", "__main__"))
 
 import importlib
 
@@ -20,8 +21,8 @@ import importlib
 # process that imports only ``oftimg.analysis.per_frame`` then skips the image analysis,
 # figures and video modules (0.83 -> 0.52 s of imports per worker process).
 _WHERE = {
-    "cohort": "api", "demo": "api", "example_results": "api", "make_phantom": "api", "paraview": "api", "run": "api",
-    "ome_zarr": "api", "tiff": "api",
+    "run": "api", "cohort": "cohorts", "demo": "demo", "example_results": "demo",
+    "make_phantom": "demo", "paraview": "exports", "ome_zarr": "exports", "tiff": "exports",
     "InputError": "errors",
     "Dataset": "io.dataset", "DatasetError": "errors", "OftimgWarning": "errors",
     "load_dataset": "io.dataset", "validate_dataset": "io.dataset",

@@ -512,6 +512,7 @@ def _mesh_options(args) -> dict:
 def _command(args) -> int:
     """Carry out the parsed command; errors go up to :func:`main`."""
     from . import api
+    from . import demo as demos
 
     if args.command == "run":
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,
@@ -547,7 +548,7 @@ def _command(args) -> int:
         out = api.ome_zarr(args.results, args.out, quiet=args.quiet)
         print(f"OME-Zarr images: {out} (open them in napari, Fiji or a web viewer)")
     elif args.command == "demo":
-        out = api.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
+        out = demos.demo(args.out, full=args.full, overwrite=args.overwrite, quiet=args.quiet,
                        jobs=args.jobs)
         if not args.quiet:                     # before the lines naming what it wrote
             print(DEMO_WARNINGS_NOTE)
@@ -560,7 +561,7 @@ def _command(args) -> int:
                  "side_deg": args.side_deg}
         if args.vertices:
             extra.update(vertices_min=args.vertices[0], vertices_max=args.vertices[1])
-        out = api.make_phantom(args.out, group=args.group, seed=args.seed,
+        out = demos.make_phantom(args.out, group=args.group, seed=args.seed,
                                frames=args.frames, quiet=args.quiet,
                                labels=args.labels or args.probabilities,
                                voxel_size_um=tuple(args.voxel_size),
@@ -599,7 +600,7 @@ def _validate(path: Path, *, as_json: bool, period_ms: float | None = None) -> i
     frames, printed, and the rest are checked; with ``as_json`` a bad dataset's entry
     lists its problems; 2 if any has a problem."""
     from .errors import InputError
-    from .api import validate_labels
+    from .inputs import validate_labels
     from .io.dataset import (check_enough_frames, find_datasets, load_dataset,
                              validate_dataset, with_period)
     from .io.label_dataset import is_label_dataset

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 import oftimg
-from oftimg.api import write_cohort_outputs
+from oftimg.cohorts import write_cohort_outputs
 from oftimg.synthetic.phantom import sample_params, write_phantom
 
 SMALL = dict(n_frames=6, vertices_min=1200, vertices_max=1500)

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import tifffile
 
-from oftimg.api import validate_labels
+from oftimg.inputs import validate_labels
 from oftimg.synthetic.labels import write_label_phantom
 from oftimg.synthetic.phantom import sample_params
 

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
-from oftimg.api import _load, _meshed
+from oftimg.inputs import _load, _meshed
 from oftimg.mesh.labels import MeshOptions
 from oftimg.mesh.strain import grid_strain
 from oftimg.synthetic.labels import LabelGrid, write_label_phantom

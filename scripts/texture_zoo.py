@@ -31,7 +31,7 @@ import numpy as np
 from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 from oftimg.analysis.texture_tracking import texture_pathlines
 from oftimg.analysis.tracking import follow, track_grid
-from oftimg.api import _load, _meshed
+from oftimg.inputs import _load, _meshed
 from oftimg.mesh.labels import MeshOptions
 from oftimg.mesh.strain import grid_strain
 from oftimg.synthetic.labels import LabelGrid

@@ -225,9 +225,10 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     --overwrite; off a terminal, a line of progress at least every few seconds, and the
     last line names the report to open. (A smaller demo: tests/test_documented_outputs.py
     runs the real one.)"""
-    from oftimg import api, progress
+    from oftimg import demo as demos
+    from oftimg import progress
 
-    monkeypatch.setattr(api, "DEMO_SMALL", (1, {"frames": 12, "vertices_min": 1500,
+    monkeypatch.setattr(demos, "DEMO_SMALL", (1, {"frames": 12, "vertices_min": 1500,
                                                 "vertices_max": 1800}))
     monkeypatch.setattr(progress, "LINE_EVERY_S", 0.5)
     out = tmp_path / "demo"

@@ -93,7 +93,7 @@ def test_the_examples_cohort_is_made_once(cache):
 def test_an_older_oftimgs_cohort_is_removed_when_a_new_one_is_made(tmp_path, monkeypatch):
     """The cohort another oftimg made is not reused, and not left behind (the cohort
     itself replaced by a stand-in: making one is what the tests above check)."""
-    from oftimg import api
+    from oftimg import demo as demos
 
     older = tmp_path / "example-cohort-0123456789ab" / "results"
     older.mkdir(parents=True)
@@ -101,8 +101,8 @@ def test_an_older_oftimgs_cohort_is_removed_when_a_new_one_is_made(tmp_path, mon
     def stand_in(out, *args, **kwargs):
         (out / "results").mkdir(parents=True)
         (out / "results" / "run.json").write_text("{}")
-    monkeypatch.setattr(api, "_phantom_cohort", stand_in)
-    made = api.example_results(tmp_path)
+    monkeypatch.setattr(demos, "_phantom_cohort", stand_in)
+    made = demos.example_results(tmp_path)
     assert (made / "run.json").is_file() and not older.parent.exists()
     assert [p.name for p in tmp_path.iterdir()] == [made.parent.name]
 

@@ -12,7 +12,7 @@ __version__ = "0.1.0"
 # orchestration of runs (API, worker pools), and the command line (python -m oftimg
 # too) and the napari plugin on top
 LAYERS = (("errors", "progress", "memory"), ("mesh",), ("io",), ("image",), ("analysis",),
-          ("output",), ("synthetic",), ("api", "cohorts", "demo", "exports", "inputs", "workers"),
+          ("output",), ("synthetic",), ("api", "cohorts", "demos", "exports", "inputs", "workers"),
           ("cli", "napari", "__main__"))
 
 import importlib
@@ -21,8 +21,8 @@ import importlib
 # process that imports only ``oftimg.analysis.per_frame`` then skips the image analysis,
 # figures and video modules (0.83 -> 0.52 s of imports per worker process).
 _WHERE = {
-    "run": "api", "cohort": "cohorts", "demo": "demo", "example_results": "demo",
-    "make_phantom": "demo", "paraview": "exports", "ome_zarr": "exports", "tiff": "exports",
+    "run": "api", "cohort": "cohorts", "demo": "demos", "example_results": "demos",
+    "make_phantom": "demos", "paraview": "exports", "ome_zarr": "exports", "tiff": "exports",
     "InputError": "errors",
     "Dataset": "io.dataset", "DatasetError": "errors", "OftimgWarning": "errors",
     "load_dataset": "io.dataset", "validate_dataset": "io.dataset",

@@ -4,7 +4,7 @@ process or in workers, resumed, and checked on the way.
 The command line's other jobs are beside it, one module a concern: what a run reads
 (:mod:`oftimg.inputs`: datasets found and opened, label volumes meshed), cohorts
 (:mod:`oftimg.cohorts`), exports for other tools (:mod:`oftimg.exports`) and the
-built-in data (:mod:`oftimg.demo`); this module also gives their public functions by
+built-in data (:mod:`oftimg.demos`); this module also gives their public functions by
 name (``oftimg.api.cohort`` is :func:`oftimg.cohorts.cohort`). File access happens here
 and in :mod:`oftimg.io.dataset` / :mod:`oftimg.output.export`; the science lives in
 :mod:`oftimg.analysis.pipeline` and the ``mesh``/``image`` modules.

@@ -512,7 +512,7 @@ def _mesh_options(args) -> dict:
 def _command(args) -> int:
     """Carry out the parsed command; errors go up to :func:`main`."""
     from . import api
-    from . import demo as demos
+    from . import demos
 
     if args.command == "run":
         options = {"n_u": args.n_u, "n_v": args.n_v, "authalic_weight": args.authalic_weight,

@@ -225,7 +225,7 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     --overwrite; off a terminal, a line of progress at least every few seconds, and the
     last line names the report to open. (A smaller demo: tests/test_documented_outputs.py
     runs the real one.)"""
-    from oftimg import demo as demos
+    from oftimg import demos
     from oftimg import progress
 
     monkeypatch.setattr(demos, "DEMO_SMALL", (1, {"frames": 12, "vertices_min": 1500,

@@ -93,7 +93,7 @@ def test_the_examples_cohort_is_made_once(cache):
 def test_an_older_oftimgs_cohort_is_removed_when_a_new_one_is_made(tmp_path, monkeypatch):
     """The cohort another oftimg made is not reused, and not left behind (the cohort
     itself replaced by a stand-in: making one is what the tests above check)."""
-    from oftimg import demo as demos
+    from oftimg import demos
 
     older = tmp_path / "example-cohort-0123456789ab" / "results"
     older.mkdir(parents=True)

@@ -456,13 +456,13 @@ def _orientation_3d(ax3, grid_mm: np.ndarray, elev: float, azim: float) -> None:
                      xytext=tuple(12 * away), textcoords="offset points", fontsize=7,
                      ha="center", va="center",          # readable on the wall's colours
                      path_effects=[patheffects.withStroke(linewidth=2, foreground="w")])
-    length = _nice_step(0.35 * np.linalg.norm(outlet - inlet), count=1)
+    bar_mm = _nice_step(0.35 * np.linalg.norm(outlet - inlet), count=1)
     across = np.array([-np.sin(azim), np.cos(azim), 0.0])     # the view's horizontal
-    ends = in_panel(np.stack([middle, middle + length * across]))
+    ends = in_panel(np.stack([middle, middle + bar_mm * across]))
     span = float(np.linalg.norm(ends[1] - ends[0]))
     fig.add_artist(Line2D([0.05, 0.05 + span], [0.04, 0.04], transform=ax3.transAxes,
                           color="k", lw=1.2))
-    fig.text(0.05 + span / 2, 0.06, f"{length:g} mm", transform=ax3.transAxes, fontsize=7,
+    fig.text(0.05 + span / 2, 0.06, f"{bar_mm:g} mm", transform=ax3.transAxes, fontsize=7,
              ha="center", va="bottom")
 
 

@@ -205,14 +205,14 @@ def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int],
     (the share of nodes and frames whose tissue lies within the grid along the tube)."""
     n_u, n_v, n_t = shape_coords.shape[:3]
     f = np.array(factors, float)
-    images = [normalised(pullbacks[:, :, t]).astype(np.float32) for t in range(n_t)]
+    frames = [normalised(pullbacks[:, :, t]) for t in range(n_t)]          # 8-bit, for DIS
+    images = [frame.astype(np.float32) for frame in frames]                 # for warping
     dis = dis_flow()
     nodes = _nodes(n_u, n_v) * f                                          # fine pixels
     flows = [np.zeros(images[0].shape + (2,), np.float32)]
     ahead = None
     for t in range(1, n_t):                              # 1. to frame 0 itself
-        ahead = flow_between(images[0].astype(np.uint8), images[t].astype(np.uint8), dis,
-                             ahead)
+        ahead = flow_between(frames[0], frames[t], dis, ahead)
         flows.append(ahead)
     seen = [_warped(images[t], flows[t]) for t in range(n_t)]
     total = np.sum(seen, axis=0)
@@ -223,7 +223,7 @@ def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int],
     gaps = []
     back = None
     for t in range(n_t):                                 # 3. to the template
-        frame = images[t].astype(np.uint8)
+        frame = frames[t]
         ahead = flow_between(references[t], frame, dis, flows[t])
         there = nodes + _at(ahead, nodes)
         back = flow_between(frame, references[t], dis, back)

@@ -17,6 +17,12 @@ TEST_WORKERS ?= 2
 # pip without setuptools' "Editable installation" box (a flat layout's editable install
 # warns of folders named like the package: this clone's own oftimg/ is that folder)
 PIP := PYTHONWARNINGS="ignore:Editable installation" $(PY) -m pip
+# pip install, tried three times: a fresh machine's download of a large wheel (open3d,
+# 400 MB) can be cut by the network, and pip's own resumes start again at once (CI saw six
+# fail in 8 s at the same byte); a pause before trying again is what gets it through
+PIP_INSTALL = for try in 1 2 3; do $(PIP) install --quiet $(1) && break; \
+	  [ $$try = 3 ] && exit 1; echo "pip install $(1): failed (a network download?); trying again in $$((try * 30)) s"; \
+	  sleep $$((try * 30)); done
 # apt-get quietly: its ~120 dpkg lines only when it fails
 APT_INSTALL = SUDO=$$(command -v sudo >/dev/null && [ "$$(id -u)" != 0 ] && echo sudo); \
 	  log=$$(mktemp); { $$SUDO apt-get update -qq && $$SUDO env DEBIAN_FRONTEND=noninteractive \
@@ -29,8 +35,8 @@ setup: $(STAMP)
 # oftimg and what it needs to run (the demo's set-up)
 $(BASE_STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PIP) install --quiet --upgrade pip
-	$(PIP) install --quiet -e .
+	$(call PIP_INSTALL,--upgrade pip)
+	$(call PIP_INSTALL,--resume-retries 10 -e .)
 	@$(PY) -c "import open3d" 2>/dev/null || { \
 	  echo "open3d cannot load libusb-1.0: installing libusb-1.0-0 with apt-get"; \
 	  $(APT_INSTALL) libusb-1.0-0 $(APT_DONE); }
@@ -39,7 +45,7 @@ $(BASE_STAMP): pyproject.toml
 
 # and the test extras
 $(STAMP): $(BASE_STAMP)
-	$(PIP) install --quiet -e '.[test]'
+	$(call PIP_INSTALL,--resume-retries 10 -e '.[test]')
 	touch $(STAMP)
 
 # ruff's checks (pyproject.toml [tool.ruff]; .pre-commit-config.yaml runs them per commit)
@@ -57,7 +63,7 @@ QT_XCB_LIBS = libxcb-cursor0 libxkbcommon-x11-0 libxcb-icccm4 libxcb-image0 libx
 # napari with its Qt, and the system libraries Qt's window needs (Debian / Ubuntu:
 # python -m oftimg.napari names them), then the check in one line
 napari: $(STAMP)
-	$(PIP) install --quiet -e '.[napari]'
+	$(call PIP_INSTALL,--resume-retries 10 -e '.[napari]')
 	@missing=$$($(PY) -m oftimg.napari --packages); [ -z "$$missing" ] || { \
 	  echo "napari's window needs $$missing: installing them with apt-get"; \
 	  $(APT_INSTALL) $$missing $(APT_DONE); }
@@ -105,6 +111,6 @@ clean:
 # The documentation site (Sphinx, its gallery executed) into docs/_build/html; warnings
 # are errors
 docs: $(STAMP)
-	$(PIP) install --quiet -e '.[docs]'
+	$(call PIP_INSTALL,--resume-retries 10 -e '.[docs]')
 	OFTIMG_CACHE=$(EXAMPLE_CACHE) $(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
 	$(PY) scripts/check_api_reference.py docs/_build/html

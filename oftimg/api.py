@@ -24,7 +24,7 @@ from .cohorts import (_check_cluster_alpha, _check_names, _datasets_seconds, _ru
                       write_cohort_outputs)
 from .exports import ome_zarr, paraview, tiff
 from .errors import InputError, OftimgWarning
-from .inputs import _as_dataset_paths, _load, _meshed, mesh, validate_labels
+from .inputs import _as_dataset_paths, _load, _lumens_joined, _meshed, mesh, validate_labels
 from .io.dataset import Dataset, check_enough_frames, validate_dataset, with_period
 from .io.label_dataset import LabelDataset
 from .output.export import (
@@ -118,7 +118,9 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
         executor = make_executor(jobs, scheduler) if todo else None
         with closing_executor(executor):
             todo = [_meshed(ds, finished.root / f"{ds.meta.name}.meshes", opts.meshing, executor,
-                            quiet) if isinstance(ds, LabelDataset) else ds for ds in todo]
+                            quiet) if isinstance(ds, LabelDataset) else
+                    _lumens_joined(ds, finished.root / f"{ds.meta.name}.lumens", opts.meshing,
+                                   executor, quiet) for ds in todo]
             reports = {ds.meta.name: _validated(ds, executor, quiet) for ds in todo}
             if parallel == "auto":
                 parallel = ("embryos" if executor is not None

@@ -368,6 +368,12 @@ def _print_report(report: dict) -> None:
     for name, s in report["surfaces"].items():
         for file, what in s["repairs"].items():
             print(f"  repaired {name}/{file}: {what}")
+    joined = report.get("lumen_bridged") or {}
+    if joined.get("closures"):
+        print(f"  lumen closed by the cushions (in pieces) in {len(joined['closures'])} "
+              "frames: joined by a bridge as a run joins them, its rows measured as closed")
+    for r in joined.get("filled", []):
+        print(f"  filled lumen/{r['file']} from frames either side ({r['why']})")
     print(f"  period: {report['period_ms']:g} ms ({report['period_from']})")
     print("  problems: none")
 
@@ -600,7 +606,10 @@ def _validate(path: Path, *, as_json: bool, period_ms: float | None = None) -> i
     frames, printed, and the rest are checked; with ``as_json`` a bad dataset's entry
     lists its problems; 2 if any has a problem."""
     from .errors import InputError
-    from .inputs import validate_labels
+    import tempfile
+
+    from .inputs import _lumens_joined, validate_labels
+    from .mesh.labels import MeshOptions
     from .io.dataset import (check_enough_frames, find_datasets, load_dataset,
                              validate_dataset, with_period)
     from .io.label_dataset import is_label_dataset
@@ -617,12 +626,16 @@ def _validate(path: Path, *, as_json: bool, period_ms: float | None = None) -> i
                 continue
             ds = with_period([load_dataset(folder)], period_ms)[0]
             check_enough_frames(ds)
-            bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
-                           unit="mesh")
-            try:
-                reports.append(validate_dataset(ds, progress=bar.advance))
-            finally:
-                bar.close()
+            with tempfile.TemporaryDirectory(prefix="oftimg-validate-") as tmp:
+                ds = _lumens_joined(ds, Path(tmp), MeshOptions(), None, quiet=False)
+                bar = Progress(ds.n_frames * len(ds.surfaces),
+                               f"{ds.meta.name}: checking meshes", unit="mesh")
+                try:
+                    reports.append(validate_dataset(ds, progress=bar.advance))
+                finally:
+                    bar.close()
+            if ds.lumen_bridged:
+                reports[-1]["lumen_bridged"] = ds.lumen_bridged
         except InputError as exc:
             if len(folders) == 1:
                 raise

@@ -67,6 +67,24 @@ def _mesh_with_bar(lds: LabelDataset, folder: Path, options, executor, quiet: bo
         bar.close()
 
 
+def _lumens_joined(ds: Dataset, folder: Path, options, executor, quiet: bool) -> Dataset:
+    """A mesh dataset whose lumen the cushions close in some frames with those frames'
+    lumens joined into ``folder`` (:func:`~oftimg.io.lumen_closures.bridged_dataset`,
+    beside the kept results, removed with them); ``ds`` when none is closed."""
+    from .io.lumen_closures import bridged_dataset, closed_frames
+
+    closed = closed_frames(ds, executor)
+    if not closed:
+        return ds
+    bar = Progress(len(closed), f"{ds.meta.name}: joining closed lumens", quiet=quiet,
+                   unit="frame")
+    try:
+        return bridged_dataset(ds, folder, options, executor, progress=bar.advance,
+                               closed=closed)
+    finally:
+        bar.close()
+
+
 def validate_labels(path, *, quiet: bool = False, period_ms: float | None = None) -> dict:
     """Check a label dataset as a run would: its headers and period (``period_ms`` as
     :func:`run` takes it), then every frame meshed (here, into a temporary folder) and

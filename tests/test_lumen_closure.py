@@ -4,30 +4,43 @@ and ellipticity measured against the phantom's model."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from oftimg.synthetic.labels import in_phantom_frame, write_label_phantom
-from oftimg.synthetic.phantom import read_truth, sample_params
+from oftimg.synthetic.labels import in_phantom_frame as in_volume_phantom_frame
+from oftimg.synthetic.labels import write_label_phantom
+from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
 
 pytestmark = pytest.mark.long
 
 
-@pytest.fixture(scope="module")
-def closing(tmp_path_factory):
-    """A 24-frame label phantom (4 x 4 x 8 um) whose lumen, an ellipse of aspect 0.6, is
-    closed by the cushions between 0.45 and 0.75 mm of the tube for about half the beat;
-    and its run's results folder."""
+@pytest.fixture(scope="module", params=["labels", "meshes"])
+def closing(request, tmp_path_factory):
+    """A 24-frame phantom whose lumen, an ellipse of aspect 0.6, is closed by the
+    cushions between 0.45 and 0.75 mm of the tube for about half the beat, as label
+    volumes (4 x 4 x 8 um) or as meshes (the lumen's meshed from 6 um voxels, as a lab
+    meshes a segmentation: in pieces where closed); and its run's results folder."""
     import oftimg
 
     root = tmp_path_factory.mktemp("closing")
     params = sample_params("normal", 3, n_frames=24, cushion_aspect_expanded=0.6,
                            cushion_aspect_contracted=-0.4, cushion_deg=30.0,
                            cushion_from_mm=0.45, cushion_to_mm=0.75)
-    data = write_label_phantom(root / "closing", params, (4, 4, 8))
+    if request.param == "labels":
+        data = write_label_phantom(root / "closing", params, (4, 4, 8))
+    else:
+        data = write_phantom(root / "closing", replace(params, lumen_voxel_mm=0.006))
     results = oftimg.run(data, root / "results", quiet=True)
     return data, results / "closing"
+
+
+def in_phantom_frame(data, points_mm):
+    """The points in the phantom's frame: a label volume's moved, a mesh phantom's as
+    they are."""
+    return (in_volume_phantom_frame(data, points_mm) if (data / "labels").is_dir()
+            else np.asarray(points_mm, float))
 
 
 def test_a_lumen_closed_over_a_stretch_runs_to_the_end_with_its_rows_marked(closing):
@@ -48,8 +61,9 @@ def test_a_lumen_closed_over_a_stretch_runs_to_the_end_with_its_rows_marked(clos
     assert np.isnan(a["mean_curvature_lumen_per_mm"][:, closed]).all()
     assert np.isnan(a["lumen_aspect_ratio"][closed]).all()
     assert summary["cushions"]["closed_rows"] >= 10
-    repairs = summary["provenance"]["meshing"]
-    assert any(c for c in repairs.get("lumen_closures", []))
+    joined = (summary["provenance"]["meshing"].get("lumen_closures", [])
+              if (data / "labels").is_dir() else summary["provenance"]["lumen_bridged"]["closures"])
+    assert any(c for c in joined)
     # every figure drawn
     assert (out / "figures").is_dir() and len(list((out / "figures").glob("*.png"))) > 5
 

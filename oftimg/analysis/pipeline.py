@@ -650,6 +650,12 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
                       "their areas, speeds and volumes: the voxels leave an error fixed in "
                       "space, which the fields' noise share does not see (oftimg's "
                       f"docs/accuracy.md, from {kind})", OftimgWarning, stacklevel=2)
+    if ds.lumen_bridged:                # meshes whose lumen the cushions closed, joined
+        from ..io.lumen_closures import bridged_notes
+
+        summary["provenance"]["lumen_bridged"] = ds.lumen_bridged
+        for note in bridged_notes(ds.path, ds.lumen_bridged, ds.n_frames):
+            warnings.warn(note, OftimgWarning, stacklevel=2)
     summary["timings_s"] = timings
     if pullbacks is not None:
         summary["pullbacks"] = {"shape_uvt": list(pullbacks["pullback_outer_mean"].shape),

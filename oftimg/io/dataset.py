@@ -275,6 +275,7 @@ class Dataset:
     validated: bool = False                 # set by validate_dataset
     labels: dict | None = None              # meshed from label volumes: their files, how
     intensity: IntensitySeries | None = None        # intensity/ (their headers checked)
+    lumen_bridged: dict | None = None       # lumens the cushions closed, joined: frames, files
 
     def inputs_by_kind(self) -> dict[str, list[Path] | dict[str, list[Path]]]:
         """The files the dataset is made of, by kind: ``meshes`` (wall -> its frames'
@@ -283,7 +284,12 @@ class Dataset:
         if self.labels:
             return {kind: [Path(f["file"]) for f in files]
                     for kind, files in self.labels["inputs"].items()}
-        inputs: dict[str, list[Path] | dict[str, list[Path]]] = {"meshes": dict(self.frames)}
+        frames = dict(self.frames)
+        if self.lumen_bridged:               # the lumens joined in the results: from these
+            replaced = {r["frame"]: Path(r["source"])
+                        for r in self.lumen_bridged["closures"] + self.lumen_bridged["filled"]}
+            frames["lumen"] = [replaced.get(t, p) for t, p in enumerate(frames["lumen"])]
+        inputs: dict[str, list[Path] | dict[str, list[Path]]] = {"meshes": frames}
         if self.intensity is not None:
             inputs["intensity"] = list(dict.fromkeys(Path(s.path)
                                                      for s in self.intensity.sources))

@@ -109,6 +109,10 @@ class PhantomParams:
     cushion_from_mm: float = 0.0
     cushion_to_mm: float | None = None        # None: the window's end
     cushion_taper_mm: float = 0.1
+    # > 0: the lumen's frames meshed as a lab meshes a segmentation (filled into voxels of
+    # this side, marching cubes, cut at the window's planes): where the cushions close it,
+    # in pieces that end blind (the analytic mesh would flatten to a sheet there)
+    lumen_voxel_mm: float = 0.0
     band_position_mm: float | None = None
     band_depth: float = 0.35
     band_width_mm: float = 0.06
@@ -599,6 +603,43 @@ class Phantom:
         F = np.roll(F, int(rng.integers(3)), axis=1)
         return V, F.astype(np.int64)
 
+    def voxel_mesh(self, wall: str, t_ms: float, side_mm: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """``wall`` at ``t_ms`` as a segmentation's mesh: the model filled into voxels of
+        ``side_mm`` (each voxel centre inside the wall's radius), blurred by a voxel's
+        sigma, marching cubes at its level 0.5, cut at the window's planes s = 0 and
+        s = L (the model continued past them as its end sections). ``V`` mm, ``F``
+        outward; in pieces where the cushions close the lumen."""
+        from scipy import ndimage
+        from skimage.measure import marching_cubes
+
+        from ..mesh.ends import cut_by_plane
+
+        p = self.p
+        s = np.linspace(-0.1, 1.1, 121) * p.length_mm
+        theta = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+        c, N, B = self.frame_axes(s[:, None])
+        rho = 1.5 * self.base_radius(np.clip(s, 0, p.length_mm))[:, None, None]
+        X = (c + rho * (np.cos(theta)[:, None] * N + np.sin(theta)[:, None] * B)).reshape(-1, 3)
+        low = X.min(axis=0) - 3 * side_mm
+        shape = np.ceil((X.max(axis=0) + 3 * side_mm - low) / side_mm).astype(int) + 1
+        axes = [low[k] + side_mm * np.arange(shape[k]) for k in range(3)]
+        inside = np.zeros(shape, np.float32)                    # (x, y, z)
+        for i, x in enumerate(axes[0]):                         # a plane at a time
+            P = np.stack(np.broadcast_arrays(x, axes[1][:, None], axes[2][None, :]), -1)
+            s_p, th_p = self.window_coordinates(P)
+            s_p = np.clip(s_p, 0.0, p.length_mm)
+            c_p, _, _ = self.frame_axes(s_p)
+            inside[i] = np.linalg.norm(P - c_p, axis=-1) <= self.radius(wall, s_p, th_p, t_ms)
+        field = ndimage.gaussian_filter(inside, 1.0)
+        V, F, _, _ = marching_cubes(field, 0.5, spacing=(side_mm,) * 3)
+        V = V + low
+        F = F[:, ::-1].astype(np.int64)                 # outward
+        for s_end, sign in ((0.0, 1.0), (p.length_mm, -1.0)):
+            c_e, N_e, B_e = self.frame_axes(s_end)
+            V, F = cut_by_plane(V, F, c_e, sign * np.cross(N_e, B_e))     # into the tube
+        return V, F
+
     # -- truth --------------------------------------------------------------
     def frame_times_ms(self):
         return np.arange(self.p.n_frames) * self.p.period_ms / self.p.n_frames
@@ -678,7 +719,8 @@ def write_phantom(out: str | Path, params: PhantomParams, *, name: str | None = 
     width = len(str(params.n_frames - 1))
     for k, t in enumerate(ph.frame_times_ms()):
         for w in walls:
-            V, F = ph.mesh(w, t, rng)
+            V, F = (ph.voxel_mesh(w, t, params.lumen_voxel_mm)
+                    if w == "lumen" and params.lumen_voxel_mm > 0 else ph.mesh(w, t, rng))
             write_ply(out / w / f"f{k:0{width}d}.ply", V, F)
         if progress is not None:
             progress(k + 1)

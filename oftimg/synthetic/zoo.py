@@ -58,12 +58,12 @@ RANGES = {
     # kappa), 3 to 6 of them, and meshes from coarse to fine (vertices round the outer wall)
     "corners": (3, 6), "corner_sharpness": (-1.5, 1.5), "vertices_around": (40, 200),
     # with cushions=True: the lumen an ellipse whose minor over major axis falls from the
-    # expanded aspect to the contracted one (at or below 0: closed, label kinds only;
-    # meshes stay open) over a stretch of the tube (a share of its length), its major
-    # axis at any angle
+    # expanded aspect to the contracted one (at or below 0: closed) over a stretch of the
+    # tube (a share of its length), its major axis at any angle; mesh draws' lumens meshed
+    # from voxels of this side (mm), as a lab meshes its segmentation (in pieces where closed)
     "cushion_aspect_expanded": (0.5, 0.95), "cushion_aspect_contracted": (-0.6, 0.2),
-    "cushion_aspect_contracted_meshes": (0.15, 0.4), "cushion_stretch": (0.2, 0.5),
-    "cushion_taper_mm": (0.05, 0.15),
+    "cushion_stretch": (0.2, 0.5), "cushion_taper_mm": (0.05, 0.15),
+    "cushion_lumen_voxel_mm": (0.004, 0.008),
     # with speckled=True (labels + intensity): the instrument's look and the tissue's
     # motion widened: fully developed speckle carried by the tissue and renewed as it
     # moves (over a step of this many voxels), texture grain from under a voxel to coarse
@@ -285,18 +285,22 @@ def speckled_params(seed: int, voxel_side_um: float) -> tuple[dict, TextureParam
 def cushion_params(seed: int, params: PhantomParams, kind: str) -> dict:
     """A cushion draw's phantom parameters (a stream of its own: the rest of the draw
     stays as it was): the lumen's aspect expanded and contracted, its major axis's
-    angle and the stretch where the cushions act, from :data:`RANGES`. Mesh draws stay
-    open (a mesh series whose lumen closes is not read yet); in label kinds the
-    contracted aspect at or below 0 closes the lumen over part of the stretch and beat."""
+    angle and the stretch where the cushions act, from :data:`RANGES`. The contracted
+    aspect at or below 0 closes the lumen over part of the stretch and beat; a mesh
+    draw's lumen is then meshed from voxels in every frame (``lumen_voxel_mm``), in
+    pieces where closed, as a lab's mesh of its segmentation is."""
     rng = np.random.default_rng([seed, 72, 5])
-    contracted = "cushion_aspect_contracted" + "_meshes" * (kind == "meshes")
     share = _uniform(rng, "cushion_stretch")
     start = float(rng.uniform(0.1, 0.9 - share)) * params.length_mm
-    return {"cushion_aspect_expanded": _uniform(rng, "cushion_aspect_expanded"),
-            "cushion_aspect_contracted": _uniform(rng, contracted),
-            "cushion_deg": float(rng.uniform(0.0, 180.0)),
-            "cushion_from_mm": start, "cushion_to_mm": start + share * params.length_mm,
-            "cushion_taper_mm": _uniform(rng, "cushion_taper_mm")}
+    out = {"cushion_aspect_expanded": _uniform(rng, "cushion_aspect_expanded"),
+           "cushion_aspect_contracted": _uniform(rng, "cushion_aspect_contracted"),
+           "cushion_deg": float(rng.uniform(0.0, 180.0)),
+           "cushion_from_mm": start, "cushion_to_mm": start + share * params.length_mm,
+           "cushion_taper_mm": _uniform(rng, "cushion_taper_mm")}
+    lumen_voxel_mm = _uniform(rng, "cushion_lumen_voxel_mm")
+    if kind == "meshes" and out["cushion_aspect_contracted"] <= 0:
+        out["lumen_voxel_mm"] = lumen_voxel_mm
+    return out
 
 
 def front_params(seed: int, period_ms: float) -> dict:

@@ -33,16 +33,16 @@ OCCUPANCY_RAYS = 3
 
 
 def surface_pieces(F: np.ndarray, n_vertices: int) -> list[np.ndarray]:
-    """The faces of each connected piece of a surface ``F (m, 3)`` (sharing an
-    edge), pieces under :data:`~oftimg.mesh.closure.PIECE_MIN_SHARE` of the largest's
+    """The faces of each connected piece of a surface ``F (m, 3)`` (joined through
+    their vertices), pieces under :data:`~oftimg.mesh.closure.PIECE_MIN_SHARE` of the largest's
     faces dropped, largest first: ``[face indices (k,)]``."""
     if len(F) == 0:
         return []
-    # faces joined through their vertices: a piece's faces share vertices
-    rows = np.repeat(np.arange(len(F)), 3)
-    A = sp.coo_matrix((np.ones(len(rows)), (rows, F.ravel())), shape=(len(F), n_vertices))
-    n, label = connected_components(sp.bmat([[None, A], [A.T, None]]), directed=False)
-    label = label[:len(F)]
+    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]]])       # a face's vertices joined
+    A = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])),
+                      shape=(n_vertices, n_vertices))
+    n, label = connected_components(A, directed=False)
+    label = label[F[:, 0]]
     sizes = np.bincount(label, minlength=n)
     order = [k for k in np.argsort(-sizes, kind="stable")
              if sizes[k] >= PIECE_MIN_SHARE * sizes.max()]

@@ -548,7 +548,8 @@ class Phantom:
         Xst = (at(1, 1) - at(1, -1) - at(-1, 1) + at(-1, -1)) / (4 * hs * ht)
         n = np.cross(Xs, Xt)
         n *= np.sign(np.einsum("...k,...k", n, X - self.frame_axes(s)[0]))[..., None]  # outward
-        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        with np.errstate(invalid="ignore"):      # a closed lumen has no normal: NaN there
+            n /= np.linalg.norm(n, axis=-1, keepdims=True)
         E, F, G = (np.einsum("...k,...k", a, b) for a, b in ((Xs, Xs), (Xs, Xt), (Xt, Xt)))
         L, M, N = (np.einsum("...k,...k", a, n) for a in (Xss, Xst, Xtt))
         return -(E * N - 2 * F * M + G * L) / (2 * (E * G - F * F))

@@ -372,8 +372,8 @@ def _print_report(report: dict) -> None:
     if joined.get("closures"):
         print(f"  lumen closed by the cushions (in pieces) in {len(joined['closures'])} "
               "frames: joined by a bridge as a run joins them, its rows measured as closed")
-    for r in joined.get("filled", []):
-        print(f"  filled lumen/{r['file']} from frames either side ({r['why']})")
+    for r in joined.get("repaired", []):
+        print(f"  repaired lumen/{r['file']}: {r['why']}")
     print(f"  period: {report['period_ms']:g} ms ({report['period_from']})")
     print("  problems: none")
 

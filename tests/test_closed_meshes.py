@@ -95,8 +95,8 @@ def test_a_lumen_in_pieces_in_one_frame_alone_is_filled_and_named_a_repair(tmp_p
     assert closed_frames(ds) == [k]
     joined = bridged_dataset(ds, tmp_path / "joined", MeshOptions())
     record = joined.lumen_bridged
-    assert not record["closures"] and [r["frame"] for r in record["filled"]] == [k]
-    assert "a gap in the segmentation, not the cushions" in record["filled"][0]["why"]
+    assert not record["closures"] and [r["frame"] for r in record["repaired"]] == [k]
+    assert "a gap in the segmentation, not the cushions" in record["repaired"][0]["why"]
     filled = joined.tube("lumen", k)                        # a tube, its files untouched
     assert joined.frames["lumen"][k].parent == tmp_path / "joined"
     assert joined.inputs_by_kind()["meshes"]["lumen"][k] == path
@@ -113,6 +113,31 @@ def test_a_lumen_the_cushions_close_over_frames_is_bridged_not_filled(tmp_path):
     assert len(closed) >= 3
     joined = bridged_dataset(ds, tmp_path / "joined", MeshOptions(), closed=closed)
     assert [r["frame"] for r in joined.lumen_bridged["closures"]] == closed
-    assert not joined.lumen_bridged["filled"]
+    assert not joined.lumen_bridged["repaired"]
     flags = read_vertex_values(joined.frames["lumen"][closed[0]], CLOSED_PROPERTY)
     assert flags is not None and 0 < flags.sum() < 0.2 * len(flags)
+
+
+def test_a_slit_meshed_with_holes_through_it_is_joined_as_a_closure(tmp_path):
+    """Zoo mesh draw 405 (frame 16 of 40): the lab-like mesh of a lumen closing to a slit
+    is one piece open at both ends with handles where the slit's faces touch (Euler
+    characteristic -2); it was refused, and is a closure to join."""
+    from oftimg.io.lumen_closures import bridge_frame
+    from oftimg.synthetic.zoo import draw_scenario
+
+    p = draw_scenario(405, "meshes", n_frames=40, cushions=True).phantom
+    ph = Phantom(p)
+    t = ph.frame_times_ms()[16]
+    V, F = ph.voxel_mesh("lumen", t, p.lumen_voxel_mm)
+    with pytest.raises(Exception, match="Euler characteristic"):
+        check_tube(V, F)
+    assert is_closed_lumen(V, F)
+    write_ply(tmp_path / "lumen.ply", V, F)
+    write_ply(tmp_path / "inner.ply", *ph.mesh("inner", t, np.random.default_rng(0)))
+    record = bridge_frame(16, {"lumen": str(tmp_path / "lumen.ply"),
+                               "inner": str(tmp_path / "inner.ply")}, None,
+                          str(tmp_path / "joined.ply"), MeshOptions(), "mm")
+    assert isinstance(record, dict) and not record["repaired"]
+    joined = read_mesh_file(tmp_path / "joined.ply")
+    check_tube(*joined)
+    assert read_vertex_values(tmp_path / "joined.ply", CLOSED_PROPERTY).sum() > 0

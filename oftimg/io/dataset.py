@@ -287,7 +287,7 @@ class Dataset:
         frames = dict(self.frames)
         if self.lumen_bridged:               # the lumens joined in the results: from these
             replaced = {r["frame"]: Path(r["source"])
-                        for r in self.lumen_bridged["closures"] + self.lumen_bridged["filled"]}
+                        for r in self.lumen_bridged["closures"] + self.lumen_bridged["repaired"]}
             frames["lumen"] = [replaced.get(t, p) for t, p in enumerate(frames["lumen"])]
         inputs: dict[str, list[Path] | dict[str, list[Path]]] = {"meshes": frames}
         if self.intensity is not None:

@@ -67,6 +67,12 @@ def bridge_frame(t: int, files: dict[str, str], neighbours: tuple[str, str] | No
         return DatasetError(f"{files['lumen']}: the lumen is in pieces (or closed up to an "
                             "end), and its pieces cannot be joined inside the inner wall "
                             "into one tube")
+    if mesh.closed is None:                  # holes through a slit, closed nowhere
+        write_ply(out, mesh.V, mesh.F)
+        what = mesh.repair.what if mesh.repair is not None else "meshed from voxels"
+        return {"frame": t, "file": name, "source": files["lumen"], "repaired": True,
+                "why": (f"its lumen had holes through a narrowing slit but closed "
+                        f"nowhere: filled into voxels and meshed again ({what})")}
     if neighbours is not None:
         planes = tube_end_planes(*inner)
         origin, side, shape = voxel_box(inner[0], *lumen)
@@ -85,12 +91,12 @@ def bridge_frame(t: int, files: dict[str, str], neighbours: tuple[str, str] | No
                                     "alone (a gap in the segmentation), filled from the "
                                     f"frames around it, {exc}")
             write_ply(out, filled.V + origin, filled.F)
-            return {"frame": t, "file": name, "source": files["lumen"], "filled": True,
+            return {"frame": t, "file": name, "source": files["lumen"], "repaired": True,
                     "why": ("its lumen closed over a stretch in this frame alone, wide "
                             "open there in the frames either side: a gap in the "
                             "segmentation, not the cushions; filled from them")}
     write_ply(out, mesh.V, mesh.F, {CLOSED_PROPERTY: mesh.closed.astype(np.float32)})
-    return {"frame": t, "file": name, "source": files["lumen"], "filled": False,
+    return {"frame": t, "file": name, "source": files["lumen"], "repaired": False,
             **{k: (round(v, 6) if isinstance(v, float) else v)
                for k, v in (mesh.closure or {}).items()}}
 
@@ -100,8 +106,8 @@ def bridged_dataset(ds, folder: Path, options, executor=None, progress=None,
     """Mesh dataset ``ds`` with the lumens the cushions closed bridged (or, a one-frame
     gap, filled) into ``folder`` (created; beside the kept results, removed with them)
     and read from there; ``ds`` itself when no lumen is closed. Its ``lumen_bridged``
-    records the frames (``closures``, ``filled``: each one's ``file`` and the ``source``
-    it replaced).
+    records the frames (``closures``; ``repaired``, with ``why``: each one's ``file`` and
+    the ``source`` it replaced).
     Raises one :class:`DatasetError` for the frames that cannot be joined.
     ``progress()``: called after each closed frame; ``closed``: :func:`closed_frames`
     when known."""
@@ -131,8 +137,8 @@ def bridged_dataset(ds, folder: Path, options, executor=None, progress=None,
     lumen = list(ds.frames["lumen"])
     for t in closed:
         lumen[t] = folder / ds.frames["lumen"][t].name
-    record = {"closures": [r for r in results if not r["filled"]],
-              "filled": [r for r in results if r["filled"]]}
+    record = {"closures": [r for r in results if not r["repaired"]],
+              "repaired": [r for r in results if r["repaired"]]}
     return dataclasses.replace(ds, frames={**ds.frames, "lumen": lumen}, lumen_bridged=record,
                                checked={})
 
@@ -149,7 +155,7 @@ def bridged_notes(path: Path, record: dict | None, n_frames: int) -> list[str]:
                      "pieces were joined by a thin bridge to grid it, and its rows there are "
                      "measured as closed (area 0, no curvature: lumen_closed in arrays.npz; "
                      "summary.json provenance.lumen_bridged)")
-    for filled in record["filled"]:
-        notes.append(f"{path}: repaired frame {filled['frame']} ({filled['file']}): "
-                     f"{filled['why']}")
+    for repaired in record["repaired"]:
+        notes.append(f"{path}: repaired frame {repaired['frame']} ({repaired['file']}): "
+                     f"{repaired['why']}")
     return notes

@@ -50,20 +50,27 @@ def surface_pieces(F: np.ndarray, n_vertices: int) -> list[np.ndarray]:
 
 
 def is_closed_lumen(V: np.ndarray, F: np.ndarray) -> bool:
-    """Whether a lumen surface ``(V, F)`` is one the cushions closed: in 2 to
-    :data:`~oftimg.mesh.closure.MAX_PIECES` pieces, or in one piece open at one end
-    only (closed up to the other). A tube, or anything else (a sieve of pieces, a
-    surface with no open end), is not: it is left to the usual checks."""
+    """Whether a lumen surface ``(V, F)`` is one the cushions close: in 2 to
+    :data:`~oftimg.mesh.closure.MAX_PIECES` pieces, in one piece open at one end only
+    (closed up to the other), or one piece open at both ends but with handles (a slit
+    closing: where its two faces touch, a mesh of the segmentation has holes through
+    it). A tube, or anything else (a sieve of pieces, a surface with no open end), is
+    not: it is left to the usual checks."""
     V, F, _ = repair(V, F)
     pieces = surface_pieces(F, len(V))
     if 2 <= len(pieces) <= MAX_PIECES:
         return True
-    if len(pieces) == 1:
-        try:
-            return len(boundary_loops(F[pieces[0]])) == 1
-        except MeshError:
-            return False
-    return False
+    if len(pieces) != 1:
+        return False
+    F = F[pieces[0]]
+    try:
+        loops = len(boundary_loops(F))
+    except MeshError:
+        return False
+    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
+                              axis=1), axis=0)
+    euler = len(np.unique(F)) - len(edges) + len(F)
+    return loops == 1 or (loops == 2 and euler < 0)
 
 
 def capped(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -187,17 +194,25 @@ def closed_lumen_from_meshes(lumen: tuple[np.ndarray, np.ndarray],
     """One frame's lumen ``(V, F)`` the cushions closed (:func:`is_closed_lumen`) as one
     tube with its bridge flagged, inside the frame's inner wall ``(V, F)`` (an open
     tube; both in the files' length unit): a :class:`~oftimg.mesh.labels.WallMesh`
-    in that unit, its ``closure`` recording the voxel side; None when the bridged
-    lumen cannot be meshed as a tube. ``options``: :class:`~oftimg.mesh.labels.MeshOptions`."""
-    from .labels import closed_lumen_mesh
+    in that unit, its ``closure`` recording the voxel side; a lumen closed nowhere (its
+    handles a slit's holes, no piece apart after opening) meshed from its mended mask
+    with no bridge (``closed`` and ``closure`` None, ``repair`` saying what); None when
+    neither can be meshed as a tube. ``options``: :class:`~oftimg.mesh.labels.MeshOptions`."""
+    from .labels import _mesh_or_mend, closed_lumen_mesh
 
     planes = tube_end_planes(*inner)
     origin, side, shape = voxel_box(inner[0], *lumen)
     local = [(point - origin, normal) for point, normal in planes]
     mask, inner_mask = lumen_and_inner_masks(lumen, inner, origin, side, shape, local)
-    mesh = closed_lumen_mesh(mask, inner_mask, (side, side, side), options, local,
-                             openings=(0, 1, 2), to_ends=True, length_unit=length_unit)
-    if mesh is None:
-        return None
+    voxel = (side, side, side)
+    mesh = closed_lumen_mesh(mask, inner_mask, voxel, options, local,
+                             openings=(0, 1, 2, 3), to_ends=True, length_unit=length_unit)
+    if mesh is None:         # a slit's holes, but closed nowhere: one tube, mended
+        mended, _ = _mesh_or_mend("lumen", mask, voxel, options, local,
+                                  length_unit=length_unit)
+        if isinstance(mended, str):
+            return None
+        return replace(mended, V=mended.V + origin, mean_curvature=None, closed=None,
+                       closure=None)
     return replace(mesh, V=mesh.V + origin, mean_curvature=None,
                    closure={**(mesh.closure or {}), "voxel_side": side})

@@ -119,3 +119,15 @@ def test_a_label_phantom_cut_obliquely_by_the_volume_is_measured_square(tmp_path
     said = [line for line in capsys.readouterr().out.splitlines() if "cut square" in line]
     assert len(said) == 2 and all("from square: cut square to the centre line" in line
                                   for line in said)
+
+
+def test_the_square_ends_reference_frames_are_spread_over_the_cycle():
+    """Where one phase's sections past a rim do not settle the centre line (speckled zoo
+    draw 631: every frame within 2 of the middle), the next reference lies a quarter of
+    the cycle away, not beside it."""
+    from oftimg.io.label_dataset import REFERENCE_TRIES, reference_frames
+
+    frames = reference_frames(182)
+    assert frames[:3] == [91, 45, 136] and len(frames) == REFERENCE_TRIES
+    assert min(abs(a - b) for i, a in enumerate(frames) for b in frames[i + 1:]) >= 20
+    assert reference_frames(3) == [1, 0, 2] and reference_frames(1) == [0]

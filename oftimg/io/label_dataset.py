@@ -852,24 +852,44 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
                     "seconds": round(time.perf_counter() - tick, 2)}}
 
 
+# frames tried in turn as the reference whose centre line gives the square ends: at
+# one phase the sections past a rim may not settle it (speckled zoo draw 631: a wide
+# inlet on a tight bend, near its largest expansion, every frame within 2 of the middle),
+# at another they do
+REFERENCE_TRIES = 5
+
+
+def reference_frames(n: int) -> list[int]:
+    """The frames tried as the square ends' reference, spread over the cycle: the
+    middle frame, then a quarter, three quarters, an eighth... of the way through,
+    :data:`REFERENCE_TRIES` in all (at most ``n``)."""
+    shares = [0.5, 0.25, 0.75, 0.125, 0.375, 0.625, 0.875, 0.0]
+    return list(dict.fromkeys(int(share * n) % n for share in shares))[:REFERENCE_TRIES]
+
+
 def square_the_ends(lds: LabelDataset, out: Path, walls: list[str], results: list,
                     executor) -> list[dict | None] | None:
     """Where the volume's faces cut the tube obliquely (meta.json gives no "ends"),
     every frame's walls in ``out`` cut at the planes square to the centre line past
     every frame's rim (:func:`~oftimg.mesh.ends.square_ends`: the middle frame's
-    outer wall gives the centre line, ``results``' rims the reach), in ``executor``'s
+    outer wall gives the centre line, or the next of :func:`reference_frames` where it
+    does not settle; ``results``' rims the reach), in ``executor``'s
     workers. Returns per end (in the order of the middle frame's boundary loops) the
     plane as the provenance records it (None where the face cuts square), or None
     when no end needed it. Raises :class:`DatasetError` naming the frame whose wall is
     no tube once cut."""
     names = lds.mesh_names()
-    middle = len(names) // 2
-    reference = read_mesh_file(out / "outer" / names[middle])
     step = float(np.median([r["step"]["outer"] for r in results]))
-    try:
-        ends = square_ends(reference, [r["rims"] for r in results], MARGIN_STEPS * step)
-    except MeshError as exc:
-        raise DatasetError(f"{lds.folder}: the tube {exc}; give the two cutting planes in "
+    failed = None
+    for t in reference_frames(len(names)):
+        try:
+            ends = square_ends(read_mesh_file(out / "outer" / names[t]),
+                               [r["rims"] for r in results], MARGIN_STEPS * step)
+            break
+        except MeshError as exc:
+            failed = failed or exc
+    else:
+        raise DatasetError(f"{lds.folder}: the tube {failed}; give the two cutting planes in "
                            "meta.json (\"ends\")") from None
     if all(end is None for end in ends):
         return None

@@ -131,6 +131,11 @@ def _axis_of_normals(V: np.ndarray, F: np.ndarray, centre: np.ndarray, reach: fl
     return np.linalg.eigh(scatter)[1][:, 0]
 
 
+# degrees: the centre line's tangent past a rim is settled when the last of end_axis's
+# rounds turns it less than this (on the zoo's frames the fourth turns it 0-0.4 degrees)
+SETTLED_DEG = 2.0
+
+
 def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *,
              rounds: int = 4):
     """The centre line just past a tube's rim: ``(point (3,), tangent (3,))``, the
@@ -144,7 +149,9 @@ def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *,
     sections square to the current tangent, a third of a radius apart from that
     place on, and takes the tangent of the parabola through their centroids at the
     first (a bent tube's tangent changes over the span: read at the span's middle,
-    it was 9 degrees off on a quarter-circle phantom); four rounds settle it."""
+    it was 9 degrees off on a quarter-circle phantom); four rounds settle it, or it is
+    None (the last round turned it more than :data:`SETTLED_DEG`: on one frame of a
+    speckled zoo draw the sections' centroids pulled it round 10-30 degrees a round)."""
     area = loop_vector_area(rim)
     radius = float(np.sqrt(np.linalg.norm(area) / np.pi))
     point = loop_centroid(rim)
@@ -153,6 +160,7 @@ def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *,
     if (near.mean(axis=0) - point) @ tangent < 0:              # into the tube
         tangent = -tangent
     h = radius / 3
+    turned = np.inf
     for _ in range(rounds):
         clear = float(np.max((rim - point) @ tangent)) + margin + 0.01 * radius
         origins = point + tangent * (clear + h * np.arange(3)[:, None])
@@ -162,8 +170,12 @@ def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *,
             return None
         c0, c1, c2 = found
         slope = -3 * c0 + 4 * c1 - c2                  # the parabola's tangent at c0
+        turned = float(np.degrees(np.arccos(np.clip(slope @ tangent / np.linalg.norm(slope),
+                                                     -1.0, 1.0))))
         tangent = slope / np.linalg.norm(slope)
         point = c0
+    if turned > SETTLED_DEG:
+        return None
     return point, tangent
 
 
@@ -197,7 +209,8 @@ def square_ends(reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.nda
     3)`` each; a frame's are matched to the reference's ends by their centroids);
     ``margin``: how far inside every rim the plane lies (length unit). None for
     both ends when the reference has not two loops. Raises :class:`MeshError` for an
-    end cut obliquely where no section past the cut comes whole."""
+    end cut obliquely where no section past the cut comes whole (or the centre line
+    there does not settle: :func:`end_axis`)."""
     V, F = reference
     loops = [V[loop] for loop in boundary_loops(F)]
     if len(loops) != 2:
@@ -218,7 +231,7 @@ def square_ends(reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.nda
         if axis is None:
             raise MeshError(f"is cut by the volume's face {oblique:.0f} degrees from square, "
                             "and no section square to its centre line past the cut comes "
-                            "whole")
+                            "whole (or that centre line does not settle)")
         point, tangent = axis
         theirs = [r for frame in rims for r in frame
                   if np.argmin(np.linalg.norm(centres - r.mean(axis=0), axis=1)) == k]

@@ -49,7 +49,11 @@ def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal, values: np.ndarray
     new_V = np.concatenate([V, V[a] + w[:, None] * (V[b] - V[a])])
     new_values = None if values is None else np.concatenate(
         [values, values[a] + w.reshape(-1, *[1] * (values.ndim - 1)) * (values[b] - values[a])])
-    key = {tuple(p): len(V) + k for k, p in enumerate(pairs.tolist())}
+    # a vertex on the plane itself (an axis-aligned plane through marching cubes' grid
+    # lines) is the cut's vertex there: a new one at its place would be its twin, which
+    # a reader merges into a pinched boundary vertex (speckled zoo draw 629, refused)
+    index = np.where(w == 0.0, a, np.where(w == 1.0, b, len(V) + np.arange(len(pairs))))
+    key = {tuple(p): int(k) for p, k in zip(pairs.tolist(), index)}
 
     def on_plane(i, j):
         return key[(min(i, j), max(i, j))]
@@ -67,7 +71,9 @@ def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal, values: np.ndarray
         else:
             extra += [(pq, q, r), (pq, r, pr)]
     if extra:
-        faces.append(np.asarray(extra, dtype=np.int64))
+        extra = np.asarray(extra, dtype=np.int64)
+        faces.append(extra[(extra[:, 0] != extra[:, 1]) & (extra[:, 1] != extra[:, 2])
+                           & (extra[:, 2] != extra[:, 0])])    # none folded onto the plane
     F_out = np.concatenate(faces) if faces else np.empty((0, 3), np.int64)
     used = np.zeros(len(new_V), bool)
     used[F_out.ravel()] = True

@@ -69,7 +69,7 @@ import oftimg
 from oftimg.image.activation import helix_angle, surface_velocity, unwrapped
 from oftimg.image.normalize import smooth_field_in_time
 from oftimg.mesh.strain import grid_strain
-from oftimg.analysis.pipeline import smoothed_strain, thickness_summary
+from oftimg.analysis.fields import smoothed_strain, thickness_summary
 from oftimg.synthetic.labels import NOISE, label_params, volume_transform, write_label_phantom
 from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
 from oftimg.synthetic.zoo import volume_offset_um

@@ -10,7 +10,7 @@ from oftimg.mesh.curvature import (contour_curvature, count_corners, mixed_areas
 from oftimg.mesh.parameterize import corner_terms
 from oftimg.mesh.strain import grid_strain, grid_triangles
 from oftimg.mesh.topology import check_tube
-from oftimg.analysis.pipeline import thickness_by_row, thickness_summary
+from oftimg.analysis.fields import thickness_by_row, thickness_summary
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -238,7 +238,7 @@ def test_strain_from_a_rough_grid_smoothed_in_time_is_the_walls():
     (issue 84), -3 % and -0.4 % since; its median |error| 29 % and 7 % (59 % and 8 %
     before). Without the roughness 5 ms costs 0.8 % on this beat, and unsmoothed the lift
     measured takes 0.4 % off (the beat's own fastest part read as noise)."""
-    from oftimg.analysis.pipeline import smoothed_strain
+    from oftimg.analysis.fields import smoothed_strain
 
     n_t, period, r0 = 195, 360.0, 0.2
     radius = r0 * (1 + 0.2 * np.sin(np.pi * np.arange(n_t) / n_t) ** 2)
@@ -266,7 +266,7 @@ def test_strain_noise_is_the_change_the_roughness_makes():
     against the change it makes (rough minus smooth grid's energy before the lift is
     taken off, median |.| over the median energy; measured 0.85-1.14x of it where it is
     under 0.35, as on the phantoms)."""
-    from oftimg.analysis.pipeline import NOISY_STRAIN_SHARE, smoothed_strain
+    from oftimg.analysis.fields import NOISY_STRAIN_SHARE, smoothed_strain
 
     n_t, period, r0 = 195, 360.0, 0.2
     radius = r0 * (1 + 0.2 * np.sin(np.pi * np.arange(n_t) / n_t) ** 2)
@@ -302,7 +302,7 @@ def test_strain_smoothing_auto_takes_the_least_sigma_its_noise_allows():
     the truth for it."""
     from oftimg.image.kymograph import RIDGE_SMOOTHING_LADDER_MS as LADDER
     from oftimg.image.normalize import STRAIN_NOISE_TARGET
-    from oftimg.analysis.pipeline import smoothed_strain
+    from oftimg.analysis.fields import smoothed_strain
 
     n_t, period, r0 = 195, 360.0, 0.2
     radius = r0 * (1 + 0.2 * np.sin(np.pi * np.arange(n_t) / n_t) ** 2)

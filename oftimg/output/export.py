@@ -409,7 +409,7 @@ def cohort_maps(results: Path, summaries: list[dict], *,
     :data:`COHORT_MAPS`, clusters formed at uncorrected p <= ``cluster_alpha``."""
     from ..analysis.group_maps import (common_grid, group_differences, on_common_grid,
                                        row_normalized)
-    from ..analysis.pipeline import mean_around_tube
+    from ..analysis.fields import mean_around_tube
 
     position, phase = common_grid()
     missing = np.full((len(position), len(phase)), np.nan)

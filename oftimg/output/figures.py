@@ -238,7 +238,7 @@ def dataset_figures(folder: Path, summary: dict, arrays: dict, grids: dict,
                                title=f"{name}: the lumen's ellipticity and closure ({how})"))
     for layer, what in (("wall", "myocardial wall"), ("jelly", "cardiac jelly")):
         if f"{layer}_thickness_mm" in arrays:
-            from ..analysis.pipeline import mean_around_tube
+            from ..analysis.fields import mean_around_tube
 
             rows = units.THICKNESS.scale * mean_around_tube(
                 arrays[f"{layer}_thickness_mm"])                               # (n_v, n_t)
@@ -979,7 +979,7 @@ def _group_profiles(path: Path) -> dict:
     ``t_ms``, ``volume_outer_mm3`` and each :data:`GROUP_PROFILES` key along the
     tube (the wall's and the jelly's only with the walls they lie between). Read and
     closed: hundreds of open files would hit the OS limit."""
-    from ..analysis.pipeline import thickness_by_row
+    from ..analysis.fields import thickness_by_row
 
     with np.load(path) as arrays:
         out = {key: arrays[key] for key in ("s_mm", "t_ms", "volume_outer_mm3",

@@ -48,9 +48,11 @@ $(STAMP): $(BASE_STAMP)
 	$(call PIP_INSTALL,--resume-retries 10 -e '.[test]')
 	touch $(STAMP)
 
-# ruff's checks (pyproject.toml [tool.ruff]; .pre-commit-config.yaml runs them per commit)
+# ruff's checks and layout (pyproject.toml [tool.ruff]; .pre-commit-config.yaml runs them
+# per commit; ruff format . mends the layout)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/python -m mypy
 
 demo: $(BASE_STAMP)

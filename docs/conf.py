@@ -1,4 +1,5 @@
 """Sphinx configuration of oftimg's documentation site (``make docs``)."""
+
 from __future__ import annotations
 
 import os

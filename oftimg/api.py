@@ -9,6 +9,7 @@ name (``oftimg.api.cohort`` is :func:`oftimg.cohorts.cohort`). File access happe
 and in :mod:`oftimg.io.dataset` / :mod:`oftimg.output.export`; the science lives in
 :mod:`oftimg.analysis.pipeline` and the ``mesh``/``image`` modules.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -20,8 +21,14 @@ import uuid
 import warnings
 from pathlib import Path
 
-from .cohorts import (_check_cluster_alpha, _check_names, _datasets_seconds, _run_info, cohort,
-                      write_cohort_outputs)
+from .cohorts import (
+    _check_cluster_alpha,
+    _check_names,
+    _datasets_seconds,
+    _run_info,
+    cohort,
+    write_cohort_outputs,
+)
 from .exports import ome_zarr, paraview, tiff
 from .errors import InputError, OftimgWarning
 from .inputs import _as_dataset_paths, _load, _lumens_joined, _meshed, mesh, validate_labels
@@ -40,16 +47,38 @@ from .workers import available_memory, closing_executor, make_executor
 log = logging.getLogger("oftimg")
 
 # given here by name too (the split modules' public functions; see the docstring)
-__all__ = ["run", "analyse_and_write", "embryo_task", "embryos_at_once", "cohort",
-           "write_cohort_outputs", "paraview", "tiff", "ome_zarr", "mesh", "validate_labels",
-           "_datasets_seconds"]
+__all__ = [
+    "run",
+    "analyse_and_write",
+    "embryo_task",
+    "embryos_at_once",
+    "cohort",
+    "write_cohort_outputs",
+    "paraview",
+    "tiff",
+    "ome_zarr",
+    "mesh",
+    "validate_labels",
+    "_datasets_seconds",
+]
 
 
-def run(source, out, *, overwrite: bool = False, quiet: bool = False,
-        options: dict | None = None, jobs: int | None = None,
-        scheduler: str | None = None, fps: float | None = None, parallel: str = "auto",
-        resume: bool = False, cluster_alpha: float = 0.05,
-        period_ms: float | None = None, figures: bool = True) -> Path:
+def run(
+    source,
+    out,
+    *,
+    overwrite: bool = False,
+    quiet: bool = False,
+    options: dict | None = None,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    fps: float | None = None,
+    parallel: str = "auto",
+    resume: bool = False,
+    cluster_alpha: float = 0.05,
+    period_ms: float | None = None,
+    figures: bool = True,
+) -> Path:
     """Process a dataset or cohort folder (or a :class:`Dataset`) into ``out``.
 
     Every frame of every dataset is validated before any work. The work runs
@@ -75,8 +104,7 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
 
     if parallel not in ("auto", "frames", "embryos"):
         raise InputError(f"--parallel must be auto, frames or embryos, found {parallel!r}")
-    if fps is not None and not (isinstance(fps, (int, float)) and math.isfinite(fps)
-                                and fps > 0):
+    if fps is not None and not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
         raise InputError(f"--fps must be a positive number of frames per second, found {fps!r}")
     _check_cluster_alpha(cluster_alpha)
     out = Path(out)
@@ -84,21 +112,49 @@ def run(source, out, *, overwrite: bool = False, quiet: bool = False,
     check_output_location(out, paths, overwrite=overwrite)
     opts = PipelineOptions(**(options or {}))
     datasets = with_period([_load(p) for p in paths], period_ms)
-    _check_names([(d.meta.name, d.path) for d in datasets],
-                 'set another "name" in its meta.json')
-    for d in datasets:                  # --tracking texture without intensity: before any work
+    _check_names([(d.meta.name, d.path) for d in datasets], 'set another "name" in its meta.json')
+    for d in datasets:  # --tracking texture without intensity: before any work
         tracking_mode(d, opts.tracking, d.intensity is not None)
     started = time.time()
     finished = Finished(finished_folder(out))
     with finished.locked(out):
-        return _run_locked(datasets, finished, out, paths, opts, resume=resume, jobs=jobs,
-                           scheduler=scheduler, parallel=parallel, overwrite=overwrite,
-                           quiet=quiet, fps=fps, started=started,
-                           cluster_alpha=cluster_alpha, figures=figures)
+        return _run_locked(
+            datasets,
+            finished,
+            out,
+            paths,
+            opts,
+            resume=resume,
+            jobs=jobs,
+            scheduler=scheduler,
+            parallel=parallel,
+            overwrite=overwrite,
+            quiet=quiet,
+            fps=fps,
+            started=started,
+            cluster_alpha=cluster_alpha,
+            figures=figures,
+        )
 
 
-def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs, scheduler,
-                parallel, overwrite, quiet, fps, started, cluster_alpha, figures) -> Path:
+def _run_locked(
+    datasets,
+    finished: Finished,
+    out,
+    paths,
+    opts,
+    *,
+    resume,
+    jobs,
+    scheduler,
+    parallel,
+    overwrite,
+    quiet,
+    fps,
+    started,
+    cluster_alpha,
+    figures,
+) -> Path:
     """:func:`run` once it holds ``finished``: what to reuse, validation, the work,
     the cohort outputs; on failure, the note on what is kept."""
     names = [d.meta.name for d in datasets]
@@ -109,35 +165,65 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
             summary = finished.summary_if_current(name, fp)
             if summary is not None:
                 reused[name] = summary
-        log.info("--resume: %d of %d datasets finished before, reused", len(reused),
-                 len(datasets))
+        log.info("--resume: %d of %d datasets finished before, reused", len(reused), len(datasets))
     todo = [d for d in datasets if d.meta.name not in reused]
     try:
         for ds in todo:
             check_enough_frames(ds)
         executor = make_executor(jobs, scheduler) if todo else None
         with closing_executor(executor):
-            todo = [_meshed(ds, finished.root / f"{ds.meta.name}.meshes", opts.meshing, executor,
-                            quiet) if isinstance(ds, LabelDataset) else
-                    _lumens_joined(ds, finished.root / f"{ds.meta.name}.lumens", opts.meshing,
-                                   executor, quiet) for ds in todo]
+            todo = [
+                _meshed(ds, finished.root / f"{ds.meta.name}.meshes", opts.meshing, executor, quiet)
+                if isinstance(ds, LabelDataset)
+                else _lumens_joined(
+                    ds, finished.root / f"{ds.meta.name}.lumens", opts.meshing, executor, quiet
+                )
+                for ds in todo
+            ]
             reports = {ds.meta.name: _validated(ds, executor, quiet) for ds in todo}
             if parallel == "auto":
-                parallel = ("embryos" if executor is not None
-                            and len(todo) >= 2 * _n_workers(executor) else "frames")
-            work = (_embryos_in_workers if parallel == "embryos" and executor is not None
-                    else _frames_in_workers)
-            done = work(todo, reports, finished, fingerprints, opts, executor, fps=fps,
-                        figures=figures, quiet=quiet, out=out)
+                parallel = (
+                    "embryos"
+                    if executor is not None and len(todo) >= 2 * _n_workers(executor)
+                    else "frames"
+                )
+            work = (
+                _embryos_in_workers
+                if parallel == "embryos" and executor is not None
+                else _frames_in_workers
+            )
+            done = work(
+                todo,
+                reports,
+                finished,
+                fingerprints,
+                opts,
+                executor,
+                fps=fps,
+                figures=figures,
+                quiet=quiet,
+                out=out,
+            )
             summaries = [reused.get(name) or done[name] for name in names]
-            _write_run(summaries, finished, out, paths, opts, overwrite=overwrite,
-                       started=started, cluster_alpha=cluster_alpha, figures=figures)
+            _write_run(
+                summaries,
+                finished,
+                out,
+                paths,
+                opts,
+                overwrite=overwrite,
+                started=started,
+                cluster_alpha=cluster_alpha,
+                figures=figures,
+            )
     except BaseException as exc:
         kept = finished.names()
         if kept:
             what = "the dataset" if len(kept) == 1 else f"the {len(kept)} datasets"
-            exc.add_note(f"{what} finished before this kept in {finished.root}: "
-                         "run again with --resume to reuse")
+            exc.add_note(
+                f"{what} finished before this kept in {finished.root}: "
+                "run again with --resume to reuse"
+            )
         else:
             finished.remove()
         raise
@@ -148,8 +234,9 @@ def _run_locked(datasets, finished: Finished, out, paths, opts, *, resume, jobs,
 def _validated(ds: Dataset, executor, quiet: bool) -> dict:
     """:func:`validate_dataset` with a progress bar; the report records its seconds."""
     tick = time.time()
-    bar = Progress(ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes",
-                   quiet=quiet, unit="mesh")
+    bar = Progress(
+        ds.n_frames * len(ds.surfaces), f"{ds.meta.name}: checking meshes", quiet=quiet, unit="mesh"
+    )
     try:
         report = validate_dataset(ds, executor=executor, progress=bar.advance)
     finally:
@@ -166,9 +253,20 @@ def _n_workers(executor) -> int:
     return executor._max_workers
 
 
-def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: float,
-                      quiet: bool = True, executor=None, progress=None, stage=None,
-                      results_at: Path | None = None, figures: bool = True) -> dict:
+def analyse_and_write(
+    ds: Dataset,
+    report: dict,
+    folder: Path,
+    opts,
+    *,
+    fps: float,
+    quiet: bool = True,
+    executor=None,
+    progress=None,
+    stage=None,
+    results_at: Path | None = None,
+    figures: bool = True,
+) -> dict:
     """One validated dataset end to end: its results into ``folder`` (which
     exists); returns its summary, which records the warnings of the analysis
     (``warnings``, raised again too). ``progress``: see :func:`analyse_dataset`;
@@ -201,18 +299,32 @@ def analyse_and_write(ds: Dataset, report: dict, folder: Path, opts, *, fps: flo
             try:
                 with warnings.catch_warnings(record=True) as caught:
                     warnings.simplefilter("always")
-                    result = analyse_dataset(ds, opts, quiet=True, executor=executor,
-                                             progress=progress, on_aligned=aligned)
+                    result = analyse_dataset(
+                        ds,
+                        opts,
+                        quiet=True,
+                        executor=executor,
+                        progress=progress,
+                        on_aligned=aligned,
+                    )
             finally:
                 raised = _raise_again(caught)
             summary = result["summary"]
             summary["provenance"]["dataset"]["from_results"] = os.path.relpath(
-                summary["provenance"]["dataset"]["path"], Path(results_at or folder).resolve())
+                summary["provenance"]["dataset"]["path"], Path(results_at or folder).resolve()
+            )
             summary["warnings"] = raised
             summary["validation"] = report
             stage("figures, videos" if figures else "files")
-            write_dataset_results(folder, result, fps=fps, executor=executor, early_videos=early,
-                                  started=started, figures=figures)
+            write_dataset_results(
+                folder,
+                result,
+                fps=fps,
+                executor=executor,
+                early_videos=early,
+                started=started,
+                figures=figures,
+            )
     finally:
         if bar is not None:
             bar.close()
@@ -251,8 +363,16 @@ def _tail_frames(n_frames: int) -> int:
     return round(TAIL_PASSES * n_frames)
 
 
-def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
-                vector_suffixes=None, results_at: Path | None = None, figures: bool = True):
+def embryo_task(
+    ds: Dataset,
+    report: dict,
+    opts,
+    fps: float,
+    frames_done=None,
+    vector_suffixes=None,
+    results_at: Path | None = None,
+    figures: bool = True,
+):
     """:func:`analyse_and_write` in a worker, into a folder of its own.
 
     Returns the summary, the files ``{path relative to the dataset's folder:
@@ -272,10 +392,14 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
 
     from .output.style import vector_formats
 
-    formats = (contextlib.nullcontext() if vector_suffixes is None
-               else vector_formats(vector_suffixes))
-    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings(record=True) as caught, \
-            formats:
+    formats = (
+        contextlib.nullcontext() if vector_suffixes is None else vector_formats(vector_suffixes)
+    )
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        warnings.catch_warnings(record=True) as caught,
+        formats,
+    ):
         warnings.simplefilter("always")
         folder = Path(tmp) / ds.meta.name
         folder.mkdir()
@@ -283,7 +407,7 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
         progress = stage = None
         tail = _tail_frames(ds.n_frames)
         if frames_done is not None:
-            steps = iter((0, tail // 3))       # the fields, then the files: a third of the tail
+            steps = iter((0, tail // 3))  # the fields, then the files: a third of the tail
 
             def progress():
                 report_frames.put(1)
@@ -291,18 +415,42 @@ def embryo_task(ds: Dataset, report: dict, opts, fps: float, frames_done=None,
             def stage(text):
                 report_frames.put(next(steps, 0))
                 report_frames.put((ds.meta.name, text))
-        summary = analyse_and_write(ds, report, folder, opts, fps=fps, progress=progress,
-                                    stage=stage, results_at=results_at, figures=figures)
+
+        summary = analyse_and_write(
+            ds,
+            report,
+            folder,
+            opts,
+            fps=fps,
+            progress=progress,
+            stage=stage,
+            results_at=results_at,
+            figures=figures,
+        )
         report_frames.put(tail - tail // 3)
         report_frames.put((ds.meta.name, None))
-        files = {p.relative_to(folder).as_posix(): p.read_bytes()
-                 for p in sorted(folder.rglob("*")) if p.is_file()}
+        files = {
+            p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*"))
+            if p.is_file()
+        }
     raised = list({(type(w.message), str(w.message)): w.message for w in caught}.values())
     return summary, files, raised
 
 
-def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
-                        fps, figures, quiet, out: Path) -> dict:
+def _embryos_in_workers(
+    datasets,
+    reports,
+    finished: Finished,
+    fingerprints,
+    opts,
+    executor,
+    *,
+    fps,
+    figures,
+    quiet,
+    out: Path,
+) -> dict:
     """Every dataset as one :func:`embryo_task`, each kept in ``finished`` as it
     ends; returns the summaries by name. At most :func:`embryos_at_once` run at
     a time. After a dataset fails, no more are started, those running are still
@@ -314,8 +462,12 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
 
     from .output.style import vector_suffixes
 
-    bar = Progress(sum(2 * ds.n_frames + _tail_frames(ds.n_frames) for ds in datasets),
-                   f"{len(datasets)} datasets", quiet=quiet, unit="step")   # a frame's pass
+    bar = Progress(
+        sum(2 * ds.n_frames + _tail_frames(ds.n_frames) for ds in datasets),
+        f"{len(datasets)} datasets",
+        quiet=quiet,
+        unit="step",
+    )  # a frame's pass
     log.info("%d datasets, each analysed whole in a worker", len(datasets))
     at_once = embryos_at_once(datasets, executor)
     summaries = {}
@@ -323,12 +475,22 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
     waiting = list(datasets)
     running: set = set()
 
-    def top_up():                                        # none started after a failure
+    def top_up():  # none started after a failure
         while waiting and len(running) < at_once and error is None:
             ds = waiting.pop(0)
-            running.add(executor.submit(embryo_task, ds, reports[ds.meta.name], opts, fps,
-                                        frames_done, vector_suffixes(), out / ds.meta.name,
-                                        figures))
+            running.add(
+                executor.submit(
+                    embryo_task,
+                    ds,
+                    reports[ds.meta.name],
+                    opts,
+                    fps,
+                    frames_done,
+                    vector_suffixes(),
+                    out / ds.meta.name,
+                    figures,
+                )
+            )
 
     try:
         with _frame_counter(executor, bar) as frames_done:
@@ -341,7 +503,7 @@ def _embryos_in_workers(datasets, reports, finished: Finished, fingerprints, opt
                         results.append(fut.result())
                     except Exception as exc:  # the datasets already running go on: keep them
                         error = error or exc
-                top_up()                          # the next start before these are written
+                top_up()  # the next start before these are written
                 for summary, files, raised in results:
                     for message in raised:
                         warnings.warn(message, stacklevel=2)
@@ -386,9 +548,13 @@ def embryos_at_once(datasets, executor) -> int:
     each = EMBRYO_BYTES + EMBRYO_BYTES_PER_FRAME * frames
     fit = max(1, int(0.9 * room // each))
     if fit < workers:
-        warnings.warn(f"memory for {fit} of {workers} embryos at once ({room / 1e9:.1f} GB "
-                      f"free, about {each / 1e9:.2f} GB each for {frames} frames): the "
-                      "others wait their turn", OftimgWarning, stacklevel=2)
+        warnings.warn(
+            f"memory for {fit} of {workers} embryos at once ({room / 1e9:.1f} GB "
+            f"free, about {each / 1e9:.2f} GB each for {frames} frames): the "
+            "others wait their turn",
+            OftimgWarning,
+            stacklevel=2,
+        )
         return fit
     return workers
 
@@ -405,7 +571,7 @@ class _Reports:
             return
         try:
             self.queue.put(report)
-        except (OSError, EOFError):                 # BrokenPipe, ConnectionRefused, ...
+        except (OSError, EOFError):  # BrokenPipe, ConnectionRefused, ...
             self.queue = None
 
 
@@ -452,7 +618,7 @@ def _frame_counter(executor, bar: Progress):
         client.subscribe_topic(topic, lambda event: _show_report(event[1], bar, running))
         try:
             yield _DaskTopic(topic)
-            deadline = time.time() + 2.0       # events may trail the tasks' results
+            deadline = time.time() + 2.0  # events may trail the tasks' results
             while bar.n < bar.total and time.time() < deadline:
                 time.sleep(0.02)
         finally:
@@ -485,18 +651,38 @@ class _DaskTopic:
         get_worker().log_event(self.topic, report)
 
 
-def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts, executor, *,
-                       fps, figures, quiet, out: Path) -> dict:
+def _frames_in_workers(
+    datasets,
+    reports,
+    finished: Finished,
+    fingerprints,
+    opts,
+    executor,
+    *,
+    fps,
+    figures,
+    quiet,
+    out: Path,
+) -> dict:
     """One dataset after another, each one's frames in ``executor``'s workers, each
     kept in ``finished`` as it ends; returns the summaries by name."""
     summaries = {}
     for k, ds in enumerate(datasets):
         name = ds.meta.name
-        log.info("%s: analysing %d frames (%d of %d datasets)", name, ds.n_frames, k + 1,
-                 len(datasets))
-        summary = analyse_and_write(ds, reports[name], finished.writing(name), opts, fps=fps,
-                                    quiet=quiet, executor=executor, results_at=out / name,
-                                    figures=figures)
+        log.info(
+            "%s: analysing %d frames (%d of %d datasets)", name, ds.n_frames, k + 1, len(datasets)
+        )
+        summary = analyse_and_write(
+            ds,
+            reports[name],
+            finished.writing(name),
+            opts,
+            fps=fps,
+            quiet=quiet,
+            executor=executor,
+            results_at=out / name,
+            figures=figures,
+        )
         finished.keep(name, fingerprints[name], summary)
         summaries[name] = summary
         _log_done(summary)
@@ -504,12 +690,17 @@ def _frames_in_workers(datasets, reports, finished: Finished, fingerprints, opts
 
 
 def _log_done(summary: dict) -> None:
-    log.info("%s: done; expand %.3f, cycle wave speed %.2f mm/s", summary["name"],
-             summary["expand_fraction"], summary["wave_speed_mm_s"]["cycle"])
+    log.info(
+        "%s: done; expand %.3f, cycle wave speed %.2f mm/s",
+        summary["name"],
+        summary["expand_fraction"],
+        summary["wave_speed_mm_s"]["cycle"],
+    )
 
 
-def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, started,
-               cluster_alpha, figures):
+def _write_run(
+    summaries, finished: Finished, out, paths, opts, *, overwrite, started, cluster_alpha, figures
+):
     """The finished datasets and the cohort tables, figures and pages, staged into ``out``."""
     with staged_output(out, overwrite=overwrite) as tmp:
         for s in summaries:
@@ -517,6 +708,5 @@ def _write_run(summaries, finished: Finished, out, paths, opts, *, overwrite, st
         run_info = _run_info(paths, opts.as_dict(), started)
         if not figures:
             run_info["numbers_only"] = True
-        write_cohort_outputs(tmp, summaries, run_info, cluster_alpha=cluster_alpha,
-                             figures=figures)
+        write_cohort_outputs(tmp, summaries, run_info, cluster_alpha=cluster_alpha, figures=figures)
     return out

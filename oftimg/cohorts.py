@@ -1,6 +1,7 @@
 """Cohorts: the tables, group comparison, maps, figures and pages written for datasets
 analysed together (:func:`write_cohort_outputs`, after a run) or separately and gathered
 (:func:`cohort`); the checks a cohort's names and options need."""
+
 from __future__ import annotations
 
 import platform
@@ -42,23 +43,38 @@ def _check_names(named: list[tuple[str, Path]], fix: str) -> None:
     seen: dict[str, Path] = {}
     for name, path in named:
         if name in COHORT_OUTPUTS:
-            raise InputError(f"{path}: the dataset name {name!r} is that of the cohort's "
-                             f"own {name} in --out; {fix}")
+            raise InputError(
+                f"{path}: the dataset name {name!r} is that of the cohort's "
+                f"own {name} in --out; {fix}"
+            )
         if name in seen:
-            raise InputError(f"{seen[name]} and {path} have the same dataset name {name!r} "
-                             f"(their results would go to one folder); {fix}")
+            raise InputError(
+                f"{seen[name]} and {path} have the same dataset name {name!r} "
+                f"(their results would go to one folder); {fix}"
+            )
         seen[name] = path
 
 
 def _run_info(inputs: list[Path], options: dict, started: float) -> dict:
     """What ``run.json`` records: oftimg, Python, platform, inputs, options, seconds."""
-    return {"oftimg_version": __version__, "python": sys.version.split()[0],
-            "platform": platform.platform(), "inputs": [str(Path(p).resolve()) for p in inputs],
-            "options": options, "seconds": round(time.time() - started, 2)}
+    return {
+        "oftimg_version": __version__,
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "inputs": [str(Path(p).resolve()) for p in inputs],
+        "options": options,
+        "seconds": round(time.time() - started, 2),
+    }
 
 
-def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
-                         cluster_alpha: float = 0.05, figures: bool = True) -> None:
+def write_cohort_outputs(
+    folder: Path,
+    summaries: list[dict],
+    run_info: dict,
+    *,
+    cluster_alpha: float = 0.05,
+    figures: bool = True,
+) -> None:
     """Cohort table (csv, md), group comparison, the area maps on one grid
     (``cohort_maps.npz``, clusters formed at ``cluster_alpha``), group figures (two
     groups or more), every dataset's page and the cohort's, ``run.json``
@@ -76,8 +92,15 @@ def write_cohort_outputs(folder: Path, summaries: list[dict], run_info: dict, *,
         write_table1_markdown,
     )
 
-    caveats = [c for c in (smoothing_caveat(summaries), field_smoothing_caveat(summaries),
-                           field_smoothing_caveat(summaries, "strain_smoothing_ms")) if c]
+    caveats = [
+        c
+        for c in (
+            smoothing_caveat(summaries),
+            field_smoothing_caveat(summaries),
+            field_smoothing_caveat(summaries, "strain_smoothing_ms"),
+        )
+        if c
+    ]
     for caveat in caveats:
         warnings.warn(caveat, OftimgWarning, stacklevel=2)
     run_info = {**run_info, "cluster_alpha": cluster_alpha}
@@ -113,26 +136,39 @@ def cohort(sources, out, *, overwrite: bool = False, cluster_alpha: float = 0.05
     _check_cluster_alpha(cluster_alpha)
     started = time.time()
     out = Path(out)
-    pairs = sorted(((read_summary(f), f) for f in result_folders(sources)),
-                   key=lambda sf: natural_key(sf[0]["name"]))     # as run orders a cohort
+    pairs = sorted(
+        ((read_summary(f), f) for f in result_folders(sources)),
+        key=lambda sf: natural_key(sf[0]["name"]),
+    )  # as run orders a cohort
     summaries, folders = [s for s, _ in pairs], [f for _, f in pairs]
-    _check_names([(s["name"], f) for s, f in zip(summaries, folders)],
-                 "analyse one again with another \"name\" in its meta.json")
+    _check_names(
+        [(s["name"], f) for s, f in zip(summaries, folders)],
+        'analyse one again with another "name" in its meta.json',
+    )
     check_output_location(out, folders, overwrite=overwrite)
     options = summaries[0]["provenance"]["options"]
     for s, f in zip(summaries[1:], folders[1:]):
         a, b = _flat(options), _flat(s["provenance"]["options"])
-        differ = [f"{k} {a.get(k)} and {b.get(k)}" for k in sorted(set(a) | set(b))
-                  if a.get(k) != b.get(k)]
+        differ = [
+            f"{k} {a.get(k)} and {b.get(k)}"
+            for k in sorted(set(a) | set(b))
+            if a.get(k) != b.get(k)
+        ]
         if differ:
-            raise InputError(f"{folders[0]} and {f} were analysed with different options "
-                             f"({'; '.join(differ)}): a cohort compares like with like; "
-                             "analyse them again with the same options")
+            raise InputError(
+                f"{folders[0]} and {f} were analysed with different options "
+                f"({'; '.join(differ)}): a cohort compares like with like; "
+                "analyse them again with the same options"
+            )
     _warn_unfinished_beside(folders)
     versions = {s["provenance"]["oftimg_version"] for s in summaries}
     if len(versions) > 1:
-        warnings.warn(f"the datasets were analysed by different oftimg versions "
-                      f"({', '.join(sorted(versions))})", OftimgWarning, stacklevel=2)
+        warnings.warn(
+            f"the datasets were analysed by different oftimg versions "
+            f"({', '.join(sorted(versions))})",
+            OftimgWarning,
+            stacklevel=2,
+        )
     with staged_output(out, overwrite=overwrite) as tmp:
         for s, folder in zip(summaries, folders):
             shutil.copytree(folder, tmp / s["name"], copy_function=link_or_copy)
@@ -146,8 +182,9 @@ def _datasets_seconds(summaries: list[dict]) -> float | None:
     """Seconds the datasets' own runs took (validation, analysis, writing), summed;
     None when a summary does not record them (written by an older oftimg)."""
     try:
-        return round(sum(s["validation"]["seconds"] + s["timings_s"]["total_s"]
-                         for s in summaries), 2)
+        return round(
+            sum(s["validation"]["seconds"] + s["timings_s"]["total_s"] for s in summaries), 2
+        )
     except (KeyError, TypeError):
         return None
 
@@ -157,14 +194,23 @@ def _warn_unfinished_beside(folders: list[Path]) -> None:
     job killed at its time limit): ``.<name>.finished`` folders, which
     :func:`finished_folder` removes once a run succeeds. Their datasets are not in
     the cohort."""
-    unfinished = sorted({p for parent in {f.parent for f in folders}
-                         for p in parent.glob(".*.finished") if p.is_dir()})
+    unfinished = sorted(
+        {
+            p
+            for parent in {f.parent for f in folders}
+            for p in parent.glob(".*.finished")
+            if p.is_dir()
+        }
+    )
     if unfinished:
-        names = ", ".join(p.name[1:-len(".finished")] for p in unfinished)
-        warnings.warn(f"{unfinished[0].parent}: {len(unfinished)} run(s) into {names} did not "
-                      "finish (or are still going), so their datasets are not in this cohort; "
-                      "run them again with --resume, then gather again", OftimgWarning,
-                      stacklevel=3)
+        names = ", ".join(p.name[1 : -len(".finished")] for p in unfinished)
+        warnings.warn(
+            f"{unfinished[0].parent}: {len(unfinished)} run(s) into {names} did not "
+            "finish (or are still going), so their datasets are not in this cohort; "
+            "run them again with --resume, then gather again",
+            OftimgWarning,
+            stacklevel=3,
+        )
 
 
 def _flat(options: dict, prefix: str = "") -> dict:

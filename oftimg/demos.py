@@ -1,6 +1,7 @@
 """The built-in data: phantoms written (:func:`make_phantom`), the demo cohort run
 (:func:`demo`) and the small analysed cohort the gallery and tests read
 (:func:`example_results`)."""
+
 from __future__ import annotations
 
 import os
@@ -24,11 +25,20 @@ from .synthetic.phantom import sample_params, write_phantom
 from .synthetic.texture import TWIST_DEG as TEXTURE_TWIST_DEG
 
 
-def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195,
-                 quiet: bool = False, labels: bool = False,
-                 voxel_size_um: tuple[float, float, float] = (4.0, 4.0, 8.0),
-                 segmentation_noise: float | None = None, probabilities: bool = False,
-                 intensity: bool = False, **overrides) -> Path:
+def make_phantom(
+    out,
+    *,
+    group: str = "normal",
+    seed: int = 0,
+    frames: int = 195,
+    quiet: bool = False,
+    labels: bool = False,
+    voxel_size_um: tuple[float, float, float] = (4.0, 4.0, 8.0),
+    segmentation_noise: float | None = None,
+    probabilities: bool = False,
+    intensity: bool = False,
+    **overrides,
+) -> Path:
     """Write one phantom dataset (see :mod:`oftimg.synthetic.phantom`) to ``out``:
     meshes, or with ``labels`` label volumes of ``voxel_size_um`` (dx, dy, dz) with
     ``segmentation_noise`` (:mod:`oftimg.synthetic.labels`); with ``probabilities``
@@ -40,16 +50,25 @@ def make_phantom(out, *, group: str = "normal", seed: int = 0, frames: int = 195
     require_new_folder(Path(out))
     if intensity:
         if not labels:
-            raise InputError("--intensity needs --labels (or --probabilities): intensity "
-                             "volumes lie on a label dataset's voxels")
+            raise InputError(
+                "--intensity needs --labels (or --probabilities): intensity "
+                "volumes lie on a label dataset's voxels"
+            )
         overrides.setdefault("twist_deg", TEXTURE_TWIST_DEG)
     params = sample_params(group, seed, n_frames=frames, **overrides)
     bar = Progress(frames, f"phantom {Path(out).name}", quiet=quiet)
     with staged_output(out) as tmp:
         if labels:
-            write_label_phantom(tmp, params, voxel_size_um, noise=segmentation_noise,
-                                name=Path(out).name, progress=bar.update,
-                                probabilities=probabilities, intensity=intensity)
+            write_label_phantom(
+                tmp,
+                params,
+                voxel_size_um,
+                noise=segmentation_noise,
+                name=Path(out).name,
+                progress=bar.update,
+                probabilities=probabilities,
+                intensity=intensity,
+            )
         else:
             write_phantom(tmp, params, name=Path(out).name, progress=bar.update)
     bar.close()
@@ -63,8 +82,14 @@ DEMO_SMALL = (3, {"frames": 24, "vertices_min": 2000, "vertices_max": 2500})
 DEMO_FULL = (4, {"frames": 195})
 
 
-def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = False,
-         jobs: int | None = None) -> Path:
+def demo(
+    out,
+    *,
+    full: bool = False,
+    overwrite: bool = False,
+    quiet: bool = False,
+    jobs: int | None = None,
+) -> Path:
     """Generate the built-in phantom cohort and run the whole pipeline on it.
 
     Small (default): three normal and three banded embryos, enough for the
@@ -74,12 +99,14 @@ def demo(out, *, full: bool = False, overwrite: bool = False, quiet: bool = Fals
     Returns ``out``; the generated data are in ``out/data``.
     """
     per_group, kwargs = DEMO_FULL if full else DEMO_SMALL
-    return _phantom_cohort(Path(out), per_group, kwargs, overwrite=overwrite, quiet=quiet,
-                           jobs=jobs)
+    return _phantom_cohort(
+        Path(out), per_group, kwargs, overwrite=overwrite, quiet=quiet, jobs=jobs
+    )
 
 
-def _phantom_cohort(out: Path, per_group: int, phantom: dict, *, overwrite: bool, quiet: bool,
-                    jobs: int | None) -> Path:
+def _phantom_cohort(
+    out: Path, per_group: int, phantom: dict, *, overwrite: bool, quiet: bool, jobs: int | None
+) -> Path:
     """``per_group`` normal and banded phantoms (``make_phantom``'s ``phantom``
     arguments) in ``out/data``, analysed into ``out/results``."""
     check_output_location(out, [], overwrite=overwrite, kind=None)  # replaces only these two:
@@ -122,18 +149,19 @@ def example_results(cache=None) -> Path:
         root.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=".example-cohort.partial-", dir=root))
         try:
-            with warnings.catch_warnings():     # the phantoms' expected notes
+            with warnings.catch_warnings():  # the phantoms' expected notes
                 warnings.simplefilter("ignore", OftimgWarning)
-                _phantom_cohort(tmp / "cohort", *EXAMPLE_COHORT, overwrite=False, quiet=True,
-                                jobs=None)
+                _phantom_cohort(
+                    tmp / "cohort", *EXAMPLE_COHORT, overwrite=False, quiet=True, jobs=None
+                )
             try:
                 (tmp / "cohort").rename(folder)
-            except OSError:                     # another call finished first
+            except OSError:  # another call finished first
                 if not (folder / "results" / "run.json").is_file():
                     raise
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
-        for older in root.glob("example-cohort-*"):     # made by another oftimg: not reused
+        for older in root.glob("example-cohort-*"):  # made by another oftimg: not reused
             if older != folder:
                 shutil.rmtree(older, ignore_errors=True)
     return folder / "results"

@@ -1,5 +1,6 @@
 """Results exported for other tools: ParaView time series, TIFF stacks and OME-Zarr
 (:func:`paraview`, :func:`tiff`, :func:`ome_zarr`)."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -22,12 +23,18 @@ def paraview(sources, out, *, quiet: bool = False, jobs: int | None = None) -> P
     from .output.paraview import series_names, write_series
 
     out = Path(out)
-    names, folders = _exported(sources, out, (
-        ("grids.npz", "the grids are what ParaView shows"),
-        ("arrays.json", "it says which arrays lie on the grids")))
+    names, folders = _exported(
+        sources,
+        out,
+        (
+            ("grids.npz", "the grids are what ParaView shows"),
+            ("arrays.json", "it says which arrays lie on the grids"),
+        ),
+    )
     with staged_output(out) as tmp:
-        tasks = [(f, series, tmp / name) for name, f in zip(names, folders)
-                 for series in series_names(f)]
+        tasks = [
+            (f, series, tmp / name) for name, f in zip(names, folders) for series in series_names(f)
+        ]
         bar = Progress(len(tasks), "ParaView series", quiet=quiet, unit="series")
         with closing_executor(make_executor(jobs)) as executor:
             run_tasks(write_series, tasks, executor=executor, progress=bar.advance)
@@ -44,8 +51,7 @@ def tiff(sources, out, *, quiet: bool = False) -> Path:
     from .output.tiff import write_cohort_map_images, write_tiff_images
 
     out = Path(out)
-    names, folders = _exported(sources, out, (
-        ("arrays.json", "it says which arrays are images"),))
+    names, folders = _exported(sources, out, (("arrays.json", "it says which arrays are images"),))
     runs = [s for s in source_paths(sources) if (s / "cohort_maps.json").is_file()]
     with staged_output(out) as tmp:
         bar = Progress(len(folders) + len(runs), "TIFF images", quiet=quiet, unit="folder")
@@ -53,8 +59,9 @@ def tiff(sources, out, *, quiet: bool = False) -> Path:
             write_tiff_images(folder, tmp / name)
             bar.advance()
         for run in runs:
-            write_cohort_map_images(run, tmp / ("cohort_maps" if len(runs) == 1
-                                                else f"cohort_maps_{run.name}"))
+            write_cohort_map_images(
+                run, tmp / ("cohort_maps" if len(runs) == 1 else f"cohort_maps_{run.name}")
+            )
             bar.advance()
         bar.close()
     return out
@@ -73,8 +80,7 @@ def ome_zarr(sources, out, *, quiet: bool = False) -> Path:
     except ImportError:
         raise InputError("writing OME-Zarr needs zarr: pip install 'oftimg[ome]'") from None
     out = Path(out)
-    names, folders = _exported(sources, out, (
-        ("arrays.json", "it says which arrays are images"),))
+    names, folders = _exported(sources, out, (("arrays.json", "it says which arrays are images"),))
     with staged_output(out) as tmp:
         bar = Progress(len(folders), "OME-Zarr images", quiet=quiet, unit="folder")
         for name, folder in zip(names, folders):
@@ -84,8 +90,9 @@ def ome_zarr(sources, out, *, quiet: bool = False) -> Path:
     return out
 
 
-def _exported(sources, out: Path, needed: tuple[tuple[str, str], ...]
-              ) -> tuple[list[str], list[Path]]:
+def _exported(
+    sources, out: Path, needed: tuple[tuple[str, str], ...]
+) -> tuple[list[str], list[Path]]:
     """The names and folders of the datasets' results among ``sources`` to export
     into ``out``; refused where two share a name, one lacks a file of ``needed``
     ((file, why it is needed) each), or ``out`` is not new and empty or lies inside

@@ -1,5 +1,6 @@
 """What a run reads: dataset folders found and opened as what they hold (meshes, or label
 or probability volumes meshed frame by frame, :func:`validate_labels`, :func:`mesh`)."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -48,13 +49,16 @@ def _meshed(lds: LabelDataset, folder: Path, options, executor, quiet: bool) -> 
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir(parents=True)
     record = _mesh_with_bar(lds, folder, options, executor, quiet)
-    with warnings.catch_warnings():             # said of the label dataset already
+    with warnings.catch_warnings():  # said of the label dataset already
         warnings.simplefilter("ignore", OftimgWarning)
         ds = load_dataset(folder)
     ds.path, ds.labels, ds.intensity = lds.path, record, lds.intensity
-    ds.meta = dataclasses.replace(ds.meta, period_ms=lds.meta.period_ms,   # --period-ms too
-                                  period_assumed=lds.meta.period_assumed,
-                                  period_from=lds.meta.period_from)
+    ds.meta = dataclasses.replace(
+        ds.meta,
+        period_ms=lds.meta.period_ms,  # --period-ms too
+        period_assumed=lds.meta.period_assumed,
+        period_from=lds.meta.period_from,
+    )
     return ds
 
 
@@ -76,11 +80,9 @@ def _lumens_joined(ds: Dataset, folder: Path, options, executor, quiet: bool) ->
     closed = closed_frames(ds, executor)
     if not closed:
         return ds
-    bar = Progress(len(closed), f"{ds.meta.name}: joining closed lumens", quiet=quiet,
-                   unit="frame")
+    bar = Progress(len(closed), f"{ds.meta.name}: joining closed lumens", quiet=quiet, unit="frame")
     try:
-        return bridged_dataset(ds, folder, options, executor, progress=bar.advance,
-                               closed=closed)
+        return bridged_dataset(ds, folder, options, executor, progress=bar.advance, closed=closed)
     finally:
         bar.close()
 
@@ -100,28 +102,44 @@ def validate_labels(path, *, quiet: bool = False, period_ms: float | None = None
     with tempfile.TemporaryDirectory(prefix="oftimg-validate-") as tmp:
         ds = _meshed(lds, Path(tmp) / "meshes", MeshOptions(), None, quiet)
         report = validate_dataset(ds)
-    assert ds.labels is not None                  # meshed from the label volumes
-    report["labels"] = {k: ds.labels["meshing"][k]
-                        for k in ("shape_zyx", "voxel_size", "length_unit", "labels",
-                                  "label_repairs", "kind", "ends_squared")}
+    assert ds.labels is not None  # meshed from the label volumes
+    report["labels"] = {
+        k: ds.labels["meshing"][k]
+        for k in (
+            "shape_zyx",
+            "voxel_size",
+            "length_unit",
+            "labels",
+            "label_repairs",
+            "kind",
+            "ends_squared",
+        )
+    }
     first = lds.sources[0]
     first = first.layers[0][1] if hasattr(first, "layers") else first
     described = describe_format(first)
     carried = described.pop("file_voxel_size")
-    described.pop("file_time_step")                  # said by the period's source
+    described.pop("file_time_step")  # said by the period's source
     if "channels" in lds.raw_meta:
         described["channels"] = lds.raw_meta["channels"]
-    report["labels"] |= described | {"voxel_size_from": (
-        "meta.json, the files' own agreeing" if lds.meta.voxel_size is not None and carried
-        else "meta.json" if lds.meta.voxel_size is not None else "the files' headers")}
+    report["labels"] |= described | {
+        "voxel_size_from": (
+            "meta.json, the files' own agreeing"
+            if lds.meta.voxel_size is not None and carried
+            else "meta.json"
+            if lds.meta.voxel_size is not None
+            else "the files' headers"
+        )
+    }
     if lds.intensity is not None:
         seen = describe_format(lds.intensity.sources[0])
         report["labels"]["intensity_format"] = f"{seen['format']}; axes {seen['axes']}"
     return report
 
 
-def mesh(source, out, *, options: dict | None = None, jobs: int | None = None,
-         quiet: bool = False) -> Path:
+def mesh(
+    source, out, *, options: dict | None = None, jobs: int | None = None, quiet: bool = False
+) -> Path:
     """Mesh a label dataset (or each of a cohort's) into a mesh dataset in ``out``
     (``out/<name>`` for a cohort): ``outer/``, ``inner/``, ``lumen/`` PLY files in
     the volumes' length unit and meta.json carried over, to look at in ParaView or

@@ -6,6 +6,7 @@ stacked and dropped, the main process of a 195-frame embryo held 120 MB it no lo
 used, and 0.78 GB at its peak instead of 0.64 (docs/performance.md). ``malloc_trim``
 returns those pages; elsewhere (macOS, Windows, musl) this is a no-op.
 """
+
 from __future__ import annotations
 
 import ctypes

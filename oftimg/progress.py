@@ -1,6 +1,7 @@
 """Progress on stderr: a bar (tqdm: frames done, rate, time left) on a terminal; off a
 terminal (a CI log, a notebook, ``| tee``), a plain line every :data:`LINE_EVERY_S`
 seconds, so that a long command is never silent for long."""
+
 from __future__ import annotations
 
 import os
@@ -11,7 +12,7 @@ import weakref
 
 from tqdm import tqdm
 
-LINE_EVERY_S = 10.0     # off a terminal: a line at least this often while a bar is open
+LINE_EVERY_S = 10.0  # off a terminal: a line at least this often while a bar is open
 # a program reading the lines (napari's run panel) asks for them more often
 EVERY_S_VARIABLE = "OFTIMG_PROGRESS_EVERY_S"
 PLURAL = {"mesh": "meshes", "series": "series"}
@@ -25,15 +26,23 @@ class Progress:
 
     def __init__(self, total: int, desc: str, *, quiet: bool = False, unit: str = "frame"):
         terminal = sys.stderr.isatty()
-        self._bar = tqdm(total=total, desc=desc, unit=unit, disable=quiet or not terminal,
-                         file=sys.stderr, dynamic_ncols=True, leave=False)
+        self._bar = tqdm(
+            total=total,
+            desc=desc,
+            unit=unit,
+            disable=quiet or not terminal,
+            file=sys.stderr,
+            dynamic_ncols=True,
+            leave=False,
+        )
         self._desc, self._unit, self._stage = desc, unit, ""
         self._count, self._total, self._started = 0, total, time.monotonic()
         self._stop = threading.Event()
         self._lines = None
         if not quiet and not terminal:
-            self._lines = threading.Thread(target=_every_interval,
-                                           args=(weakref.ref(self), self._stop), daemon=True)
+            self._lines = threading.Thread(
+                target=_every_interval, args=(weakref.ref(self), self._stop), daemon=True
+            )
             self._lines.start()
 
     @property
@@ -84,7 +93,7 @@ class Progress:
         if self._lines is not None:
             if self._lines is not threading.current_thread():
                 self._lines.join()
-            if sys.exc_info()[0] is None:            # closed in a finally an error passes
+            if sys.exc_info()[0] is None:  # closed in a finally an error passes
                 self._stage = "done"
                 self._line()
         self._bar.close()
@@ -95,8 +104,10 @@ class Progress:
         share = f" ({100 * self._count / self._total:.0f} %)" if self._total else ""
         stage = f": {self._stage}" if self._stage else ""
         units = PLURAL.get(self._unit, self._unit + "s")
-        return (f"{self._desc}{stage}: {self._count}/{self._total} {units}{share}, "
-                f"{time.monotonic() - self._started:.0f} s")
+        return (
+            f"{self._desc}{stage}: {self._count}/{self._total} {units}{share}, "
+            f"{time.monotonic() - self._started:.0f} s"
+        )
 
     def _line(self) -> None:
         print(self.line_text(), file=sys.stderr, flush=True)

@@ -11,6 +11,7 @@ of a message that never comes, and the run, and the interpreter's exit, hang
 reports any lost worker as :class:`WorkerLost`, naming the signal. The other
 way round, workers end themselves when the main process is killed.
 """
+
 from __future__ import annotations
 
 import ast
@@ -42,8 +43,9 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
         try:
             from distributed import Client
         except ImportError:
-            raise InputError("--scheduler needs dask.distributed: pip install 'oftimg[dask]'") \
-                from None
+            raise InputError(
+                "--scheduler needs dask.distributed: pip install 'oftimg[dask]'"
+            ) from None
         return Client(scheduler).get_executor()
     jobs = usable_cpus() if jobs is None else int(jobs)
     if jobs < 1:
@@ -52,10 +54,14 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
         return None
     unguarded = unguarded_script_line()
     if unguarded:
-        warnings.warn(f"{unguarded}: oftimg was called from a script's top level, outside "
-                      "`if __name__ == \"__main__\":`; its worker processes would each run the "
-                      "script again, so this run stays in one process. Put the call under "
-                      f"that line to use {jobs} workers", OftimgWarning, stacklevel=2)
+        warnings.warn(
+            f"{unguarded}: oftimg was called from a script's top level, outside "
+            '`if __name__ == "__main__":`; its worker processes would each run the '
+            "script again, so this run stays in one process. Put the call under "
+            f"that line to use {jobs} workers",
+            OftimgWarning,
+            stacklevel=2,
+        )
         return None
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
@@ -71,11 +77,15 @@ def make_executor(jobs: int | None, scheduler: str | None = None):
     # time); with these two limits a worker reuses its memory: 8-14 % less time
     # per frame. Both are needed (either alone turns off the adaptive limit and is
     # slower); other C libraries ignore them.
-    os.environ.setdefault("MALLOC_MMAP_THRESHOLD_", str(32 * 2 ** 20))   # glibc's maximum
-    os.environ.setdefault("MALLOC_TRIM_THRESHOLD_", str(64 * 2 ** 20))
+    os.environ.setdefault("MALLOC_MMAP_THRESHOLD_", str(32 * 2**20))  # glibc's maximum
+    os.environ.setdefault("MALLOC_TRIM_THRESHOLD_", str(64 * 2**20))
     # spawn: open3d and BLAS threads do not survive fork reliably
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
-                               initializer=_start_worker, initargs=(os.getpid(),))
+    return ProcessPoolExecutor(
+        max_workers=jobs,
+        mp_context=mp.get_context("spawn"),
+        initializer=_start_worker,
+        initargs=(os.getpid(),),
+    )
 
 
 def unguarded_script_line() -> str | None:
@@ -90,8 +100,9 @@ def unguarded_script_line() -> str | None:
     if not path or not str(path).endswith(".py"):
         return None
     frame = sys._getframe(1)
-    while frame is not None and not (frame.f_globals is vars(main)
-                                     and frame.f_code.co_name == "<module>"):
+    while frame is not None and not (
+        frame.f_globals is vars(main) and frame.f_code.co_name == "<module>"
+    ):
         frame = frame.f_back
     if frame is None:
         return None
@@ -100,20 +111,26 @@ def unguarded_script_line() -> str | None:
     except (OSError, SyntaxError, ValueError, UnicodeDecodeError):
         return None
     line = frame.f_lineno
-    if any(isinstance(node, ast.If) and _is_main_test(node.test)
-           and node.lineno <= line <= node.end_lineno for node in ast.walk(tree)):
+    if any(
+        isinstance(node, ast.If)
+        and _is_main_test(node.test)
+        and node.lineno <= line <= node.end_lineno
+        for node in ast.walk(tree)
+    ):
         return None
     return f"{path}:{line}"
 
 
 def _is_main_test(test: ast.expr) -> bool:
     """Whether ``test`` is ``__name__ == "__main__"`` (either way round)."""
-    if not (isinstance(test, ast.Compare) and len(test.ops) == 1
-            and isinstance(test.ops[0], ast.Eq)):
+    if not (
+        isinstance(test, ast.Compare) and len(test.ops) == 1 and isinstance(test.ops[0], ast.Eq)
+    ):
         return False
     sides = [test.left, test.comparators[0]]
-    return (any(isinstance(s, ast.Name) and s.id == "__name__" for s in sides)
-            and any(isinstance(s, ast.Constant) and s.value == "__main__" for s in sides))
+    return any(isinstance(s, ast.Name) and s.id == "__name__" for s in sides) and any(
+        isinstance(s, ast.Constant) and s.value == "__main__" for s in sides
+    )
 
 
 def usable_cpus(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int:
@@ -123,10 +140,11 @@ def usable_cpus(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int:
     the machine's."""
     try:
         cores = len(os.sched_getaffinity(0)) or 1
-    except AttributeError:                      # macOS, Windows: no affinity
+    except AttributeError:  # macOS, Windows: no affinity
         cores = os.cpu_count() or 1
-    for values in _cgroup_levels("cpu", ("cpu.max",), ("cpu.cfs_quota_us", "cpu.cfs_period_us"),
-                                 proc, cgroup):
+    for values in _cgroup_levels(
+        "cpu", ("cpu.max",), ("cpu.cfs_quota_us", "cpu.cfs_period_us"), proc, cgroup
+    ):
         quota, period = values[0].split() if len(values) == 1 else values
         if quota.isdigit() and period.isdigit() and int(period) > 0:
             cores = min(cores, max(1, -(-int(quota) // int(period))))
@@ -141,10 +159,14 @@ def available_memory(proc: str = "/proc", cgroup: str = "/sys/fs/cgroup") -> int
     for line in (_read_text(f"{proc}/meminfo") or "").splitlines():
         if line.startswith("MemAvailable:"):
             room.append(int(line.split()[1]) * 1024)
-    for limit, usage in _cgroup_levels("memory", ("memory.max", "memory.current"),
-                                       ("memory.limit_in_bytes", "memory.usage_in_bytes"),
-                                       proc, cgroup):
-        if limit.isdigit() and usage.isdigit() and int(limit) < 2 ** 60:
+    for limit, usage in _cgroup_levels(
+        "memory",
+        ("memory.max", "memory.current"),
+        ("memory.limit_in_bytes", "memory.usage_in_bytes"),
+        proc,
+        cgroup,
+    ):
+        if limit.isdigit() and usage.isdigit() and int(limit) < 2**60:
             room.append(max(0, int(limit) - int(usage)))
     return min(room) if room else None
 
@@ -163,7 +185,7 @@ def _cgroup_levels(controller: str, v2_files: tuple, v1_files: tuple, proc: str,
             continue
         parts = [p for p in path.split("/") if p]
         for base in bases:
-            for depth in range(len(parts), -1, -1):             # this cgroup, then those above
+            for depth in range(len(parts), -1, -1):  # this cgroup, then those above
                 folder = "/".join([base] + parts[:depth])
                 values = [_read_text(f"{folder}/{f}") for f in files]
                 if all(v is not None for v in values):
@@ -190,6 +212,7 @@ def _exit_with_parent(parent_pid: int, interval: float = 1.0) -> None:
     """A worker's start-up: a thread that ends the worker once the main process
     is gone (killed, say by the out-of-memory killer). Orphaned workers would
     otherwise wait for tasks for good, each holding its memory (~270 MB)."""
+
     def watch():
         while os.getppid() == parent_pid:
             time.sleep(interval)
@@ -230,7 +253,7 @@ class closing_executor:
                 self.executor._client.close()  # the connection run() opened
             except OSError as shutdown_error:  # CPython's race on a dead worker's pipes
                 if isinstance(exc, KeyboardInterrupt):
-                    return   # Ctrl-C ended a worker too: the interrupt is the news
+                    return  # Ctrl-C ended a worker too: the interrupt is the news
                 lost = lost or _worker_lost(shutdown_error, workers, killed)
                 if lost is None:
                     raise
@@ -259,7 +282,7 @@ class _Watchdog(threading.Thread):
     def __init__(self, pool, interval: float = 0.5, grace: float = 2.0):
         super().__init__(name="oftimg-pool-watchdog", daemon=True)
         self.pool, self.interval, self.grace = pool, interval, grace
-        self.killed: set[int] = set()          # pids of the workers this killed
+        self.killed: set[int] = set()  # pids of the workers this killed
         self._stopped = threading.Event()
 
     def stop(self) -> None:
@@ -271,9 +294,9 @@ class _Watchdog(threading.Thread):
         while not self._stopped.wait(self.interval):
             processes = getattr(self.pool, "_processes", None)
             if getattr(self.pool, "_broken", False) or processes is None:
-                return                          # broken as it should, or shut down
+                return  # broken as it should, or shut down
             if all(p.exitcode in (None, 0) for p in list(processes.values())):
-                continue                        # 0: a worker leaving at the shutdown
+                continue  # 0: a worker leaving at the shutdown
             dead_since = dead_since or time.monotonic()
             if time.monotonic() - dead_since >= self.grace:
                 self._break(list(processes.values()))
@@ -296,7 +319,7 @@ def _one_died(processes, wait_s: float = 0.5) -> bool:
     """Has one of ``processes`` ended with an error? Waits up to ``wait_s`` for one to
     say so: a killed process closes its pipes before its exit status can be read,
     so a pipe error can come first (seen with the pool's workers)."""
-    if not processes:                   # a Dask cluster's, or none: nothing to wait for
+    if not processes:  # a Dask cluster's, or none: nothing to wait for
         return False
     deadline = time.monotonic() + wait_s
     while not any(p.exitcode not in (None, 0) for p in processes):
@@ -316,8 +339,11 @@ def _worker_lost(exc: BaseException, processes=(), killed=frozenset()) -> Worker
     import errno
     from concurrent.futures.process import BrokenProcessPool
 
-    pipes = (isinstance(exc, OSError) and exc.errno in (errno.EBADF, errno.EPIPE)
-             and _one_died(processes))
+    pipes = (
+        isinstance(exc, OSError)
+        and exc.errno in (errno.EBADF, errno.EPIPE)
+        and _one_died(processes)
+    )
     if isinstance(exc, BrokenProcessPool) or pipes:
         for p in processes:  # a submit can fail before the pool has ended them all
             try:
@@ -325,27 +351,32 @@ def _worker_lost(exc: BaseException, processes=(), killed=frozenset()) -> Worker
             except (OSError, ValueError):  # already reaped and closed by the pool
                 pass
         codes = {p.exitcode for p in processes if p.exitcode and p.pid not in killed}
-        signals = sorted(signal.Signals(-c).name for c in codes
-                         if c < 0 and -c in signal.valid_signals())
+        signals = sorted(
+            signal.Signals(-c).name for c in codes if c < 0 and -c in signal.valid_signals()
+        )
         statuses = sorted(c for c in codes if c > 0)
-        if len(codes) > 1 and "SIGTERM" in signals:   # the broken pool's, to the others
+        if len(codes) > 1 and "SIGTERM" in signals:  # the broken pool's, to the others
             signals.remove("SIGTERM")
         if signals:
             how = f"was killed by {', '.join(signals)}"
             if "SIGKILL" in signals:
                 how += " (on Linux most often the out-of-memory killer)"
         elif statuses:
-            how = (f"ended with exit status {', '.join(map(str, statuses))} (its error, if "
-                   "it printed one, is above)")
+            how = (
+                f"ended with exit status {', '.join(map(str, statuses))} (its error, if "
+                "it printed one, is above)"
+            )
         else:
             how = "ended abruptly"
         what = "a worker process"
-    elif type(exc).__name__ == "KilledWorker":      # dask.distributed
+    elif type(exc).__name__ == "KilledWorker":  # dask.distributed
         what, how = "a Dask worker", f"died while running a task ({exc})"
     else:
         return None
-    if "exit status" in how:           # an error of its own, printed above: not memory
+    if "exit status" in how:  # an error of its own, printed above: not memory
         return WorkerLost(f"{what} {how}")
-    return WorkerLost(f"{what} {how}. If memory ran short, run again with fewer --jobs "
-                      "(by embryo, each worker holds a whole embryo: about 0.35 GB + 3 MB "
-                      "per frame) or with more memory")
+    return WorkerLost(
+        f"{what} {how}. If memory ran short, run again with fewer --jobs "
+        "(by embryo, each worker holds a whole embryo: about 0.35 GB + 3 MB "
+        "per frame) or with more memory"
+    )

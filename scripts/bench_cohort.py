@@ -12,6 +12,7 @@ size, these outputs do. The fitted exponent says how their time grows with the
 number of embryos. ``--run N`` also times ``oftimg run`` on N small embryos
 (6 frames, ~1.3k vertices each) by embryo, cached in ``--cache``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -72,7 +73,7 @@ def cohort_outputs_seconds(result: Path, summary: dict, n: int) -> float:
             shutil.copytree(result, folder / name, copy_function=os.link)
             s = copy.deepcopy(summary)
             s.update(name=name, group=_group(k))
-            for key, value in s.items():   # a little scatter for the tests and tables
+            for key, value in s.items():  # a little scatter for the tests and tables
                 if isinstance(value, float) and np.isfinite(value):
                     s[key] = value * (1 + 0.05 * rng.standard_normal())
             summaries.append(s)
@@ -82,8 +83,9 @@ def cohort_outputs_seconds(result: Path, summary: dict, n: int) -> float:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--embryos", type=int, nargs="+", default=[30, 100, 300])
     ap.add_argument("--run", type=int, default=0, help="also time a real run of N embryos")
     ap.add_argument("--jobs", type=int, default=2)
@@ -101,13 +103,14 @@ def main():
         cohort = small_cohort(args.cache, args.run, args.jobs)
         with tempfile.TemporaryDirectory() as tmp:
             tick = time.perf_counter()
-            oftimg.run(cohort, Path(tmp) / "out", quiet=True, jobs=args.jobs,
-                       parallel="embryos")
+            oftimg.run(cohort, Path(tmp) / "out", quiet=True, jobs=args.jobs, parallel="embryos")
             total = time.perf_counter() - tick
         kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-        print(f"run of {args.run} embryos x {SMALL['n_frames']} frames by embryo, jobs "
-              f"{args.jobs}: {total:.1f} s ({total / args.run:.2f} s per embryo), "
-              f"largest child process {kids:.0f} MB (max RSS)")
+        print(
+            f"run of {args.run} embryos x {SMALL['n_frames']} frames by embryo, jobs "
+            f"{args.jobs}: {total:.1f} s ({total / args.run:.2f} s per embryo), "
+            f"largest child process {kids:.0f} MB (max RSS)"
+        )
 
 
 if __name__ == "__main__":

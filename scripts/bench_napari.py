@@ -12,6 +12,7 @@ drawn, and the milliseconds from a slider step to the 3-D canvas and the linked 
 redrawn, with all three walls shown and with the outer wall alone. Under Xvfb the 3-D
 canvas is drawn by Mesa's software OpenGL, on the CPU.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,14 +49,18 @@ def headless(folder) -> None:
         getattr(viewer, f"add_{kind}")(data, **kwargs)
     opened = time.perf_counter() - tick
     n_t = viewer.dims.nsteps[0]
-    print(f"reader (every frame in each layer): open {opened:.2f} s, {n_t} frames; "
-          f"a step {summary(steps_ms(viewer, n_t))}")
+    print(
+        f"reader (every frame in each layer): open {opened:.2f} s, {n_t} frames; "
+        f"a step {summary(steps_ms(viewer, n_t))}"
+    )
     viewer = ViewerModel(ndisplay=3)
     tick = time.perf_counter()
     WallsOverTime(viewer, folder)
     opened = time.perf_counter() - tick
-    print(f"WallsOverTime (one frame a layer): open {opened:.2f} s; "
-          f"a step {summary(steps_ms(viewer, n_t))}")
+    print(
+        f"WallsOverTime (one frame a layer): open {opened:.2f} s; "
+        f"a step {summary(steps_ms(viewer, n_t))}"
+    )
 
 
 def window(folder) -> None:
@@ -68,7 +73,7 @@ def window(folder) -> None:
     widget = OftimgWidget(viewer)
     viewer.window.add_dock_widget(widget, area="right")
     QApplication.processEvents()
-    scene = viewer.window._qt_viewer.canvas._scene_canvas      # the 3-D canvas (vispy)
+    scene = viewer.window._qt_viewer.canvas._scene_canvas  # the 3-D canvas (vispy)
 
     draws = []
     scene.events.draw.connect(lambda event: draws.append(1))
@@ -97,31 +102,41 @@ def window(folder) -> None:
     if volumes:
         for layer in volumes:
             layer.visible = shown[layer.name]
-        print(f"window, as opened (three walls, "
-              f"{', '.join(n for n, v in shown.items() if v) or 'no volume'}): a step redrawn "
-              f"in {summary(steps_ms(viewer, n_t, drawn))}")
+        print(
+            f"window, as opened (three walls, "
+            f"{', '.join(n for n, v in shown.items() if v) or 'no volume'}): a step redrawn "
+            f"in {summary(steps_ms(viewer, n_t, drawn))}"
+        )
         for layer in volumes:
             layer.visible = True
-        print(f"window, three walls and the volumes ({', '.join(shown)}) shown: a step "
-              f"redrawn in {summary(steps_ms(viewer, n_t, drawn))}")
+        print(
+            f"window, three walls and the volumes ({', '.join(shown)}) shown: a step "
+            f"redrawn in {summary(steps_ms(viewer, n_t, drawn))}"
+        )
         viewer.dims.ndisplay = 2
-        print(f"window, the same in napari's 2-D view (a slice): a step redrawn in "
-              f"{summary(steps_ms(viewer, n_t, drawn))}")
+        print(
+            f"window, the same in napari's 2-D view (a slice): a step redrawn in "
+            f"{summary(steps_ms(viewer, n_t, drawn))}"
+        )
         viewer.dims.ndisplay = 3
         for layer in volumes:
             layer.visible = False
     for wall in ("inner", "lumen"):
         widget.walls.layers[wall].visible = False
-    print(f"window, the outer wall alone: a step redrawn in "
-          f"{summary(steps_ms(viewer, n_t, drawn))}")
+    print(
+        f"window, the outer wall alone: a step redrawn in {summary(steps_ms(viewer, n_t, drawn))}"
+    )
     viewer.close()
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("results", help="one dataset's results folder")
-    parser.add_argument("--window", action="store_true",
-                        help="napari's window with the dock widget (needs a screen or Xvfb)")
+    parser.add_argument(
+        "--window",
+        action="store_true",
+        help="napari's window with the dock widget (needs a screen or Xvfb)",
+    )
     args = parser.parse_args()
     (window if args.window else headless)(args.results)
 

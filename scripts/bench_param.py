@@ -10,6 +10,7 @@ Desbrun map, resampling the 80 x 50 grid. Phantom target: seam + map + resample 
 per ~5.5k-vertex frame; real 32k midgut target: < 0.5 s per frame. One core
 (the steps are single-threaded; run with OMP_NUM_THREADS=1 to be sure).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -74,9 +75,11 @@ def best_of(clocks: list[_Clock]) -> _Clock:
 
 
 def report(clocks, target_ms: float, repeats: int) -> None:
-    print(f"{clocks[-1].n_vertices} vertices (last frame), {len(clocks)} frames, "
-          f"median over frames of the best of {repeats} runs (ms):\n"
-          "  step                  wall      CPU")
+    print(
+        f"{clocks[-1].n_vertices} vertices (last frame), {len(clocks)} frames, "
+        f"median over frames of the best of {repeats} runs (ms):\n"
+        "  step                  wall      CPU"
+    )
     totals = {"wall": 0.0, "cpu": 0.0}
     for step in clocks[0].wall:
         wall = 1e3 * float(np.median([c.wall[step] for c in clocks]))
@@ -85,13 +88,16 @@ def report(clocks, target_ms: float, repeats: int) -> None:
             totals["wall"] += wall
             totals["cpu"] += cpu
         print(f"  {step:18s} {wall:8.1f} {cpu:8.1f}")
-    print(f"  {'seam+map+resample':18s} {totals['wall']:8.1f} {totals['cpu']:8.1f} "
-          f"per frame (target < {target_ms:g})")
+    print(
+        f"  {'seam+map+resample':18s} {totals['wall']:8.1f} {totals['cpu']:8.1f} "
+        f"per frame (target < {target_ms:g})"
+    )
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--vertices", type=int, default=5500)
     ap.add_argument("--frames", type=int, default=5)
     ap.add_argument("--mesh", type=Path, help="time this static tube instead of a phantom")
@@ -108,8 +114,13 @@ def main():
         report(rows, 500, args.repeats)
         return
     with tempfile.TemporaryDirectory() as tmp:
-        params = sample_params("normal", 0, n_frames=max(args.frames, 3),
-                               vertices_min=args.vertices, vertices_max=args.vertices)
+        params = sample_params(
+            "normal",
+            0,
+            n_frames=max(args.frames, 3),
+            vertices_min=args.vertices,
+            vertices_max=args.vertices,
+        )
         write_phantom(Path(tmp) / "bench", params, walls=("outer",))
         ds = load_dataset(Path(tmp) / "bench")
         rows = [timed(lambda: ds.tube("outer", t)) for t in range(args.frames)]

@@ -4,6 +4,7 @@
 
 Target: under 30 s on a 2-core machine. Prints meshing+writing and truth time.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -24,13 +25,15 @@ def main():
         tick = time.perf_counter()
         write_phantom(Path(tmp) / "emb", params)
         total = time.perf_counter() - tick
-        size = sum(p.stat().st_size for p in Path(tmp).rglob("*")) / 2 ** 20
+        size = sum(p.stat().st_size for p in Path(tmp).rglob("*")) / 2**20
     tick = time.perf_counter()
     Phantom(params).truth()
     truth = time.perf_counter() - tick
-    print(f"{args.frames} frames x 3 walls ({params.vertices_min}-{params.vertices_max} vertices "
-          f"per mesh): {total:.1f} s in all (truth.json {truth:.1f} s), {size:.0f} MiB written; "
-          f"target < 30 s")
+    print(
+        f"{args.frames} frames x 3 walls ({params.vertices_min}-{params.vertices_max} vertices "
+        f"per mesh): {total:.1f} s in all (truth.json {truth:.1f} s), {size:.0f} MiB written; "
+        f"target < 30 s"
+    )
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ seconds and the series' over the files' (the target: at most 1.3; opened afresh 
 each frame, the series file was parsed whole again each time: 48 s to check 195
 frames of 54 planes).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,22 +39,32 @@ def write_both(root: Path, frames: int) -> tuple[Path, Path]:
     meta = json.loads((source / "meta.json").read_text())
     meta = {k: v for k, v in meta.items() if k not in ("voxel_size", "axes", "period_ms")}
     meta["period_ms"] = 360.0 * frames / 24
-    ome = {"PhysicalSizeX": VOXEL_UM[0], "PhysicalSizeY": VOXEL_UM[1],
-           "PhysicalSizeZ": VOXEL_UM[2], **{f"PhysicalSize{a}Unit": "µm" for a in "XYZ"}}
+    ome = {
+        "PhysicalSizeX": VOXEL_UM[0],
+        "PhysicalSizeY": VOXEL_UM[1],
+        "PhysicalSizeZ": VOXEL_UM[2],
+        **{f"PhysicalSize{a}Unit": "µm" for a in "XYZ"},
+    }
     series, files = root / f"series_{frames}", root / f"files_{frames}"
     for folder in (series, files):
         (folder / "labels").mkdir(parents=True, exist_ok=True)
         (folder / "meta.json").write_text(json.dumps(meta))
     cycled = [volumes[k % len(volumes)] for k in range(frames)]
     if not (series / "labels" / "labels.ome.tif").is_file():
-        tifffile.imwrite(series / "labels" / "labels.ome.tif", np.stack(cycled), ome=True,
-                         compression="zlib", metadata={"axes": "TZYX", **ome})
+        tifffile.imwrite(
+            series / "labels" / "labels.ome.tif",
+            np.stack(cycled),
+            ome=True,
+            compression="zlib",
+            metadata={"axes": "TZYX", **ome},
+        )
     width = len(str(frames - 1))
     for k, volume in enumerate(cycled):
         path = files / "labels" / f"f{k:0{width}d}.ome.tif"
         if not path.is_file():
-            tifffile.imwrite(path, volume, ome=True, compression="zlib",
-                             metadata={"axes": "ZYX", **ome})
+            tifffile.imwrite(
+                path, volume, ome=True, compression="zlib", metadata={"axes": "ZYX", **ome}
+            )
     return series, files
 
 
@@ -69,14 +80,16 @@ def main() -> None:
         seconds = {"series": [], "files": []}
         pair = [("series", series), ("files", files)]
         for repeat in range(args.repeats):
-            for name, folder in pair[::-1] if repeat % 2 else pair:     # each first in turn
+            for name, folder in pair[::-1] if repeat % 2 else pair:  # each first in turn
                 tick = time.perf_counter()
                 validate_labels(folder, quiet=True)
                 seconds[name].append(time.perf_counter() - tick)
                 print(f"{name}: {seconds[name][-1]:.1f} s", flush=True)
     ratio = np.median(np.array(seconds["series"]) / np.array(seconds["files"]))
-    print(f"{args.frames} frames: one 4-D OME-TIFF {np.median(seconds['series']):.1f} s, "
-          f"a file per frame {np.median(seconds['files']):.1f} s: {ratio:.2f} times")
+    print(
+        f"{args.frames} frames: one 4-D OME-TIFF {np.median(seconds['series']):.1f} s, "
+        f"a file per frame {np.median(seconds['files']):.1f} s: {ratio:.2f} times"
+    )
 
 
 if __name__ == "__main__":

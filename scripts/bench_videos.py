@@ -5,6 +5,7 @@
 Uses the phantom model's analytic walls on an 80 x 50 grid (no meshing) and
 synthetic fields of the real shapes. Target: under 20 s.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -34,11 +35,16 @@ def main():
     # smooth fields like real ones: five corners around, a wave along, 2 % noise
     rng = np.random.default_rng(0)
     phase = 2 * np.pi * (t_ms[None, None, :] / ph.p.period_ms - s / ph.p.length_mm / 4)
-    field = (np.cos(5 * th) * (1 + 0.5 * np.sin(phase))
-             + 0.02 * rng.normal(size=(n_u, n_v, n_t))).astype(np.float32)
-    arrays = {"t_ms": t_ms, "area_outer_mm2": ph.area_mm2("outer", s[0], t_ms[None, :]),
-              "radial_curvature_outer_per_mm": field, "strain_energy_outer": field ** 2,
-              "mean_curvature_lumen_per_mm": field}
+    field = (
+        np.cos(5 * th) * (1 + 0.5 * np.sin(phase)) + 0.02 * rng.normal(size=(n_u, n_v, n_t))
+    ).astype(np.float32)
+    arrays = {
+        "t_ms": t_ms,
+        "area_outer_mm2": ph.area_mm2("outer", s[0], t_ms[None, :]),
+        "radial_curvature_outer_per_mm": field,
+        "strain_energy_outer": field**2,
+        "mean_curvature_lumen_per_mm": field,
+    }
     executor = make_executor(args.jobs)
     if executor is not None:  # start the workers before the clock does
         list(executor.map(abs, range(2 * args.jobs)))
@@ -54,11 +60,13 @@ def main():
         seconds = time.perf_counter() - tick
         if args.profile:
             pstats.Stats(prof).sort_stats("cumtime").print_stats(15)
-        size = sum(p.stat().st_size for p in written) / 2 ** 20
+        size = sum(p.stat().st_size for p in written) / 2**20
     if executor is not None:
         executor.shutdown()
-    print(f"{len(written)} videos of {n_t} frames, jobs {args.jobs}: {seconds:.1f} s, "
-          f"{size:.1f} MiB (target < 20 s)")
+    print(
+        f"{len(written)} videos of {n_t} frames, jobs {args.jobs}: {seconds:.1f} s, "
+        f"{size:.1f} MiB (target < 20 s)"
+    )
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ Usage: ``python scripts/check_api_reference.py [docs/_build/html]`` after ``make
 name not starting with ``_``. Prints each one missing from the API reference's
 pages and exits 1 when any is; else prints how many it found.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -20,9 +21,11 @@ import oftimg
 def public_objects() -> list[str]:
     """Dotted names of every public function and class defined in oftimg's modules."""
     names = []
-    modules = [oftimg.__name__] + [m.name for m in pkgutil.walk_packages(oftimg.__path__,
-                                                                          "oftimg.")
-                                   if not m.name.endswith("__main__")]   # runs the CLI
+    modules = [oftimg.__name__] + [
+        m.name
+        for m in pkgutil.walk_packages(oftimg.__path__, "oftimg.")
+        if not m.name.endswith("__main__")
+    ]  # runs the CLI
     for module_name in modules:
         module = importlib.import_module(module_name)
         for name, obj in vars(module).items():

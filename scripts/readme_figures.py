@@ -12,6 +12,7 @@ result (if RESULTS_DIR, a ``run`` output folder, is given).
     oftimg run /tmp/mg --out /tmp/mg_out
     python scripts/readme_figures.py --midgut /tmp/mg_out
 """
+
 from __future__ import annotations
 
 import sys
@@ -38,11 +39,13 @@ def phantom_frame(path: Path) -> None:
     th = np.linspace(0, 2 * np.pi, 90)
     S, T = np.meshgrid(s, th, indexing="ij")
     X = ph.point("outer", S, T, t)
-    ax.plot_surface(X[..., 0], X[..., 1], X[..., 2], color=COLOURS["outer"], alpha=0.55,
-                    linewidth=0, shade=True)
+    ax.plot_surface(
+        X[..., 0], X[..., 1], X[..., 2], color=COLOURS["outer"], alpha=0.55, linewidth=0, shade=True
+    )
     L = ph.point("lumen", S, T, t)
-    ax.plot_surface(L[..., 0], L[..., 1], L[..., 2], color=COLOURS["lumen"], linewidth=0,
-                    shade=True)
+    ax.plot_surface(
+        L[..., 0], L[..., 1], L[..., 2], color=COLOURS["lumen"], linewidth=0, shade=True
+    )
     ax.set_box_aspect((1, 1, 0.45))
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
@@ -53,12 +56,15 @@ def phantom_frame(path: Path) -> None:
     s0 = 0.3 * ph.p.length_mm
     th = np.linspace(0, 2 * np.pi, 400)
     t_min = ph.arrival_ms(s0)
-    for t_, style, label in ((t_min, "-", "contracted"),
-                             (t_min + ph.p.expand_fraction * ph.p.period_ms, "--", "expanded")):
+    for t_, style, label in (
+        (t_min, "-", "contracted"),
+        (t_min + ph.p.expand_fraction * ph.p.period_ms, "--", "expanded"),
+    ):
         for wall in ("outer", "inner", "lumen"):
             r = ph.radius(wall, s0, th, t_)
-            ax2.plot(r * np.sin(th), r * np.cos(th), style, color=COLOURS[wall],
-                     label=f"{wall}, {label}")
+            ax2.plot(
+                r * np.sin(th), r * np.cos(th), style, color=COLOURS[wall], label=f"{wall}, {label}"
+            )
     ax2.set_aspect("equal")
     ax2.set_xlabel("mm")
     ax2.set_ylabel("mm (theta = 0, inside of the bend, up)")
@@ -106,23 +112,40 @@ def midgut(results: Path, path: Path) -> None:
     ax.set_box_aspect(np.ptp(X.reshape(-1, 3), axis=0))
     ax.set_axis_off()
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.02), fontsize=8, frameon=False)
-    ax.set_title("Drosophila midgut (Mitchell et al. 2022, CC BY 4.0):\n"
-                 "80 x 50 grid, frame 0", fontsize=9)
+    ax.set_title(
+        "Drosophila midgut (Mitchell et al. 2022, CC BY 4.0):\n80 x 50 grid, frame 0", fontsize=9
+    )
     ax2 = fig.add_subplot(1, 2, 2)
     area, s, t = arr["area_outer_mm2"], arr["s_mm"], arr["t_ms"]
     norm = area / np.nanmax(area, axis=1, keepdims=True)
     dt = t[1] - t[0]
-    im = ax2.imshow(norm, origin="lower", aspect="auto", cmap="viridis",
-                    extent=(t[0] - dt / 2, t[-1] + dt / 2, s[0], s[-1]), interpolation="nearest")
+    im = ax2.imshow(
+        norm,
+        origin="lower",
+        aspect="auto",
+        cmap="viridis",
+        extent=(t[0] - dt / 2, t[-1] + dt / 2, s[0], s[-1]),
+        interpolation="nearest",
+    )
     fig.colorbar(im, ax=ax2, label="area / row maximum (0-1)")
     period = t[-1] + dt
-    ax2.plot(np.mod(arr["ridge_t_ms"], period), s, "o", ms=2.5, mfc="w", mec="k", mew=0.4,
-             label="maximum area")
+    ax2.plot(
+        np.mod(arr["ridge_t_ms"], period),
+        s,
+        "o",
+        ms=2.5,
+        mfc="w",
+        mec="k",
+        mew=0.4,
+        label="maximum area",
+    )
     ax2.set_xlabel("time since minimum volume (ms)")
     ax2.set_ylabel("position along the tube s (mm)")
     summary = __import__("json").loads((name / "summary.json").read_text())
-    ax2.set_title(f"animated wave 1.5 mm/s; recovered {summary['wave_speed_mm_s']['cycle']:.2f} "
-                  "mm/s", fontsize=9)
+    ax2.set_title(
+        f"animated wave 1.5 mm/s; recovered {summary['wave_speed_mm_s']['cycle']:.2f} mm/s",
+        fontsize=9,
+    )
     ax2.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)
     fig.tight_layout()
     fig.savefig(path)
@@ -135,7 +158,7 @@ if __name__ == "__main__":
     if "--midgut" in args:
         k = args.index("--midgut")
         midgut(Path(args[k + 1]), DOCS / "midgut.png")
-        del args[k:k + 2]
+        del args[k : k + 2]
     phantom_frame(DOCS / "phantom_frame.png")
     if args:
         grid_frame(Path(args[0]), DOCS / "grid_frame.png")

@@ -15,6 +15,7 @@ compared with its point in frame 0:
 
     python scripts/texture_accuracy.py [--frames 48] [--cache DIR] [--modes none material texture]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,20 +37,25 @@ from oftimg.synthetic.texture import TWIST_DEG
 VOXEL_UM = (4.0, 4.0, 8.0)
 
 
-def drift(ph: Phantom, grid: LabelGrid, G: np.ndarray, t_ms: np.ndarray,
-          keep: np.ndarray | None) -> dict:
+def drift(
+    ph: Phantom, grid: LabelGrid, G: np.ndarray, t_ms: np.ndarray, keep: np.ndarray | None
+) -> dict:
     """Median drift along (% of the length) and around (rad) of the grid ``G (n_u,
     n_v, n_t, 3)`` mm (the volume's frame) from the tissue of its frame 0."""
     X = (G - grid.shift) @ grid.turn.T
     S, theta = ph.material_coordinates(X, t_ms[None, None, :])
     along = np.abs(S - S[:, :, :1])[:, :, 1:]
     around = np.abs(np.angle(np.exp(1j * (theta - theta[:, :, :1]))))[:, :, 1:]
-    out = {"along_pct": 100 * float(np.median(along)) / ph.p.length_mm,
-           "around_rad": float(np.median(around))}
+    out = {
+        "along_pct": 100 * float(np.median(along)) / ph.p.length_mm,
+        "around_rad": float(np.median(around)),
+    }
     if keep is not None:
         k = keep[:, :, 1:]
-        out.update(along_in_view_pct=100 * float(np.median(along[k])) / ph.p.length_mm,
-                   around_in_view_rad=float(np.median(around[k])))
+        out.update(
+            along_in_view_pct=100 * float(np.median(along[k])) / ph.p.length_mm,
+            around_in_view_rad=float(np.median(around[k])),
+        )
     return out
 
 
@@ -71,8 +77,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=48)
     ap.add_argument("--group", default="normal")
-    ap.add_argument("--cache", type=Path, default=None,
-                    help="keep the phantom here (made once)")
+    ap.add_argument("--cache", type=Path, default=None, help="keep the phantom here (made once)")
     ap.add_argument("--modes", nargs="+", default=["none", "material", "texture"])
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -80,9 +85,12 @@ def main() -> None:
         path = root / f"textured_{args.group}_{args.frames}f"
         if not path.exists():
             tick = time.perf_counter()
-            write_label_phantom(path, sample_params(args.group, 0, n_frames=args.frames,
-                                                    twist_deg=TWIST_DEG), VOXEL_UM,
-                                intensity=True)
+            write_label_phantom(
+                path,
+                sample_params(args.group, 0, n_frames=args.frames, twist_deg=TWIST_DEG),
+                VOXEL_UM,
+                intensity=True,
+            )
             print(f"phantom written in {time.perf_counter() - tick:.0f} s")
         ph, truth = read_truth(path)
         grid = LabelGrid(ph, VOXEL_UM)
@@ -99,15 +107,23 @@ def main() -> None:
                 energy = float(np.nanmedian(result["arrays"]["strain_energy_outer"]))
                 true_field = true_energy(ph, grid, result["grids"]["outer"][:, :, 0], t_ms)
                 truth_energy = float(np.nanmedian(true_field))
-                node_error = float(np.nanmedian(np.abs(
-                    result["arrays"]["strain_energy_outer"] - true_field)) / truth_energy)
-                extra = (f"; in view ({100 * keep.mean():.0f} %): along "
-                         f"{d['along_in_view_pct']:.2f} %, around {d['around_in_view_rad']:.4f} "
-                         f"rad" if keep is not None else "")
-                print(f"tracking {mode}: drift along {d['along_pct']:.2f} % of the length, "
-                      f"around {d['around_rad']:.4f} rad{extra}; strain energy median "
-                      f"{energy:.4f} (true {truth_energy:.4f}; node by node, median |error| "
-                      f"{100 * node_error:.0f} % of the true median); {seconds:.1f} s")
+                node_error = float(
+                    np.nanmedian(np.abs(result["arrays"]["strain_energy_outer"] - true_field))
+                    / truth_energy
+                )
+                extra = (
+                    f"; in view ({100 * keep.mean():.0f} %): along "
+                    f"{d['along_in_view_pct']:.2f} %, around {d['around_in_view_rad']:.4f} "
+                    f"rad"
+                    if keep is not None
+                    else ""
+                )
+                print(
+                    f"tracking {mode}: drift along {d['along_pct']:.2f} % of the length, "
+                    f"around {d['around_rad']:.4f} rad{extra}; strain energy median "
+                    f"{energy:.4f} (true {truth_energy:.4f}; node by node, median |error| "
+                    f"{100 * node_error:.0f} % of the true median); {seconds:.1f} s"
+                )
 
 
 if __name__ == "__main__":

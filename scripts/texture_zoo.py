@@ -17,6 +17,7 @@ is compared with the phantom's tissue:
     python scripts/texture_zoo.py --seeds 500 501 ... [--frames N] [--voxel-min-um 4]
         [--max-frames N] [--root DIR] [--modes material texture] [--json OUT]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,16 +43,23 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from texture_accuracy import drift, true_energy  # noqa: E402
 
 
-def untracked(seed: int, root: Path, frames: int | None, voxel_min_um: float | None,
-              max_frames: int | None = None) -> tuple[Path, dict]:
+def untracked(
+    seed: int,
+    root: Path,
+    frames: int | None,
+    voxel_min_um: float | None,
+    max_frames: int | None = None,
+) -> tuple[Path, dict]:
     """The draw written into ``root/data`` and analysed without tracking: its folder
     and the cached arrays (``grid_outer (n_u, n_v, n_t, 3)`` mm, each frame's own;
     ``pullback (n_u f_u, (n_v - 1) f_v + 1, n_t)``; ``t0_frame``; ``seconds``)."""
-    scenario = draw_scenario(seed, "labels+intensity", n_frames=frames,
-                             voxel_um_min=voxel_min_um, speckled=True)
+    scenario = draw_scenario(
+        seed, "labels+intensity", n_frames=frames, voxel_um_min=voxel_min_um, speckled=True
+    )
     if max_frames is not None and scenario.phantom.n_frames > max_frames:
-        scenario = draw_scenario(seed, "labels+intensity", n_frames=max_frames,
-                                 voxel_um_min=voxel_min_um, speckled=True)
+        scenario = draw_scenario(
+            seed, "labels+intensity", n_frames=max_frames, voxel_um_min=voxel_min_um, speckled=True
+        )
     dataset = root / "data" / f"speckled_{seed}"
     cache = root / "cache" / f"speckled_{seed}.npz"
     if cache.is_file():
@@ -63,10 +71,12 @@ def untracked(seed: int, root: Path, frames: int | None, voxel_min_um: float | N
         warnings.simplefilter("ignore")
         ds = _meshed(_load(dataset), root / "meshes" / dataset.name, MeshOptions(), None, True)
         result = analyse_dataset(ds, PipelineOptions(tracking="none"), quiet=True)
-    out = {"grid_outer": result["grids"]["outer"].astype(np.float32),
-           "pullback": result["pullbacks"]["pullback_outer_mean"],
-           "t0_frame": result["summary"]["t0_frame"],
-           "seconds": time.perf_counter() - tick}
+    out = {
+        "grid_outer": result["grids"]["outer"].astype(np.float32),
+        "pullback": result["pullbacks"]["pullback_outer_mean"],
+        "t0_frame": result["summary"]["t0_frame"],
+        "seconds": time.perf_counter() - tick,
+    }
     cache.parent.mkdir(parents=True, exist_ok=True)
     np.savez(cache, **out)
     return dataset, out
@@ -90,11 +100,14 @@ def errors(dataset: Path, cached: dict, modes: list[str]) -> dict:
     offset = 1e-3 * volume_offset_um(sc)
     t_ms = np.roll(np.asarray(truth["t_ms"]), -int(cached["t0_frame"]))
     G = cached["grid_outer"].astype(float)
-    out = {"frames": int(G.shape[2]), "voxel_um": [round(v, 2) for v in sc["voxel_um"]],
-           "look": {k: round(v, 3) for k, v in sc["texture"].items()},
-           "slide_pct": round(100 * sc["phantom"]["stretch"], 1),
-           "twist_deg": round(sc["phantom"]["twist_deg"], 1),
-           "twist": sc["phantom"]["twist_profile"]}
+    out = {
+        "frames": int(G.shape[2]),
+        "voxel_um": [round(v, 2) for v in sc["voxel_um"]],
+        "look": {k: round(v, 3) for k, v in sc["texture"].items()},
+        "slide_pct": round(100 * sc["phantom"]["stretch"], 1),
+        "twist_deg": round(sc["phantom"]["twist_deg"], 1),
+        "twist": sc["phantom"]["twist_profile"],
+    }
     for mode in modes:
         tick = time.perf_counter()
         coords, info = tracked_coords(mode, G, cached["pullback"])
@@ -106,14 +119,19 @@ def errors(dataset: Path, cached: dict, modes: list[str]) -> dict:
         truth_energy = true_energy(ph, grid, Gt[:, :, 0] - offset, t_ms)
         scale = float(np.nanmedian(truth_energy))
         err = np.abs(energy - truth_energy)[keep & np.isfinite(energy)] / scale
-        out[mode] = {"along_pct": d["along_pct"], "around_rad": d["around_rad"],
-                     "energy_median_pct": 100 * float(np.median(err)),
-                     "energy_p90_pct": 100 * float(np.percentile(err, 90)),
-                     "seconds": seconds,
-                     **{k: v for k, v in info.items() if k.startswith("fallback_share")
-                        or k == "forward_backward_gap_steps"},
-                     **({"support_median": float(np.median(info["support"]))}
-                        if "support" in info else {})}
+        out[mode] = {
+            "along_pct": d["along_pct"],
+            "around_rad": d["around_rad"],
+            "energy_median_pct": 100 * float(np.median(err)),
+            "energy_p90_pct": 100 * float(np.percentile(err, 90)),
+            "seconds": seconds,
+            **{
+                k: v
+                for k, v in info.items()
+                if k.startswith("fallback_share") or k == "forward_backward_gap_steps"
+            },
+            **({"support_median": float(np.median(info["support"]))} if "support" in info else {}),
+        }
     return out
 
 
@@ -121,8 +139,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", required=True)
     ap.add_argument("--frames", type=int, default=None, help="every draw this many frames")
-    ap.add_argument("--max-frames", type=int, default=None,
-                    help="draws of more frames cut to this many (quicker)")
+    ap.add_argument(
+        "--max-frames",
+        type=int,
+        default=None,
+        help="draws of more frames cut to this many (quicker)",
+    )
     ap.add_argument("--voxel-min-um", type=float, default=None)
     ap.add_argument("--root", type=Path, default=Path("texture_zoo"))
     ap.add_argument("--modes", nargs="+", default=["material", "texture"])
@@ -130,16 +152,22 @@ def main() -> None:
     args = ap.parse_args()
     results = json.loads(args.json.read_text()) if args.json and args.json.is_file() else {}
     for seed in args.seeds:
-        dataset, cached = untracked(seed, args.root, args.frames, args.voxel_min_um,
-                                    args.max_frames)
+        dataset, cached = untracked(
+            seed, args.root, args.frames, args.voxel_min_um, args.max_frames
+        )
         e = errors(dataset, cached, args.modes)
         results[str(seed)] = e
-        line = "  ".join(f"{m}: {e[m]['along_pct']:.2f} % L {e[m]['around_rad']:.4f} rad "
-                         f"E {e[m]['energy_median_pct']:.0f}/{e[m]['energy_p90_pct']:.0f} %"
-                         for m in args.modes)
-        print(f"{seed}: {e['frames']} frames, slide {e['slide_pct']} %, twist "
-              f"{e['twist_deg']} deg, speckle {e['look']['speckle']}, grain "
-              f"{e['look']['blob_um']} um  |  {line}", flush=True)
+        line = "  ".join(
+            f"{m}: {e[m]['along_pct']:.2f} % L {e[m]['around_rad']:.4f} rad "
+            f"E {e[m]['energy_median_pct']:.0f}/{e[m]['energy_p90_pct']:.0f} %"
+            for m in args.modes
+        )
+        print(
+            f"{seed}: {e['frames']} frames, slide {e['slide_pct']} %, twist "
+            f"{e['twist_deg']} deg, speckle {e['look']['speckle']}, grain "
+            f"{e['look']['blob_um']} um  |  {line}",
+            flush=True,
+        )
         if args.json:
             args.json.write_text(json.dumps(results, indent=1))
 

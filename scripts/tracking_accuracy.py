@@ -25,6 +25,7 @@ With ``--texture``, the animation has intensity volumes too (``oftimg animate
     python scripts/tracking_accuracy.py [--frames 40] [--seed 0] [--modes none material]
                                         [--texture --modes material texture]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,7 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
-from oftimg.synthetic.animate import Animation, grid_material_points, tissue_positions, write_animation
+from oftimg.synthetic.animate import (
+    Animation,
+    grid_material_points,
+    tissue_positions,
+    write_animation,
+)
 from oftimg.io.dataset import load_dataset
 from oftimg.mesh.strain import grid_strain
 from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
@@ -48,8 +54,9 @@ def measure(dataset: Path, tracking: str) -> dict:
     tick = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = analyse_dataset(load_dataset(dataset), PipelineOptions(tracking=tracking),
-                                 quiet=True)
+        result = analyse_dataset(
+            load_dataset(dataset), PipelineOptions(tracking=tracking), quiet=True
+        )
     seconds = time.perf_counter() - tick
     G, t0 = result["grids"]["outer"], result["summary"]["t0_frame"]
     length = result["summary"]["tube_length_mm"]
@@ -57,30 +64,36 @@ def measure(dataset: Path, tracking: str) -> dict:
     drift = np.linalg.norm(S - S[:, :, :1], axis=-1)[:, :, 1:]
     P = tissue_positions(dataset, S[:, :, 0].reshape(-1, 3), t0).reshape(G.shape)
     moved = np.linalg.norm(P - P[:, :, :1], axis=-1)[:, :, 1:]
-    measured = result["arrays"]["principal_stretch_outer"]        # as the user gets them
+    measured = result["arrays"]["principal_stretch_outer"]  # as the user gets them
     energy = result["arrays"]["strain_energy_outer"]
     true_energy, true = grid_strain(P)
     stretch_error = np.abs(measured / true - 1)
-    return {"drift_median_pct": 100 * np.median(drift) / length,
-            "drift_p90_pct": 100 * np.percentile(drift, 90) / length,
-            "drift_over_motion": np.median(drift) / np.median(moved),
-            "motion_median_pct": 100 * np.median(moved) / length,
-            "stretch_error_median": float(np.nanmedian(stretch_error)),
-            "energy_median": float(np.nanmedian(energy)),
-            "true_energy_median": float(np.nanmedian(true_energy)),
-            "seconds": seconds, "tracking": result["summary"].get("tracking")}
+    return {
+        "drift_median_pct": 100 * np.median(drift) / length,
+        "drift_p90_pct": 100 * np.percentile(drift, 90) / length,
+        "drift_over_motion": np.median(drift) / np.median(moved),
+        "motion_median_pct": 100 * np.median(moved) / length,
+        "stretch_error_median": float(np.nanmedian(stretch_error)),
+        "energy_median": float(np.nanmedian(energy)),
+        "true_energy_median": float(np.nanmedian(true_energy)),
+        "seconds": seconds,
+        "tracking": result["summary"].get("tracking"),
+    }
 
 
 def phantom_drift(dataset: Path, tracking: str) -> dict:
     ph, truth = read_truth(dataset)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = analyse_dataset(load_dataset(dataset), PipelineOptions(tracking=tracking),
-                                 quiet=True)
+        result = analyse_dataset(
+            load_dataset(dataset), PipelineOptions(tracking=tracking), quiet=True
+        )
     t_ms = np.roll(np.asarray(truth["t_ms"]), -result["summary"]["t0_frame"])
     S, theta = ph.material_coordinates(result["grids"]["outer"], t_ms[None, None, :])
-    return {"angle_sd_rad": float(np.median(np.unwrap(theta, axis=2).std(axis=2))),
-            "position_sd_pct": float(100 * np.median(S.std(axis=2)) / ph.p.length_mm)}
+    return {
+        "angle_sd_rad": float(np.median(np.unwrap(theta, axis=2).std(axis=2))),
+        "position_sd_pct": float(100 * np.median(S.std(axis=2)) / ph.p.length_mm),
+    }
 
 
 def main() -> None:
@@ -91,31 +104,53 @@ def main() -> None:
     parser.add_argument("--shortening", type=float, default=0.15)
     parser.add_argument("--modes", nargs="+", default=["none", "material"])
     parser.add_argument("--phantom-frames", type=int, default=195)
-    parser.add_argument("--texture", action="store_true",
-                        help="the animated gut with intensity volumes (for --modes texture)")
+    parser.add_argument(
+        "--texture",
+        action="store_true",
+        help="the animated gut with intensity volumes (for --modes texture)",
+    )
     args = parser.parse_args()
-    anim = Animation(speed_mm_s=1.5, amplitude=0.3, period_ms=360.0, n_frames=args.frames,
-                     twist_deg=args.twist_deg, shortening=args.shortening)
+    anim = Animation(
+        speed_mm_s=1.5,
+        amplitude=0.3,
+        period_ms=360.0,
+        n_frames=args.frames,
+        twist_deg=args.twist_deg,
+        shortening=args.shortening,
+    )
     with tempfile.TemporaryDirectory() as tmp:
-        dataset = write_animation(MIDGUT, Path(tmp) / "midgut", anim, scale_to_mm=0.2619e-3,
-                                  do_remesh=True, seed=args.seed, texture=args.texture)
+        dataset = write_animation(
+            MIDGUT,
+            Path(tmp) / "midgut",
+            anim,
+            scale_to_mm=0.2619e-3,
+            do_remesh=True,
+            seed=args.seed,
+            texture=args.texture,
+        )
         for mode in args.modes:
             m = measure(dataset, mode)
-            print(f"tracking {mode}: drift median {m['drift_median_pct']:.2f} % of the length "
-                  f"(p90 {m['drift_p90_pct']:.2f} %), {m['drift_over_motion']:.2f} x the tissue's "
-                  f"median displacement ({m['motion_median_pct']:.2f} %); principal stretches "
-                  f"{100 * m['stretch_error_median']:.1f} % off (median); strain energy median "
-                  f"{m['energy_median']:.4f} (true {m['true_energy_median']:.4f}); "
-                  f"{m['seconds']:.1f} s")
+            print(
+                f"tracking {mode}: drift median {m['drift_median_pct']:.2f} % of the length "
+                f"(p90 {m['drift_p90_pct']:.2f} %), {m['drift_over_motion']:.2f} x the tissue's "
+                f"median displacement ({m['motion_median_pct']:.2f} %); principal stretches "
+                f"{100 * m['stretch_error_median']:.1f} % off (median); strain energy median "
+                f"{m['energy_median']:.4f} (true {m['true_energy_median']:.4f}); "
+                f"{m['seconds']:.1f} s"
+            )
             if m["tracking"]:
                 print(f"  summary.json tracking: {m['tracking']}")
-        phantom = write_phantom(Path(tmp) / "phantom", sample_params(
-            "normal", 0, n_frames=args.phantom_frames, noise_mm=0.002))
-        for mode in [m for m in args.modes if m != "texture"]:     # the phantom has none
+        phantom = write_phantom(
+            Path(tmp) / "phantom",
+            sample_params("normal", 0, n_frames=args.phantom_frames, noise_mm=0.002),
+        )
+        for mode in [m for m in args.modes if m != "texture"]:  # the phantom has none
             m = phantom_drift(phantom, mode)
-            print(f"phantom, tracking {mode}: material angle s.d. {m['angle_sd_rad']:.4f} rad, "
-                  f"material position s.d. {m['position_sd_pct']:.2f} % of the length "
-                  "(median over nodes)")
+            print(
+                f"phantom, tracking {mode}: material angle s.d. {m['angle_sd_rad']:.4f} rad, "
+                f"material position s.d. {m['position_sd_pct']:.2f} % of the length "
+                "(median over nodes)"
+            )
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """Analytic test shapes (meshes of cylinders, cones and elliptic tubes) and a
 worker pool that runs each task at once."""
+
 from __future__ import annotations
 
 import concurrent.futures
@@ -9,8 +10,9 @@ import numpy as np
 from oftimg.io.meshfile import write_ply
 
 
-def tube_mesh(radius_in=0.2, radius_out=None, length=1.0, n_theta=48, n_s=30,
-              ellipse=1.0, theta0=0.0):
+def tube_mesh(
+    radius_in=0.2, radius_out=None, length=1.0, n_theta=48, n_s=30, ellipse=1.0, theta0=0.0
+):
     """Straight tube along +z from z=0 (inlet) to z=length, outward-oriented.
 
     Radius tapers linearly from ``radius_in`` to ``radius_out`` (a cone); the
@@ -28,8 +30,9 @@ def tube_mesh(radius_in=0.2, radius_out=None, length=1.0, n_theta=48, n_s=30,
     b = np.roll(idx, -1, axis=1)[:-1]
     c = np.roll(idx, -1, axis=1)[1:]
     d = idx[1:]
-    F = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
-                        np.stack([a, c, d], -1).reshape(-1, 3)])
+    F = np.concatenate(
+        [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
+    )
     return V, F.astype(np.int64)
 
 
@@ -65,8 +68,9 @@ def square_warning_on_odd(k: int) -> int:
     return k * k
 
 
-def retriangulated_tube(rng, *, radius_in=2.0, radius_out=None, length=10.0,
-                        n_vertices=3000, jitter=0.3):
+def retriangulated_tube(
+    rng, *, radius_in=2.0, radius_out=None, length=10.0, n_vertices=3000, jitter=0.3
+):
     """A straight tube (a cone if ``radius_out`` differs) along +z, meshed anew:
     a random start angle, vertices jittered along the surface by ``jitter`` of a
     step (the end rings' z kept), random quad diagonals, vertices and faces in a
@@ -96,8 +100,9 @@ def retriangulated_tube(rng, *, radius_in=2.0, radius_out=None, length=10.0,
     return V[perm], inv[F][rng.permutation(len(F))].astype(np.int64)
 
 
-def label_phantom_area_errors(page, phantom_folder, n_frames: int, group: str = "normal",
-                              seed: int = 0) -> dict:
+def label_phantom_area_errors(
+    page, phantom_folder, n_frames: int, group: str = "normal", seed: int = 0
+) -> dict:
     """|area / truth - 1| ``(n_v, n_t)`` per wall of a run's results ``page`` (its
     summary.json and arrays.npz) of a label phantom written with ``sample_params(group,
     seed, n_frames=n_frames)``, in the results' time order: each section against the
@@ -113,18 +118,27 @@ def label_phantom_area_errors(page, phantom_folder, n_frames: int, group: str = 
     truth = json.loads((phantom_folder / "truth.json").read_text())
     ph = Phantom(label_params(sample_params(group, seed, n_frames=n_frames)))
     t_ms = np.roll(np.array(truth["t_ms"]), -summary["t0_frame"])
-    s_mm, _ = ph.window_coordinates(in_phantom_frame(phantom_folder,
-                                                     arrays["centroid_outer_mm"]))
-    return {wall: np.abs(arrays[f"area_{wall}_mm2"] / ph.area_mm2(wall, s_mm, t_ms[None, :]) - 1)
-            for wall in ("outer", "inner", "lumen")}
+    s_mm, _ = ph.window_coordinates(in_phantom_frame(phantom_folder, arrays["centroid_outer_mm"]))
+    return {
+        wall: np.abs(arrays[f"area_{wall}_mm2"] / ph.area_mm2(wall, s_mm, t_ms[None, :]) - 1)
+        for wall in ("outer", "inner", "lumen")
+    }
 
 
 # ------------------------------------------------------ valid but unusual datasets
 SMALL_MESH = dict(vertices_min=1200, vertices_max=1600)
 
 
-def _phantom_case(folder, walls=("outer", "inner", "lumen"), *, group="normal", seed=5,
-                  n_frames=12, um=False, **overrides):
+def _phantom_case(
+    folder,
+    walls=("outer", "inner", "lumen"),
+    *,
+    group="normal",
+    seed=5,
+    n_frames=12,
+    um=False,
+    **overrides,
+):
     """A phantom (:func:`~oftimg.synthetic.phantom.write_phantom`) with ``walls`` only;
     ``um``: its meshes and inlet given in µm (``length_unit`` "um")."""
     import json
@@ -150,10 +164,15 @@ def _straight_case(folder, radii, n_frames=16):
     import json
 
     rng = np.random.default_rng(1)
-    write_series(folder, [retriangulated_tube(rng, radius_in=radii(k), n_vertices=1500)
-                          for k in range(n_frames)])
-    (folder / "meta.json").write_text(json.dumps({"name": folder.name, "period_ms": 400.0,
-                                                  "length_unit": "mm", "inlet": [0, 0, 0]}))
+    write_series(
+        folder,
+        [retriangulated_tube(rng, radius_in=radii(k), n_vertices=1500) for k in range(n_frames)],
+    )
+    (folder / "meta.json").write_text(
+        json.dumps(
+            {"name": folder.name, "period_ms": 400.0, "length_unit": "mm", "inlet": [0, 0, 0]}
+        )
+    )
     return folder
 
 
@@ -161,25 +180,34 @@ def _label_case(folder, n_frames=8, voxel_um=(8.0, 8.0, 16.0), **kwargs):
     from oftimg.synthetic.labels import write_label_phantom
     from oftimg.synthetic.phantom import sample_params
 
-    return write_label_phantom(folder, sample_params("normal", 2, n_frames=n_frames),
-                               voxel_um, **kwargs)
+    return write_label_phantom(
+        folder, sample_params("normal", 2, n_frames=n_frames), voxel_um, **kwargs
+    )
 
 
 # name -> a function of an empty folder that writes the dataset there (issue 71, point 4)
 UNUSUAL_DATASETS = {
     "rigid": lambda f: _straight_case(f, lambda k: 2.0),
     "breathing": lambda f: _straight_case(
-        f, lambda k: 2.0 * (1 + 0.2 * np.sin(np.pi * k / 16) ** 4)),
+        f, lambda k: 2.0 * (1 + 0.2 * np.sin(np.pi * k / 16) ** 4)
+    ),
     "outer_alone": lambda f: _phantom_case(f, ("outer",)),
     "outer_and_lumen": lambda f: _phantom_case(f, ("outer", "lumen")),
     "five_frames": lambda f: _phantom_case(f, n_frames=5),
-    "400_frames": lambda f: _phantom_case(f, ("outer",), n_frames=400, vertices_min=600,
-                                          vertices_max=800),
+    "400_frames": lambda f: _phantom_case(
+        f, ("outer",), n_frames=400, vertices_min=600, vertices_max=800
+    ),
     "short_tube": lambda f: _phantom_case(f, length_mm=0.3, speed_knee_mm=0.12),
-    "long_tube": lambda f: _phantom_case(f, length_mm=5.0, bend_radius_mm=3.0,
-                                         radius_inlet_mm=0.1, radius_outlet_mm=0.07,
-                                         speed_knee_mm=2.0, vertices_min=3000,
-                                         vertices_max=3500),
+    "long_tube": lambda f: _phantom_case(
+        f,
+        length_mm=5.0,
+        bend_radius_mm=3.0,
+        radius_inlet_mm=0.1,
+        radius_outlet_mm=0.07,
+        speed_knee_mm=2.0,
+        vertices_min=3000,
+        vertices_max=3500,
+    ),
     "um": lambda f: _phantom_case(f, um=True),
     "banded": lambda f: _phantom_case(f, group="banded", n_frames=16),
     "labels": _label_case,
@@ -189,26 +217,48 @@ UNUSUAL_DATASETS = {
 
 
 # what every dataset's results hold, by the walls and inputs it has (issue 71, point 4)
-FIGURES = {"outer": {"area_derivative_outer", "area_map_outer", "frame_t0_contours",
-                     "max_area_profile", "ridge_speed", "shape_pca", "time_expanded",
-                     "volume_over_cycle"},
-           "inner": {"trim_over_cycle", "wall_thickness_map"},
-           "lumen": {"lumen_cushions"}, "jelly": {"jelly_thickness_map"},
-           "intensity": {"pullback_outer"}}
-VIDEOS = {"outer": {"area_map_cursor", "outer_wall_3d_area_map", "radial_curvature_outer",
-                    "radial_curvature_outer_normalized", "strain_energy_outer"},
-          "inner": {"radial_curvature_inner", "strain_energy_inner", "wall_thickness"},
-          "lumen": {"mean_curvature_lumen", "lumen_mean_curvature_3d"},
-          "jelly": {"jelly_thickness"},
-          "intensity": {"pullback_outer", "surface_speed_outer", "surface_divergence_outer"}}
+FIGURES = {
+    "outer": {
+        "area_derivative_outer",
+        "area_map_outer",
+        "frame_t0_contours",
+        "max_area_profile",
+        "ridge_speed",
+        "shape_pca",
+        "time_expanded",
+        "volume_over_cycle",
+    },
+    "inner": {"trim_over_cycle", "wall_thickness_map"},
+    "lumen": {"lumen_cushions"},
+    "jelly": {"jelly_thickness_map"},
+    "intensity": {"pullback_outer"},
+}
+VIDEOS = {
+    "outer": {
+        "area_map_cursor",
+        "outer_wall_3d_area_map",
+        "radial_curvature_outer",
+        "radial_curvature_outer_normalized",
+        "strain_energy_outer",
+    },
+    "inner": {"radial_curvature_inner", "strain_energy_inner", "wall_thickness"},
+    "lumen": {"mean_curvature_lumen", "lumen_mean_curvature_3d"},
+    "jelly": {"jelly_thickness"},
+    "intensity": {"pullback_outer", "surface_speed_outer", "surface_divergence_outer"},
+}
 
 
 def expected_outputs(walls: set, intensity: bool) -> tuple[set, set]:
     """The figures and videos (names without suffix) of a dataset with ``walls``."""
-    parts = set(walls) | ({"jelly"} if {"inner", "lumen"} <= set(walls) else set()) \
+    parts = (
+        set(walls)
+        | ({"jelly"} if {"inner", "lumen"} <= set(walls) else set())
         | ({"intensity"} if intensity else set())
-    return (set().union(*(FIGURES.get(p, set()) for p in parts)),
-            set().union(*(VIDEOS.get(p, set()) for p in parts)))
+    )
+    return (
+        set().union(*(FIGURES.get(p, set()) for p in parts)),
+        set().union(*(VIDEOS.get(p, set()) for p in parts)),
+    )
 
 
 def run_to_the_end(dataset, work) -> dict:
@@ -233,8 +283,9 @@ def run_to_the_end(dataset, work) -> dict:
     assert main(["run", str(dataset), "--out", str(out), "--quiet", "--jobs", "1"]) == 0
     folder = next(p for p in out.iterdir() if (p / "summary.json").is_file())
     summary = json.loads((folder / "summary.json").read_text())
-    walls = {w for w in ("outer", "inner", "lumen") if (dataset / w).is_dir()} or \
-        set(summary["provenance"]["meshing"]["vertices"])
+    walls = {w for w in ("outer", "inner", "lumen") if (dataset / w).is_dir()} or set(
+        summary["provenance"]["meshing"]["vertices"]
+    )
     figures, videos = expected_outputs(walls, (dataset / "intensity").is_dir())
     assert {p.stem for p in (folder / "figures").glob("*.png")} >= figures
     assert {p.stem for p in (folder / "videos").glob("*.mp4")} >= videos
@@ -247,22 +298,25 @@ def run_to_the_end(dataset, work) -> dict:
         video.set(cv2.CAP_PROP_POS_FRAMES, frames // 2)
         ok, frame = video.read()
         video.release()
-        assert ok and frames >= summary["n_frames"] and frame.std() > 1, \
+        assert ok and frames >= summary["n_frames"] and frame.std() > 1, (
             f"{mp4.name}: {frames} frames, none readable or all blank"
+        )
     for page in (out / "index.html", folder / "index.html"):
         text = page.read_text()
         for link in re.findall(r'(?:src|href)="([^"#:]+)"', text):
             assert (page.parent / html.unescape(link)).exists(), f"{page}: {link} missing"
-        visible = re.sub(r"<[^>]+>", " ", re.sub(r"<(script|style)[^>]*>.*?</\1>", " ", text,
-                                                 flags=re.S))
+        visible = re.sub(
+            r"<[^>]+>", " ", re.sub(r"<(script|style)[^>]*>.*?</\1>", " ", text, flags=re.S)
+        )
         assert not re.search(r"\bnan\b", visible, re.I), f"{page}: nan in the text"
     assert not re.search(r"\bnan\b", (out / "table1.md").read_text(), re.I)
     assert not [w for w in summary["warnings"] if re.search(r"\bnan\b", w, re.I)]
     page = (folder / "index.html").read_text()
-    for warning in summary["warnings"]:                     # each on the page, its path cut
+    for warning in summary["warnings"]:  # each on the page, its path cut
         assert html.escape(warning.split(": ", 1)[-1]) in page, warning
-    assert main(["paraview", str(out), "--out", str(work / "paraview"), "--quiet",
-                 "--jobs", "1"]) == 0
+    assert (
+        main(["paraview", str(out), "--out", str(work / "paraview"), "--quiet", "--jobs", "1"]) == 0
+    )
     assert any((work / "paraview").rglob("*.vt*"))
     assert main(["tiff", str(out), "--out", str(work / "tiff"), "--quiet"]) == 0
     assert any((work / "tiff").rglob("*.tif"))
@@ -271,8 +325,9 @@ def run_to_the_end(dataset, work) -> dict:
     layers = results_layers(out)
     surfaces = [layer for layer in layers if layer[2] == "surface"]
     assert len(surfaces) == len(walls)
-    assert any(layer[1]["name"].endswith(", unrolled") for layer in layers)   # fields as images
+    assert any(layer[1]["name"].endswith(", unrolled") for layer in layers)  # fields as images
     if (dataset / "labels").is_dir() or (dataset / "intensity").is_dir():
-        assert any(layer[1]["name"].endswith((": labels", ": intensity"))
-                   for layer in layers)                                      # its volumes too
+        assert any(
+            layer[1]["name"].endswith((": labels", ": intensity")) for layer in layers
+        )  # its volumes too
     return summary

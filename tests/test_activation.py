@@ -2,11 +2,19 @@
 surface wave velocity from their gradient on the wall, on analytic tubes whose wave
 is known: along the axis, a helix, one that starts on one side, a tube that moves at
 once and one that does not move."""
+
 import numpy as np
 import pytest
 
-from oftimg.image.activation import (activation_times, normal_displacement, propagates,
-                                     strong, surface_velocity, unwrapped, wave_summary)
+from oftimg.image.activation import (
+    activation_times,
+    normal_displacement,
+    propagates,
+    strong,
+    surface_velocity,
+    unwrapped,
+    wave_summary,
+)
 
 PERIOD_MS = 360.0
 N_U, N_V, N_T = 80, 50, 120
@@ -55,7 +63,7 @@ def test_activation_is_the_steepest_rise_sub_frame_and_its_noise_is_calibrated()
     assert abs(np.std(error) / np.median(noisy.sd_ms) - 1) < 0.2
     assert noisy.phase.shape == (N_U, N_V, N_T)
     frame = np.argmin(np.abs(np.arange(N_T) * 3.0 - expected[5, 10]))
-    assert abs(noisy.phase[5, 10, frame]) < 2 * np.pi * 3.0 / PERIOD_MS   # 0 at activation
+    assert abs(noisy.phase[5, 10, frame]) < 2 * np.pi * 3.0 / PERIOD_MS  # 0 at activation
 
 
 @pytest.mark.parametrize("noise_mm, expected", [(0.0, 2.0), (0.0005, 3.0), (0.006, 4.0)])
@@ -75,13 +83,15 @@ def test_the_smoothing_is_chosen_from_the_times_scatter(noise_mm, expected):
     reads = strong(act)
     sigma = auto_smoothing(act.time_ms, PERIOD_MS, reads)
     assert sigma == expected
-    chosen = surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS,
-                              smoothing_nodes=sigma, use=reads)
+    chosen = surface_velocity(
+        act.time_ms, grid.mean(axis=2), PERIOD_MS, smoothing_nodes=sigma, use=reads
+    )
     assert np.nanmedian(chosen.speed_mm_s) == pytest.approx(20.0, rel=0.03)
-    if noise_mm:                     # the nodes' speeds closer together than at 2 nodes
+    if noise_mm:  # the nodes' speeds closer together than at 2 nodes
         narrow = surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS, use=reads)
-        assert np.subtract(*np.nanpercentile(chosen.speed_mm_s, [75, 25])) < 0.6 * \
-            np.subtract(*np.nanpercentile(narrow.speed_mm_s, [75, 25]))
+        assert np.subtract(*np.nanpercentile(chosen.speed_mm_s, [75, 25])) < 0.6 * np.subtract(
+            *np.nanpercentile(narrow.speed_mm_s, [75, 25])
+        )
 
 
 def test_a_run_s_activation_sd_is_the_larger_of_the_node_s_noise_and_the_times_scatter():
@@ -94,8 +104,9 @@ def test_a_run_s_activation_sd_is_the_larger_of_the_node_s_noise_and_the_times_s
     u, s = node_coordinates()
     arrival = 7.3 * s + 100.0
     arrays, summary = wave_fronts({"outer": beating(arrival)}, s[0], PERIOD_MS)
-    np.testing.assert_allclose(arrays["activation_sd_outer_ms"], ACTIVATION_FLOOR_SHARE
-                               * PERIOD_MS, rtol=1e-6)
+    np.testing.assert_allclose(
+        arrays["activation_sd_outer_ms"], ACTIVATION_FLOOR_SHARE * PERIOD_MS, rtol=1e-6
+    )
     arrays, summary = wave_fronts({"outer": beating(arrival, noise_mm=0.003)}, s[0], PERIOD_MS)
     error = unwrapped(arrays["activation_time_outer_ms"] - (arrival - PERIOD_MS / 4), PERIOD_MS)
     assert np.median(arrays["activation_sd_outer_ms"]) > ACTIVATION_FLOOR_SHARE * PERIOD_MS
@@ -112,12 +123,12 @@ def test_a_helical_wave_s_speed_and_angle_on_the_wall(k):
     1 / sqrt(1/c^2 + (kT / 2 pi R)^2) and its angle to the axis atan(k T c / 2 pi R);
     the axial speed stays c. Within 1 % and 0.5 degrees away from the ends."""
     u, s = node_coordinates()
-    c = 10.0 / 1e3                                                     # mm/ms
+    c = 10.0 / 1e3  # mm/ms
     arrival = s / c + k * PERIOD_MS * u
     grid = beating(arrival)
     act = activation_times(normal_displacement(grid), PERIOD_MS)
     vel = surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS)
-    around = k * PERIOD_MS / (2 * np.pi * RADIUS_MM)                   # ms/mm
+    around = k * PERIOD_MS / (2 * np.pi * RADIUS_MM)  # ms/mm
     speed = 1e3 / np.hypot(1 / c, around)
     angle = np.degrees(np.arctan2(around, 1 / c))
     inner = (slice(None), slice(5, -5))
@@ -128,8 +139,8 @@ def test_a_helical_wave_s_speed_and_angle_on_the_wall(k):
     assert summary["propagates"]
     assert summary["axial_speed_mm_s"] == pytest.approx(10.0, rel=0.01)
     assert summary["helix_angle_deg"] == pytest.approx(angle, abs=0.5)
-    if k == 0:                   # a helix has no first node: each ring meets every time
-        assert summary["earliest_s_mm"] < 0.1                          # it starts at the inlet
+    if k == 0:  # a helix has no first node: each ring meets every time
+        assert summary["earliest_s_mm"] < 0.1  # it starts at the inlet
 
 
 def test_a_wave_that_starts_on_one_side_is_found_there():
@@ -143,8 +154,8 @@ def test_a_wave_that_starts_on_one_side_is_found_there():
     summary = wave_summary(act, vel, s[0], PERIOD_MS)
     assert abs(summary["earliest_node"][0] - 20) <= 1 and summary["earliest_node"][1] <= 2
     mid = slice(10, 40)
-    assert np.all(vel.around_mm_s[30:38, mid] > 0)          # from u = 0.25 towards u = 0.5
-    assert np.all(vel.around_mm_s[3:10, mid] < 0)           # and back towards u = 0
+    assert np.all(vel.around_mm_s[30:38, mid] > 0)  # from u = 0.25 towards u = 0.5
+    assert np.all(vel.around_mm_s[3:10, mid] < 0)  # and back towards u = 0
 
 
 @pytest.mark.parametrize("case", ["at_once", "still"])
@@ -152,13 +163,15 @@ def test_a_tube_moving_at_once_or_not_at_all_has_no_propagation(case):
     """Every node at the same time (with noise), or no motion but noise: no
     propagation, not a huge speed."""
     u, s = node_coordinates()
-    grid = beating(np.full((N_U, N_V), 50.0), noise_mm=0.001,
-                   amplitude_mm=0.02 if case == "at_once" else 0.0)
+    grid = beating(
+        np.full((N_U, N_V), 50.0), noise_mm=0.001, amplitude_mm=0.02 if case == "at_once" else 0.0
+    )
     act = activation_times(normal_displacement(grid), PERIOD_MS)
     assert not propagates(act, PERIOD_MS)
     assert act.moving.mean() > 0.99 if case == "at_once" else act.moving.mean() < 0.01
-    summary = wave_summary(act, surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS),
-                           s[0], PERIOD_MS)
+    summary = wave_summary(
+        act, surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS), s[0], PERIOD_MS
+    )
     assert summary["propagates"] is False and summary["speed_mm_s"] is None
 
 
@@ -173,8 +186,9 @@ def test_a_phantom_s_helical_front_that_comes_first_on_one_side_is_found(tmp_pat
     from oftimg.io.dataset import load_dataset
     from oftimg.synthetic.phantom import Phantom, sample_params, write_phantom
 
-    params = sample_params("normal", 3, n_frames=40, helix_starts=1, side_lag_ms=40.0,
-                           side_deg=90.0)
+    params = sample_params(
+        "normal", 3, n_frames=40, helix_starts=1, side_lag_ms=40.0, side_deg=90.0
+    )
     write_phantom(tmp_path / "ph", params)
     res = analyse_dataset(load_dataset(tmp_path / "ph"), PipelineOptions(), quiet=True)
     phantom = Phantom(params)
@@ -182,8 +196,13 @@ def test_a_phantom_s_helical_front_that_comes_first_on_one_side_is_found(tmp_pat
     along, around = np.moveaxis(res["arrays"]["wave_velocity_outer_mm_s"], -1, 0)
     reads = np.isfinite(along)
     assert reads.mean() > 0.9
-    truth = surface_velocity(phantom.activation_ms(*phantom.window_coordinates(mean)), mean,
-                             params.period_ms, smoothing_nodes=0, use=reads)
+    truth = surface_velocity(
+        phantom.activation_ms(*phantom.window_coordinates(mean)),
+        mean,
+        params.period_ms,
+        smoothing_nodes=0,
+        use=reads,
+    )
     speed = np.hypot(along, around)
     inner = (slice(None), slice(4, -4))
     assert np.nanmedian(speed[inner] / truth.speed_mm_s[inner] - 1) == pytest.approx(0, abs=0.05)
@@ -201,7 +220,7 @@ def test_a_band_that_barely_moves_is_not_where_the_wave_starts_nor_its_speed():
     smoothing (10 mm/s within 3 %; over 20 % off when they do)."""
     u, s = node_coordinates()
     arrival = s / 0.01 + 20.0
-    arrival[:, 24:28] -= 70.0                     # earlier than the inlet, and barely moving
+    arrival[:, 24:28] -= 70.0  # earlier than the inlet, and barely moving
     grid = beating(arrival)
     r = normal_displacement(grid)
     r[:, 24:28] *= 0.1
@@ -211,9 +230,9 @@ def test_a_band_that_barely_moves_is_not_where_the_wave_starts_nor_its_speed():
     velocity = surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS, use=reads)
     assert np.isnan(velocity.speed_mm_s[:, 24:28]).all()
     summary = wave_summary(act, velocity, s[0], PERIOD_MS)
-    assert summary["earliest_node"][1] <= 1                 # the inlet row
+    assert summary["earliest_node"][1] <= 1  # the inlet row
     assert summary["speed_mm_s"] == pytest.approx(10.0, rel=0.01)
-    beside = np.r_[20:24, 28:32]                 # the band's neighbours: their own times
+    beside = np.r_[20:24, 28:32]  # the band's neighbours: their own times
     np.testing.assert_allclose(velocity.speed_mm_s[:, beside], 10.0, rtol=0.03)
-    every = surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS)      # the band's too
+    every = surface_velocity(act.time_ms, grid.mean(axis=2), PERIOD_MS)  # the band's too
     assert np.median(np.abs(every.speed_mm_s[:, beside] / 10.0 - 1)) > 0.2

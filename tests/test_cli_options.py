@@ -1,18 +1,23 @@
 """An option the command does not have (issue 87, point 7): refused in one line with the
 command's own usage and the nearest option it has, exit 2, nothing run."""
+
 import pytest
 
 from oftimg.cli import main
 
 
-@pytest.mark.parametrize("argv, said", [
-    (["run", "data", "--out", "res", "--period_ms", "300"], "did you mean --period-ms?"),
-    (["run", "data", "--out", "res", "--feild-smoothing-ms", "30"],
-     "did you mean --field-smoothing-ms?"),
-    (["phantom", "out", "--zzz"], "(oftimg phantom --help)"),
-])
-def test_a_mistyped_option_is_named_with_the_nearest_one(tmp_path, capsys, argv, said,
-                                                         monkeypatch):
+@pytest.mark.parametrize(
+    "argv, said",
+    [
+        (["run", "data", "--out", "res", "--period_ms", "300"], "did you mean --period-ms?"),
+        (
+            ["run", "data", "--out", "res", "--feild-smoothing-ms", "30"],
+            "did you mean --field-smoothing-ms?",
+        ),
+        (["phantom", "out", "--zzz"], "(oftimg phantom --help)"),
+    ],
+)
+def test_a_mistyped_option_is_named_with_the_nearest_one(tmp_path, capsys, argv, said, monkeypatch):
     monkeypatch.chdir(tmp_path)
     with pytest.raises(SystemExit) as ended:
         main(argv)
@@ -20,7 +25,7 @@ def test_a_mistyped_option_is_named_with_the_nearest_one(tmp_path, capsys, argv,
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith(f"oftimg {argv[0]}: error: unrecognized argument")
     assert err[-1].endswith(said) and argv[-2 if argv[-1].isdigit() else -1] in err[-1]
-    assert not any(tmp_path.iterdir())                      # nothing written
+    assert not any(tmp_path.iterdir())  # nothing written
 
 
 def test_run_help_is_grouped_with_examples_and_every_option_says_what_it_does(capsys):
@@ -31,8 +36,9 @@ def test_run_help_is_grouped_with_examples_and_every_option_says_what_it_does(ca
     with pytest.raises(SystemExit):
         main(["run", "--help"])
     text = capsys.readouterr().out
-    headings = [line for line in text.splitlines() if line.endswith(":") and
-                not line.startswith(" ")]
+    headings = [
+        line for line in text.splitlines() if line.endswith(":") and not line.startswith(" ")
+    ]
     assert headings[-5:] == ["input:", "analysis:", "outputs:", "performance:", "examples:"]
     assert "oftimg run cohort --out results --resume" in text
     sub = next(a for a in _parser()._actions if a.dest == "command")

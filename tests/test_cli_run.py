@@ -1,4 +1,5 @@
 """End to end through the command line on a small phantom: the output contract."""
+
 import csv
 import json
 import re
@@ -12,9 +13,22 @@ from oftimg.output.style import vector_formats
 
 pytestmark = pytest.mark.slow
 
-SUMMARY_KEYS = {"name", "group", "n_frames", "period_ms", "t0_frame", "expand_fraction",
-                "contract_fraction", "expand_contract_ratio", "expand_ms", "contract_ms",
-                "tube_length_mm", "myocardial_volume_change", "jelly_volume_change", "provenance"}
+SUMMARY_KEYS = {
+    "name",
+    "group",
+    "n_frames",
+    "period_ms",
+    "t0_frame",
+    "expand_fraction",
+    "contract_fraction",
+    "expand_contract_ratio",
+    "expand_ms",
+    "contract_ms",
+    "tube_length_mm",
+    "myocardial_volume_change",
+    "jelly_volume_change",
+    "provenance",
+}
 
 
 @pytest.fixture
@@ -30,19 +44,24 @@ def test_output_contract(run_out, phantom_normal):
     assert SUMMARY_KEYS <= set(summary)
     assert summary["provenance"]["oftimg_version"]
     assert len(summary["provenance"]["inputs"]["meshes"]["outer"]) == 36
-    dataset = summary["provenance"]["dataset"]            # found from anywhere (issue 71)
+    dataset = summary["provenance"]["dataset"]  # found from anywhere (issue 71)
     assert Path(dataset["path"]).is_absolute() and Path(dataset["path"]) == phantom_normal
     assert (folder / dataset["from_results"]).resolve() == phantom_normal.resolve()
-    assert summary["tracking"]["grid"] == "tracked"               # the default
+    assert summary["tracking"]["grid"] == "tracked"  # the default
     assert summary["tracking"]["ring_rms_mm"] <= summary["tracking"]["ring_rms_unturned_mm"]
     assert "on the tracked grid" in (folder / "index.html").read_text()
-    band = summary["wave_speed_band_95_mm_s"]["cycle"]           # calibrated on the zoo
+    band = summary["wave_speed_band_95_mm_s"]["cycle"]  # calibrated on the zoo
     assert band > 1.96 * summary["wave_speed_noise_sd_mm_s"]["cycle"]
     speed = summary["wave_speed_mm_s"]["cycle"]
-    assert re.search(r"<td>[0-9.]+ ± [0-9.]+ \(95 % band\)</td>", (folder / "index.html").read_text())
+    assert re.search(
+        r"<td>[0-9.]+ ± [0-9.]+ \(95 % band\)</td>", (folder / "index.html").read_text()
+    )
     from oftimg.output.numbers import decimals_of, with_interval
-    assert f"| {with_interval(speed, band, decimals_of(speed))} |" in (
-        run_out / "table1.md").read_text()
+
+    assert (
+        f"| {with_interval(speed, band, decimals_of(speed))} |"
+        in (run_out / "table1.md").read_text()
+    )
     grids = np.load(folder / "grids.npz")
     for wall in ("outer", "inner", "lumen"):
         assert grids[wall].shape == (80, 50, 36, 3) and grids[wall].dtype == np.float32
@@ -64,16 +83,22 @@ def test_output_contract(run_out, phantom_normal):
             dims = described[name]["dims"]
             assert arrays[name].shape[dims.index("v")] == 50
             assert arrays[name].shape[dims.index("t")] == 36
-    for fig in ("volume_over_cycle.png", "trim_over_cycle.png", "frame_t0_contours.png",
-                "wall_thickness_map.png", "jelly_thickness_map.png"):
+    for fig in (
+        "volume_over_cycle.png",
+        "trim_over_cycle.png",
+        "frame_t0_contours.png",
+        "wall_thickness_map.png",
+        "jelly_thickness_map.png",
+    ):
         assert (folder / "figures" / fig).stat().st_size > 10_000
     rows = list(csv.DictReader(open(run_out / "table1.csv")))
     assert len(rows) == 1 and rows[0]["name"] == "normal"
-    assert float(rows[0]["expand_percent"]) == pytest.approx(100 * summary["expand_fraction"],
-                                                             abs=0.005)   # 2 decimals
-    for fig in ("volume_over_cycle", "area_map_outer"):      # vector beside the PNG
+    assert float(rows[0]["expand_percent"]) == pytest.approx(
+        100 * summary["expand_fraction"], abs=0.005
+    )  # 2 decimals
+    for fig in ("volume_over_cycle", "area_map_outer"):  # vector beside the PNG
         assert (folder / "figures" / (fig + ".pdf")).stat().st_size > 5_000
-        assert not (folder / "figures" / (fig + ".svg")).exists()   # the paper script's
+        assert not (folder / "figures" / (fig + ".svg")).exists()  # the paper script's
 
 
 def test_rerun_needs_overwrite_and_keeps_results(run_out, phantom_normal, capsys):
@@ -87,13 +112,17 @@ def test_videos_read_back(run_out):
     import imageio.v2 as imageio
 
     videos = sorted((run_out / "normal" / "videos").glob("*.mp4"))
-    assert {v.name for v in videos} >= {"radial_curvature_outer.mp4",
-                                        "radial_curvature_outer_normalized.mp4",
-                                        "strain_energy_outer.mp4",
-                                        "radial_curvature_inner.mp4",
-                                        "strain_energy_inner.mp4",
-                                        "wall_thickness.mp4", "jelly_thickness.mp4",
-                                        "mean_curvature_lumen.mp4", "area_map_cursor.mp4"}
+    assert {v.name for v in videos} >= {
+        "radial_curvature_outer.mp4",
+        "radial_curvature_outer_normalized.mp4",
+        "strain_energy_outer.mp4",
+        "radial_curvature_inner.mp4",
+        "strain_energy_inner.mp4",
+        "wall_thickness.mp4",
+        "jelly_thickness.mp4",
+        "mean_curvature_lumen.mp4",
+        "area_map_cursor.mp4",
+    }
     for path in videos:
         reader = imageio.get_reader(path)
         meta = reader.get_meta_data()
@@ -149,36 +178,74 @@ def test_shape_pca_on_the_phantom(run_out):
 def test_log_file_fps_and_options_reach_the_run(tmp_path):
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
-    ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
-                                                        vertices_min=1500, vertices_max=1800))
+    ds = write_phantom(
+        tmp_path / "tiny",
+        sample_params("normal", 2, n_frames=5, vertices_min=1500, vertices_max=1800),
+    )
     meta = json.loads((ds / "meta.json").read_text())
-    del meta["period_ms"]                               # the period comes from the command
+    del meta["period_ms"]  # the period comes from the command
     (ds / "meta.json").write_text(json.dumps(meta))
     log = tmp_path / "run.log"
     out = tmp_path / "out"
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["tiny"]   # no out, nothing kept
-    assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1", "--fps", "10",
-                 "--period-ms", "400", "--log", str(log), "--warp", "--n-u", "40", "--n-v", "20",
-                 "--authalic-weight", "0.25", "--seam-method", "heat",
-                 "--map-positions", "fixed", "--field-smoothing-ms", "7",
-                 "--strain-smoothing-ms", "2.5",
-                 "--cluster-alpha", "0.2", "--tracking", "none"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tiny"]  # no out, nothing kept
+    assert (
+        main(
+            [
+                "run",
+                str(ds),
+                "--out",
+                str(out),
+                "--quiet",
+                "--jobs",
+                "1",
+                "--fps",
+                "10",
+                "--period-ms",
+                "400",
+                "--log",
+                str(log),
+                "--warp",
+                "--n-u",
+                "40",
+                "--n-v",
+                "20",
+                "--authalic-weight",
+                "0.25",
+                "--seam-method",
+                "heat",
+                "--map-positions",
+                "fixed",
+                "--field-smoothing-ms",
+                "7",
+                "--strain-smoothing-ms",
+                "2.5",
+                "--cluster-alpha",
+                "0.2",
+                "--tracking",
+                "none",
+            ]
+        )
+        == 0
+    )
     assert json.loads((out / "run.json").read_text())["cluster_alpha"] == 0.2
     assert np.load(out / "cohort_maps.npz")["cluster_alpha"] == 0.2
-    assert "uncorrected p &le; 0.2" not in (out / "index.html").read_text()   # one group
+    assert "uncorrected p &le; 0.2" not in (out / "index.html").read_text()  # one group
     summary = json.loads((out / "tiny" / "summary.json").read_text())
     assert (summary["period_ms"], summary["period_from"]) == (400, "--period-ms")
     assert summary["time_warp"] is True
     assert summary["provenance"]["options"]["map_positions"] == "fixed"
     assert summary["provenance"]["options"]["field_smoothing_ms"] == 7
-    assert set(summary["field_smoothing_ms"].values()) == {7}        # taken by every field
+    assert set(summary["field_smoothing_ms"].values()) == {7}  # taken by every field
     assert all(n["smoothing_ms"] == 7 for n in summary["field_noise"].values())
     assert summary["provenance"]["options"]["strain_smoothing_ms"] == 2.5
-    assert summary["strain_smoothing_ms"] == {"strain_energy_outer": 2.5, "strain_energy_inner": 2.5}
+    assert summary["strain_smoothing_ms"] == {
+        "strain_energy_outer": 2.5,
+        "strain_energy_inner": 2.5,
+    }
     assert all(n["smoothing_ms"] == 2.5 for n in summary["strain_noise"].values())
-    arrays = np.load(out / "tiny" / "arrays.npz")           # the maps at fixed positions, and
-    described = json.loads((out / "tiny" / "arrays.json").read_text())     # the rows' own
+    arrays = np.load(out / "tiny" / "arrays.npz")  # the maps at fixed positions, and
+    described = json.loads((out / "tiny" / "arrays.json").read_text())  # the rows' own
     for wall in ("outer", "inner", "lumen"):
         assert arrays[f"area_rows_{wall}_mm2"].shape == arrays[f"area_{wall}_mm2"].shape == (20, 5)
         assert "cubic spline" in described[f"area_{wall}_mm2"]["description"]
@@ -191,14 +258,20 @@ def test_log_file_fps_and_options_reach_the_run(tmp_path):
     assert np.load(out / "tiny" / "grids.npz")["outer"].shape[:2] == (40, 20)
     text = log.read_text()
     assert "tiny: analysing 5 frames" in text and "tiny: done" in text
-    import logging                          # the log is let go when the command ends
+    import logging  # the log is let go when the command ends
 
-    assert not [h for name in ("oftimg", "py.warnings") for h in logging.getLogger(name).handlers
-                if isinstance(h, logging.FileHandler)]
+    assert not [
+        h
+        for name in ("oftimg", "py.warnings")
+        for h in logging.getLogger(name).handlers
+        if isinstance(h, logging.FileHandler)
+    ]
     import imageio.v2 as imageio
 
-    assert imageio.get_reader(out / "tiny" / "videos" / "area_map_cursor.mp4").get_meta_data()[
-        "fps"] == 10
+    assert (
+        imageio.get_reader(out / "tiny" / "videos" / "area_map_cursor.mp4").get_meta_data()["fps"]
+        == 10
+    )
 
 
 def test_a_log_where_it_would_be_lost_or_cannot_be_is_refused(tmp_path, capsys):
@@ -208,10 +281,11 @@ def test_a_log_where_it_would_be_lost_or_cannot_be_is_refused(tmp_path, capsys):
 
     ds = write_series(tmp_path / "emb", [tube_mesh(n_theta=20, n_s=6)] * 5)
     out = tmp_path / "out"
-    for log, said in ((out / "run.log", "is inside --out, which the results replace"),
-                      (ds / "run.log", "is inside the input, which oftimg never writes to"),
-                      (tmp_path / "none" / "run.log", f"the folder {tmp_path / 'none'} does "
-                                                      "not exist")):
+    for log, said in (
+        (out / "run.log", "is inside --out, which the results replace"),
+        (ds / "run.log", "is inside the input, which oftimg never writes to"),
+        (tmp_path / "none" / "run.log", f"the folder {tmp_path / 'none'} does not exist"),
+    ):
         assert main(["run", str(ds), "--out", str(out), "--log", str(log), "--quiet"]) == 2
         err = capsys.readouterr().err
         assert f"oftimg: error: --log {log}" in err and said in err
@@ -228,15 +302,22 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
     from oftimg import demos
     from oftimg import progress
 
-    monkeypatch.setattr(demos, "DEMO_SMALL", (1, {"frames": 12, "vertices_min": 1500,
-                                                "vertices_max": 1800}))
+    monkeypatch.setattr(
+        demos, "DEMO_SMALL", (1, {"frames": 12, "vertices_min": 1500, "vertices_max": 1800})
+    )
     monkeypatch.setattr(progress, "LINE_EVERY_S", 0.5)
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out)]) == 0
     said = capsys.readouterr()
     lines = [line for line in said.err.splitlines() if re.search(r": \d+/\d+ \w+s", line)]
-    assert any(re.search(r"normal_0: grids and sections \(pass 2 of 2\): \d+/12 frames "
-                         r"\(\d+ %\)", line) for line in lines)        # 12 frames, not 24
+    assert any(
+        re.search(
+            r"normal_0: grids and sections \(pass 2 of 2\): \d+/12 frames "
+            r"\(\d+ %\)",
+            line,
+        )
+        for line in lines
+    )  # 12 frames, not 24
     assert said.out.splitlines()[-1].startswith(f"report: {out / 'results' / 'index.html'}")
     assert "the warnings above are the phantoms' own, made on purpose" in said.out
     assert (out / "results" / "index.html").is_file()
@@ -247,7 +328,7 @@ def test_demo_names_its_data_where_they_stay(tmp_path, capsys, monkeypatch):
         files = [f["file"] for f in summary["provenance"]["inputs"]["meshes"]["outer"]]
         assert len(files) == 12
         assert all(Path(f).parent.samefile(out / "data" / name / "outer") for f in files)
-    assert not [p for p in out.iterdir() if p.name.startswith(".")]   # no staging left
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no staging left
     assert main(["demo", "--out", str(out), "--quiet"]) == 2
     assert "--overwrite" in capsys.readouterr().err
 
@@ -261,8 +342,10 @@ def test_a_full_disk_is_an_error_not_an_internal_one(tmp_path, monkeypatch, caps
     from oftimg.output import export
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
-    ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
-                                                        vertices_min=1500, vertices_max=1800))
+    ds = write_phantom(
+        tmp_path / "tiny",
+        sample_params("normal", 2, n_frames=5, vertices_min=1500, vertices_max=1800),
+    )
     real_write_json = export.write_json
 
     def disk_full(path, data):
@@ -289,8 +372,10 @@ def test_a_library_failing_is_an_internal_error_not_bad_input(tmp_path, monkeypa
 
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
-    ds = write_phantom(tmp_path / "tiny", sample_params("normal", 2, n_frames=5,
-                                                        vertices_min=1500, vertices_max=1800))
+    ds = write_phantom(
+        tmp_path / "tiny",
+        sample_params("normal", 2, n_frames=5, vertices_min=1500, vertices_max=1800),
+    )
 
     def broken_filter(*args, **kwargs):
         raise TypeError("gaussian_filter1d() got an unexpected keyword argument 'mode'")
@@ -300,7 +385,7 @@ def test_a_library_failing_is_an_internal_error_not_bad_input(tmp_path, monkeypa
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1"]) == 1
     err = capsys.readouterr().err
     assert "oftimg: internal error: TypeError: gaussian_filter1d()" in err and not out.exists()
-    assert "(at oftimg/" in err and "please report it)" in err      # where, to act on
+    assert "(at oftimg/" in err and "please report it)" in err  # where, to act on
     monkeypatch.undo()
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--n-u", "2"]) == 2
     assert "oftimg: error: grid must be at least 3 x 2, found 2 x 50" in capsys.readouterr().err
@@ -312,14 +397,16 @@ def test_too_few_frames_for_a_cycle_stop_the_run_before_any_work(tmp_path, capsy
     from oftimg import api
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
-    ds = write_phantom(tmp_path / "short", sample_params("normal", 2, n_frames=4,
-                                                         vertices_min=1500, vertices_max=1800))
+    ds = write_phantom(
+        tmp_path / "short",
+        sample_params("normal", 2, n_frames=4, vertices_min=1500, vertices_max=1800),
+    )
     monkeypatch.setattr(api, "_validated", lambda *a: pytest.fail("validated"))
     out = tmp_path / "out"
     assert main(["run", str(ds), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
     err = capsys.readouterr().err
     assert f"oftimg: error: {ds / 'outer'}: 4 frames; an analysis needs at least 5" in err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["short"]   # no out, nothing kept
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["short"]  # no out, nothing kept
 
 
 def test_without_a_period_a_run_refuses_and_says_how_to_give_one(tmp_path, capsys):
@@ -334,26 +421,31 @@ def test_without_a_period_a_run_refuses_and_says_how_to_give_one(tmp_path, capsy
 
     cohort = tmp_path / "cohort"
     for name in ("a", "b"):
-        ds = write_phantom(cohort / name, sample_params("normal", 2, n_frames=5,
-                                                        vertices_min=500, vertices_max=600),
-                           walls=("outer",))
+        ds = write_phantom(
+            cohort / name,
+            sample_params("normal", 2, n_frames=5, vertices_min=500, vertices_max=600),
+            walls=("outer",),
+        )
         (ds / "meta.json").unlink()
     shutil.copytree(cohort / "a", cohort / "c")
     (cohort / "c" / "meta.json").write_text(json.dumps({"period_ms": 300}))
     assert main(["validate", str(cohort / "a")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(
-        f"oftimg: error: {cohort / 'a'}: no meta.json, so no period_ms: "), err
+        f"oftimg: error: {cohort / 'a'}: no meta.json, so no period_ms: "
+    ), err
     assert main(["validate", str(cohort), "--period-ms", "300"]) == 0
     said = capsys.readouterr().out
     assert said.count("period: 300 ms (--period-ms)") == 2 and "period: 300 ms (meta.json)" in said
     out = tmp_path / "out"
     assert main(["run", str(cohort), "--out", str(out), "--quiet", "--jobs", "1"]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert err == [f"oftimg: error: {cohort / 'a'}: no meta.json, so no period_ms (and 1 more of "
-                   "the 3 datasets: b): oftimg gives times in ms and speeds in mm/s, which "
-                   "need the beat's length; add \"period_ms\" to meta.json or run with "
-                   "--period-ms MS (the frame interval times the 5 frames of one beat)"]
+    assert err == [
+        f"oftimg: error: {cohort / 'a'}: no meta.json, so no period_ms (and 1 more of "
+        "the 3 datasets: b): oftimg gives times in ms and speeds in mm/s, which "
+        'need the beat\'s length; add "period_ms" to meta.json or run with '
+        "--period-ms MS (the frame interval times the 5 frames of one beat)"
+    ]
     assert not out.exists()
     for bad in ("0", "nan", "1e9"):
         assert main(["run", str(cohort), "--out", str(out), "--period-ms", bad]) == 2
@@ -389,23 +481,28 @@ def test_swapped_walls_are_refused(tmp_path, capsys):
 
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
-    ds = write_phantom(tmp_path / "swapped", sample_params("normal", 2, n_frames=5,
-                                                           vertices_min=1500, vertices_max=1800))
+    ds = write_phantom(
+        tmp_path / "swapped",
+        sample_params("normal", 2, n_frames=5, vertices_min=1500, vertices_max=1800),
+    )
     (ds / "outer").rename(ds / "was_outer")
     (ds / "inner").rename(ds / "outer")
     (ds / "was_outer").rename(ds / "inner")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        assert main(["run", str(ds), "--out", str(tmp_path / "out"), "--quiet",
-                     "--jobs", "1"]) == 2
+        assert main(["run", str(ds), "--out", str(tmp_path / "out"), "--quiet", "--jobs", "1"]) == 2
     swapped = [str(w.message) for w in caught if "swapped?" in str(w.message)]
-    assert swapped == [f"{ds}: the inner wall encloses as much as the outer one or more in "
-                       "5 of 5 frames: are inner/ and outer/ swapped?"]   # lumen/ is fine
-    errors = [line for line in capsys.readouterr().err.splitlines()
-              if line.startswith("oftimg: error:")]
+    assert swapped == [
+        f"{ds}: the inner wall encloses as much as the outer one or more in "
+        "5 of 5 frames: are inner/ and outer/ swapped?"
+    ]  # lumen/ is fine
+    errors = [
+        line for line in capsys.readouterr().err.splitlines() if line.startswith("oftimg: error:")
+    ]
     assert len(errors) == 1 and errors[0].startswith(
         f"oftimg: error: {ds}: results that cannot be right, so none are written: the inner "
-        "wall lies outside the outer one at 100% of the grid nodes")
+        "wall lies outside the outer one at 100% of the grid nodes"
+    )
     assert "the inner wall encloses as much as the outer one or more in 5 of 5 frames" in errors[0]
     assert not (tmp_path / "out").exists()
 
@@ -419,25 +516,51 @@ def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path)
     from oftimg.io.meshfile import read_mesh_file, write_ply
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
-    clean = write_phantom(tmp_path / "clean", sample_params("normal", 3, n_frames=6,
-                                                            vertices_min=2000, vertices_max=2500))
+    clean = write_phantom(
+        tmp_path / "clean",
+        sample_params("normal", 3, n_frames=6, vertices_min=2000, vertices_max=2500),
+    )
     mended = tmp_path / "mended"
     shutil.copytree(clean, mended)
     # holes of one face: 13 % of the outer and inner walls' shorter end, 22 % of the
     # folded lumen's at this coarse meshing (too large to fill): debris only there
-    for wall, t, holes in (("outer", 2, [1000, 1500]), ("inner", 0, [1000, 1500]),
-                           ("lumen", 5, [])):
+    for wall, t, holes in (
+        ("outer", 2, [1000, 1500]),
+        ("inner", 0, [1000, 1500]),
+        ("lumen", 5, []),
+    ):
         frame = sorted((mended / wall).iterdir())[t]
         V, F = read_mesh_file(frame)
         blob = V.max(axis=0) + [[0.1, 0, 0], [0.11, 0, 0], [0.1, 0.01, 0], [0.1, 0, 0.01]]
-        write_ply(frame, np.concatenate([V, blob]),
-                  np.concatenate([np.delete(F, holes, axis=0),
-                                  len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])]))
+        write_ply(
+            frame,
+            np.concatenate([V, blob]),
+            np.concatenate(
+                [
+                    np.delete(F, holes, axis=0),
+                    len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]),
+                ]
+            ),
+        )
     for ds in (clean, mended):
-        assert main(["run", str(ds), "--out", str(tmp_path / f"out_{ds.name}"), "--quiet",
-                     "--jobs", "2"]) == 0
-    a, b = (np.load(next((tmp_path / f"out_{name}").glob("*/arrays.npz")))
-            for name in ("clean", "mended"))
+        assert (
+            main(
+                [
+                    "run",
+                    str(ds),
+                    "--out",
+                    str(tmp_path / f"out_{ds.name}"),
+                    "--quiet",
+                    "--jobs",
+                    "2",
+                ]
+            )
+            == 0
+        )
+    a, b = (
+        np.load(next((tmp_path / f"out_{name}").glob("*/arrays.npz")))
+        for name in ("clean", "mended")
+    )
     for wall in ("outer", "inner", "lumen"):
         assert np.allclose(b[f"area_{wall}_mm2"], a[f"area_{wall}_mm2"], rtol=1e-5)
         assert np.allclose(b[f"volume_{wall}_mm3"], a[f"volume_{wall}_mm3"], rtol=1e-9)
@@ -445,9 +568,13 @@ def test_a_dataset_with_mended_frames_gives_the_clean_datasets_numbers(tmp_path)
     page = next((tmp_path / "out_mended").glob("*/index.html")).read_text()
     assert "frames repaired on reading" in page and "lumen 1 (f5.ply: dropped 1 part" in page
     repairs = {w: summary["validation"]["surfaces"][w]["repairs"] for w in ("outer", "lumen")}
-    assert repairs == {"outer": {"f2.ply": "dropped 1 part apart from the tube (4 faces), filled "
-                                           "2 holes in the wall (6 boundary edges)"},
-                       "lumen": {"f5.ply": "dropped 1 part apart from the tube (4 faces)"}}
+    assert repairs == {
+        "outer": {
+            "f2.ply": "dropped 1 part apart from the tube (4 faces), filled "
+            "2 holes in the wall (6 boundary edges)"
+        },
+        "lumen": {"f5.ply": "dropped 1 part apart from the tube (4 faces)"},
+    }
 
 
 def test_the_warnings_of_a_failed_analysis_are_not_lost(monkeypatch, tmp_path):
@@ -465,8 +592,10 @@ def test_the_warnings_of_a_failed_analysis_are_not_lost(monkeypatch, tmp_path):
         raise RuntimeError("disk full")
 
     monkeypatch.setattr(pipeline, "analyse_dataset", analyse)
-    with warnings.catch_warnings(record=True) as caught, pytest.raises(RuntimeError,
-                                                                       match="disk full"):
+    with (
+        warnings.catch_warnings(record=True) as caught,
+        pytest.raises(RuntimeError, match="disk full"),
+    ):
         warnings.simplefilter("always")
         api.analyse_and_write(object(), {}, tmp_path, None, fps=30.0, progress=lambda: None)
     assert [str(w.message) for w in caught] == ["a: first", "a: second"]
@@ -479,16 +608,27 @@ def test_numbers_only_writes_the_numbers_and_says_so(tmp_path, capsys):
     draws them: tests/test_resume.py)."""
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
-    data = write_phantom(tmp_path / "emb", sample_params("normal", 2, n_frames=5,
-                                                         vertices_min=1500, vertices_max=1800))
+    data = write_phantom(
+        tmp_path / "emb",
+        sample_params("normal", 2, n_frames=5, vertices_min=1500, vertices_max=1800),
+    )
     out = tmp_path / "out"
-    assert main(["run", str(data), "--out", str(out), "--quiet", "--jobs", "1",
-                 "--numbers-only"]) == 0
+    assert (
+        main(["run", str(data), "--out", str(out), "--quiet", "--jobs", "1", "--numbers-only"]) == 0
+    )
     assert capsys.readouterr().out.strip().endswith("(open it in a browser: tables; numbers only)")
     written = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
     assert not [f for f in written if f.endswith((".png", ".pdf", ".svg", ".mp4"))], written
-    assert {"emb/arrays.npz", "emb/grids.npz", "emb/summary.json", "emb/index.html",
-            "table1.csv", "cohort.csv", "qc.csv", "index.html"} <= written
+    assert {
+        "emb/arrays.npz",
+        "emb/grids.npz",
+        "emb/summary.json",
+        "emb/index.html",
+        "table1.csv",
+        "cohort.csv",
+        "qc.csv",
+        "index.html",
+    } <= written
     summary = json.loads((out / "emb" / "summary.json").read_text())
     assert summary["numbers_only"] is True and np.isfinite(summary["wave_speed_mm_s"]["cycle"])
     assert json.loads((out / "run.json").read_text())["numbers_only"] is True

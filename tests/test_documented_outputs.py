@@ -3,6 +3,7 @@ file listed is written (issue 54; the list read from its "Every file a run write
 block); each gallery example runs when its code is copied into a file in an empty
 folder (issue 75), and a script that calls oftimg at its top level (no ``if __name__ ==
 "__main__":``) gets told so and runs."""
+
 from __future__ import annotations
 
 import os
@@ -15,7 +16,7 @@ import pytest
 
 import oftimg
 
-pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+pytestmark = pytest.mark.long  # make test-long (accuracy, rendering, whole runs)
 
 GUIDE = Path(__file__).resolve().parent.parent / "docs" / "guide.md"
 
@@ -32,7 +33,7 @@ def _pattern(path: str, names: set[str]) -> str:
     parts = path.split("/")
     parts = ["<name>" if p in names else p for p in parts]
     parts[-1] = re.sub(r"^f\d+\.ply$", "f<frame>.ply", parts[-1])
-    if "figures" in parts[:-1]:      # each figure's PDF and SVG, documented with its PNG
+    if "figures" in parts[:-1]:  # each figure's PDF and SVG, documented with its PNG
         parts[-1] = re.sub(r"\.(pdf|svg)$", ".png", parts[-1])
     return "/".join(parts)
 
@@ -50,7 +51,11 @@ def cache(tmp_path_factory):
     folder.mkdir(parents=True, exist_ok=True)
     results = oftimg.example_results(folder)
     assert sorted(p.name for p in results.iterdir() if (p / "summary.json").is_file()) == [
-        "banded_0", "banded_1", "normal_0", "normal_1"]
+        "banded_0",
+        "banded_1",
+        "normal_0",
+        "normal_1",
+    ]
     return folder
 
 
@@ -63,23 +68,30 @@ def test_the_demo_writes_the_documented_files(cache):
     for f in out.rglob("*"):
         if f.is_file() and not any(part.startswith(".") for part in f.relative_to(out).parts):
             rel = f.relative_to(out).as_posix()
-            rel = "OUT" + rel[len("results"):] if rel.startswith("results/") else rel
+            rel = "OUT" + rel[len("results") :] if rel.startswith("results/") else rel
             written.add(_pattern(rel, names))
     listed = documented()
     assert written - listed == set(), "written but not documented"
     assert listed - written == set(), "documented but not written"
 
 
-def run_script(code: str, folder: Path, cache: Path | None = None,
-               timeout: float = 600) -> subprocess.CompletedProcess:
+def run_script(
+    code: str, folder: Path, cache: Path | None = None, timeout: float = 600
+) -> subprocess.CompletedProcess:
     """``code`` saved as ``folder/example.py`` and run there with this Python."""
     script = folder / "example.py"
     script.write_text(code)
     env = dict(os.environ, MPLBACKEND="Agg")
     if cache is not None:
         env["OFTIMG_CACHE"] = str(cache)
-    return subprocess.run([sys.executable, script.name], cwd=folder, env=env, timeout=timeout,
-                          capture_output=True, text=True)
+    return subprocess.run(
+        [sys.executable, script.name],
+        cwd=folder,
+        env=env,
+        timeout=timeout,
+        capture_output=True,
+        text=True,
+    )
 
 
 def test_the_examples_cohort_is_made_once(cache):
@@ -101,6 +113,7 @@ def test_an_older_oftimgs_cohort_is_removed_when_a_new_one_is_made(tmp_path, mon
     def stand_in(out, *args, **kwargs):
         (out / "results").mkdir(parents=True)
         (out / "results" / "run.json").write_text("{}")
+
     monkeypatch.setattr(demos, "_phantom_cohort", stand_in)
     made = demos.example_results(tmp_path)
     assert (made / "run.json").is_file() and not older.parent.exists()
@@ -138,7 +151,9 @@ def test_an_unguarded_script_runs_in_one_process(tmp_path):
     lines = dict(line.split(": ", 1) for line in done.stdout.splitlines())
     assert lines["here"] == f"{tmp_path / 'example.py'}:3"
     assert lines["executor"] == "None"
-    assert lines["from a function"] == f"{tmp_path / 'example.py'}:7"   # the line calling it
+    assert lines["from a function"] == f"{tmp_path / 'example.py'}:7"  # the line calling it
     assert lines["guarded"] == "None"
-    assert f"{tmp_path / 'example.py'}:4: oftimg was called from a script's top level" in done.stderr
+    assert (
+        f"{tmp_path / 'example.py'}:4: oftimg was called from a script's top level" in done.stderr
+    )
     assert "Put the call under that line to use 2 workers" in done.stderr

@@ -1,12 +1,22 @@
 """Shape fields with analytic answers (issue 7)."""
+
 import numpy as np
 import pytest
 
 from helpers import tube_mesh
-from oftimg.image.normalize import (field_noise, per_pixel_normalize, phase_maps,
-                                    smooth_field_in_time)
-from oftimg.mesh.curvature import (contour_curvature, count_corners, mixed_areas,
-                                   taubin_smooth, vertex_mean_curvature)
+from oftimg.image.normalize import (
+    field_noise,
+    per_pixel_normalize,
+    phase_maps,
+    smooth_field_in_time,
+)
+from oftimg.mesh.curvature import (
+    contour_curvature,
+    count_corners,
+    mixed_areas,
+    taubin_smooth,
+    vertex_mean_curvature,
+)
 from oftimg.mesh.parameterize import corner_terms
 from oftimg.mesh.strain import grid_strain, grid_triangles
 from oftimg.mesh.topology import check_tube
@@ -19,8 +29,9 @@ def even_ellipse(a, b, n=400):
     """Ellipse points evenly spaced by arc length (counter-clockwise about +z)."""
     th = np.linspace(0, 2 * np.pi, 20000, endpoint=False)
     P = np.stack([a * np.cos(th), b * np.sin(th)], -1)
-    s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(np.vstack([P, P[:1]]), axis=0),
-                                                      axis=1))])
+    s = np.concatenate(
+        [[0], np.cumsum(np.linalg.norm(np.diff(np.vstack([P, P[:1]]), axis=0), axis=1))]
+    )
     target = np.linspace(0, s[-1], n, endpoint=False)
     th_even = np.interp(target, s, np.concatenate([th, [2 * np.pi]]))
     return np.stack([a * np.cos(th_even), b * np.sin(th_even), np.zeros(n)], -1), th_even
@@ -39,7 +50,7 @@ def test_ellipse_curvature():
     a, b = 0.2, 0.1
     C, th = even_ellipse(a, b, 200)
     k = contour_curvature(C, Z)
-    exact = a * b / (a ** 2 * np.sin(th) ** 2 + b ** 2 * np.cos(th) ** 2) ** 1.5
+    exact = a * b / (a**2 * np.sin(th) ** 2 + b**2 * np.cos(th) ** 2) ** 1.5
     assert np.allclose(k, exact, rtol=0.03)
 
 
@@ -69,8 +80,9 @@ def five_frames_curvature(r_of_theta, roughness: float, seed: int, n: int = 80):
     frames = []
     for f in range(5):
         r = r_of_theta(th) + 0.1 * np.random.default_rng([seed, f]).normal(0, roughness, n)
-        frames.append(contour_curvature(np.stack([r * np.cos(th), r * np.sin(th),
-                                                  np.zeros_like(th)], -1), Z))
+        frames.append(
+            contour_curvature(np.stack([r * np.cos(th), r * np.sin(th), np.zeros_like(th)], -1), Z)
+        )
     return np.mean(frames, axis=0)
 
 
@@ -81,8 +93,8 @@ def test_corner_count_under_segmentation_roughness():
     for k in (3, 4, 5, 6):
         for seed in range(10):
             curvature = five_frames_curvature(
-                lambda th: 0.1 * (1 + 0.08 * np.cos(k * th) + 0.03 * np.cos(2 * th)),
-                0.015, seed)
+                lambda th: 0.1 * (1 + 0.08 * np.cos(k * th) + 0.03 * np.cos(2 * th)), 0.015, seed
+            )
             assert count_corners(curvature) == k, (k, seed)
 
 
@@ -91,9 +103,12 @@ def test_a_round_tube_has_no_corners_however_rough():
     reported with 7 corners): no maximum stands out of it at 0.5-3 % of radial
     roughness (one noise pattern in 50 here, at every roughness: the floor scales with
     it; the run then takes the rows' most common count), nor on a perfect circle."""
-    wrong = {seed for roughness in (0.005, 0.015, 0.03) for seed in range(50)
-             if count_corners(five_frames_curvature(lambda th: 0.1 + 0 * th, roughness,
-                                                    seed)) != 0}
+    wrong = {
+        seed
+        for roughness in (0.005, 0.015, 0.03)
+        for seed in range(50)
+        if count_corners(five_frames_curvature(lambda th: 0.1 + 0 * th, roughness, seed)) != 0
+    }
     assert len(wrong) <= 1, wrong
     th = np.linspace(0, 2 * np.pi, 80, endpoint=False)
     circle = np.stack([0.1 * np.cos(th), 0.1 * np.sin(th), np.zeros_like(th)], -1)
@@ -125,11 +140,14 @@ def test_taubin_steps_take_roughness_off_a_cylinder_and_keep_its_shape():
     noise = np.random.default_rng(1).normal(0.0, 0.01 * r, len(V))
     rough = V + np.concatenate([radial * noise[:, None], np.zeros((len(V), 1))], axis=1)
     before = np.median(np.abs(vertex_mean_curvature(rough, topo.F)[interior] - 1 / (2 * r)))
-    after = np.median(np.abs(vertex_mean_curvature(taubin_smooth(rough, topo.F, 10, fixed=rim),
-                                                   topo.F)[interior] - 1 / (2 * r)))
+    after = np.median(
+        np.abs(
+            vertex_mean_curvature(taubin_smooth(rough, topo.F, 10, fixed=rim), topo.F)[interior]
+            - 1 / (2 * r)
+        )
+    )
     assert after < before / 4
     assert np.array_equal(taubin_smooth(rough, topo.F, 0), rough)
-
 
 
 def _areas(V, F):
@@ -141,8 +159,9 @@ def _areas(V, F):
 def test_mixed_areas_are_voronoi_cells_and_halve_obtuse_faces():
     # a flat mesh of equilateral triangles: an interior vertex's cell is a hexagon
     a, n = 1.0, 7
-    P = np.array([[i * a + (j % 2) * a / 2, j * a * np.sqrt(3) / 2, 0.0]
-                  for j in range(n) for i in range(n)])
+    P = np.array(
+        [[i * a + (j % 2) * a / 2, j * a * np.sqrt(3) / 2, 0.0] for j in range(n) for i in range(n)]
+    )
     F = []
     for j in range(n - 1):
         for i in range(n - 1):
@@ -153,14 +172,21 @@ def test_mixed_areas_are_voronoi_cells_and_halve_obtuse_faces():
     assert np.allclose(shares.sum(axis=1), area)
     per_vertex = np.bincount(F.ravel(), shares.ravel(), minlength=len(P))
     centre = 3 * n + 3
-    assert per_vertex[centre] == pytest.approx(np.sqrt(3) / 2 * a ** 2)
+    assert per_vertex[centre] == pytest.approx(np.sqrt(3) / 2 * a**2)
     # an acute triangle: each corner's share is its quadrilateral corner - edge midpoint -
     # circumcentre - edge midpoint (not a third of the face)
     V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.3, 0.8, 0.0]])
     (x1, y1), (x2, y2) = V[1, :2], V[2, :2]
     d = 2 * (x1 * y2 - y1 * x2)
-    centre = np.array([y2 * (x1 ** 2 + y1 ** 2) - y1 * (x2 ** 2 + y2 ** 2),
-                       x1 * (x2 ** 2 + y2 ** 2) - x2 * (x1 ** 2 + y1 ** 2)]) / d
+    centre = (
+        np.array(
+            [
+                y2 * (x1**2 + y1**2) - y1 * (x2**2 + y2**2),
+                x1 * (x2**2 + y2**2) - x2 * (x1**2 + y1**2),
+            ]
+        )
+        / d
+    )
     shares, area = _areas(V, np.array([[0, 1, 2]]))
     for k in range(3):
         a, b = V[(k + 1) % 3, :2], V[(k + 2) % 3, :2]
@@ -188,6 +214,7 @@ def cylinder(r, length):
     def fn(u, v, t):
         th = 2 * np.pi * u * np.ones_like(v)
         return np.stack([r * np.cos(th), r * np.sin(th), length * v * np.ones_like(u)], -1)
+
     return fn
 
 
@@ -214,8 +241,8 @@ def test_uniform_stretch_and_pure_shear():
         return np.stack(np.broadcast_arrays(r * np.cos(th), r * np.sin(th), v), -1)
 
     energy, stretch = grid_strain(grid_of(twisted, 400, 40, 2))
-    c = (2 + g ** 2 + np.array([1, -1]) * g * np.sqrt(g ** 2 + 4)) / 2
-    assert np.allclose(stretch[:, :, 1], np.sqrt(c), atol=5e-4)      # the chords': 1e-4
+    c = (2 + g**2 + np.array([1, -1]) * g * np.sqrt(g**2 + 4)) / 2
+    assert np.allclose(stretch[:, :, 1], np.sqrt(c), atol=5e-4)  # the chords': 1e-4
     assert grid_triangles(4, 3).shape == (16, 3)
 
 
@@ -225,8 +252,7 @@ def waving_tube(u, v, t):
     towards the outlet."""
     r = 0.2 * (1 + t * 0.3 * np.sin(2 * np.pi * u) * (1 + v))
     th = 2 * np.pi * u + t * 0.3 * np.sin(2 * np.pi * u) * v
-    return np.stack(np.broadcast_arrays(r * np.cos(th), r * np.sin(th), v * (1 + t * 0.2 * v)),
-                    -1)
+    return np.stack(np.broadcast_arrays(r * np.cos(th), r * np.sin(th), v * (1 + t * 0.2 * v)), -1)
 
 
 def test_strain_from_a_rough_grid_smoothed_in_time_is_the_walls():
@@ -247,17 +273,18 @@ def test_strain_from_a_rough_grid_smoothed_in_time_is_the_walls():
     rough = smooth + 0.005 * r0 * np.random.default_rng(1).standard_normal(smooth.shape)
     truth = np.broadcast_to((radius / r0 - 1) ** 2, (40, 20, n_t))[:, 1:-1, 20:]
 
-    def errors(G, sigma):        # over the median truth, where it strains: median |.|, bias
+    def errors(G, sigma):  # over the median truth, where it strains: median |.|, bias
         error = smoothed_strain(G, period, sigma)[0][:, 1:-1, 20:] - truth
         return np.median(np.abs(error)) / np.median(truth), np.median(error) / np.median(truth)
 
     off, bias = errors(rough, 0.0)
-    assert off > 0.2 and abs(bias) < 0.06                 # noisy, but not lifted
+    assert off > 0.2 and abs(bias) < 0.06  # noisy, but not lifted
     off, bias = errors(rough, 5.0)
     assert off < 0.09 and abs(bias) < 0.01
     assert errors(smooth, 0.0)[0] < 0.006 and errors(smooth, 5.0)[0] < 0.012
-    assert np.array_equal(smoothed_strain(smooth, period, 0.0, noise_seed=None)[0],
-                          grid_strain(smooth)[0])              # nothing measured: as it is
+    assert np.array_equal(
+        smoothed_strain(smooth, period, 0.0, noise_seed=None)[0], grid_strain(smooth)[0]
+    )  # nothing measured: as it is
 
 
 def test_strain_noise_is_the_change_the_roughness_makes():
@@ -273,29 +300,28 @@ def test_strain_noise_is_the_change_the_roughness_makes():
     u, v = np.meshgrid(np.arange(40) / 40, np.linspace(0, 1, 20), indexing="ij")
     smooth = np.stack([cylinder(r, 1.0)(u, v, 0) for r in radius], axis=2)
     jitter = np.random.default_rng(1).standard_normal(smooth.shape)
-    for size, sigma in ((0.002, 0.0), (0.002, 5.0), (0.005, 5.0), (0.005, 10.0),
-                        (0.01, 10.0)):
+    for size, sigma in ((0.002, 0.0), (0.002, 5.0), (0.005, 5.0), (0.005, 10.0), (0.01, 10.0)):
         rough = smooth + size * r0 * jitter
         _, stretch, noise, _ = smoothed_strain(rough, period, sigma)
         energy = smoothed_strain(rough, period, sigma, noise_seed=None)[0]  # lift and all
         clean, clean_stretch, _, _ = smoothed_strain(smooth, period, sigma, noise_seed=None)
         change = np.median(np.abs(energy - clean)) / np.median(clean)
         assert 0.8 * change < noise["error_share"] < 1.25 * change
-        stretch_change = np.median(np.abs(stretch - clean_stretch))     # what arrays.npz's
+        stretch_change = np.median(np.abs(stretch - clean_stretch))  # what arrays.npz's
         assert 0.7 * stretch_change < noise["stretch_noise_median"] < 1.4 * stretch_change
         assert noise["smoothing_ms"] == sigma
         # the median length of a 3-D normal vector of SD s: 1.54 s
         assert noise["node_noise_mm"] == pytest.approx(1.54 * size * r0, rel=0.05)
     rough = smoothed_strain(smooth + 0.005 * r0 * jitter, period, 0.0)[2]
-    assert rough["error_share"] > NOISY_STRAIN_SHARE                 # says it is noise
+    assert rough["error_share"] > NOISY_STRAIN_SHARE  # says it is noise
     assert smoothed_strain(smooth, period, 5.0)[2]["error_share"] < 0.002
-    short = smoothed_strain(smooth[:, :, :8], period, 5.0)[2]      # under 10 frames
+    short = smoothed_strain(smooth[:, :, :8], period, 5.0)[2]  # under 10 frames
     assert np.isnan(short["error_share"]) and np.isnan(short["node_noise_mm"])
     assert np.isnan(smoothed_strain(smooth, period, 5.0, noise_seed=None)[2]["error_share"])
 
 
 def test_strain_smoothing_auto_takes_the_least_sigma_its_noise_allows():
-    """"auto" smooths the beating cylinder's nodes by the least sigma of the ladder
+    """ "auto" smooths the beating cylinder's nodes by the least sigma of the ladder
     after which their noise moves the strain energy by at most STRAIN_NOISE_TARGET
     (the one before moves it more), and only as much as that: 5 ms on the smooth
     cylinder, the same field as 5 ms given; more with the roughness, and closer to
@@ -347,7 +373,7 @@ def test_strain_in_chunks_of_frames_is_against_the_one_reference():
     # frame t stretched uniformly by 1 + 0.1 t; chunks of 2 frames, reference 0 in the first
     scale = 1 + 0.1 * np.arange(7)
     G = grid_of(lambda u, v, t: cylinder(0.2 * scale[t], 1.0 * scale[t])(u, v, t), n_t=7)
-    G[3, 2, 5] = np.nan                                  # a node lost in frame 5
+    G[3, 2, 5] = np.nan  # a node lost in frame 5
     energy, stretch = grid_strain(G, chunk=2)
     whole_e, whole_s = grid_strain(G, chunk=7)
     assert np.array_equal(energy, whole_e, equal_nan=True)
@@ -376,8 +402,11 @@ def test_phase_maps_are_smoothed_in_time_and_sub_frame():
     t = np.arange(n_t) * period / n_t
     arrival = np.linspace(20.0, 200.0, 50)
     phi = ((t[None, :] - arrival[:, None]) / period) % 1.0
-    beat = np.where(phi < 0.4, 0.5 - 0.5 * np.cos(np.pi * phi / 0.4),
-                    0.5 + 0.5 * np.cos(np.pi * (phi - 0.4) / 0.6))
+    beat = np.where(
+        phi < 0.4,
+        0.5 - 0.5 * np.cos(np.pi * phi / 0.4),
+        0.5 + 0.5 * np.cos(np.pi * (phi - 0.4) / 0.6),
+    )
     field = np.broadcast_to(beat, (40, 50, n_t)) + 0.02 * rng.standard_normal((40, 50, n_t))
     field[3, 4, 7] = np.nan
 
@@ -389,7 +418,7 @@ def test_phase_maps_are_smoothed_in_time_and_sub_frame():
     t_max, t_min = phase_maps(field, period)
     assert t_max.shape == t_min.shape == (40, 50)
     assert scatter(raw) > 7.0 and scatter(t_max) < 5.5
-    assert scatter(t_min - 0.4 * period) < 7.0     # the minimum: at the arrival
+    assert scatter(t_min - 0.4 * period) < 7.0  # the minimum: at the arrival
 
 
 def test_surface_render_covers_the_view_and_follows_the_motion():
@@ -411,16 +440,16 @@ def test_surface_render_covers_the_view_and_follows_the_motion():
     assert covered[1] > covered[0] * 1.2  # expanded tube covers more of the picture
     # rays are cast only in the window the tube can cover: the same pictures
     rows, cols = cam._window
-    assert (rows.stop - rows.start) * (cols.stop - cols.start) < 0.8 * 160 ** 2
+    assert (rows.stop - rows.start) * (cols.stop - cols.start) < 0.8 * 160**2
     whole = SurfaceCamera(G, size=160, crop=False)
     for t, img in zip((0, 2), imgs):
         assert np.array_equal(whole.render(G[:, :, t], values, vmin=0, vmax=1), img)
 
 
-@pytest.mark.parametrize("noise_sd, expected_ms", [(0.0, 5.0), (0.8, 7.0), (1.15, 14.0),
-                                                   (3.0, 20.0)])
-def test_auto_field_smoothing_takes_the_least_sigma_that_quiets_the_noise(noise_sd,
-                                                                          expected_ms):
+@pytest.mark.parametrize(
+    "noise_sd, expected_ms", [(0.0, 5.0), (0.8, 7.0), (1.15, 14.0), (3.0, 20.0)]
+)
+def test_auto_field_smoothing_takes_the_least_sigma_that_quiets_the_noise(noise_sd, expected_ms):
     """A beat of amplitude 1 (variance 1/2) under white noise of SD s: after a Gaussian
     of noise gain g the noise share is (g s)^2 / (1/2 + (g s)^2). For 195 frames of
     1.85 ms, g = 0.32, 0.27, 0.23, 0.19, 0.16 for the ladder's 5, 7, 10, 14, 20 ms:
@@ -436,8 +465,8 @@ def test_auto_field_smoothing_takes_the_least_sigma_that_quiets_the_noise(noise_
     assert noise["smoothing_ms"] == expected_ms
     assert noise["noise_share"] <= FIELD_NOISE_TARGET or expected_ms == 20.0
     assert np.allclose(smoothed, smooth_field_in_time(field, period, expected_ms))
-    assert smooth_field(field, period, 7.0)[1]["smoothing_ms"] == 7.0      # a sigma given
-    short = field[..., :8]                          # under 10 frames: no noise measure
+    assert smooth_field(field, period, 7.0)[1]["smoothing_ms"] == 7.0  # a sigma given
+    short = field[..., :8]  # under 10 frames: no noise measure
     assert smooth_field(short, period, "auto")[1]["smoothing_ms"] == 5.0
 
 
@@ -445,8 +474,9 @@ def test_field_noise_measures_white_noise_and_its_smoothing():
     """A travelling pattern plus white noise of known SD in every pixel and frame."""
     rng = np.random.default_rng(0)
     n_u, n_v, n_t, period = 40, 20, 195, 360.0
-    u, v, t = np.meshgrid(np.arange(n_u) / n_u, np.arange(n_v) / n_v, np.arange(n_t) / n_t,
-                          indexing="ij")
+    u, v, t = np.meshgrid(
+        np.arange(n_u) / n_u, np.arange(n_v) / n_v, np.arange(n_t) / n_t, indexing="ij"
+    )
     clean = 2.0 * np.sin(2 * np.pi * (t + u)) + np.cos(4 * np.pi * (t - v))
     for sd in (0.0, 0.5, 2.0):
         noise = rng.normal(0.0, sd, clean.shape)
@@ -456,13 +486,17 @@ def test_field_noise_measures_white_noise_and_its_smoothing():
         smoothed_noise = np.std(smooth_field_in_time(noise, period, 5.0))
         assert r["noise_sd_smoothed"] == pytest.approx(smoothed_noise, rel=0.05, abs=1e-9)
         signal = np.var(smooth_field_in_time(clean, period, 5.0), axis=-1).mean()
-        assert r["noise_share"] == pytest.approx(smoothed_noise ** 2 / (signal + smoothed_noise ** 2),
-                                                 rel=0.1, abs=1e-9)
+        assert r["noise_share"] == pytest.approx(
+            smoothed_noise**2 / (signal + smoothed_noise**2), rel=0.1, abs=1e-9
+        )
     # NaN cells stay NaN and do not spread; under 10 frames the noise is not measured
     f = clean.copy()
     f[3, 4, 7] = np.nan
     sm = smooth_field_in_time(f, period, 5.0)
-    assert np.isnan(sm[3, 4, 7]) and np.isfinite(np.delete(sm.ravel(), 3 * n_v * n_t + 4 * n_t + 7)).all()
+    assert (
+        np.isnan(sm[3, 4, 7])
+        and np.isfinite(np.delete(sm.ravel(), 3 * n_v * n_t + 4 * n_t + 7)).all()
+    )
     assert np.isfinite(field_noise(f, sm, period, 5.0)["noise_sd"])
     short = clean[..., :8]
     assert np.isnan(field_noise(short, short, period, 5.0)["noise_share"])
@@ -482,14 +516,19 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
     from oftimg.synthetic.phantom import read_truth, sample_params, write_phantom
     from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
-    path = write_phantom(tmp_path / "rough", sample_params(
-        "normal", 0, n_frames=20, vertices_min=2500, vertices_max=3500, noise_mm=0.005))
+    path = write_phantom(
+        tmp_path / "rough",
+        sample_params(
+            "normal", 0, n_frames=20, vertices_min=2500, vertices_max=3500, noise_mm=0.005
+        ),
+    )
     ph, truth = read_truth(path)
     # on the per-frame grid, whose field pixels are the section contours' points, where
     # the model's curvature is known exactly
     with pytest.warns(OftimgWarning, match="radial_curvature_outer_per_mm is mostly noise"):
-        result = analyse_dataset(load_dataset(path), PipelineOptions(
-            tracking="none", rough_mesh_smoothing=0), quiet=True)
+        result = analyse_dataset(
+            load_dataset(path), PipelineOptions(tracking="none", rough_mesh_smoothing=0), quiet=True
+        )
     assert result["summary"]["corner_count"] == truth["corner_count"] == 4
     assert np.mean(result["arrays"]["corner_count_per_row"] == 4) > 0.8
     t_ms = np.roll(np.asarray(truth["t_ms"]), -result["summary"]["t0_frame"])[None, None, :]
@@ -502,9 +541,13 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
         # against the model where the contour points are on average over the smoothing
         # (they slide along the wall from frame to frame; the field cannot follow them)
         points = result["arrays"][f"contour_{wall}_mm"][:, 2:-2].astype(float)
-        mean_points = np.moveaxis(smooth_field_in_time(np.moveaxis(points, -1, 0),
-                                                       truth["params"]["period_ms"],
-                                                       noise["smoothing_ms"]), 0, -1)
+        mean_points = np.moveaxis(
+            smooth_field_in_time(
+                np.moveaxis(points, -1, 0), truth["params"]["period_ms"], noise["smoothing_ms"]
+            ),
+            0,
+            -1,
+        )
         s_m, theta_m = ph.window_coordinates(mean_points)
         at_mean = result["arrays"][name][:, 2:-2] - ph.section_curvature(wall, s_m, theta_m, t_ms)
         size = np.median(np.abs(at_nodes))
@@ -515,7 +558,7 @@ def test_a_rough_phantom_counts_its_corners_and_says_its_curvature_is_noise(tmp_
         spread = np.median(np.std(at_mean, axis=-1))
         assert 0.2 * spread < noise["noise_sd_smoothed"] < spread
         assert noise["noise_share"] > 0.3
-        assert noise["smoothing_ms"] == 20.0       # auto: the most, and not enough (warned)
+        assert noise["smoothing_ms"] == 20.0  # auto: the most, and not enough (warned)
 
 
 def test_thickness_summary():
@@ -533,7 +576,8 @@ def test_thickness_summary():
     noisy = thickness + 0.0006 * np.random.default_rng(0).standard_normal(thickness.shape)
     assert thickness_summary(noisy)["wall_thickening"] == pytest.approx(0.5, rel=0.02)
     assert thickness_summary(thickness, "jelly") == pytest.approx(
-        {"jelly_thickening": 0.5, "jelly_thickness_median_mm": 0.03}, rel=1e-9)
+        {"jelly_thickening": 0.5, "jelly_thickness_median_mm": 0.03}, rel=1e-9
+    )
     ok = np.isfinite(noisy).all(axis=-1)
     assert np.median(noisy.max(axis=-1)[ok] / noisy.min(axis=-1)[ok]) - 1 > 0.55
 
@@ -546,7 +590,7 @@ def test_thickness_by_row():
     beat = np.sin(2 * np.pi * np.arange(40) / 40)
     thickness = np.broadcast_to(b[:, None] * (1 + a[:, None] * beat), (16, 6, 40)).copy()
     thickness[:, 4] = np.nan
-    thickness[:, 2] -= 0.03                                       # crosses 0 in the beat
+    thickness[:, 2] -= 0.03  # crosses 0 in the beat
     mean, thickening = thickness_by_row(thickness)
     assert mean[2] == pytest.approx(b[2] - 0.03, rel=1e-12) and np.isnan(thickening[2])
     keep = ~np.isin(np.arange(6), [2, 4])
@@ -566,8 +610,11 @@ def test_thickness_is_the_models(analysed_normal, layer):
     ph, truth, res = analysed_normal
     name = f"{layer}_thickness_mm"
     sigma = res["summary"]["field_noise"][name]["smoothing_ms"]
-    X = np.moveaxis(smooth_field_in_time(np.moveaxis(res["grids"]["outer"], -1, 0),
-                                         ph.p.period_ms, sigma), 0, -1)
+    X = np.moveaxis(
+        smooth_field_in_time(np.moveaxis(res["grids"]["outer"], -1, 0), ph.p.period_ms, sigma),
+        0,
+        -1,
+    )
     t_ms = np.roll(np.asarray(truth["t_ms"]), -res["summary"]["t0_frame"])[None, None, :]
     model = getattr(ph, f"{layer}_thickness")(*ph.window_coordinates(X), t_ms)
     found = res["arrays"][name]
@@ -588,7 +635,7 @@ def test_radial_curvature_is_the_models(analysed_normal, wall):
     ph, truth, res = analysed_normal
     # each field pixel's own point: the tracked grid's node (its contour points are the
     # per-frame rows')
-    C = res["grids"][wall][:, 2:-2].astype(float)                    # (n_u, n_v, n_t, 3)
+    C = res["grids"][wall][:, 2:-2].astype(float)  # (n_u, n_v, n_t, 3)
     k = res["arrays"][f"radial_curvature_{wall}_per_mm"][:, 2:-2]
     t_ms = np.roll(np.asarray(truth["t_ms"]), -res["summary"]["t0_frame"])[None, None, :]
     s, theta = ph.window_coordinates(C)

@@ -1,6 +1,7 @@
 """What trying oftimg as a lab would found (issue 71): each one a clear line or a
 correct result now. A 4-D labels.tif that is a folder, a lone surrogate in meta.json,
 a PLY header of over 64 KB, provenance that survives a move, the frames counted once."""
+
 import json
 import os
 import re
@@ -20,8 +21,9 @@ pytestmark = pytest.mark.usefixtures("png_figures_only")
 
 @pytest.fixture(scope="module")
 def meshes(tmp_path_factory):
-    return write_phantom(tmp_path_factory.mktemp("found") / "emb", sample_params("normal", 3,
-                                                                                 **SMALL))
+    return write_phantom(
+        tmp_path_factory.mktemp("found") / "emb", sample_params("normal", 3, **SMALL)
+    )
 
 
 def one_line(capsys, args) -> str:
@@ -33,8 +35,9 @@ def one_line(capsys, args) -> str:
 
 def test_a_4d_labels_tif_that_is_a_folder_is_named(tmp_path, capsys):
     """It gave "[Errno 21] Is a directory" and exit 1."""
-    path = write_label_phantom(tmp_path / "lp", sample_params("normal", 0, n_frames=5),
-                               (40.0, 40.0, 40.0), noise=0.0)
+    path = write_label_phantom(
+        tmp_path / "lp", sample_params("normal", 0, n_frames=5), (40.0, 40.0, 40.0), noise=0.0
+    )
     for frame in (path / "labels").iterdir():
         frame.unlink()
     (path / "labels" / "labels.tif").mkdir()
@@ -71,8 +74,7 @@ def test_a_ply_header_of_any_length_is_read(meshes, tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_a_result_moved_with_its_dataset_finds_it_from_any_folder(tmp_path, monkeypatch,
-                                                                  capsys):
+def test_a_result_moved_with_its_dataset_finds_it_from_any_folder(tmp_path, monkeypatch, capsys):
     """The dataset path was stored relative to where the run was started: a result
     opened from another folder (napari) lost its volumes without a word."""
     import oftimg
@@ -80,14 +82,20 @@ def test_a_result_moved_with_its_dataset_finds_it_from_any_folder(tmp_path, monk
     from oftimg.napari.volumes import dataset_of
 
     project = tmp_path / "project"
-    write_label_phantom(project / "data" / "lp", sample_params("normal", 1, n_frames=5),
-                        (16.0, 16.0, 32.0), noise=0.0)
-    monkeypatch.chdir(project)                          # paths given relative, as a lab would
+    write_label_phantom(
+        project / "data" / "lp",
+        sample_params("normal", 1, n_frames=5),
+        (16.0, 16.0, 32.0),
+        noise=0.0,
+    )
+    monkeypatch.chdir(project)  # paths given relative, as a lab would
     assert main(["run", "data/lp", "--out", "results", "--quiet", "--jobs", "1"]) == 0
     summary = json.loads((project / "results" / "lp" / "summary.json").read_text())
     provenance = summary["provenance"]
-    assert provenance["dataset"] == {"path": str(project / "data" / "lp"),
-                                     "from_results": os.path.join("..", "..", "data", "lp")}
+    assert provenance["dataset"] == {
+        "path": str(project / "data" / "lp"),
+        "from_results": os.path.join("..", "..", "data", "lp"),
+    }
     assert set(provenance["inputs"]) == {"labels"}
     assert all(os.path.isabs(f["file"]) for f in provenance["inputs"]["labels"])
     assert provenance["voxel_size"] == [16.0, 16.0, 32.0]
@@ -97,8 +105,10 @@ def test_a_result_moved_with_its_dataset_finds_it_from_any_folder(tmp_path, monk
     assert dataset_of(res) == tmp_path / "elsewhere" / "data" / "lp"
     assert [layer[2] for layer in results_layers(f"{moved}/results")][:1] == ["labels"]
     shutil.rmtree(tmp_path / "elsewhere" / "data")
-    with pytest.warns(UserWarning, match="the dataset these results were made from is not at "
-                                         f"{project / 'data' / 'lp'} nor "):
+    with pytest.warns(
+        UserWarning,
+        match=f"the dataset these results were made from is not at {project / 'data' / 'lp'} nor ",
+    ):
         layers = results_layers(f"{moved}/results")
     kinds = [layer[2] for layer in layers]
-    assert kinds[:3] == ["surface"] * 3 and "labels" not in kinds     # no volumes, said
+    assert kinds[:3] == ["surface"] * 3 and "labels" not in kinds  # no volumes, said

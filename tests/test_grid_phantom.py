@@ -1,4 +1,5 @@
 """Issue 4's acceptance measures on phantoms, against truth.json's model."""
+
 import numpy as np
 import pytest
 
@@ -57,7 +58,7 @@ def test_three_walls_agree(normal_grids):
     t_ms = np.asarray(truth["t_ms"])[None, None, :]
     thickness = ph.wall_thickness(s, theta, t_ms)
     rel = np.abs(np.linalg.norm(X - inner, axis=-1) / thickness - 1)
-    assert np.median(rel) < 0.01             # end rows too: on the inner loops
+    assert np.median(rel) < 0.01  # end rows too: on the inner loops
     assert np.percentile(rel, 95) < 0.04 and rel.max() < 0.1
     _, theta_lumen = ph.window_coordinates(lumen[0])
     assert np.abs(np.angle(np.exp(1j * (theta_lumen - theta[0])))).max() < 0.3
@@ -92,10 +93,10 @@ def test_lumen_mean_curvature_is_the_models(normal_grids, analysed_normal):
     t_ms = np.asarray(truth["t_ms"])
     model = ph.mean_curvature("lumen", s, theta, t_ms[None, None, :])
     off = np.abs(H - model)
-    assert np.median(off) < 0.08 * np.median(np.abs(model))           # measured 0.061
-    assert np.corrcoef(H.ravel(), model.ravel())[0, 1] > 0.93          # measured 0.944
+    assert np.median(off) < 0.08 * np.median(np.abs(model))  # measured 0.061
+    assert np.corrcoef(H.ravel(), model.ravel())[0, 1] > 0.93  # measured 0.944
     band = analysed_normal[2]["arrays"]["mean_curvature_lumen_band95_per_mm"][:, 2:-2]
-    assert band.shape == H.shape and np.mean(off <= band) > 0.85       # measured 0.91
+    assert band.shape == H.shape and np.mean(off <= band) > 0.85  # measured 0.91
 
 
 @pytest.mark.parametrize("which", ["normal", "banded"])

@@ -1,9 +1,9 @@
 """Embryos' maps on one common grid: known answers from an analytic wave."""
+
 import numpy as np
 import pytest
 
-from oftimg.analysis.group_maps import (common_grid, group_mean_maps, on_common_grid,
-                                        row_normalized)
+from oftimg.analysis.group_maps import common_grid, group_mean_maps, on_common_grid, row_normalized
 
 
 def wave(fraction, phase):
@@ -45,9 +45,9 @@ def test_rows_over_their_maximum_and_group_means():
     assert np.isnan(norm[1]).all() and norm[2, 2] == pytest.approx(0.5)
     maps = np.stack([np.full((2, 3), k, dtype=float) for k in (1, 3, 5, 10)])
     means = group_mean_maps(maps, ["b", "a", "b", "a"])
-    assert list(means) == ["b", "a"]                       # in the order groups appear
+    assert list(means) == ["b", "a"]  # in the order groups appear
     mean, sd, n = means["b"]
-    assert n == 2 and np.all(mean == 3.0) and sd == pytest.approx(np.full((2, 3), 2 ** 1.5))
+    assert n == 2 and np.all(mean == 3.0) and sd == pytest.approx(np.full((2, 3), 2**1.5))
     one = group_mean_maps(maps[:1], ["x"])["x"]
     assert one[2] == 1 and np.isnan(one[1]).all()
 
@@ -68,6 +68,7 @@ def test_cohort_maps_of_a_dataset_without_an_inner_wall(tmp_path):
     maps = cohort_maps(tmp_path, summaries)
     position, _ = common_grid()
     assert maps["wall_thickness_mm"][0] == pytest.approx(
-        np.broadcast_to((0.03 + 0.01 * position)[:, None], (50, 100)), rel=1e-12)
+        np.broadcast_to((0.03 + 0.01 * position)[:, None], (50, 100)), rel=1e-12
+    )
     assert np.isnan(maps["wall_thickness_mm"][1]).all()
     assert maps["area_outer_mm2"][0] == pytest.approx(maps["area_outer_mm2"][1])

@@ -6,6 +6,7 @@ orientation; where a periodic map's cycle starts (hypothesis); a whole embryo
 moved, in other units, starting elsewhere in the cycle, played backwards,
 entered from its other end, or 25 times larger.
 """
+
 import json
 import shutil
 
@@ -41,24 +42,27 @@ def bent_frame():
     X = grid_frame(V, topo.F, inlet, outlet, p_in, p_out, GridOptions(n_u=60, n_v=25)).X
     origins, normals = section_planes(X)
     sections = sections_of_mesh(V, topo.F, origins, normals, X, N_C)
-    assert not sections[3].any()                       # every row cut from the mesh itself
+    assert not sections[3].any()  # every row cut from the mesh itself
     return V, topo.F, X, origins, normals, sections
 
 
 @settings(max_examples=5, deadline=None)
-@given(angles=st.tuples(*[st.floats(-np.pi, np.pi)] * 3),
-       shift=st.tuples(*[st.floats(-5, 5)] * 3), seed=st.integers(0, 2 ** 16))
-def test_sections_do_not_depend_on_pose_numbering_or_face_order(bent_frame, angles, shift,
-                                                                seed):
+@given(
+    angles=st.tuples(*[st.floats(-np.pi, np.pi)] * 3),
+    shift=st.tuples(*[st.floats(-5, 5)] * 3),
+    seed=st.integers(0, 2**16),
+)
+def test_sections_do_not_depend_on_pose_numbering_or_face_order(bent_frame, angles, shift, seed):
     V, F, X, origins, normals, (area, centroid, contour, _) = bent_frame
     R, t = Rotation.from_euler("xyz", angles).as_matrix(), np.array(shift)
     rng = np.random.default_rng(seed)
-    perm = rng.permutation(len(V))                     # new vertex k is old vertex perm[k]
+    perm = rng.permutation(len(V))  # new vertex k is old vertex perm[k]
     new_index = np.argsort(perm)
     F2 = new_index[F][rng.permutation(len(F))]
-    F2 = np.roll(F2, rng.integers(3), axis=1)          # same orientation, other first corner
+    F2 = np.roll(F2, rng.integers(3), axis=1)  # same orientation, other first corner
     area2, centroid2, contour2, from_ring2 = sections_of_mesh(
-        V[perm] @ R.T + t, F2, origins @ R.T + t, normals @ R.T, X @ R.T + t, N_C)
+        V[perm] @ R.T + t, F2, origins @ R.T + t, normals @ R.T, X @ R.T + t, N_C
+    )
     assert not from_ring2.any()
     assert np.allclose(area2, area, rtol=1e-9)
     assert np.allclose(centroid2, centroid @ R.T + t, atol=1e-9)
@@ -66,7 +70,7 @@ def test_sections_do_not_depend_on_pose_numbering_or_face_order(bent_frame, angl
 
 
 @settings(max_examples=5, deadline=None)
-@given(seed=st.integers(0, 2 ** 16), share=st.floats(0.0, 1.0))
+@given(seed=st.integers(0, 2**16), share=st.floats(0.0, 1.0))
 def test_check_tube_turns_any_mix_of_face_orientations_outward(bent_frame, seed, share):
     V, F = bent_frame[:2]
     rng = np.random.default_rng(seed)
@@ -75,19 +79,24 @@ def test_check_tube_turns_any_mix_of_face_orientations_outward(bent_frame, seed,
     F2 = np.where(reversed_[:, None], F[:, ::-1], F)[order]
     topo = check_tube(V, F2)
     assert topo.flipped_faces == int(reversed_.sum())  # exactly the faces turned inwards
-    assert np.array_equal(topo.F, F[order])             # each face back as it was
+    assert np.array_equal(topo.F, F[order])  # each face back as it was
     volume = capped_signed_volume(V, topo.F, list(topo.loops))
     assert volume > 0
-    assert volume == pytest.approx(capped_signed_volume(V, F, list(check_tube(V, F).loops)),
-                                   rel=1e-12)
+    assert volume == pytest.approx(
+        capped_signed_volume(V, F, list(check_tube(V, F).loops)), rel=1e-12
+    )
 
 
 PERIOD_MS, N_T = 100.0, 100
 
 
 @settings(max_examples=20, deadline=None)
-@given(speed=st.floats(3.0, 40.0), start_ms=st.floats(0.0, 100.0),
-       width_ms=st.floats(4.0, 12.0), roll=st.integers(-2 * N_T, 2 * N_T))
+@given(
+    speed=st.floats(3.0, 40.0),
+    start_ms=st.floats(0.0, 100.0),
+    width_ms=st.floats(4.0, 12.0),
+    roll=st.integers(-2 * N_T, 2 * N_T),
+)
 def test_ridge_and_speeds_move_with_the_start_of_the_cycle(speed, start_ms, width_ms, roll):
     """Where the frames start in the cycle moves the ridge by that much, modulo a
     period, and changes no speed and no expansion share. The wave slows to half
@@ -101,7 +110,7 @@ def test_ridge_and_speeds_move_with_the_start_of_the_cycle(speed, start_ms, widt
     ridge, ridge2 = ridge_times(area, PERIOD_MS), ridge_times(rolled, PERIOD_MS)
     moved = ridge2 - ridge - roll * PERIOD_MS / N_T
     assert np.allclose(moved - PERIOD_MS * np.round(moved / PERIOD_MS), 0, atol=1e-9)
-    assert np.allclose(np.diff(ridge2), np.diff(ridge), atol=1e-9)   # unwrapped alike
+    assert np.allclose(np.diff(ridge2), np.diff(ridge), atol=1e-9)  # unwrapped alike
     a, b = wave_speeds(s_mm, ridge), wave_speeds(s_mm, ridge2)
     assert np.allclose(b["local"], a["local"], rtol=1e-9)
     assert b["summary"] == pytest.approx(a["summary"], rel=1e-9)
@@ -118,16 +127,18 @@ def analyse(path):
 @pytest.fixture(scope="module")
 def embryo(tmp_path_factory):
     """A small phantom embryo (8 frames) and its analysis."""
-    path = write_phantom(tmp_path_factory.mktemp("inv") / "first",
-                         sample_params("normal", 3, n_frames=8, vertices_min=2000,
-                                       vertices_max=2500))
+    path = write_phantom(
+        tmp_path_factory.mktemp("inv") / "first",
+        sample_params("normal", 3, n_frames=8, vertices_min=2000, vertices_max=2500),
+    )
     return path, analyse(path)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("voxel_um", [None, (7.8, 7.8, 3.9)])
 def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_numbers(
-        embryo, tmp_path, voxel_um):
+    embryo, tmp_path, voxel_um
+):
     """The same beating tube, its frames starting two frames later in the cycle,
     turned and moved in space and written in micrometres (or in the indices of
     anisotropic voxels, as marching cubes on an OCT stack gives), gives every map,
@@ -145,8 +156,9 @@ def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_number
             V, F = read_mesh_file(files[(t + later) % len(files)])
             write_ply(moved / wall / f"f{t}.ply", 1e3 * (V @ R.T + shift) * per_um, F)
     meta = json.loads((first / "meta.json").read_text())
-    meta.update(length_unit="um",
-                inlet=(1e3 * (np.array(meta["inlet"]) @ R.T + shift) * per_um).tolist())
+    meta.update(
+        length_unit="um", inlet=(1e3 * (np.array(meta["inlet"]) @ R.T + shift) * per_um).tolist()
+    )
     if voxel_um:
         meta["voxel_size"] = list(voxel_um)
     (moved / "meta.json").write_text(json.dumps(meta))
@@ -170,29 +182,39 @@ def test_an_embryo_moved_in_micrometres_starting_elsewhere_gives_the_same_number
         # the wave's velocity (the inverse of the activation times' gradient) and the times'
         # noise SD (over their first harmonic's amplitude): the
         # files' float32 rounding moves by up to 1.5e-4 of the largest where it is small
-        tol = (2.0 if key.startswith("phase_") and key.endswith("_ms") else
-               1e-3 if key.startswith(("mean_curv", "wave_velocity_", "activation_")) else 1e-4)
-        finite = np.isfinite(x)             # (a spread on 8 frames is NaN throughout)
-        if not finite.any():                # (and a band: its noise needs 10 frames)
+        tol = (
+            2.0
+            if key.startswith("phase_") and key.endswith("_ms")
+            else 1e-3
+            if key.startswith(("mean_curv", "wave_velocity_", "activation_"))
+            else 1e-4
+        )
+        finite = np.isfinite(x)  # (a spread on 8 frames is NaN throughout)
+        if not finite.any():  # (and a band: its noise needs 10 frames)
             continue
         error = np.abs(y - x)[finite] / max(1.0, np.abs(x[finite]).max(initial=0))
-        if key.startswith("phase_") and not key.endswith("_ms"):      # radians: circular
+        if key.startswith("phase_") and not key.endswith("_ms"):  # radians: circular
             error = np.abs(np.angle(np.exp(1j * (y - x))))[finite] / np.pi
-        if key.endswith("axis_deg"):                   # an axis' direction: modulo 180 deg
+        if key.endswith("axis_deg"):  # an axis' direction: modulo 180 deg
             error = np.abs((y - x + 90) % 180 - 90)[finite] / 180
         if key.startswith(("mean_curv", "wave_velocity_", "activation_")):
             assert np.percentile(error, 99.9) <= tol and error.max() <= 10 * tol, key
         else:
             assert error.max(initial=0) <= tol, key
-    for key, x in a["pca"].items():         # in each section's own plane: moves with it
+    for key, x in a["pca"].items():  # in each section's own plane: moves with it
         y = b["pca"][key]
         if key.endswith(("_scores", "_displacement_mm")):
             # the first mode; the others of 5 contours can have all but equal variances
             # (0.023 and 0.022 here), whose modes any rounding turns within their plane
             x, y = (x[:, 0], y[:, 0]) if key.endswith("_scores") else (x[0], y[0])
         assert np.allclose(y, x, atol=1e-4 * np.abs(x).max()), key
-    numbers = ("wave_speed_mm_s", "tube_length_mm", "myocardial_volume_change",
-               "expand_fraction", "section_volume_error")
+    numbers = (
+        "wave_speed_mm_s",
+        "tube_length_mm",
+        "myocardial_volume_change",
+        "expand_fraction",
+        "section_volume_error",
+    )
     for key in numbers:
         assert b["summary"][key] == pytest.approx(a["summary"][key], rel=1e-4, abs=1e-6), key
     for wall, X in a["grids"].items():
@@ -255,10 +277,12 @@ def test_an_embryo_entered_from_its_other_end_is_the_same_tube_reversed(embryo, 
     for wall in ("outer", "inner", "lumen"):
         G = b["grids"][wall]
         assert np.allclose(np.roll(G[::-1, ::-1], 1, axis=0), a["grids"][wall], atol=1e-6), wall
-        assert np.allclose(b["arrays"][f"area_{wall}_mm2"][::-1], a["arrays"][f"area_{wall}_mm2"],
-                           rtol=1e-8), wall
-        assert np.allclose(b["arrays"][f"volume_{wall}_mm3"], a["arrays"][f"volume_{wall}_mm3"],
-                           rtol=1e-12), wall
+        assert np.allclose(
+            b["arrays"][f"area_{wall}_mm2"][::-1], a["arrays"][f"area_{wall}_mm2"], rtol=1e-8
+        ), wall
+        assert np.allclose(
+            b["arrays"][f"volume_{wall}_mm3"], a["arrays"][f"volume_{wall}_mm3"], rtol=1e-12
+        ), wall
     assert b["summary"]["tube_length_mm"] == pytest.approx(a["summary"]["tube_length_mm"])
     speed, reversed_ = a["summary"]["wave_speed_mm_s"], b["summary"]["wave_speed_mm_s"]
     assert reversed_["min"] == pytest.approx(-speed["max"], rel=1e-6)
@@ -289,9 +313,12 @@ def test_a_tube_25_times_larger_gives_every_number_in_proportion(embryo, tmp_pat
         if not np.issubdtype(np.asarray(x).dtype, np.floating):
             assert np.array_equal(y, x), key
             continue
-        power = 0 if key.startswith("phase_") else next(
-            (p for unit, p in units if key.endswith(unit) or unit + "_" in key), 0)
-        expected = x.astype(float) * k ** power
+        power = (
+            0
+            if key.startswith("phase_")
+            else next((p for unit, p in units if key.endswith(unit) or unit + "_" in key), 0)
+        )
+        expected = x.astype(float) * k**power
         assert np.array_equal(np.isnan(y), np.isnan(expected)), key
         bound = 1e-3 * max(np.nanmax(np.abs(expected), initial=0), 1e-12)
         if key.startswith("phase_") and np.isfinite(expected).any():
@@ -302,5 +329,6 @@ def test_a_tube_25_times_larger_gives_every_number_in_proportion(embryo, tmp_pat
         assert np.nanmax(np.abs(y - expected), initial=0) <= bound, key
     for key in ("mean", "median", "cycle"):
         assert b["summary"]["wave_speed_mm_s"][key] == pytest.approx(
-            k * a["summary"]["wave_speed_mm_s"][key], rel=1e-5)
+            k * a["summary"]["wave_speed_mm_s"][key], rel=1e-5
+        )
     assert b["summary"]["corner_count"] == a["summary"]["corner_count"]

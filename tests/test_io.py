@@ -13,8 +13,13 @@ from oftimg.cli import main
 from oftimg.errors import DatasetError, OftimgWarning
 from oftimg.io.tube import check_tube_file, load_tube
 from oftimg.io.meshfile import read_mesh_file, write_ply
-from oftimg.io.dataset import (find_datasets, list_frames, load_dataset, natural_key,
-                               validate_dataset)
+from oftimg.io.dataset import (
+    find_datasets,
+    list_frames,
+    load_dataset,
+    natural_key,
+    validate_dataset,
+)
 
 pytestmark = pytest.mark.usefixtures("png_figures_only")
 
@@ -49,16 +54,16 @@ def test_validated_frames_are_read_again_without_the_checks_only_while_unchanged
 
     frames = cone_frames(3)
     V, F = frames[1]
-    frames[1] = (V, F[:, ::-1])                       # inward-facing: reversed on reading
+    frames[1] = (V, F[:, ::-1])  # inward-facing: reversed on reading
     V, F = frames[2]
-    frames[2] = (np.concatenate([V, V[:1]]), F)       # an unused vertex: needs repair
+    frames[2] = (np.concatenate([V, V[:1]]), F)  # an unused vertex: needs repair
     ds_path = write_series(tmp_path / "emb", frames)
     ds = load_dataset(ds_path)
     with pytest.warns(OftimgWarning):
         validate_dataset(ds)
     assert set(ds.checked) == {("outer", 0), ("outer", 1)}
     assert ds.checked["outer", 1].reverse and not ds.checked["outer", 0].reverse
-    assert ds.checked["outer", 0].inlet.dtype == np.int32          # kept small
+    assert ds.checked["outer", 0].inlet.dtype == np.int32  # kept small
     for t in range(2):
         full = load_tube(ds.frames["outer"][t], inlet_point=ds.inlet_mm)
         fast = ds.frame(t).tube("outer")
@@ -89,7 +94,7 @@ def test_load_dataset_defaults(tmp_path):
     ds_path = write_series(tmp_path / "emb", cone_frames())
     ds = load_dataset(ds_path)
     assert ds.meta.name == "emb" and ds.meta.group == "unknown"
-    assert ds.meta.period_assumed and np.isnan(ds.meta.period_ms)   # no guess
+    assert ds.meta.period_assumed and np.isnan(ds.meta.period_ms)  # no guess
     assert ds.surfaces == ("outer",)
     tube = ds.tube("outer", 1)
     assert tube.V.dtype == np.float64 and tube.F.dtype == np.int64
@@ -99,8 +104,9 @@ def test_load_dataset_defaults(tmp_path):
 def test_micrometres_are_converted(tmp_path):
     frames = [(V * 1000.0, F) for V, F in cone_frames()]
     ds_path = write_series(tmp_path / "emb", frames)
-    (ds_path / "meta.json").write_text(json.dumps({"length_unit": "um", "period_ms": 3.0,
-                                                   "inlet": [0, 0, 0]}))
+    (ds_path / "meta.json").write_text(
+        json.dumps({"length_unit": "um", "period_ms": 3.0, "inlet": [0, 0, 0]})
+    )
     ds = load_dataset(ds_path)
     tube = ds.tube("outer", 0)
     z = tube.V[:, 2]
@@ -114,9 +120,16 @@ def test_voxel_coordinates_are_scaled_per_axis(tmp_path):
     voxel = np.array([4.0, 2.0, 0.5])
     frames = cone_frames()
     ds_path = write_series(tmp_path / "emb", [(1e3 * V / voxel, F) for V, F in frames])
-    (ds_path / "meta.json").write_text(json.dumps({
-        "length_unit": "um", "voxel_size": voxel.tolist(), "period_ms": 3.0,
-        "inlet": (np.array([0, 0, 1.0]) * 1e3 / voxel).tolist()}))
+    (ds_path / "meta.json").write_text(
+        json.dumps(
+            {
+                "length_unit": "um",
+                "voxel_size": voxel.tolist(),
+                "period_ms": 3.0,
+                "inlet": (np.array([0, 0, 1.0]) * 1e3 / voxel).tolist(),
+            }
+        )
+    )
     ds = load_dataset(ds_path)
     assert ds.inlet_mm == pytest.approx([0, 0, 1.0])
     for t, (V, _) in enumerate(frames):
@@ -125,8 +138,9 @@ def test_voxel_coordinates_are_scaled_per_axis(tmp_path):
         assert tube.V[tube.inlet, 2].mean() == pytest.approx(1.0)
     in_mm = write_series(tmp_path / "mm", frames)
     (in_mm / "meta.json").write_text(json.dumps({"period_ms": 3.0, "inlet": [0, 0, 1.0]}))
-    found, expected = (validate_dataset(load_dataset(p))["surfaces"]["outer"]
-                       for p in (ds_path, in_mm))
+    found, expected = (
+        validate_dataset(load_dataset(p))["surfaces"]["outer"] for p in (ds_path, in_mm)
+    )
     for key in ("inlet_area_mm2_median", "outlet_area_mm2_median"):
         assert found[key] == pytest.approx(expected[key], rel=1e-6)
     assert expected["inlet_area_mm2_median"] < expected["outlet_area_mm2_median"]
@@ -187,8 +201,10 @@ def _write_vtp(path, V, faces):
     pts.SetData(numpy_to_vtk(V, deep=True))
     cells = vtkCellArray()
     offsets = np.cumsum([0] + [len(f) for f in faces])
-    cells.SetData(numpy_to_vtkIdTypeArray(offsets, deep=True),
-                  numpy_to_vtkIdTypeArray(np.concatenate(faces).astype(np.int64), deep=True))
+    cells.SetData(
+        numpy_to_vtkIdTypeArray(offsets, deep=True),
+        numpy_to_vtkIdTypeArray(np.concatenate(faces).astype(np.int64), deep=True),
+    )
     poly = vtkPolyData()
     poly.SetPoints(pts)
     poly.SetPolys(cells)
@@ -221,37 +237,49 @@ def _write_faces(path, V, faces, kind, indent=""):
     rows = [" ".join(str(int(k) + (kind == "obj")) for k in f) for f in faces]
     verts = ["%.17g %.17g %.17g" % tuple(v) for v in V]
     if kind == "ply":
-        head = ["ply", "format ascii 1.0", f"element vertex {len(V)}", "property double x",
-                "property double y", "property double z", f"element face {len(faces)}",
-                "property list uchar int vertex_indices", "end_header"]
+        head = [
+            "ply",
+            "format ascii 1.0",
+            f"element vertex {len(V)}",
+            "property double x",
+            "property double y",
+            "property double z",
+            f"element face {len(faces)}",
+            "property list uchar int vertex_indices",
+            "end_header",
+        ]
         lines = head + verts + [f"{len(f)} {r}" for f, r in zip(faces, rows)]
     elif kind == "obj":
-        lines = ["v " + v for v in verts] + [f"{indent}f{chr(9) if k % 7 else ' '}{r}"
-                                               for k, r in enumerate(rows)]
+        lines = ["v " + v for v in verts] + [
+            f"{indent}f{chr(9) if k % 7 else ' '}{r}" for k, r in enumerate(rows)
+        ]
     else:
-        lines = ["OFF", f"{len(V)} {len(faces)} 0"] + verts + [f"{len(f)} {r}"
-                                                               for f, r in zip(faces, rows)]
+        lines = (
+            ["OFF", f"{len(V)} {len(faces)} 0"]
+            + verts
+            + [f"{len(f)} {r}" for f, r in zip(faces, rows)]
+        )
     path.write_text("\n".join(lines) + "\n")
 
 
 def _damaged(tmp_path, kind):
     """A tube file that open3d reads only in part, without an error."""
-    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)   # faces in rows: the last at the outlet
-    quads = [[k, k + 1, k + 25, k + 24] for k in range(0, 23)]      # the first row as quads
+    V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)  # faces in rows: the last at the outlet
+    quads = [[k, k + 1, k + 25, k + 24] for k in range(0, 23)]  # the first row as quads
     rest = F[~np.isin(F, np.arange(24)).any(axis=1)]
     path = tmp_path / f"{kind}.{kind.split('_')[0]}"
     if kind in ("ply_cut_faces", "ply_cut_vertices", "stl_cut"):
         write = write_ply if kind.startswith("ply") else _write_binary_stl
         write(path, V, F)
         data = path.read_bytes()
-        path.write_bytes(data[:-13 * 5] if kind != "ply_cut_vertices" else data[:400])
+        path.write_bytes(data[: -13 * 5] if kind != "ply_cut_vertices" else data[:400])
     elif kind in ("ply_quads", "obj_quads", "off_quads"):
         wrap = [[23, 0, 24, 47]]
         _write_faces(path, V, quads + wrap + rest.tolist(), kind.split("_")[0])
     elif kind == "obj_cut":
         _write_faces(path, V, F.tolist(), "obj")
         text = path.read_text().rstrip()
-        path.write_text(text[:text.rfind(" ")])      # the last face keeps two corners
+        path.write_text(text[: text.rfind(" ")])  # the last face keeps two corners
     elif kind in ("stl_ascii_cut", "vtk_cut"):
         import meshio
 
@@ -263,24 +291,29 @@ def _damaged(tmp_path, kind):
 def _write_binary_stl(path, V, F):
     rec = np.zeros(len(F), dtype=[("n", "<f4", 3), ("p", "<f4", (3, 3)), ("a", "<u2")])
     rec["p"] = V[F]
-    path.write_bytes(b"solid binary, a header that starts like ascii".ljust(80)
-                     + np.uint32(len(F)).tobytes() + rec.tobytes())
+    path.write_bytes(
+        b"solid binary, a header that starts like ascii".ljust(80)
+        + np.uint32(len(F)).tobytes()
+        + rec.tobytes()
+    )
 
 
 CUT = r"the file is truncated \(or a count in its header is wrong\): it ends among its "
 NOT_TRIANGLES = "24 faces are not triangles"
-DAMAGED = {"ply_cut_faces": CUT + "faces, with 427 of the 432",                     # (regexes)
-           # open3d read all vertices (the rest zeros) and no faces
-           "ply_cut_vertices": CUT + "vertices, with 18 of the 240 ",
-           "ply_quads": NOT_TRIANGLES,  # open3d split the quads
-           "obj_quads": NOT_TRIANGLES,  # open3d 0.20 left the quads out, 0.18 the whole mesh
-           "off_quads": NOT_TRIANGLES,
-           # open3d 0.18 completed the last face, cut to two corners, with an index from
-           # nowhere: out of range, or (in 1 of ~10 runs) in range, and the file passed
-           "obj_cut": "1 face lines with fewer than 3 corners",
-           "stl_cut": r"a binary STL of 432 triangles is 21684 bytes long, this file 21619",
-           "stl_ascii_cut": "the file is truncated .*: it ends inside its facets",
-           "vtk_cut": "the file is truncated .*: it ends among its cell types"}  # meshio: sys.exit
+DAMAGED = {
+    "ply_cut_faces": CUT + "faces, with 427 of the 432",  # (regexes)
+    # open3d read all vertices (the rest zeros) and no faces
+    "ply_cut_vertices": CUT + "vertices, with 18 of the 240 ",
+    "ply_quads": NOT_TRIANGLES,  # open3d split the quads
+    "obj_quads": NOT_TRIANGLES,  # open3d 0.20 left the quads out, 0.18 the whole mesh
+    "off_quads": NOT_TRIANGLES,
+    # open3d 0.18 completed the last face, cut to two corners, with an index from
+    # nowhere: out of range, or (in 1 of ~10 runs) in range, and the file passed
+    "obj_cut": "1 face lines with fewer than 3 corners",
+    "stl_cut": r"a binary STL of 432 triangles is 21684 bytes long, this file 21619",
+    "stl_ascii_cut": "the file is truncated .*: it ends inside its facets",
+    "vtk_cut": "the file is truncated .*: it ends among its cell types",
+}  # meshio: sys.exit
 
 
 @pytest.mark.parametrize("kind", sorted(DAMAGED))
@@ -304,30 +337,48 @@ def test_whole_files_are_read_in_full(tmp_path, kind):
     if kind == "stl":
         _write_binary_stl(path, V, F)
     else:
-        _write_faces(path, V, F.tolist(), kind.split("_")[0],
-                     indent=" " if kind == "obj_indented" else "")
+        _write_faces(
+            path, V, F.tolist(), kind.split("_")[0], indent=" " if kind == "obj_indented" else ""
+        )
     assert len(load_tube(path).F) == len(F)
 
 
-def _write_binary_ply(path, V, faces, *, vertex_type="float", extra=(), count="uchar",
-                      index="int", order="little"):
+def _write_binary_ply(
+    path, V, faces, *, vertex_type="float", extra=(), count="uchar", index="int", order="little"
+):
     """A binary .ply of ``V`` (with ``extra`` uchar properties, zeros) and ``faces`` (lists
     of vertex indices, any length), a comment line in the header."""
-    types = {"float": "f4", "double": "f8", "uchar": "u1", "ushort": "u2", "int": "i4",
-             "uint": "u4"}
+    types = {
+        "float": "f4",
+        "double": "f8",
+        "uchar": "u1",
+        "ushort": "u2",
+        "int": "i4",
+        "uint": "u4",
+    }
     end = "<" if order == "little" else ">"
-    head = ["ply", f"format binary_{order}_endian 1.0", "comment made by a test",
-            f"element vertex {len(V)}", *[f"property {vertex_type} {c}" for c in "xyz"],
-            *[f"property uchar {name}" for name in extra], f"element face {len(faces)}",
-            f"property list {count} {index} vertex_indices", "end_header"]
-    verts = np.zeros(len(V), [(c, end + types[vertex_type]) for c in "xyz"]
-                     + [(name, "u1") for name in extra])
+    head = [
+        "ply",
+        f"format binary_{order}_endian 1.0",
+        "comment made by a test",
+        f"element vertex {len(V)}",
+        *[f"property {vertex_type} {c}" for c in "xyz"],
+        *[f"property uchar {name}" for name in extra],
+        f"element face {len(faces)}",
+        f"property list {count} {index} vertex_indices",
+        "end_header",
+    ]
+    verts = np.zeros(
+        len(V), [(c, end + types[vertex_type]) for c in "xyz"] + [(name, "u1") for name in extra]
+    )
     for k, c in enumerate("xyz"):
         verts[c] = V[:, k]
     data = ["\n".join(head).encode() + b"\n", verts.tobytes()]
     for f in faces:
-        data += [np.array(len(f), end + types[count]).tobytes(),
-                 np.array(f, end + types[index]).tobytes()]
+        data += [
+            np.array(len(f), end + types[count]).tobytes(),
+            np.array(f, end + types[index]).tobytes(),
+        ]
     path.write_bytes(b"".join(data))
 
 
@@ -338,11 +389,15 @@ def test_ply_is_read_as_open3d_reads_it(tmp_path):
     import open3d
 
     V, F = tube_mesh(0.2, 0.12, n_theta=24, n_s=10)
-    cases = {"written.ply": None,
-             "double.ply": dict(vertex_type="double", extra=("red", "green", "blue"),
-                                count="uint", index="uint"),
-             "short_list.ply": dict(count="ushort", index="int"),
-             "big_endian.ply": dict(order="big"), "ascii.ply": "ascii"}
+    cases = {
+        "written.ply": None,
+        "double.ply": dict(
+            vertex_type="double", extra=("red", "green", "blue"), count="uint", index="uint"
+        ),
+        "short_list.ply": dict(count="ushort", index="int"),
+        "big_endian.ply": dict(order="big"),
+        "ascii.ply": "ascii",
+    }
     for name, kw in cases.items():
         path = tmp_path / name
         if kw is None:
@@ -362,7 +417,7 @@ def test_ply_is_read_as_open3d_reads_it(tmp_path):
     with pytest.raises(DatasetError, match=r"quads\.ply: 24 faces are not triangles"):
         read_mesh_file(tmp_path / "quads.ply")
     _write_binary_ply(tmp_path / "cut.ply", V, F.tolist())
-    (tmp_path / "cut.ply").write_bytes((tmp_path / "cut.ply").read_bytes()[:-13 * 5])
+    (tmp_path / "cut.ply").write_bytes((tmp_path / "cut.ply").read_bytes()[: -13 * 5])
     with pytest.raises(DatasetError, match=r"cut\.ply: the file is truncated"):
         read_mesh_file(tmp_path / "cut.ply")
     _write_binary_ply(tmp_path / "range.ply", V, F.tolist() + [[0, 1, len(V)]])
@@ -383,13 +438,13 @@ def _lying_ply(tmp_path, case):
         data = data.replace(b"property float z\n", b"")
     elif case == "face_of_5":
         at = data.index(b"end_header\n") + 11 + 240 * 12
-        data = data[:at] + b"\x05" + data[at + 1:]
+        data = data[:at] + b"\x05" + data[at + 1 :]
     elif case == "one_face_fewer_listed":
         data = data.replace(b"face 432", b"face 431")
     elif case == "hex_float":
         _write_faces(path, V, F.tolist(), "ply")
         head, body = path.read_bytes().split(b"end_header\n")
-        data = head + b"end_header\n0x1p-3" + body[body.index(b" "):]
+        data = head + b"end_header\n0x1p-3" + body[body.index(b" ") :]
     elif case == "bad_property_line":
         data = data.replace(b"property float z", b"property\xfffloat z")
     elif case == "count_1e3":
@@ -399,14 +454,16 @@ def _lying_ply(tmp_path, case):
 
 
 DAMAGED_FACES = r"its faces do not fit the file \(\d+ are not a triangle before it ends\)"
-LYING = {"vertex_count_halved": DAMAGED_FACES,                                      # (regexes)
-         "no_z": "its vertices need scalar properties x, y and z",
-         "face_of_5": DAMAGED_FACES,
-         "one_face_fewer_listed": "it holds 13 bytes more than its header declares",
-         "hex_float": "its vertex lines hold something that is not a decimal number",
-         "bad_property_line": "its header holds bytes that are not text",
-         # was taken for a boundary-loop problem
-         "count_1e3": "its header gives element 'vertex' a count that is not a whole number"}
+LYING = {
+    "vertex_count_halved": DAMAGED_FACES,  # (regexes)
+    "no_z": "its vertices need scalar properties x, y and z",
+    "face_of_5": DAMAGED_FACES,
+    "one_face_fewer_listed": "it holds 13 bytes more than its header declares",
+    "hex_float": "its vertex lines hold something that is not a decimal number",
+    "bad_property_line": "its header holds bytes that are not text",
+    # was taken for a boundary-loop problem
+    "count_1e3": "its header gives element 'vertex' a count that is not a whole number",
+}
 
 
 @pytest.mark.parametrize("case", sorted(LYING))
@@ -433,8 +490,10 @@ def test_legacy_vtk_polydata_is_read_without_vtk(tmp_path, version, binary):
     pts = vtkPoints()
     pts.SetData(numpy_to_vtk(V, deep=True))
     cells = vtkCellArray()
-    cells.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 3 * len(F) + 1, 3), deep=True),
-                  numpy_to_vtkIdTypeArray(F.ravel().astype(np.int64), deep=True))
+    cells.SetData(
+        numpy_to_vtkIdTypeArray(np.arange(0, 3 * len(F) + 1, 3), deep=True),
+        numpy_to_vtkIdTypeArray(F.ravel().astype(np.int64), deep=True),
+    )
     poly = vtkPolyData()
     poly.SetPoints(pts)
     poly.SetPolys(cells)
@@ -472,13 +531,21 @@ def test_debris_and_pinholes_of_a_segmentation_are_mended_and_said(tmp_path, rev
 
     V, F = tube_mesh(0.2, 0.12, n_theta=48, n_s=40)
     blob = np.array([[1.0, 1, 1], [1.01, 1, 1], [1, 1.01, 1], [1, 1, 1.01]])
-    F2 = np.concatenate([np.delete(F, [500, 1000], axis=0),         # two one-face holes
-                         len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])])
+    F2 = np.concatenate(
+        [
+            np.delete(F, [500, 1000], axis=0),  # two one-face holes
+            len(V) + np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]),
+        ]
+    )
     path = tmp_path / "f.ply"
     write_ply(path, np.concatenate([V, blob]), F2[:, ::-1] if reversed_faces else F2)
-    with pytest.warns(OftimgWarning, match=re.escape(
+    with pytest.warns(
+        OftimgWarning,
+        match=re.escape(
             f"{path}: dropped 1 part apart from the tube (4 faces), filled 2 holes in the "
-            "wall (6 boundary edges)")):
+            "wall (6 boundary edges)"
+        ),
+    ):
         tube = load_tube(path)
     clean = load_tube(_written(tmp_path / "clean.ply", V, F))
     assert len(tube.V) == len(V) + 2 and len(tube.F) == len(F) - 2 + 6
@@ -487,7 +554,7 @@ def test_debris_and_pinholes_of_a_segmentation_are_mended_and_said(tmp_path, rev
     volume = [capped_signed_volume(t.V, t.F, [t.inlet, t.outlet]) for t in (tube, clean)]
     assert volume[0] == pytest.approx(volume[1], rel=1e-12) and volume[0] > 0
     assert set(tube.inlet) == set(clean.inlet) and set(tube.outlet) == set(clean.outlet)
-    assert check_tube_file(path)[1] is None          # read again with all checks, and mended
+    assert check_tube_file(path)[1] is None  # read again with all checks, and mended
 
 
 def _written(path, V, F):
@@ -515,7 +582,7 @@ def test_faces_against_the_rest_are_counted_as_a_repair(tmp_path, reversed_faces
     else:
         assert said == [f"{path}: flipped 5 faces to a consistent orientation"]
     assert np.array_equal(np.sort(tube.F, axis=1), np.sort(F, axis=1))
-    assert np.array_equal(tube.F[20:], F[20:])          # outward, as the helper makes them
+    assert np.array_equal(tube.F[20:], F[20:])  # outward, as the helper makes them
 
 
 def test_repairs_are_reported_once_per_surface_not_per_frame_and_pass(tmp_path):
@@ -532,17 +599,35 @@ def test_repairs_are_reported_once_per_surface_not_per_frame_and_pass(tmp_path):
     ds = write_series(tmp_path / "d", frames)
     (ds / "meta.json").write_text(json.dumps({"period_ms": 12.0}))
     out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "oftimg.cli", "run", str(ds), "--out", str(out),
-                           "--jobs", "2", "--quiet"], capture_output=True, text=True, timeout=300)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "oftimg.cli",
+            "run",
+            str(ds),
+            "--out",
+            str(out),
+            "--jobs",
+            "2",
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     about_repairs = [line for line in done.stderr.splitlines() if "duplicate" in line]
-    assert about_repairs == [f"oftimg: warning: {ds / 'outer'}: repaired 6 of 6 frames "
-                             "(f0.ply: merged 3 duplicate vertices; f1.ply: merged 3 duplicate "
-                             "vertices; f2.ply: merged 3 duplicate vertices; 3 more, listed in "
-                             "the validation report)"], done.stderr
+    assert about_repairs == [
+        f"oftimg: warning: {ds / 'outer'}: repaired 6 of 6 frames "
+        "(f0.ply: merged 3 duplicate vertices; f1.ply: merged 3 duplicate "
+        "vertices; f2.ply: merged 3 duplicate vertices; 3 more, listed in "
+        "the validation report)"
+    ], done.stderr
     report = json.loads((out / "d" / "summary.json").read_text())["validation"]
     assert report["surfaces"]["outer"]["repairs"] == {
-        f"f{t}.ply": "merged 3 duplicate vertices" for t in range(6)}
+        f"f{t}.ply": "merged 3 duplicate vertices" for t in range(6)
+    }
 
 
 # ------------------------------------------------------------------ bad input
@@ -565,10 +650,11 @@ def _bad(tmp_path, kind):
         write_ply(target, V, F[np.linalg.norm(centre - [0.16, 0, 0.5], axis=1) > 0.08])
     elif kind == "closed":  # both ends capped, as a segmentation's surface comes
         rings = [np.arange(k * 24, (k + 1) * 24) for k in (0, 9)]
-        caps = [np.stack([ring, np.full(24, len(V) + i), np.roll(ring, -1)], 1)
-                for i, ring in enumerate(rings)]                 # (orientation is mended)
-        write_ply(target, np.concatenate([V, [[0, 0, 0], [0, 0, 1.0]]]),
-                  np.concatenate([F, *caps]))
+        caps = [
+            np.stack([ring, np.full(24, len(V) + i), np.roll(ring, -1)], 1)
+            for i, ring in enumerate(rings)
+        ]  # (orientation is mended)
+        write_ply(target, np.concatenate([V, [[0, 0, 0], [0, 0, 1.0]]]), np.concatenate([F, *caps]))
     elif kind == "two_tubes":  # two parts too large to drop the smaller as debris
         write_ply(target, np.concatenate([V, V + [1.0, 0, 0]]), np.concatenate([F, F + len(V)]))
     elif kind == "non_manifold":  # a fin on an edge
@@ -582,7 +668,7 @@ def _bad(tmp_path, kind):
         target.symlink_to(tmp_path / "moved_away.ply")
     elif kind == "truncated":  # the last 5 faces, at the outlet, cut off
         write_ply(target, V, F)
-        target.write_bytes(target.read_bytes()[:-13 * 5])
+        target.write_bytes(target.read_bytes()[: -13 * 5])
     elif kind == "nan":
         V2 = V.copy()
         V2[7] = np.nan
@@ -600,8 +686,12 @@ def _bad(tmp_path, kind):
         (ds / "meta.json").write_text(json.dumps({"length_unit": "inch"}))
         return ds, ds / "meta.json"
     elif kind.startswith("meta_voxel"):
-        voxel = {"meta_voxel_two": [1, 2], "meta_voxel_zero": [1, 0, 1],
-                 "meta_voxel_text": [1, "2", 1], "meta_voxel_negative": [1, 1, -0.5]}[kind]
+        voxel = {
+            "meta_voxel_two": [1, 2],
+            "meta_voxel_zero": [1, 0, 1],
+            "meta_voxel_text": [1, "2", 1],
+            "meta_voxel_negative": [1, 1, -0.5],
+        }[kind]
         (ds / "meta.json").write_text(json.dumps({"voxel_size": voxel}))
         return ds, ds / "meta.json"
     elif kind == "missing":
@@ -609,19 +699,28 @@ def _bad(tmp_path, kind):
     return ds, target
 
 
-BAD = {"empty": "empty", "garbage": "not a PLY file",
-       "one_loop": "1 boundary loops; a tube has 2 (one end closed: cut the cap off)",
-       "three_loops": "3 boundary loops; a tube has 2, and 1 of the 1 beyond its ends is too large",
-       "non_manifold": "non-manifold edge",
-       "closed": "0 boundary loops; a tube has 2 (a closed surface: cut it open at the inlet",
-       "two_tubes": "2 connected components (432, 432 faces); a tube has 1",
-       "nan": "NaN", "broken_link": "a broken link", "capitals": "rename it inner/",
-       "truncated": "it ends among its faces, with 427 of the 432",
-       "frame_count": "2 frames, but outer/ has 5", "meta_json": "not valid JSON",
-       "meta_unit": "length_unit", "meta_name": "cannot be a folder name",
-       **{f"meta_voxel_{k}": "voxel_size must be three positive numbers"
-          for k in ("two", "zero", "text", "negative")},
-       "missing": "not found"}
+BAD = {
+    "empty": "empty",
+    "garbage": "not a PLY file",
+    "one_loop": "1 boundary loops; a tube has 2 (one end closed: cut the cap off)",
+    "three_loops": "3 boundary loops; a tube has 2, and 1 of the 1 beyond its ends is too large",
+    "non_manifold": "non-manifold edge",
+    "closed": "0 boundary loops; a tube has 2 (a closed surface: cut it open at the inlet",
+    "two_tubes": "2 connected components (432, 432 faces); a tube has 1",
+    "nan": "NaN",
+    "broken_link": "a broken link",
+    "capitals": "rename it inner/",
+    "truncated": "it ends among its faces, with 427 of the 432",
+    "frame_count": "2 frames, but outer/ has 5",
+    "meta_json": "not valid JSON",
+    "meta_unit": "length_unit",
+    "meta_name": "cannot be a folder name",
+    **{
+        f"meta_voxel_{k}": "voxel_size must be three positive numbers"
+        for k in ("two", "zero", "text", "negative")
+    },
+    "missing": "not found",
+}
 
 
 @pytest.mark.parametrize("kind", sorted(BAD))
@@ -657,14 +756,15 @@ def test_every_bad_frame_is_named_in_one_pass(tmp_path, capsys):
         validate_dataset(load_dataset(ds), executor=InPlace())
     first = f"{truncated[0]}: the file is truncated"
     assert str(err.value).startswith(first)
-    assert str(err.value).endswith("(and 8 more of the dataset's 24 meshes cannot be used: "
-                                   "below)")
+    assert str(err.value).endswith("(and 8 more of the dataset's 24 meshes cannot be used: below)")
     assert err.value.__notes__ == [
         "the same problem in 7 more meshes: outer/f3.ply, outer/f4.ply, outer/f5.ply, "
         "outer/f6.ply, outer/f7.ply, outer/f8.ply, ... outer/f10.ply",
-        "inner/f5.ply: 1 vertices have NaN or infinite coordinates"]
+        "inner/f5.ply: 1 vertices have NaN or infinite coordinates",
+    ]
     assert [file for file, _ in err.value.problems] == [str(f) for f in truncated] + [
-        str(ds / "inner" / "f5.ply")]
+        str(ds / "inner" / "f5.ply")
+    ]
     out = tmp_path / "out"
     assert main(["run", str(ds), "--out", str(out), "--quiet"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
@@ -680,8 +780,9 @@ def test_every_broken_link_is_named(tmp_path):
         (ds / "outer" / f"f{t}.ply").symlink_to(tmp_path / "moved_away.ply")
     with pytest.raises(DatasetError) as err:
         load_dataset(ds)
-    assert str(err.value) == (f"{ds / 'outer' / 'f1.ply'}: a broken link (and 2 more in "
-                              f"{ds / 'outer'}: f2.ply, f4.ply)")
+    assert str(err.value) == (
+        f"{ds / 'outer' / 'f1.ply'}: a broken link (and 2 more in {ds / 'outer'}: f2.ply, f4.ply)"
+    )
 
 
 def test_a_series_without_one_readable_frame_says_so(tmp_path):
@@ -690,8 +791,9 @@ def test_a_series_without_one_readable_frame_says_so(tmp_path):
         f.write_bytes(f.read_bytes()[:400])
     with pytest.raises(DatasetError, match="f0.ply: the file is truncated") as err:
         load_dataset(ds)
-    assert err.value.__notes__ == [f"no frame of {ds / 'outer'} can be read as a tube "
-                                   "(all 7 were tried)"]
+    assert err.value.__notes__ == [
+        f"no frame of {ds / 'outer'} can be read as a tube (all 7 were tried)"
+    ]
 
 
 def test_out_inside_dataset_and_nonempty_out_are_refused(dataset, tmp_path, capsys):
@@ -750,7 +852,7 @@ def test_a_file_put_into_out_during_the_run_is_not_replaced(tmp_path):
         with staged_output(out, overwrite=True) as tmp:
             (tmp / "run.json").write_text("{}")
             (out / "notes.txt").write_text("written meanwhile")
-    assert [p.name for p in tmp_path.iterdir()] == ["out"]           # no staging left
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]  # no staging left
     assert [p.name for p in out.iterdir()] == ["notes.txt"]
 
 
@@ -779,10 +881,15 @@ def test_validate_checks_every_dataset_of_a_cohort(tmp_path, capfd):
     assert main(["validate", str(tmp_path / "cohort"), "--json", "--period-ms", "300"]) == 2
     reports = json.loads(capfd.readouterr().out)
     assert [r["path"] for r in reports] == [str(tmp_path / "cohort" / n) for n in "abc"]
-    assert reports[1]["problems"] == [{"file": str(bad), "problem": str(bad) + ": the file is "
-                                       "truncated (or a count in its header is wrong): it ends among its "
-                                       "vertices, with 18 of the "
-                                       "250 vertices its header lists whole"}]
+    assert reports[1]["problems"] == [
+        {
+            "file": str(bad),
+            "problem": str(bad) + ": the file is "
+            "truncated (or a count in its header is wrong): it ends among its "
+            "vertices, with 18 of the "
+            "250 vertices its header lists whole",
+        }
+    ]
     assert "surfaces" in reports[0] and "problems" not in reports[0]
     assert main(["validate", str(tmp_path / "cohort" / "a"), "--json", "--period-ms", "300"]) == 0
     assert json.loads(capfd.readouterr().out)["surfaces"]["outer"]["frames"] == 5
@@ -794,7 +901,7 @@ def test_cohort_folder_lists_datasets(tmp_path):
     assert [p.name for p in find_datasets(tmp_path / "cohort")] == ["b2", "b10"]
     with pytest.raises(DatasetError, match="neither a dataset"):
         find_datasets(tmp_path / "cohort" / "b2" / "outer")
-    with pytest.raises(DatasetError, match=r"f0\.ply: not a folder"):     # was "not found"
+    with pytest.raises(DatasetError, match=r"f0\.ply: not a folder"):  # was "not found"
         find_datasets(tmp_path / "cohort" / "b2" / "outer" / "f0.ply")
     with pytest.raises(DatasetError, match="b3: folder not found"):
         find_datasets(tmp_path / "cohort" / "b3")
@@ -855,17 +962,19 @@ def test_a_frame_that_cannot_be_gridded_is_named(dataset, monkeypatch):
     monkeypatch.setattr(per_frame, "grid_frame", no_seam)
     ds = load_dataset(dataset)
     p = np.zeros(3)
-    with pytest.raises(DatasetError, match=re.escape(f"{ds.frames['outer'][2]}: the seam does "
-                                                     "not reach the outlet loop")):
+    with pytest.raises(
+        DatasetError,
+        match=re.escape(f"{ds.frames['outer'][2]}: the seam does not reach the outlet loop"),
+    ):
         per_frame.process_frame(ds.frame(2), p, p, GridOptions(n_u=12, n_v=6))
 
 
-META_PROBLEMS = {   # meta.json content or kind -> what the one line says (found by a fuzzer)
-    "fifo": ("fifo", "is a named pipe (FIFO), not a file"),            # blocked until killed
-    "dev_zero": ("/dev/zero", "is a character device, not a file"),    # read without end
-    "broken_link": ("nowhere", "a broken link"),                       # taken as missing
-    "link_loop": ("meta.json", "a loop of symbolic links"),            # taken as missing
-    "folder": ("folder", "is a folder, not a file"),                   # [Errno 21]
+META_PROBLEMS = {  # meta.json content or kind -> what the one line says (found by a fuzzer)
+    "fifo": ("fifo", "is a named pipe (FIFO), not a file"),  # blocked until killed
+    "dev_zero": ("/dev/zero", "is a character device, not a file"),  # read without end
+    "broken_link": ("nowhere", "a broken link"),  # taken as missing
+    "link_loop": ("meta.json", "a loop of symbolic links"),  # taken as missing
+    "folder": ("folder", "is a folder, not a file"),  # [Errno 21]
     "deep": ('{"name": ' + "[" * 100_000 + "]" * 100_000 + "}", "nested 100001 deep"),
     "huge_int": ('{"voxel_size": [1' + "0" * 400 + ", 1, 1]}", "a whole number of 401 digits"),
     "infinite_inlet": ('{"inlet": [1e999, 0, 0]}', "inlet must be a point [x, y, z] of three"),
@@ -934,11 +1043,27 @@ def test_a_vtk_metadata_block_is_passed_over():
     read, not taken for missing."""
     from oftimg.io.meshformats import parse_vtk
 
-    text = b"\n".join([
-        b"# vtk DataFile Version 5.1", b"vtk output", b"ASCII", b"DATASET POLYDATA",
-        b"POINTS 4 float", b"0 0 0 1 0 0 0 1 0", b"1 1 0", b"METADATA", b"INFORMATION 1",
-        b"NAME L2_NORM_RANGE LOCATION vtkDataArray", b"DATA 2 0 1.41421", b"",
-        b"POLYGONS 3 6", b"OFFSETS vtktypeint64", b"0 3 6", b"CONNECTIVITY vtktypeint64",
-        b"0 1 2 1 3 2", b""])
+    text = b"\n".join(
+        [
+            b"# vtk DataFile Version 5.1",
+            b"vtk output",
+            b"ASCII",
+            b"DATASET POLYDATA",
+            b"POINTS 4 float",
+            b"0 0 0 1 0 0 0 1 0",
+            b"1 1 0",
+            b"METADATA",
+            b"INFORMATION 1",
+            b"NAME L2_NORM_RANGE LOCATION vtkDataArray",
+            b"DATA 2 0 1.41421",
+            b"",
+            b"POLYGONS 3 6",
+            b"OFFSETS vtktypeint64",
+            b"0 3 6",
+            b"CONNECTIVITY vtktypeint64",
+            b"0 1 2 1 3 2",
+            b"",
+        ]
+    )
     V, F = parse_vtk(text)
     assert V.shape == (4, 3) and F.tolist() == [[0, 1, 2], [1, 3, 2]]

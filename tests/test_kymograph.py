@@ -1,4 +1,5 @@
 """(v, t) maps with known answers (issue 6)."""
+
 import numpy as np
 import pytest
 
@@ -6,10 +7,20 @@ from oftimg.image.band import detect_band
 from oftimg.image.gradient import area_rates, colour_wheel, gradient_hsv
 from oftimg.errors import InputError
 from oftimg.analysis.maps import FRAME_LIMITED_CROSSING, analyse_area_maps
-from oftimg.image.kymograph import (at_fixed_positions, auto_ridge_smoothing, cycle_speed,
-                                    local_speed, map_noise_sd, noise_colour, ridge_times,
-                                    smooth_in_time, speed_spread, two_segment_fit,
-                                    wave_speed_summary, wave_speeds)
+from oftimg.image.kymograph import (
+    at_fixed_positions,
+    auto_ridge_smoothing,
+    cycle_speed,
+    local_speed,
+    map_noise_sd,
+    noise_colour,
+    ridge_times,
+    smooth_in_time,
+    speed_spread,
+    two_segment_fit,
+    wave_speed_summary,
+    wave_speeds,
+)
 from oftimg.image.cycle import periodic_peak
 from oftimg.image.masks import expanded_75, expanded_sigma
 
@@ -48,7 +59,7 @@ def test_one_ill_defined_row_does_not_shift_the_rest_of_the_ridge():
     midgut): the next row is then more than half a period from it, and unwrapping
     against that row alone (np.unwrap) would move the rest of the ridge a period."""
     s = np.linspace(0, 1.0, 40)
-    arrival = 20.0 + 1e3 * s / 8.0           # 3.2 ms per row, wraps past 100 ms
+    arrival = 20.0 + 1e3 * s / 8.0  # 3.2 ms per row, wraps past 100 ms
     area = pulse_map(arrival % PERIOD)
     area[18] = pulse_map(np.array([(arrival[18] - 48.0) % PERIOD]))[0]
     ridge = ridge_times(area, PERIOD)
@@ -69,7 +80,7 @@ def test_knee_recovers_both_speeds_and_position():
     assert fit.speed_proximal_mm_s == pytest.approx(c1, rel=0.03)
     assert fit.speed_distal_mm_s == pytest.approx(c2, rel=0.03)
     assert abs(fit.knee_mm - knee) <= 2 * (s[1] - s[0])
-    assert fit.knee_t_ms == pytest.approx(1e3 * knee / c1, abs=1.0)   # the line at the knee
+    assert fit.knee_t_ms == pytest.approx(1e3 * knee / c1, abs=1.0)  # the line at the knee
 
 
 def test_backward_wave_gives_negative_speeds():
@@ -111,12 +122,16 @@ def hump_map(arrival_ms, period_ms, n_t, expand_fraction=0.4, rng=None, frame_no
     when each frame is meshed independently), plus a tenth of it per cell."""
     t = np.arange(n_t) * period_ms / n_t
     phi = ((t[None, :] - arrival_ms[:, None]) / period_ms) % 1.0
-    h = np.where(phi < expand_fraction, 0.5 - 0.5 * np.cos(np.pi * phi / expand_fraction),
-                 0.5 + 0.5 * np.cos(np.pi * (phi - expand_fraction) / (1 - expand_fraction)))
+    h = np.where(
+        phi < expand_fraction,
+        0.5 - 0.5 * np.cos(np.pi * phi / expand_fraction),
+        0.5 + 0.5 * np.cos(np.pi * (phi - expand_fraction) / (1 - expand_fraction)),
+    )
     area = 0.12 * (1 - 0.3 * (1 - h)) ** 2
     if frame_noise:
-        area *= 1 + frame_noise * (rng.standard_normal(n_t)[None, :]
-                                   + 0.1 * rng.standard_normal(area.shape))
+        area *= 1 + frame_noise * (
+            rng.standard_normal(n_t)[None, :] + 0.1 * rng.standard_normal(area.shape)
+        )
     return area
 
 
@@ -135,22 +150,29 @@ def test_ridge_smoothing_takes_out_each_frames_own_error():
         ridge = ridge_times(area, period, smoothing_ms=smoothing_ms)
         d = (ridge - truth + period / 2) % period - period / 2
         speed = local_speed(s, ridge)
-        return (d.mean(), np.sqrt(np.mean((d - d.mean()) ** 2)),
-                np.abs(speed / c - 1).max(), cycle_speed(s, ridge) / c - 1)
+        return (
+            d.mean(),
+            np.sqrt(np.mean((d - d.mean()) ** 2)),
+            np.abs(speed / c - 1).max(),
+            cycle_speed(s, ridge) / c - 1,
+        )
 
     shift, rms, worst, cycle = errors(5.0)
-    assert 1.0 < shift < 2.5                     # later: the contraction is the slower side
+    assert 1.0 < shift < 2.5  # later: the contraction is the slower side
     assert rms < 0.2 and worst < 0.1 and abs(cycle) < 0.005
     raw_shift, raw_rms, raw_worst, _ = errors(0.0)
     assert abs(raw_shift) < 1.0 and raw_rms > 0.7 and raw_worst > 0.15  # what smoothing avoids
 
 
 def test_smooth_in_time_keeps_symmetric_peaks_and_nan_cells():
-    arrival = np.array([5.0, 50.0, 97.5])       # the first and last wrap around the cycle
+    arrival = np.array([5.0, 50.0, 97.5])  # the first and last wrap around the cycle
     area = pulse_map(arrival)
     smooth = smooth_in_time(area, PERIOD, 5.0)
-    assert np.allclose(ridge_times(smooth, PERIOD, smoothing_ms=0) % PERIOD,
-                       ridge_times(area, PERIOD, smoothing_ms=0) % PERIOD, atol=0.05)
+    assert np.allclose(
+        ridge_times(smooth, PERIOD, smoothing_ms=0) % PERIOD,
+        ridge_times(area, PERIOD, smoothing_ms=0) % PERIOD,
+        atol=0.05,
+    )
     assert smooth.max() < area.max() and np.isclose(smooth.mean(), area.mean())
     assert np.array_equal(smooth_in_time(area, PERIOD, 0.0), area)
     holed = area.copy()
@@ -167,13 +189,13 @@ def test_map_noise_sd_measures_white_noise_and_not_the_beat():
     period, n_t = 360.0, 195
     s = np.linspace(0, 1.2, 60)
     clean = hump_map(1e3 * s / 12.0, period, n_t)
-    sd = np.linspace(1e-4, 1e-3, 60)                      # mm^2, one per row
+    sd = np.linspace(1e-4, 1e-3, 60)  # mm^2, one per row
     noisy = clean + np.random.default_rng(5).standard_normal(clean.shape) * sd[:, None]
     ratio = map_noise_sd(noisy) / sd
     assert abs(ratio.mean() - 1) < 0.05 and np.all(np.abs(ratio - 1) < 0.3)
     amplitude = clean.max(axis=1) - clean.min(axis=1)
-    assert np.all(map_noise_sd(clean) < 1e-5 * amplitude)   # the beat is not noise
-    assert np.isnan(map_noise_sd(noisy[:, :9])).all()       # too few frames to tell
+    assert np.all(map_noise_sd(clean) < 1e-5 * amplitude)  # the beat is not noise
+    assert np.isnan(map_noise_sd(noisy[:, :9])).all()  # too few frames to tell
     assert np.isfinite(map_noise_sd(noisy[:, :10])).all()
 
 
@@ -192,7 +214,7 @@ def test_speed_spread_matches_the_scatter_of_repeated_measurements():
         speeds = wave_speeds(s, ridge)
         return area, ridge, speeds["local"], speeds["summary"]["cycle"]
 
-    def sd(x):                                   # robust, as the spread is measured
+    def sd(x):  # robust, as the spread is measured
         lo, hi = np.percentile(x, [16, 84], axis=0)
         return (hi - lo) / 2
 
@@ -203,12 +225,11 @@ def test_speed_spread_matches_the_scatter_of_repeated_measurements():
     spread = speed_spread(repeats[0][0], s, period)
     assert np.allclose(spread["noise_sd"], noise, rtol=0.25)
     assert 0.7 < np.median(spread["ridge_t_ms"] / ridge_sd) < 1.4
-    resolved = np.isfinite(spread["local_speed_mm_s"])   # not the 1-2 end rows: 4 points
+    resolved = np.isfinite(spread["local_speed_mm_s"])  # not the 1-2 end rows: 4 points
     assert resolved.mean() > 0.9
     assert 0.7 < np.median(spread["local_speed_mm_s"][resolved] / local_sd[resolved]) < 1.4
     assert 0.6 < spread["speeds"]["cycle"] / cycle_sd < 1.6
-    assert set(spread["speeds"]) == {"min", "max", "mean", "median", "cycle", "proximal",
-                                     "distal"}
+    assert set(spread["speeds"]) == {"min", "max", "mean", "median", "cycle", "proximal", "distal"}
     assert speed_spread(repeats[0][0], s, period, draws=20, seed=4)["speeds"] != spread["speeds"]
     assert speed_spread(repeats[0][0], s, period)["speeds"] == spread["speeds"]  # seeded
 
@@ -224,7 +245,8 @@ def test_an_unresolved_wave_speed_is_said():
     arrival = 1e3 * np.minimum(s, 0.5) / 8.0 + 1e3 * np.maximum(s - 0.8, 0) / 8.0
     clean = hump_map(arrival, period, n_t)
     area = clean + 0.005 * (clean.max() - clean.min()) * np.random.default_rng(2).standard_normal(
-        clean.shape)
+        clean.shape
+    )
     arrays, summary = analyse_area_maps({"outer": area}, s, period)
     sd, speed = summary["wave_speed_noise_sd_mm_s"], summary["wave_speed_mm_s"]
     # the max is a row beside the stretch, whose 7-row slope takes in part of it
@@ -236,8 +258,10 @@ def test_an_unresolved_wave_speed_is_said():
     note = [n for n in summary["image_analysis_notes"] if "whose speed the map's noise" in n]
     assert len(note) == 1 and f"the {speed['rows_used']} of {with_speed} rows" in note[0]
     flat = (s > 0.55) & (s < 0.75)
-    assert np.all(~np.isfinite(arrays["local_speed_noise_sd_mm_s"][flat])
-                  | (arrays["local_speed_noise_sd_mm_s"][flat] > 100))
+    assert np.all(
+        ~np.isfinite(arrays["local_speed_noise_sd_mm_s"][flat])
+        | (arrays["local_speed_noise_sd_mm_s"][flat] > 100)
+    )
     assert np.all(arrays["local_speed_noise_sd_mm_s"][s < 0.4] < 2.0)
     assert arrays["ridge_t_noise_sd_ms"].shape == s.shape
 
@@ -258,15 +282,21 @@ def test_auto_smoothing_is_as_much_as_the_noise_needs():
     assert np.median(spread["local_speed_mm_s"] / np.abs(local)) <= 0.10
     at_5 = speed_spread(noisy, s, period, smoothing_ms=5.0)
     assert np.nanmedian(at_5["local_speed_mm_s"] / np.abs(at_5["measured"]["local"])) > 0.10
-    error = {k: np.median(np.abs(v / c - 1)) for k, v in (("auto", local),
-                                                           ("5 ms", at_5["measured"]["local"]))}
+    error = {
+        k: np.median(np.abs(v / c - 1))
+        for k, v in (("auto", local), ("5 ms", at_5["measured"]["local"]))
+    }
     assert error["auto"] < 0.6 * error["5 ms"]
-    arrays, summary = analyse_area_maps({"outer": noisy}, s, period)      # auto by default
+    arrays, summary = analyse_area_maps({"outer": noisy}, s, period)  # auto by default
     assert summary["ridge_smoothing_ms"] == sigma
     assert np.array_equal(arrays["local_speed_mm_s"], local)
-    assert analyse_area_maps({"outer": noisy}, s, period,
-                             ridge_smoothing_ms=7)[1]["ridge_smoothing_ms"] == 7.0
-    assert auto_ridge_smoothing(noisy[:, :9], s, period)[0] == 5.0   # no noise measure
+    assert (
+        analyse_area_maps({"outer": noisy}, s, period, ridge_smoothing_ms=7)[1][
+            "ridge_smoothing_ms"
+        ]
+        == 7.0
+    )
+    assert auto_ridge_smoothing(noisy[:, :9], s, period)[0] == 5.0  # no noise measure
 
 
 def test_noise_correlated_from_frame_to_frame_is_pointed_out():
@@ -348,7 +378,7 @@ def test_expanded_fractions_of_known_shapes():
     share_s, sigma, r2, mask_s = expanded_sigma(area)
     assert np.allclose(sigma, sigma_true, rtol=0.02) and np.all(r2 > 0.99)
     assert np.allclose(share_s, 2 * sigma_true / N_T, rtol=0.02)
-    assert np.allclose(mask_s.mean(axis=1), share_s, atol=1.5 / N_T)   # the mask is that share
+    assert np.allclose(mask_s.mean(axis=1), share_s, atol=1.5 / N_T)  # the mask is that share
 
 
 def _neck_map(s_at, t_ms):
@@ -381,7 +411,7 @@ def test_rows_drifting_along_a_neck_are_put_back_in_place():
 def test_fixed_positions_follow_a_tube_whose_length_changes():
     """Rows at the same fraction of each frame's length: a map that depends on
     s / length alone comes back unchanged, whatever the rows' spacing."""
-    u = np.linspace(0, 1, 31) ** 1.3                      # uneven rows
+    u = np.linspace(0, 1, 31) ** 1.3  # uneven rows
     length = 1.0 + 0.1 * np.sin(2 * np.pi * np.arange(8) / 8)
     s_rows = u[:, None] * length[None, :]
     area = np.cos(u)[:, None] * np.ones((1, 8))
@@ -394,8 +424,8 @@ def test_fixed_positions_leave_out_nan_cells_and_check_shapes():
     s = np.linspace(0, 1, 11)
     s_rows = np.repeat(s[:, None], 4, axis=1)
     area = np.repeat((1 + s)[:, None], 4, axis=1)
-    area[5, 1] = np.nan                                   # interpolated over
-    area[1:, 2] = np.nan                                  # one value left: NaN frame
+    area[5, 1] = np.nan  # interpolated over
+    area[1:, 2] = np.nan  # one value left: NaN frame
     fixed = at_fixed_positions(area, s_rows, s)
     assert np.allclose(fixed[:, [0, 1, 3]], (1 + s)[:, None])
     assert np.isnan(fixed[:, 2]).all()
@@ -412,13 +442,21 @@ def test_gaussian_fit_is_the_least_squares_over_all_widths():
     t = np.arange(N_T)
     rng = np.random.default_rng(4)
     dt = (t - 40.3 + N_T / 2) % N_T - N_T / 2
-    rows = np.array([1 + 0.3 * np.exp(-0.5 * (dt / 3) ** 2) + w * np.exp(-0.5 * (dt / 25) ** 2)
-                     + 0.01 * rng.standard_normal(N_T) for w in (0.1, 0.2, 0.3, 0.4)])
+    rows = np.array(
+        [
+            1
+            + 0.3 * np.exp(-0.5 * (dt / 3) ** 2)
+            + w * np.exp(-0.5 * (dt / 25) ** 2)
+            + 0.01 * rng.standard_normal(N_T)
+            for w in (0.1, 0.2, 0.3, 0.4)
+        ]
+    )
     _, sigma, r2, _ = expanded_sigma(rows, min_r2=0.0)
 
     def sse(y, width):
-        g = np.exp(-0.5 * (((t - periodic_peak(y, find="max") + N_T / 2) % N_T - N_T / 2)
-                           / width) ** 2)
+        g = np.exp(
+            -0.5 * (((t - periodic_peak(y, find="max") + N_T / 2) % N_T - N_T / 2) / width) ** 2
+        )
         (base, amp), *_ = np.linalg.lstsq(np.column_stack([np.ones(N_T), g]), y, rcond=None)
         return ((y - y.mean()) ** 2).sum() if amp < 0 else ((y - base - amp * g) ** 2).sum()
 
@@ -470,10 +508,10 @@ def test_phantom_expanded_fractions(analysed_normal):
 @pytest.mark.slow
 def test_phantom_band_position(analysed_banded):
     _, truth, res = analysed_banded
-    assert res["summary"]["band_position_mm"] == pytest.approx(truth["band_position_mm"],
-                                                               abs=0.08)
+    assert res["summary"]["band_position_mm"] == pytest.approx(truth["band_position_mm"], abs=0.08)
     assert res["summary"]["wave_speed_mm_s"]["cycle"] == pytest.approx(
-        truth["wave_speed_mm_s"]["cycle"], rel=0.10)
+        truth["wave_speed_mm_s"]["cycle"], rel=0.10
+    )
 
 
 @pytest.mark.slow
@@ -486,21 +524,26 @@ def test_fixed_map_positions_on_a_banded_phantom(analysed_banded, phantom_banded
     from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
     ph, truth, by_rows = analysed_banded
-    fixed = analyse_dataset(load_dataset(phantom_banded), PipelineOptions(map_positions="fixed"),
-                            quiet=True)
+    fixed = analyse_dataset(
+        load_dataset(phantom_banded), PipelineOptions(map_positions="fixed"), quiet=True
+    )
     a, b = by_rows["arrays"], fixed["arrays"]
     assert "area_rows_outer_mm2" not in a
     assert np.allclose(b["area_rows_outer_mm2"], a["area_outer_mm2"])
-    assert np.allclose(b["area_outer_mm2"],
-                       at_fixed_positions(a["area_outer_mm2"], a["s_rows_mm"], a["s_mm"]))
+    assert np.allclose(
+        b["area_outer_mm2"], at_fixed_positions(a["area_outer_mm2"], a["s_rows_mm"], a["s_mm"])
+    )
     assert fixed["summary"]["provenance"]["options"]["map_positions"] == "fixed"
     t_ms = np.roll(truth["t_ms"], -by_rows["summary"]["t0_frame"])
     expected = ph.area_mm2("outer", a["s_mm"][:, None], t_ms[None, :])
-    p95 = {k: np.percentile(np.abs(r["area_outer_mm2"] / expected - 1), 95)
-           for k, r in (("rows", a), ("fixed", b))}
+    p95 = {
+        k: np.percentile(np.abs(r["area_outer_mm2"] / expected - 1), 95)
+        for k, r in (("rows", a), ("fixed", b))
+    }
     assert p95["fixed"] < 0.01 and p95["fixed"] < 0.7 * p95["rows"]
     assert fixed["summary"]["wave_speed_mm_s"]["mean"] == pytest.approx(
-        truth["wave_speed_mm_s"]["mean"], rel=0.10)
+        truth["wave_speed_mm_s"]["mean"], rel=0.10
+    )
 
 
 def test_map_positions_are_checked():
@@ -533,7 +576,7 @@ def test_cells_without_a_contour_are_filled_periodically_in_time_and_rows_along_
     t = np.arange(n_t)
     area = 1.0 + np.arange(n_v)[:, None] + 0.1 * np.cos(2 * np.pi * t / n_t)[None, :]
     holes = area.copy()
-    holes[1, [0, n_t - 1]] = np.nan          # across the cycle's end: needs the period
+    holes[1, [0, n_t - 1]] = np.nan  # across the cycle's end: needs the period
     holes[3] = np.nan
     filled, count = fill_gaps(holes)
     assert count == 2 + n_t
@@ -547,7 +590,7 @@ def test_cells_without_a_contour_are_filled_periodically_in_time_and_rows_along_
     assert none == 0 and np.array_equal(same, area)
     s = np.linspace(0, 0.3, 50)
     pulse = pulse_map(17.3 + 1e3 * s / 10.0)
-    pulse[[5, 20, 33], [40, 0, 71]] = np.nan             # sections without a contour
+    pulse[[5, 20, 33], [40, 0, 71]] = np.nan  # sections without a contour
     _, summary = analyse_area_maps({"outer": pulse}, s, PERIOD, ridge_smoothing_ms=5)
     assert summary["area_cells_interpolated"] == {"outer": 3}
     assert summary["wave_speed_mm_s"]["cycle"] == pytest.approx(10.0, rel=0.01)
@@ -573,13 +616,12 @@ def test_a_neck_that_barely_moves_is_bridged_for_the_speeds():
     assert summary["mean"] == pytest.approx(c, rel=0.03)
     assert summary["max"] < 1.2 * c and summary["min"] > 0.8 * c
     assert np.array_equal(spread["still_rows"], neck)
-    assert np.isfinite(spread["ridge"][neck]).all()                 # the map's own ridge kept
+    assert np.isfinite(spread["ridge"][neck]).all()  # the map's own ridge kept
     # the bridge: the line between the nearest moving rows; an end has none beyond it
     t = np.array([0.0, 1.0, 9.0, 3.0, 4.0, 5.0])
     x = np.arange(6.0)
     assert np.allclose(bridged_ridge(t, x, x == 2), [0, 1, 2, 3, 4, 5])
-    assert np.allclose(bridged_ridge(t, x, x >= 4), [0, 1, 9, 3, np.nan, np.nan],
-                       equal_nan=True)
+    assert np.allclose(bridged_ridge(t, x, x >= 4), [0, 1, 9, 3, np.nan, np.nan], equal_nan=True)
 
 
 @pytest.mark.parametrize("speed, limited", [(80.0, True), (30.0, True), (15.0, False)])
@@ -593,8 +635,9 @@ def test_a_wave_faster_than_the_frames_is_said_to_be(speed, limited):
     area = hump_map(1e3 * s / speed, period, n_t)
     arrays, summary = analyse_area_maps({"outer": area}, s, period)
     crossing = summary["wave_crossing_frames"]
-    assert crossing == pytest.approx(1.3 / summary["wave_speed_mm_s"]["cycle"] * 1e3
-                                     / (period / n_t))
+    assert crossing == pytest.approx(
+        1.3 / summary["wave_speed_mm_s"]["cycle"] * 1e3 / (period / n_t)
+    )
     notes = [n for n in summary["image_analysis_notes"] if "limit of the frame rate" in n]
     assert (len(notes) == 1) == limited
     assert (crossing < FRAME_LIMITED_CROSSING) == limited
@@ -608,7 +651,7 @@ def test_a_map_whose_areas_barely_change_has_no_wave_to_time():
     s = np.linspace(0, 1.2, 40)
     arrival = 1e3 * s / 12.0
     travelling = hump_map(arrival, 360.0, 60)
-    flat = 1 + 0.01 * (travelling - travelling.min()) / np.ptp(travelling)    # 0.99 %
+    flat = 1 + 0.01 * (travelling - travelling.min()) / np.ptp(travelling)  # 0.99 %
     for area, moves in ((travelling, True), (flat, False)):
         arrays, summary = analyse_area_maps({"outer": area}, s, 360.0)
         assert summary["area_wave"] is moves

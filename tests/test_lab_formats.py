@@ -3,6 +3,7 @@
 channels (OME-TIFF, ImageJ hyperstack, OME-Zarr), voxel size and time step from the
 files checked against meta.json, and oftimg's own fields written back as OME-Zarr
 that the reference reader and validator take."""
+
 import json
 import shutil
 import warnings
@@ -21,16 +22,19 @@ pytestmark = pytest.mark.usefixtures("png_figures_only")
 VOXEL_UM = (8.0, 8.0, 16.0)
 N_FRAMES = 6
 PERIOD_MS = 330.0
-AXES_UM = [{"name": "t", "type": "time", "unit": "millisecond"},
-           *({"name": a, "type": "space", "unit": "micrometer"} for a in "zyx")]
+AXES_UM = [
+    {"name": "t", "type": "time", "unit": "millisecond"},
+    *({"name": a, "type": "space", "unit": "micrometer"} for a in "zyx"),
+]
 
 
 @pytest.fixture(scope="module")
 def textured(tmp_path_factory):
     """A small label phantom with its intensity volumes, as per-frame TIFFs."""
     path = tmp_path_factory.mktemp("formats") / "tex"
-    write_label_phantom(path, sample_params("normal", 0, n_frames=N_FRAMES), VOXEL_UM,
-                        intensity=True)
+    write_label_phantom(
+        path, sample_params("normal", 0, n_frames=N_FRAMES), VOXEL_UM, intensity=True
+    )
     meta = json.loads((path / "meta.json").read_text())
     meta["period_ms"] = PERIOD_MS
     (path / "meta.json").write_text(json.dumps(meta))
@@ -39,13 +43,13 @@ def textured(tmp_path_factory):
 
 def frames_of(folder):
     import tifffile
+
     return np.stack([tifffile.imread(p) for p in sorted(folder.glob("*.tif"))])
 
 
 def new_dataset(src, dst, *, meta_changes=None, drop=("voxel_size",)):
     """An empty label dataset at ``dst`` with ``src``'s meta.json less ``drop``."""
-    meta = {k: v for k, v in json.loads((src / "meta.json").read_text()).items()
-            if k not in drop}
+    meta = {k: v for k, v in json.loads((src / "meta.json").read_text()).items() if k not in drop}
     meta.update(meta_changes or {})
     (dst / "labels").mkdir(parents=True)
     (dst / "meta.json").write_text(json.dumps(meta))
@@ -60,12 +64,17 @@ def ome_zarr_write(path, data, axes, scale, version):
 
     fmt = {"0.4": FormatV04(), "0.5": FormatV05()}[version]
     root = zarr.open_group(str(path), mode="w", zarr_format=2 if version == "0.4" else 3)
-    with warnings.catch_warnings():                 # "too small to downsample": none asked
+    with warnings.catch_warnings():  # "too small to downsample": none asked
         warnings.simplefilter("ignore")
-        write_image(data, root, axes="".join(a["name"] for a in axes), fmt=fmt,
-                    scale=dict(zip((a["name"] for a in axes), scale)),
-                    axes_units={a["name"]: a["unit"] for a in axes if "unit" in a},
-                    scale_factors=())
+        write_image(
+            data,
+            root,
+            axes="".join(a["name"] for a in axes),
+            fmt=fmt,
+            scale=dict(zip((a["name"] for a in axes), scale)),
+            axes_units={a["name"]: a["unit"] for a in axes if "unit" in a},
+            scale_factors=(),
+        )
 
 
 @pytest.mark.parametrize("version", ["0.4", "0.5"])
@@ -75,8 +84,13 @@ def test_an_ome_zarr_series_reads_as_the_tiffs(textured, tmp_path, version):
     and period from the file, meta.json giving neither."""
     labels = frames_of(textured / "labels")
     data = new_dataset(textured, tmp_path / "oz", drop=("voxel_size", "period_ms"))
-    ome_zarr_write(data / "labels" / "labels.ome.zarr", labels, AXES_UM,
-                   [PERIOD_MS / N_FRAMES, VOXEL_UM[2], VOXEL_UM[1], VOXEL_UM[0]], version)
+    ome_zarr_write(
+        data / "labels" / "labels.ome.zarr",
+        labels,
+        AXES_UM,
+        [PERIOD_MS / N_FRAMES, VOXEL_UM[2], VOXEL_UM[1], VOXEL_UM[0]],
+        version,
+    )
     read = load_label_dataset(data)
     assert read.n_frames == N_FRAMES and read.voxel_size == pytest.approx(VOXEL_UM)
     assert read.meta.period_ms == pytest.approx(PERIOD_MS)
@@ -92,17 +106,33 @@ def test_a_per_frame_ome_zarr_and_axes_in_another_order(textured, tmp_path):
     per_frame = new_dataset(textured, tmp_path / "pf")
     mm = [{"name": a, "type": "space", "unit": "millimeter"} for a in "zyx"]
     for t, volume in enumerate(labels):
-        ome_zarr_write(per_frame / "labels" / f"f{t:02d}.ome.zarr", volume, mm,
-                       [d / 1000 for d in VOXEL_UM[::-1]], "0.4")
+        ome_zarr_write(
+            per_frame / "labels" / f"f{t:02d}.ome.zarr",
+            volume,
+            mm,
+            [d / 1000 for d in VOXEL_UM[::-1]],
+            "0.4",
+        )
     z_first = new_dataset(textured, tmp_path / "zt")
     axes = [AXES_UM[1], AXES_UM[0], *AXES_UM[2:]]
     import zarr
-    root = zarr.open_group(str(z_first / "labels" / "labels.ome.zarr"), mode="w",
-                           zarr_format=2)
-    root.create_array("0", data=labels.transpose(1, 0, 2, 3))      # a writer's own order
-    root.attrs["multiscales"] = [{"version": "0.4", "axes": axes, "datasets": [
-        {"path": "0", "coordinateTransformations": [
-            {"type": "scale", "scale": [VOXEL_UM[2], 55.0, VOXEL_UM[1], VOXEL_UM[0]]}]}]}]
+
+    root = zarr.open_group(str(z_first / "labels" / "labels.ome.zarr"), mode="w", zarr_format=2)
+    root.create_array("0", data=labels.transpose(1, 0, 2, 3))  # a writer's own order
+    root.attrs["multiscales"] = [
+        {
+            "version": "0.4",
+            "axes": axes,
+            "datasets": [
+                {
+                    "path": "0",
+                    "coordinateTransformations": [
+                        {"type": "scale", "scale": [VOXEL_UM[2], 55.0, VOXEL_UM[1], VOXEL_UM[0]]}
+                    ],
+                }
+            ],
+        }
+    ]
     for folder in (per_frame, z_first):
         read = load_label_dataset(folder)
         assert read.n_frames == N_FRAMES and read.voxel_size == pytest.approx(VOXEL_UM)
@@ -121,22 +151,35 @@ def stack_dataset(textured, dst, kind, channels=(("intensity", 0), ("labels", 1)
     data = new_dataset(textured, dst, meta_changes={"channels": order})
     folder = data / "labels"
     physical = {f"PhysicalSize{a}": d for a, d in zip("XYZ", VOXEL_UM)}
-    if kind == "ome_tiff":                          # Bio-Formats' XYZCT: z, then c, then t
-        tifffile.imwrite(folder / "labels.ome.tif", both.transpose(0, 2, 1, 3, 4), ome=True,
-                         metadata={"axes": "TZCYX", **physical, "TimeIncrement": 0.055})
-    elif kind == "imagej":                          # Fiji's hyperstack, TZCYX
-        tifffile.imwrite(folder / "labels.tif", both.transpose(0, 2, 1, 3, 4), imagej=True,
-                         resolution=(1 / VOXEL_UM[0], 1 / VOXEL_UM[1]),
-                         metadata={"axes": "TZCYX", "spacing": VOXEL_UM[2], "unit": "um",
-                                   "finterval": 0.055})
+    if kind == "ome_tiff":  # Bio-Formats' XYZCT: z, then c, then t
+        tifffile.imwrite(
+            folder / "labels.ome.tif",
+            both.transpose(0, 2, 1, 3, 4),
+            ome=True,
+            metadata={"axes": "TZCYX", **physical, "TimeIncrement": 0.055},
+        )
+    elif kind == "imagej":  # Fiji's hyperstack, TZCYX
+        tifffile.imwrite(
+            folder / "labels.tif",
+            both.transpose(0, 2, 1, 3, 4),
+            imagej=True,
+            resolution=(1 / VOXEL_UM[0], 1 / VOXEL_UM[1]),
+            metadata={"axes": "TZCYX", "spacing": VOXEL_UM[2], "unit": "um", "finterval": 0.055},
+        )
     elif kind == "ome_zarr":
         axes = [AXES_UM[0], {"name": "c", "type": "channel"}, *AXES_UM[1:]]
-        ome_zarr_write(folder / "labels.ome.zarr", both, axes,
-                       [55.0, 1.0, VOXEL_UM[2], VOXEL_UM[1], VOXEL_UM[0]], "0.4")
+        ome_zarr_write(
+            folder / "labels.ome.zarr",
+            both,
+            axes,
+            [55.0, 1.0, VOXEL_UM[2], VOXEL_UM[1], VOXEL_UM[0]],
+            "0.4",
+        )
     elif kind == "per_frame_ome_tiff":
         for t in range(N_FRAMES):
-            tifffile.imwrite(folder / f"f{t}.ome.tif", both[t], ome=True,
-                             metadata={"axes": "CZYX", **physical})
+            tifffile.imwrite(
+                folder / f"f{t}.ome.tif", both[t], ome=True, metadata={"axes": "CZYX", **physical}
+            )
     return data
 
 
@@ -159,11 +202,19 @@ def test_a_stack_gives_the_tiff_folders_numbers(textured, tmp_path):
     numbers, areas, thickness and the intensity pulled back, the same."""
     stack = stack_dataset(textured, tmp_path / "tex", "ome_zarr")
     for source, out in ((textured, tmp_path / "tiff"), (stack, tmp_path / "zarr")):
-        assert main(["run", str(source), "--out", str(out), "--quiet", "--jobs", "1",
-                     "--numbers-only"]) == 0
+        assert (
+            main(
+                ["run", str(source), "--out", str(out), "--quiet", "--jobs", "1", "--numbers-only"]
+            )
+            == 0
+        )
     a, b = (np.load(tmp_path / out / "tex" / "arrays.npz") for out in ("tiff", "zarr"))
-    for key in ("area_outer_mm2", "area_lumen_mm2", "wall_thickness_mm",
-                "radial_curvature_outer_per_mm"):
+    for key in (
+        "area_outer_mm2",
+        "area_lumen_mm2",
+        "wall_thickness_mm",
+        "radial_curvature_outer_per_mm",
+    ):
         np.testing.assert_allclose(b[key], a[key], rtol=1e-4, atol=1e-9, err_msg=key)
     pa, pb = (np.load(tmp_path / out / "tex" / "pullbacks.npz") for out in ("tiff", "zarr"))
     assert pa.files == pb.files and pa.files
@@ -171,10 +222,13 @@ def test_a_stack_gives_the_tiff_folders_numbers(textured, tmp_path):
         np.testing.assert_allclose(pb[key], pa[key], rtol=1e-4, err_msg=key)
 
 
-@pytest.mark.parametrize("problem", ["voxel_size", "period", "channel_missing", "no_channels",
-                                     "intensity_twice", "not_ome"])
-def test_a_file_disagreeing_with_meta_json_is_one_line_naming_both(textured, tmp_path, capsys,
-                                                                    problem):
+@pytest.mark.parametrize(
+    "problem",
+    ["voxel_size", "period", "channel_missing", "no_channels", "intensity_twice", "not_ome"],
+)
+def test_a_file_disagreeing_with_meta_json_is_one_line_naming_both(
+    textured, tmp_path, capsys, problem
+):
     """A stack whose voxel size or time step is not meta.json's, a channel it lacks, a
     stack without "channels", intensity given twice, a zarr group that is no OME
     image: exit 2 and one line naming the file (and both values)."""
@@ -185,16 +239,28 @@ def test_a_file_disagreeing_with_meta_json_is_one_line_naming_both(textured, tmp
     meta = json.loads(meta_path.read_text())
     store = data / "labels" / "labels.ome.zarr"
     expect = {
-        "voxel_size": (store, "its voxel size [8, 8, 16] um disagrees with meta.json's "
-                              "voxel_size [8, 8, 12]; correct one of them"),
-        "period": (store, "its time step 55 ms x 6 frames = 330 ms disagrees with meta.json's "
-                          "period_ms 400 ms; correct one of them"),
+        "voxel_size": (
+            store,
+            "its voxel size [8, 8, 16] um disagrees with meta.json's "
+            "voxel_size [8, 8, 12]; correct one of them",
+        ),
+        "period": (
+            store,
+            "its time step 55 ms x 6 frames = 330 ms disagrees with meta.json's "
+            "period_ms 400 ms; correct one of them",
+        ),
         "channel_missing": (store, "has channels 0-1 (axes tczyx); channel 2 is not there"),
-        "no_channels": (store, "has 2 channels (axes tczyx); meta.json's \"channels\" says "
-                               "which holds what"),
-        "intensity_twice": (meta_path, "takes the intensity from the labels' stack, and the "
-                                       "dataset has intensity/ too; keep one"),
-        "not_ome": (store, "a zarr group without OME-Zarr \"multiscales\" metadata")}[problem]
+        "no_channels": (
+            store,
+            'has 2 channels (axes tczyx); meta.json\'s "channels" says which holds what',
+        ),
+        "intensity_twice": (
+            meta_path,
+            "takes the intensity from the labels' stack, and the "
+            "dataset has intensity/ too; keep one",
+        ),
+        "not_ome": (store, 'a zarr group without OME-Zarr "multiscales" metadata'),
+    }[problem]
     if problem == "voxel_size":
         meta |= {"voxel_size": [8, 8, 12], "length_unit": "um"}
     elif problem == "period":
@@ -215,50 +281,65 @@ def test_a_file_disagreeing_with_meta_json_is_one_line_naming_both(textured, tmp
     assert expect[1] in err[0], err[0]
 
 
-def test_ome_zarr_probabilities_by_class_and_intensity_beside_them(textured, tmp_path,
-                                                                   capsys):
+def test_ome_zarr_probabilities_by_class_and_intensity_beside_them(textured, tmp_path, capsys):
     """probabilities/probabilities.ome.zarr with a channel per class (named in
     "classes", as an ilastik export's are) and intensity/intensity.ome.zarr with its
     frame interval: each layer's map and each frame's intensity as written, the period
     from the files, and validate naming both inputs' formats."""
     labels, intensity = frames_of(textured / "labels"), frames_of(textured / "intensity")
     one_hot = np.stack([labels == k for k in range(4)], axis=1).astype(np.float32)
-    data = new_dataset(textured, tmp_path / "pm", drop=("voxel_size", "period_ms"),
-                       meta_changes={"classes": {"myocardium": 1, "jelly": 2, "lumen": 3}})
+    data = new_dataset(
+        textured,
+        tmp_path / "pm",
+        drop=("voxel_size", "period_ms"),
+        meta_changes={"classes": {"myocardium": 1, "jelly": 2, "lumen": 3}},
+    )
     (data / "labels").rmdir()
     (data / "probabilities").mkdir()
     (data / "intensity").mkdir()
     scale = [55.0, VOXEL_UM[2], VOXEL_UM[1], VOXEL_UM[0]]
-    ome_zarr_write(data / "probabilities" / "probabilities.ome.zarr", one_hot,
-                   [AXES_UM[0], {"name": "c", "type": "channel"}, *AXES_UM[1:]],
-                   [scale[0], 1.0, *scale[1:]], "0.5")
+    ome_zarr_write(
+        data / "probabilities" / "probabilities.ome.zarr",
+        one_hot,
+        [AXES_UM[0], {"name": "c", "type": "channel"}, *AXES_UM[1:]],
+        [scale[0], 1.0, *scale[1:]],
+        "0.5",
+    )
     ome_zarr_write(data / "intensity" / "intensity.ome.zarr", intensity, AXES_UM, scale, "0.4")
     read = load_label_dataset(data)
     assert read.kind == "probabilities" and read.meta.period_ms == pytest.approx(PERIOD_MS)
     assert read.voxel_size == pytest.approx(VOXEL_UM)
     from oftimg.io.label_dataset import read_frame
+
     maps = read_frame(read.sources[2])
     for layer, k in (("myocardium", 1), ("jelly", 2), ("lumen", 3)):
         assert np.array_equal(maps[layer], one_hot[2, k]), layer
     assert np.array_equal(read.intensity.volume(4), intensity[4].astype(np.float32))
     assert main(["validate", str(data)]) == 0
     out = capsys.readouterr().out
-    assert ("OME-Zarr 0.5, one file holding every frame; axes tczyx (its OME-Zarr 0.5 "
-            "multiscales); voxel size from the files' headers") in out
-    assert ("intensity: OME-Zarr 0.4, one file holding every frame; axes tzyx (its OME-Zarr 0.4 "
-            "multiscales)") in out
+    assert (
+        "OME-Zarr 0.5, one file holding every frame; axes tczyx (its OME-Zarr 0.5 "
+        "multiscales); voxel size from the files' headers"
+    ) in out
+    assert (
+        "intensity: OME-Zarr 0.4, one file holding every frame; axes tzyx (its OME-Zarr 0.4 "
+        "multiscales)"
+    ) in out
 
 
-def test_validate_says_where_the_voxel_size_period_and_channels_came_from(textured, tmp_path,
-                                                                         capsys):
+def test_validate_says_where_the_voxel_size_period_and_channels_came_from(
+    textured, tmp_path, capsys
+):
     data = stack_dataset(textured, tmp_path / "st", "ome_tiff")
     meta = json.loads((data / "meta.json").read_text())
     del meta["period_ms"]
     (data / "meta.json").write_text(json.dumps(meta))
     assert main(["validate", str(data)]) == 0
     out = capsys.readouterr().out
-    assert ("OME-TIFF, one file holding every frame; axes tzcyx (its OME-XML); voxel size from "
-            "the files' headers") in out
+    assert (
+        "OME-TIFF, one file holding every frame; axes tzcyx (its OME-XML); voxel size from "
+        "the files' headers"
+    ) in out
     assert "channels: intensity 0, labels 1 (meta.json)" in out
     assert "period: 330 ms (labels.ome.tif's time step 55 ms x 6 frames)" in out
 
@@ -279,20 +360,20 @@ def test_the_fields_written_as_ome_zarr_are_valid_and_read_back(run_out, tmp_pat
     page = out / results.name
     described = json.loads((results / "arrays.json").read_text())
     npz = np.load(results / "arrays.npz")
-    names = sorted(p.name[:-len(".ome.zarr")] for p in page.iterdir())
+    names = sorted(p.name[: -len(".ome.zarr")] for p in page.iterdir())
     assert "wall_thickness_mm" in names and "principal_stretch_outer" in names
     assert all(described[n]["dims"][:2] == ["u", "v"] for n in names)
     frame_ms = float(np.median(np.diff(npz["t_ms"])))
-    for name in ("wall_thickness_mm", "principal_stretch_outer",
-                 "phase_max_wall_thickness_mm_ms"):
+    for name in ("wall_thickness_mm", "principal_stretch_outer", "phase_max_wall_thickness_mm_ms"):
         group = zarr.open_group(str(page / f"{name}.ome.zarr"), mode="r")
-        image = Image.from_zarr(group)                     # raises unless valid NGFF 0.4
+        image = Image.from_zarr(group)  # raises unless valid NGFF 0.4
         axes = [a.name for a in image.ome_attributes.multiscales[0].axes]
         node = next(iter(Reader(parse_url(str(page / f"{name}.ome.zarr")))()))
         values = np.asarray(node.data[0])
         dims = described[name]["dims"]
-        expect = np.flip(np.transpose(npz[name], {2: (1, 0), 3: (2, 1, 0),
-                                                  4: (2, 3, 1, 0)}[len(dims)]), axis=-2)
+        expect = np.flip(
+            np.transpose(npz[name], {2: (1, 0), 3: (2, 1, 0), 4: (2, 3, 1, 0)}[len(dims)]), axis=-2
+        )
         np.testing.assert_array_equal(values, expect.astype(np.float32), err_msg=name)
         assert axes == {2: ["v", "u"], 3: ["t", "v", "u"], 4: ["t", "c", "v", "u"]}[len(dims)]
         if "t" in axes:
@@ -314,11 +395,13 @@ def test_without_zarr_an_ome_zarr_says_which_extra(tmp_path, capsys, monkeypatch
     data = tmp_path / "emb"
     (data / "labels" / "labels.ome.zarr").mkdir(parents=True)
     (data / "meta.json").write_text(json.dumps({"period_ms": 300}))
-    monkeypatch.setitem(sys.modules, "zarr", None)             # import zarr: ImportError
+    monkeypatch.setitem(sys.modules, "zarr", None)  # import zarr: ImportError
     assert main(["validate", str(data)]) == 2
     assert capsys.readouterr().err.strip().splitlines() == [
         f"oftimg: error: {data / 'labels' / 'labels.ome.zarr'}: reading a zarr store needs "
-        "zarr: pip install 'oftimg[ome]'"]
+        "zarr: pip install 'oftimg[ome]'"
+    ]
     assert main(["ome-zarr", str(data), "--out", str(tmp_path / "out")]) == 2
     assert capsys.readouterr().err.strip().splitlines() == [
-        "oftimg: error: writing OME-Zarr needs zarr: pip install 'oftimg[ome]'"]
+        "oftimg: error: writing OME-Zarr needs zarr: pip install 'oftimg[ome]'"
+    ]

@@ -1,6 +1,7 @@
 """The package's layers (oftimg.LAYERS): each module imports only from its own layer or
 lower ones, lazy imports inside functions included, and no modules import each other
 round a circle of any length."""
+
 import ast
 from pathlib import Path
 
@@ -26,13 +27,13 @@ def _imports(path: Path, name: str | None = None) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")
-                base = ".".join(base[:len(base) - node.level + 1])
+                base = ".".join(base[: len(base) - node.level + 1])
                 target = f"{base}.{node.module}" if node.module else base
             elif (node.module or "").startswith("oftimg"):
                 target = node.module
             else:
                 continue
-            for alias in node.names:                 # from . import module
+            for alias in node.names:  # from . import module
                 sub = f"{target}.{alias.name}"
                 found.add(sub if _exists(sub) else target)
     return found
@@ -46,7 +47,7 @@ def _exists(module: str) -> bool:
 def _layer(module: str) -> int:
     parts = module.split(".")
     if len(parts) == 1:
-        return -1                                    # the package's own __init__
+        return -1  # the package's own __init__
     for k, names in enumerate(oftimg.LAYERS):
         if parts[1] in names:
             return k
@@ -74,8 +75,9 @@ def import_cycle(graph: dict[str, set[str]]) -> list[str] | None:
     from graphlib import CycleError, TopologicalSorter
 
     try:
-        TopologicalSorter({a: {b for b in targets if b in graph and b != a}
-                           for a, targets in graph.items()}).prepare()
+        TopologicalSorter(
+            {a: {b for b in targets if b in graph and b != a} for a, targets in graph.items()}
+        ).prepare()
     except CycleError as exc:
         return exc.args[1]
     return None
@@ -98,8 +100,10 @@ def test_a_module_importing_upwards_is_found(tmp_path):
     """The check itself: a mesh module that imports the pipeline in a function, and
     one that imports a figure module by its full name, are seen to import upwards."""
     fake = tmp_path / "fake.py"
-    fake.write_text("def f():\n    from ..analysis.pipeline import analyse_dataset\n"
-                    "import oftimg.output.figures\nfrom . import grid\n")
+    fake.write_text(
+        "def f():\n    from ..analysis.pipeline import analyse_dataset\n"
+        "import oftimg.output.figures\nfrom . import grid\n"
+    )
     imported = _imports(fake, "oftimg.mesh.fake")
     assert imported == {"oftimg.analysis.pipeline", "oftimg.output.figures", "oftimg.mesh.grid"}
     assert [m for m in imported if _layer(m) > _layer("oftimg.mesh.fake")] != []

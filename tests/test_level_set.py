@@ -1,6 +1,7 @@
 """The lumen's mean curvature from a label volume's level sets (issue 60): analytic
 shapes, the label phantom's truth against the mesh's own curvature, and the value
 stored with each vertex read back by the run."""
+
 import numpy as np
 import pytest
 
@@ -24,9 +25,10 @@ def cylinder(radius_um, voxel_xyz, shape=(24, 80, 80), axis="z"):
     return np.hypot(y - cy, z - cz) < radius_um
 
 
-@pytest.mark.parametrize("radius, voxel, axis", [(20.0, (2.0, 2.0, 2.0), "z"),
-                                                 (40.0, (2.0, 2.0, 2.0), "z"),
-                                                 (30.0, (2.0, 2.0, 4.0), "x")])
+@pytest.mark.parametrize(
+    "radius, voxel, axis",
+    [(20.0, (2.0, 2.0, 2.0), "z"), (40.0, (2.0, 2.0, 2.0), "z"), (30.0, (2.0, 2.0, 4.0), "x")],
+)
 def test_a_cylinder_reads_one_over_twice_its_radius(radius, voxel, axis):
     """Right in the median with the default blur (2 voxels), and vertex by vertex
     within a third with 3 voxels: at 2 the voxels' staircase still shows in the second
@@ -51,8 +53,9 @@ def test_a_ball_reads_one_over_its_radius_wherever_the_volume_starts():
     points = 40 + 20 * np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, -1.0], [0.6, 0.8, 0]])
     H = level_set_mean_curvature(ball, (1.0, 1.0, 1.0), points, 6.0)
     assert np.allclose(H, 1 / 20, rtol=0.03), H * 20
-    moved = level_set_mean_curvature(ball, (1.0, 1.0, 1.0), points + 100, 6.0,
-                                     origin_xyz=(100, 100, 100))
+    moved = level_set_mean_curvature(
+        ball, (1.0, 1.0, 1.0), points + 100, 6.0, origin_xyz=(100, 100, 100)
+    )
     assert np.allclose(moved, H)
     facets = level_set_mean_curvature(ball, (1.0, 1.0, 1.0), points, 3.0) * 20
     assert np.all(facets[:3] < 0.75) and abs(facets[3] - 1) < 0.03
@@ -69,8 +72,9 @@ def test_on_the_label_phantom_the_level_sets_beat_the_mesh():
     grid = LabelGrid(phantom, (4.0, 4.0, 8.0))
     t = phantom.frame_times_ms()[80]
     labels = segmentation_noise(grid.labels(t), 0.05, np.random.default_rng(1))
-    wall = mesh_wall(wall_masks(labels, DEFAULT_LABEL_IDS)["lumen"], (4.0, 4.0, 8.0),
-                     curvature=True)
+    wall = mesh_wall(
+        wall_masks(labels, DEFAULT_LABEL_IDS)["lumen"], (4.0, 4.0, 8.0), curvature=True
+    )
     s, theta = phantom.window_coordinates((wall.V * 1e-3 - grid.shift) @ grid.turn.T)
     inside = (s > 0.05 * phantom.p.length_mm) & (s < 0.95 * phantom.p.length_mm)
     true = phantom.mean_curvature("lumen", s, theta, t)[inside]
@@ -89,7 +93,7 @@ def test_the_stored_curvature_is_read_back_at_the_tubes_vertices(tmp_path):
     vertices, though the reading merged a duplicate vertex (the order changes)."""
     z, y, x = np.indices((20, 30, 30))
     wall = mesh_wall(np.hypot(y - 15, x - 15) < 8, (10.0, 10.0, 10.0), curvature=True)
-    V = np.concatenate([wall.V[:1], wall.V])        # vertex 0 twice, the first unused
+    V = np.concatenate([wall.V[:1], wall.V])  # vertex 0 twice, the first unused
     F = wall.F + 1
     H = np.concatenate([wall.mean_curvature[:1], wall.mean_curvature])
     path = tmp_path / "f0.ply"
@@ -100,7 +104,7 @@ def test_the_stored_curvature_is_read_back_at_the_tubes_vertices(tmp_path):
     assert len(tube.V) == len(wall.V)
     stored = frame.stored_mean_curvature("lumen", tube)
     assert np.allclose(stored, wall.mean_curvature * 1e3, rtol=1e-5)
-    write_ply(path, wall.V, wall.F)                          # a plain mesh: none stored
+    write_ply(path, wall.V, wall.F)  # a plain mesh: none stored
     assert frame.stored_mean_curvature("lumen", load_tube(path, unit_scale=1e-3)) is None
 
 
@@ -108,8 +112,12 @@ def test_the_curvature_blur_is_checked():
     with pytest.raises(Exception, match="lumen curvature's blur must lie in 0..20 voxels"):
         MeshOptions(lumen_curvature_blur=-1.0)
     z, y, x = np.indices((20, 30, 30))
-    plain = mesh_wall(np.hypot(y - 15, x - 15) < 8, (10.0, 10.0, 10.0),
-                      MeshOptions(lumen_curvature_blur=0.0), curvature=True)
+    plain = mesh_wall(
+        np.hypot(y - 15, x - 15) < 8,
+        (10.0, 10.0, 10.0),
+        MeshOptions(lumen_curvature_blur=0.0),
+        curvature=True,
+    )
     assert plain.mean_curvature is None
 
 
@@ -125,26 +133,32 @@ def test_the_derivatives_are_scipys_gaussian_derivatives_with_the_border_continu
     rng = np.random.default_rng(3)
     field = ndimage.gaussian_filter(rng.random((16, 20, 24)), 1.5).astype(np.float32)
     size_xyz = (2.0, 3.0, 4.0)
-    sigma = 8.0                                  # 2-4 voxels: the kernels' tails negligible
-    sig = np.sqrt((sigma / np.array(size_xyz[::-1])) ** 2 + 1 / 6)     # voxels, (z, y, x)
+    sigma = 8.0  # 2-4 voxels: the kernels' tails negligible
+    sig = np.sqrt((sigma / np.array(size_xyz[::-1])) ** 2 + 1 / 6)  # voxels, (z, y, x)
     kji = np.array([[0, 0, 0], [15, 19, 23], [5, 0, 7], [2, 9, 23], [8, 10, 12]])
     points = kji[:, ::-1] * np.array(size_xyz)
     gradient, hessian = level_set_derivatives(field, size_xyz, points, sigma)
     length = np.array(size_xyz[::-1])
-    for axis in range(3):                    # z, y, x; the gradient is (x, y, z)
+    for axis in range(3):  # z, y, x; the gradient is (x, y, z)
         order = [0, 0, 0]
         order[axis] = 1
-        d = ndimage.gaussian_filter(field.astype(float), sig, order=order, mode="nearest",
-                                    truncate=4.0) / length[axis]
+        d = (
+            ndimage.gaussian_filter(
+                field.astype(float), sig, order=order, mode="nearest", truncate=4.0
+            )
+            / length[axis]
+        )
         assert np.allclose(gradient[:, 2 - axis], d[tuple(kji.T)], rtol=1e-3, atol=1e-5)
         for other in range(3):
             order = [0, 0, 0]
             order[axis] += 1
             order[other] += 1
-            d = ndimage.gaussian_filter(field.astype(float), sig, order=order, mode="nearest",
-                                        truncate=4.0) / (length[axis] * length[other])
-            assert np.allclose(hessian[:, 2 - axis, 2 - other], d[tuple(kji.T)],
-                               rtol=1e-3, atol=1e-5)
+            d = ndimage.gaussian_filter(
+                field.astype(float), sig, order=order, mode="nearest", truncate=4.0
+            ) / (length[axis] * length[other])
+            assert np.allclose(
+                hessian[:, 2 - axis, 2 - other], d[tuple(kji.T)], rtol=1e-3, atol=1e-5
+            )
     beyond = np.array([[-100.0, 20.0, 30.0], [-1000.0, 20.0, 30.0]])
     far = level_set_derivatives(field, size_xyz, beyond, sigma)
     assert np.array_equal(far[0][0], far[0][1]) and np.array_equal(far[1][0], far[1][1])

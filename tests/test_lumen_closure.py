@@ -1,6 +1,7 @@
 """A lumen the cushions close over a stretch of the tube for part of the beat, as label
 volumes (issue 85): run to the end, its closed rows and frames marked, and its closure
 and ellipticity measured against the phantom's model."""
+
 from __future__ import annotations
 
 import json
@@ -25,9 +26,16 @@ def closing(request, tmp_path_factory):
     import oftimg
 
     root = tmp_path_factory.mktemp("closing")
-    params = sample_params("normal", 3, n_frames=24, cushion_aspect_expanded=0.6,
-                           cushion_aspect_contracted=-0.4, cushion_deg=30.0,
-                           cushion_from_mm=0.45, cushion_to_mm=0.75)
+    params = sample_params(
+        "normal",
+        3,
+        n_frames=24,
+        cushion_aspect_expanded=0.6,
+        cushion_aspect_contracted=-0.4,
+        cushion_deg=30.0,
+        cushion_from_mm=0.45,
+        cushion_to_mm=0.75,
+    )
     if request.param == "labels":
         data = write_label_phantom(root / "closing", params, (4, 4, 8))
     else:
@@ -39,8 +47,11 @@ def closing(request, tmp_path_factory):
 def in_phantom_frame(data, points_mm):
     """The points in the phantom's frame: a label volume's moved, a mesh phantom's as
     they are."""
-    return (in_volume_phantom_frame(data, points_mm) if (data / "labels").is_dir()
-            else np.asarray(points_mm, float))
+    return (
+        in_volume_phantom_frame(data, points_mm)
+        if (data / "labels").is_dir()
+        else np.asarray(points_mm, float)
+    )
 
 
 def test_a_lumen_closed_over_a_stretch_runs_to_the_end_with_its_rows_marked(closing):
@@ -61,8 +72,11 @@ def test_a_lumen_closed_over_a_stretch_runs_to_the_end_with_its_rows_marked(clos
     assert np.isnan(a["mean_curvature_lumen_per_mm"][:, closed]).all()
     assert np.isnan(a["lumen_aspect_ratio"][closed]).all()
     assert summary["cushions"]["closed_rows"] >= 10
-    joined = (summary["provenance"]["meshing"].get("lumen_closures", [])
-              if (data / "labels").is_dir() else summary["provenance"]["lumen_bridged"]["closures"])
+    joined = (
+        summary["provenance"]["meshing"].get("lumen_closures", [])
+        if (data / "labels").is_dir()
+        else summary["provenance"]["lumen_bridged"]["closures"]
+    )
     assert any(c for c in joined)
     # every figure drawn
     assert (out / "figures").is_dir() and len(list((out / "figures").glob("*.png"))) > 5
@@ -87,7 +101,7 @@ def test_the_closure_times_and_the_sections_ellipse_are_measured(closing):
         k = np.flatnonzero((~row if to_shut else row) & np.roll(row if to_shut else ~row, -1))
         return fine[(k[0] + 1) % len(fine)]
 
-    late = lambda d: np.abs((d + period / 2) % period - period / 2) / period      # noqa: E731
+    late = lambda d: np.abs((d + period / 2) % period - period / 2) / period  # noqa: E731
     close_err = late(a["lumen_close_ms"][both] - [edge(r, True) for r in shut[both]])
     open_err = late(a["lumen_open_ms"][both] - [edge(r, False) for r in shut[both]])
     assert np.median(close_err) < 0.03 and np.median(open_err) < 0.03
@@ -101,5 +115,5 @@ def test_the_closure_times_and_the_sections_ellipse_are_measured(closing):
     assert np.median(np.abs(a["lumen_aspect_ratio"][measured] / aspect[measured] - 1)) < 0.03
     off = (a["lumen_major_axis_deg"] - (major - np.degrees(seam)) + 90) % 180 - 90
     elliptic = measured & (aspect < 0.8)
-    assert np.isfinite(off[elliptic]).mean() > 0.97      # (a few taken for round: > 0.95)
+    assert np.isfinite(off[elliptic]).mean() > 0.97  # (a few taken for round: > 0.95)
     assert np.nanmedian(np.abs(off[elliptic])) < 5.0

@@ -2,6 +2,7 @@
 through the wall and a bridge across the lumen each stopped a whole run; the least
 opening or closing that makes the mask a solid tube is found, and a clean mask is
 left alone."""
+
 import numpy as np
 import pytest
 
@@ -19,7 +20,7 @@ def solid_tube(radius=12):
 def with_handle():
     """A one-voxel strand looping out of the side, joined to it at two places."""
     mask = solid_tube()
-    mask[20:41, 20, 33] = True               # along z, one voxel outside the wall
+    mask[20:41, 20, 33] = True  # along z, one voxel outside the wall
     mask[20, 20, 31:34] = True
     mask[40, 20, 31:34] = True
     return mask
@@ -46,9 +47,10 @@ def test_a_clean_tube_is_left_alone():
     assert out is mask and repair is None
 
 
-@pytest.mark.parametrize("defect, what", [(with_handle, "opening, radius 1 voxel"),
-                                          (with_tunnel, "closing"),
-                                          (with_bridge, "closing")])
+@pytest.mark.parametrize(
+    "defect, what",
+    [(with_handle, "opening, radius 1 voxel"), (with_tunnel, "closing"), (with_bridge, "closing")],
+)
 def test_a_handle_tunnel_or_bridge_is_mended_by_the_least_change(defect, what):
     mask = defect()
     assert euler(core(mask)) != 1
@@ -81,13 +83,16 @@ def test_a_folded_lumen_a_voxel_apart_is_meshed_with_a_wider_blur():
     from oftimg.mesh.topology import MeshError, check_tube
 
     stored = np.load(Path(__file__).parent / "data" / "folded_lumen.npz")
-    mask = np.unpackbits(stored["packed"])[:np.prod(stored["shape"])].reshape(
-        stored["shape"]).astype(bool)
+    mask = (
+        np.unpackbits(stored["packed"])[: np.prod(stored["shape"])]
+        .reshape(stored["shape"])
+        .astype(bool)
+    )
     voxel = tuple(stored["voxel_um"])
-    assert euler(core(mask)) == 1                       # a solid tube in voxels
+    assert euler(core(mask)) == 1  # a solid tube in voxels
     with pytest.raises(MeshError, match="Euler characteristic"):
         mesh_wall(mask, voxel, MeshOptions())
     mesh, mended = _mesh_or_mend("lumen", mask, voxel, MeshOptions(), None)
-    assert mended is None                                # the voxels left as they were
+    assert mended is None  # the voxels left as they were
     assert mesh.repair.what == f"level set blurred by {WIDER_BLUR:g} voxel"
     assert len(check_tube(mesh.V, mesh.F).loops) == 2

@@ -1,5 +1,6 @@
 """Freed memory given back between a run's stages (oftimg.memory): on glibc the heap's
 free pages return to the system; elsewhere a no-op that says so."""
+
 import os
 import subprocess
 import sys
@@ -41,11 +42,21 @@ def test_freed_heap_pages_go_back_to_the_system():
     trim returns."""
     if not release_freed():
         pytest.skip("no malloc_trim in this C library (not glibc)")
-    env = dict(os.environ, MALLOC_TRIM_THRESHOLD_=str(2**40), MALLOC_MMAP_THRESHOLD_=str(2**20),
-               MALLOC_ARENA_MAX="1")
-    out = subprocess.run([sys.executable, "-c", _HEAP_WITH_HOLES], env=env, check=True,
-                         capture_output=True, text=True, timeout=300).stdout
+    env = dict(
+        os.environ,
+        MALLOC_TRIM_THRESHOLD_=str(2**40),
+        MALLOC_MMAP_THRESHOLD_=str(2**20),
+        MALLOC_ARENA_MAX="1",
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", _HEAP_WITH_HOLES],
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    ).stdout
     held, before, after = map(float, out.split())
-    assert held > 400                               # the blocks were resident
-    assert before > held - 100                      # freeing alone gave little back
-    assert before - after > 300, (held, before, after)   # the trim gave it back
+    assert held > 400  # the blocks were resident
+    assert before > held - 100  # freeing alone gave little back
+    assert before - after > 300, (held, before, after)  # the trim gave it back

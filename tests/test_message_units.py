@@ -2,6 +2,7 @@
 mm unit. Every f-string of the package that writes a length unit after a number is read
 here: the number must be in that unit by its name (``*_mm``, ``*_um``), be converted on
 the spot (``1000 * x_mm`` for µm), or take its unit from the data (``{unit}``)."""
+
 import ast
 import re
 from pathlib import Path
@@ -28,8 +29,13 @@ def templates():
                 word = after.value.lstrip(" ").split(" ")[0].split(")")[0].rstrip(",;:")
                 unit = word.split("²")[0].split("/")[0].split("^")[0]
                 if unit in LENGTH_UNITS:
-                    found.append((f"{path.relative_to(PACKAGE)}:{node.lineno}",
-                                  ast.get_source_segment(source, value.value), unit))
+                    found.append(
+                        (
+                            f"{path.relative_to(PACKAGE)}:{node.lineno}",
+                            ast.get_source_segment(source, value.value),
+                            unit,
+                        )
+                    )
     return found
 
 
@@ -38,7 +44,7 @@ def in_its_unit(expression: str, unit: str) -> bool:
     ``VOXEL_MM_RANGE``, ``area_um2``) or an explicit conversion."""
     name = LENGTH_UNITS[unit]
     if name == "um" and re.search(r"\b(1000|1e3) \*|\* (1000|1e3)\b", expression):
-        return True                                       # mm converted on the spot
+        return True  # mm converted on the spot
     return re.search(rf"(\b|_){name}(\d|_|\b)", expression, re.IGNORECASE) is not None
 
 

@@ -1,6 +1,7 @@
 """Running a dataset from napari's dock widget (issue 63, point 4): ``oftimg run`` in a
 process of its own, its progress in a bar, Cancel as SIGTERM (nothing written), the
 command line's one-line error shown, the results opened when the run ends well."""
+
 import numpy as np
 import pytest
 
@@ -10,17 +11,30 @@ pytest.importorskip("pytestqt")
 
 from oftimg.napari.run import default_out, read_progress, run_arguments  # noqa: E402
 
-pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+pytestmark = pytest.mark.long  # make test-long (accuracy, rendering, whole runs)
 
-RUN_S = 240_000          # ms: a small phantom's run, on a busy machine
+RUN_S = 240_000  # ms: a small phantom's run, on a busy machine
 
 
 def test_the_panel_s_choices_are_the_command_line_s():
-    assert run_arguments("/d/heart", "/r", jobs=2, tracking="material", n_u=40, n_v=20,
-                         overwrite=True) == [
-        "run", "/d/heart", "--out", "/r", "--tracking", "material", "--n-u", "40",
-        "--n-v", "20", "--jobs", "2", "--overwrite"]
-    assert "--jobs" not in run_arguments("/d/heart", "/r")           # 0: the default
+    assert run_arguments(
+        "/d/heart", "/r", jobs=2, tracking="material", n_u=40, n_v=20, overwrite=True
+    ) == [
+        "run",
+        "/d/heart",
+        "--out",
+        "/r",
+        "--tracking",
+        "material",
+        "--n-u",
+        "40",
+        "--n-v",
+        "20",
+        "--jobs",
+        "2",
+        "--overwrite",
+    ]
+    assert "--jobs" not in run_arguments("/d/heart", "/r")  # 0: the default
     assert str(default_out("/d/heart")) == "/d/heart-oftimg"
     with pytest.raises(ValueError, match="tracking 'fast'"):
         run_arguments("/d/heart", "/r", tracking="fast")
@@ -48,11 +62,12 @@ def panel_widget(qtbot):
     return widget
 
 
-def test_a_run_from_the_panel_shows_progress_and_opens_its_results(panel_widget, qtbot,
-                                                                   phantom_normal, tmp_path):
+def test_a_run_from_the_panel_shows_progress_and_opens_its_results(
+    panel_widget, qtbot, phantom_normal, tmp_path
+):
     panel = panel_widget.run_panel
     panel.dataset.setText(str(phantom_normal))
-    assert panel.out.text() == str(default_out(phantom_normal))          # suggested
+    assert panel.out.text() == str(default_out(phantom_normal))  # suggested
     panel.out.setText(str(tmp_path / "results"))
     seen = []
     panel.progress.valueChanged.connect(lambda v: seen.append((v, panel.progress.maximum())))
@@ -60,20 +75,20 @@ def test_a_run_from_the_panel_shows_progress_and_opens_its_results(panel_widget,
     assert panel.running and not panel.run_button.isEnabled()
     qtbot.waitUntil(lambda: not panel.running, timeout=RUN_S)
     assert panel.status.text() == f"done: {tmp_path / 'results'}", panel.lines[-3:]
-    assert any(0 < v < m for v, m in seen)                  # the bar moved between ends
-    assert panel_widget.walls is not None                   # the results opened
+    assert any(0 < v < m for v, m in seen)  # the bar moved between ends
+    assert panel_widget.walls is not None  # the results opened
     assert "normal" in panel_widget.status.text()
     assert np.isfinite(panel_widget.views.field).any()
 
 
-def test_cancel_stops_the_run_and_nothing_is_written(panel_widget, qtbot, phantom_normal,
-                                                     tmp_path):
+def test_cancel_stops_the_run_and_nothing_is_written(panel_widget, qtbot, phantom_normal, tmp_path):
     panel = panel_widget.run_panel
     panel.dataset.setText(str(phantom_normal))
     panel.out.setText(str(tmp_path / "results"))
     panel.start()
-    qtbot.waitUntil(lambda: panel.progress.maximum() > 1 or not panel.running,
-                    timeout=RUN_S)                          # under way: a progress line came
+    qtbot.waitUntil(
+        lambda: panel.progress.maximum() > 1 or not panel.running, timeout=RUN_S
+    )  # under way: a progress line came
     assert panel.running
     panel.cancel()
     qtbot.waitUntil(lambda: not panel.running, timeout=60_000)

@@ -1,4 +1,5 @@
 """Worker processes give the same results as the serial run."""
+
 from types import SimpleNamespace
 
 import numpy as np
@@ -17,8 +18,9 @@ pytestmark = [pytest.mark.long, pytest.mark.slow, pytest.mark.usefixtures("png_f
 
 
 def test_two_workers_equal_serial(tmp_path):
-    path = write_phantom(tmp_path / "p", sample_params("normal", 5, n_frames=6,
-                                                       vertices_min=2000, vertices_max=2500))
+    path = write_phantom(
+        tmp_path / "p", sample_params("normal", 5, n_frames=6, vertices_min=2000, vertices_max=2500)
+    )
     ds = load_dataset(path)
     serial = analyse_dataset(ds, PipelineOptions(), quiet=True)
     executor = make_executor(2)
@@ -34,12 +36,14 @@ def test_two_workers_equal_serial(tmp_path):
 
 def test_dask_local_cluster_equals_serial(tmp_path):
     distributed = pytest.importorskip("distributed")
-    path = write_phantom(tmp_path / "p", sample_params("normal", 6, n_frames=5,
-                                                       vertices_min=2000, vertices_max=2500))
+    path = write_phantom(
+        tmp_path / "p", sample_params("normal", 6, n_frames=5, vertices_min=2000, vertices_max=2500)
+    )
     ds = load_dataset(path)
     serial = analyse_dataset(ds, PipelineOptions(), quiet=True)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
         executor = make_executor(None, scheduler=cluster.scheduler_address)
         try:
             remote = analyse_dataset(ds, PipelineOptions(), quiet=True, executor=executor)
@@ -119,8 +123,10 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
 
     cohort = tmp_path / "cohort"
     for group, seed in (("normal", 7), ("banded", 8)):
-        write_phantom(cohort / f"{group}_{seed}", sample_params(
-            group, seed, n_frames=6, vertices_min=2000, vertices_max=2500))
+        write_phantom(
+            cohort / f"{group}_{seed}",
+            sample_params(group, seed, n_frames=6, vertices_min=2000, vertices_max=2500),
+        )
     # a frame with a duplicated vertex: its repair warns while it is analysed (in a worker)
     frame = sorted((cohort / "banded_8" / "outer").iterdir())[2]
     V, F = read_mesh_file(frame)
@@ -135,35 +141,50 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
         warnings.simplefilter("always")
         monkeypatch.setattr(api, "Progress", RecordingBar)
         whole = api.run(cohort, tmp_path / "whole", quiet=True, jobs=2, parallel="embryos")
-    bar, = [b for b in RecordingBar.bars if b.desc == "2 datasets"]
+    (bar,) = [b for b in RecordingBar.bars if b.desc == "2 datasets"]
     assert (bar.unit, bar.total, bar.n) == ("step", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
     done = [note for note in bar.notes if "datasets done" in note]
     assert done == ["1 of 2 datasets done", "2 of 2 datasets done"]
     stages = {stage for note in bar.notes if "done" not in note for stage in note.split("; ")}
-    assert {f"{name}: {stage}" for name in ("normal_7", "banded_8")           # what each
-            for stage in ("fields, maps, shape modes", "figures, videos")} <= stages  # did
+    assert {
+        f"{name}: {stage}"
+        for name in ("normal_7", "banded_8")  # what each
+        for stage in ("fields, maps, shape modes", "figures, videos")
+    } <= stages  # did
     runs = {"local pool": (whole, worker_warnings)}
     try:
         import distributed
     except ImportError:  # the optional extra oftimg[dask]
         distributed = None
     if distributed is not None:
-        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                      dashboard_address=None) as cluster, \
-                warnings.catch_warnings(record=True) as dask_warnings:
+        with (
+            distributed.LocalCluster(
+                n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            ) as cluster,
+            warnings.catch_warnings(record=True) as dask_warnings,
+        ):
             warnings.simplefilter("always")
-            dask = api.run(cohort, tmp_path / "dask", quiet=True, parallel="embryos",
-                           scheduler=cluster.scheduler_address, figures=False)
+            dask = api.run(
+                cohort,
+                tmp_path / "dask",
+                quiet=True,
+                parallel="embryos",
+                scheduler=cluster.scheduler_address,
+                figures=False,
+            )
         runs["Dask cluster"] = (dask, dask_warnings)
         bar = [b for b in RecordingBar.bars if b.desc == "2 datasets"][-1]
         assert (bar.unit, bar.total, bar.n) == ("step", 2 * (6 + 6) + 8, 2 * (6 + 6) + 8)
-    ours = lambda caught: sorted({str(w.message) for w in caught  # noqa: E731
-                                  if issubclass(w.category, OftimgWarning)})
+
+    def ours(caught):
+        return sorted({str(w.message) for w in caught if issubclass(w.category, OftimgWarning)})
+
     drawn = ("figures/", "videos/")
     for how, (out, caught) in runs.items():
         numbers_only = how == "Dask cluster"
-        assert _files(out) == [f for f in _files(serial) if not (
-            numbers_only and any(d in f for d in drawn))], how
+        assert _files(out) == [
+            f for f in _files(serial) if not (numbers_only and any(d in f for d in drawn))
+        ], how
         for name in ("normal_7", "banded_8"):
             a, b = np.load(serial / name / "arrays.npz"), np.load(out / name / "arrays.npz")
             assert sorted(a.files) == sorted(b.files)
@@ -180,41 +201,57 @@ def test_whole_datasets_in_workers_equal_serial(tmp_path, monkeypatch):
 
 def test_one_dataset_bar_counts_frames_then_names_the_stages(tmp_path, monkeypatch):
     from oftimg import api
-    path = write_phantom(tmp_path / "p", sample_params("normal", 3, n_frames=5,
-                                                       vertices_min=1500, vertices_max=1800))
+
+    path = write_phantom(
+        tmp_path / "p", sample_params("normal", 3, n_frames=5, vertices_min=1500, vertices_max=1800)
+    )
     monkeypatch.setattr(api, "Progress", RecordingBar)
     api.run(path, tmp_path / "out", jobs=1)
-    bar, = [b for b in RecordingBar.bars if b.desc == "p"]
-    assert (bar.total, bar.n) == (5, 5)                 # the frames, once each pass
-    assert bar.notes == ["seams (pass 1 of 2)", "grids and sections (pass 2 of 2)",
-                         "fields, maps, shape modes", "figures, videos"]
+    (bar,) = [b for b in RecordingBar.bars if b.desc == "p"]
+    assert (bar.total, bar.n) == (5, 5)  # the frames, once each pass
+    assert bar.notes == [
+        "seams (pass 1 of 2)",
+        "grids and sections (pass 2 of 2)",
+        "fields, maps, shape modes",
+        "figures, videos",
+    ]
 
 
 def test_this_process_runs_one_blas_thread_while_its_workers_run(tmp_path, monkeypatch):
     from oftimg import api
     from oftimg.analysis import pipeline
+
     def blas_threads():
-        return {p["num_threads"] for p in threadpoolctl.threadpool_info()   # numpy's, scipy's
-                if p["user_api"] == "blas"}
+        return {
+            p["num_threads"]
+            for p in threadpoolctl.threadpool_info()  # numpy's, scipy's
+            if p["user_api"] == "blas"
+        }
 
     seen = []
-    monkeypatch.setattr(pipeline, "analyse_dataset",
-                        lambda *a, **k: seen.append(blas_threads()) or {"summary": {
-                            "provenance": {"dataset": {"path": str(tmp_path)}}}})
+    monkeypatch.setattr(
+        pipeline,
+        "analyse_dataset",
+        lambda *a, **k: (
+            seen.append(blas_threads())
+            or {"summary": {"provenance": {"dataset": {"path": str(tmp_path)}}}}
+        ),
+    )
     monkeypatch.setattr(api, "write_dataset_results", lambda *a, **k: seen.append(blas_threads()))
     ds = SimpleNamespace(n_frames=3, meta=SimpleNamespace(name="x"))
     with threadpoolctl.threadpool_limits(limits=2, user_api="blas"):
         if blas_threads() != {2}:
             pytest.skip(f"numpy's BLAS cannot be set to 2 threads here ({blas_threads()})")
         api.analyse_and_write(ds, {}, tmp_path, None, fps=30.0, executor=InPlace())
-        assert seen == [{1}, {1}]                   # the analysis and the figures
-        assert blas_threads() == {2}                # given back afterwards
+        assert seen == [{1}, {1}]  # the analysis and the figures
+        assert blas_threads() == {2}  # given back afterwards
         api.analyse_and_write(ds, {}, tmp_path, None, fps=30.0)  # no workers: all threads
         assert seen[2:] == [{2}, {2}]
 
 
 def test_parallel_mode_is_checked(tmp_path):
     from oftimg import api
+
     with pytest.raises(ValueError, match="--parallel"):
         api.run(tmp_path, tmp_path / "out", parallel="datasets")
 
@@ -232,10 +269,10 @@ def test_embryos_at_once_fits_the_memory_left(monkeypatch):
         assert api.embryos_at_once(datasets, pool) == 2
     monkeypatch.setattr(api, "available_memory", lambda: 0.1e9)
     with pytest.warns(OftimgWarning, match="memory for 1 of 8"):
-        assert api.embryos_at_once(datasets, pool) == 1          # one at least
+        assert api.embryos_at_once(datasets, pool) == 1  # one at least
     monkeypatch.setattr(api, "available_memory", lambda: 64e9)
     assert api.embryos_at_once(datasets, pool) == 8
-    monkeypatch.setattr(api, "available_memory", lambda: None)   # not Linux: no limit known
+    monkeypatch.setattr(api, "available_memory", lambda: None)  # not Linux: no limit known
     assert api.embryos_at_once(datasets, pool) == 8
 
 
@@ -257,18 +294,28 @@ def test_by_embryo_no_more_run_at_once_than_fit(tmp_path, monkeypatch):
         time.sleep(0.05)
         with lock:
             running[0] -= 1
-        return ({"name": ds.meta.name, "expand_fraction": 0.4,
-                 "wave_speed_mm_s": {"cycle": 10.0}}, {"summary.json": b"{}"}, [])
+        return (
+            {"name": ds.meta.name, "expand_fraction": 0.4, "wave_speed_mm_s": {"cycle": 10.0}},
+            {"summary.json": b"{}"},
+            [],
+        )
 
     monkeypatch.setattr(api, "embryo_task", task)
     monkeypatch.setattr(api, "embryos_at_once", lambda datasets, executor: 2)
-    datasets = [SimpleNamespace(meta=SimpleNamespace(name=f"e{k}"), n_frames=3)
-                for k in range(7)]
+    datasets = [SimpleNamespace(meta=SimpleNamespace(name=f"e{k}"), n_frames=3) for k in range(7)]
     with ThreadPoolExecutor(4) as pool:
-        done = api._embryos_in_workers(datasets, {f"e{k}": {} for k in range(7)},
-                                       Finished(tmp_path / "kept"), {f"e{k}": {} for k in range(7)},
-                                       None, pool, fps=30.0, figures=True, quiet=True,
-                                       out=tmp_path / "out")
+        done = api._embryos_in_workers(
+            datasets,
+            {f"e{k}": {} for k in range(7)},
+            Finished(tmp_path / "kept"),
+            {f"e{k}": {} for k in range(7)},
+            None,
+            pool,
+            fps=30.0,
+            figures=True,
+            quiet=True,
+            out=tmp_path / "out",
+        )
     assert sorted(done) == [f"e{k}" for k in range(7)]
     assert most[0] == 2
     assert Finished(tmp_path / "kept").names() == [f"e{k}" for k in range(7)]

@@ -5,10 +5,21 @@ from hypothesis import strategies as st
 
 from helpers import tube_mesh
 from oftimg.mesh.geodesic import GeodesicSolver, insert_path, locate_on_edges
-from oftimg.mesh.grid import (GridOptions, grid_frame, project_towards_axis, seam_endpoints,
-                              signed_thickness, smooth_angles)
-from oftimg.mesh.parameterize import (FlatSampler, FlatTube, count_flipped, intrinsic_weights,
-                                      seam_sides)
+from oftimg.mesh.grid import (
+    GridOptions,
+    grid_frame,
+    project_towards_axis,
+    seam_endpoints,
+    signed_thickness,
+    smooth_angles,
+)
+from oftimg.mesh.parameterize import (
+    FlatSampler,
+    FlatTube,
+    count_flipped,
+    intrinsic_weights,
+    seam_sides,
+)
 from oftimg.mesh.strain import grid_strain
 from oftimg.mesh.topology import MeshError, check_tube
 from oftimg.synthetic.phantom import Phantom, PhantomParams
@@ -25,8 +36,9 @@ def flat_patch(seed=0, n=12):
     P[inner] += rng.uniform(-0.3, 0.3, (inner.sum(), 2)) / n
     idx = np.arange(n * n).reshape(n, n)
     a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
-    F = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
-                        np.stack([a, c, d], -1).reshape(-1, 3)])
+    F = np.concatenate(
+        [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
+    )
     return np.column_stack([P, np.zeros(len(P))]), F, inner
 
 
@@ -54,12 +66,12 @@ def test_solve_falls_back_to_pivoting_where_the_diagonal_fails():
     from oftimg.mesh.parameterize import _solve
 
     n = 6
-    A = sp.csc_matrix(sp.diags([np.ones(n - 1), np.full(n, 1e-18), np.ones(n - 1)],
-                               [-1, 0, 1]))
+    A = sp.csc_matrix(sp.diags([np.ones(n - 1), np.full(n, 1e-18), np.ones(n - 1)], [-1, 0, 1]))
     rhs = np.random.default_rng(0).standard_normal((n, 2))
-    unpivoted = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                          options={"SymmetricMode": True}).solve(rhs)
-    assert np.abs(A @ unpivoted - rhs).max() > 1.0           # the fast path alone fails here
+    unpivoted = spla.splu(
+        A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+    ).solve(rhs)
+    assert np.abs(A @ unpivoted - rhs).max() > 1.0  # the fast path alone fails here
     assert np.abs(A @ _solve(A, rhs) - rhs).max() < 1e-12
 
 
@@ -87,18 +99,23 @@ def test_flat_sampler_interpolates_linear_positions_exactly(seed):
     assert np.abs(sample(u, v) - expected - [1.0, 2.0, 3.0]).max() < 1e-12
     grid = sample(np.linspace(0, 1, 17)[:, None], np.linspace(0, 1, 5)[None, :])  # rows of equal v
     assert grid.shape == (17, 5, 3)
-    uv = np.clip(np.stack(np.meshgrid(np.linspace(0, 1, 17), np.linspace(0, 1, 5),
-                                      indexing="ij"), -1), FlatSampler.EPS, 1 - FlatSampler.EPS)
+    uv = np.clip(
+        np.stack(np.meshgrid(np.linspace(0, 1, 17), np.linspace(0, 1, 5), indexing="ij"), -1),
+        FlatSampler.EPS,
+        1 - FlatSampler.EPS,
+    )
     assert np.abs(grid - uv @ affine - [1.0, 2.0, 3.0]).max() < 1e-12
-
 
 
 def test_flat_sampler_falls_back_to_the_nearest_triangle_in_a_hole():
     UV, F, _ = flat_patch(0, n=9)
     UV = UV[:, :2]
     hole = F[40]
-    sample = FlatSampler(FlatTube(V=np.column_stack([UV, np.zeros(len(UV))]),
-                                  F=np.delete(F, 40, axis=0), UV=UV, flipped=0))
+    sample = FlatSampler(
+        FlatTube(
+            V=np.column_stack([UV, np.zeros(len(UV))]), F=np.delete(F, 40, axis=0), UV=UV, flipped=0
+        )
+    )
     centre = UV[hole].mean(axis=0)
     X = sample(centre[0], centre[1])
     edge = np.linalg.norm(UV[hole] - np.roll(UV[hole], 1, axis=0), axis=1).max()
@@ -106,17 +123,18 @@ def test_flat_sampler_falls_back_to_the_nearest_triangle_in_a_hole():
 
 
 def test_seam_sides_split_the_faces_along_the_seam():
-    V, F = tube_mesh(0.2, n_theta=12, n_s=6)          # ring k holds vertices 12 k .. 12 k + 11
-    chain = np.arange(6) * 12                          # the straight line theta = 0
+    V, F = tube_mesh(0.2, n_theta=12, n_s=6)  # ring k holds vertices 12 k .. 12 k + 11
+    chain = np.arange(6) * 12  # the straight line theta = 0
     high = seam_sides(F, chain)
     touching = np.isin(F, chain).any(axis=1)
     assert touching[high].all() and 0 < high.sum() < touching.sum()
     angle = np.arctan2(V[F][..., 1], V[F][..., 0]).mean(axis=1)
     assert (angle[high] < 0).all() and (angle[touching & ~high] > 0).all()  # u = 1 is at -theta
     with pytest.raises(MeshError, match="split"):
-        seam_sides(F, chain[:2])                       # ends inside: one side all round
+        seam_sides(F, chain[:2])  # ends inside: one side all round
     with pytest.raises(MeshError, match="joined"):
-        seam_sides(F, np.array([0, 25, 48]))           # 0 -> 25 is not an edge
+        seam_sides(F, np.array([0, 25, 48]))  # 0 -> 25 is not an edge
+
 
 def cylinder_grid(radius=0.2, length=1.0, theta0=0.3, **kw):
     V, F = tube_mesh(radius, length=length, n_theta=64, n_s=40, theta0=theta0, **kw)
@@ -159,22 +177,24 @@ def test_inner_wall_takes_the_outer_grid_towards_the_axis():
     grids, scales, meshings = [], (1.0, 1.1, 1.25), ((37, 1.0), (41, 0.2), (33, 2.0))
     for scale, (n_theta, theta0) in zip(scales, meshings):
         X = cylinder_grid(radius=0.2 * scale)[0].X
-        Xi, at_closest = project_towards_axis(*inner_cylinder(0.12 * scale, n_theta=n_theta,
-                                                              theta0=theta0), X)
+        Xi, at_closest = project_towards_axis(
+            *inner_cylinder(0.12 * scale, n_theta=n_theta, theta0=theta0), X
+        )
         assert at_closest == 0
-        angle = np.angle(np.exp(1j * (np.arctan2(Xi[..., 1], Xi[..., 0])
-                                      - np.arctan2(X[..., 1], X[..., 0]))))
+        angle = np.angle(
+            np.exp(1j * (np.arctan2(Xi[..., 1], Xi[..., 0]) - np.arctan2(X[..., 1], X[..., 0])))
+        )
         assert np.abs(angle).max() < 1e-4
         assert np.allclose(Xi[..., 2], X[..., 2], atol=1e-6)
         r = np.linalg.norm(Xi[..., :2], axis=-1) / (0.12 * scale)
-        assert r.max() < 1 + 1e-6 and r.min() > np.cos(np.pi / n_theta) - 1e-6   # on facets
+        assert r.max() < 1 + 1e-6 and r.min() > np.cos(np.pi / n_theta) - 1e-6  # on facets
         grids.append(Xi)
     energy, stretch = grid_strain(np.stack(grids, axis=2))
     expected = (np.array(scales) - 1) ** 2
     # within the facets' sag (1 - cos(pi / 33) = 0.45 %); closest points: 0.31 and 0.36 off
     assert np.allclose(energy, expected, atol=4e-3)
-    assert np.allclose(stretch[..., 0], np.array(scales), atol=0.01)     # around
-    assert np.allclose(stretch[..., 1], 1, atol=1e-6)                    # along
+    assert np.allclose(stretch[..., 0], np.array(scales), atol=0.01)  # around
+    assert np.allclose(stretch[..., 1], 1, atol=1e-6)  # along
 
 
 def test_the_inner_grid_goes_on_to_the_lumen_along_the_same_lines():
@@ -187,8 +207,9 @@ def test_the_inner_grid_goes_on_to_the_lumen_along_the_same_lines():
     lumen = inner_cylinder(0.07, n_theta=29, theta0=2.5)
     Xj, at_closest = project_towards_axis(*lumen, Xi, centre=X.mean(axis=0))
     assert at_closest == 0
-    angle = np.angle(np.exp(1j * (np.arctan2(Xj[..., 1], Xj[..., 0])
-                                  - np.arctan2(X[..., 1], X[..., 0]))))
+    angle = np.angle(
+        np.exp(1j * (np.arctan2(Xj[..., 1], Xj[..., 0]) - np.arctan2(X[..., 1], X[..., 0])))
+    )
     assert np.abs(angle).max() < 1e-4 and np.allclose(Xj[..., 2], X[..., 2], atol=1e-6)
     jelly = np.linalg.norm(Xi - Xj, axis=-1)
     sag = 0.07 * (1 - np.cos(np.pi / 29)) + 0.12 * (1 - np.cos(np.pi / 37))
@@ -204,7 +225,7 @@ def test_where_the_walls_cross_the_node_goes_outwards_and_the_thickness_is_negat
     """An inner wall (r = 0.12) bulging out to r = 0.23 through the outer one (0.2) on
     a patch: its nodes there are on the same lines, 0.03 outside the outer nodes
     (within the facets' sags): thickness -0.03; elsewhere 0.08 as before."""
-    X = cylinder_grid(radius=0.2)[0].X                          # 40 x 20 nodes, z = j / 19
+    X = cylinder_grid(radius=0.2)[0].X  # 40 x 20 nodes, z = j / 19
     V, F, inlet, outlet = inner_cylinder(0.12, n_theta=73)
     theta = np.arctan2(V[:, 1], V[:, 0])
     patch = (np.abs(np.angle(np.exp(1j * (theta - 2.0)))) < 0.6) & (np.abs(V[:, 2] - 0.5) < 0.2)
@@ -214,9 +235,11 @@ def test_where_the_walls_cross_the_node_goes_outwards_and_the_thickness_is_negat
     thickness = signed_thickness(X, Xi, X.mean(axis=0))
     node_theta = np.arctan2(X[..., 1], X[..., 0])
     inside = (np.abs(np.angle(np.exp(1j * (node_theta - 2.0)))) < 0.4) & (
-        np.abs(X[..., 2] - 0.5) < 0.12)
+        np.abs(X[..., 2] - 0.5) < 0.12
+    )
     away = (np.abs(np.angle(np.exp(1j * (node_theta - 2.0)))) > 0.9) | (
-        np.abs(X[..., 2] - 0.5) > 0.3)
+        np.abs(X[..., 2] - 0.5) > 0.3
+    )
     sag = 0.2 * (1 - np.cos(np.pi / 64)) + 0.23 * (1 - np.cos(np.pi / 73)) + 1e-5
     assert inside.sum() >= 12 and away.sum() > 400
     assert np.allclose(thickness[inside], -0.03, atol=sag)
@@ -234,12 +257,12 @@ def test_inner_nodes_with_no_wall_on_the_way_take_the_closest_point():
     """An inner wall half as long as the outer one: the rows beyond its end meet no
     wall towards the axis and take its closest point, on its outlet rim; the
     last row goes onto its outlet loop all the same."""
-    X = cylinder_grid()[0].X                                    # 40 x 20 nodes, z = j / 19
+    X = cylinder_grid()[0].X  # 40 x 20 nodes, z = j / 19
     Xi, at_closest = project_towards_axis(*inner_cylinder(0.12, length=0.5), X)
     beyond = np.nonzero(X[0, 1:-1, 2] > 0.5)[0] + 1
     assert at_closest == 40 * len(beyond) > 0
     assert np.allclose(Xi[:, beyond, 2], 0.5, atol=1e-6)
-    assert np.allclose(Xi[:, :beyond[0], 2], X[:, :beyond[0], 2], atol=1e-6)
+    assert np.allclose(Xi[:, : beyond[0], 2], X[:, : beyond[0], 2], atol=1e-6)
     assert np.allclose(Xi[:, -1, 2], 0.5, atol=1e-6)
 
 
@@ -280,9 +303,17 @@ def test_cone_and_ellipse_grids_have_even_spacing():
 def test_seam_is_a_surface_geodesic_not_an_edge_path():
     """On the bent phantom the seam hugs the inside of the bend and is as short as
     the analytic inside line (an edge path would be several % longer)."""
-    ph = Phantom(PhantomParams(n_frames=4, contraction=0.0, corner_contracted=0.0,
-                               corner_expanded=0.0, ellipse_contracted=0.0,
-                               radius_inlet_mm=0.15, radius_outlet_mm=0.15))
+    ph = Phantom(
+        PhantomParams(
+            n_frames=4,
+            contraction=0.0,
+            corner_contracted=0.0,
+            corner_expanded=0.0,
+            ellipse_contracted=0.0,
+            radius_inlet_mm=0.15,
+            radius_outlet_mm=0.15,
+        )
+    )
     V, F = ph.mesh("outer", 0.0, np.random.default_rng(1))
     topo = check_tube(V, F)
     s0, _ = ph.window_coordinates(V[topo.loops[0]])
@@ -303,8 +334,9 @@ def test_seam_is_a_surface_geodesic_not_an_edge_path():
     path = solver.path(a, b)
     V2, F2, chain = insert_path(V, topo.F, locate_on_edges(V, topo.F, path, a, b))
     chain_len = np.linalg.norm(np.diff(V2[chain], axis=0), axis=1).sum()
-    assert chain_len == pytest.approx(np.linalg.norm(np.diff(path, axis=0), axis=1).sum(),
-                                      rel=1e-3)  # 2 % end snapping
+    assert chain_len == pytest.approx(
+        np.linalg.norm(np.diff(path, axis=0), axis=1).sum(), rel=1e-3
+    )  # 2 % end snapping
     assert chain_len == pytest.approx(expected, rel=0.01)
     check_tube(V2, F2)  # still a valid, consistently oriented tube
 
@@ -319,10 +351,14 @@ def two_basin_tube(seed, n_theta=40, n_s=40):
     rng = np.random.default_rng(seed)
     row = np.round(z * (n_s - 1)).astype(int)
     inner = (row > 0) & (row < n_s - 1)
-    th = th + (row % 2) * 0.5 * (2 * np.pi / n_theta) * np.clip(np.cos(th), 0, None) ** 2 \
+    th = (
+        th
+        + (row % 2) * 0.5 * (2 * np.pi / n_theta) * np.clip(np.cos(th), 0, None) ** 2
         + inner * rng.uniform(-0.35, 0.35, len(th)) * 2 * np.pi / n_theta
-    z = (z + inner * rng.uniform(-0.35, 0.35, len(z)) / (n_s - 1)) \
-        * (1 - 0.05 * np.cos(2 * th) - 0.004 * np.cos(th))
+    )
+    z = (z + inner * rng.uniform(-0.35, 0.35, len(z)) / (n_s - 1)) * (
+        1 - 0.05 * np.cos(2 * th) - 0.004 * np.cos(th)
+    )
     V = np.column_stack([0.2 * np.cos(th), 0.2 * np.sin(th), z])
     topo = check_tube(V, F)
     inlet, outlet = sorted(topo.loops, key=lambda lp: V[lp, 2].mean())
@@ -365,13 +401,13 @@ def test_seam_angle_smoothing_is_periodic_and_wraps():
     theta[0] = 0.3
     S = smooth_angles(theta, 1.0)
     assert S[9] == pytest.approx(S[1]) and S[9] > 0
-    assert S.sum() == pytest.approx(0.3, rel=0.01)      # small angles: as numbers smooth
-    near_pi = np.where(np.arange(10) % 2, np.pi - 0.05, -np.pi + 0.05)   # across +-pi
+    assert S.sum() == pytest.approx(0.3, rel=0.01)  # small angles: as numbers smooth
+    near_pi = np.where(np.arange(10) % 2, np.pi - 0.05, -np.pi + 0.05)  # across +-pi
     assert np.abs(np.abs(smooth_angles(near_pi, 1.0)) - np.pi).max() < 0.05
 
 
 def test_seam_angle_smoothing_never_crosses_a_jump():
-    theta = np.where(np.arange(20) < 10, 0.0, 2.0)       # two runs, 2 rad apart
+    theta = np.where(np.arange(20) < 10, 0.0, 2.0)  # two runs, 2 rad apart
     S = smooth_angles(theta, 2.0)
     assert np.abs(S - theta).max() < 1e-9
 
@@ -404,8 +440,7 @@ def test_grid_does_not_depend_on_vertex_order(seed):
 
 
 @settings(max_examples=3, deadline=None)
-@given(angles=st.tuples(*[st.floats(-np.pi, np.pi)] * 3),
-       shift=st.tuples(*[st.floats(-5, 5)] * 3))
+@given(angles=st.tuples(*[st.floats(-np.pi, np.pi)] * 3), shift=st.tuples(*[st.floats(-5, 5)] * 3))
 def test_grid_moves_with_a_rigid_motion(angles, shift):
     from scipy.spatial.transform import Rotation
 

@@ -1,5 +1,6 @@
 """ParaView export: closed, outward-facing quad grids and section rings carrying
 the results' own numbers at the right times."""
+
 import json
 import shutil
 import xml.etree.ElementTree as ET
@@ -12,8 +13,7 @@ import oftimg
 from oftimg.cli import main
 from oftimg.errors import DatasetError, InputError
 from oftimg.output.export import describe_array
-from oftimg.output.paraview import (node_field_names, quad_cells, ring_segments,
-                                    row_area_name)
+from oftimg.output.paraview import node_field_names, quad_cells, ring_segments, row_area_name
 
 
 def _edge_uses(cells: np.ndarray) -> dict:
@@ -63,19 +63,42 @@ def test_ring_segments_close_each_ring():
 
 
 def test_each_wall_carries_its_own_node_fields_and_its_rows_areas():
-    names = ["outer", "inner", "contour_inner_mm", "area_inner_mm2", "area_rows_inner_mm2",
-             "radial_curvature_inner_per_mm", "strain_energy_inner", "principal_stretch_inner",
-             "strain_energy_outer", "wall_thickness_mm", "phase_max_wall_thickness_mm_ms",
-             "phase_min_strain_energy_inner_ms", "mean_curvature_lumen_per_mm",
-             "jelly_thickness_mm", "phase_max_jelly_thickness_mm_ms"]
-    described = {n: dict(describe_array(n, map_positions="fixed"),
-                         file="grids.npz" if n in ("outer", "inner") else "arrays.npz")
-                 for n in names}
-    assert sorted(node_field_names(described, "inner")) == sorted([
-        "radial_curvature_inner_per_mm", "strain_energy_inner", "principal_stretch_inner",
-        "wall_thickness_mm", "phase_max_wall_thickness_mm_ms",
-        "phase_min_strain_energy_inner_ms", "jelly_thickness_mm",
-        "phase_max_jelly_thickness_mm_ms"])
+    names = [
+        "outer",
+        "inner",
+        "contour_inner_mm",
+        "area_inner_mm2",
+        "area_rows_inner_mm2",
+        "radial_curvature_inner_per_mm",
+        "strain_energy_inner",
+        "principal_stretch_inner",
+        "strain_energy_outer",
+        "wall_thickness_mm",
+        "phase_max_wall_thickness_mm_ms",
+        "phase_min_strain_energy_inner_ms",
+        "mean_curvature_lumen_per_mm",
+        "jelly_thickness_mm",
+        "phase_max_jelly_thickness_mm_ms",
+    ]
+    described = {
+        n: dict(
+            describe_array(n, map_positions="fixed"),
+            file="grids.npz" if n in ("outer", "inner") else "arrays.npz",
+        )
+        for n in names
+    }
+    assert sorted(node_field_names(described, "inner")) == sorted(
+        [
+            "radial_curvature_inner_per_mm",
+            "strain_energy_inner",
+            "principal_stretch_inner",
+            "wall_thickness_mm",
+            "phase_max_wall_thickness_mm_ms",
+            "phase_min_strain_energy_inner_ms",
+            "jelly_thickness_mm",
+            "phase_max_jelly_thickness_mm_ms",
+        ]
+    )
     assert "jelly_thickness_mm" not in node_field_names(described, "outer")
     assert node_field_names(described, "lumen") == ["mean_curvature_lumen_per_mm"]
     # maps resampled to fixed positions: the grid rows' own areas are area_rows_*
@@ -97,8 +120,11 @@ def test_paraview_series_hold_the_results(run_out, tmp_path):
     arrays, grids = np.load(folder / "arrays.npz"), np.load(folder / "grids.npz")
     t_ms = arrays["t_ms"]
     walls = ("outer", "inner", "lumen")
-    expected = ({f"{g}.pvd" for g in grids.files} | {f"{w}_clipped.pvd" for w in walls}
-                | {f"sections_{w}.pvd" for w in walls})      # the clipped: made on load
+    expected = (
+        {f"{g}.pvd" for g in grids.files}
+        | {f"{w}_clipped.pvd" for w in walls}
+        | {f"sections_{w}.pvd" for w in walls}
+    )  # the clipped: made on load
     assert {p.name for p in out.glob("*.pvd")} == expected
     steps = _steps(out / "outer.pvd")
     assert [t for t, _ in steps] == pytest.approx(t_ms.tolist())
@@ -114,20 +140,23 @@ def test_paraview_series_hold_the_results(run_out, tmp_path):
         row = quads[:, 0] % n_v
         away = centre - arrays["centroid_outer_mm"][row, t]
         assert np.mean(np.einsum("ij,ij->i", _quad_normals(m.points, quads), away) > 0) > 0.99
-        for name in ("strain_energy_outer", "radial_curvature_outer_per_mm",
-                     "wall_thickness_mm"):
-            assert np.array_equal(m.point_data[name],
-                                  arrays[name][:, :, t].astype(np.float32).ravel())
-        assert np.array_equal(m.point_data["principal_stretch_outer"],
-                              arrays["principal_stretch_outer"][:, :, t].reshape(-1, 2)
-                              .astype(np.float32))
+        for name in ("strain_energy_outer", "radial_curvature_outer_per_mm", "wall_thickness_mm"):
+            assert np.array_equal(
+                m.point_data[name], arrays[name][:, :, t].astype(np.float32).ravel()
+            )
+        assert np.array_equal(
+            m.point_data["principal_stretch_outer"],
+            arrays["principal_stretch_outer"][:, :, t].reshape(-1, 2).astype(np.float32),
+        )
         area = m.point_data["area_outer_mm2"].reshape(n_u, n_v)
         assert np.array_equal(area[3], arrays["area_outer_mm2"][:, t].astype(np.float32))
         assert m.point_data["u"].reshape(n_u, n_v)[:, 0] == pytest.approx(np.arange(n_u) / n_u)
     # the wall thickness is the myocardium's: on outer and inner, not on the lumen; the
     # jelly's is measured from the inner nodes
     inner = meshio.read(out / _steps(out / "inner.pvd")[0][1]).point_data
-    assert np.array_equal(inner["jelly_thickness_mm"], arrays["jelly_thickness_mm"][:, :, 0].ravel())
+    assert np.array_equal(
+        inner["jelly_thickness_mm"], arrays["jelly_thickness_mm"][:, :, 0].ravel()
+    )
     assert "wall_thickness_mm" in inner
     assert "jelly_thickness_mm" not in m.point_data
     lumen = meshio.read(out / _steps(out / "lumen.pvd")[0][1]).point_data
@@ -153,8 +182,10 @@ def test_paraview_files_open_in_vtk_and_do_not_depend_on_jobs(run_out, tmp_path)
     assert grid.GetPointData().GetArray("strain_energy_inner").GetNumberOfTuples() == 4000
     # one process writes the same files as several
     serial = tmp_path / "serial"
-    assert main(["paraview", str(run_out / "normal"), "--out", str(serial), "--jobs", "1",
-                 "--quiet"]) == 0
+    assert (
+        main(["paraview", str(run_out / "normal"), "--out", str(serial), "--jobs", "1", "--quiet"])
+        == 0
+    )
     files = sorted(p.relative_to(pv) for p in pv.rglob("*") if p.is_file())
     assert files == sorted(p.relative_to(serial) for p in serial.rglob("*") if p.is_file())
     assert all((pv / f).read_bytes() == (serial / f).read_bytes() for f in files)

@@ -1,9 +1,17 @@
 """Elastic shape PCA of closed curves (issue 8)."""
+
 import numpy as np
 import pytest
 
-from oftimg.image.pca import (align, align_transform, curve_from_srvf, outward_normals, ring_to_plane,
-                              shape_pca, srvf)
+from oftimg.image.pca import (
+    align,
+    align_transform,
+    curve_from_srvf,
+    outward_normals,
+    ring_to_plane,
+    shape_pca,
+    srvf,
+)
 
 N = 100
 TH = 2 * np.pi * np.arange(N) / N
@@ -15,10 +23,9 @@ def radial(r):
 
 # an elongated section with corners and a lopsided bulge: only one rotation and start
 # point fit (a near-circle would let re-seeding absorb part of a deformation)
-MEAN = radial(0.1 * (1 + 0.1 * np.cos(4 * TH) + 0.25 * np.cos(2 * TH + 0.5)
-                     + 0.2 * np.sin(TH)))
-MODE1 = MEAN * 0.1                                                # size
-MODE2 = radial(0.01 * np.cos(3 * TH))                             # three-lobed bulge
+MEAN = radial(0.1 * (1 + 0.1 * np.cos(4 * TH) + 0.25 * np.cos(2 * TH + 0.5) + 0.2 * np.sin(TH)))
+MODE1 = MEAN * 0.1  # size
+MODE2 = radial(0.01 * np.cos(3 * TH))  # three-lobed bulge
 
 
 def test_srvf_round_trip():
@@ -48,7 +55,7 @@ def test_recovers_two_known_modes_from_rotated_reseeded_curves():
     # expected modes in SRVF space: linearise the generating deformations
     eps = 1e-4
     dq = [(srvf(MEAN + eps * M) - srvf(MEAN)).ravel() / eps for M in (MODE1, MODE2)]
-    expected_ratio = (sd1 ** 2 * dq[0] @ dq[0]) / (sd2 ** 2 * dq[1] @ dq[1])
+    expected_ratio = (sd1**2 * dq[0] @ dq[0]) / (sd2**2 * dq[1] @ dq[1])
     sample_ratio = np.var(a1) / np.var(a2) * (dq[0] @ dq[0]) / (dq[1] @ dq[1])
     order = (0, 1) if expected_ratio > 1 else (1, 0)  # modes come sorted by variance
     got_ratio = res.variance[order[0]] / res.variance[order[1]]

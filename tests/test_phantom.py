@@ -13,7 +13,7 @@ def test_every_frame_is_a_tube_and_frames_differ(phantom_normal):
     ds = load_dataset(phantom_normal)
     checked = []
     report = validate_dataset(ds, progress=lambda: checked.append(1))
-    assert len(checked) == 3 * 36                       # progress after every mesh
+    assert len(checked) == 3 * 36  # progress after every mesh
     assert set(report["surfaces"]) == {"outer", "inner", "lumen"}
     assert all(s["frames"] == 36 for s in report["surfaces"].values())
     a, b = ds.tube("outer", 0), ds.tube("outer", 1)
@@ -62,8 +62,17 @@ def test_truth_volume_matches_capped_mesh_volume(phantom_normal):
 def test_truth_fields_are_consistent(phantom_normal):
     truth = json.loads((phantom_normal / "truth.json").read_text())
     p = truth["params"]
-    for key in ("speed_mm_s", "arrival_ms", "area_mm2", "volume_mm3", "expand_fraction",
-                "wave_speed_mm_s", "band_position_mm", "corner_count", "expanded_fraction_75"):
+    for key in (
+        "speed_mm_s",
+        "arrival_ms",
+        "area_mm2",
+        "volume_mm3",
+        "expand_fraction",
+        "wave_speed_mm_s",
+        "band_position_mm",
+        "corner_count",
+        "expanded_fraction_75",
+    ):
         assert key in truth
     assert truth["expand_fraction"] + truth["contract_fraction"] == pytest.approx(1.0)
     assert truth["expand_ms"] + truth["contract_ms"] == pytest.approx(p["period_ms"])
@@ -119,20 +128,21 @@ def test_expansion_share_changing_along_the_tube_moves_the_ridge():
     t_coarse = np.arange(1800) * step
     peak = t_coarse[np.argmax(ph.area_mm2("outer", s[:, None], t_coarse[None, :]), axis=1)]
     t_fine = peak[:, None] + np.linspace(-2 * step, 2 * step, 1601)
-    peak = np.take_along_axis(t_fine, np.argmax(ph.area_mm2("outer", s[:, None], t_fine),
-                                                axis=1)[:, None], axis=1)[:, 0]
+    peak = np.take_along_axis(
+        t_fine, np.argmax(ph.area_mm2("outer", s[:, None], t_fine), axis=1)[:, None], axis=1
+    )[:, 0]
     ridge = np.array(truth["ridge_t_ms"])
-    half = ph.p.period_ms / 2                                   # times are periodic
+    half = ph.p.period_ms / 2  # times are periodic
     assert np.abs((peak - ridge + half) % ph.p.period_ms - half).max() < 0.02
     # the peak lags more and more behind the onset: slower than the onset wave
-    assert ridge[-1] - ridge[0] == pytest.approx(
-        np.ptp(truth["arrival_ms"]) + 0.2 * ph.p.period_ms)
-    slope = np.gradient(ridge, s)                               # ms per mm
+    assert ridge[-1] - ridge[0] == pytest.approx(np.ptp(truth["arrival_ms"]) + 0.2 * ph.p.period_ms)
+    slope = np.gradient(ridge, s)  # ms per mm
     speed = np.array(truth["ridge_speed_mm_s"])
     assert np.allclose(speed[1:-1], 1e3 / slope[1:-1], rtol=0.02)
     assert np.all(speed < np.array(truth["speed_mm_s"]))
     assert truth["wave_speed_mm_s"]["cycle"] == pytest.approx(
-        1e3 * ph.p.length_mm / (ridge[-1] - ridge[0]))
+        1e3 * ph.p.length_mm / (ridge[-1] - ridge[0])
+    )
     # the same share all along: the ridge runs with the onset
     same = Phantom(base).truth(n_s=41)
     assert same["ridge_speed_mm_s"] == same["speed_mm_s"]
@@ -163,9 +173,29 @@ def test_phantom_cli_passes_every_option(tmp_path):
     from oftimg.cli import main
 
     out = tmp_path / "ph"
-    assert main(["phantom", str(out), "--group", "banded", "--seed", "3", "--frames", "3",
-                 "--vertices", "900", "1000", "--noise-mm", "0.002", "--expand-change", "0.1",
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "phantom",
+                str(out),
+                "--group",
+                "banded",
+                "--seed",
+                "3",
+                "--frames",
+                "3",
+                "--vertices",
+                "900",
+                "1000",
+                "--noise-mm",
+                "0.002",
+                "--expand-change",
+                "0.1",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     params = json.loads((out / "truth.json").read_text())["params"]
     assert params["noise_mm"] == 0.002 and params["n_frames"] == 3
     assert params["expand_fraction_outlet"] == pytest.approx(params["expand_fraction"] + 0.1)
@@ -184,14 +214,17 @@ def test_sharper_corners_keep_the_areas_and_sharpen_the_curvature(sharpness):
     phase = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
     g = corner_profile(phase, sharpness)
     assert abs(g.mean()) < 1e-12 and np.isclose(np.abs(g).max(), 1.0)
-    assert np.isclose((g ** 2).mean(), profile_power(sharpness), rtol=1e-9)
+    assert np.isclose((g**2).mean(), profile_power(sharpness), rtol=1e-9)
     ph = Phantom(PhantomParams(n_frames=8, corners=5, corner_sharpness=sharpness))
     s, t = 0.5 * ph.p.length_mm, 0.0
     theta = np.linspace(-np.pi, np.pi, 4096, endpoint=False)
     rho_out, rho_in = (ph.radius(w, s, theta, t) for w in ("outer", "inner"))
-    myocardium = 0.5 * np.mean(rho_out ** 2 - rho_in ** 2) * 2 * np.pi
-    assert np.isclose(myocardium, ph.p.myocardial_fraction * np.pi * ph.base_radius(s) ** 2
-                      / ph.stretch(t), rtol=1e-6)
+    myocardium = 0.5 * np.mean(rho_out**2 - rho_in**2) * 2 * np.pi
+    assert np.isclose(
+        myocardium,
+        ph.p.myocardial_fraction * np.pi * ph.base_radius(s) ** 2 / ph.stretch(t),
+        rtol=1e-6,
+    )
     kappa = ph.section_curvature("outer", s, theta, t)
     cosine = Phantom(PhantomParams(n_frames=8, corners=5)).section_curvature("outer", s, theta, t)
     if sharpness > 0:

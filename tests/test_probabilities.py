@@ -1,6 +1,7 @@
 """Probability maps in (issue 60): ``probabilities/<layer>/`` meshed at 0.5 as label
 volumes are, the phantom's own maps through `oftimg run`, and bad maps refused in
 one line."""
+
 import json
 import shutil
 
@@ -11,8 +12,7 @@ import tifffile
 from oftimg.cli import main
 from oftimg.io.label_dataset import load_label_dataset, read_frame
 from oftimg.mesh.labels import wall_occupancy
-from oftimg.synthetic.labels import (LabelGrid, label_params, partial_volumes,
-                                    write_label_phantom)
+from oftimg.synthetic.labels import LabelGrid, label_params, partial_volumes, write_label_phantom
 from oftimg.synthetic.phantom import Phantom, sample_params
 
 from helpers import label_phantom_area_errors
@@ -25,8 +25,7 @@ COARSE_UM = (8.0, 8.0, 16.0)
 @pytest.fixture(scope="module")
 def maps(tmp_path_factory):
     path = tmp_path_factory.mktemp("probabilities") / "pm"
-    write_label_phantom(path, sample_params("normal", 0, n_frames=8), COARSE_UM,
-                        probabilities=True)
+    write_label_phantom(path, sample_params("normal", 0, n_frames=8), COARSE_UM, probabilities=True)
     return path
 
 
@@ -41,12 +40,16 @@ def test_the_phantoms_maps_are_its_partial_volumes(maps):
     assert str(lds.sources[3]) == str(maps / "probabilities" / "*" / "f3.tif")
     frame = read_frame(lds.sources[0])
     assert all(p.dtype == np.float32 and 0 <= p.min() and p.max() <= 1 for p in frame.values())
-    assert sum(frame.values()).max() <= 1.0 + 2 / 255                   # rounded to uint8
-    far = frame["myocardium"][:, :3, :3]         # background only: the bend's centre
+    assert sum(frame.values()).max() <= 1.0 + 2 / 255  # rounded to uint8
+    far = frame["myocardium"][:, :3, :3]  # background only: the bend's centre
     assert far.max() < 0.01
     ph = Phantom(label_params(sample_params("normal", 0, n_frames=8)))
-    grids = [LabelGrid(ph, COARSE_UM, (ox, oy, oz)) for ox in (-0.25, 0.25)
-             for oy in (-0.25, 0.25) for oz in (-0.25, 0.25)]
+    grids = [
+        LabelGrid(ph, COARSE_UM, (ox, oy, oz))
+        for ox in (-0.25, 0.25)
+        for oy in (-0.25, 0.25)
+        for oz in (-0.25, 0.25)
+    ]
     t = float(ph.frame_times_ms()[0])
     occupancy = wall_occupancy(partial_volumes(grids, t))["outer"]
     volume_mm3 = occupancy.sum() * np.prod(COARSE_UM) * 1e-9
@@ -59,7 +62,7 @@ def test_probability_maps_through_run(maps, tmp_path, capsys):
     out = tmp_path / "res"
     with pytest.warns(Warning) as caught:
         assert main(["run", str(maps), "--out", str(out), "--quiet", "--jobs", "2"]) == 0
-    said = " ".join(str(w.message) for w in caught)          # its own kind, not labels'
+    said = " ".join(str(w.message) for w in caught)  # its own kind, not labels'
     assert "curvature fields from probability maps" in said and "label volumes" not in said
     summary = json.loads((out / "pm" / "summary.json").read_text())
     meshing = summary["provenance"]["meshing"]
@@ -82,8 +85,10 @@ def damaged(maps, dst, problem):
         return layer / "f2.tif", "int32 voxels; a probability map is float"
     if problem == "fewer_frames":
         (layer / "f7.tif").unlink()
-        return dst / "probabilities", "different numbers of frames (myocardium/ 8, jelly/ 8, " \
-                                      "lumen/ 7)"
+        return (
+            dst / "probabilities",
+            "different numbers of frames (myocardium/ 8, jelly/ 8, lumen/ 7)",
+        )
     if problem == "both":
         (dst / "labels").mkdir()
         return dst, "holds both labels/ and probabilities/"
@@ -95,8 +100,9 @@ def damaged(maps, dst, problem):
     return dst / "meta.json", "a probabilities dataset names its layers by its folders"
 
 
-@pytest.mark.parametrize("problem", ["beyond_one", "int32", "fewer_frames", "both",
-                                     "no_myocardium", "labels_in_meta"])
+@pytest.mark.parametrize(
+    "problem", ["beyond_one", "int32", "fewer_frames", "both", "no_myocardium", "labels_in_meta"]
+)
 def test_bad_maps_are_one_line_naming_the_file(maps, tmp_path, capsys, problem):
     where, what = damaged(maps, tmp_path / "bad", problem)
     out = tmp_path / "out"
@@ -107,8 +113,10 @@ def test_bad_maps_are_one_line_naming_the_file(maps, tmp_path, capsys, problem):
     assert not out.exists()
 
 
-AXISTAGS = {key: {"key": key, "typeFlags": flag, "resolution": 0, "description": ""}
-            for key, flag in (("t", 8), ("z", 2), ("y", 2), ("x", 2), ("c", 1))}
+AXISTAGS = {
+    key: {"key": key, "typeFlags": flag, "resolution": 0, "description": ""}
+    for key, flag in (("t", 8), ("z", 2), ("y", 2), ("x", 2), ("c", 1))
+}
 
 
 def ilastik_export(maps, dst, *, series: bool) -> None:
@@ -121,8 +129,10 @@ def ilastik_export(maps, dst, *, series: bool) -> None:
 
     lds = load_label_dataset(maps)
     frames = [read_frame(s) for s in lds.sources]
-    stacks = [np.stack([1 - sum(f.values()), f["lumen"], f["myocardium"], f["jelly"]], axis=-1)
-              for f in frames]
+    stacks = [
+        np.stack([1 - sum(f.values()), f["lumen"], f["myocardium"], f["jelly"]], axis=-1)
+        for f in frames
+    ]
     (dst / "probabilities").mkdir(parents=True)
     raw = json.loads((maps / "meta.json").read_text())
     raw["classes"] = {"myocardium": 2, "jelly": 3, "lumen": 1}
@@ -130,8 +140,9 @@ def ilastik_export(maps, dst, *, series: bool) -> None:
 
     def write(path, data, axes):
         with h5py.File(path, "w") as f:
-            ds = f.create_dataset("exported_data", data=data.astype(np.float32),
-                                  chunks=True, compression="gzip")
+            ds = f.create_dataset(
+                "exported_data", data=data.astype(np.float32), chunks=True, compression="gzip"
+            )
             ds.attrs["axistags"] = json.dumps({"axes": [AXISTAGS[a] for a in axes]})
 
     if series:
@@ -160,11 +171,19 @@ def test_an_ilastik_export_gives_the_tiff_maps_numbers(maps, tmp_path):
     """The same maps as an ilastik export and as TIFF folders: the same results."""
     ilastik_export(maps, tmp_path / "pm", series=True)
     for source, out in ((maps, tmp_path / "tiff"), (tmp_path / "pm", tmp_path / "h5")):
-        assert main(["run", str(source), "--out", str(out), "--quiet", "--jobs", "1",
-                     "--numbers-only"]) == 0
+        assert (
+            main(
+                ["run", str(source), "--out", str(out), "--quiet", "--jobs", "1", "--numbers-only"]
+            )
+            == 0
+        )
     a, b = (np.load(out / "pm" / "arrays.npz") for out in (tmp_path / "tiff", tmp_path / "h5"))
-    for key in ("area_outer_mm2", "area_lumen_mm2", "wall_thickness_mm",
-                "radial_curvature_outer_per_mm"):
+    for key in (
+        "area_outer_mm2",
+        "area_lumen_mm2",
+        "wall_thickness_mm",
+        "radial_curvature_outer_per_mm",
+    ):
         np.testing.assert_allclose(b[key], a[key], rtol=1e-4, atol=1e-9, err_msg=key)
 
 
@@ -178,13 +197,14 @@ def test_a_bad_ilastik_export_is_one_line(maps, tmp_path, capsys, problem):
     file = tmp_path / "pm" / "probabilities" / "probabilities.h5"
     if problem == "no_classes":
         del raw["classes"]
-        with h5py.File(file, "a") as f:          # 5 channels: no default numbering
+        with h5py.File(file, "a") as f:  # 5 channels: no default numbering
             data = f["exported_data"][...]
             del f["exported_data"]
             f["exported_data"] = np.concatenate([data, data[..., :1]], axis=-1)
             f["exported_data"].attrs["axistags"] = json.dumps(
-                {"axes": [AXISTAGS[a] for a in "tzyxc"]})
-        expected = "5 channels; meta.json's \"classes\" says which is which"
+                {"axes": [AXISTAGS[a] for a in "tzyxc"]}
+            )
+        expected = '5 channels; meta.json\'s "classes" says which is which'
     elif problem == "channel_out_of_range":
         raw["classes"]["lumen"] = 4
         expected = "gives lumen channel 4; the file has channels 0-3"
@@ -205,8 +225,10 @@ def test_validate_says_each_inputs_format_axes_and_voxel_size(maps, tmp_path, ca
     ilastik_export(maps, tmp_path / "pm", series=True)
     assert main(["validate", str(tmp_path / "pm")]) == 0
     out = capsys.readouterr().out
-    assert ("HDF5 (exported_data), one file holding every frame; axes tzyxc (its axistags); "
-            "voxel size from meta.json") in out
+    assert (
+        "HDF5 (exported_data), one file holding every frame; axes tzyxc (its axistags); "
+        "voxel size from meta.json"
+    ) in out
     assert main(["validate", str(maps)]) == 0
     assert "TIFF, one file per frame; axes zyx" in capsys.readouterr().out
 
@@ -221,9 +243,9 @@ def test_an_ilastik_export_with_its_classes_first_and_no_axistags(maps, tmp_path
     ilastik_export(maps, tmp_path / "pm", series=False)
     for path in sorted((tmp_path / "pm" / "probabilities").iterdir()):
         with h5py.File(path, "a") as f:
-            data = np.moveaxis(f["exported_data"][...], -1, 0)          # classes first
+            data = np.moveaxis(f["exported_data"][...], -1, 0)  # classes first
             del f["exported_data"]
-            f["exported_data"] = data                                   # no axistags
+            f["exported_data"] = data  # no axistags
     meta = tmp_path / "pm" / "meta.json"
     raw = {k: v for k, v in json.loads(meta.read_text()).items() if k != "axes"}
     meta.write_text(json.dumps(raw))

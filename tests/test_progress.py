@@ -1,6 +1,7 @@
 """Progress off a terminal (issue 62): a CI log, a notebook or `| tee` gets a plain line
 at least every LINE_EVERY_S seconds, with the stage and the share done; nothing when
 quiet; no line after the bar is closed, or once it is gone."""
+
 import gc
 import time
 
@@ -8,20 +9,19 @@ from oftimg import progress
 from oftimg.progress import Progress
 
 
-def test_off_a_terminal_a_line_comes_every_interval_with_the_stage_and_share(monkeypatch,
-                                                                             capsys):
+def test_off_a_terminal_a_line_comes_every_interval_with_the_stage_and_share(monkeypatch, capsys):
     monkeypatch.setattr(progress, "LINE_EVERY_S", 0.05)
     with Progress(40, "normal_0") as bar:
-        assert not bar.shown                          # pytest's stderr is no terminal
+        assert not bar.shown  # pytest's stderr is no terminal
         bar.advance(10)
         bar.note("fields, maps")
         time.sleep(0.3)
     lines = capsys.readouterr().err.splitlines()
     assert "normal_0: fields, maps: 10/40 frames (25 %)" in lines[-2]
-    assert lines[-1].startswith("normal_0: done: 10/40 frames (25 %)")   # and when it ends
+    assert lines[-1].startswith("normal_0: done: 10/40 frames (25 %)")  # and when it ends
     assert len(lines) >= 4
     time.sleep(0.2)
-    assert capsys.readouterr().err == ""                             # closed: silent
+    assert capsys.readouterr().err == ""  # closed: silent
 
 
 def test_a_unit_has_its_plural():
@@ -89,22 +89,27 @@ def test_by_embryo_the_bar_says_what_each_worker_is_doing(tmp_path):
     from oftimg.io.dataset import load_dataset
     from oftimg.synthetic.phantom import sample_params, write_phantom
 
-    ds = load_dataset(write_phantom(tmp_path / "e0", sample_params(
-        "normal", 0, n_frames=6, vertices_min=800, vertices_max=900), name="e0"))
+    ds = load_dataset(
+        write_phantom(
+            tmp_path / "e0",
+            sample_params("normal", 0, n_frames=6, vertices_min=800, vertices_max=900),
+            name="e0",
+        )
+    )
     reports = []
     queue = type("Queue", (), {"put": lambda self, report: reports.append(report)})()
-    api.embryo_task(ds, api._validated(ds, None, True), PipelineOptions(), 30.0, queue,
-                    figures=False)
+    api.embryo_task(
+        ds, api._validated(ds, None, True), PipelineOptions(), 30.0, queue, figures=False
+    )
     stages = [r for r in reports if isinstance(r, tuple)]
     assert stages == [("e0", "fields, maps, shape modes"), ("e0", "files"), ("e0", None)]
     steps = [r for r in reports if not isinstance(r, tuple)]
     tail = api._tail_frames(6)
-    assert sum(steps) == 2 * 6 + tail                    # every frame of both passes, the tail
-    assert steps[reports.index(("e0", "files")) - 2] == tail // 3     # as the files begin
+    assert sum(steps) == 2 * 6 + tail  # every frame of both passes, the tail
+    assert steps[reports.index(("e0", "files")) - 2] == tail // 3  # as the files begin
 
     bar, running = Progress(100, "2 datasets", quiet=True), {}
-    for report in (5, ("e0", "figures, videos"), ("e1", "fields, maps, shape modes"),
-                   ("e0", None)):
+    for report in (5, ("e0", "figures, videos"), ("e1", "fields, maps, shape modes"), ("e0", None)):
         api._show_report(report, bar, running)
     assert bar.n == 5 and bar._stage == "e1: fields, maps, shape modes"
     api._show_report(("e1", "figures, videos"), bar, running)

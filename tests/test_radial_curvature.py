@@ -1,11 +1,17 @@
 """Radial curvature node by node (issue 84): each section's own polygon at several
 scales, the scale chosen per node from the noise the frames show."""
+
 import numpy as np
 import pytest
 
-from oftimg.analysis.radial_curvature import (ALONG_ROWS, UNMEASURED_SCALE, along_tube,
-                                              least_error_scale, node_band_95,
-                                              scale_chosen_curvature)
+from oftimg.analysis.radial_curvature import (
+    ALONG_ROWS,
+    UNMEASURED_SCALE,
+    along_tube,
+    least_error_scale,
+    node_band_95,
+    scale_chosen_curvature,
+)
 from oftimg.analysis.uncertainty import BAND_WIDE_SHARE, wide_band_share
 from oftimg.image.normalize import smooth_field
 from oftimg.mesh.curvature import CURVATURE_SCALES, contour_curvature
@@ -15,8 +21,9 @@ from oftimg.synthetic.phantom import Phantom, PhantomParams
 
 def _polygon_curvature(P, normal, n=80):
     """The contour's n points and their curvature at every scale, one polygon."""
-    _, _, points, kappa, spacing = _measure_polygons([P], np.asarray(normal, float)[None],
-                                                     P[:1], n, curvature=True)
+    _, _, points, kappa, spacing = _measure_polygons(
+        [P], np.asarray(normal, float)[None], P[:1], n, curvature=True
+    )
     assert np.isclose(spacing[0], np.linalg.norm(np.diff(P, axis=0, append=P[:1]), axis=1).mean())
     return points[0], kappa[:, 0]
 
@@ -28,8 +35,8 @@ def test_a_circle_is_exact_at_every_scale_on_irregular_vertices():
     P = np.stack([r * np.cos(theta), r * np.sin(theta), np.zeros_like(theta)], axis=1)
     _, kappa = _polygon_curvature(P, [0, 0, 1])
     assert kappa.shape == (len(CURVATURE_SCALES), 80)
-    assert np.abs(kappa * r - 1).max() < 0.005          # the chords' own shortfall
-    _, turned = _polygon_curvature(P[::-1], [0, 0, -1])   # the other way round, seen so
+    assert np.abs(kappa * r - 1).max() < 0.005  # the chords' own shortfall
+    _, turned = _polygon_curvature(P[::-1], [0, 0, -1])  # the other way round, seen so
     assert np.allclose(turned * r, 1, atol=0.005)
 
 
@@ -66,8 +73,9 @@ def test_the_scale_of_least_error_balances_noise_and_bias():
     truth = np.tile([10.0, -5.0], 5000)
     noise_sd = np.array([2.0, 1.0, 0.5, 0.25])
     flattened = np.array([0.0, 0.1, 0.6, 2.0])
-    estimates = np.stack([truth * (1 - f / 10) + rng.normal(0, s, truth.shape)
-                          for s, f in zip(noise_sd, flattened)])
+    estimates = np.stack(
+        [truth * (1 - f / 10) + rng.normal(0, s, truth.shape) for s, f in zip(noise_sd, flattened)]
+    )
     assert least_error_scale(estimates, noise_sd) == 2
     unbiased = np.stack([truth + rng.normal(0, s, truth.shape) for s in noise_sd])
     assert least_error_scale(unbiased, noise_sd) == 3
@@ -90,9 +98,18 @@ def noisy_frames():
     sections cut square to the centre line: each scale's curvature ``(n_scales, 80, n_v,
     24)``, the resample's, the truth ``(80, n_v, 24)``, the period (ms), the polygons'
     vertex spacing ``(n_v, 24)`` mm and the contours' points ``(80, n_v, 24, 3)``."""
-    ph = Phantom(PhantomParams(n_frames=24, corners=4, corner_sharpness=-1.0, contraction=0.0,
-                               noise_mm=0.002, vertices_min=12000, vertices_max=12000,
-                               stretch=0.0))
+    ph = Phantom(
+        PhantomParams(
+            n_frames=24,
+            corners=4,
+            corner_sharpness=-1.0,
+            contraction=0.0,
+            noise_mm=0.002,
+            vertices_min=12000,
+            vertices_max=12000,
+            stretch=0.0,
+        )
+    )
     s = np.linspace(0.25, 0.75, 12) * ph.p.length_mm
     c, N, B = ph.frame_axes(s)
     normals = np.cross(B, N)
@@ -101,18 +118,25 @@ def noisy_frames():
     scales, resampled, truth, spacing, contours = [], [], [], [], []
     for t in ph.frame_times_ms():
         V, F = ph.mesh("outer", t, rng)
-        polygons = [contour_around(cs, o, n) for cs, o, n in
-                    zip(planes_contours(V, F, c, normals), c, normals)]
-        _, _, points, kappa, gaps = _measure_polygons(polygons, normals, starts, 80,
-                                                      curvature=True)
+        polygons = [
+            contour_around(cs, o, n)
+            for cs, o, n in zip(planes_contours(V, F, c, normals), c, normals)
+        ]
+        _, _, points, kappa, gaps = _measure_polygons(polygons, normals, starts, 80, curvature=True)
         scales.append(kappa.transpose(0, 2, 1))
         spacing.append(gaps)
         points = points.transpose(1, 0, 2)
         contours.append(points)
         resampled.append(contour_curvature(points, normals[None]))
         truth.append(ph.section_curvature("outer", s[None, :], ph.window_coordinates(points)[1], t))
-    return (np.stack(scales, axis=-1), np.stack(resampled, axis=-1), np.stack(truth, axis=-1),
-            ph.p.period_ms, np.stack(spacing, axis=-1), np.stack(contours, axis=2))
+    return (
+        np.stack(scales, axis=-1),
+        np.stack(resampled, axis=-1),
+        np.stack(truth, axis=-1),
+        ph.p.period_ms,
+        np.stack(spacing, axis=-1),
+        np.stack(contours, axis=2),
+    )
 
 
 def test_the_chosen_scales_beat_the_resample_at_the_notches(noisy_frames):
@@ -120,16 +144,15 @@ def test_the_chosen_scales_beat_the_resample_at_the_notches(noisy_frames):
     percentile error under 0.9 times the resample's (smoothed alike), its concave
     nodes' too, and each node's noise SD positive and finite."""
     K, resampled, truth, period, spacing, contour = noisy_frames
-    field, noise, node_sd, unresolved = scale_chosen_curvature(K, period, "auto", spacing,
-                                                               contour)
+    field, noise, node_sd, unresolved = scale_chosen_curvature(K, period, "auto", spacing, contour)
     old, _ = smooth_field(resampled, period, noise["smoothing_ms"])
     scale = np.median(np.abs(truth))
-    new_error = np.abs(field - truth)[:, 1:-1]       # the rows inside
+    new_error = np.abs(field - truth)[:, 1:-1]  # the rows inside
     old_error = np.abs(old - truth)[:, 1:-1]
     concave = (truth < 0)[:, 1:-1]
     assert concave.mean() > 0.1
     new_p90, old_p90 = (100 * np.percentile(e, 90) / scale for e in (new_error, old_error))
-    assert new_p90 < 0.9 * old_p90, (new_p90, old_p90)               # 28.8 against 33.6 %
+    assert new_p90 < 0.9 * old_p90, (new_p90, old_p90)  # 28.8 against 33.6 %
     assert np.percentile(new_error[concave], 90) < 0.9 * np.percentile(old_error[concave], 90)
     assert np.isfinite(node_sd).all() and (node_sd > 0).all()
 
@@ -149,8 +172,9 @@ def test_each_node_band_adds_what_its_scale_may_not_resolve(noisy_frames):
     band = node_band_95(node_sd, unresolved, 1.5)
     assert np.allclose(band, 1.96 * 1.5 * np.hypot(node_sd, unresolved), rtol=1e-6)
     value = np.array([1.0, -2.0, 4.0, np.nan])
-    assert wide_band_share(np.array([0.4, 1.2, 1.0, 1.0]) * BAND_WIDE_SHARE / 0.5, value) \
-        == pytest.approx(1 / 3)
+    assert wide_band_share(
+        np.array([0.4, 1.2, 1.0, 1.0]) * BAND_WIDE_SHARE / 0.5, value
+    ) == pytest.approx(1 / 3)
     assert wide_band_share(np.full(2, np.nan), np.ones(2)) is None
 
 
@@ -176,9 +200,10 @@ def test_the_curvature_at_given_points_is_the_polygons_nearest_them():
     P = np.stack([a * np.cos(phi), b * np.sin(phi), np.zeros_like(phi)], axis=1)
     at_phi = rng.uniform(0, 2 * np.pi, 30)
     at = np.stack([a * np.cos(at_phi), b * np.sin(at_phi), rng.uniform(-0.01, 0.01, 30)], 1)
-    _, _, _, kappa, _ = _measure_polygons([P], np.array([[0, 0, 1.0]]), P[:1], 80,
-                                          curvature=True, at=at[None])
-    truth = a * b / (a ** 2 * np.sin(at_phi) ** 2 + b ** 2 * np.cos(at_phi) ** 2) ** 1.5
+    _, _, _, kappa, _ = _measure_polygons(
+        [P], np.array([[0, 0, 1.0]]), P[:1], 80, curvature=True, at=at[None]
+    )
+    truth = a * b / (a**2 * np.sin(at_phi) ** 2 + b**2 * np.cos(at_phi) ** 2) ** 1.5
     assert kappa.shape == (len(CURVATURE_SCALES), 1, 30)
     assert np.abs(kappa[0, 0] / truth - 1).max() < 0.02
 
@@ -192,20 +217,22 @@ def test_a_mean_curvature_is_half_the_sections_and_across_them():
     from oftimg.mesh.curvature import across_section_terms
 
     R, A, k = 0.2, 0.03, 8.0
-    u, z = np.meshgrid(np.linspace(0, 2 * np.pi, 80, endpoint=False), np.linspace(0, 1, 50),
-                       indexing="ij")
+    u, z = np.meshgrid(
+        np.linspace(0, 2 * np.pi, 80, endpoint=False), np.linspace(0, 1, 50), indexing="ij"
+    )
     r, slope, bend = R + A * np.sin(k * z), A * k * np.cos(k * z), -A * k * k * np.sin(k * z)
     X = np.stack([r * np.cos(u), r * np.sin(u), z], axis=-1)
     meusnier, across = across_section_terms(X, np.tile([0, 0, 1.0], (50, 1)))
     inside = (slice(None), slice(2, -2))
-    assert np.abs(meusnier - 1 / np.sqrt(1 + slope ** 2))[inside].max() < 1e-3
-    assert np.abs(across + bend / (1 + slope ** 2) ** 1.5)[inside].max() < 0.02 * np.abs(bend).max()
+    assert np.abs(meusnier - 1 / np.sqrt(1 + slope**2))[inside].max() < 1e-3
+    assert np.abs(across + bend / (1 + slope**2) ** 1.5)[inside].max() < 0.02 * np.abs(bend).max()
     H = 0.5 * (meusnier / r + across)
-    truth = 0.5 * (1 / (r * np.sqrt(1 + slope ** 2)) - bend / (1 + slope ** 2) ** 1.5)
+    truth = 0.5 * (1 / (r * np.sqrt(1 + slope**2)) - bend / (1 + slope**2) ** 1.5)
     assert np.abs(H / truth - 1)[inside].max() < 0.005
     # the grid turned the other way round gives the same
-    assert np.allclose(across_section_terms(X[::-1], np.tile([0, 0, 1.0], (50, 1)))[1][::-1],
-                       across)
+    assert np.allclose(
+        across_section_terms(X[::-1], np.tile([0, 0, 1.0], (50, 1)))[1][::-1], across
+    )
 
 
 def test_the_flattening_in_time_is_what_the_smoothing_took_off():
@@ -245,7 +272,7 @@ def test_the_nearest_points_are_found_in_deep_folds():
     found = _nearest_arc(P, AB, seg, s, starts, lengths, at[None])[0]
     edge = np.searchsorted(s, found, side="right") - 1
     where = P[edge] + ((found - s[edge]) / seg[edge])[:, None] * AB[edge]
-    rel = at[:, None] - P[None]                                   # every edge, brute force
-    along = np.clip(np.einsum("mpk,pk->mp", rel, AB) / seg ** 2, 0, 1)
+    rel = at[:, None] - P[None]  # every edge, brute force
+    along = np.clip(np.einsum("mpk,pk->mp", rel, AB) / seg**2, 0, 1)
     nearest = np.linalg.norm(rel - along[..., None] * AB, axis=-1).min(axis=1)
     assert np.allclose(np.linalg.norm(where - at, axis=1), nearest, rtol=0, atol=1e-12)

@@ -1,5 +1,6 @@
 """Results read back (oftimg.load_results): every array as the run wrote it, with
 its dims, unit and meaning; as an xarray Dataset on labelled axes."""
+
 import json
 import shutil
 import sys
@@ -22,14 +23,25 @@ def test_every_array_reads_back_with_its_dims(run_out):
     assert (res.name, res.group) == ("normal", "normal")
     stored = {f: _npz(folder, f) for f in ("arrays.npz", "grids.npz", "pca.npz")}
     made = {n for n in res.names if "made_on_load" in res.info(n)}
-    assert made == {"outer_clipped", "inner_clipped", "lumen_clipped"}     # not stored
+    assert made == {"outer_clipped", "inner_clipped", "lumen_clipped"}  # not stored
     assert set(res.names) - made == set().union(*map(set, stored.values()))
     read = res.arrays(res.names)
     stored["grids.npz"].update({n: read[n] for n in made})
     summary = json.loads((folder / "summary.json").read_text())
-    n_u, n_v = summary["provenance"]["options"]["grid"]["n_u"], summary["provenance"]["options"]["grid"]["n_v"]
-    sizes = {"u": n_u, "v": n_v, "v_clipped": n_v, "t": len(stored["arrays.npz"]["t_ms"]),
-             "xyz": 3, "xy": 2, "l1,l2": 2, "up/down": 2}
+    n_u, n_v = (
+        summary["provenance"]["options"]["grid"]["n_u"],
+        summary["provenance"]["options"]["grid"]["n_v"],
+    )
+    sizes = {
+        "u": n_u,
+        "v": n_v,
+        "v_clipped": n_v,
+        "t": len(stored["arrays.npz"]["t_ms"]),
+        "xyz": 3,
+        "xy": 2,
+        "l1,l2": 2,
+        "up/down": 2,
+    }
     for name in res.names:
         info = res.info(name)
         np.testing.assert_array_equal(read[name], stored[info["file"]][name])
@@ -56,10 +68,10 @@ def test_the_clipped_grids_made_on_load_are_the_runs(analysed_normal, tmp_path):
         run = result["grids"][f"{wall}_clipped"]
         loaded = res[f"{wall}_clipped"]
         assert loaded.shape == run.shape and loaded.dtype == np.float32
-        np.testing.assert_allclose(loaded, run, rtol=0, atol=2e-5)   # mm: 20 nm
+        np.testing.assert_allclose(loaded, run, rtol=0, atol=2e-5)  # mm: 20 nm
         assert np.array_equal(np.isnan(loaded), np.isnan(run))
         assert res.info(f"{wall}_clipped")["dims"] == ["u", "v_clipped", "t", "xyz"]
-    both = res.arrays(["outer_clipped", "area_outer_mm2"])       # with others, at once
+    both = res.arrays(["outer_clipped", "area_outer_mm2"])  # with others, at once
     np.testing.assert_array_equal(both["outer_clipped"], res["outer_clipped"])
 
 
@@ -103,9 +115,17 @@ def test_xarray_dataset_on_labelled_axes(run_out):
     res = oftimg.load_results(run_out / "normal")
     ds = res.to_xarray()
     n_u, n_v, n_t = res["outer"].shape[:3]
-    assert dict(ds.sizes) == {"u": n_u, "v": n_v, "v_clipped": n_v, "t": n_t, "xyz": 3,
-                              "stretch": 2, "crossing": 2, "uv": 2,   # uv: pathlines_uv
-                              "direction": 2}                          # the wave's velocity
+    assert dict(ds.sizes) == {
+        "u": n_u,
+        "v": n_v,
+        "v_clipped": n_v,
+        "t": n_t,
+        "xyz": 3,
+        "stretch": 2,
+        "crossing": 2,
+        "uv": 2,  # uv: pathlines_uv
+        "direction": 2,
+    }  # the wave's velocity
     np.testing.assert_array_equal(ds["t"], res["t_ms"])
     np.testing.assert_array_equal(ds["s_mm"], res["s_mm"])
     np.testing.assert_allclose(ds["u"], np.arange(n_u) / n_u)
@@ -115,14 +135,20 @@ def test_xarray_dataset_on_labelled_axes(run_out):
     # labelled selection picks what indexing the arrays does
     t5 = float(res["t_ms"][5])
     np.testing.assert_array_equal(ds["area_outer_mm2"].sel(t=t5), res["area_outer_mm2"][:, 5])
-    np.testing.assert_array_equal(ds["outer"].sel(xyz="z", u=0.0).isel(t=5),
-                                  res["outer"][0, :, 5, 2])
-    np.testing.assert_array_equal(ds["principal_stretch_outer"].sel(stretch="l2"),
-                                  res["principal_stretch_outer"][..., 1])
+    np.testing.assert_array_equal(
+        ds["outer"].sel(xyz="z", u=0.0).isel(t=5), res["outer"][0, :, 5, 2]
+    )
+    np.testing.assert_array_equal(
+        ds["principal_stretch_outer"].sel(stretch="l2"), res["principal_stretch_outer"][..., 1]
+    )
     # the mean around the tube of the wall thickness, by dim name
-    np.testing.assert_allclose(ds["wall_thickness_mm"].mean("u"),
-                               res["wall_thickness_mm"].mean(axis=0), rtol=1e-6)
-    assert set(ds.data_vars) == {n for n in res.names if not n.startswith("pca_")} - {"s_mm", "t_ms"}
+    np.testing.assert_allclose(
+        ds["wall_thickness_mm"].mean("u"), res["wall_thickness_mm"].mean(axis=0), rtol=1e-6
+    )
+    assert set(ds.data_vars) == {n for n in res.names if not n.startswith("pca_")} - {
+        "s_mm",
+        "t_ms",
+    }
     only = res.to_xarray(["volume_outer_mm3"])
     assert list(only.data_vars) == ["volume_outer_mm3"] and only["t"].size == n_t
     pca = next(n for n in res.names if n.startswith("pca_"))
@@ -144,9 +170,10 @@ def test_cohort_maps_as_xarray(run_out, tmp_path):
         assert ds["group"].values.tolist() == ["normal"]
         np.testing.assert_array_equal(ds["position"], npz["position_fraction"])
         np.testing.assert_array_equal(ds["phase"], npz["cycle_fraction"])
-        np.testing.assert_array_equal(ds["area_outer_mm2"].sel(embryo="normal"),
-                                      npz["area_outer_mm2"][0])
-        assert ds.sizes["comparison"] == 0             # one group: nothing to compare
+        np.testing.assert_array_equal(
+            ds["area_outer_mm2"].sel(embryo="normal"), npz["area_outer_mm2"][0]
+        )
+        assert ds.sizes["comparison"] == 0  # one group: nothing to compare
     assert ds["wall_thickness_mm"].attrs["units"] == "mm"
     assert ds["area_outer_normalized"].dims == ("embryo", "position", "phase")
     with pytest.raises(DatasetError, match="has no cohort_maps.npz"):
@@ -168,7 +195,7 @@ def test_results_are_stored_compressed_to_a_stated_precision(tmp_path):
     assert np.nanmax(np.abs(stored[finite] / x[finite] - 1)) <= 2.0 ** -(MANTISSA_BITS_KEPT + 1)
     assert np.isnan(stored[0]) and stored[1] == np.inf and stored[2] == -np.inf
     assert (stored.view(np.uint32) & ((1 << (23 - MANTISSA_BITS_KEPT)) - 1) == 0).all()
-    assert bit_round(np.arange(5.0)).dtype == np.float64            # float64 as it is
+    assert bit_round(np.arange(5.0)).dtype == np.float64  # float64 as it is
     grid = np.cumsum(rng.normal(0, 1e-3, (80, 50, 40, 3)), axis=2).astype(np.float32)
     write_npz(tmp_path / "a.npz", {"grid": bit_round(grid), "t": np.arange(40.0)})
     with np.load(tmp_path / "a.npz") as back:
@@ -185,30 +212,38 @@ def test_a_field_with_measured_noise_keeps_only_the_bits_above_a_tenth_of_it(tmp
     noise, 15 bits."""
     import json
 
-    from oftimg.output.export import (MANTISSA_BITS_KEPT, NOISE_SHARE_KEPT, mantissa_bits,
-                                      write_arrays)
+    from oftimg.output.export import (
+        MANTISSA_BITS_KEPT,
+        NOISE_SHARE_KEPT,
+        mantissa_bits,
+        write_arrays,
+    )
 
     rng = np.random.default_rng(1)
-    field = (20 * np.sin(np.linspace(0, 6, 80 * 50 * 40)).reshape(80, 50, 40)
-             + rng.normal(0, 0.5, (80, 50, 40))).astype(np.float32)
+    field = (
+        20 * np.sin(np.linspace(0, 6, 80 * 50 * 40)).reshape(80, 50, 40)
+        + rng.normal(0, 0.5, (80, 50, 40))
+    ).astype(np.float32)
     assert mantissa_bits(field, None) == MANTISSA_BITS_KEPT
-    largest = float(np.abs(field).max())            # about 22
-    assert mantissa_bits(field, 0.5) == 8           # ceil(log2(22 / 0.05)) - 1
-    assert largest * 2.0 ** -9 <= 0.05 < largest * 2.0 ** -8
-    described = {k: {"dims": ["u", "v", "t"], "unit": "1/mm", "description": k}
-                 for k in ("noisy", "exact")}
-    write_arrays(tmp_path, {"arrays.npz": {"noisy": field, "exact": field}}, described,
-                 noise={"noisy": 0.5})
+    largest = float(np.abs(field).max())  # about 22
+    assert mantissa_bits(field, 0.5) == 8  # ceil(log2(22 / 0.05)) - 1
+    assert largest * 2.0**-9 <= 0.05 < largest * 2.0**-8
+    described = {
+        k: {"dims": ["u", "v", "t"], "unit": "1/mm", "description": k} for k in ("noisy", "exact")
+    }
+    write_arrays(
+        tmp_path, {"arrays.npz": {"noisy": field, "exact": field}}, described, noise={"noisy": 0.5}
+    )
     said = json.loads((tmp_path / "arrays.json").read_text())
     assert said["noisy"]["mantissa_bits"] == 8 and said["exact"]["mantissa_bits"] == 15
     assert said["noisy"]["noise_sd"] == 0.5 and "noise_sd" not in said["exact"]
     with np.load(tmp_path / "arrays.npz") as back:
         error = np.abs(back["noisy"].astype(float) - field).max()
         assert error <= said["noisy"]["rounding_error_max"] <= NOISE_SHARE_KEPT * 0.5
-        assert np.abs(back["exact"].astype(float) - field).max() <= largest * 2.0 ** -16
+        assert np.abs(back["exact"].astype(float) - field).max() <= largest * 2.0**-16
     import zlib
 
     from oftimg.output.export import bit_round
 
     sizes = [len(zlib.compress(bit_round(field, bits).tobytes(), 1)) for bits in (8, 15)]
-    assert sizes[0] < 0.8 * sizes[1]                # what the dropped bits cost zlib
+    assert sizes[0] < 0.8 * sizes[1]  # what the dropped bits cost zlib

@@ -1,18 +1,34 @@
 """Cross-sections, areas, volumes, time alignment and clipping (issue 5)."""
+
 import re
 
 import numpy as np
 import pytest
 
 from helpers import tube_mesh
-from oftimg.image.cycle import (cycle_timing, periodic_peak, resample_time, standout_frames,
-                                two_segment_warp, volume_change, wrap_step_ratio)
+from oftimg.image.cycle import (
+    cycle_timing,
+    periodic_peak,
+    resample_time,
+    standout_frames,
+    two_segment_warp,
+    volume_change,
+    wrap_step_ratio,
+)
 from oftimg.mesh.clip import clip_grid, clip_positions, cumulative_from_outlet
 from oftimg.mesh.grid import GridOptions, grid_frame, seam_endpoints
-from oftimg.mesh.sections import (contour_around, crossing_planes, fix_crossing_planes,
-                                  orient_and_resample, plane_contours, polygon_area,
-                                  section_planes, sections_of_mesh, slab_thickness,
-                                  volume_from_sections)
+from oftimg.mesh.sections import (
+    contour_around,
+    crossing_planes,
+    fix_crossing_planes,
+    orient_and_resample,
+    plane_contours,
+    polygon_area,
+    section_planes,
+    sections_of_mesh,
+    slab_thickness,
+    volume_from_sections,
+)
 from oftimg.mesh.topology import capped_signed_volume, check_tube
 
 OPTS = GridOptions(n_u=60, n_v=25)
@@ -33,17 +49,18 @@ def analytic_sections(r_in, r_out, ellipse=1.0, length=1.0):
     return origins, area, centroid, contour, vol
 
 
-@pytest.mark.parametrize("r_in, r_out, ellipse", [(0.2, 0.2, 1.0), (0.2, 0.1, 1.0),
-                                                  (0.2, 0.2, 0.5)])
+@pytest.mark.parametrize(
+    "r_in, r_out, ellipse", [(0.2, 0.2, 1.0), (0.2, 0.1, 1.0), (0.2, 0.2, 0.5)]
+)
 def test_analytic_tube_areas_and_volumes(r_in, r_out, ellipse):
     origins, area, centroid, contour, vol = analytic_sections(r_in, r_out, ellipse)
     z = origins[:, 2]
     r = r_in + (r_out - r_in) * z
-    expected = np.pi * r ** 2 * ellipse
+    expected = np.pi * r**2 * ellipse
     assert np.allclose(area[1:-1], expected[1:-1], rtol=2e-3)
     assert np.allclose(area, expected, rtol=5e-3)  # end rows are cut 5 % of a row inside
     h = 1.0
-    exact_vol = np.pi * ellipse * h / 3 * (r_in ** 2 + r_in * r_out + r_out ** 2)
+    exact_vol = np.pi * ellipse * h / 3 * (r_in**2 + r_in * r_out + r_out**2)
     assert vol == pytest.approx(exact_vol, rel=2e-3)
     assert np.allclose(centroid[:, :2], 0, atol=1e-3)
     assert np.allclose(np.linalg.norm(np.diff(centroid, axis=0), axis=1).sum(), 1.0, rtol=1e-3)
@@ -56,8 +73,16 @@ def test_contour_around_picks_the_right_piece_of_a_bent_tube():
     """A plane through a U-shaped tube cuts it twice; keep the section around the centre."""
     from oftimg.synthetic.phantom import Phantom, PhantomParams
 
-    ph = Phantom(PhantomParams(n_frames=3, length_mm=3.0, bend_radius_mm=0.5,
-                               radius_inlet_mm=0.15, radius_outlet_mm=0.15, contraction=0))
+    ph = Phantom(
+        PhantomParams(
+            n_frames=3,
+            length_mm=3.0,
+            bend_radius_mm=0.5,
+            radius_inlet_mm=0.15,
+            radius_outlet_mm=0.15,
+            contraction=0,
+        )
+    )
     V, F = ph.mesh("outer", 0.0, np.random.default_rng(0))
     s = 0.3
     c, N, B = ph.frame_axes(s)
@@ -81,8 +106,14 @@ def test_orient_and_resample_starts_at_seam():
 def test_crossing_planes_are_detected_and_fixed():
     z = np.linspace(0, 1, 12)
     th = np.linspace(0, 2 * np.pi, 30, endpoint=False)
-    X = np.stack([0.2 * np.cos(th)[:, None] * np.ones_like(z), 0.2 * np.sin(th)[:, None]
-                  * np.ones_like(z), np.ones_like(th)[:, None] * z], -1)
+    X = np.stack(
+        [
+            0.2 * np.cos(th)[:, None] * np.ones_like(z),
+            0.2 * np.sin(th)[:, None] * np.ones_like(z),
+            np.ones_like(th)[:, None] * z,
+        ],
+        -1,
+    )
     origins, normals = section_planes(X)
     assert not crossing_planes(X, origins, normals).any()
     tilted = normals.copy()
@@ -124,8 +155,14 @@ def test_sections_fall_back_to_the_ring_when_the_contour_does_not_follow_it():
     V, F = tube_mesh(0.2, length=1.0, n_theta=64, n_s=20)
     th = np.linspace(0, 2 * np.pi, 40, endpoint=False)
     z = np.linspace(0, 1, 5)
-    rings = np.stack([0.1 * np.cos(th)[:, None] * np.ones_like(z),
-                      0.1 * np.sin(th)[:, None] * np.ones_like(z), np.ones_like(th)[:, None] * z], -1)
+    rings = np.stack(
+        [
+            0.1 * np.cos(th)[:, None] * np.ones_like(z),
+            0.1 * np.sin(th)[:, None] * np.ones_like(z),
+            np.ones_like(th)[:, None] * z,
+        ],
+        -1,
+    )
     rings[:, 2] *= 2.0  # only the middle ring is twice as large: it matches the mesh
     origins = np.stack([0 * z, 0 * z, z], -1)
     normals = np.tile([0, 0, 1.0], (5, 1))
@@ -143,8 +180,14 @@ def test_chambered_tube_volume_from_sections():
     th = np.linspace(0, 2 * np.pi, n_th, endpoint=False)
     r = 0.15 - 0.1 * np.cos(2 * np.pi * 3 * z)
     wobble = 0.1 * np.sin(2 * np.pi * z)  # the axis bends sideways
-    V = np.stack([r[:, None] * np.cos(th) + wobble[:, None], r[:, None] * np.sin(th),
-                  z[:, None] * np.ones_like(th)], -1).reshape(-1, 3)
+    V = np.stack(
+        [
+            r[:, None] * np.cos(th) + wobble[:, None],
+            r[:, None] * np.sin(th),
+            z[:, None] * np.ones_like(th),
+        ],
+        -1,
+    ).reshape(-1, 3)
     _, F = tube_mesh(0.2, n_theta=n_th, n_s=n_s)
     topo = check_tube(V, F)
     inlet, outlet = topo.loops if V[topo.loops[0], 2].mean() < 0.5 else topo.loops[::-1]
@@ -155,7 +198,8 @@ def test_chambered_tube_volume_from_sections():
     area, centroid, _, from_ring = sections_of_mesh(V, topo.F, origins, normals, g.X, 60)
     vol = capped_signed_volume(V, topo.F, [inlet, outlet])
     assert volume_from_sections(area, slab_thickness(centroid, normals)) == pytest.approx(
-        vol, rel=0.02)
+        vol, rel=0.02
+    )
 
 
 # ----------------------------------------------------------------- cycle timing
@@ -174,12 +218,13 @@ def test_volume_change_is_the_range_over_the_least_and_nan_for_crossed_walls():
     t = np.linspace(0, 1, 40, endpoint=False)
     assert volume_change(0.02 + 0.01 * np.sin(2 * np.pi * t)) == pytest.approx(0.02 / 0.01)
     assert volume_change(np.full(5, 0.03)) == 0.0
-    assert np.isnan(volume_change(np.array([0.01, 0.0, 0.02])))      # lumen as large
-    assert np.isnan(volume_change(np.array([0.01, -0.001, 0.02])))   # lumen larger
+    assert np.isnan(volume_change(np.array([0.01, 0.0, 0.02])))  # lumen as large
+    assert np.isnan(volume_change(np.array([0.01, -0.001, 0.02])))  # lumen larger
 
 
-@pytest.mark.parametrize("cycles, one_cycle", [(1.0, True), (0.6, False), (1.3, False),
-                                               (0.97, True)])
+@pytest.mark.parametrize(
+    "cycles, one_cycle", [(1.0, True), (0.6, False), (1.3, False), (0.97, True)]
+)
 def test_wrap_step_tells_whether_the_frames_are_one_cycle(cycles, one_cycle):
     """One cycle: the last-to-first step is one of its own steps (ratio <= 1); part
     of one or more than one: most often a jump (0.97: one frame missing, not told apart)."""
@@ -201,8 +246,10 @@ def test_a_series_that_is_not_one_cycle_is_told(tmp_path):
     from oftimg.synthetic.phantom import sample_params, write_phantom
     from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
-    path = write_phantom(tmp_path / "p", sample_params("normal", 1, n_frames=10,
-                                                       vertices_min=1500, vertices_max=1800))
+    path = write_phantom(
+        tmp_path / "p",
+        sample_params("normal", 1, n_frames=10, vertices_min=1500, vertices_max=1800),
+    )
     for surface in ("inner", "lumen"):
         shutil.rmtree(path / surface)
     for f in sorted((path / "outer").iterdir())[6:]:
@@ -211,8 +258,9 @@ def test_a_series_that_is_not_one_cycle_is_told(tmp_path):
         warnings.simplefilter("always")
         res = analyse_dataset(load_dataset(path), PipelineOptions(n_u=24, n_v=12), quiet=True)
     said = [str(w.message) for w in caught if issubclass(w.category, OftimgWarning)]
-    assert any("from the last frame back to the first" in m and "exactly one" in m
-               for m in said), said
+    assert any("from the last frame back to the first" in m and "exactly one" in m for m in said), (
+        said
+    )
     assert res["summary"]["frame_series_checks"]["one_cycle_warning"]
 
 
@@ -222,11 +270,11 @@ def test_a_frame_that_stands_out_is_found():
     v = 0.05 + 0.01 * np.sin(2 * np.pi * t) ** 3 + 0.002 * np.sin(6 * np.pi * t)
     assert len(standout_frames(v)) == 0 and len(standout_frames(np.full(n, 0.05))) == 0
     glitch = v.copy()
-    glitch[17] *= 1.05                      # 5 %: one frame segmented too large
+    glitch[17] *= 1.05  # 5 %: one frame segmented too large
     assert standout_frames(glitch).tolist() == [17]
     glitch[0] *= 0.9
     assert standout_frames(glitch).tolist() == [0, 17]
-    assert standout_frames(glitch, periodic=False).tolist() == [17]   # ends not judged
+    assert standout_frames(glitch, periodic=False).tolist() == [17]  # ends not judged
 
 
 def test_a_series_with_a_frame_that_stands_out_is_told(tmp_path):
@@ -240,8 +288,10 @@ def test_a_series_with_a_frame_that_stands_out_is_told(tmp_path):
     from oftimg.synthetic.phantom import sample_params, write_phantom
     from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 
-    path = write_phantom(tmp_path / "p", sample_params("normal", 1, n_frames=30,
-                                                       vertices_min=1500, vertices_max=1800))
+    path = write_phantom(
+        tmp_path / "p",
+        sample_params("normal", 1, n_frames=30, vertices_min=1500, vertices_max=1800),
+    )
     slip = sorted((path / "outer").iterdir())[12]
     V, F = read_mesh_file(slip)
     write_ply(slip, V.mean(axis=0) + 1.04 * (V - V.mean(axis=0)), F)
@@ -283,8 +333,14 @@ def test_clipping_of_a_sliding_cylinder():
 def test_clip_grid_resamples_beyond_the_plane():
     z = np.linspace(0, 1, 11)
     th = np.linspace(0, 2 * np.pi, 16, endpoint=False)
-    X = np.stack([np.cos(th)[:, None] * np.ones_like(z), np.sin(th)[:, None] * np.ones_like(z),
-                  np.ones_like(th)[:, None] * z], -1)
+    X = np.stack(
+        [
+            np.cos(th)[:, None] * np.ones_like(z),
+            np.sin(th)[:, None] * np.ones_like(z),
+            np.ones_like(th)[:, None] * z,
+        ],
+        -1,
+    )
     Y = clip_grid(X, np.array([0, 0, 0.35]), np.array([0, 0, 1.0]))
     assert np.allclose(Y[:, 0, 2], 0.35) and np.allclose(Y[:, -1, 2], 1.0)
     assert np.allclose(np.diff(Y[..., 2], axis=1), 0.65 / 10)
@@ -292,8 +348,7 @@ def test_clip_grid_resamples_beyond_the_plane():
 
 # ----------------------------------------------------------------- phantom truth
 @pytest.mark.slow
-@pytest.mark.parametrize("wall, median_tol", [("outer", 0.02), ("inner", 0.02),
-                                              ("lumen", 0.05)])
+@pytest.mark.parametrize("wall, median_tol", [("outer", 0.02), ("inner", 0.02), ("lumen", 0.05)])
 def test_phantom_areas_match_truth(analysed_normal, wall, median_tol):
     ph, truth, res = analysed_normal
     t0 = res["summary"]["t0_frame"]
@@ -314,14 +369,15 @@ def test_phantom_cardiac_jelly_matches_truth(analysed_normal):
     t0 = res["summary"]["t0_frame"]
     t_ms = np.roll(truth["t_ms"], -t0)
     s_mm = res["arrays"]["s_mm"]
-    expected = (ph.area_mm2("inner", s_mm[:, None], t_ms[None, :])
-                - ph.area_mm2("lumen", s_mm[:, None], t_ms[None, :]))
+    expected = ph.area_mm2("inner", s_mm[:, None], t_ms[None, :]) - ph.area_mm2(
+        "lumen", s_mm[:, None], t_ms[None, :]
+    )
     rel = np.abs(res["arrays"]["area_jelly_mm2"] / expected - 1)
     jelly = np.roll(np.subtract(truth["volume_mm3"]["inner"], truth["volume_mm3"]["lumen"]), -t0)
     assert np.allclose(res["arrays"]["volume_jelly_mm3"], jelly, rtol=0.02)
     change = (jelly.max() - jelly.min()) / jelly.min()
     assert res["summary"]["jelly_volume_change"] == pytest.approx(change, rel=0.02)
-    assert np.median(rel) < 0.01 and rel.max() < 0.03       # measured 0.34 %, 0.83 %
+    assert np.median(rel) < 0.01 and rel.max() < 0.03  # measured 0.34 %, 0.83 %
 
 
 @pytest.mark.slow
@@ -335,7 +391,8 @@ def test_phantom_timing_length_volume(analysed_normal):
     assert np.allclose(arr["volume_outer_mm3"], vol_truth, rtol=0.02)
     assert np.argmin(arr["volume_outer_mm3"]) == 0
     assert summ["myocardial_volume_change"] == pytest.approx(
-        truth["myocardial_volume_change"], abs=0.03)
+        truth["myocardial_volume_change"], abs=0.03
+    )
 
 
 @pytest.mark.slow

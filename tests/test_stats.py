@@ -1,5 +1,6 @@
 """Where two groups' maps differ: the max-statistic permutation test, corrected over
 the map (family-wise), exact and with random relabellings."""
+
 import numpy as np
 import pytest
 
@@ -11,7 +12,7 @@ def test_complete_separation_everywhere_gives_the_least_exact_p():
     base = np.arange(4.0)[:, None, None] * np.ones((4, 3, 5))
     difference, p = map_permutation_test(base + 10, base)
     assert difference == pytest.approx(np.full((3, 5), 10.0))
-    assert p == pytest.approx(np.full((3, 5), 2 / 70))              # 2 of C(8, 4)
+    assert p == pytest.approx(np.full((3, 5), 2 / 70))  # 2 of C(8, 4)
     _, same = map_permutation_test(base, base.copy())
     assert same == pytest.approx(np.ones((3, 5)))
 
@@ -25,7 +26,7 @@ def test_a_block_that_differs_is_found_and_noise_is_not():
     block[5:10, 5:10] = True
     assert np.all(p[block] < 0.05)
     assert np.all(p[~block] > 0.05)
-    assert np.all(p >= 2 / 924 - 1e-12)            # exact: C(12, 6) relabellings
+    assert np.all(p >= 2 / 924 - 1e-12)  # exact: C(12, 6) relabellings
     np.testing.assert_allclose(difference, a.mean(0) - b.mean(0))
 
 
@@ -33,19 +34,21 @@ def test_family_wise_error_under_the_null_is_at_most_alpha():
     """300 cohorts of 5 + 5 noise maps: the share with any pixel p < 0.05 stays near
     0.05 (the exact test's 12/252 = 0.048), where uncorrected pixels would flag most."""
     rng = np.random.default_rng(7)
-    any_flagged = [np.nanmin(map_permutation_test(rng.normal(size=(5, 8, 8)),
-                                                  rng.normal(size=(5, 8, 8)))[1]) < 0.05
-                   for _ in range(300)]
+    any_flagged = [
+        np.nanmin(map_permutation_test(rng.normal(size=(5, 8, 8)), rng.normal(size=(5, 8, 8)))[1])
+        < 0.05
+        for _ in range(300)
+    ]
     rate = np.mean(any_flagged)
     assert 0.015 < rate < 0.05 + 3 * np.sqrt(0.05 * 0.95 / 300)
 
 
 def test_random_relabellings_agree_with_every_relabelling():
     rng = np.random.default_rng(5)
-    a, b = rng.normal(0.8, 1, (8, 6, 6)), rng.normal(0, 1, (8, 6, 6))   # C(16, 8) = 12870
+    a, b = rng.normal(0.8, 1, (8, 6, 6)), rng.normal(0, 1, (8, 6, 6))  # C(16, 8) = 12870
     _, exact = map_permutation_test(a, b)
     _, sampled = map_permutation_test(a, b, exact_max=100, n_random=4000, seed=1)
-    assert np.abs(sampled - exact).max() < 0.03                  # 4 standard errors
+    assert np.abs(sampled - exact).max() < 0.03  # 4 standard errors
     assert sampled.min() >= 1 / 4001
     _, again = map_permutation_test(a, b, exact_max=100, n_random=4000, seed=1)
     np.testing.assert_array_equal(sampled, again)
@@ -55,7 +58,7 @@ def test_missing_maps_and_pixels():
     rng = np.random.default_rng(0)
     a, b = rng.normal(1, 1, (4, 5, 5)), rng.normal(0, 1, (4, 5, 5))
     difference, p = map_permutation_test(a, b)
-    without_inner = np.full((1, 5, 5), np.nan)          # an embryo without that field
+    without_inner = np.full((1, 5, 5), np.nan)  # an embryo without that field
     d2, p2 = map_permutation_test(np.concatenate([a, without_inner]), b)
     np.testing.assert_array_equal(p2, p)
     np.testing.assert_array_equal(d2, difference)
@@ -78,16 +81,23 @@ def test_each_group_against_the_normals():
     for key in ("difference", "p_fwer", "p_cluster"):
         assert compared[key].shape == (2, 4, 6)
     g = np.array(groups)
-    np.testing.assert_allclose(compared["difference"][1], maps[g == "banded"].mean(0)
-                               - maps[g == "normal"].mean(0))
-    np.testing.assert_array_equal(compared["p_cluster"][1], map_cluster_test(
-        maps[g == "banded"], maps[g == "normal"], periodic_axis=1))
+    np.testing.assert_allclose(
+        compared["difference"][1], maps[g == "banded"].mean(0) - maps[g == "normal"].mean(0)
+    )
+    np.testing.assert_array_equal(
+        compared["p_cluster"][1],
+        map_cluster_test(maps[g == "banded"], maps[g == "normal"], periodic_axis=1),
+    )
     p_fwer = compared["p_fwer"]
     compared = group_differences(maps, ["normal"] * 7)
     assert compared["names"] == [] and compared["p_cluster"].shape == (0, 4, 6)
-    wider = group_differences(maps, groups, cluster_alpha=0.3)     # the clusters' only
-    np.testing.assert_array_equal(wider["p_cluster"][1], map_cluster_test(
-        maps[g == "banded"], maps[g == "normal"], periodic_axis=1, cluster_alpha=0.3))
+    wider = group_differences(maps, groups, cluster_alpha=0.3)  # the clusters' only
+    np.testing.assert_array_equal(
+        wider["p_cluster"][1],
+        map_cluster_test(
+            maps[g == "banded"], maps[g == "normal"], periodic_axis=1, cluster_alpha=0.3
+        ),
+    )
     np.testing.assert_array_equal(wider["p_fwer"], p_fwer)
 
 
@@ -102,8 +112,8 @@ def test_a_weak_extended_difference_is_found_as_a_cluster():
     band = np.zeros((50, 100), bool)
     band[20:30] = True
     assert np.mean(p_pixels[band] < 0.05) < 0.05
-    assert np.mean(np.isclose(p[band], 2 / 70)) > 0.7              # 2 of C(8, 4)
-    assert np.mean(p[~band] < 0.05) < 0.01                          # the band's fringe
+    assert np.mean(np.isclose(p[band], 2 / 70)) > 0.7  # 2 of C(8, 4)
+    assert np.mean(p[~band] < 0.05) < 0.01  # the band's fringe
     assert np.all(np.isclose(p[p < 0.05], 2 / 70))
 
 
@@ -131,15 +141,14 @@ def test_clusters_join_across_the_cycles_end():
     mask = np.zeros((4, 6), bool)
     mask[1, 0] = mask[1, 5] = mask[2, 5] = mask[3, 2] = True
     labels, count = _cluster_labels(mask, 1)
-    np.testing.assert_array_equal(labels, [[0, 0, 0, 0, 0, 0],
-                                           [1, 0, 0, 0, 0, 1],
-                                           [0, 0, 0, 0, 0, 1],
-                                           [0, 0, 2, 0, 0, 0]])
+    np.testing.assert_array_equal(
+        labels, [[0, 0, 0, 0, 0, 0], [1, 0, 0, 0, 0, 1], [0, 0, 0, 0, 0, 1], [0, 0, 2, 0, 0, 0]]
+    )
     assert count == 2 and _cluster_labels(mask, None)[1] == 3
     other = np.zeros((4, 6), bool)
     other[0, 1] = other[2, 3] = True
     stack, count = _cluster_labels(np.stack([mask, other, mask]), 1)
-    assert count == 6                                   # 2 + 2 + 2: no link between maps
+    assert count == 6  # 2 + 2 + 2: no link between maps
     np.testing.assert_array_equal(stack[2] > 0, mask)
     rng = np.random.default_rng(2)
     a, b = rng.normal(0, 1, (5, 20, 40)), rng.normal(0, 1, (5, 20, 40))
@@ -155,8 +164,15 @@ def test_clusters_join_across_the_cycles_end():
 
 def test_cluster_family_wise_error_under_the_null():
     rng = np.random.default_rng(1)
-    flagged = [np.nanmin(map_cluster_test(rng.normal(size=(5, 8, 8)), rng.normal(size=(5, 8, 8)),
-                                          periodic_axis=1)) < 0.05 for _ in range(300)]
+    flagged = [
+        np.nanmin(
+            map_cluster_test(
+                rng.normal(size=(5, 8, 8)), rng.normal(size=(5, 8, 8)), periodic_axis=1
+            )
+        )
+        < 0.05
+        for _ in range(300)
+    ]
     assert 0.015 < np.mean(flagged) < 0.05 + 3 * np.sqrt(0.05 * 0.95 / 300)
 
 
@@ -185,15 +201,19 @@ def test_cluster_test_equals_a_plain_loop_over_every_relabelling():
     a[1, 5, 4] = np.nan
     pooled = np.concatenate([a, b])
     valid = ~np.isnan(pooled).any(axis=0)
-    diffs = np.array([pooled[list(s)].mean(0) - np.delete(pooled, list(s), 0).mean(0)
-                      for s in combinations(range(9), 5)])        # 126 relabellings
+    diffs = np.array(
+        [
+            pooled[list(s)].mean(0) - np.delete(pooled, list(s), 0).mean(0)
+            for s in combinations(range(9), 5)
+        ]
+    )  # 126 relabellings
     absd = np.where(valid, np.abs(diffs), 0.0)
     k = int(np.floor(0.05 * len(diffs)))
     threshold = np.sort(absd, axis=0)[-k]
 
     def heaviest_and_labels(abs_d):
         labels, count = ndimage.label((abs_d >= threshold) & (abs_d > 0))
-        for row in range(labels.shape[0]):                # join across the columns' ends
+        for row in range(labels.shape[0]):  # join across the columns' ends
             x, y = labels[row, 0], labels[row, -1]
             if x and y and x != y:
                 labels[labels == y] = x
@@ -201,7 +221,7 @@ def test_cluster_test_equals_a_plain_loop_over_every_relabelling():
         return max(weights.values(), default=0.0), labels, weights
 
     null = np.array([heaviest_and_labels(d)[0] for d in absd])
-    _, labels, weights = heaviest_and_labels(absd[0])            # the first 5: group a
+    _, labels, weights = heaviest_and_labels(absd[0])  # the first 5: group a
     expected = np.ones((6, 9))
     for lab, w in weights.items():
         expected[labels == lab] = np.mean(null >= w - 1e-12)
@@ -209,4 +229,4 @@ def test_cluster_test_equals_a_plain_loop_over_every_relabelling():
     p = map_cluster_test(a, b, periodic_axis=1)
     np.testing.assert_allclose(p, expected, rtol=1e-12)
     assert np.nanmin(p) < 0.05 and len(weights) > 1
-    assert p[2, 0] == p[2, -1] < 0.05                           # one cluster across the wrap
+    assert p[2, 0] == p[2, -1] < 0.05  # one cluster across the wrap

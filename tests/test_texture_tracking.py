@@ -1,12 +1,17 @@
 """Texture tracking's own check on its match (issues 72, 86): the forward-backward gap
 that predicted the grid's drift over the accuracy zoo, each node's support and the
 share that fell back to the shape, and the warnings they give."""
+
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
-from oftimg.analysis.texture_tracking import (FALLBACK_WARN_SHARE, GAP_WARN_STEPS,
-                                              fallback_note, texture_match_note,
-                                              texture_pathlines)
+from oftimg.analysis.texture_tracking import (
+    FALLBACK_WARN_SHARE,
+    GAP_WARN_STEPS,
+    fallback_note,
+    texture_match_note,
+    texture_pathlines,
+)
 
 N_U, N_V, FACTOR, N_T = 20, 12, 4, 6
 
@@ -32,8 +37,10 @@ def frames(moving_texture: bool, seed: int = 0) -> np.ndarray:
 
 def still() -> np.ndarray:
     """The shape's pathlines ``(N_U, N_V, N_T, 2)`` of a grid that does not turn."""
-    nodes = np.stack(np.meshgrid(np.arange(N_U, dtype=float), np.arange(N_V, dtype=float),
-                                 indexing="ij"), axis=-1)
+    nodes = np.stack(
+        np.meshgrid(np.arange(N_U, dtype=float), np.arange(N_V, dtype=float), indexing="ij"),
+        axis=-1,
+    )
     return np.repeat(nodes[:, :, None], N_T, axis=2)
 
 

@@ -1,12 +1,18 @@
 """Material tracking (issue 51): rows turned with the tissue, against known turns and
 against the truth of a real shape animated with a twist and a shortening."""
+
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from oftimg.synthetic.animate import Animation, grid_material_points, tissue_positions, write_animation
+from oftimg.synthetic.animate import (
+    Animation,
+    grid_material_points,
+    tissue_positions,
+    write_animation,
+)
 from oftimg.analysis.tracking import follow, ring_turns, row_turns, sample, track_grid
 from oftimg.io.dataset import load_dataset
 from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
@@ -28,18 +34,19 @@ def _bumpy_tube(n_u=80, n_v=30, n_t=12, turns=None):
     normal = np.stack([np.cos(angle), np.sin(angle), 0 * angle], axis=-1)
     binormal = np.array([0.0, 0.0, 1.0])
     phi = 2 * np.pi * U
-    return (centre + r[..., None] * (np.cos(phi)[..., None] * normal
-                                     + np.sin(phi)[..., None] * binormal))
+    return centre + r[..., None] * (
+        np.cos(phi)[..., None] * normal + np.sin(phi)[..., None] * binormal
+    )
 
 
 def test_ring_turns_find_a_known_turn_to_a_small_part_of_a_step():
     G = _bumpy_tube(n_t=1)[:, :, 0]
-    shift = np.linspace(-30.0, 25.0, G.shape[1])            # steps, sub-step, both ways
+    shift = np.linspace(-30.0, 25.0, G.shape[1])  # steps, sub-step, both ways
     turned = _bumpy_tube(n_t=1, turns=shift[:, None])[:, :, 0]
     found, rms = ring_turns(G, turned)
     # turned(i + s) = G(i) where turned was made at u + shift: s = -shift
     assert np.abs(found + shift).max() < 0.02
-    assert rms.max() < 0.01 * 0.2      # what is left: the rings sampled between nodes
+    assert rms.max() < 0.01 * 0.2  # what is left: the rings sampled between nodes
 
 
 def test_row_turns_take_out_the_grids_turns_and_jumps_but_not_the_wave():
@@ -47,14 +54,14 @@ def test_row_turns_take_out_the_grids_turns_and_jumps_but_not_the_wave():
     rng = np.random.default_rng(0)
     turns = np.cumsum(rng.normal(0, 1.5, (n_v, n_t)), axis=1)
     turns[:, 0] = 0.0
-    turns[n_v // 2:, 5:8] += 20.0                             # a seam that jumps
+    turns[n_v // 2 :, 5:8] += 20.0  # a seam that jumps
     G = _bumpy_tube(n_t=n_t, turns=turns)
     coords, info = track_grid(G)
-    truth = _bumpy_tube(n_t=n_t)                             # every node the same tissue
+    truth = _bumpy_tube(n_t=n_t)  # every node the same tissue
     tracked = follow(G, coords)
     assert np.abs(tracked - truth).max() < 2e-3 * 0.2
     assert info["closure_deg"]["max"] < 0.1
-    assert info["ring_rms_mm"] < 0.5 * info["ring_rms_unturned_mm"]   # the rest: the wave
+    assert info["ring_rms_mm"] < 0.5 * info["ring_rms_unturned_mm"]  # the rest: the wave
 
 
 def test_a_round_still_tube_is_not_turned():
@@ -76,25 +83,36 @@ def twisted_midgut(tmp_path_factory):
     """The 8k midgut animated over 40 remeshed frames: the wave, a twist of 20 degrees
     and a shortening of 15 %, each vertex traced to the static mesh."""
     mesh = Path(__file__).parent / "data" / "midgut_8k.ply"
-    anim = Animation(speed_mm_s=1.5, amplitude=0.3, period_ms=360.0, n_frames=40,
-                     twist_deg=20.0, shortening=0.15)
-    return write_animation(mesh, tmp_path_factory.mktemp("twist") / "midgut", anim,
-                           scale_to_mm=0.2619e-3, do_remesh=True, seed=0)
+    anim = Animation(
+        speed_mm_s=1.5, amplitude=0.3, period_ms=360.0, n_frames=40, twist_deg=20.0, shortening=0.15
+    )
+    return write_animation(
+        mesh,
+        tmp_path_factory.mktemp("twist") / "midgut",
+        anim,
+        scale_to_mm=0.2619e-3,
+        do_remesh=True,
+        seed=0,
+    )
 
 
 def _drift(dataset, tracking):
     """Median drift of the grid's nodes from their tissue (% of the length), and over
     the tissue's own median displacement."""
     with pytest.warns(Warning):
-        result = analyse_dataset(load_dataset(dataset), PipelineOptions(tracking=tracking),
-                                 quiet=True)
+        result = analyse_dataset(
+            load_dataset(dataset), PipelineOptions(tracking=tracking), quiet=True
+        )
     G, t0 = result["grids"]["outer"], result["summary"]["t0_frame"]
     S = grid_material_points(dataset, G, t0)
     drift = np.linalg.norm(S - S[:, :, :1], axis=-1)[:, :, 1:]
     P = tissue_positions(dataset, S[:, :, 0].reshape(-1, 3), t0)
     moved = np.linalg.norm(P - P[:, :1], axis=-1)[:, 1:]
-    return (100 * np.median(drift) / result["summary"]["tube_length_mm"],
-            np.median(drift) / np.median(moved), result["summary"])
+    return (
+        100 * np.median(drift) / result["summary"]["tube_length_mm"],
+        np.median(drift) / np.median(moved),
+        result["summary"],
+    )
 
 
 @pytest.mark.slow
@@ -123,5 +141,5 @@ def test_a_field_with_nan_rows_is_followed_with_nan_only_beside_them():
     at = np.stack(np.meshgrid(np.arange(80) + 0.3, np.arange(50) + 0.2, indexing="ij"), -1)
     read = sample(shut, at)
     assert np.flatnonzero(np.isnan(read).any(axis=0)).tolist() == [19, 20, 21, 22, 23, 24]
-    far = np.r_[0:12, 33:50]          # 8 rows on: the spline feels them 0.27^8 as much
+    far = np.r_[0:12, 33:50]  # 8 rows on: the spline feels them 0.27^8 as much
     assert np.allclose(read[:, far], sample(field, at)[:, far], atol=1e-3)

@@ -1,5 +1,6 @@
 """One unit per quantity wherever a person or a table reads it (issue 87): the cohort
 tables, the dataset page, the figures and the videos ask oftimg.output.units."""
+
 import re
 
 import pytest
@@ -33,8 +34,9 @@ def test_figures_and_videos_label_a_kind_in_its_one_unit():
     labels += [m[4] for m in figures.GROUP_MAPS]
     labels += [opts["label"] for _, _, _, opts in video.FIELD_VIDEOS if "label" in opts]
     for text in labels:
-        kind = ("thickening" if "thickening" in text else "thickness" if "thickness" in text
-                else None)
+        kind = (
+            "thickening" if "thickening" in text else "thickness" if "thickness" in text else None
+        )
         if kind is None:
             continue
         assert text.endswith(f"({unit(units.KINDS[kind].unit)})"), text
@@ -42,15 +44,22 @@ def test_figures_and_videos_label_a_kind_in_its_one_unit():
     from pathlib import Path
 
     root = Path(figures.__file__).parent
-    examples = root.parents[1] / "docs" / "examples"          # the gallery's too
+    examples = root.parents[1] / "docs" / "examples"  # the gallery's too
     for path in [*root.glob("*.py"), *examples.glob("*.py")]:
         for line in path.read_text().splitlines():
             assert not re.search(r"thickness.*\((µm|um)\)", line), f"{path.name}: {line}"
 
 
-@pytest.mark.parametrize("key, kind", [
-    ("wall_thickness_median_mm", "thickness"), ("jelly_thickening", "thickening"),
-    ("jelly_volume_change", "volume_change"), ("expand_fraction", "share_of_cycle"),
-    ("max_expansion_rate_mm2_ms", "area_rate"), ("period_ms", None)])
+@pytest.mark.parametrize(
+    "key, kind",
+    [
+        ("wall_thickness_median_mm", "thickness"),
+        ("jelly_thickening", "thickening"),
+        ("jelly_volume_change", "volume_change"),
+        ("expand_fraction", "share_of_cycle"),
+        ("max_expansion_rate_mm2_ms", "area_rate"),
+        ("period_ms", None),
+    ],
+)
 def test_a_key_names_its_kind(key, kind):
     assert units.kind_of(key) == kind

@@ -2,6 +2,7 @@
 meshes, a band, label volumes with every wall, labels with intensity, probability
 maps; each through `oftimg run` with every figure, video and page and every export,
 ending with exit 0 and complete outputs (tests/test_unusual_meshes.py: the shapes)."""
+
 import pytest
 
 from helpers import UNUSUAL_DATASETS, run_to_the_end
@@ -9,8 +10,7 @@ from helpers import UNUSUAL_DATASETS, run_to_the_end
 pytestmark = [pytest.mark.long, pytest.mark.slow, pytest.mark.usefixtures("png_figures_only")]
 
 
-@pytest.mark.parametrize("case", ["um", "banded", "labels", "labels_intensity",
-                                  "probabilities"])
+@pytest.mark.parametrize("case", ["um", "banded", "labels", "labels_intensity", "probabilities"])
 def test_an_unusual_input_runs_to_the_end(case, tmp_path):
     summary = run_to_the_end(UNUSUAL_DATASETS[case](tmp_path / case), tmp_path)
     if case == "um":
@@ -19,4 +19,5 @@ def test_an_unusual_input_runs_to_the_end(case, tmp_path):
         assert summary["provenance"]["voxel_size"] is not None
         kind = "probabilities" if case == "probabilities" else "labels"
         assert set(summary["provenance"]["inputs"]) == (
-            {kind, "intensity"} if case == "labels_intensity" else {kind})
+            {kind, "intensity"} if case == "labels_intensity" else {kind}
+        )

@@ -1,6 +1,7 @@
 """A worker process that dies (say the out-of-memory killer) ends the run with a
 clear error, never a hang. Each case runs in a subprocess with a time limit: a
 hang fails the test instead of holding up the suite."""
+
 import os
 import subprocess
 import sys
@@ -20,8 +21,12 @@ SIGINT_HANDLED = "import signal; signal.signal(signal.SIGINT, signal.default_int
 
 
 def run_python(code: str, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", SIGINT_HANDLED + textwrap.dedent(code)],
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-c", SIGINT_HANDLED + textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def test_a_pool_stuck_on_a_dead_worker_is_broken_not_hung():
@@ -78,8 +83,9 @@ def test_run_with_a_killed_worker_says_so_and_writes_nothing(tmp_path):
     """A worker killed as the first frame of the per-frame pass comes back (the
     others still queued or running): the kill is tied to the run's progress, not
     to a clock, so it cannot fall after the workers' last task."""
-    data = write_phantom(tmp_path / "p", sample_params("normal", 3, n_frames=6,
-                                                       vertices_min=2000, vertices_max=2500))
+    data = write_phantom(
+        tmp_path / "p", sample_params("normal", 3, n_frames=6, vertices_min=2000, vertices_max=2500)
+    )
     out = tmp_path / "out"
     done = run_python(f"""
         import multiprocessing as mp, os, signal, sys
@@ -119,8 +125,9 @@ def test_a_lost_dask_worker_is_named():
 
     from oftimg.workers import _worker_lost
 
-    exc = distributed.KilledWorker("process_frame-3", SimpleNamespace(address="tcp://node7:4321"),
-                                   3)
+    exc = distributed.KilledWorker(
+        "process_frame-3", SimpleNamespace(address="tcp://node7:4321"), 3
+    )
     lost = _worker_lost(exc)
     assert "a Dask worker died while running a task" in str(lost) and "node7" in str(lost)
     assert _worker_lost(ValueError("bad mesh")) is None
@@ -136,8 +143,10 @@ def test_a_worker_that_exited_with_an_error_is_not_said_killed_by_sigterm():
     from oftimg.workers import _worker_lost
 
     def pool(*codes):
-        return [SimpleNamespace(exitcode=c, pid=100 + k, join=lambda timeout: None)
-                for k, c in enumerate(codes)]
+        return [
+            SimpleNamespace(exitcode=c, pid=100 + k, join=lambda timeout: None)
+            for k, c in enumerate(codes)
+        ]
 
     exited = str(_worker_lost(BrokenProcessPool("x"), pool(1, -15)))
     assert "ended with exit status 1" in exited and "SIGTERM" not in exited
@@ -157,8 +166,10 @@ def test_a_bad_file_descriptor_after_a_worker_died_is_the_lost_worker():
     from oftimg.workers import WorkerLost, _worker_lost, closing_executor, make_executor
 
     def procs(*codes):
-        return [SimpleNamespace(exitcode=c, pid=100 + k, join=lambda timeout: None)
-                for k, c in enumerate(codes)]
+        return [
+            SimpleNamespace(exitcode=c, pid=100 + k, join=lambda timeout: None)
+            for k, c in enumerate(codes)
+        ]
 
     bad_fd = OSError(errno.EBADF, "Bad file descriptor")
     assert "killed by SIGKILL" in str(_worker_lost(bad_fd, procs(-9, None)))
@@ -180,6 +191,7 @@ def test_a_bad_file_descriptor_after_a_worker_died_is_the_lost_worker():
                 def shutdown_tripping(**kwargs):
                     shutdown(**kwargs)
                     raise OSError(errno.EBADF, "Bad file descriptor")
+
                 pool.shutdown = shutdown_tripping
         assert isinstance(caught.value.__cause__, OSError), where
     pool = make_executor(2)
@@ -197,11 +209,18 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
     import signal
     import time
 
-    data = write_phantom(tmp_path / "p", sample_params("normal", 4, n_frames=8,
-                                                       vertices_min=2000, vertices_max=2500))
-    main = subprocess.Popen([sys.executable, "-c", "import sys; from oftimg import cli; "
-                             f"sys.exit(cli.main(['run', {str(data)!r}, '--out', "
-                             f"{str(tmp_path / 'out')!r}, '--jobs', '2', '--quiet']))"])
+    data = write_phantom(
+        tmp_path / "p", sample_params("normal", 4, n_frames=8, vertices_min=2000, vertices_max=2500)
+    )
+    main = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from oftimg import cli; "
+            f"sys.exit(cli.main(['run', {str(data)!r}, '--out', "
+            f"{str(tmp_path / 'out')!r}, '--jobs', '2', '--quiet']))",
+        ]
+    )
     workers = []
     deadline = time.time() + 60
     while len(workers) < 2 and time.time() < deadline and main.poll() is None:
@@ -216,6 +235,7 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
             return open(f"/proc/{pid}/stat").read().split(")")[-1].split()[0] != "Z"
         except FileNotFoundError:
             return False
+
     deadline = time.time() + 10
     while any(alive(w) for w in workers) and time.time() < deadline:
         time.sleep(0.1)
@@ -228,10 +248,11 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
 def _worker_pids(main_pid: int) -> list[int]:
     """The main process's pool workers; a child that ends while it is looked at (a
     short-lived helper process) is not one."""
+
     def cmdline(pid):
         try:
             return open(f"/proc/{pid}/cmdline", "rb").read()
-        except OSError:                                  # ProcessLookupError: gone
+        except OSError:  # ProcessLookupError: gone
             return b""
 
     children = open(f"/proc/{main_pid}/task/{main_pid}/children").read().split()
@@ -247,12 +268,22 @@ def test_sigterm_ends_the_run_as_ctrl_c_does(tmp_path):
     import signal
     import time
 
-    data = write_phantom(tmp_path / "p", sample_params("normal", 4, n_frames=40,
-                                                       vertices_min=2000, vertices_max=2500))
+    data = write_phantom(
+        tmp_path / "p",
+        sample_params("normal", 4, n_frames=40, vertices_min=2000, vertices_max=2500),
+    )
     out = tmp_path / "out"
-    main = subprocess.Popen([sys.executable, "-c", "import sys; from oftimg import cli; "
-                             f"sys.exit(cli.main(['run', {str(data)!r}, '--out', {str(out)!r}, "
-                             "'--jobs', '2', '--quiet']))"], stderr=subprocess.PIPE, text=True)
+    main = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from oftimg import cli; "
+            f"sys.exit(cli.main(['run', {str(data)!r}, '--out', {str(out)!r}, "
+            "'--jobs', '2', '--quiet']))",
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     workers, deadline = [], time.time() + 60
     while len(workers) < 2 and time.time() < deadline and main.poll() is None:
         time.sleep(0.05)
@@ -267,9 +298,11 @@ def test_sigterm_ends_the_run_as_ctrl_c_does(tmp_path):
     assert main.returncode == 143, err
     assert "oftimg: terminated (SIGTERM); no results were written to --out" in err
     assert "leaked" not in err and "Traceback" not in err
-    assert not any(os.path.exists(f"/proc/{w}/cmdline") and
-                   open(f"/proc/{w}/stat").read().split(")")[-1].split()[0] != "Z"
-                   for w in workers)
+    assert not any(
+        os.path.exists(f"/proc/{w}/cmdline")
+        and open(f"/proc/{w}/stat").read().split(")")[-1].split()[0] != "Z"
+        for w in workers
+    )
     assert not out.exists() and not (tmp_path / ".out.finished").exists()
 
 
@@ -307,14 +340,17 @@ def test_available_memory_reads_the_jobs_cgroup(tmp_path):
 
     # cgroup v2: the job's limit (3 GB, 1 GB used) one level above the step's ('max')
     (proc / "self" / "cgroup").write_text("0::/slurm/job_7/step_0\n")
-    files(cg / "slurm" / "job_7", memory_max=3 * 2 ** 30, memory_current=2 ** 30)
-    files(cg / "slurm" / "job_7" / "step_0", memory_max="max", memory_current=2 ** 29)
-    assert available_memory(str(proc), str(cg)) == 2 * 2 ** 30
+    files(cg / "slurm" / "job_7", memory_max=3 * 2**30, memory_current=2**30)
+    files(cg / "slurm" / "job_7" / "step_0", memory_max="max", memory_current=2**29)
+    assert available_memory(str(proc), str(cg)) == 2 * 2**30
     # cgroup v1, no limit set: MemAvailable (32 GiB)
     (proc / "self" / "cgroup").write_text("4:memory:/user.slice\n3:cpuset:/\n")
-    files(cg / "memory" / "user.slice", memory_limit_in_bytes=9223372036854771712,
-          memory_usage_in_bytes=2 ** 30)
-    assert available_memory(str(proc), str(cg)) == 32 * 2 ** 30
+    files(
+        cg / "memory" / "user.slice",
+        memory_limit_in_bytes=9223372036854771712,
+        memory_usage_in_bytes=2**30,
+    )
+    assert available_memory(str(proc), str(cg)) == 32 * 2**30
     # nothing to read (not Linux)
     assert available_memory(str(tmp_path / "none"), str(tmp_path / "none")) is None
 
@@ -332,7 +368,7 @@ def test_usable_cpus_keeps_to_a_containers_cpu_quota(tmp_path, monkeypatch):
     (cg / "docker" / "abc").mkdir(parents=True)
     (cg / "docker" / "abc" / "cpu.max").write_text("150000 100000\n")
     assert usable_cpus(str(proc), str(cg)) == 2
-    (cg / "docker" / "abc" / "cpu.max").write_text("max 100000\n")        # no quota
+    (cg / "docker" / "abc" / "cpu.max").write_text("max 100000\n")  # no quota
     assert usable_cpus(str(proc), str(cg)) == 8
     (proc / "self" / "cgroup").write_text("2:cpu,cpuacct:/kubepods/pod1\n")  # v1
     (cg / "cpu,cpuacct" / "kubepods" / "pod1").mkdir(parents=True)
@@ -351,7 +387,8 @@ def test_a_killed_progress_manager_ends_the_bar_not_the_run():
     import time
 
     from oftimg import api
-    class Bar:                                            # a bar on a terminal
+
+    class Bar:  # a bar on a terminal
         shown = reporting = True
         n = 0
 
@@ -369,7 +406,7 @@ def test_a_killed_progress_manager_ends_the_bar_not_the_run():
         manager = queue._manager._process
         os.kill(manager.pid, signal.SIGKILL)
         manager.join(10)
-        reports.put(1)                                    # no error: the reports end
+        reports.put(1)  # no error: the reports end
         assert reports.queue is None
     assert bar.n == 2
 
@@ -405,6 +442,7 @@ def test_workers_run_opencv_on_one_thread_and_the_main_process_keeps_its_own(mon
 
 def test_every_public_name_resolves_and_others_do_not():
     import oftimg
+
     for name in oftimg.__all__:
         assert getattr(oftimg, name) is not None
     assert set(oftimg.__all__) <= set(dir(oftimg))

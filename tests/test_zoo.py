@@ -1,6 +1,7 @@
 """The randomized phantom zoo (issue 72): draws are deterministic by seed, span the
 ranges they promise, and each kind writes a dataset that oftimg reads, with its truth
 and what was drawn."""
+
 import json
 from dataclasses import replace
 
@@ -9,10 +10,17 @@ import pytest
 
 from oftimg.io.dataset import load_dataset
 from oftimg.io.label_dataset import load_label_dataset, read_frame
-from oftimg.synthetic.zoo import (FORMATS, KINDS, RANGES, Scenario, draw_scenario, grown,
-                                  write_scenario)
+from oftimg.synthetic.zoo import (
+    FORMATS,
+    KINDS,
+    RANGES,
+    Scenario,
+    draw_scenario,
+    grown,
+    write_scenario,
+)
 
-pytestmark = pytest.mark.long   # make test-long (accuracy, rendering, whole runs)
+pytestmark = pytest.mark.long  # make test-long (accuracy, rendering, whole runs)
 
 
 def test_the_same_seed_draws_the_same_scenario_and_others_differ():
@@ -21,10 +29,11 @@ def test_the_same_seed_draws_the_same_scenario_and_others_differ():
     quick = draw_scenario(7, "labels", n_frames=6, voxel_um_min=8.0)
     full = draw_scenario(7, "labels")
     assert quick.phantom.n_frames == 6 and min(quick.voxel_um) >= 8.0
-    assert quick.phantom.period_ms == full.phantom.period_ms       # the rest as drawn
+    assert quick.phantom.period_ms == full.phantom.period_ms  # the rest as drawn
     assert quick.segmentation.values == full.segmentation.values
     assert sorted(quick.segmentation.defects.values()) == sorted(
-        full.segmentation.defects.values())          # at the same share of the cycle
+        full.segmentation.defects.values()
+    )  # at the same share of the cycle
 
 
 def test_draws_span_their_ranges():
@@ -45,21 +54,19 @@ def test_draws_span_their_ranges():
     assert {"inlet", "outlet", None} == set(ending)
     assert 0.15 < np.mean([e is not None for e in ending]) < 0.45
     oblique = [d.oblique_deg for d in labelled if d.end_inside is None]
-    assert 0.35 < np.mean(np.array(oblique) > 0) < 0.65       # cut askew by the faces
+    assert 0.35 < np.mean(np.array(oblique) > 0) < 0.65  # cut askew by the faces
     assert min(o for o in oblique if o) < 23 and 47 < max(oblique) <= 50
     assert all(d.oblique_deg == 0 for d in labelled if d.end_inside)
     forced = [draw_scenario(seed, "labels", oblique=True) for seed in range(20)]
     assert all(20 <= d.oblique_deg <= 50 and d.end_inside is None for d in forced)
     square = [draw_scenario(seed, "labels", oblique=False) for seed in range(20)]
     assert all(d.oblique_deg == 0 and d.end_inside is None for d in square)
-    assert [replace(d, oblique_deg=0.0) for d in forced] == square     # a pair but the cut
+    assert [replace(d, oblique_deg=0.0) for d in forced] == square  # a pair but the cut
     assert any(d.segmentation.systematic for d in labelled)
     assert any(d.segmentation.defects for d in labelled)
-    assert any(d.segmentation.values != {"myocardium": 1, "jelly": 2, "lumen": 3}
-               for d in labelled)
+    assert any(d.segmentation.values != {"myocardium": 1, "jelly": 2, "lumen": 3} for d in labelled)
     assert all(d.texture is not None for d in draws if d.kind == "labels+intensity")
-    assert all(d.voxel_um is None and d.segmentation is None
-               for d in draws if d.kind == "meshes")
+    assert all(d.voxel_um is None and d.segmentation is None for d in draws if d.kind == "meshes")
 
 
 def test_a_wall_grown_or_shrunk_by_one_voxel():
@@ -67,28 +74,31 @@ def test_a_wall_grown_or_shrunk_by_one_voxel():
     labels[2:7, 2:7, 2:7] = 1
     labels[3:6, 3:6, 3:6] = 2
     bigger = grown(labels, 2, +1)
-    assert (bigger == 2).sum() == 27 + 6 * 9 + 0      # a face layer on each side (no edges)
+    assert (bigger == 2).sum() == 27 + 6 * 9 + 0  # a face layer on each side (no edges)
     assert (bigger == 1).sum() == (labels == 1).sum() - 6 * 9
     smaller = grown(labels, 2, -1)
     assert (smaller == 2).sum() == 1 and (smaller == 1).sum() == (labels == 1).sum() + 26
-    outer = grown(labels, 1, -1)         # a shell one voxel thick: all of it is rim, given
-    assert (outer == 1).sum() == 0       # to the layer inside where it touches it, else out
+    outer = grown(labels, 1, -1)  # a shell one voxel thick: all of it is rim, given
+    assert (outer == 1).sum() == 0  # to the layer inside where it touches it, else out
     assert (outer == 2).sum() == 27 + 6 * 9 and (outer == 0).sum() == 729 - 81
 
 
-@pytest.mark.parametrize("seed, kind", [(3, "labels"), (4, "labels+intensity"),
-                                        (12, "probabilities"), (5, "meshes")])
+@pytest.mark.parametrize(
+    "seed, kind", [(3, "labels"), (4, "labels+intensity"), (12, "probabilities"), (5, "meshes")]
+)
 def test_each_kind_writes_a_dataset_oftimg_reads_with_its_truth(tmp_path, seed, kind):
     scenario = draw_scenario(seed, kind, n_frames=5, voxel_um_min=10.0)
     path = write_scenario(scenario, tmp_path / "d")
     drawn = json.loads((path / "scenario.json").read_text())
     assert drawn["seed"] == seed and drawn["kind"] == kind
-    assert json.loads((path / "truth.json").read_text())["params"]["twist_profile"] == \
-        scenario.phantom.twist_profile
+    assert (
+        json.loads((path / "truth.json").read_text())["params"]["twist_profile"]
+        == scenario.phantom.twist_profile
+    )
     if kind == "meshes":
         assert load_dataset(path).n_frames == 5
         return
-    lds = load_label_dataset(path)             # the nesting check passes: values as drawn
+    lds = load_label_dataset(path)  # the nesting check passes: values as drawn
     assert lds.n_frames == 5 and lds.voxel_size == pytest.approx(scenario.voxel_um)
     if kind != "probabilities":
         assert lds.label_ids == scenario.segmentation.values
@@ -103,8 +113,7 @@ def test_a_real_shape_is_animated_with_its_tissue_traced(tmp_path):
     midgut = Path(__file__).parent / "data" / "midgut_8k.ply"
     scenario = draw_scenario(3, "real", n_frames=6)
     assert scenario.animation["n_frames"] == 6 and scenario.voxel_um is None
-    path = write_scenario(scenario, tmp_path / "gut", real_shape=midgut,
-                          real_scale_to_mm=0.2619e-3)
+    path = write_scenario(scenario, tmp_path / "gut", real_shape=midgut, real_scale_to_mm=0.2619e-3)
     truth = json.loads((path / "truth.json").read_text())
     assert truth["animation"]["twist_deg"] == scenario.animation["twist_deg"]
     assert len(list((path / "truth").glob("f*.npz"))) == 6
@@ -136,19 +145,20 @@ def test_a_tube_that_ends_inside_the_volume_is_cut_at_the_windows_plane(tmp_path
     drawn = json.loads((path / "scenario.json").read_text())
     offset = volume_offset_um(drawn)
     axis = {"outlet": 0, "inlet": 1}[end]
-    assert offset[axis] == pytest.approx((scenario.end_inside_voxels + END_GAP_VOXELS)
-                                         * scenario.voxel_um[axis])
+    assert offset[axis] == pytest.approx(
+        (scenario.end_inside_voxels + END_GAP_VOXELS) * scenario.voxel_um[axis]
+    )
     lds = load_label_dataset(path)
     assert lds.ends is not None
     volume = read_frame(lds.sources[0])
-    face = np.take(volume, 0, axis=2 - axis)       # (z, y, x): the face the tube ended at
-    assert not face.any()                          # background before the volume's face
+    face = np.take(volume, 0, axis=2 - axis)  # (z, y, x): the face the tube ended at
+    assert not face.any()  # background before the volume's face
     walls = mesh_walls(volume, lds.label_ids, lds.voxel_size, MeshOptions(), lds.ends)
     assert set(walls) == {"outer", "inner", "lumen"}
     for wall, mesh in walls.items():
         loops = check_tube(mesh.V, mesh.F).loops
         at_plane = [np.allclose(mesh.V[loop, axis], offset[axis], atol=1e-6) for loop in loops]
-        assert sorted(at_plane) == [False, True], wall    # one end cut at the window's plane
+        assert sorted(at_plane) == [False, True], wall  # one end cut at the window's plane
 
 
 def test_feature_draws_sharpen_the_corners_and_span_coarse_to_fine_meshes():
@@ -163,8 +173,10 @@ def test_feature_draws_sharpen_the_corners_and_span_coarse_to_fine_meshes():
     sharp = np.array([d.phantom.corner_sharpness for d in drawn])
     assert sharp.min() < -1.0 and sharp.max() > 1.0 and np.all(np.abs(sharp) <= 1.5)
     keep = ("corners", "corner_sharpness", "vertices_min", "vertices_max")
-    assert all(replace(d.phantom, **{k: getattr(p.phantom, k) for k in keep}) == p.phantom
-               for d, p in zip(drawn, plain))
+    assert all(
+        replace(d.phantom, **{k: getattr(p.phantom, k) for k in keep}) == p.phantom
+        for d, p in zip(drawn, plain)
+    )
     around = []
     for d in drawn[:12]:
         V, F = Phantom(d.phantom).mesh("outer", 0.0, np.random.default_rng(0))
@@ -184,10 +196,12 @@ def test_speckled_draws_widen_the_look_and_the_motion_and_keep_the_rest():
     assert speckle.min() < 0.3 and speckle.max() > 0.9 and speckle.max() <= 1.0
     grain = np.array([d.texture.blob_um / d.voxel_um[0] for d in drawn])
     assert grain.min() < 0.6 and grain.max() > 2.5
-    decorrelation = np.array([d.texture.speckle_decorrelation_um / d.voxel_um[0]
-                              for d in drawn])
+    decorrelation = np.array([d.texture.speckle_decorrelation_um / d.voxel_um[0] for d in drawn])
     assert decorrelation.min() >= 0.5 and decorrelation.max() <= 4.0
     assert max(d.phantom.stretch for d in drawn) > 0.17
     assert max(d.phantom.twist_deg for d in drawn) > 35
-    assert all(replace(d.phantom, stretch=p.phantom.stretch, twist_deg=p.phantom.twist_deg)
-               == p.phantom and d.voxel_um == p.voxel_um for d, p in zip(drawn, plain))
+    assert all(
+        replace(d.phantom, stretch=p.phantom.stretch, twist_deg=p.phantom.twist_deg) == p.phantom
+        and d.voxel_um == p.voxel_um
+        for d, p in zip(drawn, plain)
+    )

@@ -14,7 +14,7 @@ import oftimg
 
 results = oftimg.example_results()  # 2 normal + 2 banded phantoms, analysed once (a minute)
 res = oftimg.load_results(results / "normal_0")
-area = res["area_outer_mm2"]                    # (v, t) mm^2
+area = res["area_outer_mm2"]  # (v, t) mm^2
 s_mm, t_ms = res["s_mm"], res["t_ms"]
 extent = [t_ms[0], t_ms[-1], s_mm[0], s_mm[-1]]
 
@@ -23,10 +23,19 @@ im = axes[0].imshow(area, origin="lower", aspect="auto", extent=extent, cmap="vi
 axes[0].plot(res["ridge_t_ms"], s_mm, "w.", markersize=3, label="ridge")
 axes[0].legend(loc="upper left", fontsize=7)
 fig.colorbar(im, ax=axes[0], label="outer area (mm²)")
-for ax, key, title in ((axes[1], "expanded_mask_75_outer", "above 75 % of range"),
-                       (axes[2], "expanded_mask_sigma_outer", "within one sigma")):
-    ax.imshow(res[key].astype(float), origin="lower", aspect="auto", extent=extent,
-              cmap="Greys", vmin=0, vmax=1)
+for ax, key, title in (
+    (axes[1], "expanded_mask_75_outer", "above 75 % of range"),
+    (axes[2], "expanded_mask_sigma_outer", "within one sigma"),
+):
+    ax.imshow(
+        res[key].astype(float),
+        origin="lower",
+        aspect="auto",
+        extent=extent,
+        cmap="Greys",
+        vmin=0,
+        vmax=1,
+    )
     ax.set_title(title, fontsize=8)
 axes[0].set_ylabel("position along the tube s (mm)")
 for ax in axes:

@@ -5,6 +5,7 @@ The cushions make the lumen elliptical and, as the myocardium contracts, bulge u
 they appose and close it: a primitive valve. These are (v, t) maps read from the
 lumen's section contours and areas, pure functions on arrays.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -34,13 +35,13 @@ def section_ellipse(contour: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray
     n = np.asarray(normal, float)
     n = n / np.linalg.norm(n, axis=-1, keepdims=True)
     rel = C - C.mean(axis=0)
-    rel = rel - np.einsum("u...k,...k->u...", rel, n)[..., None] * n       # into the plane
+    rel = rel - np.einsum("u...k,...k->u...", rel, n)[..., None] * n  # into the plane
     e1 = rel[0] / np.linalg.norm(rel[0], axis=-1, keepdims=True)
     e2 = np.cross(n, e1)
     x = np.einsum("u...k,...k->u...", rel, e1)
     y = np.einsum("u...k,...k->u...", rel, e2)
     x1, y1 = np.roll(x, -1, axis=0), np.roll(y, -1, axis=0)
-    c = x * y1 - x1 * y                                   # Green's theorem, edge by edge
+    c = x * y1 - x1 * y  # Green's theorem, edge by edge
     with np.errstate(invalid="ignore", divide="ignore"):
         area = c.sum(axis=0) / 2
         mx = ((x + x1) * c).sum(axis=0) / (6 * area)
@@ -72,8 +73,9 @@ def closed_map(area: np.ndarray, share: float = LUMEN_CLOSED_SHARE) -> np.ndarra
         return ~(a > share * np.maximum(largest, 0.0))
 
 
-def closure_times(area: np.ndarray, period_ms: float, share: float = LUMEN_CLOSED_SHARE
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def closure_times(
+    area: np.ndarray, period_ms: float, share: float = LUMEN_CLOSED_SHARE
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per row, when the lumen closes and opens again, and for how much of the cycle.
 
     ``area (n_v, n_t)`` mm^2 over one cycle of frames (periodic). A row closes where its
@@ -91,7 +93,7 @@ def closure_times(area: np.ndarray, period_ms: float, share: float = LUMEN_CLOSE
     n_v, n_t = a.shape
     largest = np.nanmax(np.where(np.isfinite(a), a, -np.inf), axis=1)
     level = share * np.maximum(largest, 0.0)
-    x = np.where(np.isfinite(a), a, 0.0) - level[:, None]         # <= 0: closed
+    x = np.where(np.isfinite(a), a, 0.0) - level[:, None]  # <= 0: closed
     frame_ms = period_ms / n_t
     close = np.full(n_v, np.nan)
     reopen = np.full(n_v, np.nan)
@@ -103,8 +105,8 @@ def closure_times(area: np.ndarray, period_ms: float, share: float = LUMEN_CLOSE
             continue
         if not shut.any():
             continue
-        downs = np.flatnonzero(~shut & np.roll(shut, -1))             # open at k, shut at k+1
-        ups = np.flatnonzero(shut & ~np.roll(shut, -1))               # shut at k, open at k+1
+        downs = np.flatnonzero(~shut & np.roll(shut, -1))  # open at k, shut at k+1
+        ups = np.flatnonzero(shut & ~np.roll(shut, -1))  # shut at k, open at k+1
         t_down = (downs + _crossing(x[j], level[j], downs, +1)) * frame_ms
         t_up = (ups + 1 - _crossing(x[j], level[j], (ups + 1) % n_t, -1)) * frame_ms
         # pair each closing with the next opening, keep the longest closure
@@ -151,8 +153,9 @@ def _crossing(x: np.ndarray, level: float, k: np.ndarray, step: int) -> np.ndarr
 CUSHION_SECTOR_DEG = 22.5
 
 
-def node_angles(points: np.ndarray, centre: np.ndarray, normal: np.ndarray,
-                toward: np.ndarray) -> np.ndarray:
+def node_angles(
+    points: np.ndarray, centre: np.ndarray, normal: np.ndarray, toward: np.ndarray
+) -> np.ndarray:
     """Angle (degrees in [0, 360)) of each of ``points (n_u, ..., 3)`` mm round
     ``centre (..., 3)`` in the plane of ``normal (..., 3)``, from the direction of
     ``toward (..., 3)`` (a point), turning positively about the normal."""
@@ -167,8 +170,12 @@ def node_angles(points: np.ndarray, centre: np.ndarray, normal: np.ndarray,
     return np.degrees(np.arctan2(y, x)) % 360.0
 
 
-def sector_means(values: np.ndarray, angle_deg: np.ndarray, axis_deg: np.ndarray,
-                 half_width_deg: float = CUSHION_SECTOR_DEG) -> np.ndarray:
+def sector_means(
+    values: np.ndarray,
+    angle_deg: np.ndarray,
+    axis_deg: np.ndarray,
+    half_width_deg: float = CUSHION_SECTOR_DEG,
+) -> np.ndarray:
     """Mean of ``values (n_u, ...)`` over the nodes whose ``angle_deg (n_u, ...)`` is within
     ``half_width_deg`` of the line at ``axis_deg (...)`` (either direction along it);
     NaN where none is or the axis is NaN."""
@@ -179,10 +186,17 @@ def sector_means(values: np.ndarray, angle_deg: np.ndarray, axis_deg: np.ndarray
     return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def cushion_measures(area: np.ndarray, contour: np.ndarray, normal: np.ndarray,
-                     centroid: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
-                     jelly: np.ndarray | None = None, inner_grid: np.ndarray | None = None
-                     ) -> tuple[dict, dict]:
+def cushion_measures(
+    area: np.ndarray,
+    contour: np.ndarray,
+    normal: np.ndarray,
+    centroid: np.ndarray,
+    s_mm: np.ndarray,
+    period_ms: float,
+    *,
+    jelly: np.ndarray | None = None,
+    inner_grid: np.ndarray | None = None,
+) -> tuple[dict, dict]:
     """The lumen's closure and ellipticity over the cycle, as arrays and summary numbers.
 
     ``area (n_v, n_t)`` mm^2, ``contour (n_u, n_v, n_t, 3)`` mm, ``normal`` and ``centroid
@@ -206,19 +220,23 @@ def cushion_measures(area: np.ndarray, contour: np.ndarray, normal: np.ndarray,
     aspect, major = section_ellipse(contour, normal)
     aspect, major = np.where(closed, np.nan, aspect), np.where(closed, np.nan, major)
     close_ms, open_ms, closed_share = closure_times(area, period_ms)
-    arrays = {"lumen_closed": closed, "lumen_aspect_ratio": aspect.astype(np.float32),
-              "lumen_major_axis_deg": major.astype(np.float32),
-              "lumen_close_ms": close_ms, "lumen_open_ms": open_ms,
-              "lumen_closed_share": closed_share}
+    arrays = {
+        "lumen_closed": closed,
+        "lumen_aspect_ratio": aspect.astype(np.float32),
+        "lumen_major_axis_deg": major.astype(np.float32),
+        "lumen_close_ms": close_ms,
+        "lumen_open_ms": open_ms,
+        "lumen_closed_share": closed_share,
+    }
     closing = np.isfinite(close_ms)
     speed = np.nan
-    if closing.sum() >= 3:                 # Theil-Sen: the stretch's end rows close briefly
+    if closing.sum() >= 3:  # Theil-Sen: the stretch's end rows close briefly
         from scipy.stats import theilslopes
 
         ridge = unwrap_robust(close_ms[closing], period_ms)
-        slope = theilslopes(ridge, np.asarray(s_mm, float)[closing]).slope     # ms/mm
+        slope = theilslopes(ridge, np.asarray(s_mm, float)[closing]).slope  # ms/mm
         speed = 1e3 / slope if slope != 0 else np.inf
-    with warnings.catch_warnings():            # rows closed throughout: all NaN
+    with warnings.catch_warnings():  # rows closed throughout: all NaN
         warnings.simplefilter("ignore", RuntimeWarning)
         narrow = np.nanpercentile(aspect, 10, axis=1)
         wide = np.nanpercentile(aspect, 90, axis=1)

@@ -4,6 +4,7 @@ principal stretches, each smoothed in time by what its noise asks, with each nod
 band and the phase maps; and the thickness's summaries. Pure functions on arrays (mm,
 1/mm, ms): the per-frame meshing leaves frame-to-frame noise that these fields, second
 derivatives of the surface, carry several times over."""
+
 from __future__ import annotations
 
 import warnings
@@ -12,8 +13,14 @@ import numpy as np
 
 from ..memory import release_freed
 from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS
-from ..image.normalize import (STRAIN_NOISE_TARGET, phase_maps, smooth_field, smooth_field_in_time,
-                               smoothing_kernel, time_flattening)
+from ..image.normalize import (
+    STRAIN_NOISE_TARGET,
+    phase_maps,
+    smooth_field,
+    smooth_field_in_time,
+    smoothing_kernel,
+    time_flattening,
+)
 from ..mesh.curvature import contour_curvature, count_corners
 from ..mesh.grid import signed_thickness
 from ..mesh.strain import grid_strain
@@ -30,8 +37,9 @@ NOISY_FIELD_SHARE = 0.25
 CORNER_FRAMES = 2
 
 
-def smoothed_curvature(raw: np.ndarray, period_ms: float, smoothing_ms: float | str
-                       ) -> tuple[np.ndarray, dict]:
+def smoothed_curvature(
+    raw: np.ndarray, period_ms: float, smoothing_ms: float | str
+) -> tuple[np.ndarray, dict]:
     """A curvature field ``(n_u, n_v, n_t)`` smoothed in time by ``smoothing_ms``
     (ms or "auto"; float32; each frame is segmented and meshed on its own, and a
     second derivative of its surface carries that noise several times over), and
@@ -45,13 +53,12 @@ def _smoothed_grid(G: np.ndarray, period_ms: float, smoothing_ms: float) -> np.n
     """Grid nodes ``(n_u, n_v, n_t, 3)`` smoothed in time by ``smoothing_ms`` (0: G)."""
     if smoothing_ms == 0:
         return G
-    return np.moveaxis(smooth_field_in_time(np.moveaxis(G, -1, 0), period_ms, smoothing_ms),
-                       0, -1)
+    return np.moveaxis(smooth_field_in_time(np.moveaxis(G, -1, 0), period_ms, smoothing_ms), 0, -1)
 
 
-def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, *,
-                    noise_seed: int | None = 0
-                    ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
+def smoothed_strain(
+    G: np.ndarray, period_ms: float, smoothing_ms: float | str, *, noise_seed: int | None = 0
+) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
     """Strain energy ``(n_u, n_v, n_t)`` and principal stretches ``(n_u, n_v, n_t, 2)``
     of a grid ``G (n_u, n_v, n_t, 3)`` (mm) against t = 0, from its node positions
     smoothed in time by ``smoothing_ms``, how far the nodes' noise moves the energy, and
@@ -94,39 +101,50 @@ def smoothed_strain(G: np.ndarray, period_ms: float, smoothing_ms: float | str, 
     """
     n_t = G.shape[2]
     ladder = RIDGE_SMOOTHING_LADDER_MS if smoothing_ms == "auto" else (float(smoothing_ms),)
-    noise = {"error_share": float("nan"), "node_noise_mm": float("nan"),
-             "stretch_noise_median": float("nan"), "bias_removed": float("nan")}
+    noise = {
+        "error_share": float("nan"),
+        "node_noise_mm": float("nan"),
+        "stretch_noise_median": float("nan"),
+        "bias_removed": float("nan"),
+    }
     if n_t < 10 or noise_seed is None:
         smoothed = _smoothed_grid(G, period_ms, ladder[0])
-        return (*grid_strain(smoothed), {**noise, "smoothing_ms": ladder[0]},
-                np.full(G.shape[:2], np.nan))
-    apart_ms = max(RIDGE_SMOOTHING_MS, period_ms / n_t)      # at least a frame
+        return (
+            *grid_strain(smoothed),
+            {**noise, "smoothing_ms": ladder[0]},
+            np.full(G.shape[:2], np.nan),
+        )
+    apart_ms = max(RIDGE_SMOOTHING_MS, period_ms / n_t)  # at least a frame
     kernel = smoothing_kernel(n_t, period_ms, apart_ms)
     whole, whole_ms = _smoothed_grid(G, period_ms, apart_ms), apart_ms
     residual = G - whole
-    residual /= np.sqrt(1.0 - 2.0 * kernel[0] + (kernel ** 2).sum())  # white noise's share
+    residual /= np.sqrt(1.0 - 2.0 * kernel[0] + (kernel**2).sum())  # white noise's share
     noise["node_noise_mm"] = float(np.median(np.linalg.norm(residual, axis=-1)))
     residual = residual[:, :, np.random.default_rng(noise_seed).permutation(n_t)]  # shuffled
-    frames = np.arange(0, n_t, STRAIN_NOISE_EVERY)             # frame 0, the reference, first
+    frames = np.arange(0, n_t, STRAIN_NOISE_EVERY)  # frame 0, the reference, first
     for sigma in ladder:
-        if sigma != whole_ms:                      # (the usual first sigma: smoothed above)
+        if sigma != whole_ms:  # (the usual first sigma: smoothed above)
             whole, whole_ms = _smoothed_grid(G, period_ms, sigma), sigma
         # the first sigma's fields whole (most often the ones kept), the others' at the frames
         fields = grid_strain(whole) if sigma == ladder[0] else None
-        energy, stretch = ((fields[0][:, :, frames], fields[1][:, :, frames])
-                           if fields is not None else grid_strain(whole[:, :, frames]))
+        energy, stretch = (
+            (fields[0][:, :, frames], fields[1][:, :, frames])
+            if fields is not None
+            else grid_strain(whole[:, :, frames])
+        )
         again = _smoothed_grid(residual, period_ms, sigma)[:, :, frames] + whole[:, :, frames]
         energy_again, stretch_again = grid_strain(again)
-        del again                                # a grid's copies: ~7 MB each
-        change = energy_again[:, :, 1:] - energy[:, :, 1:]          # the reference: 0 in both
-        noise["error_share"] = float(np.nanmedian(np.abs(change))
-                                     / np.nanmedian(np.abs(energy[:, :, 1:])))
+        del again  # a grid's copies: ~7 MB each
+        change = energy_again[:, :, 1:] - energy[:, :, 1:]  # the reference: 0 in both
+        noise["error_share"] = float(
+            np.nanmedian(np.abs(change)) / np.nanmedian(np.abs(energy[:, :, 1:]))
+        )
         noise["stretch_noise_median"] = float(np.nanmedian(np.abs(stretch_again - stretch)))
         if not noise["error_share"] > STRAIN_NOISE_TARGET:
             break
     del residual
     energy, stretch = fields or grid_strain(whole)
-    lift, node_sd = _noise_lift(change)      # the lift taken off (the sigma chosen with it)
+    lift, node_sd = _noise_lift(change)  # the lift taken off (the sigma chosen with it)
     noise["bias_removed"] = float(np.nanmedian(lift) / np.nanmedian(np.abs(energy[:, :, 1:])))
     energy[:, :, 1:] = np.maximum(energy[:, :, 1:] - lift[:, :, None], 0.0)
     return energy, stretch, {**noise, "smoothing_ms": sigma}, node_sd
@@ -140,7 +158,7 @@ def _noise_lift(change: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     from scipy.ndimage import gaussian_filter
 
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)          # all-NaN nodes
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN nodes
         mean, sd = np.nanmean(change, axis=-1), np.nanstd(change, axis=-1)
     known = np.isfinite(mean)
     total = gaussian_filter(np.where(known, mean, 0.0), 1.0, mode=("wrap", "nearest"))
@@ -156,13 +174,22 @@ STRAIN_NOISE_EVERY = 3
 NOISY_STRAIN_SHARE = 0.25
 
 
-def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
-                 smoothing_ms: float | str = "auto", lumen_smoothed_ms: float = 0.0,
-                 strain_smoothing_ms: float | str = "auto",
-                 jelly_thickness: np.ndarray | None = None,
-                 coords: np.ndarray | None = None,
-                 radial_curvature: dict | None = None, vertex_spacing: dict | None = None,
-                 kind: str = "meshes") -> dict:
+def shape_fields(
+    grid,
+    contour,
+    normals,
+    area,
+    mean_curvature_lumen,
+    period_ms,
+    smoothing_ms: float | str = "auto",
+    lumen_smoothed_ms: float = 0.0,
+    strain_smoothing_ms: float | str = "auto",
+    jelly_thickness: np.ndarray | None = None,
+    coords: np.ndarray | None = None,
+    radial_curvature: dict | None = None,
+    vertex_spacing: dict | None = None,
+    kind: str = "meshes",
+) -> dict:
     """(u, v, t) shape fields (paper section 6.1-6.2), float32, aligned time.
 
     Radial curvature of the outer and inner section contours and the myocardial
@@ -194,42 +221,45 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     for w in ("outer", "inner"):
         if w in contour:
             name = f"radial_curvature_{w}_per_mm"
-            if w in radial_curvature:       # each node at the scale its noise allows
+            if w in radial_curvature:  # each node at the scale its noise allows
                 scales = radial_curvature[w]
                 if coords is not None:
                     scales = np.stack([follow(k, coords) for k in scales])
                 arrays[name], noise[name], node_sd, unresolved = scale_chosen_curvature(
-                    scales, period_ms, smoothing_ms, vertex_spacing[w], contour[w])
-                band = node_band_95(node_sd, unresolved,
-                                    NODE_BAND_FACTORS[kind][f"radial_curvature_{w}"])
+                    scales, period_ms, smoothing_ms, vertex_spacing[w], contour[w]
+                )
+                band = node_band_95(
+                    node_sd, unresolved, NODE_BAND_FACTORS[kind][f"radial_curvature_{w}"]
+                )
                 arrays[f"radial_curvature_{w}_band95_per_mm"] = band
                 noise[name]["band95_wide_share"] = wide_band_share(band, arrays[name])
             else:
                 unsmoothed[w] = contour_curvature(contour[w], normals[None])
                 on_tissue = unsmoothed[w] if coords is None else follow(unsmoothed[w], coords)
-                arrays[name], noise[name] = smoothed_curvature(on_tissue, period_ms,
-                                                               smoothing_ms)
+                arrays[name], noise[name] = smoothed_curvature(on_tissue, period_ms, smoothing_ms)
             energy, stretch, strain_noise[f"strain_energy_{w}"], strain_sd = smoothed_strain(
-                grid[w], period_ms, strain_smoothing_ms)
-            band = node_band_95(np.broadcast_to(strain_sd[:, :, None], energy.shape),
-                                time_flattening(energy, period_ms, strain_noise[
-                                    f"strain_energy_{w}"]["smoothing_ms"]),
-                                NODE_BAND_FACTORS[kind][f"strain_energy_{w}"])
+                grid[w], period_ms, strain_smoothing_ms
+            )
+            band = node_band_95(
+                np.broadcast_to(strain_sd[:, :, None], energy.shape),
+                time_flattening(
+                    energy, period_ms, strain_noise[f"strain_energy_{w}"]["smoothing_ms"]
+                ),
+                NODE_BAND_FACTORS[kind][f"strain_energy_{w}"],
+            )
             arrays[f"strain_energy_{w}_band95"] = band
-            strain_noise[f"strain_energy_{w}"]["band95_wide_share"] = wide_band_share(
-                band, energy)
+            strain_noise[f"strain_energy_{w}"]["band95_wide_share"] = wide_band_share(band, energy)
             arrays[f"strain_energy_{w}"] = energy.astype(np.float32)
             arrays[f"principal_stretch_{w}"] = stretch.astype(np.float32)
-            release_freed()             # the noise's grid copies, before the next wall's
+            release_freed()  # the noise's grid copies, before the next wall's
     if "inner" in grid:
         # each outer node to its inner node, carried towards the row's centre (negative
-        thickness = signed_thickness(grid["outer"], grid["inner"],       # where they cross)
-                                     grid["outer"].mean(axis=0))
+        # where they cross)
+        thickness = signed_thickness(grid["outer"], grid["inner"], grid["outer"].mean(axis=0))
         thickness, noise["wall_thickness_mm"] = smooth_field(thickness, period_ms, smoothing_ms)
         arrays["wall_thickness_mm"] = thickness.astype(np.float32)
     if jelly_thickness is not None:
-        jelly, noise["jelly_thickness_mm"] = smooth_field(jelly_thickness, period_ms,
-                                                          smoothing_ms)
+        jelly, noise["jelly_thickness_mm"] = smooth_field(jelly_thickness, period_ms, smoothing_ms)
         arrays["jelly_thickness_mm"] = jelly.astype(np.float32)
     if mean_curvature_lumen is not None:
         arrays["mean_curvature_lumen_per_mm"] = mean_curvature_lumen
@@ -239,17 +269,20 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     phased = ("radial", "strain", "mean_curv", "wall", "jelly")
     for name in [n for n in arrays if n.startswith(phased) and "_band95" not in n]:
         # Gaussians compose: sigma_1^2 + sigma_2^2 = RIDGE_SMOOTHING_MS^2
-        rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS ** 2 - smoothed_ms.get(name, 0.0) ** 2))
+        rest_ms = np.sqrt(max(0.0, RIDGE_SMOOTHING_MS**2 - smoothed_ms.get(name, 0.0) ** 2))
         t_max, t_min = phase_maps(arrays[name], period_ms, smoothing_ms=rest_ms)
         arrays[f"phase_max_{name}_ms"] = t_max.astype(np.float32)
         arrays[f"phase_min_{name}_ms"] = t_min.astype(np.float32)
     # the corners' own average over frames, of the field as read (scale chosen, smoothed:
     # a fine scale's raw frames lifted the corners' noise floor over 3 broad corners), or
     # of the contour's raw curvature without a scale to choose
-    k = (arrays["radial_curvature_outer_per_mm"] if "outer" in radial_curvature
-         else unsmoothed["outer"])
+    k = (
+        arrays["radial_curvature_outer_per_mm"]
+        if "outer" in radial_curvature
+        else unsmoothed["outer"]
+    )
     a = np.where(np.isfinite(area["outer"]), area["outer"], np.inf)
-    rows_min = np.argmin(a, axis=1)          # a row without any contour gives 0 corners
+    rows_min = np.argmin(a, axis=1)  # a row without any contour gives 0 corners
     n_t = k.shape[2]
     near = (rows_min[:, None] + np.arange(-CORNER_FRAMES, CORNER_FRAMES + 1)) % n_t  # (n_v, 5)
     with warnings.catch_warnings():  # a row without contours: NaN, and 0 corners
@@ -265,8 +298,12 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
     if len(inner_rows):
         values, freq = np.unique(inner_rows, return_counts=True)
         corners = int(values[np.argmax(freq)])
-    out = {"arrays": arrays, "corner_count": corners, "field_noise": noise,
-           "strain_noise": strain_noise}
+    out = {
+        "arrays": arrays,
+        "corner_count": corners,
+        "field_noise": noise,
+        "strain_noise": strain_noise,
+    }
     for layer in ("wall", "jelly"):
         if f"{layer}_thickness_mm" in arrays:
             out.update(thickness_summary(arrays[f"{layer}_thickness_mm"], layer))
@@ -276,7 +313,7 @@ def shape_fields(grid, contour, normals, area, mean_curvature_lumen, period_ms,
 def mean_around_tube(field: np.ndarray) -> np.ndarray:
     """A field's mean around the tube, ``(n_v, n_t)``, of ``field (n_u, n_v, n_t)``
     (say the wall thickness, mm; NaN left out; NaN where a row has no value)."""
-    with warnings.catch_warnings():      # rows without a value: NaN, left out
+    with warnings.catch_warnings():  # rows without a value: NaN, left out
         warnings.simplefilter("ignore", RuntimeWarning)
         return np.nanmean(field, axis=0)
 
@@ -290,12 +327,14 @@ def thickness_by_row(thickness: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     the tube reaches 0 or below, where the walls cross). Each pixel's own largest over smallest takes its
     noise's extremes for thickening: on the phantoms 11 % and 25 % high with 2 and
     5 um of roughness where the rows' means were within 2 %."""
-    ring = mean_around_tube(thickness)                               # (n_v, n_t)
-    with warnings.catch_warnings():      # rows without a value: NaN, left out
+    ring = mean_around_tube(thickness)  # (n_v, n_t)
+    with warnings.catch_warnings():  # rows without a value: NaN, left out
         warnings.simplefilter("ignore", RuntimeWarning)
         thinnest = np.nanmin(ring, axis=-1)
-        return (np.nanmean(ring, axis=-1),
-                np.where(thinnest > 0, np.nanmax(ring, axis=-1) / thinnest - 1.0, np.nan))
+        return (
+            np.nanmean(ring, axis=-1),
+            np.where(thinnest > 0, np.nanmax(ring, axis=-1) / thinnest - 1.0, np.nan),
+        )
 
 
 def thickness_summary(thickness: np.ndarray, layer: str = "wall") -> dict:
@@ -303,5 +342,7 @@ def thickness_summary(thickness: np.ndarray, layer: str = "wall") -> dict:
     thickening over the beat, the median over the rows of :func:`thickness_by_row`'s
     (``{layer}_thickness_median_mm``, ``{layer}_thickening``; ``layer`` "wall" for
     the myocardium, "jelly" for the cardiac jelly)."""
-    return {f"{layer}_thickness_median_mm": float(np.nanmedian(thickness)),
-            f"{layer}_thickening": float(np.nanmedian(thickness_by_row(thickness)[1]))}
+    return {
+        f"{layer}_thickness_median_mm": float(np.nanmedian(thickness)),
+        f"{layer}_thickening": float(np.nanmedian(thickness_by_row(thickness)[1])),
+    }

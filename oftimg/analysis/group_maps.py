@@ -1,17 +1,18 @@
 """Embryos' (v, t) maps on one common grid, so that a cohort compares as images:
 position as a fraction of each tube's length, time as a fraction of each one's
 cycle (both embryos' own, as the paper compares them)."""
+
 from __future__ import annotations
 
 import warnings
 
 import numpy as np
 
-N_POSITIONS = 50      # rows of the common grid, inlet (0) to outlet (1)
-N_PHASES = 100        # columns, from the minimum outer volume (0) round the cycle
+N_POSITIONS = 50  # rows of the common grid, inlet (0) to outlet (1)
+N_PHASES = 100  # columns, from the minimum outer volume (0) round the cycle
 # fields (n_u, n_v, n_t) of arrays.npz whose mean around the tube is a cohort map
 AROUND_TUBE_MAPS = ("wall_thickness_mm", "jelly_thickness_mm", "strain_energy_outer")
-TESTED_MAPS = ("area_outer_normalized", *AROUND_TUBE_MAPS)   # compared between groups
+TESTED_MAPS = ("area_outer_normalized", *AROUND_TUBE_MAPS)  # compared between groups
 
 
 def common_grid(n_positions: int = N_POSITIONS, n_phases: int = N_PHASES):
@@ -20,15 +21,22 @@ def common_grid(n_positions: int = N_POSITIONS, n_phases: int = N_PHASES):
     return np.linspace(0.0, 1.0, n_positions), np.arange(n_phases) / n_phases
 
 
-def on_common_grid(values: np.ndarray, s_mm: np.ndarray, t_ms: np.ndarray, period_ms: float,
-                   n_positions: int = N_POSITIONS, n_phases: int = N_PHASES) -> np.ndarray:
+def on_common_grid(
+    values: np.ndarray,
+    s_mm: np.ndarray,
+    t_ms: np.ndarray,
+    period_ms: float,
+    n_positions: int = N_POSITIONS,
+    n_phases: int = N_PHASES,
+) -> np.ndarray:
     """A ``(n_v, n_t)`` map at positions ``s_mm (n_v,)`` (increasing from the inlet)
     and times ``t_ms (n_t,)`` in one cycle of ``period_ms``, resampled linearly onto
     :func:`common_grid`: ``(n_positions, n_phases)``, periodic in time."""
     values, s_mm, t_ms = (np.asarray(a, dtype=float) for a in (values, s_mm, t_ms))
     if values.shape != (len(s_mm), len(t_ms)):
-        raise ValueError(f"a map of shape {values.shape} for {len(s_mm)} positions and "
-                         f"{len(t_ms)} times")
+        raise ValueError(
+            f"a map of shape {values.shape} for {len(s_mm)} positions and {len(t_ms)} times"
+        )
     if np.any(np.diff(s_mm) <= 0):
         raise ValueError("positions must increase from the inlet")
     position, phase = common_grid(n_positions, n_phases)
@@ -52,8 +60,11 @@ def group_mean_maps(maps: np.ndarray, groups) -> dict[str, tuple[np.ndarray, np.
     out = {}
     for g in dict.fromkeys(groups.tolist()):
         members = maps[groups == g]
-        sd = (np.std(members, axis=0, ddof=1) if len(members) > 1
-              else np.full(members.shape[1:], np.nan))
+        sd = (
+            np.std(members, axis=0, ddof=1)
+            if len(members) > 1
+            else np.full(members.shape[1:], np.nan)
+        )
         out[g] = (members.mean(axis=0), sd, len(members))
     return out
 
@@ -64,8 +75,9 @@ def groups_in_order(groups) -> list[str]:
     return sorted(dict.fromkeys(np.asarray(groups).tolist()), key=lambda g: (g != "normal", g))
 
 
-def group_differences(maps: np.ndarray, groups, *, cluster_alpha: float = 0.05,
-                      **test_options) -> dict:
+def group_differences(
+    maps: np.ndarray, groups, *, cluster_alpha: float = 0.05, **test_options
+) -> dict:
     """Each other group against the first of :func:`groups_in_order`, on
     ``maps (n, positions, phases)``: ``names`` (``"banded - normal"``), and each
     ``(n_comparisons, positions, phases)``: ``difference`` of the group means,
@@ -85,8 +97,9 @@ def group_differences(maps: np.ndarray, groups, *, cluster_alpha: float = 0.05,
         out["names"].append(f"{g} - {order[0]}")
         out["difference"].append(difference)
         out["p_fwer"].append(p)
-        out["p_cluster"].append(map_cluster_test(a, b, periodic_axis=1,
-                                                  cluster_alpha=cluster_alpha, **test_options))
+        out["p_cluster"].append(
+            map_cluster_test(a, b, periodic_axis=1, cluster_alpha=cluster_alpha, **test_options)
+        )
     for key in ("difference", "p_fwer", "p_cluster"):
         out[key] = np.array(out[key]).reshape((len(out["names"]),) + maps.shape[1:])
     return out

@@ -1,4 +1,5 @@
 """The (v, t) area-map analyses of one dataset, wired together (paper section 5)."""
+
 from __future__ import annotations
 
 import warnings
@@ -7,8 +8,14 @@ import numpy as np
 
 from ..image.band import detect_band, neck_depth
 from ..image.gradient import area_rates
-from ..image.kymograph import (AREA_WAVE_MIN_SWING, RESOLVED_ROW_SHARE, STILL_ROW_SHARE,
-                               auto_ridge_smoothing, noise_colour, speed_spread)
+from ..image.kymograph import (
+    AREA_WAVE_MIN_SWING,
+    RESOLVED_ROW_SHARE,
+    STILL_ROW_SHARE,
+    auto_ridge_smoothing,
+    noise_colour,
+    speed_spread,
+)
 from ..image.masks import expanded_75, expanded_sigma
 from .uncertainty import speed_band_95
 
@@ -57,15 +64,22 @@ def frame_limited(length_mm: float, speed_mm_s: float, frame_ms: float) -> str |
     crossing_ms = 1000.0 * length_mm / speed_mm_s
     if crossing_ms >= FRAME_LIMITED_CROSSING * frame_ms:
         return None
-    return (f"the wave crosses the tube in {crossing_ms:.3g} ms at its cycle speed, "
-            f"{crossing_ms / frame_ms:.2g} frames of {frame_ms:.3g} ms: its speeds are at the "
-            "limit of the frame rate and likely too slow, by more than their noise spread "
-            "says (a zoo phantom crossed in 0.95 frame came out 40 % slow); more frames per "
-            "cycle resolve it (wave_crossing_frames)")
+    return (
+        f"the wave crosses the tube in {crossing_ms:.3g} ms at its cycle speed, "
+        f"{crossing_ms / frame_ms:.2g} frames of {frame_ms:.3g} ms: its speeds are at the "
+        "limit of the frame rate and likely too slow, by more than their noise spread "
+        "says (a zoo phantom crossed in 0.95 frame came out 40 % slow); more frames per "
+        "cycle resolve it (wave_crossing_frames)"
+    )
 
 
-def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: float, *,
-                      ridge_smoothing_ms: float | str = "auto") -> tuple[dict, dict]:
+def analyse_area_maps(
+    area: dict[str, np.ndarray],
+    s_mm: np.ndarray,
+    period_ms: float,
+    *,
+    ridge_smoothing_ms: float | str = "auto",
+) -> tuple[dict, dict]:
     """Ridge, wave speeds, knee, expansion fractions and masks, rates, band.
 
     ``area[wall] (n_v, n_t)`` mm^2 over one aligned cycle, ``s_mm (n_v,)``;
@@ -105,48 +119,66 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
             arrays[f"gaussian_sigma_{wall}_ms"] = sigma * period_ms / n_t
             arrays[f"gaussian_fit_r2_{wall}"] = r2
     notes = sorted({str(w.message) for w in caught})
-    notes += [f"{k} {w} area cells without a contour were interpolated for the map analyses"
-              for w, k in filled.items() if k]
+    notes += [
+        f"{k} {w} area cells without a contour were interpolated for the map analyses"
+        for w, k in filled.items()
+        if k
+    ]
     expand_rate, contract_rate = area_rates(area["outer"], period_ms / n_t)
     knee, sd = speeds["knee"], spread["speeds"]
     if spread["no_area_wave"]:
-        notes.append(f"the sections' areas change by {100 * spread['swing']:.2g} % over the "
-                     f"beat (median row), under {100 * AREA_WAVE_MIN_SWING:g} %: the area map "
-                     "holds no wave to time, so no wave speed and no expansion share are "
-                     "given from it (a helical wave leaves each section's area all but "
-                     "constant); the wave on the wall is in wave_fronts")
+        notes.append(
+            f"the sections' areas change by {100 * spread['swing']:.2g} % over the "
+            f"beat (median row), under {100 * AREA_WAVE_MIN_SWING:g} %: the area map "
+            "holds no wave to time, so no wave speed and no expansion share are "
+            "given from it (a helical wave leaves each section's area all but "
+            "constant); the wave on the wall is in wave_fronts"
+        )
     elif spread["synchronous"]:
-        notes.append(f"the ridge's slope along the tube, {spread['ridge_slope_ms_per_mm']:.3g} "
-                     f"± {spread['ridge_slope_noise_sd_ms_per_mm']:.2g} ms/mm, is consistent "
-                     "with none within the map's noise: the tube contracts at once "
-                     "(synchronous within noise), so no wave speed is given")
+        notes.append(
+            f"the ridge's slope along the tube, {spread['ridge_slope_ms_per_mm']:.3g} "
+            f"± {spread['ridge_slope_noise_sd_ms_per_mm']:.2g} ms/mm, is consistent "
+            "with none within the map's noise: the tube contracts at once "
+            "(synchronous within noise), so no wave speed is given"
+        )
     elif np.isfinite(spread["noise_sd"]).any():
-        notes += _unresolved_speeds(speeds["summary"] | {"proximal": knee.speed_proximal_mm_s,
-                                                         "distal": knee.speed_distal_mm_s}, sd)
+        notes += _unresolved_speeds(
+            speeds["summary"]
+            | {"proximal": knee.speed_proximal_mm_s, "distal": knee.speed_distal_mm_s},
+            sd,
+        )
     else:
-        notes.append(f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
-                     "the wave speeds are given without their spread")
+        notes.append(
+            f"the area map's noise cannot be measured on {n_t} frames (10 or more): "
+            "the wave speeds are given without their spread"
+        )
     still = int(np.count_nonzero(spread["still_rows"]))
     summary["ridge_rows_bridged"] = still
     if still and not spread["no_area_wave"]:
-        notes.append(f"{still} rows of the outer map barely move (area swing under "
-                     f"{STILL_ROW_SHARE:.0%} of the median row's, as at a band's neck): their "
-                     "time of maximum area is not the wave's, so the wave speeds bridge them "
-                     "with the ridge's line between the nearest moving rows")
+        notes.append(
+            f"{still} rows of the outer map barely move (area swing under "
+            f"{STILL_ROW_SHARE:.0%} of the median row's, as at a band's neck): their "
+            "time of maximum area is not the wave's, so the wave speeds bridge them "
+            "with the ridge's line between the nearest moving rows"
+        )
     with_speed = int(np.count_nonzero(np.isfinite(speeds["local"])))
     used = speeds["summary"]["rows_used"]
     if used < with_speed:
-        notes.append(f"the local wave speeds' min, max, mean and SD are over the {used} of "
-                     f"{with_speed} rows whose speed the map's noise resolves (spread under "
-                     f"{RESOLVED_ROW_SHARE:.0%} of it); the others, where the ridge is nearly "
-                     "flat or turns within the noise, are left out (local_speed_noise_sd_mm_s)")
+        notes.append(
+            f"the local wave speeds' min, max, mean and SD are over the {used} of "
+            f"{with_speed} rows whose speed the map's noise resolves (spread under "
+            f"{RESOLVED_ROW_SHARE:.0%} of it); the others, where the ridge is nearly "
+            "flat or turns within the noise, are left out (local_speed_noise_sd_mm_s)"
+        )
     colour = noise_colour(area["outer"])
     summary["area_noise_colour"] = colour
     if colour > COLOURED_NOISE:
-        notes.append(f"the outer area map has {colour:.3g} times more power at a quarter of "
-                     "the frame rate than near half of it: if that is segmentation noise "
-                     "correlated from frame to frame, the speeds' noise spreads and the auto "
-                     "ridge smoothing are too small (see oftimg's docs/accuracy.md)")
+        notes.append(
+            f"the outer area map has {colour:.3g} times more power at a quarter of "
+            "the frame rate than near half of it: if that is segmentation noise "
+            "correlated from frame to frame, the speeds' noise spreads and the auto "
+            "ridge smoothing are too small (see oftimg's docs/accuracy.md)"
+        )
     summary["ridge_smoothing_ms"] = smoothing
     arrays["ridge_t_ms"] = ridge
     arrays["ridge_t_noise_sd_ms"] = spread["ridge_t_ms"]
@@ -162,27 +194,33 @@ def analyse_area_maps(area: dict[str, np.ndarray], s_mm: np.ndarray, period_ms: 
     summary["wave_speed_mm_s"] = speeds["summary"]
     cycle, length = speeds["summary"]["cycle"], float(s_mm[-1] - s_mm[0])
     frame_ms = period_ms / n_t
-    summary["wave_crossing_frames"] = (float(1000.0 * length / cycle / frame_ms)
-                                       if cycle is not None and np.isfinite(cycle) and cycle > 0
-                                       else None)
+    summary["wave_crossing_frames"] = (
+        float(1000.0 * length / cycle / frame_ms)
+        if cycle is not None and np.isfinite(cycle) and cycle > 0
+        else None
+    )
     limited = frame_limited(length, cycle if cycle is not None else np.nan, frame_ms)
     if limited:
         notes.append(limited)
-    summary["wave_speed_noise_sd_mm_s"] = {k: sd[k]
-                                           for k in ("min", "max", "mean", "median", "cycle")}
+    summary["wave_speed_noise_sd_mm_s"] = {
+        k: sd[k] for k in ("min", "max", "mean", "median", "cycle")
+    }
     summary["wave_speed_band_95_mm_s"] = {"cycle": speed_band_95(cycle, sd["cycle"])}
-    summary["wave_two_segment"] = {"speed_proximal_mm_s": knee.speed_proximal_mm_s,
-                                   "speed_distal_mm_s": knee.speed_distal_mm_s,
-                                   "speed_proximal_noise_sd_mm_s": sd["proximal"],
-                                   "speed_distal_noise_sd_mm_s": sd["distal"],
-                                   "knee_mm": knee.knee_mm, "knee_t_ms": knee.knee_t_ms,
-                                   "rms_ms": knee.rms_ms}
+    summary["wave_two_segment"] = {
+        "speed_proximal_mm_s": knee.speed_proximal_mm_s,
+        "speed_distal_mm_s": knee.speed_distal_mm_s,
+        "speed_proximal_noise_sd_mm_s": sd["proximal"],
+        "speed_distal_noise_sd_mm_s": sd["distal"],
+        "knee_mm": knee.knee_mm,
+        "knee_t_ms": knee.knee_t_ms,
+        "rms_ms": knee.rms_ms,
+    }
     summary["max_expansion_rate_mm2_ms"] = expand_rate
     summary["max_contraction_rate_mm2_ms"] = contract_rate
     summary["band_position_mm"] = detect_band(area["outer"], s_mm)
     summary["max_area_neck_depth"] = neck_depth(area["outer"])
     fractions = arrays["expanded_fraction_75_outer"]
-    fractions = fractions[np.isfinite(fractions)]               # none: a tube that never moves
+    fractions = fractions[np.isfinite(fractions)]  # none: a tube that never moves
     summary["expanded_fraction_75_mean"] = float(fractions.mean()) if fractions.size else np.nan
     summary["image_analysis_notes"] = notes
     return arrays, summary
@@ -202,5 +240,7 @@ def _unresolved_speeds(speeds_mm_s: dict, spread: dict) -> list[str]:
             poor.append(f"{k} {speeds_mm_s[k]:.3g} ± {sd_mm_s:.2g} mm/s")
     if not poor:
         return []
-    return [f"wave speeds whose spread from the area map's frame-to-frame noise alone is over "
-            f"{SPREAD_NOTE_SHARE:.0%} of them (see wave_speed_noise_sd_mm_s): " + ", ".join(poor)]
+    return [
+        f"wave speeds whose spread from the area map's frame-to-frame noise alone is over "
+        f"{SPREAD_NOTE_SHARE:.0%} of them (see wave_speed_noise_sd_mm_s): " + ", ".join(poor)
+    ]

@@ -3,6 +3,7 @@
 Kept apart from :mod:`oftimg.analysis.pipeline` so that a worker imports only the mesh
 modules: the image analysis pulls in scipy.signal, about 1 s of start-up.
 """
+
 from __future__ import annotations
 
 import time
@@ -14,10 +15,21 @@ import numpy as np
 from ..errors import DatasetError
 from ..io.dataset import Frame
 from ..io.tube import Tube
-from ..mesh.curvature import (across_section_terms, smoothing_steps, steps_for_roughness,
-                              taubin_smooth, vertex_roughness)
-from ..mesh.grid import (GridOptions, SeamCandidates, grid_frame, project_towards_axis,
-                         seam_candidates, signed_thickness)
+from ..mesh.curvature import (
+    across_section_terms,
+    smoothing_steps,
+    steps_for_roughness,
+    taubin_smooth,
+    vertex_roughness,
+)
+from ..mesh.grid import (
+    GridOptions,
+    SeamCandidates,
+    grid_frame,
+    project_towards_axis,
+    seam_candidates,
+    signed_thickness,
+)
 from ..mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
 from ..mesh.topology import MeshError, capped_signed_volume
 
@@ -37,7 +49,9 @@ class _Clock:
         self.start = time.perf_counter()
 
     def __exit__(self, *exc):
-        self.totals[self.stage] = self.totals.get(self.stage, 0.0) + time.perf_counter() - self.start
+        self.totals[self.stage] = (
+            self.totals.get(self.stage, 0.0) + time.perf_counter() - self.start
+        )
 
 
 def with_warnings(fn, *args):
@@ -71,8 +85,7 @@ def rough_mesh_steps(frames: list[Frame], setting: int | str) -> dict[str, int]:
     steps = {}
     for wall in walls:
         rough = [vertex_roughness(t.V, t.F) for t in (f.tube(wall) for f in frames)]
-        steps[wall] = steps_for_roughness(float(np.median([sigma / edge
-                                                           for sigma, edge in rough])))
+        steps[wall] = steps_for_roughness(float(np.median([sigma / edge for sigma, edge in rough])))
     return steps
 
 
@@ -83,16 +96,18 @@ def measured_tube(frame: Frame, wall: str, options: GridOptions) -> tuple[Tube, 
     steps taken."""
     tube = frame.tube(wall)
     setting = options.rough_mesh_smoothing
-    steps = (setting.get(wall, 0) if isinstance(setting, dict)
-             else smoothing_steps(tube.V, tube.F, setting))
+    steps = (
+        setting.get(wall, 0)
+        if isinstance(setting, dict)
+        else smoothing_steps(tube.V, tube.F, setting)
+    )
     if steps:
         rim = np.concatenate([tube.inlet, tube.outlet])
         tube = replace(tube, V=taubin_smooth(tube.V, tube.F, steps, fixed=rim))
     return tube, steps
 
 
-def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
-                  options: GridOptions) -> dict:
+def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray, options: GridOptions) -> dict:
     """Everything that needs one frame's meshes, for all walls at once.
 
     Grids (paper section 4.1), section planes through G(0, v), G(1/3, v),
@@ -104,9 +119,19 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     ``out["cpu_s"]`` holds the seconds spent per stage.
     """
     n_c = options.n_u
-    out = {"flipped": {}, "area": {}, "contour": {}, "volume": {}, "grid": {}, "repaired": {},
-           "from_ring": {}, "cpu_s": {}, "smoothed": {}, "radial_curvature": {},
-           "vertex_spacing": {}}
+    out = {
+        "flipped": {},
+        "area": {},
+        "contour": {},
+        "volume": {},
+        "grid": {},
+        "repaired": {},
+        "from_ring": {},
+        "cpu_s": {},
+        "smoothed": {},
+        "radial_curvature": {},
+        "vertex_spacing": {},
+    }
     clock = _Clock(out["cpu_s"])
     with clock("load"):
         tb, out["smoothed"]["outer"] = measured_tube(frame, "outer", options)
@@ -116,49 +141,77 @@ def process_frame(frame: Frame, p_in: np.ndarray, p_out: np.ndarray,
     with clock("sections"):
         origins, normals = section_planes(X)
         normals, fixes, crossing = fix_crossing_planes(X, origins, normals)
-    out.update(origins=origins, normals=normals, plane_fixes=fixes, crossing=crossing,
-               seam_in=g.seam_in, seam_out=g.seam_out, seam_length_mm=g.seam_length_mm)
+    out.update(
+        origins=origins,
+        normals=normals,
+        plane_fixes=fixes,
+        crossing=crossing,
+        seam_in=g.seam_in,
+        seam_out=g.seam_out,
+        seam_length_mm=g.seam_length_mm,
+    )
     walls = {"outer": (tb, X, g)}
     if "inner" in frame.surfaces:
         with clock("load"):
             ti, out["smoothed"]["inner"] = measured_tube(frame, "inner", options)
         with clock("grid"):
-            Xi, out["inner_at_closest"] = project_towards_axis(ti.V, ti.F, ti.inlet,
-                                                                  ti.outlet, X)
+            Xi, out["inner_at_closest"] = project_towards_axis(ti.V, ti.F, ti.inlet, ti.outlet, X)
             out["inner_outside"] = int((signed_thickness(X, Xi, X.mean(axis=0)) < 0).sum())
             walls["inner"] = (ti, Xi, None)
     if "lumen" in frame.surfaces:
         with clock("load"):
             tl, out["smoothed"]["lumen"] = measured_tube(frame, "lumen", options)
-        with clock("fields"):      # a label volume's meshing stores it from its level sets
+        with clock("fields"):  # a label volume's meshing stores it from its level sets
             stored = frame.stored_mean_curvature("lumen", tl)
         with clock("grid"):
-            gl = _named(tl, grid_frame, tl.V, tl.F, tl.inlet, tl.outlet, g.seam_in, g.seam_out,
-                        options, values=stored)
+            gl = _named(
+                tl,
+                grid_frame,
+                tl.V,
+                tl.F,
+                tl.inlet,
+                tl.outlet,
+                g.seam_in,
+                g.seam_out,
+                options,
+                values=stored,
+            )
         walls["lumen"] = (tl, gl.X, gl)
-        with clock("grid"):       # rows on the bridge laid across where the lumen is closed
-            out["lumen_closed_rows"] = closed_rows(frame.stored_closed("lumen", tl), tl.V,
-                                                   gl.X)
-        if stored is not None:     # one scale: the level sets' own
+        with clock("grid"):  # rows on the bridge laid across where the lumen is closed
+            out["lumen_closed_rows"] = closed_rows(frame.stored_closed("lumen", tl), tl.V, gl.X)
+        if stored is not None:  # one scale: the level sets' own
             out["mean_curvature_lumen"] = gl.values[:, :, None].astype(np.float32)
         if "inner" in walls:
-            with clock("grid"):   # the cardiac jelly: inner node on along its line to the lumen
+            with clock("grid"):  # the cardiac jelly: inner node on along its line to the lumen
                 Xj, out["jelly_at_closest"] = project_towards_axis(
-                    tl.V, tl.F, tl.inlet, tl.outlet, walls["inner"][1], centre=X.mean(axis=0),
-                    uncounted_rows=out["lumen_closed_rows"])
+                    tl.V,
+                    tl.F,
+                    tl.inlet,
+                    tl.outlet,
+                    walls["inner"][1],
+                    centre=X.mean(axis=0),
+                    uncounted_rows=out["lumen_closed_rows"],
+                )
                 out["jelly_thickness"] = signed_thickness(walls["inner"][1], Xj, X.mean(axis=0))
                 out["lumen_outside"] = int((out["jelly_thickness"] < 0).sum())
     for wall, (tube, Xw, gw) in walls.items():
         with clock("sections"):
             lumen = wall == "lumen"
             area, centroid, contour, from_ring, kappa, spacing = sections_of_mesh(
-                tube.V, tube.F, origins, normals, Xw, n_c, curvature=True,
-                curvature_at=Xw if lumen and "mean_curvature_lumen" not in out else None)
+                tube.V,
+                tube.F,
+                origins,
+                normals,
+                Xw,
+                n_c,
+                curvature=True,
+                curvature_at=Xw if lumen and "mean_curvature_lumen" not in out else None,
+            )
         out["vertex_spacing"][wall] = spacing
-        if not lumen:               # (n_scales, n_u, n_v): chosen over the frames
+        if not lumen:  # (n_scales, n_u, n_v): chosen over the frames
             out["radial_curvature"][wall] = kappa.astype(np.float32)
-        elif "mean_curvature_lumen" not in out:     # (a label volume's: its level sets'
-            with clock("fields"):                  # stored; its polygons' spacing kept)
+        elif "mean_curvature_lumen" not in out:  # (a label volume's: its level sets'
+            with clock("fields"):  # stored; its polygons' spacing kept)
                 out["mean_curvature_lumen"] = lumen_mean_curvature(kappa, Xw, normals)
         out["grid"][wall] = Xw
         out["flipped"][wall] = gw.flipped if gw else 0
@@ -184,8 +237,9 @@ def closed_rows(flags: np.ndarray | None, V: np.ndarray, X: np.ndarray) -> np.nd
     return flags[nearest].reshape(X.shape[:2]).mean(axis=0) > 0.5
 
 
-def frame_seam_candidates(frame: Frame, method: str,
-                          rough_mesh_smoothing: int | str | dict = 0) -> SeamCandidates:
+def frame_seam_candidates(
+    frame: Frame, method: str, rough_mesh_smoothing: int | str | dict = 0
+) -> SeamCandidates:
     """The ends of the frame's shortest inlet-to-outlet geodesic and the seam
     lengths from every loop point (:func:`~oftimg.mesh.grid.seam_candidates`), on the
     outer wall as it is measured (``rough_mesh_smoothing``: :func:`measured_tube`)."""
@@ -199,8 +253,7 @@ def frame_seam_candidates(frame: Frame, method: str,
 ACROSS_ROWS, ACROSS_NODES = 3.0, 1.0
 
 
-def lumen_mean_curvature(kappa: np.ndarray, X: np.ndarray, plane_normals: np.ndarray
-                         ) -> np.ndarray:
+def lumen_mean_curvature(kappa: np.ndarray, X: np.ndarray, plane_normals: np.ndarray) -> np.ndarray:
     """The lumen's mean curvature ``(n_u, n_v, n_scales)`` 1/mm, float32, at its grid's
     nodes ``X (n_u, n_v, 3)`` mm: half the sum of its sections' normal curvature, their
     polygons' curvature at each scale ``kappa (n_scales, n_u, n_v)`` read at the nodes
@@ -211,6 +264,7 @@ def lumen_mean_curvature(kappa: np.ndarray, X: np.ndarray, plane_normals: np.nda
     from scipy.ndimage import gaussian_filter
 
     meusnier, across = across_section_terms(X, plane_normals)
-    across = gaussian_filter(np.nan_to_num(across), (ACROSS_NODES, ACROSS_ROWS),
-                             mode=("wrap", "nearest"))
+    across = gaussian_filter(
+        np.nan_to_num(across), (ACROSS_NODES, ACROSS_ROWS), mode=("wrap", "nearest")
+    )
     return (0.5 * (kappa * meusnier[None] + across[None])).transpose(1, 2, 0).astype(np.float32)

@@ -1,5 +1,6 @@
 """The stages wired together for one dataset. Reads frames through the
 :class:`~oftimg.io.dataset.Dataset` it is given and returns arrays; writes nothing."""
+
 from __future__ import annotations
 
 import time
@@ -14,8 +15,14 @@ from ..errors import DatasetError, InputError, OftimgWarning
 from ..memory import release_freed
 from ..io.dataset import Dataset, check_enough_frames
 from ..io.label_dataset import listed_files, meshing_notes
-from ..image.cycle import (cycle_timing, resample_time, standout_frames, two_segment_warp,
-                           volume_change, wrap_step_ratio)
+from ..image.cycle import (
+    cycle_timing,
+    resample_time,
+    standout_frames,
+    two_segment_warp,
+    volume_change,
+    wrap_step_ratio,
+)
 from .maps import analyse_area_maps
 from ..image.kymograph import at_fixed_positions
 from ..image.pca import contour_pca
@@ -58,15 +65,23 @@ class PipelineOptions:
     field_smoothing_ms: float | str = "auto"
     strain_smoothing_ms: float | str = "auto"
     tracking: str = "auto"
-    meshing: MeshOptions = field(default_factory=MeshOptions)    # of label datasets
+    meshing: MeshOptions = field(default_factory=MeshOptions)  # of label datasets
     pullback: PullbackOptions = field(default_factory=PullbackOptions)  # with intensity/
 
-    def __init__(self, grid: GridOptions | dict | None = None, *, warp: bool = False,
-                 map_positions: str = "rows", ridge_smoothing_ms: float | str = "auto",
-                 field_smoothing_ms: float | str = "auto",
-                 strain_smoothing_ms: float | str = "auto", tracking: str = "auto",
-                 meshing: MeshOptions | dict | None = None,
-                 pullback: PullbackOptions | dict | None = None, **grid_kwargs):
+    def __init__(
+        self,
+        grid: GridOptions | dict | None = None,
+        *,
+        warp: bool = False,
+        map_positions: str = "rows",
+        ridge_smoothing_ms: float | str = "auto",
+        field_smoothing_ms: float | str = "auto",
+        strain_smoothing_ms: float | str = "auto",
+        tracking: str = "auto",
+        meshing: MeshOptions | dict | None = None,
+        pullback: PullbackOptions | dict | None = None,
+        **grid_kwargs,
+    ):
         if isinstance(pullback, dict):
             pullback = PullbackOptions(**pullback)
         object.__setattr__(self, "pullback", pullback or PullbackOptions())
@@ -79,30 +94,43 @@ class PipelineOptions:
             raise InputError(f"tracking must be one of {TRACKING}, found {tracking!r}")
         object.__setattr__(self, "tracking", tracking)
         if map_positions not in MAP_POSITIONS:
-            raise InputError(f"map_positions must be one of {MAP_POSITIONS}, "
-                             f"found {map_positions!r}")
+            raise InputError(
+                f"map_positions must be one of {MAP_POSITIONS}, found {map_positions!r}"
+            )
         if ridge_smoothing_ms != "auto":
-            ridge_smoothing_ms = _sigma_ms(ridge_smoothing_ms, "ridge_smoothing_ms must be "
-                                           "'auto' or a number of ms >= 0 (0: none)")
+            ridge_smoothing_ms = _sigma_ms(
+                ridge_smoothing_ms,
+                "ridge_smoothing_ms must be 'auto' or a number of ms >= 0 (0: none)",
+            )
         if field_smoothing_ms != "auto":
-            field_smoothing_ms = _sigma_ms(field_smoothing_ms, "field_smoothing_ms must be "
-                                           "'auto' or a number of ms >= 0 (0: none)")
+            field_smoothing_ms = _sigma_ms(
+                field_smoothing_ms,
+                "field_smoothing_ms must be 'auto' or a number of ms >= 0 (0: none)",
+            )
         object.__setattr__(self, "grid", grid or GridOptions(**grid_kwargs))
         object.__setattr__(self, "warp", bool(warp))
         object.__setattr__(self, "map_positions", map_positions)
         object.__setattr__(self, "ridge_smoothing_ms", ridge_smoothing_ms)
         object.__setattr__(self, "field_smoothing_ms", field_smoothing_ms)
         if strain_smoothing_ms != "auto":
-            strain_smoothing_ms = _sigma_ms(strain_smoothing_ms, "strain_smoothing_ms must be "
-                                            "'auto' or a number of ms >= 0 (0: none)")
+            strain_smoothing_ms = _sigma_ms(
+                strain_smoothing_ms,
+                "strain_smoothing_ms must be 'auto' or a number of ms >= 0 (0: none)",
+            )
         object.__setattr__(self, "strain_smoothing_ms", strain_smoothing_ms)
 
     def as_dict(self) -> dict:
-        return {"grid": asdict(self.grid), "warp": self.warp, "map_positions": self.map_positions,
-                "ridge_smoothing_ms": self.ridge_smoothing_ms,
-                "field_smoothing_ms": self.field_smoothing_ms,
-                "strain_smoothing_ms": self.strain_smoothing_ms, "tracking": self.tracking,
-                "meshing": self.meshing.as_dict(), "pullback": self.pullback.as_dict()}
+        return {
+            "grid": asdict(self.grid),
+            "warp": self.warp,
+            "map_positions": self.map_positions,
+            "ridge_smoothing_ms": self.ridge_smoothing_ms,
+            "field_smoothing_ms": self.field_smoothing_ms,
+            "strain_smoothing_ms": self.strain_smoothing_ms,
+            "tracking": self.tracking,
+            "meshing": self.meshing.as_dict(),
+            "pullback": self.pullback.as_dict(),
+        }
 
 
 def _sigma_ms(given, must: str) -> float:
@@ -127,25 +155,38 @@ def check_series(ds: Dataset, volume: dict) -> dict:
     order. Returns what was found (for summary.json)."""
     ratio = wrap_step_ratio(volume["outer"])
     if ratio > WRAP_STEP_WARN:
-        warnings.warn(f"{ds.path}: the outer volume steps {ratio:.1f} times more from the last "
-                      "frame back to the first than between any two consecutive frames; "
-                      "oftimg takes the frames as one whole cycle: do they cover exactly one "
-                      "(none missing or repeated at the ends)?", OftimgWarning, stacklevel=3)
+        warnings.warn(
+            f"{ds.path}: the outer volume steps {ratio:.1f} times more from the last "
+            "frame back to the first than between any two consecutive frames; "
+            "oftimg takes the frames as one whole cycle: do they cover exactly one "
+            "(none missing or repeated at the ends)?",
+            OftimgWarning,
+            stacklevel=3,
+        )
     standout = {}
     for wall, v in volume.items():
         odd = standout_frames(v, periodic=ratio <= WRAP_STEP_WARN)
         standout[wall] = [ds.frames[wall][t].name for t in odd]
         if len(odd):
             around = 0.5 * (np.roll(v, 1) + np.roll(v, -1))
-            named = ", ".join(f"{ds.frames[wall][t].name} ({v[t] / around[t] - 1:+.1%} "
-                              "against its neighbours' mean)" for t in odd[:3])
-            warnings.warn(f"{ds.path / wall}: {len(odd)} frame(s) whose volume stands out of "
-                          f"its neighbours' as a frame segmented wrongly does: {named}"
-                          f"{' and more' if len(odd) > 3 else ''}; check them",
-                          OftimgWarning, stacklevel=3)
-    return {"wrap_step_ratio": round(ratio, 3), "one_cycle_warning": ratio > WRAP_STEP_WARN,
-            "standout_frames": standout,
-            "standout_frame_count": sum(len(names) for names in standout.values())}
+            named = ", ".join(
+                f"{ds.frames[wall][t].name} ({v[t] / around[t] - 1:+.1%} "
+                "against its neighbours' mean)"
+                for t in odd[:3]
+            )
+            warnings.warn(
+                f"{ds.path / wall}: {len(odd)} frame(s) whose volume stands out of "
+                f"its neighbours' as a frame segmented wrongly does: {named}"
+                f"{' and more' if len(odd) > 3 else ''}; check them",
+                OftimgWarning,
+                stacklevel=3,
+            )
+    return {
+        "wrap_step_ratio": round(ratio, 3),
+        "one_cycle_warning": ratio > WRAP_STEP_WARN,
+        "standout_frames": standout,
+        "standout_frame_count": sum(len(names) for names in standout.values()),
+    }
 
 
 def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> list:
@@ -179,19 +220,28 @@ def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=N
     """Pass 1: the seam's end points ``(n_t, 3)`` each, continuous and smoothed in
     time (:func:`~oftimg.mesh.grid.continuous_seam_ends`), and how many frames' seams
     continue their neighbours' rather than their own shortest."""
-    candidates = run_tasks(frame_seam_candidates,
-                           [(ds.frame(t), options.seam_method, options.rough_mesh_smoothing)
-                            for t in range(ds.n_frames)],
-                           executor=executor, progress=progress)
+    candidates = run_tasks(
+        frame_seam_candidates,
+        [
+            (ds.frame(t), options.seam_method, options.rough_mesh_smoothing)
+            for t in range(ds.n_frames)
+        ],
+        executor=executor,
+        progress=progress,
+    )
     p_in, p_out, chosen = continuous_seam_ends(candidates, options.seam_smoothing_frames)
     return p_in, p_out, int(chosen.sum())
 
 
 def _retime(f, grid, area, contour, volume, per_row):
     """Apply ``f(array, time_axis)`` to every per-frame series of a dataset."""
-    return ({w: f(g, 2) for w, g in grid.items()}, {w: f(a, 1) for w, a in area.items()},
-            {w: f(c, 2) for w, c in contour.items()}, {w: f(v, 0) for w, v in volume.items()},
-            {k: f(x, 1) for k, x in per_row.items()})
+    return (
+        {w: f(g, 2) for w, g in grid.items()},
+        {w: f(a, 1) for w, a in area.items()},
+        {w: f(c, 2) for w, c in contour.items()},
+        {w: f(v, 0) for w, v in volume.items()},
+        {k: f(x, 1) for k, x in per_row.items()},
+    )
 
 
 def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
@@ -201,8 +251,15 @@ def centroid_arc_length(centroid: np.ndarray) -> np.ndarray:
     return np.concatenate([np.zeros((1,) + step.shape[1:]), np.cumsum(step, axis=0)], axis=0)
 
 
-def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = False,
-                    executor=None, on_aligned=None, progress=None) -> dict:
+def analyse_dataset(
+    ds: Dataset,
+    options: PipelineOptions,
+    *,
+    quiet: bool = False,
+    executor=None,
+    on_aligned=None,
+    progress=None,
+) -> dict:
     """All stages for one dataset. Returns ``summary``, ``arrays``, ``grids``, ``pca``.
 
     Every time axis of the result starts at the frame of minimum outer volume
@@ -218,9 +275,9 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     check_enough_frames(ds)
     timings = {}
     # 1. each frame on its own: seam, (u, v) map, grid, sections, curvature
-    frames, seams_continued = _per_frame_passes(ds, options.grid, quiet=quiet,
-                                                executor=executor, progress=progress,
-                                                timings=timings)
+    frames, seams_continued = _per_frame_passes(
+        ds, options.grid, quiet=quiet, executor=executor, progress=progress, timings=timings
+    )
     # 2. the cycle: t = 0 at minimum outer volume, every series stacked in that order
     volume_in_order = {w: np.array([f["volume"][w] for f in frames]) for w in frames[0]["grid"]}
     series_checks = check_series(ds, volume_in_order)
@@ -228,19 +285,29 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     t0 = timing["t0_frame"]
     st = _stack_frames(frames[t0:] + frames[:t0])
     del frames  # each frame's arrays, stacked: ~120 MB for 195 frames
-    release_freed()                     # which the heap would otherwise keep (oftimg.memory)
+    release_freed()  # which the heap would otherwise keep (oftimg.memory)
     _warn_about_frames(ds, st)
     _refuse_implausible(ds, st, t0)
     pullbacks = None
     if ds.intensity is not None:
         tick = time.perf_counter()
-        pullbacks = wall_pullbacks(ds.intensity, st["grid"],
-                                   [(t0 + k) % ds.n_frames for k in range(ds.n_frames)],
-                                   options.pullback, executor=executor)
+        pullbacks = wall_pullbacks(
+            ds.intensity,
+            st["grid"],
+            [(t0 + k) % ds.n_frames for k in range(ds.n_frames)],
+            options.pullback,
+            executor=executor,
+        )
         timings["pullbacks_s"] = time.perf_counter() - tick
-    from_ring = {w: int(((st["rows"][f"from_ring_{w}"] > 0) & ~(
-        st["rows"].get("lumen_closed", 0.0) > 0.5 if w == "lumen" else False)).sum())
-        for w in st["walls"]}
+    from_ring = {
+        w: int(
+            (
+                (st["rows"][f"from_ring_{w}"] > 0)
+                & ~(st["rows"].get("lumen_closed", 0.0) > 0.5 if w == "lumen" else False)
+            ).sum()
+        )
+        for w in st["walls"]
+    }
     # 3. the time axis (warped or not) and the per-row series on it
     t_frames, st = _time_axis(ds, options, st, timing, t0)
     if pullbacks is not None and options.warp:
@@ -250,7 +317,7 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     grid, H, jelly = st["grid"], st["H"], st["jelly"]
     if H is not None and options.warp:
         H = resample_time(H, t_frames, axis=2)
-    if H is not None and shut is not None:      # no curvature where there is no lumen
+    if H is not None and shut is not None:  # no curvature where there is no lumen
         H = np.where(shut[None, :, :, None], np.nan, H)
     # 4. the grid follows the tissue
     coords = None
@@ -259,31 +326,41 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
         tick = time.perf_counter()
         coords, tracked = track_grid(grid["outer"])
         tracked = {"kind": "material", **tracked}
-        if tracking == "texture":           # the texture's motion beyond the shape's
+        if tracking == "texture":  # the texture's motion beyond the shape's
             coords, texture = _texture_pathlines(pullbacks, coords)
             tracked = {**texture, "shape": tracked}
             arrays["texture_support"] = tracked.pop("support")
             arrays["texture_fallback"] = tracked.pop("fallback")
-            for note in (texture_match_note(tracked["forward_backward_gap_steps"]["median"]),
-                         fallback_note(tracked["fallback_share"])):
+            for note in (
+                texture_match_note(tracked["forward_backward_gap_steps"]["median"]),
+                fallback_note(tracked["fallback_share"]),
+            ):
                 if note:
                     warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
             tracked["support_median"] = float(np.median(arrays["texture_support"]))
-            arrays["grid_in_view"] = (coords[..., 1] >= 0) & (coords[..., 1] <= grid[
-                "outer"].shape[1] - 1)
+            arrays["grid_in_view"] = (coords[..., 1] >= 0) & (
+                coords[..., 1] <= grid["outer"].shape[1] - 1
+            )
         arrays["pathlines_uv"] = coords.astype(np.float32)
         grid = {w: follow(g, coords) for w, g in grid.items()}
         H = follow(H, coords) if H is not None else None
         jelly = follow(jelly, coords) if jelly is not None else None
         timings["tracking_s"] = time.perf_counter() - tick
     lumen_noise = None
-    if H is not None:           # each scale's (n_u, n_v, n_t, n_scales): one chosen
+    if H is not None:  # each scale's (n_u, n_v, n_t, n_scales): one chosen
         H, lumen_noise, node_sd, unresolved = scale_chosen_curvature(
-            np.moveaxis(H, -1, 0), ds.meta.period_ms, options.field_smoothing_ms,
-            st["vertex_spacing"]["lumen"], grid["lumen"])
+            np.moveaxis(H, -1, 0),
+            ds.meta.period_ms,
+            options.field_smoothing_ms,
+            st["vertex_spacing"]["lumen"],
+            grid["lumen"],
+        )
         arrays["mean_curvature_lumen_per_mm"] = H
-        band = node_band_95(node_sd, unresolved, NODE_BAND_FACTORS[input_kind(
-            ds.inputs_by_kind())]["mean_curvature_lumen"])
+        band = node_band_95(
+            node_sd,
+            unresolved,
+            NODE_BAND_FACTORS[input_kind(ds.inputs_by_kind())]["mean_curvature_lumen"],
+        )
         arrays["mean_curvature_lumen_band95_per_mm"] = band
         lumen_noise["band95_wide_share"] = wide_band_share(band, H)
     if on_aligned is not None:
@@ -291,44 +368,60 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     summary = _cycle_summary(ds, timing, t0, arrays["s_mm"], options.warp)
     # 5. the myocardium's volume, and every grid clipped to its constant volume
     summary.update(_myocardium(ds, st, arrays, grid, thickness))
-    release_freed()                     # the clipping's working copies
+    release_freed()  # the clipping's working copies
     # 6. curvature, thickness and strain fields on the (u, v, t) grid
     tick = time.perf_counter()
     summary.update(_field_stage(ds, options, grid, st, H, lumen_noise, jelly, coords, arrays))
-    release_freed()                     # the strain noise's grid copies
-    if "lumen" in st["walls"]:          # 6a. the cushions: the lumen's closure, ellipticity
+    release_freed()  # the strain noise's grid copies
+    if "lumen" in st["walls"]:  # 6a. the cushions: the lumen's closure, ellipticity
         cushion_arrays, summary["cushions"] = cushion_measures(
-            st["area"]["lumen"], st["contour"]["lumen"], st["rows"]["normal"],
-            st["rows"]["centroid_lumen"], arrays["s_mm"], ds.meta.period_ms,
-            jelly=arrays.get("jelly_thickness_mm"), inner_grid=grid.get("inner"))
+            st["area"]["lumen"],
+            st["contour"]["lumen"],
+            st["rows"]["normal"],
+            st["rows"]["centroid_lumen"],
+            arrays["s_mm"],
+            ds.meta.period_ms,
+            jelly=arrays.get("jelly_thickness_mm"),
+            inner_grid=grid.get("inner"),
+        )
         arrays.update(cushion_arrays)
-    if tracking == "texture":           # the tissue's motion within the surface
-        speed, divergence = surface_kinematics(grid["outer"], arrays["principal_stretch_outer"],
-                                               ds.meta.period_ms)
+    if tracking == "texture":  # the tissue's motion within the surface
+        speed, divergence = surface_kinematics(
+            grid["outer"], arrays["principal_stretch_outer"], ds.meta.period_ms
+        )
         arrays["surface_speed_outer_mm_s"] = speed.astype(np.float32)
         arrays["surface_divergence_outer_per_s"] = divergence.astype(np.float32)
         blank_out_of_view(arrays, grid["outer"].shape[:3])
     timings["fields_s"] = time.perf_counter() - tick
     # 6b. the wave's fronts on each wall: activation times, the velocity on the wall
-    if not options.warp:                # a warped cycle's frames are not equal times
+    if not options.warp:  # a warped cycle's frames are not equal times
         tick = time.perf_counter()
         walls = {w: grid[w] for w in st["walls"]}
-        wave_arrays, summary["wave_fronts"] = wave_fronts(walls, arrays["s_mm"],
-                                                          ds.meta.period_ms)
+        wave_arrays, summary["wave_fronts"] = wave_fronts(walls, arrays["s_mm"], ds.meta.period_ms)
         arrays.update(wave_arrays)
         timings["wave_fronts_s"] = time.perf_counter() - tick
     # 7. the (v, t) area maps as images: derivatives, ridges, wave speeds, masks
     tick = time.perf_counter()
     map_arrays, map_summary = analyse_area_maps(
-        maps, arrays["s_mm"], ds.meta.period_ms, ridge_smoothing_ms=options.ridge_smoothing_ms)
+        maps, arrays["s_mm"], ds.meta.period_ms, ridge_smoothing_ms=options.ridge_smoothing_ms
+    )
     timings["image_analysis_s"] = time.perf_counter() - tick
     for note in map_summary["image_analysis_notes"]:
         warnings.warn(f"{ds.path}: {note}", OftimgWarning, stacklevel=2)
     arrays.update(map_arrays)
     summary.update(map_summary)
-    if not map_summary["area_wave"]:     # the areas all but constant: no beat to share out
-        summary.update(dict.fromkeys(("expand_fraction", "contract_fraction",
-                                      "expand_contract_ratio", "expand_ms", "contract_ms")))
+    if not map_summary["area_wave"]:  # the areas all but constant: no beat to share out
+        summary.update(
+            dict.fromkeys(
+                (
+                    "expand_fraction",
+                    "contract_fraction",
+                    "expand_contract_ratio",
+                    "expand_ms",
+                    "contract_ms",
+                )
+            )
+        )
     # 8. the cross-sections' shape modes at maximum expansion
     tick = time.perf_counter()
     n_t = ds.n_frames
@@ -339,30 +432,53 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
     summary["pca"] = pca["summary"]
     timings["pca_s"] = time.perf_counter() - tick
     # 9. what was repaired, assumed and checked on the way
-    summary.update(_quality_summary(st, seams_continued, series_checks, from_ring,
-                                    tracked if coords is not None else None))
+    summary.update(
+        _quality_summary(
+            st, seams_continued, series_checks, from_ring, tracked if coords is not None else None
+        )
+    )
     summary["section_volume_error"] = {
-        w: float(np.median(np.abs(arrays[f"volume_from_sections_{w}_mm3"]
-                                  / arrays[f"volume_{w}_mm3"] - 1))) for w in st["walls"]}
-    inputs = {kind: ({w: listed_files(p) for w, p in paths.items()} if isinstance(paths, dict)
-                     else listed_files(paths)) for kind, paths in ds.inputs_by_kind().items()}
+        w: float(
+            np.median(
+                np.abs(arrays[f"volume_from_sections_{w}_mm3"] / arrays[f"volume_{w}_mm3"] - 1)
+            )
+        )
+        for w in st["walls"]
+    }
+    inputs = {
+        kind: (
+            {w: listed_files(p) for w, p in paths.items()}
+            if isinstance(paths, dict)
+            else listed_files(paths)
+        )
+        for kind, paths in ds.inputs_by_kind().items()
+    }
     summary["provenance"] = {
-        "oftimg_version": __version__, "options": options.as_dict(),
+        "oftimg_version": __version__,
+        "options": options.as_dict(),
         "length_unit": ds.meta.length_unit,
-        "voxel_size": (ds.labels["meshing"]["voxel_size"] if ds.labels is not None
-                       else ds.meta.voxel_size),
-        "dataset": {"path": str(Path(ds.path).resolve())}, "inputs": inputs}
-    if ds.labels is not None:           # meshed from label volumes: those are the inputs
+        "voxel_size": (
+            ds.labels["meshing"]["voxel_size"] if ds.labels is not None else ds.meta.voxel_size
+        ),
+        "dataset": {"path": str(Path(ds.path).resolve())},
+        "inputs": inputs,
+    }
+    if ds.labels is not None:  # meshed from label volumes: those are the inputs
         summary["provenance"]["meshing"] = ds.labels["meshing"]
         for note in meshing_notes(ds.path, ds.labels["meshing"]):
             warnings.warn(note, OftimgWarning, stacklevel=2)
         kind = {"labels": "label volumes", "probabilities": "probability maps"}[
-            ds.labels["meshing"].get("kind", "labels")]
-        warnings.warn(f"{ds.path}: curvature fields from {kind} are less exact than "
-                      "their areas, speeds and volumes: the voxels leave an error fixed in "
-                      "space, which the fields' noise share does not see (oftimg's "
-                      f"docs/accuracy.md, from {kind})", OftimgWarning, stacklevel=2)
-    if ds.lumen_bridged:                # meshes whose lumen the cushions closed, joined
+            ds.labels["meshing"].get("kind", "labels")
+        ]
+        warnings.warn(
+            f"{ds.path}: curvature fields from {kind} are less exact than "
+            "their areas, speeds and volumes: the voxels leave an error fixed in "
+            "space, which the fields' noise share does not see (oftimg's "
+            f"docs/accuracy.md, from {kind})",
+            OftimgWarning,
+            stacklevel=2,
+        )
+    if ds.lumen_bridged:  # meshes whose lumen the cushions closed, joined
         from ..io.lumen_closures import bridged_notes
 
         summary["provenance"]["lumen_bridged"] = ds.lumen_bridged
@@ -370,17 +486,26 @@ def analyse_dataset(ds: Dataset, options: PipelineOptions, *, quiet: bool = Fals
             warnings.warn(note, OftimgWarning, stacklevel=2)
     summary["timings_s"] = timings
     if pullbacks is not None:
-        summary["pullbacks"] = {"shape_uvt": list(pullbacks["pullback_outer_mean"].shape),
-                                "shell": ("myocardium" if "inner" in grid else
-                                          f"{options.pullback.shell_um[0]:g} to "
-                                          f"{options.pullback.shell_um[1]:g} µm along the "
-                                          "outer wall's normal"),
-                                "in_view": float(np.isfinite(
-                                    pullbacks["pullback_outer_mean"]).mean()),
-                                "layers": options.pullback.layers,
-                                "walls": sorted({k.split("_")[1] for k in pullbacks})}
-    return {"summary": summary, "arrays": arrays, "grids": grid, "pca": pca["arrays"],
-            **({"pullbacks": pullbacks} if pullbacks is not None else {})}
+        summary["pullbacks"] = {
+            "shape_uvt": list(pullbacks["pullback_outer_mean"].shape),
+            "shell": (
+                "myocardium"
+                if "inner" in grid
+                else f"{options.pullback.shell_um[0]:g} to "
+                f"{options.pullback.shell_um[1]:g} µm along the "
+                "outer wall's normal"
+            ),
+            "in_view": float(np.isfinite(pullbacks["pullback_outer_mean"]).mean()),
+            "layers": options.pullback.layers,
+            "walls": sorted({k.split("_")[1] for k in pullbacks}),
+        }
+    return {
+        "summary": summary,
+        "arrays": arrays,
+        "grids": grid,
+        "pca": pca["arrays"],
+        **({"pullbacks": pullbacks} if pullbacks is not None else {}),
+    }
 
 
 def blank_out_of_view(arrays: dict, shape_uvt: tuple) -> None:
@@ -390,11 +515,14 @@ def blank_out_of_view(arrays: dict, shape_uvt: tuple) -> None:
     node at the end row, where its values are not its tissue's. In place."""
     gone = ~arrays["grid_in_view"]
     out = gone.copy()
-    out[:, 1:] |= gone[:, :-1]                                         # the rows beside it
+    out[:, 1:] |= gone[:, :-1]  # the rows beside it
     out[:, :-1] |= gone[:, 1:]
     for name, values in arrays.items():
-        if (name not in ("grid_in_view", "pathlines_uv") and values.shape[:3] == shape_uvt
-                and np.issubdtype(values.dtype, np.floating)):
+        if (
+            name not in ("grid_in_view", "pathlines_uv")
+            and values.shape[:3] == shape_uvt
+            and np.issubdtype(values.dtype, np.floating)
+        ):
             values[out] = np.nan
 
 
@@ -405,8 +533,10 @@ def tracking_mode(ds: Dataset, asked: str, has_pullbacks: bool) -> str:
     if asked == "auto":
         return "texture" if has_pullbacks else "material"
     if asked == "texture" and not has_pullbacks:
-        raise DatasetError(f"{ds.path}: --tracking texture follows the intensity volumes' "
-                           "texture: the dataset needs intensity/ (one volume per frame)")
+        raise DatasetError(
+            f"{ds.path}: --tracking texture follows the intensity volumes' "
+            "texture: the dataset needs intensity/ (one volume per frame)"
+        )
     return asked
 
 
@@ -422,9 +552,14 @@ def _texture_pathlines(pullbacks: dict, shape_coords: np.ndarray) -> tuple[np.nd
     return texture_pathlines(mean, factors, shape_coords)
 
 
-def wall_pullbacks(series, grids: dict, frames: list[int],
-                   options: PullbackOptions = PullbackOptions(), *,
-                   executor=None) -> dict[str, np.ndarray]:
+def wall_pullbacks(
+    series,
+    grids: dict,
+    frames: list[int],
+    options: PullbackOptions = PullbackOptions(),
+    *,
+    executor=None,
+) -> dict[str, np.ndarray]:
     """The intensity pulled back onto each wall of ``options.walls`` that ``grids``
     (wall -> ``(n_u, n_v, n_t, 3)`` mm, each frame's own) has, at ``options.layers``
     depths: the outer wall's across the myocardium (to the inner wall; without one,
@@ -437,16 +572,24 @@ def wall_pullbacks(series, grids: dict, frames: list[int],
     ``executor``'s workers when one is given (one volume a worker in memory)."""
     walls = [w for w in options.walls if w in grids]
     factors = refine_factors(grids["outer"], series.voxel_size_mm)
-    per_frame = run_tasks(frame_pullback,
-                          [(series, t, {w: g[:, :, k] for w, g in grids.items()}, factors,
-                            options) for k, t in enumerate(frames)], executor=executor)
-    return {f"pullback_{w}_{what}": np.stack([f[w][j] for f in per_frame], axis=2,
-                                             dtype=np.float32)
-            for w in walls for j, what in enumerate(("mean", "max"))}
+    per_frame = run_tasks(
+        frame_pullback,
+        [
+            (series, t, {w: g[:, :, k] for w, g in grids.items()}, factors, options)
+            for k, t in enumerate(frames)
+        ],
+        executor=executor,
+    )
+    return {
+        f"pullback_{w}_{what}": np.stack([f[w][j] for f in per_frame], axis=2, dtype=np.float32)
+        for w in walls
+        for j, what in enumerate(("mean", "max"))
+    }
 
 
-def frame_pullback(series, t: int, grids: dict, factors: tuple[int, int],
-                   options: PullbackOptions) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def frame_pullback(
+    series, t: int, grids: dict, factors: tuple[int, int], options: PullbackOptions
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """One frame's pullbacks (see :func:`wall_pullbacks`): wall -> (mean, max)
     ``(n_u f_u, (n_v - 1) f_v + 1)`` float32 from volume ``series.volume(t)`` and the
     frame's grids (wall -> ``(n_u, n_v, 3)`` mm) refined by ``factors``."""
@@ -455,34 +598,45 @@ def frame_pullback(series, t: int, grids: dict, factors: tuple[int, int],
     out = {}
     for w in (w for w in options.walls if w in grids):
         fine = refined(grids[w], *factors)
-        faces = ((fine, refined(grids["inner"], *factors))
-                 if w == "outer" and "inner" in grids else normal_shell(fine, shell_mm))
-        out[w] = pullback(volume, *faces, series.voxel_size_mm, series.origin_mm,
-                          options.layers)
+        faces = (
+            (fine, refined(grids["inner"], *factors))
+            if w == "outer" and "inner" in grids
+            else normal_shell(fine, shell_mm)
+        )
+        out[w] = pullback(volume, *faces, series.voxel_size_mm, series.origin_mm, options.layers)
     return out
 
 
-FRAME_PASSES = ("seams", "grids and sections")     # what each pass over the frames makes
+FRAME_PASSES = ("seams", "grids and sections")  # what each pass over the frames makes
 
 
-def _per_frame_passes(ds: Dataset, opts: GridOptions, *, quiet, executor, progress,
-                      timings: dict) -> tuple[list[dict], int]:
+def _per_frame_passes(
+    ds: Dataset, opts: GridOptions, *, quiet, executor, progress, timings: dict
+) -> tuple[list[dict], int]:
     """The two per-frame passes (seam end points, then everything else of a frame),
     in input order, and the number of frames whose seam was continued from their
     neighbours'. Adds their wall and CPU seconds to ``timings``."""
     n_t = ds.n_frames
-    opts = replace(opts, rough_mesh_smoothing=rough_mesh_steps(
-        [ds.frame(t) for t in sorted({0, n_t // 2, n_t - 1})], opts.rough_mesh_smoothing))
+    opts = replace(
+        opts,
+        rough_mesh_smoothing=rough_mesh_steps(
+            [ds.frame(t) for t in sorted({0, n_t // 2, n_t - 1})], opts.rough_mesh_smoothing
+        ),
+    )
     with Progress(n_t, f"{ds.meta.name}", quiet=quiet or progress is not None) as bar:
         advance = progress or FramePasses(bar, FRAME_PASSES)
         tick = time.perf_counter()
-        p_in, p_out, seams_continued = seam_end_points(ds, opts, progress=advance,
-                                                       executor=executor)
+        p_in, p_out, seams_continued = seam_end_points(
+            ds, opts, progress=advance, executor=executor
+        )
         timings["seam_end_points_s"] = time.perf_counter() - tick
         tick = time.perf_counter()
-        frames = run_tasks(process_frame, [(ds.frame(t), p_in[t], p_out[t], opts)
-                                           for t in range(n_t)],
-                           executor=executor, progress=advance)
+        frames = run_tasks(
+            process_frame,
+            [(ds.frame(t), p_in[t], p_out[t], opts) for t in range(n_t)],
+            executor=executor,
+            progress=advance,
+        )
     timings["frames_s"] = time.perf_counter() - tick
     cpu = {}
     for f in frames:
@@ -502,34 +656,54 @@ def _stack_frames(frames: list[dict]) -> dict:
         return np.stack([f[key] for f in frames], axis=2) if key in frames[0] else None
 
     return {
-        "walls": walls, "n_t": len(frames),
+        "walls": walls,
+        "n_t": len(frames),
         "grid": {w: np.stack([f["grid"][w] for f in frames], axis=2) for w in walls},
         "area": {w: np.stack([f["area"][w] for f in frames], axis=1) for w in walls},
         "contour": {w: np.stack([f["contour"][w] for f in frames], axis=2) for w in walls},
-        "radial_curvature": {w: np.stack([f["radial_curvature"][w] for f in frames], axis=3)
-                             for w in frames[0]["radial_curvature"]},
-        "vertex_spacing": {w: np.stack([f["vertex_spacing"][w] for f in frames], axis=1)
-                           for w in frames[0]["vertex_spacing"]},
+        "radial_curvature": {
+            w: np.stack([f["radial_curvature"][w] for f in frames], axis=3)
+            for w in frames[0]["radial_curvature"]
+        },
+        "vertex_spacing": {
+            w: np.stack([f["vertex_spacing"][w] for f in frames], axis=1)
+            for w in frames[0]["vertex_spacing"]
+        },
         "volume": {w: np.array([f["volume"][w] for f in frames]) for w in walls},
-        "rows": {"origin": np.stack([f["origins"] for f in frames], axis=1),
-                 "normal": np.stack([f["normals"] for f in frames], axis=1),
-                 "crossing": np.stack([f["crossing"] for f in frames], axis=1).astype(float),
-                 **{f"centroid_{w}": np.stack([f["centroid_" + w] for f in frames], axis=1)
-                    for w in walls},
-                 **{f"from_ring_{w}": np.stack([f["from_ring"][w] for f in frames],
-                                               axis=1).astype(float) for w in walls},
-                 **({"lumen_closed": np.stack([f["lumen_closed_rows"] for f in frames],
-                                              axis=1).astype(float)}
-                    if "lumen_closed_rows" in frames[0] else {})},
-        "H": optional("mean_curvature_lumen"),           # (n_u, n_v, n_t, n_scales)
-        "jelly": optional("jelly_thickness"),                   # (n_u, n_v, n_t)
+        "rows": {
+            "origin": np.stack([f["origins"] for f in frames], axis=1),
+            "normal": np.stack([f["normals"] for f in frames], axis=1),
+            "crossing": np.stack([f["crossing"] for f in frames], axis=1).astype(float),
+            **{
+                f"centroid_{w}": np.stack([f["centroid_" + w] for f in frames], axis=1)
+                for w in walls
+            },
+            **{
+                f"from_ring_{w}": np.stack([f["from_ring"][w] for f in frames], axis=1).astype(
+                    float
+                )
+                for w in walls
+            },
+            **(
+                {
+                    "lumen_closed": np.stack(
+                        [f["lumen_closed_rows"] for f in frames], axis=1
+                    ).astype(float)
+                }
+                if "lumen_closed_rows" in frames[0]
+                else {}
+            ),
+        },
+        "H": optional("mean_curvature_lumen"),  # (n_u, n_v, n_t, n_scales)
+        "jelly": optional("jelly_thickness"),  # (n_u, n_v, n_t)
         "flipped": {w: int(sum(f["flipped"][w] for f in frames)) for w in walls},
         "repaired": {w: int(sum(f["repaired"][w] for f in frames)) for w in walls},
         "smoothed": {w: int(sum(bool(f["smoothed"][w]) for f in frames)) for w in walls},
         "inner_closest": int(sum(f.get("inner_at_closest", 0) for f in frames)),
         "jelly_closest": int(sum(f.get("jelly_at_closest", 0) for f in frames)),
-        "outside": {w: int(sum(f.get(f"{w}_outside", 0) for f in frames))
-                    for w in ("inner", "lumen")},
+        "outside": {
+            w: int(sum(f.get(f"{w}_outside", 0) for f in frames)) for w in ("inner", "lumen")
+        },
         "plane_fixes": int(sum(f["plane_fixes"] for f in frames)),
     }
 
@@ -540,44 +714,65 @@ def _warn_about_frames(ds: Dataset, st: dict) -> None:
     walls, n_t, volume = st["walls"], st["n_t"], st["volume"]
     crossing = st["rows"]["crossing"] > 0
     if crossing.any():
-        warnings.warn(f"{ds.path}: {int(crossing.sum())} section planes still cross another "
-                      "inside the tube after blending (see plane_crossing)", OftimgWarning,
-                      stacklevel=3)
+        warnings.warn(
+            f"{ds.path}: {int(crossing.sum())} section planes still cross another "
+            "inside the tube after blending (see plane_crossing)",
+            OftimgWarning,
+            stacklevel=3,
+        )
     nested = [w for w in ("outer", "inner", "lumen") if w in walls]
-    for out_w, in_w in zip(nested, nested[1:]):       # each wall inside the one before
+    for out_w, in_w in zip(nested, nested[1:]):  # each wall inside the one before
         n_bad = int((volume[in_w] >= volume[out_w]).sum())
         if n_bad:
-            warnings.warn(f"{ds.path}: the {in_w} wall encloses as much as the {out_w} one or "
-                          f"more in {n_bad} of {n_t} frames: are {in_w}/ and {out_w}/ swapped?",
-                          OftimgWarning, stacklevel=3)
+            warnings.warn(
+                f"{ds.path}: the {in_w} wall encloses as much as the {out_w} one or "
+                f"more in {n_bad} of {n_t} frames: are {in_w}/ and {out_w}/ swapped?",
+                OftimgWarning,
+                stacklevel=3,
+            )
     for w in walls:
         from_ring = st["rows"][f"from_ring_{w}"] > 0
-        if w == "lumen" and "lumen_closed" in st["rows"]:   # the bridge's sections: no lumen
+        if w == "lumen" and "lumen_closed" in st["rows"]:  # the bridge's sections: no lumen
             from_ring = from_ring & ~(st["rows"]["lumen_closed"] > 0.5)
         if from_ring.any():
-            warnings.warn(f"{ds.path}: {int(from_ring.sum())} of {from_ring.size} {w} sections "
-                          "had no clean closed contour (none, or one merged with another part "
-                          "of the tube) and were measured on the grid ring projected onto the "
-                          f"plane (see section_from_ring_{w})", OftimgWarning, stacklevel=3)
-    for closest, wall, what in ((st["inner_closest"], "inner", "inner grid nodes"),
-                                (st["jelly_closest"], "lumen", "lines from the inner grid nodes")):
+            warnings.warn(
+                f"{ds.path}: {int(from_ring.sum())} of {from_ring.size} {w} sections "
+                "had no clean closed contour (none, or one merged with another part "
+                "of the tube) and were measured on the grid ring projected onto the "
+                f"plane (see section_from_ring_{w})",
+                OftimgWarning,
+                stacklevel=3,
+            )
+    for closest, wall, what in (
+        (st["inner_closest"], "inner", "inner grid nodes"),
+        (st["jelly_closest"], "lumen", "lines from the inner grid nodes"),
+    ):
         if closest:
-            warnings.warn(f"{ds.path}: {closest} {what} met no {wall} wall on the way to "
-                          "their row's centre and took the closest point (see "
-                          f"{'inner' if wall == 'inner' else 'jelly'}_nodes_at_closest_point)",
-                          OftimgWarning, stacklevel=3)
+            warnings.warn(
+                f"{ds.path}: {closest} {what} met no {wall} wall on the way to "
+                "their row's centre and took the closest point (see "
+                f"{'inner' if wall == 'inner' else 'jelly'}_nodes_at_closest_point)",
+                OftimgWarning,
+                stacklevel=3,
+            )
     n_nodes = st["grid"]["outer"][..., 0].size
     for wall, out_wall, layer in (("inner", "outer", "wall"), ("lumen", "inner", "jelly")):
         if st["outside"][wall]:
-            warnings.warn(f"{ds.path}: the {wall} wall lies outside the {out_wall} one at "
-                          f"{st['outside'][wall]} of {n_nodes} grid nodes over the "
-                          f"frames, where {layer}_thickness_mm is negative: do the "
-                          f"segmentations cross? (see {wall}_nodes_outside_{out_wall})",
-                          OftimgWarning, stacklevel=3)
+            warnings.warn(
+                f"{ds.path}: the {wall} wall lies outside the {out_wall} one at "
+                f"{st['outside'][wall]} of {n_nodes} grid nodes over the "
+                f"frames, where {layer}_thickness_mm is negative: do the "
+                f"segmentations cross? (see {wall}_nodes_outside_{out_wall})",
+                OftimgWarning,
+                stacklevel=3,
+            )
     if sum(st["flipped"].values()):
-        warnings.warn(f"{ds.path}: {sum(st['flipped'].values())} flipped triangles in the "
-                      "(u, v) maps (the map is not one-to-one there)", OftimgWarning,
-                      stacklevel=3)
+        warnings.warn(
+            f"{ds.path}: {sum(st['flipped'].values())} flipped triangles in the "
+            "(u, v) maps (the map is not one-to-one there)",
+            OftimgWarning,
+            stacklevel=3,
+        )
 
 
 def _refuse_implausible(ds: Dataset, st: dict, t0: int) -> None:
@@ -590,18 +785,21 @@ def _refuse_implausible(ds: Dataset, st: dict, t0: int) -> None:
     grid = st["grid"]
     thickness = {}
     if "inner" in grid:
-        thickness["inner"] = signed_thickness(grid["outer"], grid["inner"],
-                                              grid["outer"].mean(axis=0))
+        thickness["inner"] = signed_thickness(
+            grid["outer"], grid["inner"], grid["outer"].mean(axis=0)
+        )
     if st["jelly"] is not None:
         thickness["lumen"] = st["jelly"]
     problems = implausible(st["volume"], thickness, frame_names=names)
     if problems:
-        raise DatasetError(f"{ds.path}: results that cannot be right, so none are written: "
-                           + "; ".join(problems))
+        raise DatasetError(
+            f"{ds.path}: results that cannot be right, so none are written: " + "; ".join(problems)
+        )
 
 
-def _time_axis(ds: Dataset, options: PipelineOptions, st: dict, timing: dict, t0: int
-               ) -> tuple[np.ndarray, dict]:
+def _time_axis(
+    ds: Dataset, options: PipelineOptions, st: dict, timing: dict, t0: int
+) -> tuple[np.ndarray, dict]:
     """The frames' times (in frames from t0) and the stacked series on them: with
     ``options.warp``, two segments (minimum volume at 0, maximum expansion at half
     the cycle) and every series resampled; else each frame where it was taken."""
@@ -610,15 +808,28 @@ def _time_axis(ds: Dataset, options: PipelineOptions, st: dict, timing: dict, t0
         return np.arange(n_t, dtype=float), st
     t_frames = two_segment_warp(n_t, (timing["t_max_frame"] - t0) % n_t)
     grid, area, contour, volume, rows = _retime(
-        lambda a, axis: resample_time(a, t_frames, axis=axis), st["grid"], st["area"],
-        st["contour"], st["volume"], st["rows"])
+        lambda a, axis: resample_time(a, t_frames, axis=axis),
+        st["grid"],
+        st["area"],
+        st["contour"],
+        st["volume"],
+        st["rows"],
+    )
     rows["normal"] /= np.linalg.norm(rows["normal"], axis=-1, keepdims=True)
     jelly = resample_time(st["jelly"], t_frames, axis=2) if st["jelly"] is not None else None
     curvature = {w: resample_time(k, t_frames, axis=3) for w, k in st["radial_curvature"].items()}
     spacing = {w: resample_time(d, t_frames, axis=1) for w, d in st["vertex_spacing"].items()}
-    return t_frames, {**st, "grid": grid, "area": area, "contour": contour, "volume": volume,
-                      "rows": rows, "jelly": jelly, "radial_curvature": curvature,
-                      "vertex_spacing": spacing}
+    return t_frames, {
+        **st,
+        "grid": grid,
+        "area": area,
+        "contour": contour,
+        "volume": volume,
+        "rows": rows,
+        "jelly": jelly,
+        "radial_curvature": curvature,
+        "vertex_spacing": spacing,
+    }
 
 
 def _closed_lumen(st: dict) -> np.ndarray | None:
@@ -636,18 +847,18 @@ def _closed_lumen(st: dict) -> np.ndarray | None:
     return shut
 
 
-def _section_arrays(ds: Dataset, options: PipelineOptions, st: dict, t_frames: np.ndarray
-                    ) -> tuple[dict, dict, dict]:
+def _section_arrays(
+    ds: Dataset, options: PipelineOptions, st: dict, t_frames: np.ndarray
+) -> tuple[dict, dict, dict]:
     """The cross-sections' series as result arrays (positions, times, area maps,
     volumes, contours, planes), the area maps by wall (at the rows or at fixed
     positions) and each wall's slab thickness per section ``(n_v, n_t)`` mm."""
     walls, rows, area, volume = st["walls"], st["rows"], st["area"], st["volume"]
     normals = rows["normal"]
     thickness = {w: slab_thickness(rows[f"centroid_{w}"], normals) for w in walls}
-    s_rows = centroid_arc_length(rows["centroid_outer"])               # (n_v, n_t)
+    s_rows = centroid_arc_length(rows["centroid_outer"])  # (n_v, n_t)
     s_mm = s_rows.mean(axis=1)
-    arrays = {"s_mm": s_mm, "t_ms": t_frames * ds.meta.period_ms / st["n_t"],
-              "s_rows_mm": s_rows}
+    arrays = {"s_mm": s_mm, "t_ms": t_frames * ds.meta.period_ms / st["n_t"], "s_rows_mm": s_rows}
     maps = area
     if options.map_positions == "fixed":
         maps = {w: at_fixed_positions(area[w], s_rows, s_mm) for w in walls}
@@ -659,7 +870,7 @@ def _section_arrays(ds: Dataset, options: PipelineOptions, st: dict, t_frames: n
         arrays[f"contour_{w}_mm"] = st["contour"][w].astype(np.float32)
         arrays[f"volume_from_sections_{w}_mm3"] = volume_from_sections(area[w], thickness[w])
         arrays[f"section_from_ring_{w}"] = rows[f"from_ring_{w}"] > 0
-    if "inner" in walls and "lumen" in walls:       # the cardiac jelly between them
+    if "inner" in walls and "lumen" in walls:  # the cardiac jelly between them
         arrays["area_jelly_mm2"] = maps["inner"] - maps["lumen"]
         arrays["volume_jelly_mm3"] = volume["inner"] - volume["lumen"]
     arrays["centroid_outer_mm"] = rows["centroid_outer"]
@@ -673,14 +884,18 @@ def _cycle_summary(ds: Dataset, timing: dict, t0: int, s_mm: np.ndarray, warp: b
     """The dataset's name and group and the cycle's timing (summary.json)."""
     n_t = ds.n_frames
     return {
-        "name": ds.meta.name, "group": ds.meta.group, "n_frames": n_t,
-        "period_ms": ds.meta.period_ms, "period_from": ds.meta.period_from,
+        "name": ds.meta.name,
+        "group": ds.meta.group,
+        "n_frames": n_t,
+        "period_ms": ds.meta.period_ms,
+        "period_from": ds.meta.period_from,
         "t0_frame": t0,
         "time_warp": warp,
         "expand_fraction": timing["expand_fraction"],
         "contract_fraction": timing["contract_fraction"],
         "expand_contract_ratio": timing["expand_contract_ratio"],
-        "expand_ms": timing["expand_ms"], "contract_ms": timing["contract_ms"],
+        "expand_ms": timing["expand_ms"],
+        "contract_ms": timing["contract_ms"],
         "tube_length_mm": float(s_mm[-1]),
         "t_max_volume_ms": ((timing["t_max_frame"] - t0) % n_t) * ds.meta.period_ms / n_t,
     }
@@ -697,9 +912,13 @@ def _myocardium(ds: Dataset, st: dict, arrays: dict, grid: dict, thickness: dict
         summary["jelly_volume_change"] = volume_change(arrays["volume_jelly_mm3"])
         crossed = int(np.count_nonzero(arrays["volume_jelly_mm3"] <= 0))
         if crossed:
-            warnings.warn(f"{ds.path}: the lumen holds as much as the inner wall or more in "
-                          f"{crossed} of {n_t} frames (walls crossing?): jelly_volume_change "
-                          "is NaN", OftimgWarning, stacklevel=3)
+            warnings.warn(
+                f"{ds.path}: the lumen holds as much as the inner wall or more in "
+                f"{crossed} of {n_t} frames (walls crossing?): jelly_volume_change "
+                "is NaN",
+                OftimgWarning,
+                stacklevel=3,
+            )
     if "inner" not in walls:
         return summary
     myo = volume["outer"] - volume["inner"]
@@ -710,37 +929,62 @@ def _myocardium(ds: Dataset, st: dict, arrays: dict, grid: dict, thickness: dict
     n_v = len(arrays["s_mm"])
     arrays["clip_v"] = clip_v
     arrays["trim_percent"] = 100.0 * np.array(
-        [np.interp(v * (n_v - 1), np.arange(n_v), s_rows[:, t]) / s_rows[-1, t]
-         for t, v in enumerate(clip_v)])
+        [
+            np.interp(v * (n_v - 1), np.arange(n_v), s_rows[:, t]) / s_rows[-1, t]
+            for t, v in enumerate(clip_v)
+        ]
+    )
     summary["clipped_myocardial_volume_mm3"] = target
-    grid.update(clipped_grids({w: grid[w] for w in walls}, st["rows"]["origin"],
-                              st["rows"]["normal"], clip_v))
+    grid.update(
+        clipped_grids(
+            {w: grid[w] for w in walls}, st["rows"]["origin"], st["rows"]["normal"], clip_v
+        )
+    )
     return summary
 
 
-def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H, lumen_noise,
-                 jelly, coords, arrays: dict) -> dict:
+def _field_stage(
+    ds: Dataset,
+    options: PipelineOptions,
+    grid: dict,
+    st: dict,
+    H,
+    lumen_noise,
+    jelly,
+    coords,
+    arrays: dict,
+) -> dict:
     """:func:`shape_fields` on the (tracked) grids, its arrays added to ``arrays``;
     returns its summary entries with the smoothing taken for each field, and warns
     of each field that is mostly noise."""
-    fields = shape_fields(grid, st["contour"], st["rows"]["normal"], st["area"], H,
-                          ds.meta.period_ms, options.field_smoothing_ms,
-                          lumen_smoothed_ms=lumen_noise["smoothing_ms"] if H is not None else 0.0,
-                          strain_smoothing_ms=options.strain_smoothing_ms,
-                          jelly_thickness=jelly, coords=coords,
-                          radial_curvature=st.get("radial_curvature"),
-                          vertex_spacing=st.get("vertex_spacing"),
-                          kind=input_kind(ds.inputs_by_kind()))
+    fields = shape_fields(
+        grid,
+        st["contour"],
+        st["rows"]["normal"],
+        st["area"],
+        H,
+        ds.meta.period_ms,
+        options.field_smoothing_ms,
+        lumen_smoothed_ms=lumen_noise["smoothing_ms"] if H is not None else 0.0,
+        strain_smoothing_ms=options.strain_smoothing_ms,
+        jelly_thickness=jelly,
+        coords=coords,
+        radial_curvature=st.get("radial_curvature"),
+        vertex_spacing=st.get("vertex_spacing"),
+        kind=input_kind(ds.inputs_by_kind()),
+    )
     arrays.update(fields.pop("arrays"))
     if H is not None:
         fields["field_noise"]["mean_curvature_lumen_per_mm"] = lumen_noise
     fields["field_noise"] = with_bands(fields["field_noise"], input_kind(ds.inputs_by_kind()))
     # the sigma taken for each curvature and thickness field ("auto": as much as its noise asks)
-    fields["field_smoothing_ms"] = {name: noise["smoothing_ms"]
-                                    for name, noise in fields["field_noise"].items()}
+    fields["field_smoothing_ms"] = {
+        name: noise["smoothing_ms"] for name, noise in fields["field_noise"].items()
+    }
     # and for each strain field ("auto": as much as its nodes' noise asks)
-    fields["strain_smoothing_ms"] = {name: noise["smoothing_ms"]
-                                     for name, noise in fields["strain_noise"].items()}
+    fields["strain_smoothing_ms"] = {
+        name: noise["smoothing_ms"] for name, noise in fields["strain_noise"].items()
+    }
     for name, noise in fields["field_noise"].items():
         if noise["noise_share"] > NOISY_FIELD_SHARE:
             warnings.warn(
@@ -750,7 +994,9 @@ def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H,
                 "so its per-pixel normalised video and phase maps show noise more than the "
                 "beat; smoother surfaces, finer meshes or a larger --field-smoothing-ms help "
                 "(oftimg's docs/accuracy.md)",
-                OftimgWarning, stacklevel=3)
+                OftimgWarning,
+                stacklevel=3,
+            )
     for name, noise in fields["strain_noise"].items():
         if noise["error_share"] > NOISY_STRAIN_SHARE:
             warnings.warn(
@@ -760,12 +1006,15 @@ def _field_stage(ds: Dataset, options: PipelineOptions, grid: dict, st: dict, H,
                 f"{100 * noise['error_share']:.0f} % of its median size (summary.json: "
                 "strain_noise); a square, it is biased up; smoother surfaces, finer meshes "
                 "or a larger --strain-smoothing-ms help (oftimg's docs/accuracy.md)",
-                OftimgWarning, stacklevel=3)
+                OftimgWarning,
+                stacklevel=3,
+            )
     return fields
 
 
-def _quality_summary(st: dict, seams_continued: int, series_checks: dict, from_ring: dict,
-                     tracked: dict | None) -> dict:
+def _quality_summary(
+    st: dict, seams_continued: int, series_checks: dict, from_ring: dict, tracked: dict | None
+) -> dict:
     """The summary's counts of what was repaired, assumed or could not be done."""
     return {
         "flipped_triangles": st["flipped"],
@@ -776,8 +1025,9 @@ def _quality_summary(st: dict, seams_continued: int, series_checks: dict, from_r
         "inner_nodes_outside_outer": st["outside"]["inner"],
         "lumen_nodes_outside_inner": st["outside"]["lumen"],
         "seam_frames_continued": seams_continued,
-        "tracking": {"grid": "tracked", **tracked} if tracked is not None
-                    else {"grid": "per-frame"},
+        "tracking": {"grid": "tracked", **tracked}
+        if tracked is not None
+        else {"grid": "per-frame"},
         "section_plane_fixes": st["plane_fixes"],
         "section_planes_still_crossing": int((st["rows"]["crossing"] > 0).sum()),
         "frame_series_checks": series_checks,

@@ -4,14 +4,15 @@ order of magnitude off the others') stops the run with one line that says what i
 implausible and which input most likely causes it. What is unusual but possible stays
 a warning (:func:`~oftimg.analysis.pipeline.analyse_dataset`'s).
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-CROSSING_SHARE = 0.05     # of the grid nodes: a wall outside the one around it beyond it
-CROSSING_DEPTH = 0.5      # outside by this share of the layer's median thickness, or more
-MIN_WALL_MM = 1e-3        # a wall thinner than a micrometre: one surface given twice
-VOLUME_JUMP = 10.0        # a frame's outer volume this many times the frames' median
+CROSSING_SHARE = 0.05  # of the grid nodes: a wall outside the one around it beyond it
+CROSSING_DEPTH = 0.5  # outside by this share of the layer's median thickness, or more
+MIN_WALL_MM = 1e-3  # a wall thinner than a micrometre: one surface given twice
+VOLUME_JUMP = 10.0  # a frame's outer volume this many times the frames' median
 NESTED = (("outer", "inner"), ("inner", "lumen"), ("outer", "lumen"))
 LAYER = {"inner": "myocardium", "lumen": "cardiac jelly"}
 
@@ -42,37 +43,51 @@ def implausible(volumes: dict, thickness: dict, *, frame_names=None) -> list[str
         typical = float(np.nanmedian(np.abs(d)))
         share = float(np.nanmean(d < -CROSSING_DEPTH * typical))
         if share > CROSSING_SHARE:
-            problems.append(f"the {wall} wall lies outside the {around} one at {share:.0%} of "
-                            f"the grid nodes, by half the {LAYER[wall]}'s median thickness or "
-                            f"more (at most {CROSSING_SHARE:.0%} can be a segmentation's slip): "
-                            f"are {wall}/ and {around}/ swapped, or the label values "
-                            "(meta.json \"labels\") wrong?")
+            problems.append(
+                f"the {wall} wall lies outside the {around} one at {share:.0%} of "
+                f"the grid nodes, by half the {LAYER[wall]}'s median thickness or "
+                f"more (at most {CROSSING_SHARE:.0%} can be a segmentation's slip): "
+                f"are {wall}/ and {around}/ swapped, or the label values "
+                '(meta.json "labels") wrong?'
+            )
     for around, wall in NESTED:
-        if around not in walls or wall not in walls or (around, wall) == ("outer", "lumen") \
-                and "inner" in walls:
+        if (
+            around not in walls
+            or wall not in walls
+            or (around, wall) == ("outer", "lumen")
+            and "inner" in walls
+        ):
             continue
         larger = int(np.count_nonzero(volumes[wall] >= volumes[around]))
         if larger > n_t / 2:
-            problems.append(f"the {wall} wall encloses as much as the {around} one or more in "
-                            f"{larger} of {n_t} frames: are {wall}/ and {around}/ swapped, or "
-                            "one surface given as both?")
+            problems.append(
+                f"the {wall} wall encloses as much as the {around} one or more in "
+                f"{larger} of {n_t} frames: are {wall}/ and {around}/ swapped, or "
+                "one surface given as both?"
+            )
     if "inner" in thickness:
         gap_mm = float(np.nanmedian(np.abs(thickness["inner"])))
         if gap_mm < MIN_WALL_MM:
-            problems.append(f"the outer and inner walls lie {1e6 * gap_mm:.3g} nm apart (the "
-                            f"median over the grid nodes; no myocardium is thinner than "
-                            f"{1000 * MIN_WALL_MM:g} µm): one surface given as both, or the "
-                            "label values (meta.json \"labels\") wrong?")
+            problems.append(
+                f"the outer and inner walls lie {1e6 * gap_mm:.3g} nm apart (the "
+                f"median over the grid nodes; no myocardium is thinner than "
+                f"{1000 * MIN_WALL_MM:g} µm): one surface given as both, or the "
+                'label values (meta.json "labels") wrong?'
+            )
     v = np.asarray(volumes["outer"], float)
     if np.any(v <= 0):
         t = int(np.argmax(v <= 0))
-        problems.append(f"the outer wall encloses no volume in {names[t]}: is its mesh "
-                        "turned inside out, or not this tube?")
-    elif len(v) > 1:        # a lumen may close: only the outer wall's volume is checked
+        problems.append(
+            f"the outer wall encloses no volume in {names[t]}: is its mesh "
+            "turned inside out, or not this tube?"
+        )
+    elif len(v) > 1:  # a lumen may close: only the outer wall's volume is checked
         off = np.log(v / np.median(v))
         t = int(np.argmax(np.abs(off)))
         if abs(off[t]) > np.log(VOLUME_JUMP):
-            problems.append(f"the outer wall's volume in {names[t]} is {np.exp(off[t]):.3g} "
-                            f"times the frames' median (a beat changes it by far less): is "
-                            "that frame in other units, or of another embryo?")
+            problems.append(
+                f"the outer wall's volume in {names[t]} is {np.exp(off[t]):.3g} "
+                f"times the frames' median (a beat changes it by far less): is "
+                "that frame in other units, or of another embryo?"
+            )
     return problems

@@ -11,6 +11,7 @@ inner wall: its shell runs along each node's normal across :data:`SHELL_MM`. Gri
 x)``, voxel sizes ``(dx, dy, dz)`` and origins ``(x, y, z)`` mm. Functions of arrays;
 the volumes are read by the caller.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
@@ -19,9 +20,9 @@ import numpy as np
 
 from ..errors import InputError
 
-LAYERS = 5                  # depths sampled across the myocardium
-SHELL_MM = (-0.01, 0.01)    # a wall alone: its shell along the outward normal, mm
-MAX_REFINE = 6              # the fine grid's nodes per analysis grid step, at most
+LAYERS = 5  # depths sampled across the myocardium
+SHELL_MM = (-0.01, 0.01)  # a wall alone: its shell along the outward normal, mm
+MAX_REFINE = 6  # the fine grid's nodes per analysis grid step, at most
 
 
 @dataclass(frozen=True)
@@ -37,19 +38,28 @@ class PullbackOptions:
 
     def __post_init__(self):
         if not (isinstance(self.layers, int) and 1 <= self.layers <= 50):
-            raise InputError(f"pullback layers must be a whole number in 1..50, found "
-                             f"{self.layers!r}")
+            raise InputError(
+                f"pullback layers must be a whole number in 1..50, found {self.layers!r}"
+            )
         inside, outside = (tuple(self.shell_um) + (None, None))[:2]
-        if not (len(tuple(self.shell_um)) == 2 and all(np.isfinite([inside, outside]))
-                and -1000 <= inside < outside <= 1000):
-            raise InputError(f"the pullback shell must be two offsets in um, inside < "
-                             f"outside, within 1 mm, found {self.shell_um!r}")
+        if not (
+            len(tuple(self.shell_um)) == 2
+            and all(np.isfinite([inside, outside]))
+            and -1000 <= inside < outside <= 1000
+        ):
+            raise InputError(
+                f"the pullback shell must be two offsets in um, inside < "
+                f"outside, within 1 mm, found {self.shell_um!r}"
+            )
         object.__setattr__(self, "shell_um", (float(inside), float(outside)))
         walls = tuple(self.walls)
         if not set(walls) <= {"outer", "inner", "lumen"}:
             raise InputError(f"pullback walls are outer, inner and lumen, found {walls!r}")
-        object.__setattr__(self, "walls", tuple(w for w in ("outer", "inner", "lumen")
-                                                if w in walls or w == "outer"))
+        object.__setattr__(
+            self,
+            "walls",
+            tuple(w for w in ("outer", "inner", "lumen") if w in walls or w == "outer"),
+        )
 
     def as_dict(self) -> dict:
         """As summary.json records it (lists, as JSON reads them back)."""
@@ -63,8 +73,7 @@ def refine_factors(grid: np.ndarray, voxel_mm, max_factor: int = MAX_REFINE) -> 
     step_u = np.nanmedian(np.linalg.norm(np.diff(grid, axis=0), axis=-1))
     step_v = np.nanmedian(np.linalg.norm(np.diff(grid, axis=1), axis=-1))
     voxel = float(np.min(voxel_mm))
-    return tuple(int(np.clip(np.round(step / voxel), 1, max_factor))
-                 for step in (step_u, step_v))
+    return tuple(int(np.clip(np.round(step / voxel), 1, max_factor)) for step in (step_u, step_v))
 
 
 def refined(grid: np.ndarray, factor_u: int, factor_v: int) -> np.ndarray:
@@ -77,19 +86,20 @@ def refined(grid: np.ndarray, factor_u: int, factor_v: int) -> np.ndarray:
     n_u, n_v = grid.shape[:2]
     closed = np.concatenate([grid, grid[:1]], axis=0)
     fine_u = CubicSpline(np.arange(n_u + 1), closed, axis=0, bc_type="periodic")(
-        np.arange(n_u * factor_u) / factor_u)
+        np.arange(n_u * factor_u) / factor_u
+    )
     return CubicSpline(np.arange(n_v), fine_u, axis=1)(
-        np.arange((n_v - 1) * factor_v + 1) / factor_v)
+        np.arange((n_v - 1) * factor_v + 1) / factor_v
+    )
 
 
-def sample_volume(volume: np.ndarray, points_mm: np.ndarray, voxel_mm, origin_mm
-                  ) -> np.ndarray:
+def sample_volume(volume: np.ndarray, points_mm: np.ndarray, voxel_mm, origin_mm) -> np.ndarray:
     """``volume (z, y, x)`` read at ``points_mm (..., 3)`` (x, y, z), trilinear; NaN
     outside the volume (the tissue there was not imaged)."""
     from scipy.ndimage import map_coordinates
 
     at = (np.asarray(points_mm, float) - np.asarray(origin_mm, float)) / np.asarray(voxel_mm)
-    flat = at.reshape(-1, 3)[:, ::-1].T                                   # (z, y, x) rows
+    flat = at.reshape(-1, 3)[:, ::-1].T  # (z, y, x) rows
     values = map_coordinates(volume, flat, order=1, mode="nearest").astype(np.float32)
     outside = np.any((flat < -0.5) | (flat > np.array(volume.shape)[:, None] - 0.5), axis=0)
     values[outside] = np.nan
@@ -121,8 +131,14 @@ def normal_shell(grid: np.ndarray, shell_mm=SHELL_MM) -> tuple[np.ndarray, np.nd
     return grid + shell_mm[1] * normal, grid + shell_mm[0] * normal
 
 
-def pullback(volume: np.ndarray, outer: np.ndarray, inner: np.ndarray, voxel_mm, origin_mm,
-             n_layers: int = LAYERS) -> tuple[np.ndarray, np.ndarray]:
+def pullback(
+    volume: np.ndarray,
+    outer: np.ndarray,
+    inner: np.ndarray,
+    voxel_mm,
+    origin_mm,
+    n_layers: int = LAYERS,
+) -> tuple[np.ndarray, np.ndarray]:
     """One frame's myocardium pullback: the mean and the maximum ``(n_u, n_v)`` over
     its depths of ``volume`` at :func:`shell_points` of the (fine) grids ``outer`` and
     ``inner``; NaN where a depth lies outside the volume."""

@@ -14,6 +14,7 @@ beyond what the two scales' noise explains. On the phantoms a choice node by nod
 (intersection of confidence intervals, or this estimate made locally) was no better
 than this one per wall (docs/methods.md, "Radial curvature").
 """
+
 from __future__ import annotations
 
 import warnings
@@ -21,8 +22,14 @@ import warnings
 import numpy as np
 
 from ..image.kymograph import RIDGE_SMOOTHING_LADDER_MS
-from ..image.normalize import (FIELD_NOISE_TARGET, field_noise, pixel_noise,
-                               smooth_field_in_time, smoothing_kernel, time_flattening)
+from ..image.normalize import (
+    FIELD_NOISE_TARGET,
+    field_noise,
+    pixel_noise,
+    smooth_field_in_time,
+    smoothing_kernel,
+    time_flattening,
+)
 from ..mesh.curvature import CURVATURE_SCALES
 
 # every scale's estimate is first averaged along the tube by a Gaussian of this many grid
@@ -34,9 +41,13 @@ ALONG_ROWS = 2.0
 UNMEASURED_SCALE = 2
 
 
-def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float | str,
-                           vertex_spacing: np.ndarray, contour: np.ndarray
-                           ) -> tuple[np.ndarray, dict, np.ndarray, np.ndarray]:
+def scale_chosen_curvature(
+    K: np.ndarray,
+    period_ms: float,
+    smoothing_ms: float | str,
+    vertex_spacing: np.ndarray,
+    contour: np.ndarray,
+) -> tuple[np.ndarray, dict, np.ndarray, np.ndarray]:
     """The radial curvature ``(n_u, n_v, n_t)`` float32 (1/mm) from its estimates at each
     scale ``K (n_scales, n_u, n_v, n_t)`` (finest first, each node the same tissue in
     every frame; ``vertex_spacing (n_v, n_t)`` mm each section polygon's, the scales'
@@ -58,7 +69,7 @@ def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float 
     """
     n_t = K.shape[-1]
     K = along_tube(K, ALONG_ROWS)
-    raw_sd = np.stack([_row_noise(k) for k in K])                  # (n_scales, 1, n_v, 1)
+    raw_sd = np.stack([_row_noise(k) for k in K])  # (n_scales, 1, n_v, 1)
     ladder = RIDGE_SMOOTHING_LADDER_MS if smoothing_ms == "auto" else (float(smoothing_ms),)
     for sigma in ladder:
         gain = float(np.sqrt((smoothing_kernel(n_t, period_ms, sigma) ** 2).sum()))
@@ -66,7 +77,7 @@ def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float 
         sd = gain * raw_sd
         scale = least_error_scale(smoothed, sd)
         noise = field_noise(K[scale], smoothed[scale], period_ms, sigma)
-        if not noise["noise_share"] > FIELD_NOISE_TARGET:         # NaN: not measurable
+        if not noise["noise_share"] > FIELD_NOISE_TARGET:  # NaN: not measurable
             break
     node_sd = np.broadcast_to(sd[scale], K.shape[1:])
     field = smoothed[scale]
@@ -76,12 +87,16 @@ def scale_chosen_curvature(K: np.ndarray, period_ms: float, smoothing_ms: float 
     # difference from it was mostly that scale's noise)
     node_step = np.linalg.norm(np.roll(contour, -1, axis=0) - contour, axis=-1).mean(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = (CURVATURE_SCALES[scale] * vertex_spacing / node_step) ** 2      # (n_v, n_t)
+        ratio = (CURVATURE_SCALES[scale] * vertex_spacing / node_step) ** 2  # (n_v, n_t)
     second = np.abs(np.roll(field, -1, axis=0) - 2 * field + np.roll(field, 1, axis=0))
     # and what the smoothing in time flattens (a fold deepening fast at contraction)
     unresolved = np.hypot(0.5 * ratio[None] * second, time_flattening(field, period_ms, sigma))
-    return (field.astype(np.float32), {**noise, "smoothing_ms": float(sigma), "scale": scale},
-            node_sd.astype(np.float32), unresolved.astype(np.float32))
+    return (
+        field.astype(np.float32),
+        {**noise, "smoothing_ms": float(sigma), "scale": scale},
+        node_sd.astype(np.float32),
+        unresolved.astype(np.float32),
+    )
 
 
 def node_band_95(node_sd: np.ndarray, unresolved: np.ndarray, factor: float) -> np.ndarray:
@@ -99,7 +114,7 @@ def least_error_scale(estimates: np.ndarray, sd: np.ndarray) -> int:
     less both scales' noise variances (at least 0). :data:`UNMEASURED_SCALE` where the
     noise is not known."""
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)          # all-NaN rows
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows
         noise = np.array([np.nanmean(np.broadcast_to(s, estimates.shape[1:]) ** 2) for s in sd])
         if not np.isfinite(noise).all():
             return min(UNMEASURED_SCALE, len(estimates) - 1)
@@ -117,7 +132,7 @@ def along_tube(K: np.ndarray, rows: float) -> np.ndarray:
     if rows <= 0:
         return K
     known = np.isfinite(K)
-    if known.all():                       # (the usual: one pass, in K's own precision)
+    if known.all():  # (the usual: one pass, in K's own precision)
         return gaussian_filter1d(K, rows, axis=-2, mode="nearest")
     total = gaussian_filter1d(np.where(known, K, 0.0), rows, axis=-2, mode="nearest")
     weight = gaussian_filter1d(known.astype(float), rows, axis=-2, mode="nearest")
@@ -130,10 +145,10 @@ def _row_noise(k: np.ndarray) -> np.ndarray:
     the median over the row's nodes of each node's (one node's, from a few of its
     harmonics, is itself noisy); ``(1, n_v, 1)``, NaN under 10 frames."""
     n_u, n_v, n_t = k.shape
-    whole, noise = pixel_noise(k)          # each node's, as field_noise measures it
+    whole, noise = pixel_noise(k)  # each node's, as field_noise measures it
     sd = np.full(n_u * n_v, np.nan)
     if noise is not None:
         sd[whole] = noise
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)          # a row without a value: NaN
+        warnings.simplefilter("ignore", RuntimeWarning)  # a row without a value: NaN
         return np.nanmedian(sd.reshape(n_u, n_v), axis=0)[None, :, None]

@@ -1,6 +1,7 @@
 """Group statistics of a cohort: permutation tests of the difference of group means,
 for one number per embryo and for whole maps (corrected over the map), and Holm's
 adjustment over several comparisons."""
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -8,7 +9,7 @@ from math import comb
 
 import numpy as np
 
-CHUNK = 2000        # relabellings at a time: bounded memory
+CHUNK = 2000  # relabellings at a time: bounded memory
 
 
 def relabellings(n: int, m: int, *, exact: bool, n_random: int, seed: int):
@@ -18,7 +19,7 @@ def relabellings(n: int, m: int, *, exact: bool, n_random: int, seed: int):
     if exact:
         subsets = _subsets(n + m, n)
         for start in range(0, len(subsets), CHUNK):
-            yield subsets[start:start + CHUNK]
+            yield subsets[start : start + CHUNK]
         return
     rng = np.random.default_rng(seed)
     for start in range(0, n_random, CHUNK):
@@ -113,8 +114,9 @@ def _share_reaching(null: np.ndarray, values: np.ndarray, *, exact: bool) -> np.
     return reached / len(null) if exact else (reached + 1) / (len(null) + 1)
 
 
-def map_permutation_test(a: np.ndarray, b: np.ndarray, *, n_random: int = 10000,
-                         seed: int = 0, exact_max: int = 20000):
+def map_permutation_test(
+    a: np.ndarray, b: np.ndarray, *, n_random: int = 10000, seed: int = 0, exact_max: int = 20000
+):
     """Where two groups' maps differ: the difference of the group means of maps
     ``a (n, ...)`` and ``b (m, ...)``, and each pixel's two-sided p-value corrected
     for the whole map (family-wise), by the max-statistic permutation test (Nichols &
@@ -137,16 +139,26 @@ def map_permutation_test(a: np.ndarray, b: np.ndarray, *, n_random: int = 10000,
     if n < 2 or m < 2:
         return difference.reshape(shape), p.reshape(shape)
     exact = comb(n + m, n) <= exact_max
-    largest = np.concatenate([np.maximum(d.max(axis=1), -d.min(axis=1)) for d in
-                              _relabelled_differences(X, n, m, exact=exact,
-                                                      n_random=n_random, seed=seed)])
+    largest = np.concatenate(
+        [
+            np.maximum(d.max(axis=1), -d.min(axis=1))
+            for d in _relabelled_differences(X, n, m, exact=exact, n_random=n_random, seed=seed)
+        ]
+    )
     p[valid] = _share_reaching(largest, np.abs(observed), exact=exact)
     return difference.reshape(shape), p.reshape(shape)
 
 
-def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.05,
-                     periodic_axis: int | None = None, n_random: int = 10000, seed: int = 0,
-                     exact_max: int = 20000) -> np.ndarray:
+def map_cluster_test(
+    a: np.ndarray,
+    b: np.ndarray,
+    *,
+    cluster_alpha: float = 0.05,
+    periodic_axis: int | None = None,
+    n_random: int = 10000,
+    seed: int = 0,
+    exact_max: int = 20000,
+) -> np.ndarray:
     """Where two groups' 2-D maps ``a (n, rows, cols)``, ``b (m, rows, cols)`` differ
     over a connected region: the cluster-mass permutation test (Maris & Oostenveld
     2007), corrected for the whole map. A pixel joins a cluster where its absolute
@@ -172,24 +184,25 @@ def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.0
     relabelling = dict(exact=exact, n_random=n_random, seed=seed)
     total = comb(n + m, n) if exact else n_random
     n_top = max(1, int(np.floor(cluster_alpha * total)))
-    top = np.empty((0, X.shape[1]))    # each pixel's n_top largest |difference| so far
+    top = np.empty((0, X.shape[1]))  # each pixel's n_top largest |difference| so far
     for d in _relabelled_differences(X, n, m, **relabelling):
         top = np.concatenate([top, np.abs(d)])
         if len(top) > n_top:
             top = np.partition(top, len(top) - n_top, axis=0)[-n_top:]
-    threshold = top.min(axis=0)     # the n_top-th largest: uncorrected p <= cluster_alpha
+    threshold = top.min(axis=0)  # the n_top-th largest: uncorrected p <= cluster_alpha
 
     def clusters(abs_difference):
         """Cluster labels ``(k, rows, cols)`` of the maps ``abs_difference (k, valid
         pixels)``, numbered across them, and each cluster's weight (0: outside)."""
         supra = (abs_difference >= threshold * (1 - 1e-12)) & (abs_difference > 0)
-        if not valid.all():                          # back onto every pixel of the map
+        if not valid.all():  # back onto every pixel of the map
             abs_difference, supra = _on_map(abs_difference, valid), _on_map(supra, valid)
         labels, count = _cluster_labels(supra.reshape((-1,) + shape), periodic_axis)
-        return labels, np.bincount(labels.ravel(), weights=abs_difference.ravel(),
-                                   minlength=count + 1)
+        return labels, np.bincount(
+            labels.ravel(), weights=abs_difference.ravel(), minlength=count + 1
+        )
 
-    heaviest = []                      # each relabelling's heaviest cluster
+    heaviest = []  # each relabelling's heaviest cluster
     for d in _relabelled_differences(X, n, m, **relabelling):
         labels, weights = clusters(np.abs(d))
         # each map's clusters are numbered after the previous map's: up to its largest
@@ -198,8 +211,9 @@ def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.0
         most = np.maximum.reduceat(np.append(weights, 0.0), np.minimum(first, len(weights)))
         heaviest.append(np.where(last >= first, most, 0.0))
     labels, weights = clusters(np.abs(X[:n].mean(axis=0) - X[n:].mean(axis=0))[None])
-    cluster_p = np.concatenate([[1.0], _share_reaching(np.concatenate(heaviest), weights[1:],
-                                                       exact=exact)])
+    cluster_p = np.concatenate(
+        [[1.0], _share_reaching(np.concatenate(heaviest), weights[1:], exact=exact)]
+    )
     p[valid] = cluster_p[labels[0].ravel()[valid]]
     return p.reshape(shape)
 
@@ -207,8 +221,10 @@ def map_cluster_test(a: np.ndarray, b: np.ndarray, *, cluster_alpha: float = 0.0
 def check_cluster_alpha(cluster_alpha) -> None:
     """A cluster-forming threshold must be an uncorrected p strictly between 0 and 1."""
     if not (isinstance(cluster_alpha, (int, float)) and 0 < cluster_alpha < 1):
-        raise ValueError(f"the cluster-forming threshold (--cluster-alpha) must be an "
-                         f"uncorrected p between 0 and 1, found {cluster_alpha!r}")
+        raise ValueError(
+            f"the cluster-forming threshold (--cluster-alpha) must be an "
+            f"uncorrected p between 0 and 1, found {cluster_alpha!r}"
+        )
 
 
 def _on_map(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -226,7 +242,7 @@ def _cluster_labels(mask: np.ndarray, periodic_axis: int | None) -> tuple[np.nda
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    structure = np.zeros((3,) * mask.ndim, bool)       # no link between maps
+    structure = np.zeros((3,) * mask.ndim, bool)  # no link between maps
     structure[(1,) * (mask.ndim - 2)] = ndimage.generate_binary_structure(2, 1)
     labels, count = ndimage.label(mask, structure)
     if periodic_axis is None or count < 2:
@@ -236,8 +252,9 @@ def _cluster_labels(mask: np.ndarray, periodic_axis: int | None) -> tuple[np.nda
     touching = (first > 0) & (last > 0)
     if not touching.any():
         return labels, count
-    graph = coo_matrix((np.ones(touching.sum()), (first[touching], last[touching])),
-                       shape=(count + 1, count + 1))
+    graph = coo_matrix(
+        (np.ones(touching.sum()), (first[touching], last[touching])), shape=(count + 1, count + 1)
+    )
     joined, root = connected_components(graph, directed=False)  # 0 (outside) stays 0
     return root[labels], joined - 1
 

@@ -18,14 +18,15 @@ Images are ``(n_u, n_v)``: u around (rows, periodic), v along (columns). Positio
 in fine pixels ``(around, along)`` or in grid steps (:mod:`oftimg.analysis.tracking`).
 Functions of arrays; no file access.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-WRAP_PAD = 24               # fine pixels of the image repeated beyond u's ends for the flow
-NORMALISE_PX = 6.0          # the local mean and contrast taken out: Gaussian sigma, pixels
-CLIP_SD = 3.0               # normalised intensities beyond this many local SDs clipped
-INVERSE_STEPS = 5           # fixed-point steps inverting the flow back to the template
+WRAP_PAD = 24  # fine pixels of the image repeated beyond u's ends for the flow
+NORMALISE_PX = 6.0  # the local mean and contrast taken out: Gaussian sigma, pixels
+CLIP_SD = 3.0  # normalised intensities beyond this many local SDs clipped
+INVERSE_STEPS = 5  # fixed-point steps inverting the flow back to the template
 # the texture's motion beyond the shape's, smoothed over nodes (Gaussian sigma, steps)
 # and frames (a share of the cycle): the tissue's slide and twist are smooth, a node's
 # own flow error is strain to the fields (on the speckled zoo's tuning draws 500-507,
@@ -61,13 +62,14 @@ def normalised(image: np.ndarray) -> np.ndarray:
     img = np.where(np.isfinite(image), image, np.nanmean(image)).astype(np.float32)
     mode = ("wrap", "nearest")
     high = img - ndimage.gaussian_filter(img, NORMALISE_PX, mode=mode)
-    sd = np.sqrt(ndimage.gaussian_filter(high ** 2, NORMALISE_PX, mode=mode)) + 1e-6
+    sd = np.sqrt(ndimage.gaussian_filter(high**2, NORMALISE_PX, mode=mode)) + 1e-6
     z = np.clip(high / sd, -CLIP_SD, CLIP_SD)
     return np.round((z + CLIP_SD) / (2 * CLIP_SD) * 255).astype(np.uint8)
 
 
-def flow_between(a: np.ndarray, b: np.ndarray, flow=None, initial: np.ndarray | None = None
-                 ) -> np.ndarray:
+def flow_between(
+    a: np.ndarray, b: np.ndarray, flow=None, initial: np.ndarray | None = None
+) -> np.ndarray:
     """Dense optical flow ``(n_u, n_v, 2)`` fine pixels (around, along) from image ``a``
     to ``b`` (8-bit, :func:`normalised`): the pixel at ``(i, j)`` of ``a`` is at ``(i,
     j) + flow`` of ``b``. DIS (OpenCV, medium preset) on the images repeated by
@@ -77,12 +79,13 @@ def flow_between(a: np.ndarray, b: np.ndarray, flow=None, initial: np.ndarray | 
         flow = dis_flow()
     pad = ((WRAP_PAD, WRAP_PAD), (0, 0))
     start = None
-    if initial is not None:                    # to cv2's (x = along, y = around), padded
-        start = np.pad(np.ascontiguousarray(initial[..., ::-1], dtype=np.float32),
-                       pad + ((0, 0),), mode="wrap")
+    if initial is not None:  # to cv2's (x = along, y = around), padded
+        start = np.pad(
+            np.ascontiguousarray(initial[..., ::-1], dtype=np.float32), pad + ((0, 0),), mode="wrap"
+        )
     f = flow.calc(np.pad(a, pad, mode="wrap"), np.pad(b, pad, mode="wrap"), start)
     f = f[WRAP_PAD:-WRAP_PAD]
-    return np.stack([f[..., 1], f[..., 0]], axis=-1)       # cv2: (x = along, y = around)
+    return np.stack([f[..., 1], f[..., 0]], axis=-1)  # cv2: (x = along, y = around)
 
 
 def dis_flow():
@@ -100,8 +103,13 @@ def _at(field: np.ndarray, points: np.ndarray) -> np.ndarray:
     n_u = field.shape[0]
     wrapped = np.concatenate([field, field[:1]], axis=0)
     i = np.mod(points[..., 0], n_u)
-    return np.stack([map_coordinates(wrapped[..., k], [i, points[..., 1]], order=1,
-                                     mode="nearest") for k in range(field.shape[-1])], axis=-1)
+    return np.stack(
+        [
+            map_coordinates(wrapped[..., k], [i, points[..., 1]], order=1, mode="nearest")
+            for k in range(field.shape[-1])
+        ],
+        axis=-1,
+    )
 
 
 def _warped(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
@@ -112,12 +120,17 @@ def _warped(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
     import cv2
 
     n_u, n_v = image.shape
-    i, j = np.meshgrid(np.arange(n_u, dtype=np.float32), np.arange(n_v, dtype=np.float32),
-                       indexing="ij")
+    i, j = np.meshgrid(
+        np.arange(n_u, dtype=np.float32), np.arange(n_v, dtype=np.float32), indexing="ij"
+    )
     wrapped = np.concatenate([image, image[:1]], axis=0).astype(np.float32)
-    return cv2.remap(wrapped, (j + flow[..., 1]).astype(np.float32),
-                     np.mod(i + flow[..., 0], n_u).astype(np.float32), cv2.INTER_LINEAR,
-                     borderMode=cv2.BORDER_REPLICATE)
+    return cv2.remap(
+        wrapped,
+        (j + flow[..., 1]).astype(np.float32),
+        np.mod(i + flow[..., 0], n_u).astype(np.float32),
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_REPLICATE,
+    )
 
 
 def _dense(displacement: np.ndarray, shape: tuple, f: np.ndarray) -> np.ndarray:
@@ -125,9 +138,11 @@ def _dense(displacement: np.ndarray, shape: tuple, f: np.ndarray) -> np.ndarray:
     fine pixels (linear between nodes, periodic around; OpenCV's remap)."""
     import cv2
 
-    i, j = np.meshgrid(np.arange(shape[0], dtype=np.float32) / np.float32(f[0]),
-                       np.arange(shape[1], dtype=np.float32) / np.float32(f[1]),
-                       indexing="ij")
+    i, j = np.meshgrid(
+        np.arange(shape[0], dtype=np.float32) / np.float32(f[0]),
+        np.arange(shape[1], dtype=np.float32) / np.float32(f[1]),
+        indexing="ij",
+    )
     moved = (displacement * f).astype(np.float32)
     wrapped = np.concatenate([moved, moved[:1]], axis=0)
     return cv2.remap(wrapped, j, i, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
@@ -141,11 +156,15 @@ def _local_ncc(a: np.ndarray, b: np.ndarray, sigma: tuple) -> np.ndarray:
 
     pad = int(np.ceil(4 * sigma[0]))
 
-    def mean(x):                        # OpenCV's blur, wrapped around by hand
+    def mean(x):  # OpenCV's blur, wrapped around by hand
         padded = np.pad(x.astype(np.float32), ((pad, pad), (0, 0)), mode="wrap")
-        return cv2.GaussianBlur(padded, (0, 0), sigmaX=float(sigma[1]),
-                                sigmaY=float(sigma[0]),
-                                borderType=cv2.BORDER_REPLICATE)[pad:pad + x.shape[0]]
+        return cv2.GaussianBlur(
+            padded,
+            (0, 0),
+            sigmaX=float(sigma[1]),
+            sigmaY=float(sigma[0]),
+            borderType=cv2.BORDER_REPLICATE,
+        )[pad : pad + x.shape[0]]
 
     a = a - mean(a)
     b = b - mean(b)
@@ -154,8 +173,10 @@ def _local_ncc(a: np.ndarray, b: np.ndarray, sigma: tuple) -> np.ndarray:
 
 def _nodes(n_u: int, n_v: int) -> np.ndarray:
     """The grid's nodes ``(n_u, n_v, 2)`` in grid steps (around, along)."""
-    return np.stack(np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float),
-                                indexing="ij"), axis=-1)
+    return np.stack(
+        np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float), indexing="ij"),
+        axis=-1,
+    )
 
 
 def _wrapped_steps(step: np.ndarray, n_u: int) -> np.ndarray:
@@ -175,8 +196,9 @@ def _smoothed(field: np.ndarray, steps: float, cycle: float) -> np.ndarray:
     return ndimage.gaussian_filter(field, sigma, mode=mode)
 
 
-def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int],
-                      shape_coords: np.ndarray) -> tuple[np.ndarray, dict]:
+def texture_pathlines(
+    pullbacks: np.ndarray, factors: tuple[int, int], shape_coords: np.ndarray
+) -> tuple[np.ndarray, dict]:
     """Pathlines ``(n_u, n_v, n_t, 2)`` grid steps (around, along) that carry each node
     of the analysis grid of frame 0 with the texture of ``pullbacks (n_u f_u, (n_v - 1)
     f_v + 1, n_t)`` (each frame's on its own grid refined by ``factors (f_u, f_v)``)
@@ -205,53 +227,57 @@ def texture_pathlines(pullbacks: np.ndarray, factors: tuple[int, int],
     (the share of nodes and frames whose tissue lies within the grid along the tube)."""
     n_u, n_v, n_t = shape_coords.shape[:3]
     f = np.array(factors, float)
-    frames = [normalised(pullbacks[:, :, t]) for t in range(n_t)]          # 8-bit, for DIS
-    images = [frame.astype(np.float32) for frame in frames]                 # for warping
+    frames = [normalised(pullbacks[:, :, t]) for t in range(n_t)]  # 8-bit, for DIS
+    images = [frame.astype(np.float32) for frame in frames]  # for warping
     dis = dis_flow()
-    nodes = _nodes(n_u, n_v) * f                                          # fine pixels
+    nodes = _nodes(n_u, n_v) * f  # fine pixels
     flows = [np.zeros(images[0].shape + (2,), np.float32)]
     ahead = None
-    for t in range(1, n_t):                              # 1. to frame 0 itself
+    for t in range(1, n_t):  # 1. to frame 0 itself
         ahead = flow_between(frames[0], frames[t], dis, ahead)
         flows.append(ahead)
     seen = [_warped(images[t], flows[t]) for t in range(n_t)]
     total = np.sum(seen, axis=0)
-    references = [normalised((total - seen[t]) / max(n_t - 1, 1))   # 2. the beat's
-                  for t in range(n_t)]                             # template, frame t left out
+    # 2. the beat's template, frame t left out
+    references = [normalised((total - seen[t]) / max(n_t - 1, 1)) for t in range(n_t)]
     del seen
     tracked = np.empty((n_u, n_v, n_t, 2))
     gaps = []
     back = None
-    for t in range(n_t):                                 # 3. to the template
+    for t in range(n_t):  # 3. to the template
         frame = frames[t]
         ahead = flow_between(references[t], frame, dis, flows[t])
         there = nodes + _at(ahead, nodes)
         back = flow_between(frame, references[t], dis, back)
         inverse = there.copy()
-        for _ in range(INVERSE_STEPS):                   # q + back(q) = node
+        for _ in range(INVERSE_STEPS):  # q + back(q) = node
             inverse = nodes - _at(back, inverse)
         tracked[:, :, t] = 0.5 * (there + inverse) / f
         gaps.append(np.linalg.norm((there - inverse) / f, axis=-1))
-    beyond = _smoothed(_wrapped_steps(tracked - shape_coords, n_u),     # 4. smoothed
-                       SMOOTH_STEPS, SMOOTH_CYCLE)
+    beyond = _smoothed(
+        _wrapped_steps(tracked - shape_coords, n_u),  # 4. smoothed
+        SMOOTH_STEPS,
+        SMOOTH_CYCLE,
+    )
     keep, support = _supported(beyond, shape_coords, references, images, f)
-    coords = shape_coords + keep * beyond                # 5. where the texture says so
+    coords = shape_coords + keep * beyond  # 5. where the texture says so
     gap = np.array(gaps)
     ignored = np.abs((1 - keep) * beyond) > FALLBACK_STEPS
     fallback = ignored.any(axis=-1)
     in_view = (coords[..., 1] >= 0) & (coords[..., 1] <= n_v - 1)
-    return coords, {"kind": "texture",
-                    "forward_backward_gap_steps": {"median": float(np.median(gap)),
-                                                   "max": float(gap.max())},
-                    "support": support.astype(np.float32), "fallback": fallback,
-                    "fallback_share": float(fallback.mean()),
-                    "fallback_share_along": float(ignored[..., 1].mean()),
-                    "fallback_share_around": float(ignored[..., 0].mean()),
-                    "in_view": float(in_view.mean())}
+    return coords, {
+        "kind": "texture",
+        "forward_backward_gap_steps": {"median": float(np.median(gap)), "max": float(gap.max())},
+        "support": support.astype(np.float32),
+        "fallback": fallback,
+        "fallback_share": float(fallback.mean()),
+        "fallback_share_along": float(ignored[..., 1].mean()),
+        "fallback_share_around": float(ignored[..., 0].mean()),
+        "in_view": float(in_view.mean()),
+    }
 
 
-def _support(coords: np.ndarray, references: list, images: list, f: np.ndarray
-             ) -> np.ndarray:
+def _support(coords: np.ndarray, references: list, images: list, f: np.ndarray) -> np.ndarray:
     """The texture's support ``(n_u, n_v, n_t)`` for pathlines ``coords (n_u, n_v, n_t,
     2)`` grid steps: the local correlation (:func:`_local_ncc`, a grid step's Gaussian
     window) of frame t's template (``references[t]``) with its image (``images[t]``)
@@ -263,12 +289,13 @@ def _support(coords: np.ndarray, references: list, images: list, f: np.ndarray
     for t in range(n_t):
         template = references[t].astype(np.float32)
         seen = _warped(images[t], _dense(coords[:, :, t] - nodes, template.shape, f))
-        out[:, :, t] = _local_ncc(template, seen, tuple(f))[::step_u, ::step_v]   # the nodes
+        out[:, :, t] = _local_ncc(template, seen, tuple(f))[::step_u, ::step_v]  # the nodes
     return out
 
 
-def _supported(beyond: np.ndarray, shape: np.ndarray, references: list, images: list,
-               f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _supported(
+    beyond: np.ndarray, shape: np.ndarray, references: list, images: list, f: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """How much of the texture's motion ``beyond (n_u, n_v, n_t, 2)`` the shape's
     pathlines ``shape`` each node keeps, around and along ``(n_u, n_v, n_t, 2)`` in
     [0, 1], and the support of the kept pathlines ``(n_u, n_v, n_t)``.
@@ -279,15 +306,21 @@ def _supported(beyond: np.ndarray, shape: np.ndarray, references: list, images: 
     without it by :data:`SUPPORT_MARGIN` (where they tie, the shape's: the texture's
     sub-voxel guess adds noise, not tissue), the choice smoothed over the same window
     (a hard edge would be strain)."""
-    scores = {keep: _smoothed(_support(shape + beyond * np.array(keep, float), references,
-                                       images, f), SUPPORT_STEPS, SUPPORT_CYCLE)
-              for keep in ((1, 1), (1, 0), (0, 1), (0, 0))}
+    scores = {
+        keep: _smoothed(
+            _support(shape + beyond * np.array(keep, float), references, images, f),
+            SUPPORT_STEPS,
+            SUPPORT_CYCLE,
+        )
+        for keep in ((1, 1), (1, 0), (0, 1), (0, 0))
+    }
 
     def kept(k: int) -> np.ndarray:
         with_it = np.maximum(*(v for c, v in scores.items() if c[k]))
         without = np.maximum(*(v for c, v in scores.items() if not c[k]))
-        return _smoothed((with_it > without + SUPPORT_MARGIN).astype(float),
-                         SUPPORT_STEPS, SUPPORT_CYCLE)
+        return _smoothed(
+            (with_it > without + SUPPORT_MARGIN).astype(float), SUPPORT_STEPS, SUPPORT_CYCLE
+        )
 
     keep = np.stack([kept(0), kept(1)], axis=-1)
     support = _support(shape + keep * beyond, references, images, f)
@@ -300,11 +333,13 @@ def fallback_note(share: float) -> str | None:
     None."""
     if not share > FALLBACK_WARN_SHARE:
         return None
-    return (f"{100 * share:.0f} % of the nodes and frames follow the shape alone along or "
-            "around the tube: there the texture did not match better with its own motion "
-            "than without it (faint texture under speckle, or texture finer than the "
-            "voxels); texture_fallback in arrays.npz shows where, pullback_outer.png the "
-            "texture")
+    return (
+        f"{100 * share:.0f} % of the nodes and frames follow the shape alone along or "
+        "around the tube: there the texture did not match better with its own motion "
+        "than without it (faint texture under speckle, or texture finer than the "
+        "voxels); texture_fallback in arrays.npz shows where, pullback_outer.png the "
+        "texture"
+    )
 
 
 def texture_match_note(gap_median_steps: float) -> str | None:
@@ -314,10 +349,12 @@ def texture_match_note(gap_median_steps: float) -> str | None:
     under strong speckle, or texture finer than the voxels, does it."""
     if not gap_median_steps > GAP_WARN_STEPS:
         return None
-    return (f"the texture matched poorly from frame to frame (forward-backward gap: median "
-            f"{gap_median_steps:.2g} grid steps, over {GAP_WARN_STEPS:g}): on the speckled "
-            "accuracy zoo such a gap came with the tracked grid drifting about 0.2 % of the "
-            "tube's length and 0.015-0.025 rad around from the tissue (at most 0.12 % and "
-            "0.012 rad under 0.075), as when the texture is fainter than its speckle or "
-            "finer than the voxels; look at pullback_outer.png (the texture's support), or "
-            "compare with --tracking material")
+    return (
+        f"the texture matched poorly from frame to frame (forward-backward gap: median "
+        f"{gap_median_steps:.2g} grid steps, over {GAP_WARN_STEPS:g}): on the speckled "
+        "accuracy zoo such a gap came with the tracked grid drifting about 0.2 % of the "
+        "tube's length and 0.015-0.025 rad around from the tissue (at most 0.12 % and "
+        "0.012 rad under 0.075), as when the texture is fainter than its speckle or "
+        "finer than the voxels; look at pullback_outer.png (the texture's support), or "
+        "compare with --tracking material"
+    )

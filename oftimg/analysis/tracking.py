@@ -24,6 +24,7 @@ gut's drift and made the phantoms' angle drift 1.7 times larger.
 Coordinates are in grid steps: ``i`` around (periodic, ``n_u``), ``j`` along
 (``0 .. n_v - 1``). Functions of arrays; no file access.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -55,12 +56,11 @@ def sample(field: np.ndarray, coords: np.ndarray) -> np.ndarray:
         return map_coordinates(wrapped, [i, coords[..., 1]], order=3, mode="nearest")
     if unknown.all():
         return np.full(coords.shape[:-1], np.nan, np.result_type(field.dtype, np.float32))
-    nearest = ndimage.distance_transform_edt(unknown, return_distances=False,
-                                             return_indices=True)
-    out = map_coordinates(wrapped[tuple(nearest)], [i, coords[..., 1]], order=3,
-                          mode="nearest")
-    near_unknown = map_coordinates(unknown.astype(np.float32), [i, coords[..., 1]], order=1,
-                                   mode="nearest")
+    nearest = ndimage.distance_transform_edt(unknown, return_distances=False, return_indices=True)
+    out = map_coordinates(wrapped[tuple(nearest)], [i, coords[..., 1]], order=3, mode="nearest")
+    near_unknown = map_coordinates(
+        unknown.astype(np.float32), [i, coords[..., 1]], order=1, mode="nearest"
+    )
     return np.where(near_unknown > 0, np.nan, out)
 
 
@@ -98,7 +98,7 @@ def ring_turns(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     fine = np.zeros((n * TURN_OVERSAMPLE, A.shape[1]), dtype=complex)
     half = (n + 1) // 2
     fine[:half] = spectrum[:half]
-    fine[-(n - half):] = spectrum[half:]
+    fine[-(n - half) :] = spectrum[half:]
     corr = np.fft.ifft(fine, axis=0).real
     peak = np.argmax(corr, axis=0)
     j = np.arange(A.shape[1])
@@ -108,7 +108,7 @@ def ring_turns(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     frac = np.where(curve < 0, 0.5 * (before - after) / np.where(curve < 0, curve, 1.0), 0.0)
     shifts = _wrapped((peak + frac) / TURN_OVERSAMPLE, n)
     energy = (A * A).sum(axis=(0, 2)) + (B * B).sum(axis=(0, 2))
-    best = corr.max(axis=0) * TURN_OVERSAMPLE            # ifft divided by the padded length
+    best = corr.max(axis=0) * TURN_OVERSAMPLE  # ifft divided by the padded length
     rms = np.sqrt(np.maximum(energy - 2 * best, 0.0) / n)
     return shifts, rms
 
@@ -127,8 +127,10 @@ def row_turns(G: np.ndarray) -> tuple[np.ndarray, dict]:
     """
     n_u, n_v, n_t, _ = G.shape
     turn = np.zeros((n_v, n_t + 1))
-    nodes = np.stack(np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float),
-                                 indexing="ij"), axis=-1)
+    nodes = np.stack(
+        np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float), indexing="ij"),
+        axis=-1,
+    )
     rms, unturned = [], []
     for t in range(n_t):
         here = nodes.copy()
@@ -142,10 +144,11 @@ def row_turns(G: np.ndarray) -> tuple[np.ndarray, dict]:
     miss = turn[:, n_t] - turn[:, 0]
     turn = turn[:, :n_t] - np.arange(n_t)[None, :] / n_t * miss[:, None]
     degrees = np.abs(miss) * 360.0 / n_u
-    return turn, {"ring_rms_mm": float(np.median(rms)),
-                  "ring_rms_unturned_mm": float(np.median(unturned)),
-                  "closure_deg": {"median": float(np.median(degrees)),
-                                  "max": float(degrees.max())}}
+    return turn, {
+        "ring_rms_mm": float(np.median(rms)),
+        "ring_rms_unturned_mm": float(np.median(unturned)),
+        "closure_deg": {"median": float(np.median(degrees)), "max": float(degrees.max())},
+    }
 
 
 def track_grid(G: np.ndarray) -> tuple[np.ndarray, dict]:
@@ -154,8 +157,10 @@ def track_grid(G: np.ndarray) -> tuple[np.ndarray, dict]:
     cycle (:func:`row_turns`; each node keeps its row), and the turns' diagnostics."""
     n_u, n_v, n_t, _ = G.shape
     turn, info = row_turns(G)
-    nodes = np.stack(np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float),
-                                 indexing="ij"), axis=-1)
+    nodes = np.stack(
+        np.meshgrid(np.arange(n_u, dtype=float), np.arange(n_v, dtype=float), indexing="ij"),
+        axis=-1,
+    )
     coords = np.broadcast_to(nodes[:, :, None], (n_u, n_v, n_t, 2)).copy()
     coords[..., 0] += turn[None]
     return coords, info

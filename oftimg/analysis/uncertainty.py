@@ -11,16 +11,27 @@ factors below widen it so that the band holds 95 % of the nodes and frames of th
 it was fitted on, and they were checked on draws it was not fitted on
 (``scripts/zoo_calibration.py``; docs/accuracy.md, "The runs' own error bars").
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 # input kind -> field -> factor k (95 % band = 1.96 k x the noise after smoothing)
-BAND_FACTORS = {     # fitted 2026-12-05: meshes on the zoo's seeds 0-9, labels on 0-8
-    "meshes": {"radial_curvature_outer": 1.68, "radial_curvature_inner": 1.59,
-               "mean_curvature_lumen": 1.81, "wall_thickness": 1.05, "jelly_thickness": 1.09},
-    "labels": {"radial_curvature_outer": 3.92, "radial_curvature_inner": 3.31,
-               "mean_curvature_lumen": 11.12, "wall_thickness": 2.89, "jelly_thickness": 3.97},
+BAND_FACTORS = {  # fitted 2026-12-05: meshes on the zoo's seeds 0-9, labels on 0-8
+    "meshes": {
+        "radial_curvature_outer": 1.68,
+        "radial_curvature_inner": 1.59,
+        "mean_curvature_lumen": 1.81,
+        "wall_thickness": 1.05,
+        "jelly_thickness": 1.09,
+    },
+    "labels": {
+        "radial_curvature_outer": 3.92,
+        "radial_curvature_inner": 3.31,
+        "mean_curvature_lumen": 11.12,
+        "wall_thickness": 2.89,
+        "jelly_thickness": 3.97,
+    },
 }
 # the cycle wave speed's error its noise spread cannot see (the ridge sampled by the
 # frames and rows, the ridge smoothing's pull, a crossing in few frames), as a share of
@@ -30,9 +41,13 @@ BAND_FACTORS = {     # fitted 2026-12-05: meshes on the zoo's seeds 0-9, labels 
 SPEED_SYSTEMATIC_SHARE = 0.05
 # probability maps: fitted on the zoo's probability draws 0-9, 2026-12-05 (95-97 % of the
 # 40 others' nodes inside; docs/accuracy.md)
-BAND_FACTORS["probabilities"] = {"radial_curvature_outer": 3.62, "radial_curvature_inner": 3.79,
-                                 "mean_curvature_lumen": 14.66, "wall_thickness": 1.84,
-                                 "jelly_thickness": 4.36}
+BAND_FACTORS["probabilities"] = {
+    "radial_curvature_outer": 3.62,
+    "radial_curvature_inner": 3.79,
+    "mean_curvature_lumen": 14.66,
+    "wall_thickness": 1.84,
+    "jelly_thickness": 4.36,
+}
 # node by node (issue 84): each curvature node's band is 1.96 k sqrt(noise^2 +
 # unresolved^2) (oftimg.analysis.radial_curvature.node_band_95: the noise the frames show,
 # what the scale and the smoothing in time may flatten), each strain energy node's 1.96 k
@@ -45,26 +60,36 @@ BAND_FACTORS["probabilities"] = {"radial_curvature_outer": 3.62, "radial_curvatu
 # voxels resolve, or the grid slides along the wall, the band still falls short
 # (docs/accuracy.md). Probability maps: the labels' (not fitted on their own)
 NODE_BAND_FACTORS = {
-    "meshes": {"radial_curvature_outer": 1.26, "radial_curvature_inner": 1.19,
-               "mean_curvature_lumen": 1.44, "strain_energy_outer": 3.76,
-               "strain_energy_inner": 1.80},
-    "labels": {"radial_curvature_outer": 2.78, "radial_curvature_inner": 2.45,
-               "mean_curvature_lumen": 8.4, "strain_energy_outer": 8.3,
-               "strain_energy_inner": 3.5},
+    "meshes": {
+        "radial_curvature_outer": 1.26,
+        "radial_curvature_inner": 1.19,
+        "mean_curvature_lumen": 1.44,
+        "strain_energy_outer": 3.76,
+        "strain_energy_inner": 1.80,
+    },
+    "labels": {
+        "radial_curvature_outer": 2.78,
+        "radial_curvature_inner": 2.45,
+        "mean_curvature_lumen": 8.4,
+        "strain_energy_outer": 8.3,
+        "strain_energy_inner": 3.5,
+    },
 }
 NODE_BAND_FACTORS["probabilities"] = dict(NODE_BAND_FACTORS["labels"])
 # a node whose band is wider than this share of its value's size is marked (greyed in the
 # figures, counted in summary.json: field_noise: band95_wide_share)
 BAND_WIDE_SHARE = 0.5
-FIELD_OF = {"radial_curvature_outer_per_mm": "radial_curvature_outer",
-            "radial_curvature_inner_per_mm": "radial_curvature_inner",
-            "mean_curvature_lumen_per_mm": "mean_curvature_lumen",
-            "wall_thickness_mm": "wall_thickness",
-            "jelly_thickness_mm": "jelly_thickness"}
+FIELD_OF = {
+    "radial_curvature_outer_per_mm": "radial_curvature_outer",
+    "radial_curvature_inner_per_mm": "radial_curvature_inner",
+    "mean_curvature_lumen_per_mm": "mean_curvature_lumen",
+    "wall_thickness_mm": "wall_thickness",
+    "jelly_thickness_mm": "jelly_thickness",
+}
 
 
 def input_kind(inputs_by_kind: dict) -> str:
-    """"meshes", "labels" or "probabilities": what the dataset's walls were made from
+    """ "meshes", "labels" or "probabilities": what the dataset's walls were made from
     (:meth:`~oftimg.io.dataset.Dataset.inputs_by_kind`'s keys)."""
     return next((k for k in ("probabilities", "labels") if k in inputs_by_kind), "meshes")
 
@@ -79,8 +104,11 @@ def with_bands(field_noise: dict, kind: str) -> dict:
         k = BAND_FACTORS.get(kind, {}).get(FIELD_OF.get(name))
         sd = noise.get("noise_sd_smoothed")
         finite = k is not None and sd is not None and np.isfinite(sd)
-        out[name] = {**noise, "band_factor": k if finite else None,
-                     "band_95": float(1.96 * k * sd) if finite else None}
+        out[name] = {
+            **noise,
+            "band_factor": k if finite else None,
+            "band_95": float(1.96 * k * sd) if finite else None,
+        }
     return out
 
 

@@ -8,6 +8,7 @@ first harmonic of each node's motion along the wall's normal: its phase is read 
 every frame at once, so it is sub-frame and robust to a node's frame-to-frame noise
 (the time of the steepest outward motion of that harmonic is the activation time).
 """
+
 from __future__ import annotations
 
 import warnings
@@ -61,8 +62,10 @@ def grid_tangents(grid_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The grid's tangents ``(e_u, e_v)`` (mm per node, ``(n_u, n_v, 3)`` each) of a
     wall's shape ``(n_u, n_v, 3)``: central differences, periodic round the tube,
     one-sided at its ends."""
-    return (0.5 * (np.roll(grid_mm, -1, axis=0) - np.roll(grid_mm, 1, axis=0)),
-            np.gradient(grid_mm, axis=1))
+    return (
+        0.5 * (np.roll(grid_mm, -1, axis=0) - np.roll(grid_mm, 1, axis=0)),
+        np.gradient(grid_mm, axis=1),
+    )
 
 
 def normal_displacement(grid: np.ndarray) -> np.ndarray:
@@ -80,18 +83,20 @@ def normal_displacement(grid: np.ndarray) -> np.ndarray:
     mean = grid.mean(axis=2)
     normal = np.cross(*grid_tangents(mean))
     normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    outward = mean - mean.mean(axis=0, keepdims=True)      # from each ring's centre
-    if np.nansum(outward * normal) < 0:                     # u runs clockwise
+    outward = mean - mean.mean(axis=0, keepdims=True)  # from each ring's centre
+    if np.nansum(outward * normal) < 0:  # u runs clockwise
         normal = -normal
-    return (np.einsum("uvtx,uvx->uvt", grid, normal)
-            - np.einsum("uvx,uvx->uv", mean, normal)[:, :, None])
+    return (
+        np.einsum("uvtx,uvx->uvt", grid, normal)
+        - np.einsum("uvx,uvx->uv", mean, normal)[:, :, None]
+    )
 
 
 def ring_swing(grid: np.ndarray) -> np.ndarray:
     """How far each ring's centre moves over the cycle (mm, the first harmonic's
     amplitude of its path, ``(n_v,)``): sideways swing of the tube, which
     :func:`normal_displacement` reads as a front that comes first on one side."""
-    centres = grid.mean(axis=0)                                    # (n_v, n_t, 3)
+    centres = grid.mean(axis=0)  # (n_v, n_t, 3)
     n_t = centres.shape[1]
     first = np.exp(-2j * np.pi * np.arange(n_t) / n_t)
     return np.linalg.norm(2.0 * np.abs(np.einsum("vtx,t->vx", centres, first)) / n_t, axis=-1)
@@ -118,8 +123,9 @@ def strong(activation: Activation) -> np.ndarray:
     moving = activation.moving
     if not moving.any():
         return moving
-    return moving & (activation.amplitude >= STRONG_AMPLITUDE
-                     * np.median(activation.amplitude[moving]))
+    return moving & (
+        activation.amplitude >= STRONG_AMPLITUDE * np.median(activation.amplitude[moving])
+    )
 
 
 def activation_times(marker: np.ndarray, period_ms: float) -> Activation:
@@ -131,7 +137,7 @@ def activation_times(marker: np.ndarray, period_ms: float) -> Activation:
     n_t = marker.shape[-1]
     t = np.arange(n_t)
     first = np.exp(-2j * np.pi * t / n_t)
-    coefficient = 2.0 * (marker @ first) / n_t                # A exp(i phi): A cos(wt + phi)
+    coefficient = 2.0 * (marker @ first) / n_t  # A exp(i phi): A cos(wt + phi)
     amplitude = np.abs(coefficient)
     phi = np.angle(coefficient)
     # A cos(w t + phi) rises fastest where w t + phi = -pi / 2
@@ -142,8 +148,9 @@ def activation_times(marker: np.ndarray, period_ms: float) -> Activation:
     frame_ms = period_ms / n_t
     phase = np.angle(np.exp(1j * (2 * np.pi * (t - time_frames[..., None]) / n_t)))
     moving = amplitude > MOTION_SNR * residual_sd * np.sqrt(2.0 / n_t)
-    return Activation(time_frames * frame_ms, phase_sd * period_ms / (2 * np.pi), amplitude,
-                      moving, phase)
+    return Activation(
+        time_frames * frame_ms, phase_sd * period_ms / (2 * np.pi), amplitude, moving, phase
+    )
 
 
 def noise_sd(marker: np.ndarray) -> np.ndarray:
@@ -153,13 +160,14 @@ def noise_sd(marker: np.ndarray) -> np.ndarray:
     harmonic."""
     n_t = marker.shape[-1]
     spectrum = np.fft.rfft(marker, axis=-1)
-    high = spectrum[..., NOISE_HARMONIC:(n_t - 1) // 2 + 1]
+    high = spectrum[..., NOISE_HARMONIC : (n_t - 1) // 2 + 1]
     if high.shape[-1] >= 3:
         return np.sqrt((np.abs(high) ** 2).mean(axis=-1) / n_t)
     first = spectrum[..., 1]
     t = np.arange(n_t)
     fitted = marker.mean(axis=-1, keepdims=True) + 2.0 / n_t * np.real(
-        first[..., None] * np.exp(2j * np.pi * t / n_t))
+        first[..., None] * np.exp(2j * np.pi * t / n_t)
+    )
     return np.sqrt(((marker - fitted) ** 2).sum(axis=-1) / max(n_t - 3, 1))
 
 
@@ -190,9 +198,14 @@ class SurfaceVelocity:
     scatter_ms: np.ndarray
 
 
-def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float, *,
-                     smoothing_nodes: float = VELOCITY_SMOOTHING_NODES,
-                     use: np.ndarray | None = None) -> SurfaceVelocity:
+def surface_velocity(
+    time_ms: np.ndarray,
+    grid_mm: np.ndarray,
+    period_ms: float,
+    *,
+    smoothing_nodes: float = VELOCITY_SMOOTHING_NODES,
+    use: np.ndarray | None = None,
+) -> SurfaceVelocity:
     """The wave velocity on the wall from activation times ``(n_u, n_v)`` and the
     wall's shape ``grid_mm`` ``(n_u, n_v, 3)`` (the cycle's mean: each node's metric in
     mm). The times' gradient on the grid is a local plane fitted to them about each
@@ -207,11 +220,11 @@ def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float,
     g_uu = (e_u * e_u).sum(-1)
     g_uv = (e_u * e_v).sum(-1)
     g_vv = (e_v * e_v).sum(-1)
-    det = g_uu * g_vv - g_uv ** 2
+    det = g_uu * g_vv - g_uv**2
     with np.errstate(divide="ignore", invalid="ignore"):
-        a_u = (g_vv * t_u - g_uv * t_v) / det              # contravariant gradient
+        a_u = (g_vv * t_u - g_uv * t_v) / det  # contravariant gradient
         a_v = (g_uu * t_v - g_uv * t_u) / det
-        gradient = a_u[..., None] * e_u + a_v[..., None] * e_v      # ms/mm, in 3-D
+        gradient = a_u[..., None] * e_u + a_v[..., None] * e_v  # ms/mm, in 3-D
         slowness = np.linalg.norm(gradient, axis=-1)
         along = e_v / np.linalg.norm(e_v, axis=-1, keepdims=True)
         around = e_u - (e_u * along).sum(-1, keepdims=True) * along
@@ -221,16 +234,22 @@ def surface_velocity(time_ms: np.ndarray, grid_mm: np.ndarray, period_ms: float,
         speed = 1e3 / slowness
         angle = np.degrees(np.arctan2(g_around, g_along))
         # the velocity points along the gradient, its length 1 / |gradient|
-        along_mm_s = 1e3 * g_along / slowness ** 2
-        around_mm_s = 1e3 * g_around / slowness ** 2
-        axial = t_v / np.linalg.norm(e_v, axis=-1)         # dt/ds along the grid's rows
-    return SurfaceVelocity(*(np.where(use, x, np.nan) for x in
-                             (speed, angle, along_mm_s, around_mm_s, axial, scatter)))
+        along_mm_s = 1e3 * g_along / slowness**2
+        around_mm_s = 1e3 * g_around / slowness**2
+        axial = t_v / np.linalg.norm(e_v, axis=-1)  # dt/ds along the grid's rows
+    return SurfaceVelocity(
+        *(np.where(use, x, np.nan) for x in (speed, angle, along_mm_s, around_mm_s, axial, scatter))
+    )
 
 
-def auto_smoothing(time_ms: np.ndarray, period_ms: float, use: np.ndarray, *,
-                   ladder=VELOCITY_SMOOTHING_LADDER,
-                   target: float = AUTO_GRADIENT_NOISE) -> float:
+def auto_smoothing(
+    time_ms: np.ndarray,
+    period_ms: float,
+    use: np.ndarray,
+    *,
+    ladder=VELOCITY_SMOOTHING_LADDER,
+    target: float = AUTO_GRADIENT_NOISE,
+) -> float:
     """The sigma (grid nodes) of the plane fits for a wall's activation times ``(n_u,
     n_v)`` over the nodes ``use``: the smallest of ``ladder`` at which x / sigma^2 is
     at most ``target``, x the times' median scatter about planes fitted over 1 node
@@ -244,27 +263,29 @@ def auto_smoothing(time_ms: np.ndarray, period_ms: float, use: np.ndarray, *,
     measured."""
     if use.sum() < 10:
         return float(ladder[0])
-    with warnings.catch_warnings():     # no plane fits anywhere (a still tube): NaN, below
+    with warnings.catch_warnings():  # no plane fits anywhere (a still tube): NaN, below
         warnings.simplefilter("ignore", RuntimeWarning)
         scatter = np.nanmedian(time_gradient(time_ms, period_ms, 1.0, use)[2])
-        length = {sigma: np.nanmedian(np.hypot(*time_gradient(time_ms, period_ms, sigma,
-                                                              use)[:2]))
-                  for sigma in ladder}
+        length = {
+            sigma: np.nanmedian(np.hypot(*time_gradient(time_ms, period_ms, sigma, use)[:2]))
+            for sigma in ladder
+        }
     gradient = length[ladder[-1]]
     if not (np.isfinite(scatter) and np.isfinite(gradient) and gradient > 0):
         return float(ladder[0])
     chosen = ladder[0]
     for sigma in ladder:
         if length[sigma] < AUTO_GRADIENT_KEPT * length[ladder[0]]:
-            break                                   # rounding the fronts
+            break  # rounding the fronts
         chosen = sigma
-        if scatter / gradient / sigma ** 2 <= target:
+        if scatter / gradient / sigma**2 <= target:
             break
     return float(chosen)
 
 
-def time_gradient(time_ms: np.ndarray, period_ms: float, smoothing_nodes: float,
-                  use: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def time_gradient(
+    time_ms: np.ndarray, period_ms: float, smoothing_nodes: float, use: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(dt/du, dt/dv, scatter)`` (ms per node and ms, ``(n_u, n_v)`` each) of
     activation times: at each node the plane ``t0 + a du + b dv`` fitted by least
     squares to the times of
@@ -283,32 +304,45 @@ def time_gradient(time_ms: np.ndarray, period_ms: float, smoothing_nodes: float,
     n_u, n_v = time_ms.shape
     reach = max(1, int(np.ceil(2 * smoothing_nodes)))
     phasor = np.where(use, np.exp(2j * np.pi * time_ms / period_ms), 0)
-    sums = {key: np.zeros((n_u, n_v)) for key in
-            ("w", "ww", "a", "b", "aa", "ab", "bb", "d", "ad", "bd", "dd")}
+    sums = {
+        key: np.zeros((n_u, n_v))
+        for key in ("w", "ww", "a", "b", "aa", "ab", "bb", "d", "ad", "bd", "dd")
+    }
     for db in range(-reach, reach + 1):
-        lo, hi = max(0, -db), min(n_v, n_v - db)       # nodes whose neighbour db exists
+        lo, hi = max(0, -db), min(n_v, n_v - db)  # nodes whose neighbour db exists
         for da in range(-reach, reach + 1):
             if smoothing_nodes > 0:
-                w = np.exp(-(da * da + db * db) / (2 * smoothing_nodes ** 2))
+                w = np.exp(-(da * da + db * db) / (2 * smoothing_nodes**2))
             else:
                 w = float(abs(da) + abs(db) <= 1)
             if w < 1e-6:
                 continue
-            other = np.roll(phasor, -da, axis=0)[:, lo + db:hi + db]
+            other = np.roll(phasor, -da, axis=0)[:, lo + db : hi + db]
             here = phasor[:, lo:hi]
             weight = w * (np.abs(other) > 0) * (np.abs(here) > 0)
             d = np.angle(other * np.conj(here)) * period_ms / (2 * np.pi)
-            for key, value in (("w", 1.0), ("a", da), ("b", db), ("aa", da * da),
-                               ("ab", da * db), ("bb", db * db)):
+            for key, value in (
+                ("w", 1.0),
+                ("a", da),
+                ("b", db),
+                ("aa", da * da),
+                ("ab", da * db),
+                ("bb", db * db),
+            ):
                 sums[key][:, lo:hi] += weight * value
-            sums["ww"][:, lo:hi] += weight ** 2
+            sums["ww"][:, lo:hi] += weight**2
             sums["d"][:, lo:hi] += weight * d
             sums["ad"][:, lo:hi] += weight * da * d
             sums["bd"][:, lo:hi] += weight * db * d
             sums["dd"][:, lo:hi] += weight * d * d
-    normal = np.stack([np.stack([sums["w"], sums["a"], sums["b"]], -1),
-                       np.stack([sums["a"], sums["aa"], sums["ab"]], -1),
-                       np.stack([sums["b"], sums["ab"], sums["bb"]], -1)], -2)
+    normal = np.stack(
+        [
+            np.stack([sums["w"], sums["a"], sums["b"]], -1),
+            np.stack([sums["a"], sums["aa"], sums["ab"]], -1),
+            np.stack([sums["b"], sums["ab"], sums["bb"]], -1),
+        ],
+        -2,
+    )
     right = np.stack([sums["d"], sums["ad"], sums["bd"]], -1)
     solvable = np.abs(np.linalg.det(normal)) > 1e-9 * np.maximum(sums["w"], 1e-300) ** 3
     normal[~solvable] = np.eye(3)
@@ -351,8 +385,9 @@ def helix_angle(velocity: SurfaceVelocity) -> float:
     return float(np.mod(np.degrees(np.arctan2(around, along)) + 90.0, 180.0) - 90.0)
 
 
-def wave_summary(activation: Activation, velocity: SurfaceVelocity, s_mm: np.ndarray,
-                 period_ms: float) -> dict:
+def wave_summary(
+    activation: Activation, velocity: SurfaceVelocity, s_mm: np.ndarray, period_ms: float
+) -> dict:
     """The wave on one wall in numbers: ``propagates``; the median surface speed
     (mm/s); the axial speed (mm/s: the inverse of the median dt/ds, beside the paper's
     ridge speed); the helix angle (:func:`helix_angle`), the interquartile range of
@@ -363,11 +398,19 @@ def wave_summary(activation: Activation, velocity: SurfaceVelocity, s_mm: np.nda
     the :func:`strong` nodes (``velocity`` NaN elsewhere, as :func:`surface_velocity`
     gives it with ``use``). Every number None where the wall does not propagate."""
     if not propagates(activation, period_ms):
-        return {"propagates": False, "speed_mm_s": None, "axial_speed_mm_s": None,
-                "helix_angle_deg": None, "helix_angle_iqr_deg": None, "obliquity_deg": None,
-                "earliest_node": None,
-                "earliest_s_mm": None, "slowest_s_mm": None, "slowest_speed_mm_s": None}
-    angle = np.mod(velocity.angle_deg + 90.0, 180.0) - 90.0           # its slant
+        return {
+            "propagates": False,
+            "speed_mm_s": None,
+            "axial_speed_mm_s": None,
+            "helix_angle_deg": None,
+            "helix_angle_iqr_deg": None,
+            "obliquity_deg": None,
+            "earliest_node": None,
+            "earliest_s_mm": None,
+            "slowest_s_mm": None,
+            "slowest_speed_mm_s": None,
+        }
+    angle = np.mod(velocity.angle_deg + 90.0, 180.0) - 90.0  # its slant
     helix = helix_angle(velocity)
     # the nodes' spread about the helix angle, on the half circle (a helix near 90
     # degrees has nodes at -89 and +89: 2 degrees apart, not 178)
@@ -376,15 +419,20 @@ def wave_summary(activation: Activation, velocity: SurfaceVelocity, s_mm: np.nda
     t = unwrapped(activation.time_ms, period_ms)
     earliest = np.unravel_index(np.nanargmin(np.where(strong(activation), t, np.nan)), t.shape)
     speed = velocity.speed_mm_s
-    rows = np.full(speed.shape[1], np.nan)         # rows at least half of whose nodes read
+    rows = np.full(speed.shape[1], np.nan)  # rows at least half of whose nodes read
     full = np.isfinite(speed).sum(axis=0) >= speed.shape[0] / 2
     rows[full] = np.nanmedian(speed[:, full], axis=0)
     inner = rows[2:-2] if rows.size > 4 and np.isfinite(rows[2:-2]).any() else rows
     slowest = int(np.nanargmin(inner)) + (2 if inner.size < rows.size else 0)
-    return {"propagates": True, "speed_mm_s": float(np.nanmedian(velocity.speed_mm_s)),
-            "axial_speed_mm_s": float(1e3 / slowness) if slowness > 0 else None,
-            "helix_angle_deg": helix, "helix_angle_iqr_deg": float(q3 - q1),
-            "obliquity_deg": float(np.nanmedian(np.abs(angle))),
-            "earliest_node": [int(earliest[0]), int(earliest[1])],
-            "earliest_s_mm": float(s_mm[earliest[1]]), "slowest_s_mm": float(s_mm[slowest]),
-            "slowest_speed_mm_s": float(rows[slowest])}
+    return {
+        "propagates": True,
+        "speed_mm_s": float(np.nanmedian(velocity.speed_mm_s)),
+        "axial_speed_mm_s": float(1e3 / slowness) if slowness > 0 else None,
+        "helix_angle_deg": helix,
+        "helix_angle_iqr_deg": float(q3 - q1),
+        "obliquity_deg": float(np.nanmedian(np.abs(angle))),
+        "earliest_node": [int(earliest[0]), int(earliest[1])],
+        "earliest_s_mm": float(s_mm[earliest[1]]),
+        "slowest_s_mm": float(s_mm[slowest]),
+        "slowest_speed_mm_s": float(rows[slowest]),
+    }

@@ -1,13 +1,19 @@
 """Band detection (beyond the paper): a neck in the maximum-area profile where the
 wall nearly stops moving."""
+
 from __future__ import annotations
 
 import numpy as np
 from scipy.signal import find_peaks
 
 
-def detect_band(area: np.ndarray, s_mm: np.ndarray, *, min_prominence: float = 0.05,
-                max_motion_ratio: float = 0.7) -> float | None:
+def detect_band(
+    area: np.ndarray,
+    s_mm: np.ndarray,
+    *,
+    min_prominence: float = 0.05,
+    max_motion_ratio: float = 0.7,
+) -> float | None:
     """Position (mm) of a band, or ``None``.
 
     A band is a local minimum of the maximum-area profile ``max_t A(v, t)``

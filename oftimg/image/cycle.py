@@ -2,6 +2,7 @@
 
 Pure functions on ``(..., n_t)`` arrays whose time axis is periodic.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -46,10 +47,13 @@ def cycle_timing(volume: np.ndarray, period_ms: float) -> dict:
     expand = ((t_max - t_min) % n) / n
     return {
         "t0_frame": int(np.argmin(volume)),
-        "t_min_frame": t_min, "t_max_frame": t_max,
-        "expand_fraction": expand, "contract_fraction": 1.0 - expand,
+        "t_min_frame": t_min,
+        "t_max_frame": t_max,
+        "expand_fraction": expand,
+        "contract_fraction": 1.0 - expand,
         "expand_contract_ratio": expand / (1.0 - expand) if expand < 1 else np.inf,
-        "expand_ms": expand * period_ms, "contract_ms": (1.0 - expand) * period_ms,
+        "expand_ms": expand * period_ms,
+        "contract_ms": (1.0 - expand) * period_ms,
     }
 
 
@@ -74,8 +78,9 @@ def wrap_step_ratio(volume: np.ndarray) -> float:
     return float(wrap / largest) if largest > 0 else (0.0 if wrap == 0 else np.inf)
 
 
-def standout_frames(values: np.ndarray, *, periodic: bool = True,
-                    factor: float = 6.0) -> np.ndarray:
+def standout_frames(
+    values: np.ndarray, *, periodic: bool = True, factor: float = 6.0
+) -> np.ndarray:
     """Frames whose value stands out of the series ``values (n_t,)``, as one frame
     segmented wrongly does: it differs from the mean of its two neighbours by more
     than ``factor`` times the robust spread (1.4826 MAD) of that difference over

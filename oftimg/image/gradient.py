@@ -1,4 +1,5 @@
 """Derivative image of a (v, t) map: Sobel gradient, angle to hue, magnitude to value."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,8 +25,9 @@ def sobel_gradient(image: np.ndarray, *, periodic_t: bool = True):
     return d_v, d_t
 
 
-def gradient_hsv(image: np.ndarray, *, periodic_t: bool = True,
-                 magnitude_percentile: float = 99.0) -> np.ndarray:
+def gradient_hsv(
+    image: np.ndarray, *, periodic_t: bool = True, magnitude_percentile: float = 99.0
+) -> np.ndarray:
     """RGB image ``(n_v, n_t, 3)`` in [0, 1]: gradient angle as hue, magnitude as value.
 
     Hue = (atan2(d/dv, d/dt) + pi) / 2 pi, so a pure increase in time is cyan
@@ -45,10 +47,11 @@ def gradient_hsv(image: np.ndarray, *, periodic_t: bool = True,
 def colour_wheel(size: int = 101) -> np.ndarray:
     """The legend of :func:`gradient_hsv`: RGBA ``(size, size, 4)``, d/dt to the right,
     d/dv up."""
-    y, x = np.mgrid[1:-1:size * 1j, -1:1:size * 1j]
+    y, x = np.mgrid[1 : -1 : size * 1j, -1 : 1 : size * 1j]
     r = np.hypot(x, y)
-    hsv = np.stack([(np.arctan2(y, x) + np.pi) / (2 * np.pi) % 1.0, np.ones_like(r),
-                    np.clip(r, 0, 1)], axis=-1)
+    hsv = np.stack(
+        [(np.arctan2(y, x) + np.pi) / (2 * np.pi) % 1.0, np.ones_like(r), np.clip(r, 0, 1)], axis=-1
+    )
     rgba = np.concatenate([hsv_to_rgb(hsv), (r <= 1)[..., None].astype(float)], axis=-1)
     return rgba
 

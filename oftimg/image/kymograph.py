@@ -3,6 +3,7 @@
 Functions of ``(n_v, n_t)`` arrays (rows along the tube from the inlet, columns
 one periodic cycle), so a kymograph from anywhere can be fed in.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -64,8 +65,9 @@ def _check_map(area: np.ndarray, s_mm: np.ndarray | None = None) -> np.ndarray:
     if area.ndim != 2 or area.shape[1] < 3:
         raise InputError(f"a (v, t) map must be 2-D with at least 3 frames, found {area.shape}")
     if s_mm is not None and np.shape(s_mm) != (area.shape[0],):
-        raise InputError(f"s_mm must have one value per row ({area.shape[0]}), "
-                         f"found shape {np.shape(s_mm)}")
+        raise InputError(
+            f"s_mm must have one value per row ({area.shape[0]}), found shape {np.shape(s_mm)}"
+        )
     return area
 
 
@@ -84,11 +86,11 @@ def smooth_in_time(area: np.ndarray, period_ms: float, sigma_ms: float) -> np.nd
     area = _check_map(area)
     if not np.isfinite(sigma_ms) or sigma_ms < 0:
         raise InputError(f"the smoothing sigma must be a number >= 0 ms, found {sigma_ms}")
-    sigma = sigma_ms * area.shape[1] / period_ms            # frames
+    sigma = sigma_ms * area.shape[1] / period_ms  # frames
     if sigma == 0:
         return area
     ok = np.isfinite(area)
-    if ok.all():       # the weights below would be 1 (to 1e-16): half the work
+    if ok.all():  # the weights below would be 1 (to 1e-16): half the work
         return gaussian_filter1d(area, sigma, axis=1, mode="wrap")
     total = gaussian_filter1d(np.where(ok, area, 0.0), sigma, axis=1, mode="wrap")
     weight = gaussian_filter1d(ok.astype(float), sigma, axis=1, mode="wrap")
@@ -121,7 +123,7 @@ def map_noise_sd(area: np.ndarray) -> np.ndarray:
     high = (k > n_t / 4) & (k >= 5)
     if not high.any():
         return np.full(area.shape[0], np.nan)
-    both_sides = np.where(2 * k == n_t, 1.0, 2.0)[high]      # Nyquist counted once
+    both_sides = np.where(2 * k == n_t, 1.0, 2.0)[high]  # Nyquist counted once
     mean_power = (both_sides * power[:, high]).sum(axis=1) / both_sides.sum()
     return np.sqrt(mean_power / n_t)
 
@@ -141,14 +143,15 @@ def noise_colour(area: np.ndarray) -> float:
     n_t = area.shape[1]
     power, k = _harmonic_power(area)
     lower = (k > n_t / 4) & (k <= 3 * n_t / 8)
-    upper = (k > 3 * n_t / 8) & (2 * k < n_t)                 # Nyquist left out
+    upper = (k > 3 * n_t / 8) & (2 * k < n_t)  # Nyquist left out
     if n_t < 16 or not lower.any() or not upper.any():
         return float("nan")
     return float(power[:, lower].mean() / power[:, upper].mean())
 
 
-def ridge_times(area: np.ndarray, period_ms: float, *,
-                smoothing_ms: float = RIDGE_SMOOTHING_MS) -> np.ndarray:
+def ridge_times(
+    area: np.ndarray, period_ms: float, *, smoothing_ms: float = RIDGE_SMOOTHING_MS
+) -> np.ndarray:
     """Time (ms) of each row's maximum, sub-frame, unwrapped along v: ``(n_v,)``.
 
     Each row is first smoothed in time (:func:`smooth_in_time`, Gaussian sigma
@@ -168,8 +171,12 @@ def ridge_times(area: np.ndarray, period_ms: float, *,
     if not flat.all():
         t[~flat] = periodic_peak(smooth[~flat], find="max") * period_ms / n_t
     if flat.any():
-        warnings.warn(f"{int(flat.sum())} of {len(flat)} rows of the map do not change over "
-                      "time: no ridge there (left blank)", RuntimeWarning, stacklevel=2)
+        warnings.warn(
+            f"{int(flat.sum())} of {len(flat)} rows of the map do not change over "
+            "time: no ridge there (left blank)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     ok = np.isfinite(t)
     if ok.sum() > 1:
         t[ok] = unwrap_robust(t[ok], period_ms)
@@ -203,7 +210,7 @@ def bridged_ridge(ridge_t_ms: np.ndarray, s_mm: np.ndarray, still: np.ndarray) -
         return np.where(moving, t, np.nan)
     first, last = np.flatnonzero(moving)[[0, -1]]
     inside = np.zeros(len(t), bool)
-    inside[first:last + 1] = True
+    inside[first : last + 1] = True
     gap = ~moving & inside
     t[gap] = np.interp(s[gap], s[moving], t[moving])
     t[~moving & ~inside] = np.nan
@@ -213,9 +220,9 @@ def bridged_ridge(ridge_t_ms: np.ndarray, s_mm: np.ndarray, still: np.ndarray) -
 def unwrap_robust(t: np.ndarray, period: float, *, memory: int = 5) -> np.ndarray:
     """Unwrap periodic times ``t (n,)`` (finite): each within half a period of the
     median of the ``memory`` values before it (``np.unwrap`` uses only the one before)."""
-    out = np.array(t, dtype=float).tolist()       # Python floats: a median of 5 is 1 us
+    out = np.array(t, dtype=float).tolist()  # Python floats: a median of 5 is 1 us
     for k in range(1, len(out)):
-        ref = median(out[max(0, k - memory):k])
+        ref = median(out[max(0, k - memory) : k])
         out[k] += period * round((ref - out[k]) / period)
     return np.array(out)
 
@@ -246,7 +253,7 @@ def local_speed(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, half_window: int = 
     n, s1, t1 = window_sum(ok.astype(float)), window_sum(ds), window_sum(dt)
     with np.errstate(divide="ignore", invalid="ignore"):
         sxx = window_sum(ds * ds) - s1 * s1 / n
-        slope = (window_sum(ds * dt) - s1 * t1 / n) / sxx        # ms per mm
+        slope = (window_sum(ds * dt) - s1 * t1 / n) / sxx  # ms per mm
         speed = np.where(slope != 0, 1e3 / slope, np.inf)
     fitted = (n >= 3) & (sxx > 1e-12 * window_sum(ds * ds))
     return np.where(fitted, speed, np.nan)
@@ -280,8 +287,9 @@ class KneeFit:
     rms_ms: float
 
 
-def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int = 3,
-                    refine: int = 10) -> KneeFit:
+def two_segment_fit(
+    s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int = 3, refine: int = 10
+) -> KneeFit:
     """Fit ``t = a + b s + c max(0, s - s_k)`` by least squares over the knee s_k.
 
     The knee is searched on a grid ``refine`` times finer than the rows, with
@@ -306,12 +314,18 @@ def two_segment_fit(s_mm: np.ndarray, ridge_t_ms: np.ndarray, *, min_rows: int =
     def to_speed(slope):
         return float(1e3 / slope) if slope != 0 else np.inf
 
-    return KneeFit(knee_mm=float(k), knee_t_ms=float(a + b * k), speed_proximal_mm_s=to_speed(b),
-                   speed_distal_mm_s=to_speed(b + c), rms_ms=float(np.sqrt(sse / len(s))))
+    return KneeFit(
+        knee_mm=float(k),
+        knee_t_ms=float(a + b * k),
+        speed_proximal_mm_s=to_speed(b),
+        speed_distal_mm_s=to_speed(b + c),
+        rms_ms=float(np.sqrt(sse / len(s))),
+    )
 
 
-def wave_speed_summary(speed_mm_s: np.ndarray, cycle_mm_s: float, *,
-                       rows: np.ndarray | None = None) -> dict:
+def wave_speed_summary(
+    speed_mm_s: np.ndarray, cycle_mm_s: float, *, rows: np.ndarray | None = None
+) -> dict:
     """``min, max, mean, std`` (the paper's Table 1) and ``median`` of the local
     speeds ``(n_v,)`` mm/s over ``rows`` (a boolean mask ``(n_v,)``, default every
     finite one: :func:`resolved_rows` keeps those the map's noise resolves),
@@ -320,11 +334,24 @@ def wave_speed_summary(speed_mm_s: np.ndarray, cycle_mm_s: float, *,
     keep = np.isfinite(v) if rows is None else np.asarray(rows, bool) & np.isfinite(v)
     v = v[keep]
     if len(v) == 0:
-        return {"min": np.nan, "max": np.nan, "mean": np.nan, "std": np.nan,
-                "median": np.nan, "rows_used": 0, "cycle": float(cycle_mm_s)}
-    return {"min": float(v.min()), "max": float(v.max()), "mean": float(v.mean()),
-            "std": float(v.std()), "median": float(np.median(v)), "rows_used": int(len(v)),
-            "cycle": float(cycle_mm_s)}
+        return {
+            "min": np.nan,
+            "max": np.nan,
+            "mean": np.nan,
+            "std": np.nan,
+            "median": np.nan,
+            "rows_used": 0,
+            "cycle": float(cycle_mm_s),
+        }
+    return {
+        "min": float(v.min()),
+        "max": float(v.max()),
+        "mean": float(v.mean()),
+        "std": float(v.std()),
+        "median": float(np.median(v)),
+        "rows_used": int(len(v)),
+        "cycle": float(cycle_mm_s),
+    }
 
 
 def resolved_rows(local_mm_s: np.ndarray, local_sd_mm_s: np.ndarray) -> np.ndarray:
@@ -340,16 +367,20 @@ def wave_speeds(s_mm: np.ndarray, ridge_t_ms: np.ndarray) -> dict:
     :func:`wave_speed_summary` of every row with a speed and the cycle, and the
     :func:`two_segment_fit`."""
     local = local_speed(s_mm, ridge_t_ms)
-    return {"local": local,
-            "summary": wave_speed_summary(local, cycle_speed(s_mm, ridge_t_ms)),
-            "knee": two_segment_fit(s_mm, ridge_t_ms)}
+    return {
+        "local": local,
+        "summary": wave_speed_summary(local, cycle_speed(s_mm, ridge_t_ms)),
+        "knee": two_segment_fit(s_mm, ridge_t_ms),
+    }
 
 
 def no_wave(n_v: int) -> dict:
     """:func:`wave_speeds` of a map without a wave: every speed NaN."""
-    return {"local": np.full(n_v, np.nan),
-            "summary": wave_speed_summary(np.full(n_v, np.nan), float("nan")),
-            "knee": KneeFit(np.nan, np.nan, np.nan, np.nan, np.nan)}
+    return {
+        "local": np.full(n_v, np.nan),
+        "summary": wave_speed_summary(np.full(n_v, np.nan), float("nan")),
+        "knee": KneeFit(np.nan, np.nan, np.nan, np.nan, np.nan),
+    }
 
 
 def _speed_values(speeds: dict, rows: np.ndarray | None = None) -> dict:
@@ -379,7 +410,7 @@ def area_swing(area: np.ndarray) -> float:
     (largest - smallest) / largest (0 for a map without finite rows)."""
     a = np.asarray(area, float)
     with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)               # all-NaN rows
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows
         swing = (np.nanmax(a, axis=1) - np.nanmin(a, axis=1)) / np.nanmax(a, axis=1)
     swing = swing[np.isfinite(swing)]
     return float(np.median(swing)) if swing.size else 0.0
@@ -391,8 +422,10 @@ def is_synchronous(slope: float, slope_sd: float, length_mm: float, frame_ms: fl
     ``length_mm`` crossed in under :data:`SYNCHRONOUS_FRAMES` of ``frame_ms``."""
     if not np.isfinite(slope):
         return False
-    return bool(abs(slope) * length_mm < SYNCHRONOUS_FRAMES * frame_ms
-                or (np.isfinite(slope_sd) and abs(slope) < SYNCHRONOUS_SDS * slope_sd))
+    return bool(
+        abs(slope) * length_mm < SYNCHRONOUS_FRAMES * frame_ms
+        or (np.isfinite(slope_sd) and abs(slope) < SYNCHRONOUS_SDS * slope_sd)
+    )
 
 
 def _spread(draws: np.ndarray) -> np.ndarray:
@@ -401,7 +434,7 @@ def _spread(draws: np.ndarray) -> np.ndarray:
     :data:`SPREAD_FINITE_SHARE` of the draws are finite."""
     finite = np.isfinite(draws)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN columns: NaN
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns: NaN
         lo, hi = np.nanpercentile(np.where(finite, draws, np.nan), [16, 84], axis=0)
     return np.where(finite.mean(axis=0) >= SPREAD_FINITE_SHARE, (hi - lo) / 2, np.nan)
 
@@ -418,9 +451,15 @@ def _resolved_spread(draws: np.ndarray, speed: np.ndarray) -> np.ndarray:
     return np.where(resolved, _spread(draws), np.nan)
 
 
-def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
-                 smoothing_ms: float = RIDGE_SMOOTHING_MS, draws: int = SPREAD_DRAWS,
-                 seed: int = SPREAD_SEED) -> dict:
+def speed_spread(
+    area: np.ndarray,
+    s_mm: np.ndarray,
+    period_ms: float,
+    *,
+    smoothing_ms: float = RIDGE_SMOOTHING_MS,
+    draws: int = SPREAD_DRAWS,
+    seed: int = SPREAD_SEED,
+) -> dict:
     """How far the ridge and the wave speeds move with the map's own noise.
 
     ``draws`` copies of ``area (n_v, n_t)`` each get white Gaussian noise of
@@ -455,7 +494,7 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     rng = np.random.default_rng(seed)
     ridges, draws_speeds, slopes = [], [], []
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)   # the map's flat rows: said once
+        warnings.simplefilter("ignore", RuntimeWarning)  # the map's flat rows: said once
         for _ in range(int(draws)):
             noisy = area + rng.standard_normal(area.shape) * noise[:, None]
             r = ridge_times(noisy, period_ms, smoothing_ms=smoothing_ms)
@@ -466,8 +505,9 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     slope = ridge_slope(s_mm, ridge)
     slope_sd = float(_spread(np.array(slopes)[:, None])[0])
     s = np.asarray(s_mm, float)
-    synchronous = is_synchronous(slope, slope_sd, float(s.max() - s.min()),
-                                 period_ms / area.shape[1])
+    synchronous = is_synchronous(
+        slope, slope_sd, float(s.max() - s.min()), period_ms / area.shape[1]
+    )
     swing = area_swing(area)
     no_area_wave = swing < AREA_WAVE_MIN_SWING
     if synchronous or no_area_wave:
@@ -475,24 +515,43 @@ def speed_spread(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
     local_sd = _resolved_spread(np.array([d["local"] for d in draws_speeds]), measured["local"])
     # the statistics over the rows the noise resolves (all with a speed when the noise
     # cannot be measured), in the measured map and in every draw alike
-    rows = (resolved_rows(measured["local"], local_sd) if np.isfinite(noise).any()
-            else np.isfinite(measured["local"]))
-    measured["summary"] = wave_speed_summary(measured["local"], measured["summary"]["cycle"],
-                                             rows=rows)
+    rows = (
+        resolved_rows(measured["local"], local_sd)
+        if np.isfinite(noise).any()
+        else np.isfinite(measured["local"])
+    )
+    measured["summary"] = wave_speed_summary(
+        measured["local"], measured["summary"]["cycle"], rows=rows
+    )
     scalars = _speed_values(measured, rows)
     values = np.array([list(_speed_values(d, rows).values()) for d in draws_speeds])
-    return {"ridge": ridge, "measured": measured, "synchronous": synchronous,
-            "swing": swing, "no_area_wave": no_area_wave,
-            "ridge_slope_ms_per_mm": slope, "ridge_slope_noise_sd_ms_per_mm": slope_sd,
-            "noise_sd": noise, "ridge_t_ms": _spread(np.array(ridges)),
-            "local_speed_mm_s": local_sd, "resolved_rows": rows, "still_rows": still,
-            "speeds": dict(zip(scalars, _resolved_spread(
-                values, np.array(list(scalars.values()))).tolist()))}
+    return {
+        "ridge": ridge,
+        "measured": measured,
+        "synchronous": synchronous,
+        "swing": swing,
+        "no_area_wave": no_area_wave,
+        "ridge_slope_ms_per_mm": slope,
+        "ridge_slope_noise_sd_ms_per_mm": slope_sd,
+        "noise_sd": noise,
+        "ridge_t_ms": _spread(np.array(ridges)),
+        "local_speed_mm_s": local_sd,
+        "resolved_rows": rows,
+        "still_rows": still,
+        "speeds": dict(
+            zip(scalars, _resolved_spread(values, np.array(list(scalars.values()))).tolist())
+        ),
+    }
 
 
-def auto_ridge_smoothing(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *,
-                         ladder=RIDGE_SMOOTHING_LADDER_MS,
-                         target: float = AUTO_SPREAD_TARGET) -> tuple[float, dict]:
+def auto_ridge_smoothing(
+    area: np.ndarray,
+    s_mm: np.ndarray,
+    period_ms: float,
+    *,
+    ladder=RIDGE_SMOOTHING_LADDER_MS,
+    target: float = AUTO_SPREAD_TARGET,
+) -> tuple[float, dict]:
     """The ridge smoothing sigma (ms) a map needs, and :func:`speed_spread` with it.
 
     The smallest sigma of ``ladder`` at which the median over the rows of each
@@ -507,7 +566,7 @@ def auto_ridge_smoothing(area: np.ndarray, s_mm: np.ndarray, period_ms: float, *
         spread = speed_spread(area, s_mm, period_ms, smoothing_ms=sigma)
         if not np.isfinite(spread["noise_sd"]).any():
             return float(ladder[0]), spread
-        if spread["synchronous"] or spread["no_area_wave"]:   # no wave: no speeds to resolve
+        if spread["synchronous"] or spread["no_area_wave"]:  # no wave: no speeds to resolve
             break
         with np.errstate(divide="ignore", invalid="ignore"):
             relative = spread["local_speed_mm_s"] / np.abs(spread["measured"]["local"])
@@ -533,14 +592,15 @@ def at_fixed_positions(area: np.ndarray, s_rows_mm: np.ndarray, s_mm: np.ndarray
     area = _check_map(area, s_mm)
     s_rows_mm = np.asarray(s_rows_mm, dtype=float)
     if s_rows_mm.shape != area.shape:
-        raise InputError(f"s_rows_mm must have the map's shape {area.shape}, "
-                         f"found {s_rows_mm.shape}")
+        raise InputError(
+            f"s_rows_mm must have the map's shape {area.shape}, found {s_rows_mm.shape}"
+        )
     fraction = np.asarray(s_mm, float) / s_mm[-1]
     out = np.full(area.shape, np.nan)
     for k in range(area.shape[1]):
         s, a = s_rows_mm[:, k], area[:, k]
         ok = np.isfinite(a) & np.isfinite(s)
-        ok[ok] = np.diff(np.concatenate([[-np.inf], s[ok]])) > 0   # drop repeats: s never falls
+        ok[ok] = np.diff(np.concatenate([[-np.inf], s[ok]])) > 0  # drop repeats: s never falls
         if ok.sum() >= 2:
             target = np.clip(fraction * s_rows_mm[-1, k], s[ok][0], s[ok][-1])
             out[:, k] = CubicSpline(s[ok], a[ok])(target)

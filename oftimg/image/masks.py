@@ -2,6 +2,7 @@
 
 Functions of a ``(n_v, n_t)`` area map over one periodic cycle.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -55,7 +56,7 @@ def _gauss_fit_sse(y: np.ndarray, dt: np.ndarray, sigma: np.ndarray):
     ``dt (n, n_t)`` at each ``sigma (n, ...)``: base and amp are linear, so they come
     in closed form (amp >= 0: a row that falls where the Gaussian rises gets
     amp = 0, the mean). Returns the squared residual summed over the row ``(n, ...)``."""
-    g = np.exp(-0.5 * (dt[:, None] / sigma[..., None]) ** 2)          # (n, m, n_t)
+    g = np.exp(-0.5 * (dt[:, None] / sigma[..., None]) ** 2)  # (n, m, n_t)
     gc = g - g.mean(axis=-1, keepdims=True)
     yc = (y - y.mean(axis=-1, keepdims=True))[:, None]
     var_g = (gc * gc).sum(axis=-1)
@@ -95,7 +96,7 @@ def expanded_sigma(area: np.ndarray, *, min_r2: float = 0.8):
         best = np.argmin(sse, axis=1)
         lo, hi = np.log(grid[np.maximum(best - 1, 0)]), np.log(grid[np.minimum(best + 1, 63)])
         golden = (np.sqrt(5) - 1) / 2
-        for _ in range(40):                                  # bracket / 1.6^40: ~1e-8
+        for _ in range(40):  # bracket / 1.6^40: ~1e-8
             a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
             fa, fb = _gauss_fit_sse(y, dt, np.exp(np.stack([a, b], axis=1))).T
             lo, hi = np.where(fa < fb, lo, a), np.where(fa < fb, b, hi)
@@ -105,9 +106,12 @@ def expanded_sigma(area: np.ndarray, *, min_r2: float = 0.8):
         sigma[ok] = np.where(r2[ok] >= min_r2, fit, np.nan)
     bad = int(np.isnan(sigma).sum())
     if bad:
-        warnings.warn(f"Gaussian fits poorly (R² < {min_r2}), or the row has empty cells or "
-                      f"does not change, in {bad} of {n_v} rows (their width left blank)", RuntimeWarning,
-                      stacklevel=2)
+        warnings.warn(
+            f"Gaussian fits poorly (R² < {min_r2}), or the row has empty cells or "
+            f"does not change, in {bad} of {n_v} rows (their width left blank)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     dt = np.abs((frames[None, :] - peak[:, None] + n_t / 2) % n_t - n_t / 2)
     mask = dt <= sigma[:, None]
     return 2 * sigma / n_t, sigma, r2, mask

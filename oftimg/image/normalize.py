@@ -1,4 +1,5 @@
 """Per-pixel views of (u, v, t) fields: normalisation over the cycle and phase maps."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -26,17 +27,24 @@ def per_pixel_normalize(field: np.ndarray) -> np.ndarray:
     has = np.isfinite(field).any(axis=-1, keepdims=True)
     safe = np.where(has, field, 0.0)
     with np.errstate(invalid="ignore"):
-        lo = np.where(has, np.nanmin(np.where(np.isfinite(safe), safe, np.inf), axis=-1,
-                                     keepdims=True), np.nan)
-        hi = np.where(has, np.nanmax(np.where(np.isfinite(safe), safe, -np.inf), axis=-1,
-                                     keepdims=True), np.nan)
+        lo = np.where(
+            has,
+            np.nanmin(np.where(np.isfinite(safe), safe, np.inf), axis=-1, keepdims=True),
+            np.nan,
+        )
+        hi = np.where(
+            has,
+            np.nanmax(np.where(np.isfinite(safe), safe, -np.inf), axis=-1, keepdims=True),
+            np.nan,
+        )
     span = hi - lo
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(span > 0, (field - lo) / np.where(span > 0, span, 1), 0.5)
 
 
-def phase_maps(field: np.ndarray, period_ms: float, *,
-               smoothing_ms: float = RIDGE_SMOOTHING_MS) -> tuple[np.ndarray, np.ndarray]:
+def phase_maps(
+    field: np.ndarray, period_ms: float, *, smoothing_ms: float = RIDGE_SMOOTHING_MS
+) -> tuple[np.ndarray, np.ndarray]:
     """Time (ms since t = 0) of each pixel's maximum and minimum over the cycle.
 
     ``field (..., n_t)``: each pixel is smoothed in time first (periodic Gaussian
@@ -48,8 +56,10 @@ def phase_maps(field: np.ndarray, period_ms: float, *,
     rows = smooth_in_time(np.reshape(field, (-1, n_t)), period_ms, smoothing_ms)
     filled = np.where(np.isfinite(rows), rows, np.nanmean(field))
     to_ms = period_ms / n_t
-    return (np.reshape(periodic_peak(filled, find="max") * to_ms, field.shape[:-1]),
-            np.reshape(periodic_peak(filled, find="min") * to_ms, field.shape[:-1]))
+    return (
+        np.reshape(periodic_peak(filled, find="max") * to_ms, field.shape[:-1]),
+        np.reshape(periodic_peak(filled, find="min") * to_ms, field.shape[:-1]),
+    )
 
 
 def smooth_field_in_time(field: np.ndarray, period_ms: float, sigma_ms: float) -> np.ndarray:
@@ -80,8 +90,7 @@ def smoothing_kernel(n_t: int, period_ms: float, sigma_ms: float) -> np.ndarray:
     return smooth_in_time(impulse, period_ms, sigma_ms)[0]
 
 
-def field_noise(field: np.ndarray, smoothed: np.ndarray, period_ms: float, sigma_ms: float
-                ) -> dict:
+def field_noise(field: np.ndarray, smoothed: np.ndarray, period_ms: float, sigma_ms: float) -> dict:
     """How much of a field's change over the cycle is frame-to-frame noise.
 
     ``field (..., n_t)``, unsmoothed, over one periodic cycle, and ``smoothed``, the
@@ -109,8 +118,13 @@ def pixel_noise(field: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     return whole, map_noise_sd(pixels[whole])
 
 
-def _noise_after(whole: np.ndarray, noise: np.ndarray | None, smoothed: np.ndarray,
-                 period_ms: float, sigma_ms: float) -> dict:
+def _noise_after(
+    whole: np.ndarray,
+    noise: np.ndarray | None,
+    smoothed: np.ndarray,
+    period_ms: float,
+    sigma_ms: float,
+) -> dict:
     """:func:`field_noise` from :func:`pixel_noise`'s pixels and noise."""
     keys = ("noise_sd", "noise_sd_smoothed", "temporal_sd", "noise_share")
     if noise is None:
@@ -120,14 +134,18 @@ def _noise_after(whole: np.ndarray, noise: np.ndarray | None, smoothed: np.ndarr
     noise = gain * noise
     variance = np.reshape(smoothed, (-1, n_t))[whole].astype(float).var(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.clip(noise ** 2 / np.where(variance > 0, variance, np.nan), 0.0, 1.0)
-    return {"noise_sd": float(np.median(noise) / gain), "noise_sd_smoothed": float(np.median(noise)),
-            "temporal_sd": float(np.sqrt(np.median(variance))),
-            "noise_share": float(np.nanmedian(share)) if np.isfinite(share).any() else float("nan")}
+        share = np.clip(noise**2 / np.where(variance > 0, variance, np.nan), 0.0, 1.0)
+    return {
+        "noise_sd": float(np.median(noise) / gain),
+        "noise_sd_smoothed": float(np.median(noise)),
+        "temporal_sd": float(np.sqrt(np.median(variance))),
+        "noise_share": float(np.nanmedian(share)) if np.isfinite(share).any() else float("nan"),
+    }
 
 
-def smooth_field(field: np.ndarray, period_ms: float, sigma_ms: float | str
-                 ) -> tuple[np.ndarray, dict]:
+def smooth_field(
+    field: np.ndarray, period_ms: float, sigma_ms: float | str
+) -> tuple[np.ndarray, dict]:
     """A field ``(..., n_t)`` over one periodic cycle smoothed in time, and its
     :func:`field_noise` with the sigma used (``smoothing_ms``).
 
@@ -137,10 +155,10 @@ def smooth_field(field: np.ndarray, period_ms: float, sigma_ms: float | str
     cannot be measured, as on under 10 frames).
     """
     ladder = RIDGE_SMOOTHING_LADDER_MS if sigma_ms == "auto" else (float(sigma_ms),)
-    pixels = pixel_noise(field)                       # measured once for every sigma
+    pixels = pixel_noise(field)  # measured once for every sigma
     for sigma in ladder:
         smoothed = smooth_field_in_time(field, period_ms, sigma)
         noise = _noise_after(*pixels, smoothed, period_ms, sigma)
-        if not noise["noise_share"] > FIELD_NOISE_TARGET:       # NaN: not measurable
+        if not noise["noise_share"] > FIELD_NOISE_TARGET:  # NaN: not measurable
             break
     return smoothed, {**noise, "smoothing_ms": float(sigma)}

@@ -11,6 +11,7 @@ elastic re-parameterisation (the part of fdasrsf that dominates its run time
 and that would move points along the contour). The mean is the Karcher mean
 of the aligned SRVFs, iterated until the alignment stops changing.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -38,8 +39,9 @@ def curve_from_srvf(q: np.ndarray) -> np.ndarray:
     n = q.shape[-2]
     d = q * np.linalg.norm(q, axis=-1, keepdims=True) / n
     d = d - d.mean(axis=-2, keepdims=True)  # a closed curve's steps sum to zero
-    beta = np.concatenate([np.zeros_like(d[..., :1, :]), np.cumsum(d[..., :-1, :], axis=-2)],
-                          axis=-2)
+    beta = np.concatenate(
+        [np.zeros_like(d[..., :1, :]), np.cumsum(d[..., :-1, :], axis=-2)], axis=-2
+    )
     return beta - beta.mean(axis=-2, keepdims=True)
 
 
@@ -59,11 +61,12 @@ def align_transform(beta: np.ndarray, ref: np.ndarray) -> tuple[int, np.ndarray]
     b = beta - beta.mean(axis=0)
     r = ref - ref.mean(axis=0)
     n = len(b)
-    shifts = b[(np.arange(n)[:, None] + np.arange(n)) % n]              # (n, n, 2): row k = roll -k
+    shifts = b[(np.arange(n)[:, None] + np.arange(n)) % n]  # (n, n, 2): row k = roll -k
     # sum over points of x_b*x_r + y_b*y_r and x_b*y_r - y_b*x_r
     c = np.einsum("kij,ij->k", shifts, r)
-    s = np.einsum("ki,i->k", shifts[:, :, 0], r[:, 1]) - np.einsum("ki,i->k", shifts[:, :, 1],
-                                                                   r[:, 0])
+    s = np.einsum("ki,i->k", shifts[:, :, 0], r[:, 1]) - np.einsum(
+        "ki,i->k", shifts[:, :, 1], r[:, 0]
+    )
     k = int(np.argmax(np.hypot(c, s)))
     angle = np.arctan2(s[k], c[k])
     return k, np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
@@ -73,12 +76,12 @@ def align_transform(beta: np.ndarray, ref: np.ndarray) -> tuple[int, np.ndarray]
 class ShapePCA:
     """Mean shape, modes and their variances for a set of closed curves (mm)."""
 
-    mean: np.ndarray              # (n, 2) mean curve
-    aligned: np.ndarray           # (n_curves, n, 2) curves aligned to the mean
-    displacement: np.ndarray      # (n_modes, n, 2) linearised displacement at 1 sd of each mode
-    variance: np.ndarray          # (n_modes,) variance of each mode's score (SRVF units)
-    explained: np.ndarray         # (n_modes,) share of the total variance
-    scores: np.ndarray            # (n_curves, n_modes)
+    mean: np.ndarray  # (n, 2) mean curve
+    aligned: np.ndarray  # (n_curves, n, 2) curves aligned to the mean
+    displacement: np.ndarray  # (n_modes, n, 2) linearised displacement at 1 sd of each mode
+    variance: np.ndarray  # (n_modes,) variance of each mode's score (SRVF units)
+    explained: np.ndarray  # (n_modes,) share of the total variance
+    scores: np.ndarray  # (n_curves, n_modes)
     iterations: int
     converged: bool
 
@@ -94,15 +97,16 @@ def karcher_mean(curves: np.ndarray, *, max_iter: int = 30, tol: float = 1e-6):
     for it in range(1, max_iter + 1):
         aligned = np.stack([align(c, mean) for c in curves])
         new = curve_from_srvf(srvf(aligned).mean(axis=0))
-        change = np.sum((new - mean) ** 2) / np.sum(mean ** 2)
+        change = np.sum((new - mean) ** 2) / np.sum(mean**2)
         mean = new
         if change < tol:
             return mean, aligned, it, True
     return mean, aligned, max_iter, False
 
 
-def shape_pca(curves: np.ndarray, *, n_modes: int = 3, max_iter: int = 30,
-              tol: float = 1e-6) -> ShapePCA:
+def shape_pca(
+    curves: np.ndarray, *, n_modes: int = 3, max_iter: int = 30, tol: float = 1e-6
+) -> ShapePCA:
     """Principal modes of closed curves ``(n_curves, n, 2)`` in SRVF space, size kept."""
     curves = np.asarray(curves, float)
     if curves.ndim != 3 or curves.shape[2] != 2 or len(curves) < 3:
@@ -112,7 +116,7 @@ def shape_pca(curves: np.ndarray, *, n_modes: int = 3, max_iter: int = 30,
     q_mean = Q.mean(axis=0)
     U, s, Vt = np.linalg.svd(Q - q_mean, full_matrices=False)
     n_modes = min(n_modes, len(s))
-    variance = s ** 2 / (len(curves) - 1)
+    variance = s**2 / (len(curves) - 1)
     modes = Vt[:n_modes].copy()
     base = curve_from_srvf(q_mean.reshape(-1, 2))
     normals = outward_normals(base)
@@ -121,8 +125,10 @@ def shape_pca(curves: np.ndarray, *, n_modes: int = 3, max_iter: int = 30,
     def tangent(mode):
         """Displacement of the curve per unit step along ``mode`` (central difference:
         the map from q to the curve is quadratic, so +/- steps differ)."""
-        return (curve_from_srvf((q_mean + eps * mode).reshape(-1, 2))
-                - curve_from_srvf((q_mean - eps * mode).reshape(-1, 2))) / (2 * eps)
+        return (
+            curve_from_srvf((q_mean + eps * mode).reshape(-1, 2))
+            - curve_from_srvf((q_mean - eps * mode).reshape(-1, 2))
+        ) / (2 * eps)
 
     disp = []
     for k in range(n_modes):  # sign convention: a mode's mean displacement points outwards
@@ -131,10 +137,17 @@ def shape_pca(curves: np.ndarray, *, n_modes: int = 3, max_iter: int = 30,
             modes[k], d = -modes[k], -d
         disp.append(d)
     disp = np.stack(disp)
-    return ShapePCA(mean=base, aligned=aligned, displacement=disp, variance=variance[:n_modes],
-                    # all sections the same shape (a still tube): no mode explains anything
-                    explained=variance[:n_modes] / max(variance.sum(), np.finfo(float).tiny),
-                    scores=(Q - q_mean) @ modes.T, iterations=iterations, converged=converged)
+    return ShapePCA(
+        mean=base,
+        aligned=aligned,
+        displacement=disp,
+        variance=variance[:n_modes],
+        # all sections the same shape (a still tube): no mode explains anything
+        explained=variance[:n_modes] / max(variance.sum(), np.finfo(float).tiny),
+        scores=(Q - q_mean) @ modes.T,
+        iterations=iterations,
+        converged=converged,
+    )
 
 
 def outward_normals(curve: np.ndarray) -> np.ndarray:
@@ -162,15 +175,15 @@ def ring_to_plane(ring: np.ndarray) -> np.ndarray:
     e1 = first - np.sum(first * normal, axis=-1, keepdims=True) * normal
     e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
     e2 = np.cross(normal, e1)
-    return np.stack([np.sum(X * e1[..., None, :], axis=-1),
-                     np.sum(X * e2[..., None, :], axis=-1)], axis=-1)
+    return np.stack(
+        [np.sum(X * e1[..., None, :], axis=-1), np.sum(X * e2[..., None, :], axis=-1)], axis=-1
+    )
 
 
 PHASES = ("expansion", "contraction")
 
 
-def contour_pca(grid: np.ndarray, t_max: int, *, rows_v=(0.1, 0.5, 0.9), n_modes: int = 3
-                ) -> dict:
+def contour_pca(grid: np.ndarray, t_max: int, *, rows_v=(0.1, 0.5, 0.9), n_modes: int = 3) -> dict:
     """Shape PCA of grid rings ``grid (n_u, n_v, n_t, 3)`` per row and cycle phase.
 
     The expansion phase is frames 0..t_max (minimum to maximum volume), the
@@ -192,7 +205,11 @@ def contour_pca(grid: np.ndarray, t_max: int, *, rows_v=(0.1, 0.5, 0.9), n_modes
             arrays[f"pca_{key}_displacement_mm"] = res.displacement
             arrays[f"pca_{key}_explained"] = res.explained
             arrays[f"pca_{key}_scores"] = res.scores
-            row[phase] = {"explained": res.explained.tolist(), "converged": res.converged,
-                          "iterations": res.iterations, "n_contours": len(frames)}
+            row[phase] = {
+                "explained": res.explained.tolist(),
+                "converged": res.converged,
+                "iterations": res.iterations,
+                "n_contours": len(frames),
+            }
         summary["rows"].append(row)
     return {"arrays": arrays, "summary": summary}

@@ -21,6 +21,7 @@ the frames).
 A voxel ``(k, j, i)`` sits at ``x = i dx, y = j dy, z = k dz`` in ``length_unit``;
 ``ends`` and ``inlet`` are points in those coordinates.
 """
+
 from __future__ import annotations
 
 import json
@@ -31,37 +32,73 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DatasetError, InputError
-from ..mesh.ends import (MARGIN_STEPS, cut_by_plane, largest_piece, section_aspects,
-                         square_ends)
-from ..mesh.labels import (CLOSED_PROPERTY, CURVATURE_PROPERTY, MeshOptions, WallMesh,
-                           closed_lumen_mesh, frame_masks, mesh_wall, mesh_walls)
+from ..mesh.ends import MARGIN_STEPS, cut_by_plane, largest_piece, section_aspects, square_ends
+from ..mesh.labels import (
+    CLOSED_PROPERTY,
+    CURVATURE_PROPERTY,
+    MeshOptions,
+    WallMesh,
+    closed_lumen_mesh,
+    frame_masks,
+    mesh_wall,
+    mesh_walls,
+)
 from ..mesh.topology import MeshError, boundary_loops
-from .dataset import (META_KEYS, UNIT_TO_MM, Meta, check_period, check_voxel_size, is_number,
-                      natural_key, read_meta, read_meta_json)
+from .dataset import (
+    META_KEYS,
+    UNIT_TO_MM,
+    Meta,
+    check_period,
+    check_voxel_size,
+    is_number,
+    natural_key,
+    read_meta,
+    read_meta_json,
+)
 from .intensity import IntensitySeries, load_intensity
-from .labelfile import (AXIS_NAMES, PER_FRAME_SUFFIXES, LabelSource, channel_count,
-                        file_names_axes, label_suffix, list_label_sources, read_header,
-                        read_volume, series_file)
+from .labelfile import (
+    AXIS_NAMES,
+    PER_FRAME_SUFFIXES,
+    LabelSource,
+    channel_count,
+    file_names_axes,
+    label_suffix,
+    list_label_sources,
+    read_header,
+    read_volume,
+    series_file,
+)
 from .meshfile import read_mesh_file, read_vertex_values, write_ply
 
-LABEL_META_KEYS = {**META_KEYS, "labels": dict, "ends": list, "classes": dict, "channels": dict,
-                   "axes": str}
+LABEL_META_KEYS = {
+    **META_KEYS,
+    "labels": dict,
+    "ends": list,
+    "classes": dict,
+    "channels": dict,
+    "axes": str,
+}
 # voxels whose longest side is over this times their shortest: a volume read in the wrong
 # order of its axes is then stretched (this squared along one axis against another)
 CUBE_TOLERANCE = 1.02
-CHANNEL_ROLES = ("labels", "intensity")     # what a stack's channels may hold
+CHANNEL_ROLES = ("labels", "intensity")  # what a stack's channels may hold
 # relative: a file's time step times the frames and meta.json's period_ms agree (a
 # step rounded to 3 digits is within it; a wrong one is not)
 TIME_TOLERANCE = 5e-3
 # a probability map's stored types, and the value that means 1
-PROBABILITY_SCALE = {"float16": 1.0, "float32": 1.0, "float64": 1.0, "uint8": 255.0,
-                     "uint16": 65535.0}
+PROBABILITY_SCALE = {
+    "float16": 1.0,
+    "float32": 1.0,
+    "float64": 1.0,
+    "uint8": 255.0,
+    "uint16": 65535.0,
+}
 LAYER_NAMES = ("myocardium", "jelly", "lumen")
 DEFAULT_LABEL_IDS = {"myocardium": 1, "jelly": 2, "lumen": 3}
-SPACING_TOLERANCE = 1e-3        # relative: a file's voxel size and meta.json's agree
-MAX_VOXELS = 2 ** 30            # a frame of over a billion voxels is a damaged header
+SPACING_TOLERANCE = 1e-3  # relative: a file's voxel size and meta.json's agree
+MAX_VOXELS = 2**30  # a frame of over a billion voxels is a damaged header
 CARRIED_META = ("name", "group", "period_ms", "length_unit", "inlet")
-FILLED_SHARE = 0.05     # of the frames: at most so many may have a wall filled from others
+FILLED_SHARE = 0.05  # of the frames: at most so many may have a wall filled from others
 
 
 @dataclass(frozen=True)
@@ -79,7 +116,7 @@ class ProbabilitySource:
     def index(self) -> int | None:
         return self.layers[0][1].index
 
-    def __str__(self) -> str:                     # probabilities/*/f003.tif
+    def __str__(self) -> str:  # probabilities/*/f003.tif
         path = Path(self.path)
         at = "" if self.index is None else f" (frame {self.index})"
         return f"{path.parent.parent / '*' / path.name}{at}"
@@ -97,11 +134,12 @@ def read_frame(source: LabelSource | ProbabilitySource) -> np.ndarray | dict:
         values = raw.astype(np.float32) / np.float32(PROBABILITY_SCALE[raw.dtype.name])
         if raw.dtype.kind == "f":
             low, high = float(np.min(values)), float(np.max(values))
-            if not (np.isfinite(low) and np.isfinite(high) and low >= -1e-3
-                    and high <= 1 + 1e-3):
-                raise DatasetError(f"{part}: probabilities from {low:.6g} to {high:.6g}; a "
-                                   "probability map holds values in [0, 1] (uint8 or uint16 "
-                                   "scaled to their largest value)")
+            if not (np.isfinite(low) and np.isfinite(high) and low >= -1e-3 and high <= 1 + 1e-3):
+                raise DatasetError(
+                    f"{part}: probabilities from {low:.6g} to {high:.6g}; a "
+                    "probability map holds values in [0, 1] (uint8 or uint16 "
+                    "scaled to their largest value)"
+                )
             values = np.clip(values, 0.0, 1.0)
         out[layer] = values
     return out
@@ -122,8 +160,8 @@ class LabelDataset:
     voxel_size: tuple[float, float, float]
     label_ids: dict
     ends: tuple | None
-    kind: str = "labels"            # or "probabilities": a folder per layer
-    intensity: IntensitySeries | None = None     # intensity/, on the labels' voxels
+    kind: str = "labels"  # or "probabilities": a folder per layer
+    intensity: IntensitySeries | None = None  # intensity/, on the labels' voxels
 
     @property
     def n_frames(self) -> int:
@@ -137,12 +175,14 @@ class LabelDataset:
     def inputs_by_kind(self) -> dict[str, list[Path]]:
         """The files the dataset is made of, each once, by kind: ``labels`` or
         ``probabilities``, and ``intensity`` when it has intensity volumes."""
-        parts = [part for s in self.sources
-                 for _, part in (s.layers if isinstance(s, ProbabilitySource) else [("", s)])]
+        parts = [
+            part
+            for s in self.sources
+            for _, part in (s.layers if isinstance(s, ProbabilitySource) else [("", s)])
+        ]
         inputs = {self.kind: list(dict.fromkeys(Path(s.path) for s in parts))}
         if self.intensity is not None:
-            inputs["intensity"] = list(dict.fromkeys(Path(s.path)
-                                                     for s in self.intensity.sources))
+            inputs["intensity"] = list(dict.fromkeys(Path(s.path) for s in self.intensity.sources))
         return inputs
 
     def input_files(self) -> list[Path]:
@@ -155,8 +195,9 @@ class LabelDataset:
         if self.sources[0].index is not None:
             width = len(str(self.n_frames - 1))
             return [f"t{s.index:0{width}d}.ply" for s in self.sources]
-        return [Path(s.path).name[:-len(label_suffix(Path(s.path)))] + ".ply"
-                for s in self.sources]
+        return [
+            Path(s.path).name[: -len(label_suffix(Path(s.path)))] + ".ply" for s in self.sources
+        ]
 
 
 def is_label_dataset(path: Path) -> bool:
@@ -182,20 +223,27 @@ def load_label_dataset(path: str | Path) -> LabelDataset:
     first = _check_headers(sources, headers)
     for source, header in zip(sources, headers):
         if not (np.issubdtype(header.dtype, np.integer) or header.dtype == bool):
-            raise DatasetError(f"{source}: {header.dtype} labels; a label volume holds whole "
-                               "numbers (0 background), as segmentation tools export it")
+            raise DatasetError(
+                f"{source}: {header.dtype} labels; a label volume holds whole "
+                "numbers (0 background), as segmentation tools export it"
+            )
     voxel = _voxel_size(path / "labels", meta, raw, sources, headers)
     check_axis_order(sources[0], voxel, meta.length_unit, raw)
     label_ids = _label_ids(path, raw, sources[0], first.dtype)
     label_ids = check_nesting(path / "labels", sources, label_ids, given="labels" in raw)
     ends = _ends(path, raw, first.shape, voxel)
-    stacked = ([replace(s, channel=channels["intensity"]) for s in sources]
-               if "intensity" in channels else None)
-    intensity = load_intensity(path, len(sources), meta.length_unit, raw,
-                               labels_grid=(first.shape, voxel), sources=stacked)
+    stacked = (
+        [replace(s, channel=channels["intensity"]) for s in sources]
+        if "intensity" in channels
+        else None
+    )
+    intensity = load_intensity(
+        path, len(sources), meta.length_unit, raw, labels_grid=(first.shape, voxel), sources=stacked
+    )
     meta = _with_time_step(meta, sources, headers, intensity)
-    return LabelDataset(path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends,
-                        intensity=intensity)
+    return LabelDataset(
+        path, meta, raw, tuple(sources), first.shape, voxel, label_ids, ends, intensity=intensity
+    )
 
 
 def _axes(path: Path, raw: dict) -> str | None:
@@ -205,9 +253,11 @@ def _axes(path: Path, raw: dict) -> str | None:
     if axes is None:
         return None
     if not (set("zyx") <= set(axes) <= set(AXIS_NAMES) and len(set(axes)) == len(axes)):
-        raise DatasetError(f"{path / 'meta.json'}: \"axes\" {axes[:20]!r}; it gives the order "
-                           "of the volume files' axes as stored, each of z, y, x once (and t, c "
-                           "for a series or a stack), e.g. \"zyx\" or \"xyz\"")
+        raise DatasetError(
+            f'{path / "meta.json"}: "axes" {axes[:20]!r}; it gives the order '
+            "of the volume files' axes as stored, each of z, y, x once (and t, c "
+            'for a series or a stack), e.g. "zyx" or "xyz"'
+        )
     return axes
 
 
@@ -227,9 +277,10 @@ def check_axis_order(source, voxel_size, length_unit: str, raw: dict) -> None:
         f"{source.path}: its file names no order of its axes and the voxels are not cubes "
         f"({sides} {length_unit}, x y z): oftimg reads (z, y, x), as napari, scikit-image and "
         f"tifffile save; a volume saved in another order (x, y, z from MATLAB or ITK) would be "
-        f"a tube stretched {ratio ** 2:.3g} times along one axis against another with no "
-        "error; say the order stored in meta.json: \"axes\": \"zyx\" (or \"xyz\", ...; a "
-        "series file \"tzyx\")")
+        f"a tube stretched {ratio**2:.3g} times along one axis against another with no "
+        'error; say the order stored in meta.json: "axes": "zyx" (or "xyz", ...; a '
+        'series file "tzyx")'
+    )
 
 
 def _channels(path: Path, raw: dict) -> dict:
@@ -238,22 +289,29 @@ def _channels(path: Path, raw: dict) -> dict:
     channels = raw.get("channels")
     if channels is None:
         return {}
-    where = f"{path / 'meta.json'}: \"channels\""
+    where = f'{path / "meta.json"}: "channels"'
     unknown = sorted(set(channels) - set(CHANNEL_ROLES))
     if unknown or "labels" not in channels:
-        raise DatasetError(f"{where} names {', '.join(unknown) or 'no labels'}; it says which "
-                           "channel of the labels/ files holds the labels (and the intensity),"
-                           " e.g. {\"intensity\": 0, \"labels\": 1}")
+        raise DatasetError(
+            f"{where} names {', '.join(unknown) or 'no labels'}; it says which "
+            "channel of the labels/ files holds the labels (and the intensity),"
+            ' e.g. {"intensity": 0, "labels": 1}'
+        )
     for role, channel in channels.items():
         if not (isinstance(channel, int) and not isinstance(channel, bool) and channel >= 0):
-            raise DatasetError(f"{where} gives {role} channel {str(channel)[:20]}; a channel is "
-                               "a whole number from 0")
+            raise DatasetError(
+                f"{where} gives {role} channel {str(channel)[:20]}; a channel is "
+                "a whole number from 0"
+            )
     if len(set(channels.values())) < len(channels):
-        raise DatasetError(f"{where} gives two roles one channel ({channels}); each role has "
-                           "its own")
+        raise DatasetError(
+            f"{where} gives two roles one channel ({channels}); each role has its own"
+        )
     if "intensity" in channels and (path / "intensity").is_dir():
-        raise DatasetError(f"{where} takes the intensity from the labels' stack, and the "
-                           "dataset has intensity/ too; keep one")
+        raise DatasetError(
+            f"{where} takes the intensity from the labels' stack, and the "
+            "dataset has intensity/ too; keep one"
+        )
     return channels
 
 
@@ -271,15 +329,23 @@ def _with_time_step(meta: Meta, sources, headers, intensity) -> Meta:
         period = step * n
         if meta.period_assumed:
             check_period(f"{source.path} (its time step {step:g} ms x {n} frames)", period)
-            meta = replace(meta, period_ms=period, period_assumed=False,
-                           period_from=f"{Path(source.path).name}'s time step {step:g} ms x "
-                                       f"{n} frames")
+            meta = replace(
+                meta,
+                period_ms=period,
+                period_assumed=False,
+                period_from=f"{Path(source.path).name}'s time step {step:g} ms x {n} frames",
+            )
         elif not np.isclose(period, meta.period_ms, rtol=TIME_TOLERANCE, atol=0):
-            said = ("meta.json's period_ms" if meta.period_from == "meta.json"
-                    else f"the period from {meta.period_from}")
-            raise DatasetError(f"{source.path}: its time step {step:g} ms x {n} frames = "
-                               f"{period:g} ms disagrees with {said} {meta.period_ms:g} ms; "
-                               "correct one of them")
+            said = (
+                "meta.json's period_ms"
+                if meta.period_from == "meta.json"
+                else f"the period from {meta.period_from}"
+            )
+            raise DatasetError(
+                f"{source.path}: its time step {step:g} ms x {n} frames = "
+                f"{period:g} ms disagrees with {said} {meta.period_ms:g} ms; "
+                "correct one of them"
+            )
     return meta
 
 
@@ -289,30 +355,37 @@ def _load_probabilities(path: Path) -> LabelDataset:
     has them, every frame the same shape; float in [0, 1], or uint8 / uint16."""
     folder = path / "probabilities"
     if (path / "labels").is_dir():
-        raise DatasetError(f"{path}: holds both labels/ and probabilities/; keep the one to "
-                           "mesh")
+        raise DatasetError(f"{path}: holds both labels/ and probabilities/; keep the one to mesh")
     layers = [layer for layer in LAYER_NAMES if (folder / layer).is_dir()]
     exported = _class_export(folder)
     if exported and not layers:
         return _load_class_probabilities(path, folder, exported)
     if "myocardium" not in layers:
-        raise DatasetError(f"{folder}: no myocardium/ folder; probabilities/ holds a folder "
-                           f"per layer ({', '.join(f'{n}/' for n in LAYER_NAMES)}; myocardium/ "
-                           "at least), each with one volume per frame")
+        raise DatasetError(
+            f"{folder}: no myocardium/ folder; probabilities/ holds a folder "
+            f"per layer ({', '.join(f'{n}/' for n in LAYER_NAMES)}; myocardium/ "
+            "at least), each with one volume per frame"
+        )
     raw = read_meta_json(path, LABEL_META_KEYS)
     for key in ("labels", "channels"):
         if key in raw:
-            raise DatasetError(f"{path / 'meta.json'}: \"{key}\" is for labels/; a "
-                               "probabilities dataset names its layers by its folders (remove "
-                               "it)")
+            raise DatasetError(
+                f'{path / "meta.json"}: "{key}" is for labels/; a '
+                "probabilities dataset names its layers by its folders (remove "
+                "it)"
+            )
     meta = read_meta(path, LABEL_META_KEYS)
     axes = _axes(path, raw)
-    per_layer = {layer: list_label_sources(folder / layer, natural_key, axes=axes)
-                 for layer in layers}
+    per_layer = {
+        layer: list_label_sources(folder / layer, natural_key, axes=axes) for layer in layers
+    }
     counts = {layer: len(s) for layer, s in per_layer.items()}
     if len(set(counts.values())) > 1:
-        raise DatasetError(f"{folder}: its layers have different numbers of frames ("
-                           + ", ".join(f"{layer}/ {n}" for layer, n in counts.items()) + ")")
+        raise DatasetError(
+            f"{folder}: its layers have different numbers of frames ("
+            + ", ".join(f"{layer}/ {n}" for layer, n in counts.items())
+            + ")"
+        )
     flat, headers, first = _probability_headers(per_layer)
     n = counts["myocardium"]
     voxel = _voxel_size(folder / "myocardium", meta, raw, flat[:n], headers[:n])
@@ -325,16 +398,27 @@ def _probability_dataset(path, folder, meta, raw, per_layer: dict, first, voxel)
     headers are checked: nesting, ends and intensity as every label dataset has them."""
     layers = list(per_layer)
     n = len(per_layer["myocardium"])
-    sources = tuple(ProbabilitySource(tuple((layer, per_layer[layer][t]) for layer in layers))
-                    for t in range(n))
+    sources = tuple(
+        ProbabilitySource(tuple((layer, per_layer[layer][t]) for layer in layers)) for t in range(n)
+    )
     ends = _ends(path, raw, first.shape, voxel)
     label_ids = {layer: DEFAULT_LABEL_IDS[layer] for layer in layers}
     check_nesting(folder, sources, label_ids, given=True)
     intensity = load_intensity(path, n, meta.length_unit, raw, labels_grid=(first.shape, voxel))
     myocardium = per_layer["myocardium"]
     meta = _with_time_step(meta, myocardium, [read_header(myocardium[0])], intensity)
-    return LabelDataset(path, meta, raw, sources, first.shape, voxel, label_ids, ends,
-                        kind="probabilities", intensity=intensity)
+    return LabelDataset(
+        path,
+        meta,
+        raw,
+        sources,
+        first.shape,
+        voxel,
+        label_ids,
+        ends,
+        kind="probabilities",
+        intensity=intensity,
+    )
 
 
 def _class_export(folder: Path) -> list[Path]:
@@ -344,8 +428,14 @@ def _class_export(folder: Path) -> list[Path]:
     series = series_file(folder)
     if series is not None:
         return [series]
-    return sorted((p for p in folder.iterdir() if label_suffix(p) in PER_FRAME_SUFFIXES
-                   and not p.name.startswith(".")), key=lambda p: natural_key(p.name))
+    return sorted(
+        (
+            p
+            for p in folder.iterdir()
+            if label_suffix(p) in PER_FRAME_SUFFIXES and not p.name.startswith(".")
+        ),
+        key=lambda p: natural_key(p.name),
+    )
 
 
 def _load_class_probabilities(path: Path, folder: Path, files: list[Path]) -> LabelDataset:
@@ -357,25 +447,33 @@ def _load_class_probabilities(path: Path, folder: Path, files: list[Path]) -> La
     raw = read_meta_json(path, LABEL_META_KEYS)
     meta = read_meta(path, LABEL_META_KEYS)
     axes = _axes(path, raw)
-    frames = (list_label_sources(folder, natural_key, "probability volumes", axes=axes)
-              if len(files) == 1 and files[0] == series_file(folder)
-              else [LabelSource(str(p), axes=axes) for p in files])
+    frames = (
+        list_label_sources(folder, natural_key, "probability volumes", axes=axes)
+        if len(files) == 1 and files[0] == series_file(folder)
+        else [LabelSource(str(p), axes=axes) for p in files]
+    )
     channels = channel_count(frames[0])
     classes = raw.get("classes") or {4: DEFAULT_LABEL_IDS, 2: {"myocardium": 1}}.get(channels)
-    where = f"{path / 'meta.json'}: \"classes\""
+    where = f'{path / "meta.json"}: "classes"'
     if classes is None:
-        raise DatasetError(f"{frames[0].path}: {channels} channels; meta.json's \"classes\" "
-                           "says which is which, e.g. {\"myocardium\": 1, \"jelly\": 2, "
-                           "\"lumen\": 3} (channel 0 the background)")
+        raise DatasetError(
+            f'{frames[0].path}: {channels} channels; meta.json\'s "classes" '
+            'says which is which, e.g. {"myocardium": 1, "jelly": 2, '
+            '"lumen": 3} (channel 0 the background)'
+        )
     unknown = sorted(set(classes) - set(LAYER_NAMES))
     if unknown or "myocardium" not in classes:
-        raise DatasetError(f"{where} names {', '.join(unknown) or 'no myocardium'}; its "
-                           f"layers are {', '.join(LAYER_NAMES)} (myocardium at least)")
+        raise DatasetError(
+            f"{where} names {', '.join(unknown) or 'no myocardium'}; its "
+            f"layers are {', '.join(LAYER_NAMES)} (myocardium at least)"
+        )
     for layer, channel in classes.items():
-        if not (isinstance(channel, int) and not isinstance(channel, bool)
-                and 0 <= channel < channels):
-            raise DatasetError(f"{where} gives {layer} channel {channel!r}; the file has "
-                               f"channels 0-{channels - 1}")
+        if not (
+            isinstance(channel, int) and not isinstance(channel, bool) and 0 <= channel < channels
+        ):
+            raise DatasetError(
+                f"{where} gives {layer} channel {channel!r}; the file has channels 0-{channels - 1}"
+            )
     layers = [layer for layer in LAYER_NAMES if layer in classes]
     per_layer = {layer: [replace(f, channel=classes[layer]) for f in frames] for layer in layers}
     flat, headers, first = _probability_headers(per_layer)
@@ -393,9 +491,11 @@ def _probability_headers(per_layer: dict) -> tuple[list, list, object]:
     first = _check_headers(flat, headers)
     for source, header in zip(flat, headers):
         if header.dtype.name not in PROBABILITY_SCALE:
-            raise DatasetError(f"{source}: {header.dtype} voxels; a probability map is float "
-                               "(values in [0, 1]), uint8 or uint16 (scaled to its largest "
-                               "value)")
+            raise DatasetError(
+                f"{source}: {header.dtype} voxels; a probability map is float "
+                "(values in [0, 1]), uint8 or uint16 (scaled to its largest "
+                "value)"
+            )
     return flat, headers, first
 
 
@@ -404,12 +504,16 @@ def _check_headers(sources, headers):
     first = headers[0]
     for source, header in zip(sources, headers):
         if min(header.shape) < 2 or np.prod(header.shape, dtype=float) > MAX_VOXELS:
-            raise DatasetError(f"{source}: a volume of shape (z, y, x) {header.shape}; a frame "
-                               f"has at least 2 voxels along each axis and at most "
-                               f"{MAX_VOXELS:,} in all (is its header damaged?)")
+            raise DatasetError(
+                f"{source}: a volume of shape (z, y, x) {header.shape}; a frame "
+                f"has at least 2 voxels along each axis and at most "
+                f"{MAX_VOXELS:,} in all (is its header damaged?)"
+            )
         if header.shape != first.shape:
-            raise DatasetError(f"{source}: a volume of shape (z, y, x) {header.shape}, but the "
-                               f"first frame's is {first.shape}; every frame has one shape")
+            raise DatasetError(
+                f"{source}: a volume of shape (z, y, x) {header.shape}, but the "
+                f"first frame's is {first.shape}; every frame has one shape"
+            )
     return first
 
 
@@ -428,16 +532,22 @@ def _voxel_size(folder: Path, meta: Meta, raw: dict, sources, headers) -> tuple:
         if given is None:
             given = own
         elif not np.allclose(own, given, rtol=SPACING_TOLERANCE, atol=0):
-            ref = ("meta.json's voxel_size" if meta.voxel_size is not None
-                   else f"the first frame's ({sources[0]})")
+            ref = (
+                "meta.json's voxel_size"
+                if meta.voxel_size is not None
+                else f"the first frame's ({sources[0]})"
+            )
             raise DatasetError(
                 f"{source}: its voxel size {_fmt(own)} {meta.length_unit} disagrees with "
-                f"{ref} {_fmt(given)}; correct one of them")
+                f"{ref} {_fmt(given)}; correct one of them"
+            )
     if given is None:
-        raise DatasetError(f"{path / 'meta.json'}: no voxel_size, and {sources[0]} carries "
-                           f"none; give \"voxel_size\": [dx, dy, dz] in length_unit "
-                           f"({meta.length_unit})")
-    if meta.voxel_size is None:                   # the file's own, checked as meta.json's
+        raise DatasetError(
+            f"{path / 'meta.json'}: no voxel_size, and {sources[0]} carries "
+            f'none; give "voxel_size": [dx, dy, dz] in length_unit '
+            f"({meta.length_unit})"
+        )
+    if meta.voxel_size is None:  # the file's own, checked as meta.json's
         check_voxel_size(sources[0], list(given), UNIT_TO_MM[meta.length_unit])
     return tuple(float(d) for d in given)
 
@@ -456,17 +566,24 @@ def _label_ids(path: Path, raw: dict, first: LabelSource, dtype: np.dtype) -> di
     ids = raw["labels"]
     unknown = sorted(set(ids) - set(LAYER_NAMES))
     if unknown or "myocardium" not in ids:
-        raise DatasetError(f"{meta_file}: labels names the layers {', '.join(LAYER_NAMES)} "
-                           f"(myocardium at least), found {sorted(ids)}")
+        raise DatasetError(
+            f"{meta_file}: labels names the layers {', '.join(LAYER_NAMES)} "
+            f"(myocardium at least), found {sorted(ids)}"
+        )
     values = list(ids.values())
-    if (not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in values)
-            or len(set(values)) != len(values)):
-        raise DatasetError(f"{meta_file}: each layer's label is a distinct whole number "
-                           f"above 0 (0 is the background), found {ids}")
+    if not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in values) or len(
+        set(values)
+    ) != len(values):
+        raise DatasetError(
+            f"{meta_file}: each layer's label is a distinct whole number "
+            f"above 0 (0 is the background), found {ids}"
+        )
     top = 1 if np.dtype(dtype).kind == "b" else int(np.iinfo(dtype).max)
     if max(values) > top:
-        raise DatasetError(f"{meta_file}: label {max(values)} cannot occur in {first}'s "
-                           f"{np.dtype(dtype)} voxels (at most {top}); is labels right?")
+        raise DatasetError(
+            f"{meta_file}: label {max(values)} cannot occur in {first}'s "
+            f"{np.dtype(dtype)} voxels (at most {top}); is labels right?"
+        )
     return {layer: ids[layer] for layer in LAYER_NAMES if layer in ids}
 
 
@@ -508,36 +625,55 @@ def check_nesting(folder: Path, sources, label_ids: dict, *, given: bool) -> dic
     missing = [layer for layer, v in label_ids.items() if contacts.count(v) == 0]
     if not missing and nesting_order(contacts, expected) == expected:
         return label_ids
-    names = ", ".join(str(Path(sources[t].path).name) if sources[t].index is None
-                      else f"frame {sources[t].index}" for t in frames)
-    found = ", ".join(f"{int(v)} ({int(n):,} voxels)" for v, n in zip(contacts.values,
-                                                                       contacts.voxels) if v)
+    names = ", ".join(
+        str(Path(sources[t].path).name) if sources[t].index is None else f"frame {sources[t].index}"
+        for t in frames
+    )
+    found = ", ".join(
+        f"{int(v)} ({int(n):,} voxels)" for v, n in zip(contacts.values, contacts.voxels) if v
+    )
     seen = _nesting_words(contacts, nesting_order(contacts, present))
     wanted = " around ".join(f"{layer} {v}" for layer, v in label_ids.items())
     if isinstance(sources[0], ProbabilitySource):
         channels = {layer: source.channel for layer, source in sources[0].layers}
-        if all(c is not None for c in channels.values()):     # one export, a class a channel
-            said = ("its channels say " + " around ".join(f"{layer} (channel {c})"
-                                                           for layer, c in channels.items()))
-            holds = ("meta.json's \"classes\" names the channels: the myocardium the "
-                     "outermost layer, the jelly the one inside it, the lumen the innermost")
+        if all(c is not None for c in channels.values()):  # one export, a class a channel
+            said = "its channels say " + " around ".join(
+                f"{layer} (channel {c})" for layer, c in channels.items()
+            )
+            holds = (
+                'meta.json\'s "classes" names the channels: the myocardium the '
+                "outermost layer, the jelly the one inside it, the lumen the innermost"
+            )
         else:
             said = f"its folders say {' around '.join(f'{layer}/' for layer in label_ids)}"
-            holds = ("myocardium/ holds the outermost layer, jelly/ the one inside it, "
-                     "lumen/ the innermost")
-        problem = (f"no voxel is most likely {', '.join(missing)}" if missing else
-                   f"the layers do not nest as {said}")
-        raise DatasetError(f"{folder}: {problem} (in {names}, each voxel's most likely layer "
-                           f"where one reaches 0.5: {found}; {seen}); {holds}")
+            holds = (
+                "myocardium/ holds the outermost layer, jelly/ the one inside it, "
+                "lumen/ the innermost"
+            )
+        problem = (
+            f"no voxel is most likely {', '.join(missing)}"
+            if missing
+            else f"the layers do not nest as {said}"
+        )
+        raise DatasetError(
+            f"{folder}: {problem} (in {names}, each voxel's most likely layer "
+            f"where one reaches 0.5: {found}; {seen}); {holds}"
+        )
     if missing:
-        problem = "no voxel holds " + ", ".join(f"{layer} {label_ids[layer]}"
-                                                 for layer in missing)
+        problem = "no voxel holds " + ", ".join(f"{layer} {label_ids[layer]}" for layer in missing)
     else:
         problem = f"the labels do not nest as {wanted}"
-    source = ("meta.json's \"labels\"" if given else "no \"labels\" in meta.json, so myocardium "
-              "1, jelly 2, lumen 3 were assumed")
-    return _refuse_nesting(folder, f"{problem} ({source}); in {names} the values found are "
-                           f"{found or 'none but 0'}; {seen}", contacts, present)
+    source = (
+        'meta.json\'s "labels"'
+        if given
+        else 'no "labels" in meta.json, so myocardium 1, jelly 2, lumen 3 were assumed'
+    )
+    return _refuse_nesting(
+        folder,
+        f"{problem} ({source}); in {names} the values found are {found or 'none but 0'}; {seen}",
+        contacts,
+        present,
+    )
 
 
 def _nesting_words(contacts, order: list[int]) -> str:
@@ -564,10 +700,12 @@ def _refuse_nesting(folder: Path, said: str, contacts, present: list[int]):
     roles = {1: ["myocardium"], 2: ["myocardium", "lumen"], 3: list(LAYER_NAMES)}
     if len(order) in roles:
         mapping = json.dumps(dict(zip(roles[len(order)], order)))
-        fix = f"write \"labels\": {mapping} in {folder.parent / 'meta.json'}"
+        fix = f'write "labels": {mapping} in {folder.parent / "meta.json"}'
     else:
-        fix = (f"name each layer's value in {folder.parent / 'meta.json'}'s \"labels\" "
-               "(myocardium the outermost, jelly the one inside it, lumen the innermost)")
+        fix = (
+            f"name each layer's value in {folder.parent / 'meta.json'}'s \"labels\" "
+            "(myocardium the outermost, jelly the one inside it, lumen the innermost)"
+        )
     raise DatasetError(f"{folder}: {said}; {fix}")
 
 
@@ -578,40 +716,65 @@ def _ends(path: Path, raw: dict, shape_zyx, voxel_size) -> tuple | None:
     if "ends" not in raw:
         return None
     ends = raw["ends"]
-    shape = ("two planes, each {\"point\": [x, y, z], \"normal\": [x, y, z]} in "
-             "length_unit, the normal pointing into the tube's part to keep")
-    ok = (len(ends) == 2 and all(isinstance(e, dict) and set(e) == {"point", "normal"}
-                                 and all(isinstance(e[k], list) and len(e[k]) == 3
-                                         and all(is_number(x) for x in e[k])
-                                         for k in ("point", "normal")) for e in ends))
+    shape = (
+        'two planes, each {"point": [x, y, z], "normal": [x, y, z]} in '
+        "length_unit, the normal pointing into the tube's part to keep"
+    )
+    ok = len(ends) == 2 and all(
+        isinstance(e, dict)
+        and set(e) == {"point", "normal"}
+        and all(
+            isinstance(e[k], list) and len(e[k]) == 3 and all(is_number(x) for x in e[k])
+            for k in ("point", "normal")
+        )
+        for e in ends
+    )
     if not ok:
         raise DatasetError(f"{path / 'meta.json'}: ends must be {shape}")
     points = np.array([e["point"] for e in ends], float)
     normals = np.array([e["normal"] for e in ends], float)
     lengths = np.linalg.norm(normals, axis=1)
     if not np.all(np.isfinite(lengths) & (lengths > 0)):
-        raise DatasetError(f"{path / 'meta.json'}: an ends normal has no direction (zero "
-                           f"length); ends must be {shape}")
+        raise DatasetError(
+            f"{path / 'meta.json'}: an ends normal has no direction (zero "
+            f"length); ends must be {shape}"
+        )
     box = (np.asarray(shape_zyx[::-1], float) - 1) * np.asarray(voxel_size)
-    outside = [k for k in range(2) if np.any(points[k] < -1e-9 * box.max())
-               or np.any(points[k] > box * (1 + 1e-9))]
+    outside = [
+        k
+        for k in range(2)
+        if np.any(points[k] < -1e-9 * box.max()) or np.any(points[k] > box * (1 + 1e-9))
+    ]
     if outside:
-        raise DatasetError(f"{path / 'meta.json'}: ends point {points[outside[0]].tolist()} "
-                           f"lies outside the volume (0 to {box.tolist()} in length_unit)")
+        raise DatasetError(
+            f"{path / 'meta.json'}: ends point {points[outside[0]].tolist()} "
+            f"lies outside the volume (0 to {box.tolist()} in length_unit)"
+        )
     normals /= lengths[:, None]
     # a coarse lattice over the volume: some of it must lie on the kept side of both
-    lattice = np.stack(np.meshgrid(*[np.linspace(0, b, 17) for b in box], indexing="ij"),
-                       axis=-1).reshape(-1, 3)
+    lattice = np.stack(
+        np.meshgrid(*[np.linspace(0, b, 17) for b in box], indexing="ij"), axis=-1
+    ).reshape(-1, 3)
     side = np.einsum("pkd,kd->pk", lattice[:, None, :] - points[None], normals)
     kept = np.all(side > 1e-9 * box.max(), axis=1)
     if not kept.any():
-        raise DatasetError(f"{path / 'meta.json'}: the ends planes keep nothing of the volume "
-                           "between them (each normal points into the tube's part to keep)")
+        raise DatasetError(
+            f"{path / 'meta.json'}: the ends planes keep nothing of the volume "
+            "between them (each normal points into the tube's part to keep)"
+        )
     return tuple((tuple(map(float, e["point"])), tuple(map(float, e["normal"]))) for e in ends)
 
 
-def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, voxel_size,
-               options: MeshOptions, ends=None, length_unit: str = "um") -> dict | DatasetError:
+def mesh_frame(
+    source: LabelSource,
+    out: str,
+    mesh_name: str,
+    label_ids: dict,
+    voxel_size,
+    options: MeshOptions,
+    ends=None,
+    length_unit: str = "um",
+) -> dict | DatasetError:
     """Mesh one frame's volume into ``out/<wall>/<mesh_name>`` (binary PLY, in the
     volume's length unit): per wall meshed its vertex count, clean-up count,
     sampling step and mask repairs, and ``left_out`` (wall -> why) for the walls
@@ -619,28 +782,45 @@ def mesh_frame(source: LabelSource, out: str, mesh_name: str, label_ids: dict, v
     :class:`DatasetError` naming the frame's file when the file itself is bad
     (returned, so that one pass over the frames finds every bad one)."""
     try:
-        walls = mesh_walls(read_frame(source), label_ids, voxel_size, options, ends,
-                           length_unit=length_unit)
-    except DatasetError as exc:                  # names its file already
+        walls = mesh_walls(
+            read_frame(source), label_ids, voxel_size, options, ends, length_unit=length_unit
+        )
+    except DatasetError as exc:  # names its file already
         return exc
     except (InputError, MeshError) as exc:
         return DatasetError(f"{source}: {exc}")
     meshes = {w: m for w, m in walls.items() if isinstance(m, WallMesh)}
     for wall, mesh in meshes.items():
         _write_wall(out, wall, mesh_name, mesh)
-    repairs = [{"wall": w, "what": m.repair.what, "voxels": m.repair.voxels,
-                "euler_before": m.repair.euler_before}
-               for w, m in meshes.items() if m.repair is not None]
-    repairs += [{"wall": w, "what": "kept inside the mended wall around it",
-                 "voxels": m.nested, "euler_before": None}
-                for w, m in meshes.items() if m.nested is not None]
-    return {"vertices": {w: len(m.V) for w, m in meshes.items()},
-            "pieces_dropped": {w: m.cleaned.pieces for w, m in meshes.items()},
-            "step": {w: round(m.step, 6) for w, m in meshes.items()},
-            "repairs": repairs,
-            "left_out": {w: why for w, why in walls.items() if isinstance(why, str)},
-            "closures": {w: m.closure for w, m in meshes.items() if m.closure is not None},
-            "rims": _rims(meshes.get("outer"))}
+    repairs = [
+        {
+            "wall": w,
+            "what": m.repair.what,
+            "voxels": m.repair.voxels,
+            "euler_before": m.repair.euler_before,
+        }
+        for w, m in meshes.items()
+        if m.repair is not None
+    ]
+    repairs += [
+        {
+            "wall": w,
+            "what": "kept inside the mended wall around it",
+            "voxels": m.nested,
+            "euler_before": None,
+        }
+        for w, m in meshes.items()
+        if m.nested is not None
+    ]
+    return {
+        "vertices": {w: len(m.V) for w, m in meshes.items()},
+        "pieces_dropped": {w: m.cleaned.pieces for w, m in meshes.items()},
+        "step": {w: round(m.step, 6) for w, m in meshes.items()},
+        "repairs": repairs,
+        "left_out": {w: why for w, why in walls.items() if isinstance(why, str)},
+        "closures": {w: m.closure for w, m in meshes.items() if m.closure is not None},
+        "rims": _rims(meshes.get("outer")),
+    }
 
 
 def _rims(mesh: WallMesh | None) -> list[np.ndarray]:
@@ -651,9 +831,21 @@ def _rims(mesh: WallMesh | None) -> list[np.ndarray]:
     return [mesh.V[loop].astype(np.float32) for loop in boundary_loops(mesh.F)]
 
 
-def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, left: tuple,
-              out: str, mesh_name: str, label_ids: dict, voxel_size, options: MeshOptions,
-              ends=None, length_unit: str = "um") -> dict | DatasetError:
+def fill_wall(
+    sources: tuple,
+    t: int,
+    wall: str,
+    between: tuple,
+    mended: tuple,
+    left: tuple,
+    out: str,
+    mesh_name: str,
+    label_ids: dict,
+    voxel_size,
+    options: MeshOptions,
+    ends=None,
+    length_unit: str = "um",
+) -> dict | DatasetError:
     """The ``wall`` of frame ``t``, left out there, meshed from the frames around it:
     ``between = (t_before, t_after, weight)``, their masks (``mended``: whether each
     had its topology mended, redone here) blended by
@@ -678,27 +870,50 @@ def fill_wall(sources: tuple, t: int, wall: str, between: tuple, mended: tuple, 
     whole = [w for w in order if w not in left]
     try:
         occupancy = blended_occupancy(
-            *masks, weight, voxel_size,
-            within=own[order[k - 1]].astype(np.float32) if k > 0 and order[k - 1] in whole
+            *masks,
+            weight,
+            voxel_size,
+            within=own[order[k - 1]].astype(np.float32)
+            if k > 0 and order[k - 1] in whole
             else None,
-            around=own[order[k + 1]].astype(np.float32) if k + 1 < len(order)
-            and order[k + 1] in whole else None)
-        mesh = mesh_wall(occupancy, voxel_size, options, ends, curvature=wall == "lumen",
-                         length_unit=length_unit)
+            around=own[order[k + 1]].astype(np.float32)
+            if k + 1 < len(order) and order[k + 1] in whole
+            else None,
+        )
+        mesh = mesh_wall(
+            occupancy, voxel_size, options, ends, curvature=wall == "lumen", length_unit=length_unit
+        )
     except MeshError as exc:
         # a lumen the cushions close in the frames around: their blend, in pieces or a
         # slit's sieve, bridged as a closed lumen of this frame's own
-        mesh = closed_lumen_mesh(occupancy, own["inner"], voxel_size, options, ends,
-                                 openings=(0, 1, 2, 3), to_ends=True, length_unit=length_unit
-                                 ) if wall == "lumen" and "inner" in own else None
+        mesh = (
+            closed_lumen_mesh(
+                occupancy,
+                own["inner"],
+                voxel_size,
+                options,
+                ends,
+                openings=(0, 1, 2, 3),
+                to_ends=True,
+                length_unit=length_unit,
+            )
+            if wall == "lumen" and "inner" in own
+            else None
+        )
         if mesh is None:
-            return DatasetError(f"{sources[t]}: the {wall} wall, left out, filled from "
-                                f"frames {t_before} and {t_after}, {exc}")
+            return DatasetError(
+                f"{sources[t]}: the {wall} wall, left out, filled from "
+                f"frames {t_before} and {t_after}, {exc}"
+            )
     _write_wall(out, wall, mesh_name, mesh)
-    return {"vertices": len(mesh.V), "pieces_dropped": mesh.cleaned.pieces,
-            "step": round(mesh.step, 6), "rims": _rims(mesh) if wall == "outer" else None,
-            "voxels": int(np.count_nonzero((occupancy > 0.5) != own[wall])),
-            "closure": mesh.closure}
+    return {
+        "vertices": len(mesh.V),
+        "pieces_dropped": mesh.cleaned.pieces,
+        "step": round(mesh.step, 6),
+        "rims": _rims(mesh) if wall == "outer" else None,
+        "voxels": int(np.count_nonzero((occupancy > 0.5) != own[wall])),
+        "closure": mesh.closure,
+    }
 
 
 def _frame_name(lds: LabelDataset, t: int) -> str:
@@ -733,8 +948,11 @@ def meshing_notes(path: Path, meshing: dict) -> list[str]:
     """What a user should know of how a label dataset at ``path`` was meshed
     (``meshing``: :func:`mesh_label_dataset`'s record): its masks mended or filled
     (:func:`label_repairs_note`) and its ends cut square (:func:`squared_ends_note`)."""
-    notes = [label_repairs_note(path, meshing.get("label_repairs", [])),
-             squared_ends_note(path, meshing), closures_note(path, meshing)]
+    notes = [
+        label_repairs_note(path, meshing.get("label_repairs", [])),
+        squared_ends_note(path, meshing),
+        closures_note(path, meshing),
+    ]
     return [note for note in notes if note]
 
 
@@ -745,11 +963,13 @@ def closures_note(path: Path, meshing: dict) -> str | None:
     if not closures:
         return None
     n_t = len(next(iter(meshing["vertices"].values())))
-    return (f"{path}: the lumen is closed over a stretch of the tube (no lumen voxel: the "
-            f"cushions apposed) in {len(closures)} of {n_t} frames; its pieces were joined "
-            "by a thin bridge to grid it, and its rows there are measured as closed (area 0, "
-            "no curvature: lumen_closed in arrays.npz; summary.json provenance.meshing."
-            "lumen_closures)")
+    return (
+        f"{path}: the lumen is closed over a stretch of the tube (no lumen voxel: the "
+        f"cushions apposed) in {len(closures)} of {n_t} frames; its pieces were joined "
+        "by a thin bridge to grid it, and its rows there are measured as closed (area 0, "
+        "no curvature: lumen_closed in arrays.npz; summary.json provenance.meshing."
+        "lumen_closures)"
+    )
 
 
 def squared_ends_note(path: Path, meshing: dict) -> str | None:
@@ -763,10 +983,12 @@ def squared_ends_note(path: Path, meshing: dict) -> str | None:
     angles = " and ".join(f"{end['oblique_deg']:.0f}" for end in cut)
     depths_mm = " and ".join(f"{end['cut_in'] * mm:.3f}" for end in cut)
     ends = "both ends" if len(cut) == 2 else "one end"
-    return (f"{path}: the volume's faces cut the tube obliquely at {ends} ({angles} degrees "
-            f"from square): every frame's walls were cut square to the centre line {depths_mm} mm "
-            "in, past every frame's rim, so that each section is whole (summary.json "
-            "provenance.meshing.ends_squared; meta.json \"ends\" places the planes yourself)")
+    return (
+        f"{path}: the volume's faces cut the tube obliquely at {ends} ({angles} degrees "
+        f"from square): every frame's walls were cut square to the centre line {depths_mm} mm "
+        "in, past every frame's rim, so that each section is whole (summary.json "
+        'provenance.meshing.ends_squared; meta.json "ends" places the planes yourself)'
+    )
 
 
 def label_repairs_note(path: Path, repairs: list[dict]) -> str | None:
@@ -779,21 +1001,31 @@ def label_repairs_note(path: Path, repairs: list[dict]) -> str | None:
     filled = [r for r in repairs if "filled_from" in r]
     parts = []
     if mended:
-        named = "; ".join(f"{Path(r['file']).name} {r['wall']} ({r['what']}, {r['voxels']} "
-                          "voxels)" for r in mended[:4])
-        parts.append(f"mended the topology of {len(mended)} wall mask{'s' * (len(mended) > 1)} "
-                     f"(a handle, tunnel or bridge the segmentation left): {named}"
-                     f"{'; ...' if len(mended) > 4 else ''}")
+        named = "; ".join(
+            f"{Path(r['file']).name} {r['wall']} ({r['what']}, {r['voxels']} voxels)"
+            for r in mended[:4]
+        )
+        parts.append(
+            f"mended the topology of {len(mended)} wall mask{'s' * (len(mended) > 1)} "
+            f"(a handle, tunnel or bridge the segmentation left): {named}"
+            f"{'; ...' if len(mended) > 4 else ''}"
+        )
     if filled:
-        named = "; ".join(f"{Path(r['file']).name} {r['wall']} (from frames "
-                          f"{r['filled_from'][0]} and {r['filled_from'][1]}: {r['why']})"
-                          for r in filled[:4])
-        parts.append(f"left out {len(filled)} wall{'s' * (len(filled) > 1)} that could not be "
-                     f"meshed and filled {'them' if len(filled) > 1 else 'it'} from the frames "
-                     f"around: {named}{'; ...' if len(filled) > 4 else ''}")
+        named = "; ".join(
+            f"{Path(r['file']).name} {r['wall']} (from frames "
+            f"{r['filled_from'][0]} and {r['filled_from'][1]}: {r['why']})"
+            for r in filled[:4]
+        )
+        parts.append(
+            f"left out {len(filled)} wall{'s' * (len(filled) > 1)} that could not be "
+            f"meshed and filled {'them' if len(filled) > 1 else 'it'} from the frames "
+            f"around: {named}{'; ...' if len(filled) > 4 else ''}"
+        )
     folder = "probabilities" if (Path(path) / "probabilities").is_dir() else "labels"
-    return (f"{Path(path) / folder}: {'; and '.join(parts)}; all in summary.json "
-            "provenance.meshing.label_repairs")
+    return (
+        f"{Path(path) / folder}: {'; and '.join(parts)}; all in summary.json "
+        "provenance.meshing.label_repairs"
+    )
 
 
 def write_meshed_meta(lds: LabelDataset, out: Path) -> None:
@@ -804,8 +1036,9 @@ def write_meshed_meta(lds: LabelDataset, out: Path) -> None:
     (out / "meta.json").write_text(json.dumps(meta, indent=2))
 
 
-def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, executor=None,
-                       progress=None) -> dict:
+def mesh_label_dataset(
+    lds: LabelDataset, out: Path, options: MeshOptions, *, executor=None, progress=None
+) -> dict:
     """Mesh every frame of ``lds`` into ``out`` (``outer/``, ``inner/``, ``lumen/`` and a
     meta.json: a mesh dataset) in ``executor``'s workers, each holding one volume;
     ``progress()`` after each frame. A wall left out in a frame (its label absent,
@@ -819,37 +1052,58 @@ def mesh_label_dataset(lds: LabelDataset, out: Path, options: MeshOptions, *, ex
     tick = time.perf_counter()
     out = Path(out)
     n = lds.n_frames
-    args = (lds.sources, [str(out)] * n, lds.mesh_names(), [lds.label_ids] * n,
-            [lds.voxel_size] * n, [options] * n, [lds.ends] * n, [lds.meta.length_unit] * n)
+    args = (
+        lds.sources,
+        [str(out)] * n,
+        lds.mesh_names(),
+        [lds.label_ids] * n,
+        [lds.voxel_size] * n,
+        [options] * n,
+        [lds.ends] * n,
+        [lds.meta.length_unit] * n,
+    )
     results = []
-    for result in (map(mesh_frame, *args) if executor is None else executor.map(mesh_frame, *args)):
+    for result in map(mesh_frame, *args) if executor is None else executor.map(mesh_frame, *args):
         results.append(result)
         if progress:
             progress()
     _raise_for_bad_files(results, n)
     _gaps_left_out(lds, out, results)
-    repairs = [{"frame": t, "file": str(lds.sources[t]), **r}
-               for t, result in enumerate(results) for r in result["repairs"]]
+    repairs = [
+        {"frame": t, "file": str(lds.sources[t]), **r}
+        for t, result in enumerate(results)
+        for r in result["repairs"]
+    ]
     repairs += _fill_left_out(lds, out, options, results, executor)
-    closures = [{"frame": t, "file": str(lds.sources[t]), **closure}
-                for t, result in enumerate(results)
-                for closure in result.get("closures", {}).values()]
+    closures = [
+        {"frame": t, "file": str(lds.sources[t]), **closure}
+        for t, result in enumerate(results)
+        for closure in result.get("closures", {}).values()
+    ]
     walls = [w for w in ("outer", "inner", "lumen") if w in results[0]["vertices"]]
-    squared = None if lds.ends is not None else square_the_ends(lds, out, walls, results,
-                                                                executor)
+    squared = None if lds.ends is not None else square_the_ends(lds, out, walls, results, executor)
     check_axis_geometry(lds, out)
     write_meshed_meta(lds, out)
     return {
         "inputs": {kind: listed_files(paths) for kind, paths in lds.inputs_by_kind().items()},
-        "meshing": {"options": options.as_dict(), "voxel_size": list(lds.voxel_size),
-                    "length_unit": lds.meta.length_unit, "shape_zyx": list(lds.shape),
-                    "labels": lds.label_ids, "kind": lds.kind,
-                    "ends": None if lds.ends is None else [list(map(list, e)) for e in lds.ends],
-                    "ends_squared": squared,
-                    **{key: {w: [r[key][w] for r in results] for w in walls}
-                       for key in ("vertices", "pieces_dropped", "step")},
-                    "label_repairs": repairs, "lumen_closures": closures,
-                    "seconds": round(time.perf_counter() - tick, 2)}}
+        "meshing": {
+            "options": options.as_dict(),
+            "voxel_size": list(lds.voxel_size),
+            "length_unit": lds.meta.length_unit,
+            "shape_zyx": list(lds.shape),
+            "labels": lds.label_ids,
+            "kind": lds.kind,
+            "ends": None if lds.ends is None else [list(map(list, e)) for e in lds.ends],
+            "ends_squared": squared,
+            **{
+                key: {w: [r[key][w] for r in results] for w in walls}
+                for key in ("vertices", "pieces_dropped", "step")
+            },
+            "label_repairs": repairs,
+            "lumen_closures": closures,
+            "seconds": round(time.perf_counter() - tick, 2),
+        },
+    }
 
 
 # frames tried in turn as the reference whose centre line gives the square ends: at
@@ -867,8 +1121,9 @@ def reference_frames(n: int) -> list[int]:
     return list(dict.fromkeys(int(share * n) % n for share in shares))[:REFERENCE_TRIES]
 
 
-def square_the_ends(lds: LabelDataset, out: Path, walls: list[str], results: list,
-                    executor) -> list[dict | None] | None:
+def square_the_ends(
+    lds: LabelDataset, out: Path, walls: list[str], results: list, executor
+) -> list[dict | None] | None:
     """Where the volume's faces cut the tube obliquely (meta.json gives no "ends"),
     every frame's walls in ``out`` cut at the planes square to the centre line past
     every frame's rim (:func:`~oftimg.mesh.ends.square_ends`: the middle frame's
@@ -883,14 +1138,18 @@ def square_the_ends(lds: LabelDataset, out: Path, walls: list[str], results: lis
     failed = None
     for t in reference_frames(len(names)):
         try:
-            ends = square_ends(read_mesh_file(out / "outer" / names[t]),
-                               [r["rims"] for r in results], MARGIN_STEPS * step)
+            ends = square_ends(
+                read_mesh_file(out / "outer" / names[t]),
+                [r["rims"] for r in results],
+                MARGIN_STEPS * step,
+            )
             break
         except MeshError as exc:
             failed = failed or exc
     else:
-        raise DatasetError(f"{lds.folder}: the tube {failed}; give the two cutting planes in "
-                           "meta.json (\"ends\")") from None
+        raise DatasetError(
+            f'{lds.folder}: the tube {failed}; give the two cutting planes in meta.json ("ends")'
+        ) from None
     if all(end is None for end in ends):
         return None
     planes = [(end.point, end.normal) for end in ends if end is not None]
@@ -900,9 +1159,11 @@ def square_the_ends(lds: LabelDataset, out: Path, walls: list[str], results: lis
     bad = [(t, why) for t, why in enumerate(cut) if why]
     if bad:
         t, why = bad[0]
-        raise DatasetError(f"{_frame_name(lds, t)} in {lds.folder}: cut square to the centre "
-                           f"line where the volume's face cuts the tube obliquely, {why}; give "
-                           "the two cutting planes in meta.json (\"ends\")")
+        raise DatasetError(
+            f"{_frame_name(lds, t)} in {lds.folder}: cut square to the centre "
+            f"line where the volume's face cuts the tube obliquely, {why}; give "
+            'the two cutting planes in meta.json ("ends")'
+        )
     return [None if end is None else end.as_dict() for end in ends]
 
 
@@ -925,10 +1186,12 @@ def check_axis_geometry(lds: LabelDataset, out: Path) -> None:
         return
     V, F = read_mesh_file(out / "outer" / lds.mesh_names()[lds.n_frames // 2])
     given = _roundness(V, F)
-    others = {order: _roundness(reordered(V, lds.voxel_size, order), F)
-              for order in ("xyz", "yxz", "xzy", "yzx", "zxy")}       # the likeliest first
+    others = {
+        order: _roundness(reordered(V, lds.voxel_size, order), F)
+        for order in ("xyz", "yxz", "xzy", "yzx", "zxy")
+    }  # the likeliest first
     best = max(others.values())
-    order = next(o for o, r in others.items() if r >= best - 0.02)   # mirrors tie
+    order = next(o for o, r in others.items() if r >= best - 0.02)  # mirrors tie
     if not (given < ROUND_ENOUGH and best > given + ROUNDER_BY):
         return
     raise DatasetError(
@@ -937,7 +1200,8 @@ def check_axis_geometry(lds: LabelDataset, out: Path) -> None:
         f"read as ({', '.join(order)})), as a volume whose axes are named in the wrong order "
         f"gives with voxels of {' x '.join(f'{d:g}' for d in lds.voxel_size)} "
         f"{lds.meta.length_unit}: save it with its axes in their true order; if the order is "
-        f"right, say so in meta.json: \"axes\": \"zyx\"")
+        f'right, say so in meta.json: "axes": "zyx"'
+    )
 
 
 def _roundness(V: np.ndarray, F: np.ndarray) -> float:
@@ -952,7 +1216,7 @@ def reordered(V: np.ndarray, voxel_size, order: str) -> np.ndarray:
     ``order`` (a permutation of "zyx", the array's first axis first)."""
     d = dict(zip("xyz", np.asarray(voxel_size, float)))
     out = np.empty_like(V, dtype=float)
-    for read, true in zip("zyx", order):            # each array axis: read as, meant as
+    for read, true in zip("zyx", order):  # each array axis: read as, meant as
         out[:, "xyz".index(true)] = V[:, "xyz".index(read)] / d[read] * d[true]
     return out
 
@@ -965,8 +1229,9 @@ def cut_frame(out: str, mesh_name: str, walls: list[str], planes: list) -> str |
     for wall in walls:
         path = Path(out) / wall / mesh_name
         V, F = read_mesh_file(path)
-        stored = {name: read_vertex_values(path, name)
-                  for name in (CURVATURE_PROPERTY, CLOSED_PROPERTY)}
+        stored = {
+            name: read_vertex_values(path, name) for name in (CURVATURE_PROPERTY, CLOSED_PROPERTY)
+        }
         stored = {name: v.astype(float) for name, v in stored.items() if v is not None}
         values = np.stack([*stored.values(), np.zeros(len(V))], axis=1)
         for point, normal in planes:
@@ -991,9 +1256,11 @@ def _raise_for_bad_files(results: list, n: int) -> None:
     bad = [r for r in results if isinstance(r, DatasetError)]
     if bad:
         if len(bad) > 1:
-            bad[0].add_note(f"and {len(bad) - 1} more of the {n} frames cannot be meshed: "
-                            + "; ".join(str(e) for e in bad[1:4])
-                            + ("; ..." if len(bad) > 4 else ""))
+            bad[0].add_note(
+                f"and {len(bad) - 1} more of the {n} frames cannot be meshed: "
+                + "; ".join(str(e) for e in bad[1:4])
+                + ("; ..." if len(bad) > 4 else "")
+            )
         raise bad[0]
 
 
@@ -1019,23 +1286,27 @@ def _gaps_left_out(lds: LabelDataset, out: Path, results: list) -> None:
         path = out / "lumen" / names[t]
         V, _ = read_mesh_file(path)
         bridge = V[read_vertex_values(path, CLOSED_PROPERTY) > 0.5]
-        lumen, before, after = (frame_masks(read_frame(lds.sources[f]), lds.label_ids)["lumen"]
-                                for f in (t, *around))
+        lumen, before, after = (
+            frame_masks(read_frame(lds.sources[f]), lds.label_ids)["lumen"] for f in (t, *around)
+        )
         if is_one_frame_gap(bridge, lumen, before, after, lds.voxel_size):
             gaps.append(t)
     left = sum(bool(r["left_out"]) for r in results)
-    if left + len(gaps) > int(FILLED_SHARE * n):     # not to be filled: kept as closures
+    if left + len(gaps) > int(FILLED_SHARE * n):  # not to be filled: kept as closures
         return
     for t in gaps:
         del results[t]["closures"]["lumen"]
-        results[t]["left_out"]["lumen"] = ("its lumen closed over a stretch in this frame "
-                                           "alone, wide open there in the frames either "
-                                           "side: a gap in the segmentation, not the "
-                                           "cushions")
+        results[t]["left_out"]["lumen"] = (
+            "its lumen closed over a stretch in this frame "
+            "alone, wide open there in the frames either "
+            "side: a gap in the segmentation, not the "
+            "cushions"
+        )
 
 
-def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: list,
-                   executor) -> list[dict]:
+def _fill_left_out(
+    lds: LabelDataset, out: Path, options: MeshOptions, results: list, executor
+) -> list[dict]:
     """Fill every wall left out in a frame from the frames around it, into ``out`` and
     each frame's record in ``results``; the fills as ``label_repairs`` entries.
     Raises one :class:`DatasetError` naming every frame with a wall left out when
@@ -1046,24 +1317,41 @@ def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: 
         return []
     allowed = int(FILLED_SHARE * n)
     if len(left) > allowed:
-        named = "; ".join(f"{_frame_name(lds, t)}: {', '.join(dict.fromkeys(walls.values()))}"
-                          for t, walls in left.items())
-        raise DatasetError(f"{lds.folder}: {len(left)} of {n} frames have a wall that "
-                           f"cannot be meshed, more than the {allowed} ({FILLED_SHARE:.0%}) "
-                           f"that can be filled from the frames around them: {named}")
+        named = "; ".join(
+            f"{_frame_name(lds, t)}: {', '.join(dict.fromkeys(walls.values()))}"
+            for t, walls in left.items()
+        )
+        raise DatasetError(
+            f"{lds.folder}: {len(left)} of {n} frames have a wall that "
+            f"cannot be meshed, more than the {allowed} ({FILLED_SHARE:.0%}) "
+            f"that can be filled from the frames around them: {named}"
+        )
     tasks = []
     for t, walls in left.items():
         for wall in walls:
             good = np.array([wall not in r["left_out"] for r in results])
             before, after, weight = neighbours_to_fill_from(good, t)
-            mended = tuple(any(r["wall"] == wall and r["euler_before"] is not None
-                               for r in results[f]["repairs"]) for f in (before, after))
+            mended = tuple(
+                any(
+                    r["wall"] == wall and r["euler_before"] is not None
+                    for r in results[f]["repairs"]
+                )
+                for f in (before, after)
+            )
             tasks.append((t, wall, (before, after, round(weight, 6)), mended))
     names = lds.mesh_names()
     m = len(tasks)
-    args = ([lds.sources] * m, *zip(*[(t, w, b, md, tuple(left[t])) for t, w, b, md in tasks]),
-            [str(out)] * m, [names[t] for t, *_ in tasks], [lds.label_ids] * m,
-            [lds.voxel_size] * m, [options] * m, [lds.ends] * m, [lds.meta.length_unit] * m)
+    args = (
+        [lds.sources] * m,
+        *zip(*[(t, w, b, md, tuple(left[t])) for t, w, b, md in tasks]),
+        [str(out)] * m,
+        [names[t] for t, *_ in tasks],
+        [lds.label_ids] * m,
+        [lds.voxel_size] * m,
+        [options] * m,
+        [lds.ends] * m,
+        [lds.meta.length_unit] * m,
+    )
     filled = list(map(fill_wall, *args) if executor is None else executor.map(fill_wall, *args))
     failed = [f for f in filled if isinstance(f, DatasetError)]
     if failed:
@@ -1076,8 +1364,16 @@ def _fill_left_out(lds: LabelDataset, out: Path, options: MeshOptions, results: 
             results[t]["rims"] = record["rims"]
         if record["closure"] is not None:
             results[t]["closures"][wall] = record["closure"]
-        entries.append({"frame": t, "file": str(lds.sources[t]), "wall": wall,
-                        "what": f"left out, filled from frames {before} and {after}",
-                        "why": left[t][wall], "voxels": record["voxels"],
-                        "euler_before": None, "filled_from": [before, after]})
+        entries.append(
+            {
+                "frame": t,
+                "file": str(lds.sources[t]),
+                "wall": wall,
+                "what": f"left out, filled from frames {before} and {after}",
+                "why": left[t][wall],
+                "voxels": record["voxels"],
+                "euler_before": None,
+                "filled_from": [before, after],
+            }
+        )
     return entries

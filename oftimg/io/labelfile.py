@@ -12,6 +12,7 @@ whole series is checked before any frame is meshed; a frame's voxels are read wh
 is meshed (a TIFF page range, a memory map, a zarr chunk), so a worker holds one volume
 at a time.
 """
+
 from __future__ import annotations
 
 import atexit
@@ -33,18 +34,39 @@ PER_FRAME_SUFFIXES = (".tif", ".tiff", ".nii", ".nii.gz", ".npy", ".h5", ".hdf5"
 SERIES_SUFFIXES = (".tif", ".tiff", ".ome.tif", ".ome.tiff", ".ome.zarr", ".zarr", ".h5", ".hdf5")
 SERIES_NAMES = tuple("labels" + suffix for suffix in SERIES_SUFFIXES)
 HDF5_SUFFIXES = (".h5", ".hdf5")
-AXES_SUFFIXES = (*HDF5_SUFFIXES, ".zarr")     # arrays with named axes (_axes_array)
-ILASTIK_DATASET = "exported_data"          # where ilastik's export puts its array
+AXES_SUFFIXES = (*HDF5_SUFFIXES, ".zarr")  # arrays with named axes (_axes_array)
+ILASTIK_DATASET = "exported_data"  # where ilastik's export puts its array
 # length units as TIFF (ImageJ) and NIfTI headers spell them, in mm
-HEADER_UNITS_MM = {"mm": 1.0, "millimeter": 1.0, "um": 1e-3, "micron": 1e-3,
-                   "\u00b5m": 1e-3, "\u03bcm": 1e-3, "microns": 1e-3, "micrometer": 1e-3,
-                   "nm": 1e-6, "nanometer": 1e-6, "meter": 1e3, "m": 1e3,
-                   "centimeter": 10.0, "cm": 10.0}
+HEADER_UNITS_MM = {
+    "mm": 1.0,
+    "millimeter": 1.0,
+    "um": 1e-3,
+    "micron": 1e-3,
+    "\u00b5m": 1e-3,
+    "\u03bcm": 1e-3,
+    "microns": 1e-3,
+    "micrometer": 1e-3,
+    "nm": 1e-6,
+    "nanometer": 1e-6,
+    "meter": 1e3,
+    "m": 1e3,
+    "centimeter": 10.0,
+    "cm": 10.0,
+}
 # time units as OME (UDUNITS-2 names, OME-XML symbols) and ImageJ spell them, in ms
-TIME_UNITS_MS = {"millisecond": 1.0, "ms": 1.0, "second": 1e3, "s": 1e3, "sec": 1e3,
-                 "microsecond": 1e-3, "us": 1e-3, "\u00b5s": 1e-3, "minute": 6e4,
-                 "min": 6e4}
-AXIS_NAMES = "tczyx"                      # the axes a volume file may have, OME's names
+TIME_UNITS_MS = {
+    "millisecond": 1.0,
+    "ms": 1.0,
+    "second": 1e3,
+    "s": 1e3,
+    "sec": 1e3,
+    "microsecond": 1e-3,
+    "us": 1e-3,
+    "\u00b5s": 1e-3,
+    "minute": 6e4,
+    "min": 6e4,
+}
+AXIS_NAMES = "tczyx"  # the axes a volume file may have, OME's names
 
 
 @dataclass(frozen=True)
@@ -53,8 +75,8 @@ class LabelSource:
 
     path: str
     index: int | None = None
-    channel: int | None = None        # of an HDF5 export's channel axis (ilastik's classes)
-    axes: str | None = None           # meta.json's "axes": the file's, where it names none
+    channel: int | None = None  # of an HDF5 export's channel axis (ilastik's classes)
+    axes: str | None = None  # meta.json's "axes": the file's, where it names none
 
     def __str__(self) -> str:
         where = [] if self.index is None else [f"frame {self.index}"]
@@ -107,8 +129,9 @@ def series_file(folder: Path) -> Path | None:
     return found[0] if found else None
 
 
-def list_label_sources(folder: Path, natural_key, what: str = "label volumes",
-                       axes: str | None = None) -> list[LabelSource]:
+def list_label_sources(
+    folder: Path, natural_key, what: str = "label volumes", axes: str | None = None
+) -> list[LabelSource]:
     """The frames of a ``labels/`` folder (or another of volumes, ``what`` they are)
     in time order: each frame of its 4-D file, or its per-frame files in natural
     order (one format only). ``axes``: meta.json's order of the files' axes, for files
@@ -119,17 +142,26 @@ def list_label_sources(folder: Path, natural_key, what: str = "label volumes",
         with _read_as(series, "a 4-D series"):
             n_t = _series_shape(series, axes)[0]
         return [LabelSource(str(series), t, axes=axes) for t in range(n_t)]
-    files = sorted((p for p in folder.iterdir() if not p.name.startswith(".")
-                    and label_suffix(p) in PER_FRAME_SUFFIXES),
-                   key=lambda p: natural_key(p.name))
+    files = sorted(
+        (
+            p
+            for p in folder.iterdir()
+            if not p.name.startswith(".") and label_suffix(p) in PER_FRAME_SUFFIXES
+        ),
+        key=lambda p: natural_key(p.name),
+    )
     if not files:
-        raise DatasetError(f"{folder}: no {what} (one file per frame: "
-                           f"{', '.join(PER_FRAME_SUFFIXES)}; or one 4-D "
-                           f"{' or '.join(series_names(folder))})")
+        raise DatasetError(
+            f"{folder}: no {what} (one file per frame: "
+            f"{', '.join(PER_FRAME_SUFFIXES)}; or one 4-D "
+            f"{' or '.join(series_names(folder))})"
+        )
     kinds = sorted({label_suffix(p).replace(".tiff", ".tif") for p in files})
     if len(kinds) > 1:
-        raise DatasetError(f"{folder}: mixes {' and '.join(kinds)} files; a series is one "
-                           "format, so that the frames' order is plain")
+        raise DatasetError(
+            f"{folder}: mixes {' and '.join(kinds)} files; a series is one "
+            "format, so that the frames' order is plain"
+        )
     return [LabelSource(str(p), axes=axes) for p in files]
 
 
@@ -153,28 +185,40 @@ def _read_header(source: LabelSource, path: Path) -> VolumeHeader:
             return VolumeHeader(shape, np.dtype(arr.data.dtype), arr.voxel_size_mm, step)
     if kind in (".nii", ".nii.gz"):
         img = _nifti(path)
-        shape = _three_d(img.shape, path)[::-1]                   # (x, y, z) -> (z, y, x)
+        shape = _three_d(img.shape, path)[::-1]  # (x, y, z) -> (z, y, x)
         return VolumeHeader(shape, img.header.get_data_dtype(), _nifti_voxel(img))
     if kind == ".npy":
         arr = np.load(path, mmap_mode="r")
-        return VolumeHeader(_to_zyx(_three_d(arr.shape, path), _frame_axes(source, path)),
-                            arr.dtype, None)
+        return VolumeHeader(
+            _to_zyx(_three_d(arr.shape, path), _frame_axes(source, path)), arr.dtype, None
+        )
     with _tiff(path, series=source.index is not None) as tif:
         if tif.is_ome or tif.is_imagej:
-            _no_axes_given(source, tif.series[0].axes,
-                           "its OME-XML" if tif.is_ome else "its ImageJ metadata")
+            _no_axes_given(
+                source, tif.series[0].axes, "its OME-XML" if tif.is_ome else "its ImageJ metadata"
+            )
         if source.index is not None or _tiff_has_channels(tif):
             shape = _tiff_series_layout(tif, source)[0]
             step = _tiff_time_step(tif) if source.index is not None else None
-            return VolumeHeader(_to_zyx(shape[1:], _frame_axes(source, path)),
-                                tif.series[0].dtype, _tiff_voxel(tif), step)
+            return VolumeHeader(
+                _to_zyx(shape[1:], _frame_axes(source, path)),
+                tif.series[0].dtype,
+                _tiff_voxel(tif),
+                step,
+            )
         shaped = _shaped_shape(tif)
-        if shaped is not None:                         # tifffile's own: no page parsed
-            return VolumeHeader(_to_zyx(_three_d(shaped, path), _frame_axes(source, path)),
-                                tif.pages.first.dtype, _tiff_voxel(tif))
+        if shaped is not None:  # tifffile's own: no page parsed
+            return VolumeHeader(
+                _to_zyx(_three_d(shaped, path), _frame_axes(source, path)),
+                tif.pages.first.dtype,
+                _tiff_voxel(tif),
+            )
         series = tif.series[0]
-        return VolumeHeader(_to_zyx(_three_d(series.shape, path), _frame_axes(source, path)),
-                            series.dtype, _tiff_voxel(tif))
+        return VolumeHeader(
+            _to_zyx(_three_d(series.shape, path), _frame_axes(source, path)),
+            series.dtype,
+            _tiff_voxel(tif),
+        )
 
 
 def _shaped_shape(tif) -> tuple[int, ...] | None:
@@ -188,8 +232,12 @@ def _shaped_shape(tif) -> tuple[int, ...] | None:
         shape = tuple(int(n) for n in json.loads(first.description).get("shape", ()))
     except (ValueError, TypeError, AttributeError):
         return None
-    if (len(shape) < 2 or shape[-2:] != tuple(first.shape[:2]) or first.samplesperpixel != 1
-            or int(np.prod(shape[:-2])) != len(tif.pages)):
+    if (
+        len(shape) < 2
+        or shape[-2:] != tuple(first.shape[:2])
+        or first.samplesperpixel != 1
+        or int(np.prod(shape[:-2])) != len(tif.pages)
+    ):
         return None
     return shape
 
@@ -205,18 +253,25 @@ def describe_format(source: LabelSource) -> dict:
     series = source.index is not None
     where = "one file holding every frame" if series else "one file per frame"
     header = read_header(source)
-    carries = {"file_voxel_size": header.voxel_size_mm is not None,
-               "file_time_step": header.time_step_ms is not None}
+    carries = {
+        "file_voxel_size": header.voxel_size_mm is not None,
+        "file_time_step": header.time_step_ms is not None,
+    }
     if kind in AXES_SUFFIXES:
         with _read_as(source, "a volume"), _axes_array(path, source.axes) as arr:
-            return {"format": f"{arr.format}, {where}", "axes": f"{arr.axes} ({arr.said})",
-                    **carries}
+            return {
+                "format": f"{arr.format}, {where}",
+                "axes": f"{arr.axes} ({arr.said})",
+                **carries,
+            }
     if kind in (".nii", ".nii.gz"):
-        return {"format": f"NIfTI, {where}", "axes": "xyz (its header), turned to zyx",
-                **carries}
+        return {"format": f"NIfTI, {where}", "axes": "xyz (its header), turned to zyx", **carries}
     if kind == ".npy":
-        axes = (f"{source.axes} (meta.json), turned to zyx" if source.axes
-                else "zyx (as oftimg reads npy)")
+        axes = (
+            f"{source.axes} (meta.json), turned to zyx"
+            if source.axes
+            else "zyx (as oftimg reads npy)"
+        )
         return {"format": f"npy, {where}", "axes": axes, **carries}
     with _read_as(source, "a TIFF"), _tiff(path, series=series) as tif:
         name = "OME-TIFF" if tif.is_ome else "ImageJ TIFF" if tif.is_imagej else "TIFF"
@@ -225,7 +280,7 @@ def describe_format(source: LabelSource) -> dict:
             said = "its OME-XML" if tif.is_ome else "its ImageJ metadata"
         elif source.axes:
             axes, said = source.axes, "meta.json"
-        else:                                   # tifffile's letters say nothing: Q, I
+        else:  # tifffile's letters say nothing: Q, I
             axes, said = ("tzyx" if series else "zyx"), "as oftimg reads a plain TIFF"
     return {"format": f"{name}, {where}", "axes": f"{axes} ({said})", **carries}
 
@@ -252,16 +307,23 @@ def _read_as(source, what: str):
     except DatasetError:
         raise
     except Exception as exc:
-        raise DatasetError(f"{source}: cannot be read as {what}: damaged, or not what its "
-                           f"name says ({_reader_says(exc)})") from None
+        raise DatasetError(
+            f"{source}: cannot be read as {what}: damaged, or not what its "
+            f"name says ({_reader_says(exc)})"
+        ) from None
     finally:
         logger.disabled = disabled
 
 
 def _reader_says(exc: BaseException) -> str:
     """What a reader's exception says, as ``"tifffile says: ..."``."""
-    reader = {"tifffile": "tifffile", "nibabel": "nibabel", "zarr": "zarr",
-              "numcodecs": "zarr", "h5py": "h5py"}.get(type(exc).__module__.split(".")[0], "the reader")
+    reader = {
+        "tifffile": "tifffile",
+        "nibabel": "nibabel",
+        "zarr": "zarr",
+        "numcodecs": "zarr",
+        "h5py": "h5py",
+    }.get(type(exc).__module__.split(".")[0], "the reader")
     return f"{reader} says: {printable(exc) or type(exc).__name__}"
 
 
@@ -288,8 +350,9 @@ def _read_volume(source: LabelSource, path: Path) -> np.ndarray:
             return _axes_frame(arr, source)
     if kind == ".npy":
         data = np.load(path, mmap_mode="r")
-        return _as_zyx(np.asarray(data).reshape(_three_d(data.shape, path)),
-                       _frame_axes(source, path))
+        return _as_zyx(
+            np.asarray(data).reshape(_three_d(data.shape, path)), _frame_axes(source, path)
+        )
     if kind in (".nii", ".nii.gz"):
         data = np.asanyarray(_nifti(path).dataobj)
         return np.ascontiguousarray(data.reshape(data.shape[:3]).transpose(2, 1, 0))
@@ -310,9 +373,11 @@ def _frame_axes(source: LabelSource, path: Path) -> str:
     if source.axes is None:
         return "zyx"
     if "c" in source.axes or ("t" in source.axes and source.axes[0] != "t"):
-        raise DatasetError(f"{path}: meta.json's \"axes\" {source.axes!r} for a file that "
-                           "names none of its own: z, y, x in the order stored, a series' t "
-                           "first, e.g. \"xyz\" or \"txyz\"")
+        raise DatasetError(
+            f'{path}: meta.json\'s "axes" {source.axes!r} for a file that '
+            "names none of its own: z, y, x in the order stored, a series' t "
+            'first, e.g. "xyz" or "txyz"'
+        )
     return _spatial(source.axes)
 
 
@@ -337,10 +402,12 @@ def _no_axes_given(source: LabelSource, own: str, said: str) -> None:
     """Refuse meta.json's ``axes`` for a file that names its own (``own``, as ``said``)
     in another order of z, y and x."""
     if source.axes is not None and _spatial(source.axes.lower()) != _spatial(own.lower()):
-        raise DatasetError(f"{source.path}: names its own axes ({said}: {own}), which "
-                           f"meta.json's \"axes\" {source.axes!r} contradicts; \"axes\" is for "
-                           "files that name none (a plain TIFF, npy, a zarr array, HDF5 "
-                           "without axistags): remove it")
+        raise DatasetError(
+            f"{source.path}: names its own axes ({said}: {own}), which "
+            f'meta.json\'s "axes" {source.axes!r} contradicts; "axes" is for '
+            "files that name none (a plain TIFF, npy, a zarr array, HDF5 "
+            "without axistags): remove it"
+        )
 
 
 def file_names_axes(source: LabelSource) -> bool:
@@ -368,8 +435,10 @@ def _three_d(shape, path: Path) -> tuple[int, int, int]:
     while len(dims) > 3 and 1 in dims:
         dims = tuple(np.delete(dims, dims.index(1)))
     if len(dims) != 3:
-        raise DatasetError(f"{path}: a {len(dims)}-D array of shape {dims}; a frame is one 3-D "
-                           "label volume (z, y, x)")
+        raise DatasetError(
+            f"{path}: a {len(dims)}-D array of shape {dims}; a frame is one 3-D "
+            "label volume (z, y, x)"
+        )
     return dims
 
 
@@ -378,15 +447,19 @@ def _series_shape(path: Path, axes: str | None = None) -> tuple[int, int, int, i
     if label_suffix(path) in AXES_SUFFIXES:
         with _axes_array(path, axes) as arr:
             if "t" not in arr.axes:
-                raise DatasetError(f"{path}: axes {arr.axes} ({arr.said}) have no time; the "
-                                   "series file holds every frame, axes t, z, y, x")
+                raise DatasetError(
+                    f"{path}: axes {arr.axes} ({arr.said}) have no time; the "
+                    "series file holds every frame, axes t, z, y, x"
+                )
             return tuple(int(arr.data.shape[arr.axes.index(a)]) for a in "tzyx")
     with _tiff(path, series=True) as tif:
         source = LabelSource(str(path), 0, axes=axes)
-        shape = _tiff_series_layout(tif, source, probe=True)[0]      # any channel
+        shape = _tiff_series_layout(tif, source, probe=True)[0]  # any channel
     if len(shape) != 4:
-        raise DatasetError(f"{path}: a {len(shape)}-D array of shape {tuple(shape)}; "
-                           "the series file is 4-D, axes (t, z, y, x)")
+        raise DatasetError(
+            f"{path}: a {len(shape)}-D array of shape {tuple(shape)}; "
+            "the series file is 4-D, axes (t, z, y, x)"
+        )
     return (int(shape[0]),) + _to_zyx(shape[1:], _frame_axes(source, path))
 
 
@@ -434,7 +507,7 @@ def _tiff(path: Path, *, series: bool = False):
                 old.close()
     tif, lock = entry
     with lock:
-        if tif.filehandle.closed:                   # closed by another thread meanwhile
+        if tif.filehandle.closed:  # closed by another thread meanwhile
             with tifffile.TiffFile(path) as fresh:
                 yield fresh
         else:
@@ -464,13 +537,20 @@ def channel_count(source: LabelSource) -> int:
                 n_c = int(arr.data.shape[arr.axes.index("c")])
                 if n_c > MAX_CLASSES and arr.said.startswith(_UNNAMED):
                     short = [a for a, n in zip(arr.axes, arr.data.shape) if n <= MAX_CLASSES]
-                    guess = (f"; its {short[0]} axis, {arr.data.shape[arr.axes.index(short[0])]}"
-                             f" long, looks like them: if so, write \"axes\": "
-                             f"\"{_swapped(arr.axes, short[0])}\" in meta.json") if short else ""
+                    guess = (
+                        (
+                            f"; its {short[0]} axis, {arr.data.shape[arr.axes.index(short[0])]}"
+                            f' long, looks like them: if so, write "axes": '
+                            f'"{_swapped(arr.axes, short[0])}" in meta.json'
+                        )
+                        if short
+                        else ""
+                    )
                     raise DatasetError(
                         f"{path}: read in {arr.said} (axes {arr.axes}), its c axis, {n_c} long, "
-                        f"would hold {n_c} classes{guess}; meta.json's \"axes\" gives the "
-                        "order of a file's axes where it has no axistags")
+                        f'would hold {n_c} classes{guess}; meta.json\'s "axes" gives the '
+                        "order of a file's axes where it has no axistags"
+                    )
                 return n_c
         if label_suffix(path) in (".tif", ".tiff"):
             with _tiff(path, series=source.index is not None) as tif:
@@ -483,8 +563,9 @@ def _tiff_has_channels(tif) -> bool:
     return (tif.is_ome or tif.is_imagej) and "C" in tif.series[0].axes
 
 
-def _tiff_series_layout(tif, source: LabelSource, *, probe: bool = False
-                        ) -> tuple[tuple[int, ...], np.ndarray]:
+def _tiff_series_layout(
+    tif, source: LabelSource, *, probe: bool = False
+) -> tuple[tuple[int, ...], np.ndarray]:
     """A TIFF's shape ``(t, z, y, x)`` and its pages, ``(t, z)`` page indices, for
     channel ``source.channel``.
 
@@ -498,30 +579,36 @@ def _tiff_series_layout(tif, source: LabelSource, *, probe: bool = False
     shape, axes = tuple(int(n) for n in series.shape), series.axes
     path = tif.filehandle.path
     if "S" in axes:
-        raise DatasetError(f"{path}: has colour samples (axes {axes}); a volume holds one "
-                           "value per voxel")
+        raise DatasetError(
+            f"{path}: has colour samples (axes {axes}); a volume holds one value per voxel"
+        )
     if not (tif.is_ome or tif.is_imagej):
         if len(shape) == 4:
             return shape, np.arange(shape[0] * shape[1]).reshape(shape[:2])
         if probe:
             return shape, np.zeros((0, 0), int)
-        raise DatasetError(f"{path}: a {len(shape)}-D array of shape {shape}; the series file "
-                           "is 4-D, axes (t, z, y, x)")
+        raise DatasetError(
+            f"{path}: a {len(shape)}-D array of shape {shape}; the series file "
+            "is 4-D, axes (t, z, y, x)"
+        )
     lead = axes[:-2]
     if axes[-2:] != "YX" or not set(lead) <= set("TZC") or "Z" not in lead:
-        raise DatasetError(f"{path}: axes {axes} ({'its OME-XML' if tif.is_ome else 'ImageJ'}); "
-                           "a volume has axes Z, Y, X (and T, C)")
-    pages = np.arange(int(np.prod(shape[:len(lead)]))).reshape(shape[:len(lead)])
+        raise DatasetError(
+            f"{path}: axes {axes} ({'its OME-XML' if tif.is_ome else 'ImageJ'}); "
+            "a volume has axes Z, Y, X (and T, C)"
+        )
+    pages = np.arange(int(np.prod(shape[: len(lead)]))).reshape(shape[: len(lead)])
     if "C" in lead:
         n_c, at = shape[lead.index("C")], lead.index("C")
         channel = 0 if probe and source.channel is None else _channel(source, n_c, axes)
         pages, lead = np.take(pages, channel, axis=at), lead.replace("C", "")
     elif source.channel not in (None, 0):
-        raise DatasetError(f"{path}: has no channel axis (axes {axes}); channel "
-                           f"{source.channel} is not there")
-    if lead == "ZT":                                      # z-major planes
+        raise DatasetError(
+            f"{path}: has no channel axis (axes {axes}); channel {source.channel} is not there"
+        )
+    if lead == "ZT":  # z-major planes
         pages = pages.T
-    elif lead == "Z":                                     # a single frame
+    elif lead == "Z":  # a single frame
         pages = pages[None]
     return (*pages.shape, *shape[-2:]), pages
 
@@ -531,13 +618,17 @@ def _channel(source: LabelSource, n_c: int, axes: str) -> int:
     when it names none), or the one-line error."""
     if source.channel is None:
         if n_c != 1:
-            raise DatasetError(f"{source.path}: has {n_c} channels (axes {axes}); meta.json's "
-                               "\"channels\" says which holds what, e.g. {\"intensity\": 0, "
-                               "\"labels\": 1} (ilastik's probabilities go in probabilities/)")
+            raise DatasetError(
+                f"{source.path}: has {n_c} channels (axes {axes}); meta.json's "
+                '"channels" says which holds what, e.g. {"intensity": 0, '
+                '"labels": 1} (ilastik\'s probabilities go in probabilities/)'
+            )
         return 0
     if not 0 <= source.channel < n_c:
-        raise DatasetError(f"{source.path}: has channels 0-{n_c - 1} (axes {axes}); channel "
-                           f"{source.channel} is not there")
+        raise DatasetError(
+            f"{source.path}: has channels 0-{n_c - 1} (axes {axes}); channel "
+            f"{source.channel} is not there"
+        )
     return source.channel
 
 
@@ -548,8 +639,12 @@ def _tiff_time_step(tif) -> float | None:
         pixels = _ome_pixels(tif)
         if pixels is None or pixels.get("TimeIncrement") is None:
             return None
-        return _time_ms(tif.filehandle.path, "OME TimeIncrementUnit",
-                        float(pixels.get("TimeIncrement")), pixels.get("TimeIncrementUnit", "s"))
+        return _time_ms(
+            tif.filehandle.path,
+            "OME TimeIncrementUnit",
+            float(pixels.get("TimeIncrement")),
+            pixels.get("TimeIncrementUnit", "s"),
+        )
     meta = tif.imagej_metadata or {}
     return float(meta["finterval"]) * 1e3 if meta.get("finterval") else None
 
@@ -557,8 +652,9 @@ def _tiff_time_step(tif) -> float | None:
 def _time_ms(path, what: str, value: float, unit: str) -> float:
     scale = TIME_UNITS_MS.get(str(unit).strip().lower())
     if scale is None:
-        raise DatasetError(f"{path}: {what} {unit!r} is not a time oftimg knows "
-                           f"({', '.join(TIME_UNITS_MS)})")
+        raise DatasetError(
+            f"{path}: {what} {unit!r} is not a time oftimg knows ({', '.join(TIME_UNITS_MS)})"
+        )
     return value * scale
 
 
@@ -574,8 +670,10 @@ def _tiff_voxel(tif) -> tuple[float, float, float] | None:
         return None
     unit = HEADER_UNITS_MM.get(str(meta.get("unit", "")).strip().lower())
     if unit is None:
-        raise DatasetError(f"{tif.filehandle.path}: ImageJ unit {meta.get('unit')!r} is not a "
-                           f"length oftimg knows ({', '.join(HEADER_UNITS_MM)})")
+        raise DatasetError(
+            f"{tif.filehandle.path}: ImageJ unit {meta.get('unit')!r} is not a "
+            f"length oftimg knows ({', '.join(HEADER_UNITS_MM)})"
+        )
     tags = tif.pages[0].tags
     dx, dy = (tags[name].value[1] / tags[name].value[0] for name in ("XResolution", "YResolution"))
     return (dx * unit, dy * unit, float(meta["spacing"]) * unit)
@@ -588,8 +686,7 @@ def _ome_pixels(tif):
     try:
         root = ET.fromstring(tif.ome_metadata)
     except ET.ParseError as exc:
-        raise DatasetError(f"{tif.filehandle.path}: its OME-XML cannot be read ({exc})") \
-            from None
+        raise DatasetError(f"{tif.filehandle.path}: its OME-XML cannot be read ({exc})") from None
     return next((e for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "Pixels"), None)
 
 
@@ -606,8 +703,10 @@ def _ome_voxel(tif) -> tuple[float, float, float] | None:
         unit = pixels.get(f"PhysicalSize{axis}Unit", "µm")
         scale = HEADER_UNITS_MM.get(unit.strip().lower())
         if scale is None:
-            raise DatasetError(f"{tif.filehandle.path}: OME PhysicalSize{axis}Unit {unit!r} "
-                               f"is not a length oftimg knows ({', '.join(HEADER_UNITS_MM)})")
+            raise DatasetError(
+                f"{tif.filehandle.path}: OME PhysicalSize{axis}Unit {unit!r} "
+                f"is not a length oftimg knows ({', '.join(HEADER_UNITS_MM)})"
+            )
         sizes.append(float(value) * scale)
     return tuple(sizes)
 
@@ -626,9 +725,18 @@ def _axes_array(path: Path, given: str | None = None):
         return
     with _hdf5(path) as data:
         tagged = "axistags" in data.attrs
-        yield _given_axes(AxesArray(data, hdf5_axes(data, path), None, None,
-                                    "its axistags" if tagged else "ilastik order, no axistags",
-                                    f"HDF5 ({data.name.lstrip('/')})"), given, path)
+        yield _given_axes(
+            AxesArray(
+                data,
+                hdf5_axes(data, path),
+                None,
+                None,
+                "its axistags" if tagged else "ilastik order, no axistags",
+                f"HDF5 ({data.name.lstrip('/')})",
+            ),
+            given,
+            path,
+        )
 
 
 def _given_axes(arr: AxesArray, given: str | None, path: Path) -> AxesArray:
@@ -639,7 +747,7 @@ def _given_axes(arr: AxesArray, given: str | None, path: Path) -> AxesArray:
         _no_axes_given(LabelSource(str(path), axes=given), arr.axes, arr.said)
         return arr
     if len(given) + 1 == arr.data.ndim and "t" not in given:
-        given = "t" + given                                   # a series: its frames first
+        given = "t" + given  # a series: its frames first
     return replace(arr, axes=_checked_axes(given, arr.data.shape, path), said="meta.json")
 
 
@@ -647,14 +755,18 @@ def _check_axes_frame(arr: AxesArray, source: LabelSource) -> None:
     """Refuse a per-frame file holding several frames, or a channel it lacks, before
     any voxel is read."""
     if source.index is None and "t" in arr.axes and arr.data.shape[arr.axes.index("t")] != 1:
-        raise DatasetError(f"{source.path}: {arr.data.shape[arr.axes.index('t')]} frames in a "
-                           "file of one frame; a whole series is one file named as its folder "
-                           "(labels.ome.zarr, labels.h5)")
+        raise DatasetError(
+            f"{source.path}: {arr.data.shape[arr.axes.index('t')]} frames in a "
+            "file of one frame; a whole series is one file named as its folder "
+            "(labels.ome.zarr, labels.h5)"
+        )
     if "c" in arr.axes:
         _channel(source, int(arr.data.shape[arr.axes.index("c")]), arr.axes)
     elif source.channel not in (None, 0):
-        raise DatasetError(f"{source.path}: has no channel axis (axes {arr.axes}); channel "
-                           f"{source.channel} is not there")
+        raise DatasetError(
+            f"{source.path}: has no channel axis (axes {arr.axes}); channel "
+            f"{source.channel} is not there"
+        )
 
 
 def _axes_frame(arr: AxesArray, source: LabelSource) -> np.ndarray:
@@ -671,8 +783,9 @@ def _axes_frame(arr: AxesArray, source: LabelSource) -> np.ndarray:
         else:
             where.append(slice(None))
     kept = [a for a in arr.axes if a in "zyx"]
-    return np.ascontiguousarray(np.transpose(np.asarray(arr.data[tuple(where)]),
-                                             [kept.index(a) for a in "zyx"]))
+    return np.ascontiguousarray(
+        np.transpose(np.asarray(arr.data[tuple(where)]), [kept.index(a) for a in "zyx"])
+    )
 
 
 @contextlib.contextmanager
@@ -682,18 +795,21 @@ def _hdf5(path: Path):
     try:
         import h5py
     except ImportError:
-        raise DatasetError(f"{path}: reading HDF5 needs h5py: pip install 'oftimg[h5]'") \
-            from None
+        raise DatasetError(f"{path}: reading HDF5 needs h5py: pip install 'oftimg[h5]'") from None
     with h5py.File(path, "r") as f:
         arrays = []
-        f.visititems(lambda name, obj: arrays.append(name) if isinstance(obj, h5py.Dataset)
-                     else None)
-        name = ILASTIK_DATASET if ILASTIK_DATASET in f else (arrays[0] if len(arrays) == 1
-                                                              else None)
+        f.visititems(
+            lambda name, obj: arrays.append(name) if isinstance(obj, h5py.Dataset) else None
+        )
+        name = (
+            ILASTIK_DATASET if ILASTIK_DATASET in f else (arrays[0] if len(arrays) == 1 else None)
+        )
         if name is None:
-            raise DatasetError(f"{path}: no '{ILASTIK_DATASET}' array (ilastik's export) and "
-                               f"{len(arrays)} others ({', '.join(arrays[:5]) or 'none'}); "
-                               "oftimg reads the file's one volume array")
+            raise DatasetError(
+                f"{path}: no '{ILASTIK_DATASET}' array (ilastik's export) and "
+                f"{len(arrays)} others ({', '.join(arrays[:5]) or 'none'}); "
+                "oftimg reads the file's one volume array"
+            )
         yield f[name]
 
 
@@ -706,8 +822,7 @@ def hdf5_axes(data, path: Path) -> str:
         try:
             axes = "".join(a["key"] for a in json.loads(tags)["axes"]).lower()
         except (ValueError, KeyError, TypeError) as exc:
-            raise DatasetError(f"{path}: its axistags cannot be read ({printable(exc)})") \
-                from None
+            raise DatasetError(f"{path}: its axistags cannot be read ({printable(exc)})") from None
     else:
         axes = {3: "zyx", 4: "zyxc", 5: "tzyxc"}.get(data.ndim, "")
     return _checked_axes(axes, data.shape, path)
@@ -715,10 +830,16 @@ def hdf5_axes(data, path: Path) -> str:
 
 def _checked_axes(axes: str, shape, path: Path) -> str:
     """``axes`` once they name each of the array's axes once, z, y and x among them."""
-    if (len(axes) != len(shape) or not set("zyx") <= set(axes) or not set(axes) <= set(AXIS_NAMES)
-            or len(set(axes)) != len(axes)):
-        raise DatasetError(f"{path}: an array of shape {tuple(shape)} with axes "
-                           f"{axes or 'not given'}; a volume has axes z, y, x (and t, c)")
+    if (
+        len(axes) != len(shape)
+        or not set("zyx") <= set(axes)
+        or not set(axes) <= set(AXIS_NAMES)
+        or len(set(axes)) != len(axes)
+    ):
+        raise DatasetError(
+            f"{path}: an array of shape {tuple(shape)} with axes "
+            f"{axes or 'not given'}; a volume has axes z, y, x (and t, c)"
+        )
     return axes
 
 
@@ -730,20 +851,29 @@ def _zarr_array(path: Path) -> AxesArray:
     try:
         import zarr
     except ImportError:
-        raise DatasetError(f"{path}: reading a zarr store needs zarr: pip install "
-                           f"'oftimg[{'ome' if path.name.endswith('.ome.zarr') else 'zarr'}]'"
-                           ) from None
+        raise DatasetError(
+            f"{path}: reading a zarr store needs zarr: pip install "
+            f"'oftimg[{'ome' if path.name.endswith('.ome.zarr') else 'zarr'}]'"
+        ) from None
     node = zarr.open(str(path), mode="r")
     if hasattr(node, "shape"):
         axes = {3: "zyx", 4: "tzyx"}.get(len(node.shape), "")
-        return AxesArray(node, _checked_axes(axes, node.shape, path), None, None,
-                         "as oftimg reads a plain zarr array", "zarr array")
+        return AxesArray(
+            node,
+            _checked_axes(axes, node.shape, path),
+            None,
+            None,
+            "as oftimg reads a plain zarr array",
+            "zarr array",
+        )
     attrs = node.attrs.asdict()
     ome = attrs.get("ome", attrs)
     multiscales = ome.get("multiscales")
     if not (isinstance(multiscales, list) and multiscales and isinstance(multiscales[0], dict)):
-        raise DatasetError(f"{path}: a zarr group without OME-Zarr \"multiscales\" metadata; "
-                           "oftimg reads an OME-Zarr image or one zarr array")
+        raise DatasetError(
+            f'{path}: a zarr group without OME-Zarr "multiscales" metadata; '
+            "oftimg reads an OME-Zarr image or one zarr array"
+        )
     image = multiscales[0]
     version = ome.get("version") or image.get("version", "")
     try:
@@ -751,15 +881,22 @@ def _zarr_array(path: Path) -> AxesArray:
         level = image["datasets"][0]
         data = node[level["path"]]
     except (KeyError, IndexError, TypeError) as exc:
-        raise DatasetError(f"{path}: its OME-Zarr multiscales metadata lacks "
-                           f"{printable(exc) or 'axes or datasets'}") from None
+        raise DatasetError(
+            f"{path}: its OME-Zarr multiscales metadata lacks "
+            f"{printable(exc) or 'axes or datasets'}"
+        ) from None
     letters = [_axis_letter(a) for a in described]
-    axes = _checked_axes("".join(letters) if all(letters) else
-                         ",".join(str(a.get("name")) for a in described), data.shape, path)
+    axes = _checked_axes(
+        "".join(letters) if all(letters) else ",".join(str(a.get("name")) for a in described),
+        data.shape,
+        path,
+    )
     units = {letter: a.get("unit") for letter, a in zip(axes, described)}
     scale = np.ones(len(axes))
-    for transforms in (level.get("coordinateTransformations", []),
-                       image.get("coordinateTransformations", [])):
+    for transforms in (
+        level.get("coordinateTransformations", []),
+        image.get("coordinateTransformations", []),
+    ):
         for transform in transforms:
             if transform.get("type") == "scale":
                 scale = scale * np.asarray(transform["scale"], float)
@@ -769,8 +906,14 @@ def _zarr_array(path: Path) -> AxesArray:
     step = None
     if "t" in axes and units.get("t"):
         step = _time_ms(path, "OME-Zarr t axis unit", float(scale[axes.index("t")]), units["t"])
-    return AxesArray(data, axes, voxel, step, f"its OME-Zarr {version} multiscales".replace(
-        "  ", " "), f"OME-Zarr {version}".strip())
+    return AxesArray(
+        data,
+        axes,
+        voxel,
+        step,
+        f"its OME-Zarr {version} multiscales".replace("  ", " "),
+        f"OME-Zarr {version}".strip(),
+    )
 
 
 def _axis_letter(axis: dict) -> str:
@@ -785,8 +928,10 @@ def _axis_letter(axis: dict) -> str:
 def _length_mm(path: Path, axis: str, unit: str) -> float:
     scale = HEADER_UNITS_MM.get(str(unit).strip().lower())
     if scale is None:
-        raise DatasetError(f"{path}: OME-Zarr {axis} axis unit {unit!r} is not a length oftimg "
-                           f"knows ({', '.join(HEADER_UNITS_MM)})")
+        raise DatasetError(
+            f"{path}: OME-Zarr {axis} axis unit {unit!r} is not a length oftimg "
+            f"knows ({', '.join(HEADER_UNITS_MM)})"
+        )
     return scale
 
 
@@ -794,8 +939,9 @@ def _nifti(path: Path):
     try:
         import nibabel
     except ImportError:
-        raise DatasetError(f"{path}: reading NIfTI needs nibabel: pip install "
-                           "'oftimg[nifti]'") from None
+        raise DatasetError(
+            f"{path}: reading NIfTI needs nibabel: pip install 'oftimg[nifti]'"
+        ) from None
     return nibabel.load(str(path))
 
 

@@ -11,6 +11,7 @@ wide open there (:func:`~oftimg.mesh.closure.is_one_frame_gap`) is a gap in the
 segmentation, not the cushions: that frame's lumen is filled from the two around it and
 named as a repair.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -28,8 +29,7 @@ def closed_frames(ds, executor=None) -> list[int]:
     if "lumen" not in ds.frames or "inner" not in ds.frames:
         return []
     paths = [str(p) for p in ds.frames["lumen"]]
-    states = list(map(_is_closed, paths) if executor is None
-                  else executor.map(_is_closed, paths))
+    states = list(map(_is_closed, paths) if executor is None else executor.map(_is_closed, paths))
     return [t for t, closed in enumerate(states) if closed]
 
 
@@ -38,19 +38,29 @@ def _is_closed(path: str) -> bool:
 
     try:
         return is_closed_lumen(*read_mesh_file(path))
-    except (DatasetError, ValueError):            # unreadable: the validation says why
+    except (DatasetError, ValueError):  # unreadable: the validation says why
         return False
 
 
-def bridge_frame(t: int, files: dict[str, str], neighbours: tuple[str, str] | None,
-                 out: str, options, length_unit: str) -> dict | DatasetError:
+def bridge_frame(
+    t: int,
+    files: dict[str, str],
+    neighbours: tuple[str, str] | None,
+    out: str,
+    options,
+    length_unit: str,
+) -> dict | DatasetError:
     """Frame ``t``'s closed lumen (``files``: its ``lumen`` and ``inner`` files)
     bridged, or, when ``neighbours`` (the lumen files of the frames before and after,
     given when neither is closed) are wide open where it closed, filled from them: the
     mesh written to ``out`` (PLY, the bridge flagged) and its record; or the error
     naming the file."""
-    from ..mesh.closed_meshes import (closed_lumen_from_meshes, lumen_and_inner_masks,
-                                      tube_end_planes, voxel_box)
+    from ..mesh.closed_meshes import (
+        closed_lumen_from_meshes,
+        lumen_and_inner_masks,
+        tube_end_planes,
+        voxel_box,
+    )
     from ..mesh.closure import is_one_frame_gap
     from ..mesh.labels import CLOSED_PROPERTY, mesh_wall
     from ..mesh.topology import MeshError
@@ -61,48 +71,80 @@ def bridge_frame(t: int, files: dict[str, str], neighbours: tuple[str, str] | No
     try:
         mesh = closed_lumen_from_meshes(lumen, inner, options, length_unit=length_unit)
     except MeshError as exc:
-        return DatasetError(f"{files['inner']}: the inner wall, around a lumen the "
-                            f"cushions close, {exc}")
+        return DatasetError(
+            f"{files['inner']}: the inner wall, around a lumen the cushions close, {exc}"
+        )
     if mesh is None:
-        return DatasetError(f"{files['lumen']}: the lumen is in pieces (or closed up to an "
-                            "end), and its pieces cannot be joined inside the inner wall "
-                            "into one tube")
-    if mesh.closed is None:                  # holes through a slit, closed nowhere
+        return DatasetError(
+            f"{files['lumen']}: the lumen is in pieces (or closed up to an "
+            "end), and its pieces cannot be joined inside the inner wall "
+            "into one tube"
+        )
+    if mesh.closed is None:  # holes through a slit, closed nowhere
         write_ply(out, mesh.V, mesh.F)
         what = mesh.repair.what if mesh.repair is not None else "meshed from voxels"
-        return {"frame": t, "file": name, "source": files["lumen"], "repaired": True,
-                "why": (f"its lumen had holes through a narrowing slit but closed "
-                        f"nowhere: filled into voxels and meshed again ({what})")}
+        return {
+            "frame": t,
+            "file": name,
+            "source": files["lumen"],
+            "repaired": True,
+            "why": (
+                f"its lumen had holes through a narrowing slit but closed "
+                f"nowhere: filled into voxels and meshed again ({what})"
+            ),
+        }
     if neighbours is not None:
         planes = tube_end_planes(*inner)
         origin, side, shape = voxel_box(inner[0], *lumen)
         local = [(point - origin, normal) for point, normal in planes]
         own, inner_mask = lumen_and_inner_masks(lumen, inner, origin, side, shape, local)
-        around = [lumen_and_inner_masks(read_mesh_file(f), inner, origin, side, shape,
-                                        local)[0] for f in neighbours]
+        around = [
+            lumen_and_inner_masks(read_mesh_file(f), inner, origin, side, shape, local)[0]
+            for f in neighbours
+        ]
         voxel = (side, side, side)
         if is_one_frame_gap(mesh.V[mesh.closed] - origin, own, *around, voxel):
             try:
-                filled = mesh_wall(blended_occupancy(*around, 0.5, voxel,
-                                                     within=inner_mask.astype(np.float32)),
-                                   voxel, options, local, length_unit=length_unit)
+                filled = mesh_wall(
+                    blended_occupancy(*around, 0.5, voxel, within=inner_mask.astype(np.float32)),
+                    voxel,
+                    options,
+                    local,
+                    length_unit=length_unit,
+                )
             except MeshError as exc:
-                return DatasetError(f"{files['lumen']}: the lumen, closed in this frame "
-                                    "alone (a gap in the segmentation), filled from the "
-                                    f"frames around it, {exc}")
+                return DatasetError(
+                    f"{files['lumen']}: the lumen, closed in this frame "
+                    "alone (a gap in the segmentation), filled from the "
+                    f"frames around it, {exc}"
+                )
             write_ply(out, filled.V + origin, filled.F)
-            return {"frame": t, "file": name, "source": files["lumen"], "repaired": True,
-                    "why": ("its lumen closed over a stretch in this frame alone, wide "
-                            "open there in the frames either side: a gap in the "
-                            "segmentation, not the cushions; filled from them")}
+            return {
+                "frame": t,
+                "file": name,
+                "source": files["lumen"],
+                "repaired": True,
+                "why": (
+                    "its lumen closed over a stretch in this frame alone, wide "
+                    "open there in the frames either side: a gap in the "
+                    "segmentation, not the cushions; filled from them"
+                ),
+            }
     write_ply(out, mesh.V, mesh.F, {CLOSED_PROPERTY: mesh.closed.astype(np.float32)})
-    return {"frame": t, "file": name, "source": files["lumen"], "repaired": False,
-            **{k: (round(v, 6) if isinstance(v, float) else v)
-               for k, v in (mesh.closure or {}).items()}}
+    return {
+        "frame": t,
+        "file": name,
+        "source": files["lumen"],
+        "repaired": False,
+        **{
+            k: (round(v, 6) if isinstance(v, float) else v) for k, v in (mesh.closure or {}).items()
+        },
+    }
 
 
-def bridged_dataset(ds, folder: Path, options, executor=None, progress=None,
-                    closed: list[int] | None = None):
+def bridged_dataset(
+    ds, folder: Path, options, executor=None, progress=None, closed: list[int] | None = None
+):
     """Mesh dataset ``ds`` with the lumens the cushions closed bridged (or, a one-frame
     gap, filled) into ``folder`` (created; beside the kept results, removed with them)
     and read from there; ``ds`` itself when no lumen is closed. Its ``lumen_bridged``
@@ -122,14 +164,27 @@ def bridged_dataset(ds, folder: Path, options, executor=None, progress=None,
     tasks = []
     for t in closed:
         around = ((t - 1) % n, (t + 1) % n)
-        neighbours = (None if any(f in shut for f in around)
-                      else tuple(str(ds.frames["lumen"][f]) for f in around))
-        tasks.append((t, {"lumen": str(ds.frames["lumen"][t]),
-                          "inner": str(ds.frames["inner"][t])}, neighbours,
-                      str(folder / ds.frames["lumen"][t].name), options, ds.meta.length_unit))
+        neighbours = (
+            None
+            if any(f in shut for f in around)
+            else tuple(str(ds.frames["lumen"][f]) for f in around)
+        )
+        tasks.append(
+            (
+                t,
+                {"lumen": str(ds.frames["lumen"][t]), "inner": str(ds.frames["inner"][t])},
+                neighbours,
+                str(folder / ds.frames["lumen"][t].name),
+                options,
+                ds.meta.length_unit,
+            )
+        )
     results = []
-    for result in (map(bridge_frame, *zip(*tasks)) if executor is None
-                   else executor.map(bridge_frame, *zip(*tasks))):
+    for result in (
+        map(bridge_frame, *zip(*tasks))
+        if executor is None
+        else executor.map(bridge_frame, *zip(*tasks))
+    ):
         results.append(result)
         if progress is not None:
             progress()
@@ -137,10 +192,13 @@ def bridged_dataset(ds, folder: Path, options, executor=None, progress=None,
     lumen = list(ds.frames["lumen"])
     for t in closed:
         lumen[t] = folder / ds.frames["lumen"][t].name
-    record = {"closures": [r for r in results if not r["repaired"]],
-              "repaired": [r for r in results if r["repaired"]]}
-    return dataclasses.replace(ds, frames={**ds.frames, "lumen": lumen}, lumen_bridged=record,
-                               checked={})
+    record = {
+        "closures": [r for r in results if not r["repaired"]],
+        "repaired": [r for r in results if r["repaired"]],
+    }
+    return dataclasses.replace(
+        ds, frames={**ds.frames, "lumen": lumen}, lumen_bridged=record, checked={}
+    )
 
 
 def bridged_notes(path: Path, record: dict | None, n_frames: int) -> list[str]:
@@ -150,12 +208,15 @@ def bridged_notes(path: Path, record: dict | None, n_frames: int) -> list[str]:
         return []
     notes = []
     if record["closures"]:
-        notes.append(f"{path}: the lumen is in pieces (the cushions closed it over a "
-                     f"stretch) in {len(record['closures'])} of {n_frames} frames; its "
-                     "pieces were joined by a thin bridge to grid it, and its rows there are "
-                     "measured as closed (area 0, no curvature: lumen_closed in arrays.npz; "
-                     "summary.json provenance.lumen_bridged)")
+        notes.append(
+            f"{path}: the lumen is in pieces (the cushions closed it over a "
+            f"stretch) in {len(record['closures'])} of {n_frames} frames; its "
+            "pieces were joined by a thin bridge to grid it, and its rows there are "
+            "measured as closed (area 0, no curvature: lumen_closed in arrays.npz; "
+            "summary.json provenance.lumen_bridged)"
+        )
     for repaired in record["repaired"]:
-        notes.append(f"{path}: repaired frame {repaired['frame']} ({repaired['file']}): "
-                     f"{repaired['why']}")
+        notes.append(
+            f"{path}: repaired frame {repaired['frame']} ({repaired['file']}): {repaired['why']}"
+        )
     return notes

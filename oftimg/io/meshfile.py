@@ -7,6 +7,7 @@ short, lying in its header or not made of triangles raises
 oftimg's own NumPy readers (:mod:`oftimg.io.meshformats`): open3d's crash the
 process on damaged PLY files, so no untrusted byte reaches it.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -18,8 +19,8 @@ from .meshformats import PARSERS, MeshFormatError, not_triangles, ply_vertex_pro
 from .safefile import read_file_start, read_regular_file
 
 MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off", ".vtk", ".vtp")
-MAX_MESH_BYTES = 2 ** 31        # 2 GiB: some 50 million triangles
-HEADER_PEEK_BYTES = 65536       # a PLY header is read from this much of a file
+MAX_MESH_BYTES = 2**31  # 2 GiB: some 50 million triangles
+HEADER_PEEK_BYTES = 65536  # a PLY header is read from this much of a file
 
 
 def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -32,10 +33,11 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in MESH_SUFFIXES:
-        raise DatasetError(f"{path}: unsupported mesh format {suffix!r}; "
-                           f"use one of {', '.join(MESH_SUFFIXES)}")
+        raise DatasetError(
+            f"{path}: unsupported mesh format {suffix!r}; use one of {', '.join(MESH_SUFFIXES)}"
+        )
     if suffix == ".vtp":
-        read_regular_file(path, max_bytes=0)               # checks the kind of file only
+        read_regular_file(path, max_bytes=0)  # checks the kind of file only
         V, F = _read_vtp(path)
     else:
         data = read_regular_file(path, max_bytes=MAX_MESH_BYTES)
@@ -46,8 +48,10 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if len(F) == 0:
         raise DatasetError(f"{path}: no triangles could be read (broken or not a triangle mesh)")
     if V.shape[1:] != (3,) or F.shape[1:] != (3,):
-        raise DatasetError(f"{path}: expected 3-D vertices and triangles, "
-                           f"found vertices {V.shape} and faces {F.shape}")
+        raise DatasetError(
+            f"{path}: expected 3-D vertices and triangles, "
+            f"found vertices {V.shape} and faces {F.shape}"
+        )
     if F.min() < 0 or F.max() >= len(V):
         raise DatasetError(f"{path}: face indices out of range 0..{len(V) - 1}")
     return V, F
@@ -60,19 +64,23 @@ def _read_vtp(path: Path) -> tuple[np.ndarray, np.ndarray]:
         from vtkmodules.vtkFiltersCore import vtkTriangleFilter
         from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
     except ImportError:
-        raise DatasetError(f"{path}: reading .vtp needs the vtk package "
-                           "(pip install 'oftimg[vtk]')") from None
+        raise DatasetError(
+            f"{path}: reading .vtp needs the vtk package (pip install 'oftimg[vtk]')"
+        ) from None
     reader = vtkXMLPolyDataReader()
     if not reader.CanReadFile(str(path)):
         raise DatasetError(f"{path}: cannot be read as VTK XML PolyData")
     reader.SetFileName(str(path))
     reader.Update()
     polys = reader.GetOutput().GetPolys()
-    others = int(np.count_nonzero(np.diff(vtk_to_numpy(polys.GetOffsetsArray())) != 3)
-                 if polys is not None and polys.GetNumberOfCells() else 0)
+    others = int(
+        np.count_nonzero(np.diff(vtk_to_numpy(polys.GetOffsetsArray())) != 3)
+        if polys is not None and polys.GetNumberOfCells()
+        else 0
+    )
     if others:
         raise DatasetError(f"{path}: {not_triangles(others)}")
-    tri = vtkTriangleFilter()                   # triangle strips, if any, to triangles
+    tri = vtkTriangleFilter()  # triangle strips, if any, to triangles
     tri.SetInputConnection(reader.GetOutputPort())
     tri.Update()
     poly = tri.GetOutput()
@@ -83,8 +91,12 @@ def _read_vtp(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return V, conn.reshape(-1, 3)
 
 
-def write_ply(path: str | Path, V: np.ndarray, F: np.ndarray,
-              vertex_values: dict[str, np.ndarray] | None = None) -> None:
+def write_ply(
+    path: str | Path,
+    V: np.ndarray,
+    F: np.ndarray,
+    vertex_values: dict[str, np.ndarray] | None = None,
+) -> None:
     """Write a binary little-endian PLY (float32 vertices, int32 faces), with
     ``vertex_values`` (name -> ``(n_vert,)``) as float vertex properties after x, y, z
     (ParaView shows them; :func:`read_vertex_values` reads one back)."""
@@ -97,10 +109,12 @@ def write_ply(path: str | Path, V: np.ndarray, F: np.ndarray,
     rec = np.empty(len(F), dtype=[("n", "u1"), ("idx", "<i4", (3,))])
     rec["n"] = 3
     rec["idx"] = F
-    header = ("ply\nformat binary_little_endian 1.0\n"
-              f"element vertex {len(V)}\n"
-              + "".join(f"property float {c}\n" for c in ["x", "y", "z"] + names)
-              + f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n")
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"element vertex {len(V)}\n"
+        + "".join(f"property float {c}\n" for c in ["x", "y", "z"] + names)
+        + f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
     with open(path, "wb") as fh:
         fh.write(header.encode("ascii"))
         fh.write(rec_v.tobytes())
@@ -113,7 +127,7 @@ def read_vertex_values(path: str | Path, name: str) -> np.ndarray | None:
     path = Path(path)
     if path.suffix.lower() != ".ply":
         return None
-    head = read_file_start(path, HEADER_PEEK_BYTES)        # most files have none: no reading
+    head = read_file_start(path, HEADER_PEEK_BYTES)  # most files have none: no reading
     end = head.find(b"end_header")
     if end >= 0 and name.encode() not in head[:end]:
         return None

@@ -4,6 +4,7 @@ sizes bounded before a byte is read, and JSON with its depth and numbers bounded
 
 Every refusal is a :class:`~oftimg.errors.DatasetError` that names the file.
 """
+
 from __future__ import annotations
 
 import errno
@@ -17,13 +18,17 @@ import numpy as np
 
 from ..errors import DatasetError
 
-JSON_MAX_BYTES = 1 << 20        # a meta.json of 1 MiB is not a meta.json
+JSON_MAX_BYTES = 1 << 20  # a meta.json of 1 MiB is not a meta.json
 JSON_MAX_DEPTH = 8
-JSON_MAX_DIGITS = 15            # whole numbers beyond 10^15 are no voxel, period or label
+JSON_MAX_DIGITS = 15  # whole numbers beyond 10^15 are no voxel, period or label
 
-_KINDS = {stat.S_IFDIR: "a folder", stat.S_IFIFO: "a named pipe (FIFO)",
-          stat.S_IFCHR: "a character device", stat.S_IFBLK: "a block device",
-          stat.S_IFSOCK: "a socket"}
+_KINDS = {
+    stat.S_IFDIR: "a folder",
+    stat.S_IFIFO: "a named pipe (FIFO)",
+    stat.S_IFCHR: "a character device",
+    stat.S_IFBLK: "a block device",
+    stat.S_IFSOCK: "a socket",
+}
 
 
 def file_status(path: Path, *, optional: bool = False) -> os.stat_result | None:
@@ -57,8 +62,10 @@ def read_regular_file(path: Path, *, max_bytes: int) -> bytes:
     if max_bytes == 0:
         return b""
     if st.st_size > max_bytes:
-        raise DatasetError(f"{path}: {st.st_size / 2**20:.0f} MiB, more than the "
-                           f"{max_bytes / 2**20:.0f} MiB such a file can be")
+        raise DatasetError(
+            f"{path}: {st.st_size / 2**20:.0f} MiB, more than the "
+            f"{max_bytes / 2**20:.0f} MiB such a file can be"
+        )
     # O_NONBLOCK: had the file become a FIFO since the check, open would not block
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     try:
@@ -100,16 +107,19 @@ def read_json_file(path: Path, *, optional: bool = False) -> object | None:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise DatasetError(f"{path}: not valid JSON (not UTF-8 text)") from None
-    bare = re.sub(r'"(?:[^"\\]|\\.)*"', '""', text)        # brackets inside strings
+    bare = re.sub(r'"(?:[^"\\]|\\.)*"', '""', text)  # brackets inside strings
     depth = np.cumsum(_bracket_steps(bare))
     if depth.size and depth.max() > JSON_MAX_DEPTH:
-        raise DatasetError(f"{path}: not valid JSON for oftimg (nested {int(depth.max())} "
-                           f"deep; at most {JSON_MAX_DEPTH})")
+        raise DatasetError(
+            f"{path}: not valid JSON for oftimg (nested {int(depth.max())} "
+            f"deep; at most {JSON_MAX_DEPTH})"
+        )
     try:
         return json.loads(text, parse_int=_bounded_int, parse_constant=_no_constant)
     except json.JSONDecodeError as exc:
-        raise DatasetError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, "
-                           f"column {exc.colno})") from None
+        raise DatasetError(
+            f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})"
+        ) from None
     except ValueError as exc:
         raise DatasetError(f"{path}: not valid JSON for oftimg ({exc})") from None
 
@@ -117,5 +127,6 @@ def read_json_file(path: Path, *, optional: bool = False) -> object | None:
 def _bracket_steps(text: str) -> np.ndarray:
     """+1 for each opening bracket, -1 for each closing one, in order."""
     codes = np.frombuffer(text.encode("utf-8", "replace"), np.uint8)
-    return (np.isin(codes, (ord("["), ord("{"))).astype(np.int32)
-            - np.isin(codes, (ord("]"), ord("}"))).astype(np.int32))
+    return np.isin(codes, (ord("["), ord("{"))).astype(np.int32) - np.isin(
+        codes, (ord("]"), ord("}"))
+    ).astype(np.int32)

@@ -5,6 +5,7 @@ tissue inside the window at the minimum-volume frame is followed by clipping
 every other frame's ventricular end at the plane that leaves the same
 myocardial volume.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,8 +26,7 @@ def cumulative_from_outlet(area_mm2: np.ndarray, thickness_mm: np.ndarray) -> np
     return np.concatenate([rev, np.zeros((1, area_mm2.shape[1]))], axis=0)
 
 
-def clip_positions(myo_area_mm2: np.ndarray, thickness_mm: np.ndarray
-                   ) -> tuple[np.ndarray, float]:
+def clip_positions(myo_area_mm2: np.ndarray, thickness_mm: np.ndarray) -> tuple[np.ndarray, float]:
     """Per frame, the v at which clipping leaves the minimum myocardial volume.
 
     Returns ``v_c (n_t,)`` in [0, 1] (0 at the frame of minimum volume) and the
@@ -75,26 +75,39 @@ def clip_grid(X: np.ndarray, origin: np.ndarray, normal: np.ndarray) -> np.ndarr
         f = np.where((dk != dk1) & behind.any(axis=1), dk / (dk - dk1), 0.0)
     f = np.clip(f, 0.0, 1.0)
     # arc length along each whole line; the clipped line is its part from s_start
-    s = np.concatenate([np.zeros((len(lines), 1)),
-                        np.cumsum(np.linalg.norm(np.diff(lines, axis=1), axis=2), axis=1)], axis=1)
+    s = np.concatenate(
+        [
+            np.zeros((len(lines), 1)),
+            np.cumsum(np.linalg.norm(np.diff(lines, axis=1), axis=2), axis=1),
+        ],
+        axis=1,
+    )
     s_start = s[rows, k] + f * (s[rows, k + 1] - s[rows, k])
     target = s_start[:, None] + np.linspace(0.0, 1.0, n_v) * (s[:, -1] - s_start)[:, None]
     out = interp_grouped(target, s.ravel(), lines.reshape(-1, 3), np.repeat(rows, n_v))
     return out.reshape(X.shape)
 
 
-def clipped_grids(grids: dict[str, np.ndarray], plane_origin: np.ndarray,
-                  plane_normal: np.ndarray, clip_v: np.ndarray) -> dict[str, np.ndarray]:
+def clipped_grids(
+    grids: dict[str, np.ndarray],
+    plane_origin: np.ndarray,
+    plane_normal: np.ndarray,
+    clip_v: np.ndarray,
+) -> dict[str, np.ndarray]:
     """Each wall's grid ``(n_u, n_v, n_t, 3)`` mm clipped in every frame at the plane
     of constant myocardial volume, as ``"<wall>_clipped"`` ``(n_u, n_v, n_t, 3)``:
     frame t's plane lies at ``clip_v[t]`` between its section planes ``plane_origin``
     / ``plane_normal`` ``(n_v, n_t, 3)`` (:func:`plane_at`), and each u-line is cut there
     and resampled from it to the outlet (:func:`clip_grid`). Made from what a run
     stores, so that the clipped grids need not be stored too."""
-    planes = [plane_at(plane_origin[:, t], plane_normal[:, t], float(v))
-              for t, v in enumerate(clip_v)]
-    origin = np.array([o for o, _ in planes])                   # (n_t, 3)
+    planes = [
+        plane_at(plane_origin[:, t], plane_normal[:, t], float(v)) for t, v in enumerate(clip_v)
+    ]
+    origin = np.array([o for o, _ in planes])  # (n_t, 3)
     normal = np.array([n for _, n in planes])
-    return {f"{w}_clipped": clip_grid(np.asarray(g, float).transpose(0, 2, 1, 3), origin,
-                                      normal).transpose(0, 2, 1, 3)       # u-lines of all frames
-            for w, g in grids.items()}
+    return {
+        f"{w}_clipped": clip_grid(
+            np.asarray(g, float).transpose(0, 2, 1, 3), origin, normal
+        ).transpose(0, 2, 1, 3)  # u-lines of all frames
+        for w, g in grids.items()
+    }

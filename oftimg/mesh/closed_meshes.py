@@ -10,6 +10,7 @@ end), and the lumen's mask is bridged and meshed by
 :func:`~oftimg.mesh.labels.closed_lumen_mesh`: its bridge's vertices flagged, its rows
 measured as closed. Coordinates stay in the files' length unit.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -38,14 +39,16 @@ def surface_pieces(F: np.ndarray, n_vertices: int) -> list[np.ndarray]:
     faces dropped, largest first: ``[face indices (k,)]``."""
     if len(F) == 0:
         return []
-    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]]])       # a face's vertices joined
-    A = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])),
-                      shape=(n_vertices, n_vertices))
+    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]]])  # a face's vertices joined
+    A = sp.coo_matrix(
+        (np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n_vertices, n_vertices)
+    )
     n, label = connected_components(A, directed=False)
     label = label[F[:, 0]]
     sizes = np.bincount(label, minlength=n)
-    order = [k for k in np.argsort(-sizes, kind="stable")
-             if sizes[k] >= PIECE_MIN_SHARE * sizes.max()]
+    order = [
+        k for k in np.argsort(-sizes, kind="stable") if sizes[k] >= PIECE_MIN_SHARE * sizes.max()
+    ]
     return [np.flatnonzero(label == k) for k in order]
 
 
@@ -67,8 +70,9 @@ def is_closed_lumen(V: np.ndarray, F: np.ndarray) -> bool:
         loops = len(boundary_loops(F))
     except MeshError:
         return False
-    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
-                              axis=1), axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0
+    )
     euler = len(np.unique(F)) - len(edges) + len(F)
     return loops == 1 or (loops == 2 and euler < 0)
 
@@ -80,8 +84,10 @@ def capped(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if not loops:
         return V, F
     centres = np.array([loop_centroid(V[loop]) for loop in loops])
-    fans = [np.column_stack([np.roll(loop, -1), loop, np.full(len(loop), len(V) + i)])
-            for i, loop in enumerate(loops)]
+    fans = [
+        np.column_stack([np.roll(loop, -1), loop, np.full(len(loop), len(V) + i)])
+        for i, loop in enumerate(loops)
+    ]
     return np.concatenate([V, centres]), np.concatenate([F, *fans])
 
 
@@ -103,8 +109,12 @@ def tube_end_planes(V: np.ndarray, F: np.ndarray) -> list[tuple[np.ndarray, np.n
     return planes
 
 
-def occupancy(surfaces: list[tuple[np.ndarray, np.ndarray]], origin_xyz: np.ndarray,
-              side: float, shape_zyx: tuple[int, int, int]) -> np.ndarray:
+def occupancy(
+    surfaces: list[tuple[np.ndarray, np.ndarray]],
+    origin_xyz: np.ndarray,
+    side: float,
+    shape_zyx: tuple[int, int, int],
+) -> np.ndarray:
     """Which voxel centres ``(z, y, x)`` bool lie inside the watertight ``surfaces``
     (each ``(V, F)``, disjoint), voxel ``(k, j, i)`` centred at ``origin + side * (i,
     j, k)``: open3d's ray-casting inside test (its RaycastingScene, C++ and threaded:
@@ -121,35 +131,35 @@ def occupancy(surfaces: list[tuple[np.ndarray, np.ndarray]], origin_xyz: np.ndar
     out = np.zeros(shape_zyx, bool)
     x = origin_xyz[0] + side * np.arange(nx)
     y = origin_xyz[1] + side * np.arange(ny)
-    for k in range(nz):                   # a plane at a time: the points take 12 bytes each
-        P = np.stack(np.broadcast_arrays(x[None, :], y[:, None], origin_xyz[2] + side * k),
-                     axis=-1).astype(np.float32)
-        out[k] = scene.compute_occupancy(o3d.core.Tensor(P), nsamples=OCCUPANCY_RAYS
-                                         ).numpy() > 0.5
+    for k in range(nz):  # a plane at a time: the points take 12 bytes each
+        P = np.stack(
+            np.broadcast_arrays(x[None, :], y[:, None], origin_xyz[2] + side * k), axis=-1
+        ).astype(np.float32)
+        out[k] = scene.compute_occupancy(o3d.core.Tensor(P), nsamples=OCCUPANCY_RAYS).numpy() > 0.5
     return out
 
 
-def continued_past_ends(mask: np.ndarray, side: float, planes, reach_voxels: int
-                        ) -> np.ndarray:
+def continued_past_ends(mask: np.ndarray, side: float, planes, reach_voxels: int) -> np.ndarray:
     """``mask (z, y, x)`` (voxel centres at ``side * (i, j, k)``) continued up to
     ``reach_voxels`` past each end plane (``(point, normal)``, normal into the tube): a
     voxel beyond a plane takes the value of the voxel half a side inside the plane
     straight below it, so the tube goes on as its end section."""
     out = mask.copy()
-    index = np.indices(mask.shape).reshape(3, -1).T                     # z y x
-    X = index[:, ::-1] * side                                           # x y z
+    index = np.indices(mask.shape).reshape(3, -1).T  # z y x
+    X = index[:, ::-1] * side  # x y z
     for point, normal in planes:
         d = (X - point) @ normal
         beyond = (d < 0) & (d >= -reach_voxels * side)
         source = X[beyond] - (d[beyond, None] - 0.5 * side) * normal
-        k = np.rint(source / side).astype(int)[:, ::-1]                 # z y x
+        k = np.rint(source / side).astype(int)[:, ::-1]  # z y x
         inside = np.all((k >= 0) & (k < mask.shape), axis=1)
         out.reshape(-1)[np.flatnonzero(beyond)[inside]] = mask[tuple(k[inside].T)]
     return out
 
 
-def voxel_box(inner_V: np.ndarray, lumen_V: np.ndarray, lumen_F: np.ndarray
-              ) -> tuple[np.ndarray, float, tuple[int, int, int]]:
+def voxel_box(
+    inner_V: np.ndarray, lumen_V: np.ndarray, lumen_F: np.ndarray
+) -> tuple[np.ndarray, float, tuple[int, int, int]]:
     """The voxel grid a frame is filled into: its first voxel centre (x y z), its side
     (the lumen's median edge, coarser where the box would pass :data:`MAX_VOXELS`) and
     its shape ``(z, y, x)``: the inner wall's box (``inner_V (n, 3)``) and
@@ -166,20 +176,28 @@ def voxel_box(inner_V: np.ndarray, lumen_V: np.ndarray, lumen_F: np.ndarray
     return low - margin * side, side, (int(shape[2]), int(shape[1]), int(shape[0]))
 
 
-def lumen_and_inner_masks(lumen: tuple[np.ndarray, np.ndarray],
-                          inner: tuple[np.ndarray, np.ndarray], origin: np.ndarray,
-                          side: float, shape_zyx: tuple[int, int, int], planes
-                          ) -> tuple[np.ndarray, np.ndarray]:
+def lumen_and_inner_masks(
+    lumen: tuple[np.ndarray, np.ndarray],
+    inner: tuple[np.ndarray, np.ndarray],
+    origin: np.ndarray,
+    side: float,
+    shape_zyx: tuple[int, int, int],
+    planes,
+) -> tuple[np.ndarray, np.ndarray]:
     """The lumen's and the inner wall's masks ``(z, y, x)`` bool on the grid
     (:func:`voxel_box`), each surface capped (:func:`capped`, a lumen piece by piece)
     and filled (:func:`occupancy`), then continued past the tube's ends
     (:func:`continued_past_ends`; ``planes`` relative to ``origin``)."""
     V, F, _ = repair(*lumen)
     pieces = [capped(*_compact(V, F[faces])) for faces in surface_pieces(F, len(V))]
-    masks = (occupancy(pieces, origin, side, shape_zyx),
-             occupancy([capped(*inner)], origin, side, shape_zyx))
-    return tuple(continued_past_ends(m, side, planes, PAST_END_VOXELS)  # type: ignore
-                 for m in masks)
+    masks = (
+        occupancy(pieces, origin, side, shape_zyx),
+        occupancy([capped(*inner)], origin, side, shape_zyx),
+    )
+    return tuple(
+        continued_past_ends(m, side, planes, PAST_END_VOXELS)  # type: ignore
+        for m in masks
+    )
 
 
 def _compact(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -188,9 +206,13 @@ def _compact(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return V[used], F.reshape(-1, 3)
 
 
-def closed_lumen_from_meshes(lumen: tuple[np.ndarray, np.ndarray],
-                             inner: tuple[np.ndarray, np.ndarray], options, *,
-                             length_unit: str = "mm"):
+def closed_lumen_from_meshes(
+    lumen: tuple[np.ndarray, np.ndarray],
+    inner: tuple[np.ndarray, np.ndarray],
+    options,
+    *,
+    length_unit: str = "mm",
+):
     """One frame's lumen ``(V, F)`` the cushions closed (:func:`is_closed_lumen`) as one
     tube with its bridge flagged, inside the frame's inner wall ``(V, F)`` (an open
     tube; both in the files' length unit): a :class:`~oftimg.mesh.labels.WallMesh`
@@ -205,14 +227,24 @@ def closed_lumen_from_meshes(lumen: tuple[np.ndarray, np.ndarray],
     local = [(point - origin, normal) for point, normal in planes]
     mask, inner_mask = lumen_and_inner_masks(lumen, inner, origin, side, shape, local)
     voxel = (side, side, side)
-    mesh = closed_lumen_mesh(mask, inner_mask, voxel, options, local,
-                             openings=(0, 1, 2, 3), to_ends=True, length_unit=length_unit)
-    if mesh is None:         # a slit's holes, but closed nowhere: one tube, mended
-        mended, _ = _mesh_or_mend("lumen", mask, voxel, options, local,
-                                  length_unit=length_unit)
+    mesh = closed_lumen_mesh(
+        mask,
+        inner_mask,
+        voxel,
+        options,
+        local,
+        openings=(0, 1, 2, 3),
+        to_ends=True,
+        length_unit=length_unit,
+    )
+    if mesh is None:  # a slit's holes, but closed nowhere: one tube, mended
+        mended, _ = _mesh_or_mend("lumen", mask, voxel, options, local, length_unit=length_unit)
         if isinstance(mended, str):
             return None
-        return replace(mended, V=mended.V + origin, mean_curvature=None, closed=None,
-                       closure=None)
-    return replace(mesh, V=mesh.V + origin, mean_curvature=None,
-                   closure={**(mesh.closure or {}), "voxel_side": side})
+        return replace(mended, V=mended.V + origin, mean_curvature=None, closed=None, closure=None)
+    return replace(
+        mesh,
+        V=mesh.V + origin,
+        mean_curvature=None,
+        closure={**(mesh.closure or {}), "voxel_side": side},
+    )

@@ -7,6 +7,7 @@ closed stretch (through the middle of the inner wall's mask, where the apposed l
 lies) and the bridge's part of the surface is flagged: its rows are measured as closed
 (area 0, curvature masked), not as a lumen.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,8 +46,7 @@ def lumen_pieces(mask: np.ndarray) -> tuple[np.ndarray, int]:
 def _box(mask: np.ndarray) -> tuple[slice, ...] | None:
     """The slices of the smallest box holding ``mask``'s True voxels (None: none): the
     lumen fills a few % of an OCT volume, and labelling only its box is 5-10x faster."""
-    where = [np.flatnonzero(mask.any(axis=tuple(a for a in range(3) if a != k)))
-             for k in range(3)]
+    where = [np.flatnonzero(mask.any(axis=tuple(a for a in range(3) if a != k))) for k in range(3)]
     if not len(where[0]):
         return None
     return tuple(slice(int(w[0]), int(w[-1]) + 1) for w in where)
@@ -88,7 +88,7 @@ def tube_ends(inner: np.ndarray, voxel_size_xyz, ends=None) -> list[np.ndarray]:
     size_zyx = np.asarray(voxel_size_xyz, float)[::-1]
     if ends:
         voxels = np.argwhere(inner)
-        points = voxels[:, ::-1] * size_zyx[::-1]                       # x y z
+        points = voxels[:, ::-1] * size_zyx[::-1]  # x y z
         out = []
         for point, normal in ends:
             normal = np.asarray(normal, float) / np.linalg.norm(normal)
@@ -112,20 +112,25 @@ def tube_ends(inner: np.ndarray, voxel_size_xyz, ends=None) -> list[np.ndarray]:
     return [np.argwhere(patches == k) for k in largest]
 
 
-def _unreached_ends(lumen_surface: np.ndarray, ends: list[np.ndarray], zyx: np.ndarray
-                    ) -> list[np.ndarray]:
+def _unreached_ends(
+    lumen_surface: np.ndarray, ends: list[np.ndarray], zyx: np.ndarray
+) -> list[np.ndarray]:
     """Of the tube's ``ends`` (:func:`tube_ends`), those no voxel of the lumen's surface
     ``(n, 3)`` comes within :data:`END_REACH_VOXELS` of: the lumen closed up to it."""
     from scipy.spatial import cKDTree
 
     tree = cKDTree(lumen_surface * zyx)
     reach = END_REACH_VOXELS * zyx.max()
-    return [end for end in ends if not np.isfinite(
-        tree.query(end * zyx, distance_upper_bound=reach)[0]).any()]
+    return [
+        end
+        for end in ends
+        if not np.isfinite(tree.query(end * zyx, distance_upper_bound=reach)[0]).any()
+    ]
 
 
-def centred_path(start: np.ndarray, end: np.ndarray, inner: np.ndarray,
-                 voxel_size_zyx: np.ndarray) -> np.ndarray:
+def centred_path(
+    start: np.ndarray, end: np.ndarray, inner: np.ndarray, voxel_size_zyx: np.ndarray
+) -> np.ndarray:
     """The voxels ``(n, 3)`` (z, y, x) of a path from voxel ``start`` to voxel ``end``
     inside the boolean ``inner`` mask: the straight chord (:func:`bridge_path`) where it
     stays inside, else through the mask's middle: the centroid of the mask's voxels
@@ -136,7 +141,7 @@ def centred_path(start: np.ndarray, end: np.ndarray, inner: np.ndarray,
     apposed lumen lies."""
     zyx = np.asarray(voxel_size_zyx, float)
     chord = bridge_path(start, end, zyx)
-    if inner[tuple(chord.T)].all():          # the usual: a short stretch, a straight tube
+    if inner[tuple(chord.T)].all():  # the usual: a short stretch, a straight tube
         return chord
     a, b = np.asarray(start, float) * zyx, np.asarray(end, float) * zyx
     length = float(np.linalg.norm(b - a))
@@ -155,18 +160,23 @@ def centred_path(start: np.ndarray, end: np.ndarray, inner: np.ndarray,
     slab = (t[near] // step).astype(int)
     count = np.bincount(slab)
     held = np.flatnonzero(count > 0)
-    middles = np.stack([np.bincount(slab, voxels[near][:, k])[held] / count[held]
-                        for k in range(3)], axis=1)
+    middles = np.stack(
+        [np.bincount(slab, voxels[near][:, k])[held] / count[held] for k in range(3)], axis=1
+    )
     points = [np.asarray(start, float), *middles, np.asarray(end, float)]
-    return np.unique(np.concatenate([bridge_path(p, q, zyx) for p, q in zip(points[:-1],
-                                                                           points[1:])]),
-                     axis=0)
+    return np.unique(
+        np.concatenate([bridge_path(p, q, zyx) for p, q in zip(points[:-1], points[1:])]), axis=0
+    )
 
 
-def bridged_lumen(lumen: np.ndarray, inner: np.ndarray, voxel_size_xyz, *,
-                  ends: list[np.ndarray] | None = None,
-                  radius_voxels: float = BRIDGE_RADIUS_VOXELS
-                  ) -> tuple[np.ndarray, np.ndarray] | None:
+def bridged_lumen(
+    lumen: np.ndarray,
+    inner: np.ndarray,
+    voxel_size_xyz,
+    *,
+    ends: list[np.ndarray] | None = None,
+    radius_voxels: float = BRIDGE_RADIUS_VOXELS,
+) -> tuple[np.ndarray, np.ndarray] | None:
     """A lumen's boolean mask ``(z, y, x)`` in pieces joined into one tube, with the
     bridge's voxels: ``(mask, bridge)``; None when the lumen is not in pieces (and, with
     the tube's ``ends``, reaches both), or is in more than :data:`MAX_PIECES`.
@@ -209,14 +219,14 @@ def bridged_lumen(lumen: np.ndarray, inner: np.ndarray, voxel_size_xyz, *,
         group = [new if g == old else g for g in group]
     every = np.concatenate(surfaces)
     tree = cKDTree(every * zyx)
-    for end in unreached:             # to the end's voxel nearest its middle
+    for end in unreached:  # to the end's voxel nearest its middle
         middle = end[np.argmin(np.linalg.norm((end - end.mean(axis=0)) * zyx, axis=1))]
         start = every[tree.query(middle * zyx)[1]]
         path[tuple(centred_path(start, middle, inner, zyx).T)] = True
     radius = radius_voxels
     reach = np.ceil(radius).astype(int)
     offsets = np.stack(np.meshgrid(*[np.arange(-reach, reach + 1)] * 3, indexing="ij"), -1)
-    ball = (offsets ** 2).sum(-1) <= radius ** 2
+    ball = (offsets**2).sum(-1) <= radius**2
     # the bridge inside the inner wall's mask, and its middle line made 6-connected
     # wherever that mask pinches it (beside a slit): a bridge that met a piece only at
     # a voxel's edge would leave marching cubes two surfaces
@@ -225,8 +235,9 @@ def bridged_lumen(lumen: np.ndarray, inner: np.ndarray, voxel_size_xyz, *,
     return (labels > 0) | bridge, bridge
 
 
-def bridge_flags(V: np.ndarray, bridge: np.ndarray, lumen: np.ndarray, voxel_size_xyz,
-                 origin=(0.0, 0.0, 0.0)) -> np.ndarray:
+def bridge_flags(
+    V: np.ndarray, bridge: np.ndarray, lumen: np.ndarray, voxel_size_xyz, origin=(0.0, 0.0, 0.0)
+) -> np.ndarray:
     """For each vertex ``V (n, 3)`` (x, y, z, the voxels' length unit) of a bridged
     lumen's surface, True where its nearest voxel of the bridged mask is a bridge's
     (``bridge``, ``lumen`` boolean ``(z, y, x)``: the bridge and the lumen's own)."""
@@ -258,12 +269,14 @@ def half_widths(mask: np.ndarray, voxel_size_xyz) -> np.ndarray:
     if box is not None:
         padded = np.pad(mask[box], 1)
         out[box] = ndimage.distance_transform_edt(
-            padded, sampling=np.asarray(voxel_size_xyz, float)[::-1])[1:-1, 1:-1, 1:-1]
+            padded, sampling=np.asarray(voxel_size_xyz, float)[::-1]
+        )[1:-1, 1:-1, 1:-1]
     return out
 
 
-def is_one_frame_gap(bridge_xyz: np.ndarray, lumen: np.ndarray, before: np.ndarray,
-                     after: np.ndarray, voxel_size_xyz) -> bool:
+def is_one_frame_gap(
+    bridge_xyz: np.ndarray, lumen: np.ndarray, before: np.ndarray, after: np.ndarray, voxel_size_xyz
+) -> bool:
     """Whether a frame's closure is a segmentation's gap: the lumen masks ``(z, y, x)``
     of the frame ``before`` and the frame ``after`` it are both, within half the frame's
     widest half-width of the middle of its bridge (``bridge_xyz (k, 3)``: the bridge's
@@ -274,10 +287,13 @@ def is_one_frame_gap(bridge_xyz: np.ndarray, lumen: np.ndarray, before: np.ndarr
         return False
     widest = float(half_widths(lumen, voxel_size_xyz).max())
     size_xyz = np.asarray(voxel_size_xyz, float)
-    middle = bridge_xyz[np.argmin(np.linalg.norm(bridge_xyz - np.median(bridge_xyz, axis=0),
-                                                 axis=1))]
-    reach = np.ceil(0.5 * widest / size_xyz).astype(int)[::-1]            # z y x
+    middle = bridge_xyz[
+        np.argmin(np.linalg.norm(bridge_xyz - np.median(bridge_xyz, axis=0), axis=1))
+    ]
+    reach = np.ceil(0.5 * widest / size_xyz).astype(int)[::-1]  # z y x
     centre = np.rint(middle / size_xyz).astype(int)[::-1]
     box = tuple(slice(max(c - r, 0), c + r + 1) for c, r in zip(centre, reach))
-    return all(float(half_widths(other, voxel_size_xyz)[box].max(initial=0.0))
-               >= GAP_OPEN_SHARE * widest for other in (before, after))
+    return all(
+        float(half_widths(other, voxel_size_xyz)[box].max(initial=0.0)) >= GAP_OPEN_SHARE * widest
+        for other in (before, after)
+    )

@@ -1,4 +1,5 @@
 """Curvature: radial (in-plane) curvature of section contours, mean curvature of surfaces."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -35,8 +36,9 @@ def contour_curvature(C: np.ndarray, normal: np.ndarray, *, window: int = 7) -> 
 CORNER_NOISE_SDS = 4.5
 
 
-def count_corners(curvature: np.ndarray, *, min_prominence: float = 0.2,
-                  smooth: float = 1 / 40) -> int:
+def count_corners(
+    curvature: np.ndarray, *, min_prominence: float = 0.2, smooth: float = 1 / 40
+) -> int:
     """Number of curvature maxima around a closed contour ``(n,)`` that stand out of
     its own noise.
 
@@ -60,7 +62,7 @@ def count_corners(curvature: np.ndarray, *, min_prominence: float = 0.2,
     if smooth > 0:
         sigma = smooth * n
         weights = np.exp(-0.5 * (np.arange(-4 * sigma, 4 * sigma + 1) / sigma) ** 2)
-        gain = float(np.sqrt(np.sum((weights / weights.sum()) ** 2)))   # noise left, a share
+        gain = float(np.sqrt(np.sum((weights / weights.sum()) ** 2)))  # noise left, a share
         floor = CORNER_NOISE_SDS * np.sqrt(2) * gain * curvature_noise_sd(k)
         k = gaussian_filter1d(k, sigma, mode="wrap")
     tiled = np.concatenate([k, k, k])
@@ -77,8 +79,9 @@ def curvature_noise_sd(curvature: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6))
 
 
-def vertex_mean_curvature(V: np.ndarray, F: np.ndarray, boundary: np.ndarray | None = None
-                          ) -> np.ndarray:
+def vertex_mean_curvature(
+    V: np.ndarray, F: np.ndarray, boundary: np.ndarray | None = None
+) -> np.ndarray:
     """Mean curvature (1/mm) at each vertex: half the cotangent-Laplacian
     mean-curvature normal's length over the vertex's mixed Voronoi area (Meyer
     et al. 2003), signed positive where the surface bends away from its
@@ -87,7 +90,7 @@ def vertex_mean_curvature(V: np.ndarray, F: np.ndarray, boundary: np.ndarray | N
     """
     cots, l2 = corner_terms(V, F)
     n = len(V)
-    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()              # edge k: corner k -> k + 1
+    i, j = F.ravel(), F[:, [1, 2, 0]].ravel()  # edge k: corner k -> k + 1
     w = cots[:, [2, 0, 1]].ravel()[:, None] * (V[j] - V[i])  # cot of the opposite angle
     LV = _sum_at(np.concatenate([i, j]), np.concatenate([w, -w]), n)
     fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
@@ -108,15 +111,22 @@ def neighbour_mean(F: np.ndarray, n: int):
     import scipy.sparse as sp
 
     i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
-    A = sp.csr_matrix((np.ones(2 * len(i)), (np.concatenate([i, j]), np.concatenate([j, i]))),
-                      shape=(n, n))
-    A.data[:] = 1.0                                      # an edge of two faces counts once
+    A = sp.csr_matrix(
+        (np.ones(2 * len(i)), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n)
+    )
+    A.data[:] = 1.0  # an edge of two faces counts once
     return sp.diags(1.0 / np.maximum(np.asarray(A.sum(axis=1)).ravel(), 1)) @ A
 
 
-def taubin_smooth(V: np.ndarray, F: np.ndarray, steps: int, *,
-                  fixed: np.ndarray | None = None, lam: float = 0.5, mu: float = -0.53
-                  ) -> np.ndarray:
+def taubin_smooth(
+    V: np.ndarray,
+    F: np.ndarray,
+    steps: int,
+    *,
+    fixed: np.ndarray | None = None,
+    lam: float = 0.5,
+    mu: float = -0.53,
+) -> np.ndarray:
     """Vertex positions ``(n, 3)`` after ``steps`` Taubin lambda|mu steps (Taubin 1995):
     each vertex moved ``lam`` of the way to its neighbours' mean, then back by
     ``mu``, which takes roughness at the scale of the edges away with little
@@ -158,8 +168,8 @@ def vertex_roughness(V: np.ndarray, F: np.ndarray) -> tuple[float, float]:
     return sigma, float(np.median(edges))
 
 
-ROUGH_SHARE = 0.03   # of the median edge: a mesh this rough at its vertices is smoothed
-ROUGH_STEPS = 30     # Taubin steps then (as a label volume's meshes get)
+ROUGH_SHARE = 0.03  # of the median edge: a mesh this rough at its vertices is smoothed
+ROUGH_STEPS = 30  # Taubin steps then (as a label volume's meshes get)
 
 
 def smoothing_steps(V: np.ndarray, F: np.ndarray, setting: int | str) -> int:
@@ -200,7 +210,7 @@ def fill_boundary(values: np.ndarray, F: np.ndarray, boundary: np.ndarray) -> np
     b = np.zeros(len(values), dtype=bool)
     b[boundary] = True
     i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
-    x, y = np.concatenate([i, j]), np.concatenate([j, i])          # both ways along each edge
+    x, y = np.concatenate([i, j]), np.concatenate([j, i])  # both ways along each edge
     take = b[x] & ~b[y] & np.isfinite(values[y])
     total = np.bincount(x[take], values[y[take]], minlength=len(values))
     count = np.bincount(x[take], minlength=len(values))
@@ -214,8 +224,9 @@ def _sum_at(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     (``np.add.at``, by ``np.bincount``: ~10x faster)."""
     if values.ndim == 1:
         return np.bincount(index, values, minlength=n)
-    return np.stack([np.bincount(index, values[:, c], minlength=n)
-                     for c in range(values.shape[1])], axis=1)
+    return np.stack(
+        [np.bincount(index, values[:, c], minlength=n) for c in range(values.shape[1])], axis=1
+    )
 
 
 # -- radial curvature from a section's full-resolution polygon (issue 84) -----------
@@ -235,9 +246,16 @@ CURVATURE_SCALES = (1.5, 2.0, 2.8, 4.0, 5.6, 8.0, 11.0)
 BINS_PER_POINT = 16
 
 
-def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: np.ndarray,
-                      target: np.ndarray, normals: np.ndarray, *, scales=CURVATURE_SCALES
-                      ) -> tuple[np.ndarray, np.ndarray]:
+def polygon_curvature(
+    P: np.ndarray,
+    poly: np.ndarray,
+    arc: np.ndarray,
+    length: np.ndarray,
+    target: np.ndarray,
+    normals: np.ndarray,
+    *,
+    scales=CURVATURE_SCALES,
+) -> tuple[np.ndarray, np.ndarray]:
     """Signed curvature (1/mm, positive where convex) of closed planar polygons at given
     arc-length positions, at each of ``scales``: ``(n_scales, k, n)``, and each polygon's
     mean vertex spacing ``(k,)`` mm (the scales' unit).
@@ -265,10 +283,12 @@ def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: 
     edge = P[succ] - P
     # each edge's direction at its midpoint, unwrapped round its polygon
     arriving = edge[pred]
-    turn = np.arctan2(np.einsum("ij,ij->i", np.cross(arriving, edge), normals[poly]),
-                      np.einsum("ij,ij->i", arriving, edge))
-    total = np.bincount(poly, weights=turn, minlength=k)         # 2 pi for a simple polygon
-    turn[first] = 0.0                                    # the first edge's heading: 0
+    turn = np.arctan2(
+        np.einsum("ij,ij->i", np.cross(arriving, edge), normals[poly]),
+        np.einsum("ij,ij->i", arriving, edge),
+    )
+    total = np.bincount(poly, weights=turn, minlength=k)  # 2 pi for a simple polygon
+    turn[first] = 0.0  # the first edge's heading: 0
     heading = np.cumsum(turn)
     heading -= np.repeat(heading[first], counts)
     middle = arc + 0.5 * np.linalg.norm(edge, axis=1)
@@ -280,14 +300,15 @@ def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: 
     group = np.tile(poly, 3)
     order = np.lexsort((xp, group))
     m = BINS_PER_POINT * n
-    bounds = (target[:, :1] + np.arange(m + 1)[None, :] * (length[:, None] / m)
-              ) % length[:, None] + length[:, None]                                # (k, m + 1)
+    bounds = (target[:, :1] + np.arange(m + 1)[None, :] * (length[:, None] / m)) % length[
+        :, None
+    ] + length[:, None]  # (k, m + 1)
     wrapped = np.diff(bounds, axis=1) < 0
     angle = interp_grouped(bounds, xp[order], fp[order, None], group[order])[..., 0]
     step = np.diff(angle, axis=1) + wrapped * total[:, None]
-    density = step * (m / length[:, None])                            # 1/mm, per bin
+    density = step * (m / length[:, None])  # 1/mm, per bin
     spectrum = np.fft.rfft(density, axis=1)
-    cycles = np.arange(m // 2 + 1)                                     # per perimeter
+    cycles = np.arange(m // 2 + 1)  # per perimeter
     spacing = length / np.maximum(counts, 1)
     # the targets on the bins' centres
     where = ((target - target[:, :1]) % length[:, None]) / length[:, None] * m - 0.5
@@ -296,18 +317,16 @@ def polygon_curvature(P: np.ndarray, poly: np.ndarray, arc: np.ndarray, length: 
     rows = np.arange(k)[:, None]
     out = []
     for scale in scales:
-        sigma = scale * spacing / length                               # perimeters
+        sigma = scale * spacing / length  # perimeters
         gauss = np.exp(-2 * (np.pi * sigma[:, None] * cycles[None, :]) ** 2)
         # 2 G(sigma) - G(sqrt 2 sigma): the Gaussian's flattening (sigma^2 / 2 times the
         # curvature's second derivative) cancelled, a fourth-order kernel
-        smooth = np.fft.irfft(spectrum * (2 * gauss - gauss ** 2), n=m, axis=1)
+        smooth = np.fft.irfft(spectrum * (2 * gauss - gauss**2), n=m, axis=1)
         out.append(smooth[rows, lo % m] * (1 - frac) + smooth[rows, (lo + 1) % m] * frac)
     return np.stack(out), spacing
 
 
-
-def across_section_terms(X: np.ndarray, plane_normals: np.ndarray
-                         ) -> tuple[np.ndarray, np.ndarray]:
+def across_section_terms(X: np.ndarray, plane_normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """What a wall's mean curvature needs beyond its sections' curvature, at each node of
     its grid ``X (n_u, n_v, 3)`` mm (u round the tube, periodic; rows ``j`` near the
     section planes of unit normals ``plane_normals (n_v, 3)``).
@@ -332,17 +351,17 @@ def across_section_terms(X: np.ndarray, plane_normals: np.ndarray
     n = np.cross(Xu, Xv)
     n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
     outward = np.einsum("uvk,uvk->uv", n, X - X.mean(axis=0))
-    n *= np.sign(np.median(outward)) or 1.0              # the grid's own turning, once
+    n *= np.sign(np.median(outward)) or 1.0  # the grid's own turning, once
     nu = np.asarray(plane_normals, float)
     nu = nu / np.linalg.norm(nu, axis=-1, keepdims=True)
     across_plane = np.einsum("uvk,vk->uv", n, nu)
-    meusnier = np.sqrt(np.clip(1.0 - across_plane ** 2, 0.0, 1.0))
-    tangent = np.cross(n, nu[None])                      # the section's, at each node
+    meusnier = np.sqrt(np.clip(1.0 - across_plane**2, 0.0, 1.0))
+    tangent = np.cross(n, nu[None])  # the section's, at each node
     tangent /= np.maximum(np.linalg.norm(tangent, axis=-1, keepdims=True), 1e-300)
     across = np.cross(n, tangent)
     E, F, G = (np.einsum("uvk,uvk->uv", a, b) for a, b in ((Xu, Xu), (Xu, Xv), (Xv, Xv)))
     pu, pv = np.einsum("uvk,uvk->uv", across, Xu), np.einsum("uvk,uvk->uv", across, Xv)
     det = np.where(np.abs(E * G - F * F) > 1e-300, E * G - F * F, np.nan)
-    alpha, beta = (G * pu - F * pv) / det, (E * pv - F * pu) / det   # across = a Xu + b Xv
+    alpha, beta = (G * pu - F * pv) / det, (E * pv - F * pu) / det  # across = a Xu + b Xv
     e, f, g = (np.einsum("uvk,uvk->uv", a, n) for a in (Xuu, Xuv, Xvv))
-    return meusnier, -(alpha ** 2 * e + 2 * alpha * beta * f + beta ** 2 * g)
+    return meusnier, -(alpha**2 * e + 2 * alpha * beta * f + beta**2 * g)

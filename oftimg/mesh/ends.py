@@ -7,6 +7,7 @@ section planes follow that oblique rim (a section cut at 34 degrees reads 1 / co
 34 = +21 % of area). The ends found here are what a lab would draw by hand: the first
 plane square to the centre line that the face leaves whole, in every frame.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -30,7 +31,7 @@ def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal, values: np.ndarray
     on the plane, shared by neighbouring triangles), so the cut leaves a boundary
     loop lying in the plane. Returns ``(V, F)``, or ``(V, F, values)`` when per-vertex
     ``values (n,)`` or ``(n, k)`` are given (interpolated along the cut edges)."""
-    if len(F) == 0:                               # cut away whole by a plane before
+    if len(F) == 0:  # cut away whole by a plane before
         return (V, F) if values is None else (V, F, values)
     normal = np.asarray(normal, float) / np.linalg.norm(normal)
     d = (V - np.asarray(point, float)) @ normal
@@ -48,8 +49,13 @@ def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal, values: np.ndarray
     a, b = pairs[:, 0], pairs[:, 1]
     w = d[a] / (d[a] - d[b])
     new_V = np.concatenate([V, V[a] + w[:, None] * (V[b] - V[a])])
-    new_values = None if values is None else np.concatenate(
-        [values, values[a] + w.reshape(-1, *[1] * (values.ndim - 1)) * (values[b] - values[a])])
+    new_values = (
+        None
+        if values is None
+        else np.concatenate(
+            [values, values[a] + w.reshape(-1, *[1] * (values.ndim - 1)) * (values[b] - values[a])]
+        )
+    )
     # one vertex wherever the cut meets a place once: a vertex on the plane itself is
     # the cut's vertex there, and two edges cut at one point (a flat triangle's, as
     # marching cubes leaves on a grid line: speckled zoo draw 629's outer wall, frame
@@ -80,8 +86,13 @@ def cut_by_plane(V: np.ndarray, F: np.ndarray, point, normal, values: np.ndarray
             extra += [(pq, q, r), (pq, r, pr)]
     if extra:
         extra = np.asarray(extra, dtype=np.int64)
-        faces.append(extra[(extra[:, 0] != extra[:, 1]) & (extra[:, 1] != extra[:, 2])
-                           & (extra[:, 2] != extra[:, 0])])    # none folded onto the plane
+        faces.append(
+            extra[
+                (extra[:, 0] != extra[:, 1])
+                & (extra[:, 1] != extra[:, 2])
+                & (extra[:, 2] != extra[:, 0])
+            ]
+        )  # none folded onto the plane
     F_out = np.concatenate(faces) if faces else np.empty((0, 3), np.int64)
     used = np.zeros(len(new_V), bool)
     used[F_out.ravel()] = True
@@ -100,8 +111,9 @@ def largest_piece(V: np.ndarray, F: np.ndarray):
 
     n = len(V)
     i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
-    n_comp, label = connected_components(sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n)),
-                                         directed=False)
+    n_comp, label = connected_components(
+        sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n)), directed=False
+    )
     if n_comp == 1:
         return V, F, np.ones(n, bool), 0
     face_label = label[F[:, 0]]
@@ -131,8 +143,7 @@ def _nearest_closed(contours: list, origin: np.ndarray) -> np.ndarray | None:
     return min(centroids, key=lambda c: float(np.linalg.norm(c - origin)))
 
 
-def _axis_of_normals(V: np.ndarray, F: np.ndarray, centre: np.ndarray, reach: float
-                     ) -> np.ndarray:
+def _axis_of_normals(V: np.ndarray, F: np.ndarray, centre: np.ndarray, reach: float) -> np.ndarray:
     """The direction a tube's faces within ``reach`` of ``centre`` are most nearly
     square to (a tube's normals are square to its axis: the least eigenvector of their
     area-weighted scatter), unit, either sense. A start for :func:`end_axis` where a
@@ -140,8 +151,9 @@ def _axis_of_normals(V: np.ndarray, F: np.ndarray, centre: np.ndarray, reach: fl
     corners = V[F]
     near = np.linalg.norm(corners.mean(axis=1) - centre, axis=1) < reach
     normals = np.cross(corners[near, 1] - corners[near, 0], corners[near, 2] - corners[near, 0])
-    scatter = normals.T @ (normals / np.maximum(np.linalg.norm(normals, axis=1,
-                                                                keepdims=True), 1e-300))
+    scatter = normals.T @ (
+        normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+    )
     return np.linalg.eigh(scatter)[1][:, 0]
 
 
@@ -150,8 +162,7 @@ def _axis_of_normals(V: np.ndarray, F: np.ndarray, centre: np.ndarray, reach: fl
 SETTLED_DEG = 2.0
 
 
-def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *,
-             rounds: int = 4):
+def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *, rounds: int = 4):
     """The centre line just past a tube's rim: ``(point (3,), tangent (3,))``, the
     centroid of the first section square to the centre line that lies ``margin`` past
     the rim's innermost point, and the tangent there (unit, into the tube). None when
@@ -171,7 +182,7 @@ def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *,
     point = loop_centroid(rim)
     tangent = _axis_of_normals(V, F, point, 2 * radius)
     near = V[np.linalg.norm(V - point, axis=1) < 3 * radius]
-    if (near.mean(axis=0) - point) @ tangent < 0:              # into the tube
+    if (near.mean(axis=0) - point) @ tangent < 0:  # into the tube
         tangent = -tangent
     h = radius / 3
     turned = np.inf
@@ -183,9 +194,10 @@ def end_axis(V: np.ndarray, F: np.ndarray, rim: np.ndarray, margin: float, *,
         if any(f is None for f in found):
             return None
         c0, c1, c2 = found
-        slope = -3 * c0 + 4 * c1 - c2                  # the parabola's tangent at c0
-        turned = float(np.degrees(np.arccos(np.clip(slope @ tangent / np.linalg.norm(slope),
-                                                     -1.0, 1.0))))
+        slope = -3 * c0 + 4 * c1 - c2  # the parabola's tangent at c0
+        turned = float(
+            np.degrees(np.arccos(np.clip(slope @ tangent / np.linalg.norm(slope), -1.0, 1.0)))
+        )
         tangent = slope / np.linalg.norm(slope)
         point = c0
     if turned > SETTLED_DEG:
@@ -207,13 +219,17 @@ class SquareEnd:
     cut_in: float
 
     def as_dict(self) -> dict:
-        return {"point": [round(x, 6) for x in self.point],
-                "normal": [round(x, 6) for x in self.normal],
-                "oblique_deg": round(self.oblique_deg, 2), "cut_in": round(self.cut_in, 6)}
+        return {
+            "point": [round(x, 6) for x in self.point],
+            "normal": [round(x, 6) for x in self.normal],
+            "oblique_deg": round(self.oblique_deg, 2),
+            "cut_in": round(self.cut_in, 6),
+        }
 
 
-def square_ends(reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.ndarray]],
-                margin: float) -> list[SquareEnd | None]:
+def square_ends(
+    reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.ndarray]], margin: float
+) -> list[SquareEnd | None]:
     """For each end of a tube cut by a volume's faces, the plane square to its centre
     line past every frame's rim (:class:`SquareEnd`), or None where the face cuts it
     square already (within :data:`SQUARE_ENOUGH_DEG`).
@@ -236,24 +252,32 @@ def square_ends(reference: tuple[np.ndarray, np.ndarray], rims: list[list[np.nda
         # the face's angle to the tube where it cuts it: the faces' axis there
         radius = np.sqrt(np.linalg.norm(face) / np.pi)
         at_rim = _axis_of_normals(V, F, loop_centroid(rim), radius)
-        oblique = float(np.degrees(np.arccos(min(1.0, abs(face @ at_rim)
-                                                 / np.linalg.norm(face)))))
+        oblique = float(np.degrees(np.arccos(min(1.0, abs(face @ at_rim) / np.linalg.norm(face)))))
         if oblique < SQUARE_ENOUGH_DEG:
             ends.append(None)
             continue
         axis = end_axis(V, F, rim, margin)
         if axis is None:
-            raise MeshError(f"is cut by the volume's face {oblique:.0f} degrees from square, "
-                            "and no section square to its centre line past the cut comes "
-                            "whole (or that centre line does not settle)")
+            raise MeshError(
+                f"is cut by the volume's face {oblique:.0f} degrees from square, "
+                "and no section square to its centre line past the cut comes "
+                "whole (or that centre line does not settle)"
+            )
         point, tangent = axis
-        theirs = [r for frame in rims for r in frame
-                  if np.argmin(np.linalg.norm(centres - r.mean(axis=0), axis=1)) == k]
+        theirs = [
+            r
+            for frame in rims
+            for r in frame
+            if np.argmin(np.linalg.norm(centres - r.mean(axis=0), axis=1)) == k
+        ]
         reach = max(float(np.max((r - point) @ tangent)) for r in theirs + [rim])
         at = point + tangent * (reach + margin)
-        meets = float((loop_centroid(rim) - point) @ tangent)      # the rim's centre
-        ends.append(SquareEnd(tuple(map(float, at)), tuple(map(float, tangent)), oblique,
-                              reach + margin - meets))
+        meets = float((loop_centroid(rim) - point) @ tangent)  # the rim's centre
+        ends.append(
+            SquareEnd(
+                tuple(map(float, at)), tuple(map(float, tangent)), oblique, reach + margin - meets
+            )
+        )
     return ends
 
 
@@ -291,7 +315,7 @@ def _traced(V, F, start: np.ndarray, far: np.ndarray, sections: int) -> np.ndarr
             break
         C = min(closed, key=lambda c: float(np.linalg.norm(_area_centroid(c) - point)))
         centre = _area_centroid(C)
-        moments = np.linalg.eigvalsh(np.cov((C - centre).T))[1:]      # in-plane pair
+        moments = np.linalg.eigvalsh(np.cov((C - centre).T))[1:]  # in-plane pair
         aspects.append(float(np.sqrt(max(moments[0], 0.0) / moments[1])))
         if previous is not None:
             tangent = (centre - previous) / np.linalg.norm(centre - previous)

@@ -26,6 +26,7 @@ Paths come back as 3-D points on mesh edges; :func:`insert_path` locates them
 and splits the crossed triangles so the path becomes a chain of mesh edges
 that the tube can be cut along.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -83,8 +84,9 @@ class GeodesicSolver:
             return self._polish(sources, targets, i, j)
         if self._exact is None:
             self._exact = pyg.PyGeodesicAlgorithmExact(self.V, self.F.astype(np.int32))
-        dist, best = self._exact.geodesicDistances(sources.astype(np.int32),
-                                                   targets.astype(np.int32))
+        dist, best = self._exact.geodesicDistances(
+            sources.astype(np.int32), targets.astype(np.int32)
+        )
         dist = np.asarray(dist, dtype=float)
         if not np.isfinite(dist).any() or np.all(dist > 1e50):
             raise MeshError("no geodesic joins the two boundary loops")
@@ -97,15 +99,17 @@ class GeodesicSolver:
         if self._graph is None:
             a, b = self.F.ravel(), self.F[:, [1, 2, 0]].ravel()
             d = self.V[a] - self.V[b]
-            self._graph = sp.csr_matrix((np.sqrt(np.einsum("ij,ij->i", d, d)), (a, b)),
-                                        shape=(len(self.V),) * 2)
+            self._graph = sp.csr_matrix(
+                (np.sqrt(np.einsum("ij,ij->i", d, d)), (a, b)), shape=(len(self.V),) * 2
+            )
         return self._graph
 
     def distance_to_loop(self, loop: np.ndarray, other: np.ndarray) -> np.ndarray:
         """Edge-path distance (mm) from each vertex of ``loop`` to the nearest vertex
         of ``other``, ``(len(loop),)``: a few % long, by how the edges line up."""
-        return dijkstra(self.graph, directed=False, indices=np.asarray(other),
-                        min_only=True)[np.asarray(loop)]
+        return dijkstra(self.graph, directed=False, indices=np.asarray(other), min_only=True)[
+            np.asarray(loop)
+        ]
 
     def _graph_shortest(self, sources, targets) -> tuple[int, int, float]:
         """Dijkstra candidates on the edge graph, each polished with exact lengths."""
@@ -117,7 +121,8 @@ class GeodesicSolver:
         best = None
         for j in np.nonzero(near)[0][np.argsort(d[near])][:4].tolist():
             d_back, self._trees[int(targets[j])] = dijkstra(
-                graph, directed=False, indices=int(targets[j]), return_predecessors=True)
+                graph, directed=False, indices=int(targets[j]), return_predecessors=True
+            )
             pair = self._polish(sources, targets, int(np.argmin(d_back[sources])), j)
             if best is None or pair[2] < best[2]:
                 best = pair
@@ -172,7 +177,7 @@ class GeodesicSolver:
         rim is the one the whole mesh gives.)
         """
         source, target = int(source), int(target)
-        if (source, target) not in self._paths:      # the polish asks for some pairs again
+        if (source, target) not in self._paths:  # the polish asks for some pairs again
             self._paths[source, target] = self._path(source, target)
         return self._paths[source, target]
 
@@ -191,8 +196,9 @@ class GeodesicSolver:
                 return self._oriented(pts, source)
         if self._flip is None:
             self._flip = pp3d.EdgeFlipGeodesicSolver(self.V, self.F)
-        return self._oriented(np.asarray(self._flip.find_geodesic_path(source, target), float),
-                              source)
+        return self._oriented(
+            np.asarray(self._flip.find_geodesic_path(source, target), float), source
+        )
 
     def _oriented(self, pts: np.ndarray, source: int) -> np.ndarray:
         if len(pts) < 2:
@@ -209,7 +215,7 @@ class _Band:
     def __init__(self, V, F, vertices, depth, rings):
         self.local = np.full(len(depth), -1, dtype=np.int64)
         self.local[vertices] = np.arange(len(vertices))
-        self.depth = depth[vertices]                  # rings from the edge path, per band vertex
+        self.depth = depth[vertices]  # rings from the edge path, per band vertex
         self.rings = rings
         self.solver = pp3d.EdgeFlipGeodesicSolver(V[vertices], self.local[F])
         self.tree = cKDTree(V[vertices])
@@ -218,30 +224,35 @@ class _Band:
     def around(cls, mesh: GeodesicSolver, source: int, target: int, rings: int):
         """The band for ``source -> target``; None if it cannot be built (no edge
         path, or the band is not a manifold surface)."""
-        if target in mesh._trees:                    # the edge path from the other end
+        if target in mesh._trees:  # the edge path from the other end
             source, target = target, source
         pred = mesh._trees.get(source)
         if pred is None:
-            _, pred = dijkstra(mesh.graph, directed=False, indices=source,
-                               return_predecessors=True)
+            _, pred = dijkstra(mesh.graph, directed=False, indices=source, return_predecessors=True)
         if pred[target] < 0:
             return None
         chain = [target]
         while chain[-1] != source:
             chain.append(int(pred[chain[-1]]))
         n = len(mesh.V)
-        hops = dijkstra(mesh.graph, directed=False, indices=chain, unweighted=True,
-                        limit=rings + 0.5, min_only=True)        # edge rings from the path
+        hops = dijkstra(
+            mesh.graph,
+            directed=False,
+            indices=chain,
+            unweighted=True,
+            limit=rings + 0.5,
+            min_only=True,
+        )  # edge rings from the path
         depth = np.where(np.isfinite(hops), hops, -1).astype(np.int64)
         faces = mesh.F[(depth[mesh.F] >= 0).all(axis=1)]
         used = np.zeros(n, dtype=bool)
         used[faces] = True
         vertices = np.nonzero(used)[0]
         if len(vertices) == n:
-            return None                               # the whole mesh: no band
+            return None  # the whole mesh: no band
         try:
             return cls(mesh.V, faces, vertices, depth, rings)
-        except RuntimeError:                          # e.g. a pinched (non-manifold) band
+        except RuntimeError:  # e.g. a pinched (non-manifold) band
             return None
 
     def path(self, source: int, target: int) -> np.ndarray | None:
@@ -301,7 +312,8 @@ def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, start: int, end
             (ax, ay, az), (bx, by, bz) = xyz(a), xyz(b)
             ux, uy, uz = bx - ax, by - ay, bz - az
             t = ((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / max(
-                ux * ux + uy * uy + uz * uz, 1e-300)
+                ux * ux + uy * uy + uz * uz, 1e-300
+            )
             t = min(max(t, 0.0), 1.0)
             dx, dy, dz = ax + t * ux - px, ay + t * uy - py, az + t * uz - pz
             d = (dx * dx + dy * dy + dz * dz) ** 0.5
@@ -318,8 +330,9 @@ def locate_on_edges(V: np.ndarray, F: np.ndarray, P: np.ndarray, start: int, end
             d, ev = nearest_on(faces_around(cur, False), p)
             if d > tol:
                 raise MeshError("the geodesic path could not be located on the mesh edges")
-            common = _verts(cur) & next(vf.face_set(f) for f in faces_around(cur, False)
-                                        if _verts(ev) <= vf.face_set(f))
+            common = _verts(cur) & next(
+                vf.face_set(f) for f in faces_around(cur, False) if _verts(ev) <= vf.face_set(f)
+            )
             if cur[0] == "e" and len(common) == 1:
                 events.append(("v", common.pop()))
         if ev != events[-1]:
@@ -357,7 +370,7 @@ class _VertexFaces:
 
     def faces(self, v: int) -> list:
         if v not in self._faces:
-            self._faces[v] = self._face_of[self._ptr[v]:self._ptr[v + 1]].tolist()
+            self._faces[v] = self._face_of[self._ptr[v] : self._ptr[v + 1]].tolist()
         return self._faces[v]
 
     def corners(self, f: int) -> list:
@@ -432,9 +445,13 @@ def insert_path(V: np.ndarray, F: np.ndarray, events) -> tuple[np.ndarray, np.nd
     on_split = np.zeros(len(V), dtype=bool)
     on_split[[v for edge in edge_vertex for v in edge]] = True
     near = np.nonzero(on_split[F].sum(axis=1) >= 2)[0]
-    drop = [f for f, (a, b, c) in zip(near.tolist(), F[near].tolist())
-            if (min(a, b), max(a, b)) in edge_vertex or (min(b, c), max(b, c)) in edge_vertex
-            or (min(c, a), max(c, a)) in edge_vertex]
+    drop = [
+        f
+        for f, (a, b, c) in zip(near.tolist(), F[near].tolist())
+        if (min(a, b), max(a, b)) in edge_vertex
+        or (min(b, c), max(b, c)) in edge_vertex
+        or (min(c, a), max(c, a)) in edge_vertex
+    ]
     # Re-triangulate each touched face so that the seam segment is an edge.
     new_faces = []
     split_vertices = set(edge_vertex.values())

@@ -3,6 +3,7 @@
 The steps of the paper's section 4.1, each a function of one frame's arrays
 except :func:`smooth_endpoints`, which couples frames in time.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -11,8 +12,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from ..errors import InputError
-from .geodesic import (METHODS, GeodesicSolver, insert_boundary_point, insert_path,
-                       locate_on_edges)
+from .geodesic import METHODS, GeodesicSolver, insert_boundary_point, insert_path, locate_on_edges
 from .parameterize import FlatSampler, cut_and_map, even_grid
 from .topology import MeshError
 
@@ -37,11 +37,19 @@ class GridOptions:
         if self.n_u < 3 or self.n_v < 2:
             raise InputError(f"grid must be at least 3 x 2, found {self.n_u} x {self.n_v}")
         steps = self.rough_mesh_smoothing
-        if not (steps == "auto" or isinstance(steps, dict) or (
-                isinstance(steps, (int, np.integer)) and not isinstance(steps, bool)
-                and 0 <= steps <= 1000)):
-            raise InputError("rough_mesh_smoothing must be \"auto\" or a whole number of "
-                             f"Taubin steps from 0 to 1000, found {steps!r}")
+        if not (
+            steps == "auto"
+            or isinstance(steps, dict)
+            or (
+                isinstance(steps, (int, np.integer))
+                and not isinstance(steps, bool)
+                and 0 <= steps <= 1000
+            )
+        ):
+            raise InputError(
+                'rough_mesh_smoothing must be "auto" or a whole number of '
+                f"Taubin steps from 0 to 1000, found {steps!r}"
+            )
         if self.seam_smoothing_frames < 0:
             raise InputError("seam_smoothing_frames must be >= 0")
         if self.seam_method not in METHODS:
@@ -58,11 +66,12 @@ class FrameGrid:
     seam_in: np.ndarray
     seam_out: np.ndarray
     flipped_before_repair: int = 0
-    values: np.ndarray | None = None   # (n_u, n_v): per-vertex values given to grid_frame
+    values: np.ndarray | None = None  # (n_u, n_v): per-vertex values given to grid_frame
 
 
-def seam_endpoints(V, F, inlet, outlet, *, method: str = "graph"
-                   ) -> tuple[np.ndarray, np.ndarray, float]:
+def seam_endpoints(
+    V, F, inlet, outlet, *, method: str = "graph"
+) -> tuple[np.ndarray, np.ndarray, float]:
     """End points (mm) and length of the shortest inlet-to-outlet geodesic."""
     src, tgt, length = GeodesicSolver(V, F, method=method).shortest_between(inlet, outlet)
     return V[src].copy(), V[tgt].copy(), length
@@ -99,10 +108,11 @@ def seam_candidates(V, F, inlet, outlet, *, method: str = "graph") -> SeamCandid
     """The shortest seam's ends and how long a seam from every other loop point runs."""
     solver = GeodesicSolver(V, F, method=method)
     src, tgt, _ = solver.shortest_between(inlet, outlet)
-    return SeamCandidates(best=np.stack([V[src], V[tgt]]),
-                          loops=(V[inlet].copy(), V[outlet].copy()),
-                          lengths=(solver.distance_to_loop(inlet, outlet),
-                                   solver.distance_to_loop(outlet, inlet)))
+    return SeamCandidates(
+        best=np.stack([V[src], V[tgt]]),
+        loops=(V[inlet].copy(), V[outlet].copy()),
+        lengths=(solver.distance_to_loop(inlet, outlet), solver.distance_to_loop(outlet, inlet)),
+    )
 
 
 def _loop_angles(P: np.ndarray, axis: np.ndarray, reference: np.ndarray, extra: np.ndarray):
@@ -119,8 +129,13 @@ def _loop_angles(P: np.ndarray, axis: np.ndarray, reference: np.ndarray, extra: 
     order = np.argsort(phi[:-1])
 
     def at(theta):
-        return np.array([np.interp(_gap(theta, 0.0), phi[order], P[order, k], period=2 * np.pi)
-                         for k in range(3)])
+        return np.array(
+            [
+                np.interp(_gap(theta, 0.0), phi[order], P[order, k], period=2 * np.pi)
+                for k in range(3)
+            ]
+        )
+
     return phi[:-1], phi[-1], at
 
 
@@ -136,7 +151,7 @@ def _tie_angles(phi: np.ndarray, lengths: np.ndarray, n_bins: int = 360):
     near = profile <= profile.min() * (1 + SEAM_TIE_TOLERANCE)
     if near.all() or profile.max() < profile.min() * (1 + SEAM_FLAT_CONTRAST):
         return grid, near, True
-    start = int(np.argmin(near))                       # a bin that is no tie: arcs from there
+    start = int(np.argmin(near))  # a bin that is no tie: arcs from there
     arcs = np.cumsum(np.diff(np.roll(near, -start).astype(int), prepend=0) == 1)
     arcs = np.roll(arcs, start)
     return grid, near, bool(len(np.unique(arcs[near])) > 1)
@@ -154,11 +169,12 @@ def smooth_angles(theta: np.ndarray, sigma_frames: float) -> np.ndarray:
     n_t = len(theta)
     if sigma_frames <= 0 or n_t < 3:
         return theta.copy()
-    step = _gap(np.roll(theta, -1), theta)              # t -> t + 1, the last to the first
+    step = _gap(np.roll(theta, -1), theta)  # t -> t + 1, the last to the first
     jumps = np.nonzero(np.abs(step) > SEAM_JUMP)[0]
     if len(jumps) == 0:
-        z = gaussian_filter1d(np.exp(1j * theta).real, sigma_frames, mode="wrap") + \
-            1j * gaussian_filter1d(np.exp(1j * theta).imag, sigma_frames, mode="wrap")
+        z = gaussian_filter1d(
+            np.exp(1j * theta).real, sigma_frames, mode="wrap"
+        ) + 1j * gaussian_filter1d(np.exp(1j * theta).imag, sigma_frames, mode="wrap")
         return np.angle(z)
     out = np.empty(n_t)
     starts = (jumps + 1) % n_t
@@ -169,8 +185,9 @@ def smooth_angles(theta: np.ndarray, sigma_frames: float) -> np.ndarray:
     return _gap(out, 0.0)
 
 
-def continuous_seam_ends(frames: list[SeamCandidates], sigma_frames: float
-                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def continuous_seam_ends(
+    frames: list[SeamCandidates], sigma_frames: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The seam's ends for every frame of a cycle, continuous in time.
 
     Where a loop has one shortest seam end, that is the end. Where seams from a
@@ -189,7 +206,7 @@ def continuous_seam_ends(frames: list[SeamCandidates], sigma_frames: float
     """
     n_t = len(frames)
     contrast = np.zeros(n_t)
-    for t, c in enumerate(frames):                   # a frame's seam: unique by how much?
+    for t, c in enumerate(frames):  # a frame's seam: unique by how much?
         for e in (0, 1):
             contrast[t] += np.ptp(c.lengths[e]) / c.lengths[e].min()
     lead = frames[int(np.argmax(contrast))]
@@ -215,7 +232,7 @@ def continuous_seam_ends(frames: list[SeamCandidates], sigma_frames: float
                 a, b = (t - before) % n_t, (after - t) % n_t
                 target = best[before] + _gap(best[after], best[before]) * a / (a + b)
             grid, near = ties[t]
-            if not near[int(np.argmin(np.abs(_gap(grid, target))))]:   # else: target itself
+            if not near[int(np.argmin(np.abs(_gap(grid, target))))]:  # else: target itself
                 gap = _gap(grid[near], target)
                 target = target + gap[np.argmin(np.abs(gap))]
             theta[t] = target
@@ -225,8 +242,9 @@ def continuous_seam_ends(frames: list[SeamCandidates], sigma_frames: float
     return ends[0], ends[1], chosen
 
 
-def grid_frame(V, F, inlet, outlet, p_in, p_out, options: GridOptions,
-               values: np.ndarray | None = None) -> FrameGrid:
+def grid_frame(
+    V, F, inlet, outlet, p_in, p_out, options: GridOptions, values: np.ndarray | None = None
+) -> FrameGrid:
     """Grid of one frame whose seam joins the loop points nearest ``p_in``, ``p_out``.
 
     Per-vertex ``values (n_vert,)`` (a curvature, say) are interpolated at the
@@ -247,12 +265,19 @@ def grid_frame(V, F, inlet, outlet, p_in, p_out, options: GridOptions,
     at_nodes = None
     if values is not None:
         refined = _refined_values(values, V2, n_vert, (inlet, outlet), events)
-        at_nodes = sample(U, np.broadcast_to(v, U.shape),
-                          values=np.concatenate([refined, refined[chain]]))  # cut: seam twice
+        at_nodes = sample(
+            U, np.broadcast_to(v, U.shape), values=np.concatenate([refined, refined[chain]])
+        )  # cut: seam twice
     seam_len = float(np.linalg.norm(np.diff(V2[chain], axis=0), axis=1).sum())
-    return FrameGrid(X=X, seam_length_mm=seam_len, flipped=flat.flipped,
-                     seam_in=V2[a].copy(), seam_out=V2[b].copy(),
-                     flipped_before_repair=flat.flipped_before_repair, values=at_nodes)
+    return FrameGrid(
+        X=X,
+        seam_length_mm=seam_len,
+        flipped=flat.flipped,
+        seam_in=V2[a].copy(),
+        seam_out=V2[b].copy(),
+        flipped_before_repair=flat.flipped_before_repair,
+        values=at_nodes,
+    )
 
 
 def _refined_values(values: np.ndarray, V: np.ndarray, n_vert: int, loops, events) -> np.ndarray:
@@ -283,12 +308,19 @@ def trim_to_loops(chain: np.ndarray, inlet: np.ndarray, outlet: np.ndarray) -> n
     after = np.nonzero(on_out[start:])[0]
     if len(after) == 0:
         raise MeshError("the seam does not reach the outlet loop")
-    return chain[start:start + int(after[0]) + 1]
+    return chain[start : start + int(after[0]) + 1]
 
 
-def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndarray,
-                         X: np.ndarray, centre: np.ndarray | None = None, *,
-                         uncounted_rows: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+def project_towards_axis(
+    V: np.ndarray,
+    F: np.ndarray,
+    inlet: np.ndarray,
+    outlet: np.ndarray,
+    X: np.ndarray,
+    centre: np.ndarray | None = None,
+    *,
+    uncounted_rows: np.ndarray | None = None,
+) -> tuple[np.ndarray, int]:
     """The grid ``X (n_u, n_v, 3)`` of the outer wall carried onto the inner wall
     ``(V, F)`` (paper section 4.1): each node along the line towards its row's
     centre (``centre (n_v, 3)`` mm; by default the mean of the row's nodes), to
@@ -315,20 +347,21 @@ def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet
     """
     import open3d as o3d
 
-    mid = V.mean(axis=0)      # float32 about the mesh's own centre: ~1 nm steps at 10 mm
+    mid = V.mean(axis=0)  # float32 about the mesh's own centre: ~1 nm steps at 10 mm
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor((V - mid).astype(np.float32)),
-                        o3d.core.Tensor(F.astype(np.uint32)))
+    scene.add_triangles(
+        o3d.core.Tensor((V - mid).astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32))
+    )
     q = X - mid
     ends = q.mean(axis=0, keepdims=True) if centre is None else (centre - mid)[None]
-    towards = ends - q                                           # to the row's centre
+    towards = ends - q  # to the row's centre
     reach = np.linalg.norm(towards, axis=-1)
     D = towards / reach[..., None]
     rays = np.concatenate([q, D], axis=-1).reshape(-1, 6).astype(np.float32)
     t_hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().reshape(reach.shape)
     found = t_hit <= reach
     out = np.where(found[..., None], q + np.where(found, t_hit, 0.0)[..., None] * D, np.nan)
-    if not found.all():                    # the walls cross: the wall is behind the node
+    if not found.all():  # the walls cross: the wall is behind the node
         missed = np.nonzero(~found)
         back = np.concatenate([q[missed], -D[missed]], axis=-1).astype(np.float32)
         t_back = scene.cast_rays(o3d.core.Tensor(back))["t_hit"].numpy()
@@ -342,7 +375,7 @@ def project_towards_axis(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet
     if not found.all():
         near = scene.compute_closest_points(o3d.core.Tensor(q[~found].astype(np.float32)))
         out[~found] = near["points"].numpy()
-    if uncounted_rows is not None:         # rows whose misses are expected (no lumen there)
+    if uncounted_rows is not None:  # rows whose misses are expected (no lumen there)
         found[:, np.asarray(uncounted_rows, bool)] = True
     return out + mid, int((~found).sum())
 
@@ -357,19 +390,20 @@ def signed_thickness(X: np.ndarray, Y: np.ndarray, centre: np.ndarray) -> np.nda
     return np.where(towards < 0, -1.0, 1.0) * np.linalg.norm(step, axis=-1)
 
 
-def nearest_on_loop_to_rays(P: np.ndarray, X: np.ndarray, D: np.ndarray, reach: np.ndarray
-                            ) -> np.ndarray:
+def nearest_on_loop_to_rays(
+    P: np.ndarray, X: np.ndarray, D: np.ndarray, reach: np.ndarray
+) -> np.ndarray:
     """For each ray from ``X (n, 3)`` along unit ``D (n, 3)``, ``reach (n,)`` long, the
     point of the closed polyline ``P (m, 3)`` nearest it, ``(n, 3)``."""
-    E = np.roll(P, -1, axis=0) - P                               # segments (m, 3)
-    W = P[None] - X[:, None]                                     # (n, m, 3)
+    E = np.roll(P, -1, axis=0) - P  # segments (m, 3)
+    W = P[None] - X[:, None]  # (n, m, 3)
     # each segment's point nearest the ray's line: normal equations in (lam, mu)
     de, ee = D @ E.T, np.einsum("mk,mk->m", E, E)
     dw, ew = np.einsum("nk,nmk->nm", D, W), np.einsum("mk,nmk->nm", E, W)
-    det = ee - de ** 2                                           # 0: parallel
+    det = ee - de**2  # 0: parallel
     with np.errstate(invalid="ignore", divide="ignore"):
         mu = np.clip(np.where(det > 1e-12 * ee, (de * dw - ew) / det, 0.0), 0.0, 1.0)
-    Q = P[None] + mu[..., None] * E                              # (n, m, 3)
+    Q = P[None] + mu[..., None] * E  # (n, m, 3)
     lam = np.clip(np.einsum("nk,nmk->nm", D, Q - X[:, None]), 0.0, reach[:, None])
     gap = np.linalg.norm(Q - X[:, None] - lam[..., None] * D[:, None], axis=-1)
     return Q[np.arange(len(X)), np.argmin(gap, axis=1)]

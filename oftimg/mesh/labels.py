@@ -6,6 +6,7 @@ Volumes are arrays ``(z, y, x)`` as TIFF readers and scikit-image give them; a v
 ``(k, j, i)`` sits at ``x = i * dx, y = j * dy, z = k * dz``. Surfaces come out as
 ``V (n, 3)`` in (x, y, z), the voxel size's unit, and ``F (m, 3)`` int64, outward.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
@@ -19,8 +20,11 @@ from .mask_topology import MaskRepair, solid_tube_mask
 from .topology import MeshError, boundary_loops, check_tube, repair
 
 # which labels each wall encloses: outer all three, inner the jelly and the lumen
-WALL_LAYERS = {"outer": ("myocardium", "jelly", "lumen"), "inner": ("jelly", "lumen"),
-               "lumen": ("lumen",)}
+WALL_LAYERS = {
+    "outer": ("myocardium", "jelly", "lumen"),
+    "inner": ("jelly", "lumen"),
+    "lumen": ("lumen",),
+}
 
 
 def wall_masks(labels: np.ndarray, label_ids: dict[str, int]) -> dict[str, np.ndarray]:
@@ -28,8 +32,10 @@ def wall_masks(labels: np.ndarray, label_ids: dict[str, int]) -> dict[str, np.nd
     ``label_ids`` (layer name -> label value) names: with one layer, the outer wall
     alone. Raises :class:`~oftimg.errors.InputError` for float labels."""
     if not np.issubdtype(labels.dtype, np.integer) and labels.dtype != bool:
-        raise InputError(f"labels are {labels.dtype}, not integers: a label volume holds "
-                         "whole numbers (0 background)")
+        raise InputError(
+            f"labels are {labels.dtype}, not integers: a label volume holds "
+            "whole numbers (0 background)"
+        )
     masks = {}
     for wall, layers in WALL_LAYERS.items():
         present = [label_ids[layer] for layer in layers if layer in label_ids]
@@ -96,10 +102,10 @@ class Cleaned:
     vertices: int
 
 
-LEVEL = 0.5             # the smoothed mask's level that is the wall
-CURVATURE_PROPERTY = "oftimg_mean_curvature"   # a lumen PLY's stored curvature, per unit
-CLOSED_PROPERTY = "oftimg_lumen_closed"   # a lumen PLY's vertices on a closure's bridge (1)
-ANTI_ALIAS = 0.4        # the blur's sigma as a share of the sampling step, at least
+LEVEL = 0.5  # the smoothed mask's level that is the wall
+CURVATURE_PROPERTY = "oftimg_mean_curvature"  # a lumen PLY's stored curvature, per unit
+CLOSED_PROPERTY = "oftimg_lumen_closed"  # a lumen PLY's vertices on a closure's bridge (1)
+ANTI_ALIAS = 0.4  # the blur's sigma as a share of the sampling step, at least
 
 
 @dataclass(frozen=True)
@@ -127,16 +133,20 @@ class MeshOptions:
 
     def __post_init__(self):
         if not (isinstance(self.target_vertices, int) and self.target_vertices >= 200):
-            raise InputError(f"target vertices must be a whole number >= 200, "
-                             f"found {self.target_vertices!r}")
+            raise InputError(
+                f"target vertices must be a whole number >= 200, found {self.target_vertices!r}"
+            )
         if not (np.isfinite(self.smoothing) and self.smoothing >= 0):
             raise InputError(f"mesh smoothing must be >= 0 voxels, found {self.smoothing!r}")
         if not (isinstance(self.taubin_steps, int) and self.taubin_steps >= 0):
-            raise InputError(f"taubin steps must be a whole number >= 0, "
-                             f"found {self.taubin_steps!r}")
+            raise InputError(
+                f"taubin steps must be a whole number >= 0, found {self.taubin_steps!r}"
+            )
         if not (np.isfinite(self.lumen_curvature_blur) and 0 <= self.lumen_curvature_blur <= 20):
-            raise InputError(f"the lumen curvature's blur must lie in 0..20 voxels, found "
-                             f"{self.lumen_curvature_blur!r}")
+            raise InputError(
+                f"the lumen curvature's blur must lie in 0..20 voxels, found "
+                f"{self.lumen_curvature_blur!r}"
+            )
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -151,9 +161,11 @@ def sample_step(mask: np.ndarray, voxel_size_xyz, target_vertices: int) -> float
     if mask.dtype != bool:
         mask = mask > LEVEL
     dx, dy, dz = voxel_size_xyz
-    faces = (np.count_nonzero(mask[1:] != mask[:-1]) * dx * dy
-             + np.count_nonzero(mask[:, 1:] != mask[:, :-1]) * dx * dz
-             + np.count_nonzero(mask[:, :, 1:] != mask[:, :, :-1]) * dy * dz)
+    faces = (
+        np.count_nonzero(mask[1:] != mask[:-1]) * dx * dy
+        + np.count_nonzero(mask[:, 1:] != mask[:, :-1]) * dx * dz
+        + np.count_nonzero(mask[:, :, 1:] != mask[:, :, :-1]) * dy * dz
+    )
     return max(float(np.sqrt(faces / target_vertices)), min(voxel_size_xyz))
 
 
@@ -166,8 +178,11 @@ def level_set_field(mask: np.ndarray, voxel_size_xyz, sigma_voxels: float, step:
     meets the volume's faces square."""
     size_zyx = np.asarray(voxel_size_xyz[::-1], float)
     reach = int(np.ceil(3 * max(sigma_voxels, ANTI_ALIAS * step / min(size_zyx)))) + 1
-    where = np.nonzero(mask.any(axis=(1, 2)))[0], np.nonzero(mask.any(axis=(0, 2)))[0], \
-        np.nonzero(mask.any(axis=(0, 1)))[0]
+    where = (
+        np.nonzero(mask.any(axis=(1, 2)))[0],
+        np.nonzero(mask.any(axis=(0, 2)))[0],
+        np.nonzero(mask.any(axis=(0, 1)))[0],
+    )
     lo = [max(int(w[0]) - reach, 0) for w in where]
     hi = [min(int(w[-1]) + reach, n - 1) for w, n in zip(where, mask.shape)]
     box = tuple(slice(a, b + 1) for a, b in zip(lo, hi))
@@ -197,19 +212,21 @@ def _blurred(field: np.ndarray, sigma: float, axis: int, truncate: float = 3.0) 
     label frame's meshing)."""
     import cv2
 
-    radius = int(truncate * sigma + 0.5)              # scipy's kernel, float32
+    radius = int(truncate * sigma + 0.5)  # scipy's kernel, float32
     x = np.arange(-radius, radius + 1)
-    kernel = np.exp(-0.5 / sigma ** 2 * x ** 2)
+    kernel = np.exp(-0.5 / sigma**2 * x**2)
     kernel = (kernel / kernel.sum()).astype(np.float32)
     one, border = np.ones(1, np.float32), cv2.BORDER_REPLICATE
     field = np.ascontiguousarray(field, dtype=np.float32)
-    if axis == 2:                                       # rows of (z y, x)
-        return cv2.filter2D(field.reshape(-1, field.shape[2]), -1, kernel[None, :],
-                            borderType=border).reshape(field.shape)
-    if axis == 0:                                       # columns of (z, y x)
-        return cv2.sepFilter2D(field.reshape(field.shape[0], -1), -1, one, kernel,
-                               borderType=border).reshape(field.shape)
-    out = np.empty_like(field)                          # columns of each (y, x) plane
+    if axis == 2:  # rows of (z y, x)
+        return cv2.filter2D(
+            field.reshape(-1, field.shape[2]), -1, kernel[None, :], borderType=border
+        ).reshape(field.shape)
+    if axis == 0:  # columns of (z, y x)
+        return cv2.sepFilter2D(
+            field.reshape(field.shape[0], -1), -1, one, kernel, borderType=border
+        ).reshape(field.shape)
+    out = np.empty_like(field)  # columns of each (y, x) plane
     for k in range(field.shape[0]):
         out[k] = cv2.sepFilter2D(field[k], -1, one, kernel, borderType=border)
     return out
@@ -243,15 +260,22 @@ class WallMesh:
     F: np.ndarray
     cleaned: Cleaned
     step: float
-    repair: MaskRepair | None = None     # the mask's topology mended first (or not)
-    mean_curvature: np.ndarray | None = None   # (n,) per length unit, from the level sets
-    nested: int | None = None            # voxels cut to keep it inside a mended wall
-    closed: np.ndarray | None = None     # (n,) bool: on the bridge across a closed lumen
-    closure: dict | None = None          # how the closed lumen's pieces were joined
+    repair: MaskRepair | None = None  # the mask's topology mended first (or not)
+    mean_curvature: np.ndarray | None = None  # (n,) per length unit, from the level sets
+    nested: int | None = None  # voxels cut to keep it inside a mended wall
+    closed: np.ndarray | None = None  # (n,) bool: on the bridge across a closed lumen
+    closure: dict | None = None  # how the closed lumen's pieces were joined
 
 
-def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptions(),
-              ends=None, *, curvature: bool = False, length_unit: str = "um") -> WallMesh:
+def mesh_wall(
+    mask: np.ndarray,
+    voxel_size_xyz,
+    options: MeshOptions = MeshOptions(),
+    ends=None,
+    *,
+    curvature: bool = False,
+    length_unit: str = "um",
+) -> WallMesh:
     """One wall's surface from its mask ``(z, y, x)``, bool or an occupancy in [0,
     1] (float32: a blend of masks or a probability map): the mask smoothed and
     resampled (:func:`level_set_field`), its level 0.5 by marching cubes (not
@@ -271,24 +295,29 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
     if field.max() <= LEVEL:
         raise MeshError("is too thin to mesh: after smoothing no voxel is inside")
     if field.min() >= LEVEL:
-        raise MeshError("fills the whole volume: it has no surface inside it (are the "
-                        "labels right?)")
+        raise MeshError(
+            "fills the whole volume: it has no surface inside it (are the labels right?)"
+        )
     verts, faces, _, _ = marching_cubes(field, LEVEL, spacing=spacing[::-1])
-    V = verts[:, ::-1] + np.asarray(origin)                  # (z, y, x) -> (x, y, z)
+    V = verts[:, ::-1] + np.asarray(origin)  # (z, y, x) -> (x, y, z)
     F = np.ascontiguousarray(faces[:, ::-1], dtype=np.int64)
     V, F, _ = repair(V, F)
     for point, normal in ends or ():
         V, F = cut_by_plane(V, F, point, normal)
     if len(F) == 0:
-        raise MeshError("lies wholly outside the part between the ends planes (meta.json "
-                        "\"ends\"): is each normal pointing into the tube's part to keep?")
+        raise MeshError(
+            "lies wholly outside the part between the ends planes (meta.json "
+            '"ends"): is each normal pointing into the tube\'s part to keep?'
+        )
     V, F, cleaned = _largest_piece(V, F)
     loops = boundary_loops(F)
     if len(loops) == 1:
-        raise MeshError("leaves the volume at one end only (one open end): a tube that "
-                        "ends inside the volume needs two cutting planes, meta.json "
-                        "\"ends\"")
-    topo = check_tube(V, F, mend=True, length_unit=length_unit)   # marching cubes' pinholes
+        raise MeshError(
+            "leaves the volume at one end only (one open end): a tube that "
+            "ends inside the volume needs two cutting planes, meta.json "
+            '"ends"'
+        )
+    topo = check_tube(V, F, mend=True, length_unit=length_unit)  # marching cubes' pinholes
     V = V if topo.V is None else topo.V
     rim = np.concatenate(topo.loops)
     V = taubin_smooth(V, topo.F, options.taubin_steps, fixed=rim)
@@ -296,14 +325,21 @@ def mesh_wall(mask: np.ndarray, voxel_size_xyz, options: MeshOptions = MeshOptio
     if curvature and options.lumen_curvature_blur > 0:
         from .level_set import level_set_mean_curvature
 
-        H = level_set_mean_curvature(mask, voxel_size_xyz, V,
-                                     options.lumen_curvature_blur * min(voxel_size_xyz))
+        H = level_set_mean_curvature(
+            mask, voxel_size_xyz, V, options.lumen_curvature_blur * min(voxel_size_xyz)
+        )
     return WallMesh(V, topo.F, cleaned, float(step), mean_curvature=H)
 
 
-def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_xyz,
-               options: MeshOptions = MeshOptions(), ends=None, *,
-               length_unit: str = "um") -> dict[str, WallMesh | str]:
+def mesh_walls(
+    labels: np.ndarray | dict,
+    label_ids: dict[str, int],
+    voxel_size_xyz,
+    options: MeshOptions = MeshOptions(),
+    ends=None,
+    *,
+    length_unit: str = "um",
+) -> dict[str, WallMesh | str]:
     """Every wall of one frame's label volume ``(z, y, x)`` (:func:`wall_masks`), or of
     its probabilities (layer -> ``(z, y, x)`` in [0, 1]: :func:`wall_occupancy`), by
     :func:`mesh_wall`, outer first. A wall that is not an open tube has its mask
@@ -314,7 +350,7 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
     be meshed even so, or whose layer's label is absent, comes back as the reason
     (a str: "the lumen wall: no voxel labelled lumen (3)"), to be filled from the
     neighbouring frames. Raises :class:`InputError` for float labels."""
-    if isinstance(labels, dict):                        # probabilities, layer -> (z, y, x)
+    if isinstance(labels, dict):  # probabilities, layer -> (z, y, x)
         masks = wall_occupancy(labels)
         present = {layer: bool(np.max(p) > LEVEL) for layer, p in labels.items()}
         nothing = "no voxel has a probability above 0.5"
@@ -329,9 +365,10 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
 
         def missing(layer):
             return f"no voxel labelled {layer} ({label_ids[layer]})"
+
     walls: dict[str, WallMesh | str] = {}
-    enclosing = None                 # the mended mask of the wall around this one, if any
-    inner = None                     # the inner wall's mask as meshed: it holds the lumen
+    enclosing = None  # the mended mask of the wall around this one, if any
+    inner = None  # the inner wall's mask as meshed: it holds the lumen
     for wall, mask in masks.items():
         # a wall's surface is its outermost layer's (one named layer: the outer wall's)
         layer = next(la for la in WALL_LAYERS[wall] if la in label_ids)
@@ -342,35 +379,69 @@ def mesh_walls(labels: np.ndarray | dict, label_ids: dict[str, int], voxel_size_
             walls[wall] = f"the {wall} wall: {missing(layer)}"
             continue
         nested = None
-        if enclosing is not None:       # nested by the labels' design, unless one was mended
+        if enclosing is not None:  # nested by the labels' design, unless one was mended
             mask, nested = keep_inside(mask, enclosing)
         closed = None
-        if wall == "lumen" and inner is not None:      # in pieces: the cushions closed it
-            closed = closed_lumen_mesh(mask, inner, voxel_size_xyz, options, ends,
-                                       openings=(0, 1, 2, 3), length_unit=length_unit)
+        if wall == "lumen" and inner is not None:  # in pieces: the cushions closed it
+            closed = closed_lumen_mesh(
+                mask,
+                inner,
+                voxel_size_xyz,
+                options,
+                ends,
+                openings=(0, 1, 2, 3),
+                length_unit=length_unit,
+            )
         if closed is not None:
             walls[wall] = closed
         else:
-            walls[wall], enclosing = _mesh_or_mend(wall, mask, voxel_size_xyz, options, ends,
-                                                   curvature=wall == "lumen",
-                                                   length_unit=length_unit)
+            walls[wall], enclosing = _mesh_or_mend(
+                wall,
+                mask,
+                voxel_size_xyz,
+                options,
+                ends,
+                curvature=wall == "lumen",
+                length_unit=length_unit,
+            )
         if wall == "lumen" and isinstance(walls[wall], str) and inner is not None:
             # one piece, but its slit closing through a sieve of voxels (opened, bridged),
             # or closed up to an end of the tube (bridged to it)
-            walls[wall] = closed_lumen_mesh(mask, inner, voxel_size_xyz, options, ends,
-                                            openings=(0, 1, 2, 3), to_ends=True,
-                                            length_unit=length_unit) or walls[wall]
+            walls[wall] = (
+                closed_lumen_mesh(
+                    mask,
+                    inner,
+                    voxel_size_xyz,
+                    options,
+                    ends,
+                    openings=(0, 1, 2, 3),
+                    to_ends=True,
+                    length_unit=length_unit,
+                )
+                or walls[wall]
+            )
         if nested is not None and isinstance(walls[wall], WallMesh):
             walls[wall] = replace(walls[wall], nested=nested)
         if wall == "inner":
-            inner = enclosing if enclosing is not None else (
-                mask if mask.dtype == bool else mask > LEVEL)
+            inner = (
+                enclosing
+                if enclosing is not None
+                else (mask if mask.dtype == bool else mask > LEVEL)
+            )
     return walls
 
 
-def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
-                      options: MeshOptions, ends, *, openings=(0, 1, 2),
-                      to_ends: bool = False, length_unit: str = "um") -> WallMesh | None:
+def closed_lumen_mesh(
+    mask: np.ndarray,
+    inner: np.ndarray,
+    voxel_size_xyz,
+    options: MeshOptions,
+    ends,
+    *,
+    openings=(0, 1, 2),
+    to_ends: bool = False,
+    length_unit: str = "um",
+) -> WallMesh | None:
     """The lumen's wall where the cushions close it over a stretch: its mask (boolean,
     or an occupancy in [0, 1]) in pieces joined by a thin bridge
     (:func:`~oftimg.mesh.closure.bridged_lumen`, inside the boolean ``inner`` mask) and
@@ -393,32 +464,52 @@ def closed_lumen_mesh(mask: np.ndarray, inner: np.ndarray, voxel_size_xyz,
 
     inside = mask if mask.dtype == bool else mask > LEVEL
     # the bridge as thick as the level set's sampling: thinner, it falls between samples
-    radius = max(BRIDGE_RADIUS_VOXELS, sample_step(inside, voxel_size_xyz,
-                                                   options.target_vertices)
-                 / min(voxel_size_xyz))
-    joined = {}                     # opening radius -> (opened mask, bridge), or None
-    blurs = [options] + [replace(options, smoothing=WIDER_BLUR)] * (
-        options.smoothing < WIDER_BLUR)
+    radius = max(
+        BRIDGE_RADIUS_VOXELS,
+        sample_step(inside, voxel_size_xyz, options.target_vertices) / min(voxel_size_xyz),
+    )
+    joined = {}  # opening radius -> (opened mask, bridge), or None
+    blurs = [options] + [replace(options, smoothing=WIDER_BLUR)] * (options.smoothing < WIDER_BLUR)
     for blur in blurs:
         for radius in openings:
             if radius not in joined:
-                opened = inside if radius == 0 else ndimage.binary_opening(
-                    inside, _ball_um(radius * min(voxel_size_xyz), voxel_size_xyz))
-                bridged = bridged_lumen(opened, inner, voxel_size_xyz, ends=tube,
-                                        radius_voxels=radius)
+                opened = (
+                    inside
+                    if radius == 0
+                    else ndimage.binary_opening(
+                        inside, _ball_um(radius * min(voxel_size_xyz), voxel_size_xyz)
+                    )
+                )
+                bridged = bridged_lumen(
+                    opened, inner, voxel_size_xyz, ends=tube, radius_voxels=radius
+                )
                 joined[radius] = None if bridged is None else (opened, bridged[1])
             if joined[radius] is not None:
-                mesh = _bridged_mesh(mask, inside, *joined[radius], voxel_size_xyz, blur,
-                                     ends, length_unit)
+                mesh = _bridged_mesh(
+                    mask, inside, *joined[radius], voxel_size_xyz, blur, ends, length_unit
+                )
                 if mesh is not None:
-                    return replace(mesh, closure={**mesh.closure, "opened_voxels": radius,
-                                                  "blur_voxels": blur.smoothing})
+                    return replace(
+                        mesh,
+                        closure={
+                            **mesh.closure,
+                            "opened_voxels": radius,
+                            "blur_voxels": blur.smoothing,
+                        },
+                    )
     return None
 
 
-def _bridged_mesh(mask: np.ndarray, inside: np.ndarray, opened: np.ndarray,
-                  bridge: np.ndarray, voxel_size_xyz, options: MeshOptions, ends,
-                  length_unit: str) -> WallMesh | None:
+def _bridged_mesh(
+    mask: np.ndarray,
+    inside: np.ndarray,
+    opened: np.ndarray,
+    bridge: np.ndarray,
+    voxel_size_xyz,
+    options: MeshOptions,
+    ends,
+    length_unit: str,
+) -> WallMesh | None:
     """The lumen ``mask`` (``inside`` its boolean) as opened, joined by ``bridge``,
     meshed with its bridge's vertices flagged (:func:`closed_lumen_mesh`): the opening's
     voxels away from the bridge given back first (:func:`_kept_of_opening`), then not;
@@ -427,18 +518,25 @@ def _bridged_mesh(mask: np.ndarray, inside: np.ndarray, opened: np.ndarray,
 
     for kept in _kept_of_opening(inside, opened, bridge, voxel_size_xyz):
         whole = kept | bridge
-        if mask.dtype != bool:      # an occupancy: its own values where it is kept
-            whole = np.where(bridge, 1.0, np.where(kept, mask, np.minimum(mask, 0.25))
-                             ).astype(np.float32)
+        if mask.dtype != bool:  # an occupancy: its own values where it is kept
+            whole = np.where(bridge, 1.0, np.where(kept, mask, np.minimum(mask, 0.25))).astype(
+                np.float32
+            )
         try:
-            mesh = mesh_wall(whole, voxel_size_xyz, options, ends, curvature=True,
-                             length_unit=length_unit)
+            mesh = mesh_wall(
+                whole, voxel_size_xyz, options, ends, curvature=True, length_unit=length_unit
+            )
         except MeshError:
             continue
-        return replace(mesh, closed=bridge_flags(mesh.V, bridge, kept, voxel_size_xyz),
-                       closure={"pieces": lumen_pieces(kept)[1],
-                                "bridge_voxels": int(bridge.sum()),
-                                "opened_away": int(np.count_nonzero(inside & ~kept))})
+        return replace(
+            mesh,
+            closed=bridge_flags(mesh.V, bridge, kept, voxel_size_xyz),
+            closure={
+                "pieces": lumen_pieces(kept)[1],
+                "bridge_voxels": int(bridge.sum()),
+                "opened_away": int(np.count_nonzero(inside & ~kept)),
+            },
+        )
     return None
 
 
@@ -448,30 +546,42 @@ def _bridged_mesh(mask: np.ndarray, inside: np.ndarray, opened: np.ndarray,
 WIDER_BLUR = 1.0
 
 
-def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOptions, ends,
-                  *, curvature: bool = False, length_unit: str = "um"
-                  ) -> tuple[WallMesh | str, np.ndarray | None]:
+def _mesh_or_mend(
+    wall: str,
+    mask: np.ndarray,
+    voxel_size_xyz,
+    options: MeshOptions,
+    ends,
+    *,
+    curvature: bool = False,
+    length_unit: str = "um",
+) -> tuple[WallMesh | str, np.ndarray | None]:
     """The wall meshed from ``mask``; when that fails, from the mask mended
     (:func:`~oftimg.mesh.mask_topology.solid_tube_mask`), and then, if the surface is
     still no tube, with its level set blurred by ``WIDER_BLUR`` voxels; with the mended
     mask (None when not mended). Or the reason it cannot be meshed."""
+
     def meshed(m, opts=options):
-        return mesh_wall(m, voxel_size_xyz, opts, ends, curvature=curvature,
-                         length_unit=length_unit)
+        return mesh_wall(
+            m, voxel_size_xyz, opts, ends, curvature=curvature, length_unit=length_unit
+        )
 
     try:
         return meshed(mask), None
-    except MeshError as exc:        # a handle, a tunnel, a bridge: mend the mask, once
+    except MeshError as exc:  # a handle, a tunnel, a bridge: mend the mask, once
         failed = exc
     inside = mask if mask.dtype == bool else mask > LEVEL
     solid, repair = solid_tube_mask(inside)
     mended = mask
     if repair is None:
-        solid = None                                 # a solid tube already: not mended
+        solid = None  # a solid tube already: not mended
     else:
         # an occupancy keeps its values where the mending left the voxel as it was
-        mended = solid if mask.dtype == bool else np.where(solid == inside, mask, solid
-                                                            ).astype(np.float32)
+        mended = (
+            solid
+            if mask.dtype == bool
+            else np.where(solid == inside, mask, solid).astype(np.float32)
+        )
         try:
             return replace(meshed(mended), repair=repair), solid
         except MeshError as again:
@@ -483,12 +593,17 @@ def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOpti
             pass
         else:
             what = f"level set blurred by {WIDER_BLUR:g} voxel" + (
-                f" after its mask's {repair.what}" if repair else "")
-            return replace(mesh, repair=MaskRepair(
-                what, repair.voxels if repair else 0,
-                repair.euler_before if repair else 1)), solid
+                f" after its mask's {repair.what}" if repair else ""
+            )
+            return replace(
+                mesh,
+                repair=MaskRepair(
+                    what, repair.voxels if repair else 0, repair.euler_before if repair else 1
+                ),
+            ), solid
     return f"the {wall} wall {failed}" + (
-        f" (after its mask's {repair.what})" if repair else ""), None
+        f" (after its mask's {repair.what})" if repair else ""
+    ), None
 
 
 # the voxels an opening took that lie this far (um per smallest voxel side) from the
@@ -496,8 +611,9 @@ def _mesh_or_mend(wall: str, mask: np.ndarray, voxel_size_xyz, options: MeshOpti
 KEPT_FROM_BRIDGE_VOXELS = 4.0
 
 
-def _kept_of_opening(inside: np.ndarray, opened: np.ndarray, bridge: np.ndarray,
-                     voxel_size_xyz) -> list[np.ndarray]:
+def _kept_of_opening(
+    inside: np.ndarray, opened: np.ndarray, bridge: np.ndarray, voxel_size_xyz
+) -> list[np.ndarray]:
     """The lumen's masks to try beside a bridge: its opened mask with what the opening
     took further than :data:`KEPT_FROM_BRIDGE_VOXELS` from the bridge given back (a slit
     still open there, thin but no sieve), then the opened mask itself."""
@@ -508,7 +624,8 @@ def _kept_of_opening(inside: np.ndarray, opened: np.ndarray, bridge: np.ndarray,
         return [opened]
     size_zyx = np.asarray(voxel_size_xyz, float)[::-1]
     far = ndimage.distance_transform_edt(~bridge, sampling=size_zyx) > (
-        KEPT_FROM_BRIDGE_VOXELS * size_zyx.min())
+        KEPT_FROM_BRIDGE_VOXELS * size_zyx.min()
+    )
     return [opened | (took & far), opened]
 
 
@@ -519,7 +636,7 @@ def _ball_um(radius: float, voxel_size_xyz) -> np.ndarray:
     size = np.asarray(voxel_size_xyz, float)[::-1]
     reach = np.floor(radius / size + 1e-9).astype(int)
     offsets = np.indices(2 * reach + 1).reshape(3, -1).T - reach
-    inside = ((offsets * size) ** 2).sum(axis=1) <= radius ** 2 + 1e-9
+    inside = ((offsets * size) ** 2).sum(axis=1) <= radius**2 + 1e-9
     ball = np.zeros(tuple(2 * reach + 1), bool)
     ball[tuple((offsets[inside] + reach).T)] = True
     return ball
@@ -534,12 +651,13 @@ def keep_inside(mask: np.ndarray, enclosing: np.ndarray) -> tuple[np.ndarray, in
     to nothing, and a forced gap of a voxel pierced thin layers."""
     from scipy import ndimage
 
-    inside = mask if mask.dtype == bool else mask > LEVEL        # an occupancy: above 0.5
+    inside = mask if mask.dtype == bool else mask > LEVEL  # an occupancy: above 0.5
     cut = inside & ~enclosing
     if not cut.any():
         return mask, None
     six = ndimage.generate_binary_structure(3, 1)
     moved = int(np.count_nonzero(cut & ndimage.binary_dilation(inside & enclosing, six)))
-    kept = mask & enclosing if mask.dtype == bool else np.where(enclosing, mask, 0).astype(
-        np.float32)
+    kept = (
+        mask & enclosing if mask.dtype == bool else np.where(enclosing, mask, 0).astype(np.float32)
+    )
     return kept, moved or None

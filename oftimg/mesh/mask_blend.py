@@ -7,6 +7,7 @@ Masks are ``(z, y, x)`` bool, voxel sizes ``(dx, dy, dz)``, as in
 :mod:`oftimg.mesh.labels`; the result is an occupancy in [0, 1] (float32) whose level
 0.5 is the blended surface, meshed like a mask.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,9 +25,15 @@ def signed_distance(mask: np.ndarray, voxel_size_xyz) -> np.ndarray:
     return (outside - inside).astype(np.float32)
 
 
-def blended_occupancy(before: np.ndarray, after: np.ndarray, weight: float, voxel_size_xyz,
-                      *, within: np.ndarray | None = None, around: np.ndarray | None = None
-                      ) -> np.ndarray:
+def blended_occupancy(
+    before: np.ndarray,
+    after: np.ndarray,
+    weight: float,
+    voxel_size_xyz,
+    *,
+    within: np.ndarray | None = None,
+    around: np.ndarray | None = None,
+) -> np.ndarray:
     """The mask a share ``weight`` (0: ``before``, 1: ``after``) of the way from one
     mask to the other, as an occupancy ``(z, y, x)`` float32 in [0, 1]: the blended
     signed distance as a ramp one voxel wide (0.5 on the blended outline), kept
@@ -34,8 +41,9 @@ def blended_occupancy(before: np.ndarray, after: np.ndarray, weight: float, voxe
     ``around`` (the enclosed wall's mask), when given, so the walls stay nested."""
     if not 0.0 <= weight <= 1.0:
         raise ValueError(f"weight must lie in [0, 1], found {weight}")
-    distance = ((1.0 - weight) * signed_distance(before, voxel_size_xyz)
-                + weight * signed_distance(after, voxel_size_xyz))
+    distance = (1.0 - weight) * signed_distance(before, voxel_size_xyz) + weight * signed_distance(
+        after, voxel_size_xyz
+    )
     occupancy = np.clip(0.5 - distance / float(min(voxel_size_xyz)), 0.0, 1.0)
     if within is not None:
         occupancy = np.minimum(occupancy, within)

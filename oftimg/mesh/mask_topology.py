@@ -10,13 +10,14 @@ narrower than it; the first radius at which either gives a solid tube, the one
 changing fewer voxels, is kept. Masks are ``(z, y, x)`` bool, as in
 :mod:`oftimg.mesh.labels`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-MAX_RADIUS = 3          # voxels: a larger defect is no segmentation noise
+MAX_RADIUS = 3  # voxels: a larger defect is no segmentation noise
 MAX_CHANGED_SHARE = 0.05  # of the mask's voxels: a larger change would reshape the wall
 
 
@@ -31,8 +32,10 @@ class MaskRepair:
     euler_before: int
 
     def describe(self) -> str:
-        return f"{self.what}, {self.voxels} voxels changed (Euler characteristic " \
-               f"{self.euler_before} -> 1)"
+        return (
+            f"{self.what}, {self.voxels} voxels changed (Euler characteristic "
+            f"{self.euler_before} -> 1)"
+        )
 
 
 def core(mask: np.ndarray) -> np.ndarray:
@@ -57,12 +60,12 @@ def euler(mask: np.ndarray) -> int:
 
 def _ball(radius: int) -> np.ndarray:
     r = np.arange(-radius, radius + 1)
-    return (r[:, None, None] ** 2 + r[None, :, None] ** 2 + r[None, None, :] ** 2) <= radius ** 2
+    return (r[:, None, None] ** 2 + r[None, :, None] ** 2 + r[None, None, :] ** 2) <= radius**2
 
 
-def solid_tube_mask(mask: np.ndarray, *, max_radius: int = MAX_RADIUS,
-                    max_share: float = MAX_CHANGED_SHARE
-                    ) -> tuple[np.ndarray | None, MaskRepair | None]:
+def solid_tube_mask(
+    mask: np.ndarray, *, max_radius: int = MAX_RADIUS, max_share: float = MAX_CHANGED_SHARE
+) -> tuple[np.ndarray | None, MaskRepair | None]:
     """``mask`` (``(z, y, x)`` bool) as a solid tube: ``(mask, None)`` when its core
     (:func:`core`) is one already; else the core opened or closed by a ball of the
     least radius (1 to ``max_radius`` voxels) that makes it one, the smaller change
@@ -76,18 +79,18 @@ def solid_tube_mask(mask: np.ndarray, *, max_radius: int = MAX_RADIUS,
         return mask, None
     limit = max_share * max(int(solid.sum()), 1)
     pad = max_radius + 1
-    padded = np.pad(solid, pad, mode="edge")       # the tube's open ends stay open
+    padded = np.pad(solid, pad, mode="edge")  # the tube's open ends stay open
     for radius in range(1, max_radius + 1):
         ball = _ball(radius)
         tried = []
-        for what, op in (("opening", ndimage.binary_opening),
-                         ("closing", ndimage.binary_closing)):
+        for what, op in (("opening", ndimage.binary_opening), ("closing", ndimage.binary_closing)):
             out = core(op(padded, structure=ball)[pad:-pad, pad:-pad, pad:-pad])
             changed = int(np.count_nonzero(out != solid))
             if changed <= limit and out.any() and euler(out) == 1:
                 tried.append((changed, what, out))
         if tried:
             changed, what, out = min(tried, key=lambda c: c[0])
-            return out, MaskRepair(f"{what}, radius {radius} voxel{'s' * (radius > 1)}",
-                                   changed, before)
+            return out, MaskRepair(
+                f"{what}, radius {radius} voxel{'s' * (radius > 1)}", changed, before
+            )
     return None, None

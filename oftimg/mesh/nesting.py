@@ -10,6 +10,7 @@ contacts between values (which value touches which) say whether a layer lies ins
 another or beside it. Both are summed over frames, so that a few flipped boundary
 voxels or islands do not change the order.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ class Contacts:
     values: np.ndarray
     voxels: np.ndarray
     faces: np.ndarray
-    depth: np.ndarray           # (k,) the voxels' depths summed (0 for the background)
+    depth: np.ndarray  # (k,) the voxels' depths summed (0 for the background)
 
     def __add__(self, other: "Contacts") -> "Contacts":
         values = np.union1d(self.values, other.values)
@@ -69,7 +70,7 @@ def label_contacts(labels: np.ndarray) -> Contacts:
     from scipy import ndimage
 
     labels = np.asarray(labels)
-    if labels.dtype.kind in "ub" and labels.dtype.itemsize <= 2:      # counted: 10x np.unique
+    if labels.dtype.kind in "ub" and labels.dtype.itemsize <= 2:  # counted: 10x np.unique
         counts = np.bincount(labels.ravel().astype(np.intp, copy=False))
         values = np.flatnonzero(counts)
         voxels = counts[values]
@@ -96,8 +97,11 @@ def layers_present(contacts: Contacts) -> list[int]:
     """The non-zero values that hold at least :data:`LAYER_SHARE` of the labelled
     voxels (the others are specks), in increasing order."""
     labelled = contacts.voxels[contacts.values != 0].sum()
-    return [int(v) for v, n in zip(contacts.values, contacts.voxels)
-            if v != 0 and labelled and n >= LAYER_SHARE * labelled]
+    return [
+        int(v)
+        for v, n in zip(contacts.values, contacts.voxels)
+        if v != 0 and labelled and n >= LAYER_SHARE * labelled
+    ]
 
 
 def nesting_order(contacts: Contacts, values: list[int]) -> list[int]:

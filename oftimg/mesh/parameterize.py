@@ -11,6 +11,7 @@ length (``w = authalic_weight``). The authalic (chi) weights carry a
 1/length^2; they are multiplied by the mesh's mean squared edge length so that
 the blend does not depend on the unit.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -51,16 +52,21 @@ def intrinsic_weights(V: np.ndarray, F: np.ndarray, *, authalic_weight: float) -
     if not 0.0 <= authalic_weight <= 1.0:
         raise InputError(f"authalic_weight must be in [0, 1], found {authalic_weight}")
     cots, l2 = corner_terms(V, F)
-    scale = float(l2.mean())                        # makes the blend unit-free
+    scale = float(l2.mean())  # makes the blend unit-free
     # edge k = (i, j) = (corner k, corner k + 1); its opposite corner is k + 2
     conf = (1 - authalic_weight) * 0.5 * cots[:, [2, 0, 1]]
     auth = authalic_weight * scale / np.maximum(l2, 1e-300)
-    w_ij = conf + auth * cots[:, [1, 2, 0]]         # the angle at j
-    w_ji = conf + auth * cots                       # the angle at i
+    w_ij = conf + auth * cots[:, [1, 2, 0]]  # the angle at j
+    w_ji = conf + auth * cots  # the angle at i
     i, j = F.ravel(), F[:, [1, 2, 0]].ravel()
     n = len(V)
-    return sp.csr_matrix((np.concatenate([w_ij.ravel(), w_ji.ravel()]),
-                          (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
+    return sp.csr_matrix(
+        (
+            np.concatenate([w_ij.ravel(), w_ji.ravel()]),
+            (np.concatenate([i, j]), np.concatenate([j, i])),
+        ),
+        shape=(n, n),
+    )
 
 
 def harmonic_map(W: sp.csr_matrix, boundary: np.ndarray, boundary_uv: np.ndarray) -> np.ndarray:
@@ -74,16 +80,20 @@ def harmonic_map(W: sp.csr_matrix, boundary: np.ndarray, boundary_uv: np.ndarray
     idx = np.nonzero(interior)[0]
     fixed = np.zeros((n, 2))
     fixed[boundary] = boundary_uv
-    rhs = -(W @ fixed)[idx]                              # the boundary's pull on each row
+    rhs = -(W @ fixed)[idx]  # the boundary's pull on each row
     # A = (W - diag(row sums)) restricted to the interior, assembled directly
     Wc = W.tocoo()
     keep = interior[Wc.row] & interior[Wc.col]
     pos = np.full(n, -1)
     pos[idx] = np.arange(len(idx))
     diag = np.arange(len(idx))
-    A = sp.csc_matrix((np.concatenate([Wc.data[keep], -np.asarray(W.sum(axis=1)).ravel()[idx]]),
-                       (np.concatenate([pos[Wc.row[keep]], diag]),
-                        np.concatenate([pos[Wc.col[keep]], diag]))), shape=(len(idx), len(idx)))
+    A = sp.csc_matrix(
+        (
+            np.concatenate([Wc.data[keep], -np.asarray(W.sum(axis=1)).ravel()[idx]]),
+            (np.concatenate([pos[Wc.row[keep]], diag]), np.concatenate([pos[Wc.col[keep]], diag])),
+        ),
+        shape=(len(idx), len(idx)),
+    )
     UV = np.empty((n, 2))
     UV[boundary] = boundary_uv
     UV[idx] = _solve(A, np.ascontiguousarray(rhs))
@@ -99,8 +109,9 @@ def _solve(A: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:
     shows that went wrong.
     """
     try:
-        lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
+        lu = spla.splu(
+            A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        )
         x = lu.solve(rhs)
         scale = np.abs(rhs).max() + np.abs(A).max() * np.abs(x).max()
         if np.isfinite(x).all() and np.abs(A @ x - rhs).max() <= 1e-9 * scale:
@@ -164,8 +175,15 @@ def _arc_fraction(P: np.ndarray, closed: bool) -> np.ndarray:
     return s / s[-1]
 
 
-def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndarray,
-                chain: np.ndarray, *, authalic_weight: float = 0.5) -> FlatTube:
+def cut_and_map(
+    V: np.ndarray,
+    F: np.ndarray,
+    inlet: np.ndarray,
+    outlet: np.ndarray,
+    chain: np.ndarray,
+    *,
+    authalic_weight: float = 0.5,
+) -> FlatTube:
     """Cut the tube along ``chain`` (inlet vertex to outlet vertex) and flatten it.
 
     ``inlet`` / ``outlet`` are boundary loops ordered along their faces'
@@ -180,7 +198,7 @@ def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndar
         raise MeshError("the seam touches a boundary loop between its ends")
     high = seam_sides(F, chain)
     n = len(V)
-    hi_chain = n + np.arange(len(chain))                  # the seam's copies at u = 1
+    hi_chain = n + np.arange(len(chain))  # the seam's copies at u = 1
     relabel = np.arange(n)
     relabel[chain] = hi_chain
     Fc = F.copy()
@@ -193,17 +211,20 @@ def cut_and_map(V: np.ndarray, F: np.ndarray, inlet: np.ndarray, outlet: np.ndar
     u_in = _arc_fraction(V[inl], closed=True)
     u_out = _arc_fraction(V[out], closed=True)
     v_seam = _arc_fraction(V[chain], closed=False)
-    boundary = np.concatenate([inl, [hi_chain[0]], out[1:], [hi_chain[-1]],
-                               chain[1:-1], hi_chain[1:-1], [out[0]]])
-    uv = np.concatenate([
-        np.stack([u_in[:-1], np.zeros(len(inl))], 1),
-        [[1.0, 0.0]],
-        np.stack([u_out[1:-1], np.ones(len(out) - 1)], 1),
-        [[1.0, 1.0]],
-        np.stack([np.zeros(len(chain) - 2), v_seam[1:-1]], 1),
-        np.stack([np.ones(len(chain) - 2), v_seam[1:-1]], 1),
-        [[0.0, 1.0]],
-    ])
+    boundary = np.concatenate(
+        [inl, [hi_chain[0]], out[1:], [hi_chain[-1]], chain[1:-1], hi_chain[1:-1], [out[0]]]
+    )
+    uv = np.concatenate(
+        [
+            np.stack([u_in[:-1], np.zeros(len(inl))], 1),
+            [[1.0, 0.0]],
+            np.stack([u_out[1:-1], np.ones(len(out) - 1)], 1),
+            [[1.0, 1.0]],
+            np.stack([np.zeros(len(chain) - 2), v_seam[1:-1]], 1),
+            np.stack([np.ones(len(chain) - 2), v_seam[1:-1]], 1),
+            [[0.0, 1.0]],
+        ]
+    )
     W = intrinsic_weights(Vc, Fc, authalic_weight=authalic_weight)
     UV = harmonic_map(W, boundary, uv)
     flipped = count_flipped(UV, Fc)
@@ -245,8 +266,8 @@ class FlatSampler:
     open3d ray casting, which builds a BVH per frame.
     """
 
-    EPS = 1e-9   # queries are clipped this far inside the unit square
-    TOL = 1e-9   # barycentric slack for points on an edge
+    EPS = 1e-9  # queries are clipped this far inside the unit square
+    TOL = 1e-9  # barycentric slack for points on an edge
     MAX_ROWS = 256  # distinct v values located at once
 
     def __init__(self, flat: FlatTube):
@@ -258,9 +279,9 @@ class FlatSampler:
         self._u_hi = np.maximum(np.maximum(u0, u1), u2)
         self._v_lo = np.minimum(np.minimum(v0, v1), v2)
         self._v_hi = np.maximum(np.maximum(v0, v1), v2)
-        a, b, c, d = u1 - u0, u2 - u0, v1 - v0, v2 - v0    # (l1, l2) = [[a, b], [c, d]]^-1 (du, dv)
+        a, b, c, d = u1 - u0, u2 - u0, v1 - v0, v2 - v0  # (l1, l2) = [[a, b], [c, d]]^-1 (du, dv)
         det = a * d - b * c
-        det[det == 0] = np.inf                             # degenerate: holds nothing
+        det[det == 0] = np.inf  # degenerate: holds nothing
         self._inv = (d / det, -b / det, -c / det, a / det)
 
     def __call__(self, u: np.ndarray, v: np.ndarray, values: np.ndarray | None = None):
@@ -272,7 +293,7 @@ class FlatSampler:
         uu = np.clip(u.ravel(), self.EPS, 1 - self.EPS)
         vv = np.clip(v.ravel(), self.EPS, 1 - self.EPS)
         rows, row_of = np.unique(vv, return_inverse=True)
-        if len(rows) <= self.MAX_ROWS:                    # a grid's rows: the usual case
+        if len(rows) <= self.MAX_ROWS:  # a grid's rows: the usual case
             prim, l1, l2 = self._locate(uu, vv, rows, row_of)
         else:  # scattered queries in batches of rows: a few (triangle, row) pairs per triangle
             prim = np.empty(len(uu), dtype=np.int64)
@@ -280,17 +301,21 @@ class FlatSampler:
             for first in range(0, len(rows), self.MAX_ROWS):
                 batch = np.nonzero((row_of >= first) & (row_of < first + self.MAX_ROWS))[0]
                 prim[batch], l1[batch], l2[batch] = self._locate(
-                    uu[batch], vv[batch], rows[first:first + self.MAX_ROWS], row_of[batch] - first)
+                    uu[batch], vv[batch], rows[first : first + self.MAX_ROWS], row_of[batch] - first
+                )
         F = self._F[prim]
         V = self.flat.V if values is None else np.asarray(values, float)[:, None]
-        X = (V[F[:, 0]] * (1 - l1 - l2)[:, None] + V[F[:, 1]] * l1[:, None]
-             + V[F[:, 2]] * l2[:, None])
+        X = (
+            V[F[:, 0]] * (1 - l1 - l2)[:, None]
+            + V[F[:, 1]] * l1[:, None]
+            + V[F[:, 2]] * l2[:, None]
+        )
         return X.reshape(shape + (3,)) if values is None else X.reshape(shape)
 
     def _locate(self, uu, vv, rows, row_of):
         """Triangle and barycentric coordinates ``(l1, l2)`` of each query, which
         lies on row ``row_of`` (index into the sorted ``rows``)."""
-        n_b = 2 * -(-len(uu) // len(rows))                  # buckets per row
+        n_b = 2 * -(-len(uu) // len(rows))  # buckets per row
         bucket = row_of * n_b + np.minimum((uu * n_b).astype(np.int64), n_b - 1)
         order = np.argsort(bucket, kind="stable")
         ptr = np.concatenate([[0], np.cumsum(np.bincount(bucket, minlength=len(rows) * n_b))])

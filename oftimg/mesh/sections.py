@@ -1,4 +1,5 @@
 """Plane sections of triangle meshes: closed contours and their areas."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -6,8 +7,9 @@ import numpy as np
 from .topology import cross3, interp_grouped, loop_vector_area
 
 
-def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.ndarray
-                   ) -> list[tuple[np.ndarray, bool]]:
+def plane_contours(
+    V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.ndarray
+) -> list[tuple[np.ndarray, bool]]:
     """All contours where the plane ``(origin, normal)`` cuts the mesh.
 
     Returns a list of ``(points (n_pts, 3) mm, closed)``; a closed contour's
@@ -16,8 +18,9 @@ def plane_contours(V: np.ndarray, F: np.ndarray, origin: np.ndarray, normal: np.
     return planes_contours(V, F, np.asarray(origin)[None], np.asarray(normal)[None])[0]
 
 
-def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray
-                    ) -> list[list[tuple[np.ndarray, bool]]]:
+def planes_contours(
+    V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray
+) -> list[list[tuple[np.ndarray, bool]]]:
     """:func:`plane_contours` for many planes ``(n_planes, 3)`` at once.
 
     The signed distances of all vertices to all planes are one matrix product,
@@ -30,19 +33,19 @@ def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: 
     normals = np.asarray(normals, float)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     n_planes, n = len(normals), len(V)
-    D = V @ normals.T - np.einsum("ij,ij->i", origins, normals)[None, :]   # (n_vert, n_planes)
+    D = V @ normals.T - np.einsum("ij,ij->i", origins, normals)[None, :]  # (n_vert, n_planes)
     scale = np.abs(D).max(axis=0, keepdims=True)
     D = np.where(np.abs(D) < 1e-12 * scale, 1e-12 * scale, D)  # no vertex exactly on a plane
     words = -(-n_planes // 64)
     bits = np.zeros((n, 8 * words), np.uint8)
-    bits[:, :-(-n_planes // 8)] = np.packbits(D > 0, axis=1, bitorder="little")
-    bits = bits.view(np.uint64)                                             # (n_vert, words)
+    bits[:, : -(-n_planes // 8)] = np.packbits(D > 0, axis=1, bitorder="little")
+    bits = bits.view(np.uint64)  # (n_vert, words)
     differ = (bits[F[:, 0]] ^ bits[F[:, 1]]) | (bits[F[:, 1]] ^ bits[F[:, 2]])
     cut_faces = np.nonzero(differ.any(axis=1))[0]
     cut = np.unpackbits(differ[cut_faces].view(np.uint8), axis=1, bitorder="little")
-    plane, k = np.nonzero(cut[:, :n_planes].T)               # cut pairs, by plane then face
+    plane, k = np.nonzero(cut[:, :n_planes].T)  # cut pairs, by plane then face
     face = cut_faces[k]
-    corners = F[face]                                                       # (m, 3)
+    corners = F[face]  # (m, 3)
     pos = D[corners, plane[:, None]] > 0
     nxt_pos = np.roll(pos, -1, axis=1)
     pair = np.arange(len(face))
@@ -52,19 +55,19 @@ def planes_contours(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: 
         return corners[pair, k_corner], corners[pair, (k_corner + 1) % 3]
 
     def crossing(i, j):
-        i, j = np.minimum(i, j), np.maximum(i, j)   # both faces of an edge get the same point
+        i, j = np.minimum(i, j), np.maximum(i, j)  # both faces of an edge get the same point
         di, dj = D[i, plane], D[j, plane]
         t = di / (di - dj)
         return V[i] + t[:, None] * (V[j] - V[i])
 
-    a_in, b_in = edge(np.argmax(~pos & nxt_pos, axis=1))                 # - -> + across it
-    a_out, b_out = edge(np.argmax(pos & ~nxt_pos, axis=1))               # + -> -
+    a_in, b_in = edge(np.argmax(~pos & nxt_pos, axis=1))  # - -> + across it
+    a_out, b_out = edge(np.argmax(pos & ~nxt_pos, axis=1))  # + -> -
     P_in, P_out = crossing(a_in, b_in), crossing(a_out, b_out)
-    in_key = (plane * n + b_in) * n + a_in          # a neighbour runs the shared edge backwards
+    in_key = (plane * n + b_in) * n + a_in  # a neighbour runs the shared edge backwards
     out_key = (plane * n + a_out) * n + b_out
     by_key = np.argsort(in_key)
     at = by_key[np.clip(np.searchsorted(in_key[by_key], out_key), 0, len(by_key) - 1)]
-    nxt = np.where(in_key[at] == out_key, at, -1)                       # -1: boundary
+    nxt = np.where(in_key[at] == out_key, at, -1)  # -1: boundary
     has_prev = np.zeros(len(face), dtype=bool)
     has_prev[nxt[nxt >= 0]] = True
     out = [[] for _ in range(len(normals))]
@@ -94,8 +97,9 @@ def polygon_area(P: np.ndarray, normal: np.ndarray | None = None) -> float:
     return float(abs(A @ (np.asarray(normal) / np.linalg.norm(normal))))
 
 
-def contour_around(contours: list[tuple[np.ndarray, bool]], center: np.ndarray,
-                   normal: np.ndarray) -> np.ndarray | None:
+def contour_around(
+    contours: list[tuple[np.ndarray, bool]], center: np.ndarray, normal: np.ndarray
+) -> np.ndarray | None:
     """The closed contour whose projection on the plane encloses ``center``.
 
     Among several, the one whose centroid is nearest. ``None`` if none does.
@@ -140,20 +144,22 @@ def crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray) -> 
     in front of plane j). Returns a boolean ``(n_v,)``.
     """
     n_v = X.shape[1]
-    rings = X.transpose(1, 0, 2)                                        # (n_v, n_u, 3)
+    rings = X.transpose(1, 0, 2)  # (n_v, n_u, 3)
     # side[j, k, i]: signed distance of node i of ring k from plane j
-    side = np.einsum("kiv,jv->jki", rings, normals) \
+    side = (
+        np.einsum("kiv,jv->jki", rings, normals)
         - np.einsum("jv,jv->j", origins, normals)[:, None, None]
+    )
     lo_side, hi_side = side.min(axis=2), side.max(axis=2)
-    straddle = (lo_side < 0) & (hi_side > 0)                            # plane j cuts ring k
+    straddle = (lo_side < 0) & (hi_side > 0)  # plane j cuts ring k
     row = np.arange(n_v - 1)
     bad = np.zeros(n_v, dtype=bool)
     bad[row] = (lo_side[row, row + 1] <= 0) | (hi_side[row + 1, row] >= 0)  # neighbours swapped
-    j, k = np.nonzero(np.triu(straddle & straddle.T, 1))                # candidate pairs
+    j, k = np.nonzero(np.triu(straddle & straddle.T, 1))  # candidate pairs
     if len(j) == 0:
         return bad
-    line = np.cross(normals[j], normals[k])                             # planes' common line
-    chord_k = _chord(rings[k], side[j, k], line)                        # section k on it
+    line = np.cross(normals[j], normals[k])  # planes' common line
+    chord_k = _chord(rings[k], side[j, k], line)  # section k on it
     chord_j = _chord(rings[j], side[k, j], line)
     meet = np.maximum(chord_k[0], chord_j[0]) <= np.minimum(chord_k[1], chord_j[1])
     bad[j[meet]] = True
@@ -172,8 +178,9 @@ def _chord(rings: np.ndarray, side: np.ndarray, line: np.ndarray):
     return np.where(cuts, at, np.inf).min(axis=1), np.where(cuts, at, -np.inf).max(axis=1)
 
 
-def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray, *,
-                        max_iter: int = 100) -> tuple[np.ndarray, int, np.ndarray]:
+def fix_crossing_planes(
+    X: np.ndarray, origins: np.ndarray, normals: np.ndarray, *, max_iter: int = 100
+) -> tuple[np.ndarray, int, np.ndarray]:
     """Blend the normals of crossing planes toward their neighbours until none cross.
 
     One frame: ``X (n_u, n_v, 3)``, ``origins``/``normals (n_v, 3)``. The end
@@ -204,7 +211,7 @@ def fix_crossing_planes(X: np.ndarray, origins: np.ndarray, normals: np.ndarray,
         changed[rows] = True
     bad = crossing_planes(X, origins, normals)
     for run in _runs(changed):
-        if bad[max(run[0] - 1, 0):run[-1] + 2].any():
+        if bad[max(run[0] - 1, 0) : run[-1] + 2].any():
             normals[run] = original[run]
             changed[run] = False
     return normals, int(changed.sum()), crossing_planes(X, origins, normals)
@@ -216,21 +223,30 @@ def _runs(mask: np.ndarray) -> list[np.ndarray]:
     return np.split(idx, np.nonzero(np.diff(idx) > 1)[0] + 1) if len(idx) else []
 
 
-def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n: int
-                        ) -> np.ndarray:
+def orient_and_resample(C: np.ndarray, normal: np.ndarray, start: np.ndarray, n: int) -> np.ndarray:
     """Contour ``C`` as ``n`` points evenly spaced by arc length, in u order.
 
     Starts at the contour point nearest ``start`` (the seam node) and turns
     positively about ``normal`` (the v direction), as u does.
     """
     normal = np.asarray(normal, float) / np.linalg.norm(normal)
-    return _measure_polygons([np.asarray(C, float)], normal[None],
-                             np.asarray(start, float)[None], n)[2][0]
+    return _measure_polygons(
+        [np.asarray(C, float)], normal[None], np.asarray(start, float)[None], n
+    )[2][0]
 
 
-def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals: np.ndarray,
-                     rings: np.ndarray, n_points: int, *, max_offset: float = 0.5,
-                     curvature: bool = False, curvature_at: np.ndarray | None = None):
+def sections_of_mesh(
+    V: np.ndarray,
+    F: np.ndarray,
+    origins: np.ndarray,
+    normals: np.ndarray,
+    rings: np.ndarray,
+    n_points: int,
+    *,
+    max_offset: float = 0.5,
+    curvature: bool = False,
+    curvature_at: np.ndarray | None = None,
+):
     """Cut one frame's mesh with every plane; keep the contour that follows the grid ring.
 
     ``origins``, ``normals`` are ``(n_v, 3)``; ``rings (n_u, n_v, 3)`` is the
@@ -269,20 +285,30 @@ def sections_of_mesh(V: np.ndarray, F: np.ndarray, origins: np.ndarray, normals:
     chosen = _contours_around(all_contours, origins + shift, normals)
     from_ring = np.array([C is None for C in chosen])
     polygons = [flat[:, j] if C is None else C - shift[j] for j, C in enumerate(chosen)]
-    area, centroid, resampled, *kappa = _measure_polygons(polygons, normals, rings[0], n_points,
-                                                          curvature=curvature, at=at)
+    area, centroid, resampled, *kappa = _measure_polygons(
+        polygons, normals, rings[0], n_points, curvature=curvature, at=at
+    )
     # symmetric Hausdorff distance of each (resampled) contour to its projected ring
-    B = flat.transpose(1, 0, 2)                                         # (n_v, n_u, 3)
-    d2 = (np.einsum("vpk,vpk->vp", resampled, resampled)[:, :, None]
-          + np.einsum("vuk,vuk->vu", B, B)[:, None] - 2 * resampled @ B.transpose(0, 2, 1))
-    offset = np.sqrt(np.maximum(np.maximum(d2.min(axis=2).max(axis=1),
-                                           d2.min(axis=1).max(axis=1)), 0))
+    B = flat.transpose(1, 0, 2)  # (n_v, n_u, 3)
+    d2 = (
+        np.einsum("vpk,vpk->vp", resampled, resampled)[:, :, None]
+        + np.einsum("vuk,vuk->vu", B, B)[:, None]
+        - 2 * resampled @ B.transpose(0, 2, 1)
+    )
+    offset = np.sqrt(
+        np.maximum(np.maximum(d2.min(axis=2).max(axis=1), d2.min(axis=1).max(axis=1)), 0)
+    )
     redo = np.nonzero(~from_ring & (offset > max_offset * radius))[0]
     if len(redo):
         from_ring[redo] = True
-        redone = _measure_polygons([flat[:, j] for j in redo], normals[redo], rings[0, redo],
-                                   n_points, curvature=curvature,
-                                   at=None if at is None else at[redo])
+        redone = _measure_polygons(
+            [flat[:, j] for j in redo],
+            normals[redo],
+            rings[0, redo],
+            n_points,
+            curvature=curvature,
+            at=None if at is None else at[redo],
+        )
         for whole, part in zip([area, centroid, resampled], redone):
             whole[redo] = part
         if curvature:
@@ -334,8 +360,15 @@ def _contours_around(all_contours: list, centers: np.ndarray, normals: np.ndarra
     return chosen
 
 
-def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_near: np.ndarray,
-                      n: int, *, curvature: bool = False, at: np.ndarray | None = None):
+def _measure_polygons(
+    polygons: list[np.ndarray],
+    normals: np.ndarray,
+    starts_near: np.ndarray,
+    n: int,
+    *,
+    curvature: bool = False,
+    at: np.ndarray | None = None,
+):
     """Area (mm^2), area centroid ``(k, 3)`` and ``n`` points evenly spaced by arc
     length ``(k, n, 3)`` of planar closed polygons, all at once.
 
@@ -356,8 +389,11 @@ def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_ne
     total = np.add.reduceat(w, starts)
     degenerate = np.abs(total) < 1e-300
     safe = np.where(degenerate, 1.0, total)
-    centroid = c0 + np.where(degenerate[:, None], 0.0,
-                             np.add.reduceat((Pc + Qc) * w[:, None], starts) / (3.0 * safe[:, None]))
+    centroid = c0 + np.where(
+        degenerate[:, None],
+        0.0,
+        np.add.reduceat((Pc + Qc) * w[:, None], starts) / (3.0 * safe[:, None]),
+    )
     area = 0.5 * np.abs(total)
     # orient: reverse the polygons that turn negatively
     idx = np.arange(len(P))
@@ -367,32 +403,44 @@ def _measure_polygons(polygons: list[np.ndarray], normals: np.ndarray, starts_ne
     AB = P[succ] - P
     seg = np.sqrt(np.einsum("ij,ij->i", AB, AB))
     length = np.add.reduceat(seg, starts)
-    s = np.cumsum(seg) - seg                                            # arc length at each point
+    s = np.cumsum(seg) - seg  # arc length at each point
     s -= s[starts][poly]
     # arc-length position of the point of each polygon closest to its start point
     near = starts_near[poly]
-    t = np.clip(np.einsum("ij,ij->i", near - P, AB) / np.maximum(seg ** 2, 1e-300), 0, 1)
+    t = np.clip(np.einsum("ij,ij->i", near - P, AB) / np.maximum(seg**2, 1e-300), 0, 1)
     off = P + t[:, None] * AB - near
     d2 = np.einsum("ij,ij->i", off, off)
     is_min = d2 == np.minimum.reduceat(d2, starts)[poly]
     first = np.minimum.reduceat(np.where(is_min, np.arange(len(P)), len(P)), starts)
     s0 = s[first] + t[first] * seg[first]
-    target = (s0[:, None] + np.arange(n) / n * length[:, None]) % length[:, None]   # (k, n)
+    target = (s0[:, None] + np.arange(n) / n * length[:, None]) % length[:, None]  # (k, n)
     # one np.interp for all: each polygon closed (first point again at its length),
     # its arc length shifted past the previous polygon's
-    ends = starts + lengths                  # each polygon closed: its first point again
-    resampled = interp_grouped(target, np.insert(s, ends, length),
-                               np.insert(P, ends, P[starts], axis=0), np.insert(poly, ends, np.arange(k)))
+    ends = starts + lengths  # each polygon closed: its first point again
+    resampled = interp_grouped(
+        target,
+        np.insert(s, ends, length),
+        np.insert(P, ends, P[starts], axis=0),
+        np.insert(poly, ends, np.arange(k)),
+    )
     if not curvature:
         return area, centroid, resampled
     from .curvature import polygon_curvature
+
     if at is not None:
         target = _nearest_arc(P, AB, seg, s, starts, lengths, at)
     return (area, centroid, resampled, *polygon_curvature(P, poly, s, length, target, normals))
 
 
-def _nearest_arc(P: np.ndarray, AB: np.ndarray, seg: np.ndarray, s: np.ndarray,
-                 starts: np.ndarray, lengths: np.ndarray, at: np.ndarray) -> np.ndarray:
+def _nearest_arc(
+    P: np.ndarray,
+    AB: np.ndarray,
+    seg: np.ndarray,
+    s: np.ndarray,
+    starts: np.ndarray,
+    lengths: np.ndarray,
+    at: np.ndarray,
+) -> np.ndarray:
     """The arc length ``(k, m)`` (mm from each polygon's first point) of the point of each
     of ``k`` closed polygons nearest each of its ``at (k, m, 3)`` points: ``P (N, 3)`` the
     polygons' points one after another, ``AB`` each edge's vector to the next point,
@@ -406,15 +454,18 @@ def _nearest_arc(P: np.ndarray, AB: np.ndarray, seg: np.ndarray, s: np.ndarray,
     apart = 10.0 * (np.ptp(P, axis=0).max() + np.ptp(at.reshape(-1, 3), axis=0).max() + 1.0)
     tree = cKDTree(np.column_stack([P, poly * apart]))
     points = at.reshape(-1, 3)
-    _, near = tree.query(np.column_stack([points, np.repeat(np.arange(k), m) * apart]),
-                         k=NEAREST_VERTICES)                              # (k m, n)
+    _, near = tree.query(
+        np.column_stack([points, np.repeat(np.arange(k), m) * apart]), k=NEAREST_VERTICES
+    )  # (k m, n)
     first = starts[poly]
-    before = np.where(np.arange(len(P)) == first, first + lengths[poly] - 1,
-                      np.arange(len(P)) - 1)            # the edge arriving at each point
-    edges = np.concatenate([near, before[near]], axis=1)                  # (k m, 2 n)
+    before = np.where(
+        np.arange(len(P)) == first, first + lengths[poly] - 1, np.arange(len(P)) - 1
+    )  # the edge arriving at each point
+    edges = np.concatenate([near, before[near]], axis=1)  # (k m, 2 n)
     rel = points[:, None, :] - P[edges]
-    along = np.clip(np.einsum("ijk,ijk->ij", rel, AB[edges])
-                    / np.maximum(seg[edges] ** 2, 1e-300), 0.0, 1.0)
+    along = np.clip(
+        np.einsum("ijk,ijk->ij", rel, AB[edges]) / np.maximum(seg[edges] ** 2, 1e-300), 0.0, 1.0
+    )
     gap = rel - along[..., None] * AB[edges]
     best = np.argmin(np.einsum("ijk,ijk->ij", gap, gap), axis=1)
     rows = np.arange(len(points))

@@ -1,4 +1,5 @@
 """In-surface strain of a deforming grid against a reference frame (paper section 6.2)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,8 +10,9 @@ def grid_triangles(n_u: int, n_v: int) -> np.ndarray:
     idx = np.arange(n_u * n_v).reshape(n_u, n_v)
     a, b = idx[:, :-1], np.roll(idx, -1, axis=0)[:, :-1]
     c, d = np.roll(idx, -1, axis=0)[:, 1:], idx[:, 1:]
-    return np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
-                           np.stack([a, c, d], -1).reshape(-1, 3)])
+    return np.concatenate(
+        [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
+    )
 
 
 def _upper(e1, e2):
@@ -19,8 +21,9 @@ def _upper(e1, e2):
     ``(a, b, c)``: e1 = (a, 0), e2 = (b, c)."""
     (x1, y1, z1), (x2, y2, z2) = e1, e2
     a = np.sqrt(x1 * x1 + y1 * y1 + z1 * z1)
-    twice_area = np.sqrt((y1 * z2 - z1 * y2) ** 2 + (z1 * x2 - x1 * z2) ** 2
-                         + (x1 * y2 - y1 * x2) ** 2)  # |e1 x e2|, no cancellation
+    twice_area = np.sqrt(
+        (y1 * z2 - z1 * y2) ** 2 + (z1 * x2 - x1 * z2) ** 2 + (x1 * y2 - y1 * x2) ** 2
+    )  # |e1 x e2|, no cancellation
     return a, (x1 * x2 + y1 * y2 + z1 * z2) / a, twice_area / a
 
 
@@ -75,10 +78,10 @@ def _at_nodes(values: np.ndarray) -> np.ndarray:
     ``values (4, n_u, n_v - 1, ...)`` of :func:`_quad_triangles`."""
     abc, acd, abd, bcd = values
     out = np.zeros((values.shape[1], values.shape[2] + 1) + values.shape[3:])
-    out[:, :-1] += abc + acd + abd                              # A = (i, j)
-    out[:, :-1] += np.roll(abc + abd + bcd, 1, axis=0)          # B = (i + 1, j)
-    out[:, 1:] += np.roll(abc + acd + bcd, 1, axis=0)           # C = (i + 1, j + 1)
-    out[:, 1:] += acd + abd + bcd                               # D = (i, j + 1)
+    out[:, :-1] += abc + acd + abd  # A = (i, j)
+    out[:, :-1] += np.roll(abc + abd + bcd, 1, axis=0)  # B = (i + 1, j)
+    out[:, 1:] += np.roll(abc + acd + bcd, 1, axis=0)  # C = (i + 1, j + 1)
+    out[:, 1:] += acd + abd + bcd  # D = (i, j + 1)
     return out
 
 
@@ -96,22 +99,27 @@ def grid_strain(G: np.ndarray, *, reference: int = 0, chunk: int = 32):
     n_u, n_v, n_t, _ = G.shape
     energy = np.empty((n_u, n_v, n_t))
     stretches = np.empty((n_u, n_v, n_t, 2))
-    before = _upper(*_quad_triangles(G[:, :, reference:reference + 1]))
+    before = _upper(*_quad_triangles(G[:, :, reference : reference + 1]))
     for start in range(0, n_t, chunk):
         t = slice(start, start + chunk)
-        lam = _stretches(before, _upper(*_quad_triangles(G[:, :, t])))   # (4, n_u, n_v-1, c, 2)
+        lam = _stretches(before, _upper(*_quad_triangles(G[:, :, t])))  # (4, n_u, n_v-1, c, 2)
         ok = np.isfinite(lam[..., 0])
         with np.errstate(invalid="ignore", divide="ignore"):
             count = _at_nodes(ok.astype(float))
-            for out, value in ((energy, strain_energy(lam)), (stretches[..., 0], lam[..., 0]),
-                               (stretches[..., 1], lam[..., 1])):
-                out[:, :, t] = np.where(count > 0, _at_nodes(np.where(ok, value, 0.0)) / count,
-                                        np.nan)
+            for out, value in (
+                (energy, strain_energy(lam)),
+                (stretches[..., 0], lam[..., 0]),
+                (stretches[..., 1], lam[..., 1]),
+            ):
+                out[:, :, t] = np.where(
+                    count > 0, _at_nodes(np.where(ok, value, 0.0)) / count, np.nan
+                )
     return energy, stretches
 
 
-def surface_kinematics(G: np.ndarray, stretches: np.ndarray, period_ms: float
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def surface_kinematics(
+    G: np.ndarray, stretches: np.ndarray, period_ms: float
+) -> tuple[np.ndarray, np.ndarray]:
     """How the tissue moves within its surface, from a grid that follows it ``G (n_u,
     n_v, n_t, 3)`` mm over one cycle and its principal stretches against t = 0
     ``(n_u, n_v, n_t, 2)``: the speed of each node along the surface (its velocity,

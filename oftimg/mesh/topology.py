@@ -4,6 +4,7 @@ Pure functions on ``V (n_vert, 3) float64`` and ``F (n_face, 3) int64`` arrays.
 Problems are raised as :class:`MeshError` (a ``ValueError``) whose message says
 what was expected and what was found; the caller adds the file name.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -15,7 +16,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from ..errors import InputError
 
 
-UNIT_SYMBOL = {"um": "µm", "mm": "mm"}      # a length unit's name -> as a message writes it
+UNIT_SYMBOL = {"um": "µm", "mm": "mm"}  # a length unit's name -> as a message writes it
 
 
 class MeshError(InputError):
@@ -30,14 +31,19 @@ class RepairCounts:
     dropped_faces: int
     unreferenced_vertices: int
     flipped_faces: int = 0
-    islands: int = 0              # parts apart from the tube, dropped (:func:`check_tube`)
+    islands: int = 0  # parts apart from the tube, dropped (:func:`check_tube`)
     island_faces: int = 0
-    holes: int = 0                # small holes in the wall, filled
+    holes: int = 0  # small holes in the wall, filled
     hole_edges: int = 0
 
     def __bool__(self) -> bool:
-        return bool(self.merged_vertices or self.dropped_faces or self.flipped_faces
-                    or self.islands or self.holes)
+        return bool(
+            self.merged_vertices
+            or self.dropped_faces
+            or self.flipped_faces
+            or self.islands
+            or self.holes
+        )
 
     def describe(self) -> str:
         parts = []
@@ -48,11 +54,15 @@ class RepairCounts:
         if self.flipped_faces:
             parts.append(f"flipped {self.flipped_faces} faces to a consistent orientation")
         if self.islands:
-            parts.append(f"dropped {self.islands} part{'s' * (self.islands > 1)} apart from the "
-                         f"tube ({self.island_faces} faces)")
+            parts.append(
+                f"dropped {self.islands} part{'s' * (self.islands > 1)} apart from the "
+                f"tube ({self.island_faces} faces)"
+            )
         if self.holes:
-            parts.append(f"filled {self.holes} hole{'s' * (self.holes > 1)} in the wall "
-                         f"({self.hole_edges} boundary edges)")
+            parts.append(
+                f"filled {self.holes} hole{'s' * (self.holes > 1)} in the wall "
+                f"({self.hole_edges} boundary edges)"
+            )
         return ", ".join(parts)
 
 
@@ -65,7 +75,7 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def face_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Triangle areas, ``(n_face,)`` in the unit of V squared."""
-    x, y, z = V.T.copy()                      # one coordinate at a time: contiguous, ~3x faster
+    x, y, z = V.T.copy()  # one coordinate at a time: contiguous, ~3x faster
     f0, f1, f2 = F.T
     ax, ay, az = x[f1] - x[f0], y[f1] - y[f0], z[f1] - z[f0]
     bx, by, bz = x[f2] - x[f0], y[f2] - y[f0], z[f2] - z[f0]
@@ -88,12 +98,12 @@ def repair(V: np.ndarray, F: np.ndarray, *, rel_tol: float = 1e-9):
     keys = np.round(V / quantum).astype(np.int64)
     merged = 0
     if _may_repeat(keys):
-        by_key = np.lexsort(keys.T)          # stable: equal keys keep their input order
+        by_key = np.lexsort(keys.T)  # stable: equal keys keep their input order
         sorted_keys = keys[by_key]
         new = np.r_[True, (sorted_keys[1:] != sorted_keys[:-1]).any(axis=1)]
         inverse = np.empty(len(V), dtype=np.int64)
         inverse[by_key] = np.cumsum(new) - 1
-        first = by_key[new]                  # first occurrence of each position
+        first = by_key[new]  # first occurrence of each position
         merged = len(V) - len(first)
         # keep the vertices in their input order (first occurrence of each position)
         order = np.argsort(first)
@@ -117,7 +127,7 @@ def _may_repeat(keys: np.ndarray) -> bool:
     """False when no two rows of ``keys (n, 3)`` int64 are equal: one sort of a
     wrapping hash of the rows (equal rows hash equally), ~5x cheaper than the
     lexsort that finds which rows repeat."""
-    h = keys[:, 0] * np.int64(0x9E3779B97F4A7C15 - 2 ** 64) + keys[:, 1]
+    h = keys[:, 0] * np.int64(0x9E3779B97F4A7C15 - 2**64) + keys[:, 1]
     h = h * np.int64(0x632BE59BD9B4E019) + keys[:, 2]
     h = np.sort(h)
     return bool(np.any(h[1:] == h[:-1]))
@@ -136,10 +146,10 @@ def edge_incidence(F: np.ndarray, *, faces: bool = False):
     ``faces``, also the (up to) two faces of every edge ``(n_edge, 2)`` (-1
     where there is no second face), from the same sort.
     """
-    a, b = F.reshape(-1), F[:, [1, 2, 0]].reshape(-1)    # half-edges, corner k -> k+1
+    a, b = F.reshape(-1), F[:, [1, 2, 0]].reshape(-1)  # half-edges, corner k -> k+1
     n, m = int(F.max()) + 1, len(a)
-    keys = np.minimum(a, b) * n + np.maximum(a, b)   # (an (m, 2).min(axis=1) is ~30x slower)
-    if n * n * m < 2 ** 63:
+    keys = np.minimum(a, b) * n + np.maximum(a, b)  # (an (m, 2).min(axis=1) is ~30x slower)
+    if n * n * m < 2**63:
         # equal keys kept in half-edge order by sorting (key, half-edge) as one number
         # (a value sort: ~1.7x faster than a stable argsort)
         packed = np.sort(keys * m + np.arange(m))
@@ -148,7 +158,7 @@ def edge_incidence(F: np.ndarray, *, faces: bool = False):
         order = np.argsort(keys, kind="stable")
         sorted_keys = keys[order]
     first = np.r_[True, sorted_keys[1:] != sorted_keys[:-1]]
-    edge_of = np.cumsum(first) - 1                       # edge of each sorted half-edge
+    edge_of = np.cumsum(first) - 1  # edge of each sorted half-edge
     inverse = np.empty_like(edge_of)
     inverse[order] = edge_of
     starts = np.nonzero(first)[0]
@@ -159,7 +169,7 @@ def edge_incidence(F: np.ndarray, *, faces: bool = False):
         return edges, inverse.reshape(-1, 3), counts
     across = np.full((len(edges), 2), -1, dtype=np.int64)
     across[:, 0] = order[starts] // 3
-    second = np.nonzero(~first)[0]                      # an edge's second half-edge
+    second = np.nonzero(~first)[0]  # an edge's second half-edge
     across[edge_of[second], 1] = order[second] // 3
     return edges, inverse.reshape(-1, 3), counts, across
 
@@ -216,15 +226,20 @@ def capped_signed_volume(V: np.ndarray, F: np.ndarray, loops: list[np.ndarray]) 
 
     Positive when the faces' normals point outwards.
     """
+
     def tet_sum(A, B, C):
         return np.einsum("ij,ij->i", A, np.cross(B, C)).sum() / 6.0
 
     c0 = V.mean(axis=0)
     X = V - c0
-    x, y, z = X.T.copy()                      # one coordinate at a time: contiguous, ~3x faster
+    x, y, z = X.T.copy()  # one coordinate at a time: contiguous, ~3x faster
     (x0, x1, x2), (y0, y1, y2), (z0, z1, z2) = x[F.T], y[F.T], z[F.T]
-    vol = float((x0 * (y1 * z2 - z1 * y2) + y0 * (z1 * x2 - x1 * z2)
-                 + z0 * (x1 * y2 - y1 * x2)).sum()) / 6.0
+    vol = (
+        float(
+            (x0 * (y1 * z2 - z1 * y2) + y0 * (z1 * x2 - x1 * z2) + z0 * (x1 * y2 - y1 * x2)).sum()
+        )
+        / 6.0
+    )
     for loop in loops:
         P = X[loop]
         c = P.mean(axis=0)
@@ -298,16 +313,17 @@ class TubeTopology:
 
     F: np.ndarray
     loops: tuple[np.ndarray, np.ndarray]
-    flipped_faces: int                 # of the input's faces
-    V: np.ndarray | None = None        # the vertices F indexes when mended, else None
+    flipped_faces: int  # of the input's faces
+    V: np.ndarray | None = None  # the vertices F indexes when mended, else None
     islands: int = 0
     island_faces: int = 0
     holes: int = 0
     hole_edges: int = 0
 
 
-def check_tube(V: np.ndarray, F: np.ndarray, *, mend: bool = False,
-               length_unit: str = "mm") -> TubeTopology:
+def check_tube(
+    V: np.ndarray, F: np.ndarray, *, mend: bool = False, length_unit: str = "mm"
+) -> TubeTopology:
     """Check that ``(V, F)`` is an open tube and orient its faces outwards.
 
     A tube is one connected, edge-manifold, orientable triangle mesh with
@@ -330,39 +346,43 @@ def check_tube(V: np.ndarray, F: np.ndarray, *, mend: bool = False,
     edges, _, counts = incidence
     if np.any(counts > 2):
         e = edges[np.argmax(counts > 2)]
-        raise MeshError(f"has {int((counts > 2).sum())} non-manifold edges "
-                        f"(edge {e[0]}-{e[1]} is shared by {counts.max()} faces)")
+        raise MeshError(
+            f"has {int((counts > 2).sum())} non-manifold edges "
+            f"(edge {e[0]}-{e[1]} is shared by {counts.max()} faces)"
+        )
     n = len(V)
     A = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
     n_comp, label = connected_components(A, directed=False)
     mended = {}
     if n_comp != 1:
-        V, F, mended["islands"], mended["island_faces"] = _drop_islands(V, F, label, n_comp,
-                                                                         mend)
+        V, F, mended["islands"], mended["island_faces"] = _drop_islands(V, F, label, n_comp, mend)
         incidence = edge_incidence(F)
         edges = incidence[0]
     # oriented first: a boundary walk along faces that disagree looks pinched
     F, flipped = orient_consistently(F, incidence)
-    loops = boundary_loops(F, None if flipped else incidence)   # a flip reorders face_edge
+    loops = boundary_loops(F, None if flipped else incidence)  # a flip reorders face_edge
     n_input_faces, n_edges = len(F), len(edges)
     if len(loops) > 2 and mend:
-        V, F, loops, mended["holes"], mended["hole_edges"] = _fill_holes(V, F, loops,
-                                                                         length_unit)
-        n_edges += mended["hole_edges"]                      # a fan's spokes
+        V, F, loops, mended["holes"], mended["hole_edges"] = _fill_holes(V, F, loops, length_unit)
+        n_edges += mended["hole_edges"]  # a fan's spokes
     if len(loops) != 2:
-        hint = {0: " (a closed surface: cut it open at the inlet and the outlet)",
-                1: " (one end closed: cut the cap off)"}.get(len(loops), "")
+        hint = {
+            0: " (a closed surface: cut it open at the inlet and the outlet)",
+            1: " (one end closed: cut the cap off)",
+        }.get(len(loops), "")
         raise MeshError(f"has {len(loops)} boundary loops; a tube has 2{hint}")
     euler = len(V) - n_edges + len(F)
     if euler != 0:
-        raise MeshError(f"has Euler characteristic {euler}; an open tube has 0 "
-                        "(holes or handles in the wall?)")
+        raise MeshError(
+            f"has Euler characteristic {euler}; an open tube has 0 (holes or handles in the wall?)"
+        )
     if capped_signed_volume(V, F, loops) < 0:
         F = F[:, ::-1].copy()
         loops = [loop[::-1] for loop in loops]
         flipped = n_input_faces - flipped
-    return TubeTopology(F=F, loops=(loops[0], loops[1]), flipped_faces=flipped,
-                        V=V if mended else None, **mended)
+    return TubeTopology(
+        F=F, loops=(loops[0], loops[1]), flipped_faces=flipped, V=V if mended else None, **mended
+    )
 
 
 def _drop_islands(V, F, label, n_comp: int, mend: bool):
@@ -373,11 +393,18 @@ def _drop_islands(V, F, label, n_comp: int, mend: bool):
     keep = int(np.argmax(sizes))
     rest = len(F) - int(sizes[keep])
     if not mend or rest >= ISLAND_SHARE * len(F):
-        shown = ", ".join(str(k) for k in np.sort(sizes)[::-1][:4]) + (", ..." if n_comp > 4
-                                                                        else "")
-        raise MeshError(f"has {n_comp} connected components ({shown} faces); a tube has 1"
-                        + (f" (parts apart from the largest are dropped while together under "
-                           f"{ISLAND_SHARE:.0%} of the faces)" if mend else ""))
+        shown = ", ".join(str(k) for k in np.sort(sizes)[::-1][:4]) + (
+            ", ..." if n_comp > 4 else ""
+        )
+        raise MeshError(
+            f"has {n_comp} connected components ({shown} faces); a tube has 1"
+            + (
+                f" (parts apart from the largest are dropped while together under "
+                f"{ISLAND_SHARE:.0%} of the faces)"
+                if mend
+                else ""
+            )
+        )
     F = F[label[F[:, 0]] == keep]
     used = np.zeros(len(V), dtype=bool)
     used[F.ravel()] = True
@@ -389,30 +416,37 @@ def _fill_holes(V, F, loops, length_unit: str = "mm"):
     faces around a new vertex at its centroid, oriented with the faces around it.
     Returns ``V, F, (the two end loops), holes filled, their boundary edges``;
     refuses a loop whose perimeter is :data:`HOLE_SHARE` of the shorter end's or more."""
-    perimeter = np.array([np.linalg.norm(V[lp] - V[np.roll(lp, -1)], axis=1).sum()
-                          for lp in loops])
+    perimeter = np.array([np.linalg.norm(V[lp] - V[np.roll(lp, -1)], axis=1).sum() for lp in loops])
     order = np.argsort(perimeter)[::-1]
     ends, holes = order[:2], order[2:]
     shortest_end = perimeter[ends].min()
     too_big = [k for k in holes if perimeter[k] >= HOLE_SHARE * shortest_end]
     if too_big:
         unit = UNIT_SYMBOL.get(length_unit, length_unit)
-        raise MeshError(f"has {len(loops)} boundary loops; a tube has 2, and "
-                        f"{len(too_big)} of the {len(holes)} beyond its ends "
-                        f"{'is' if len(too_big) == 1 else 'are'} too large to fill as a hole "
-                        f"(perimeter {perimeter[too_big].max():.3g} {unit}, "
-                        f"{perimeter[too_big].max() / shortest_end:.0%} of the shorter end's "
-                        f"{shortest_end:.3g} {unit}; holes are filled up to {HOLE_SHARE:.0%} "
-                        "of it)")
+        raise MeshError(
+            f"has {len(loops)} boundary loops; a tube has 2, and "
+            f"{len(too_big)} of the {len(holes)} beyond its ends "
+            f"{'is' if len(too_big) == 1 else 'are'} too large to fill as a hole "
+            f"(perimeter {perimeter[too_big].max():.3g} {unit}, "
+            f"{perimeter[too_big].max() / shortest_end:.0%} of the shorter end's "
+            f"{shortest_end:.3g} {unit}; holes are filled up to {HOLE_SHARE:.0%} "
+            "of it)"
+        )
     centres = np.array([loop_centroid(V[loops[k]]) for k in holes])
-    fans = [np.column_stack([np.roll(loops[k], -1), loops[k], np.full(len(loops[k]), len(V) + i)])
-            for i, k in enumerate(holes)]                   # (b, a, c) for each half-edge a -> b
-    return (np.concatenate([V, centres]), np.concatenate([F, *fans]),
-            [loops[k] for k in ends], len(holes), int(sum(len(loops[k]) for k in holes)))
+    fans = [
+        np.column_stack([np.roll(loops[k], -1), loops[k], np.full(len(loops[k]), len(V) + i)])
+        for i, k in enumerate(holes)
+    ]  # (b, a, c) for each half-edge a -> b
+    return (
+        np.concatenate([V, centres]),
+        np.concatenate([F, *fans]),
+        [loops[k] for k in ends],
+        len(holes),
+        int(sum(len(loops[k]) for k in holes)),
+    )
 
 
-def interp_grouped(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, group: np.ndarray
-                   ) -> np.ndarray:
+def interp_grouped(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, group: np.ndarray) -> np.ndarray:
     """``np.interp`` of each row k of ``x (k, n)`` on the sample points of group k.
 
     ``xp (m,)`` >= 0, increasing within each group; ``fp (m, d)`` the values;

@@ -7,6 +7,7 @@ Why: Qt names the first library it misses and aborts (exit 134), and pip cannot
 install system libraries; a lab on a fresh Linux machine met that one library at a
 time.
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -19,10 +20,17 @@ from pathlib import Path
 QT_BINDINGS = ("PySide6", "PyQt6", "PyQt5", "PySide2")
 # a library's soname -> its Debian / Ubuntu package, where the package's name is not
 # the soname's stem and version run together (libxcb-icccm.so.4 -> libxcb-icccm4)
-PACKAGE_OF = {"libEGL.so.1": "libegl1", "libGL.so.1": "libgl1", "libOpenGL.so.0": "libopengl0",
-              "libGLX.so.0": "libglx0", "libglib-2.0.so.0": "libglib2.0-0",
-              "libgthread-2.0.so.0": "libglib2.0-0", "libX11-xcb.so.1": "libx11-xcb1",
-              "libX11.so.6": "libx11-6", "libfreetype.so.6": "libfreetype6"}
+PACKAGE_OF = {
+    "libEGL.so.1": "libegl1",
+    "libGL.so.1": "libgl1",
+    "libOpenGL.so.0": "libopengl0",
+    "libGLX.so.0": "libglx0",
+    "libglib-2.0.so.0": "libglib2.0-0",
+    "libgthread-2.0.so.0": "libglib2.0-0",
+    "libX11-xcb.so.1": "libx11-xcb1",
+    "libX11.so.6": "libx11-6",
+    "libfreetype.so.6": "libfreetype6",
+}
 SCREENLESS_PACKAGES = ("xvfb", "xauth")
 
 
@@ -53,12 +61,12 @@ def missing_libraries() -> tuple[list[str], str]:
     the Qt in use (``"PySide6 6.12.0"``); ``([], "")`` when no binding is installed."""
     try:
         from qtpy import API_NAME, QT_VERSION
-    except Exception:                                   # qtpy: no binding it can use
+    except Exception:  # qtpy: no binding it can use
         return [], ""
     missing = []
     try:
         from qtpy import QtWidgets  # noqa: F401
-    except ImportError as exc:                          # "libEGL.so.1: cannot open ..."
+    except ImportError as exc:  # "libEGL.so.1: cannot open ..."
         missing += re.findall(r"(lib[\w.+-]+\.so[\d.]*): cannot open", str(exc))
     plugin = _xcb_plugin()
     if plugin is not None and shutil.which("ldd"):
@@ -71,9 +79,12 @@ def _xcb_plugin() -> Path | None:
     """Qt's xcb platform plugin (the library napari's window loads on X11)."""
     try:
         from qtpy.QtCore import QLibraryInfo
-        where = (QLibraryInfo.path(QLibraryInfo.LibraryPath.PluginsPath)
-                 if hasattr(QLibraryInfo, "path")
-                 else QLibraryInfo.location(QLibraryInfo.PluginsPath))
+
+        where = (
+            QLibraryInfo.path(QLibraryInfo.LibraryPath.PluginsPath)
+            if hasattr(QLibraryInfo, "path")
+            else QLibraryInfo.location(QLibraryInfo.PluginsPath)
+        )
     except Exception:
         return None
     plugin = Path(where) / "platforms" / "libqxcb.so"
@@ -93,22 +104,44 @@ def napari_status() -> tuple[bool, str, list[str]]:
         return False, "napari is not installed: pip install 'oftimg[napari]'", []
     bindings = installed_bindings()
     if not bindings:
-        return False, ("napari has no Qt binding to draw its window with: pip install "
-                       "'oftimg[napari]' (it brings PySide6)"), []
+        return (
+            False,
+            (
+                "napari has no Qt binding to draw its window with: pip install "
+                "'oftimg[napari]' (it brings PySide6)"
+            ),
+            [],
+        )
     libraries, qt = missing_libraries()
     packages = list(dict.fromkeys(package_of(s) for s in libraries))
     if packages:
-        return False, (f"napari's window cannot start: Qt ({qt}) lacks the system libraries "
-                       f"{', '.join(libraries)}: sudo apt-get install {' '.join(packages)} "
-                       "(Debian / Ubuntu; or `make napari`)"), packages
+        return (
+            False,
+            (
+                f"napari's window cannot start: Qt ({qt}) lacks the system libraries "
+                f"{', '.join(libraries)}: sudo apt-get install {' '.join(packages)} "
+                "(Debian / Ubuntu; or `make napari`)"
+            ),
+            packages,
+        )
     import napari
-    more = (f" (also installed: {', '.join(bindings[1:])}; QT_API chooses)"
-            if len(bindings) > 1 else "")
+
+    more = (
+        f" (also installed: {', '.join(bindings[1:])}; QT_API chooses)" if len(bindings) > 1 else ""
+    )
     if not has_screen():
-        extra = [p for p in SCREENLESS_PACKAGES if shutil.which(p.replace("xvfb", "xvfb-run"))
-                 is None]
-        how = ("run napari under `xvfb-run -a napari`" + (
-            f" (sudo apt-get install {' '.join(extra)})" if extra else ""))
-        return False, (f"napari {napari.__version__} with {qt}{more} is ready, but there is no "
-                       f"screen here (no DISPLAY): {how}"), extra
+        extra = [
+            p for p in SCREENLESS_PACKAGES if shutil.which(p.replace("xvfb", "xvfb-run")) is None
+        ]
+        how = "run napari under `xvfb-run -a napari`" + (
+            f" (sudo apt-get install {' '.join(extra)})" if extra else ""
+        )
+        return (
+            False,
+            (
+                f"napari {napari.__version__} with {qt}{more} is ready, but there is no "
+                f"screen here (no DISPLAY): {how}"
+            ),
+            extra,
+        )
     return True, f"napari {napari.__version__} with {qt}{more}: ready", []

@@ -8,6 +8,7 @@ image, its time, the cursors, the marker) is drawn over a stored background
 (matplotlib's blitting): a slider step redraws in a few milliseconds, not the ~130 ms of
 the whole figure.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -17,6 +18,7 @@ from matplotlib.figure import Figure
 
 from ..output.style import COLUMN_MM, MM, bar_label, colour_bar, colour_scale, house_style
 from .surfaces import field_values, readable, words_with_unit
+
 
 def small_ticks(*axes) -> None:
     """The house's 7 pt tick labels, kept when the figure is drawn later (by a Qt canvas,
@@ -35,28 +37,38 @@ class LinkedViews:
     def __init__(self, results, field: str, wall: str = "outer"):
         self.results, self.wall = results, wall
         self.t_ms, self.s_mm = results["t_ms"], results["s_mm"]
-        self.area = self._area(wall)                                    # (v, t)
+        self.area = self._area(wall)  # (v, t)
         # a Figure of its own, not pyplot's (which keeps every figure it made open):
         # a column beside napari's canvas
         self.figure = Figure(figsize=(COLUMN_MM * MM, 190 * MM), layout="constrained")
-        FigureCanvasAgg(self.figure)            # drawn off screen until a Qt canvas takes it
+        FigureCanvasAgg(self.figure)  # drawn off screen until a Qt canvas takes it
         axes = self.figure.subplots(nrows=3)
         self.ax_field, self.ax_map, self.ax_node = axes
         self.frame, self.node, self.now, self._background = 0, None, None, None
         self._map()
         self.set_field(field)
-        self.ax_node.set_axis_off()                 # until a node is picked: how to pick one
-        self.ax_node.text(0.5, 0.5, "click the (u, v) image or a wall\nto follow a node "
-                          "over the cycle", ha="center", va="center", fontsize=7, color="0.3",
-                          transform=self.ax_node.transAxes)
+        self.ax_node.set_axis_off()  # until a node is picked: how to pick one
+        self.ax_node.text(
+            0.5,
+            0.5,
+            "click the (u, v) image or a wall\nto follow a node over the cycle",
+            ha="center",
+            va="center",
+            fontsize=7,
+            color="0.3",
+            transform=self.ax_node.transAxes,
+        )
         # the callbacks live on the figure: they hold for any canvas that later shows it
         self.figure.canvas.mpl_connect("draw_event", self._drawn)
 
     def moving(self) -> list:
         """The artists that change with the frame (animated: a full draw leaves them
         out, :meth:`redraw_frame` draws them over the background)."""
-        return [a for a in (self.image, self.time_title, self.cursor, self.marker, self.now)
-                if a is not None]
+        return [
+            a
+            for a in (self.image, self.time_title, self.cursor, self.marker, self.now)
+            if a is not None
+        ]
 
     def _drawn(self, event) -> None:
         """After a full draw: keep it as the background, and draw what moves on it."""
@@ -74,8 +86,8 @@ class LinkedViews:
         canvas.restore_region(self._background)
         for artist in self.moving():
             self.figure.draw_artist(artist)
-        if hasattr(canvas, "update"):    # a Qt canvas: painted with the window's next paint
-            canvas.update()              # (its blit repaints the whole window at once)
+        if hasattr(canvas, "update"):  # a Qt canvas: painted with the window's next paint
+            canvas.update()  # (its blit repaints the whole window at once)
         else:
             canvas.blit(self.figure.bbox)
 
@@ -87,13 +99,16 @@ class LinkedViews:
     def _map(self) -> None:
         ax = self.ax_map
         step = self.t_ms[1] - self.t_ms[0] if len(self.t_ms) > 1 else 1.0
-        self.map_image = ax.imshow(self.area, origin="lower", aspect="auto",
-                                   extent=[self.t_ms[0] - step / 2, self.t_ms[-1] + step / 2,
-                                           self.s_mm[0], self.s_mm[-1]],
-                                   **colour_scale(self.area))
+        self.map_image = ax.imshow(
+            self.area,
+            origin="lower",
+            aspect="auto",
+            extent=[self.t_ms[0] - step / 2, self.t_ms[-1] + step / 2, self.s_mm[0], self.s_mm[-1]],
+            **colour_scale(self.area),
+        )
         self.map_bar = colour_bar(self.figure, self.map_image, ax, self._map_label())
         self.cursor = ax.axvline(self.t_ms[0], color="w", lw=1.2, animated=True)
-        small_ticks(ax, self.figure.axes[-1])                            # and its colour bar
+        small_ticks(ax, self.figure.axes[-1])  # and its colour bar
         ax.set_xlabel("time since minimum volume (ms)")
         ax.set_ylabel("s, from the inlet (mm)")
 
@@ -122,17 +137,20 @@ class LinkedViews:
         scale = colour_scale(self.field)
         ax = self.ax_field
         if getattr(self, "image", None) is None:
-            n_u, n_v = self.field.shape[:2]                 # pixel centres on the nodes
-            self.image = ax.imshow(self.field[:, :, self.frame].T, origin="lower",
-                                   aspect="auto", **scale,
-                                   extent=[-0.5 / n_u, 1 - 0.5 / n_u,
-                                           -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)],
-                                   animated=True)
+            n_u, n_v = self.field.shape[:2]  # pixel centres on the nodes
+            self.image = ax.imshow(
+                self.field[:, :, self.frame].T,
+                origin="lower",
+                aspect="auto",
+                **scale,
+                extent=[-0.5 / n_u, 1 - 0.5 / n_u, -0.5 / (n_v - 1), 1 + 0.5 / (n_v - 1)],
+                animated=True,
+            )
             self.bar = colour_bar(self.figure, self.image, ax, words_with_unit(self.results, field))
             ax.set_xlabel("u around the tube (0 and 1: the seam)")
             ax.set_ylabel("v (0: inlet, 1: outlet)")
-            self.marker, = ax.plot([], [], "k+", ms=9, mew=1.5, animated=True)
-            self.time_title = ax.set_title(" ")          # the field and the time: moves
+            (self.marker,) = ax.plot([], [], "k+", ms=9, mew=1.5, animated=True)
+            self.time_title = ax.set_title(" ")  # the field and the time: moves
             self.time_title.set_animated(True)
             small_ticks(ax, self.bar.ax)
         else:
@@ -148,8 +166,9 @@ class LinkedViews:
         """Move every view to frame ``t``."""
         self.frame = int(np.clip(t, 0, len(self.t_ms) - 1))
         self.image.set_data(self.field[:, :, self.frame].T)
-        self.time_title.set_text(f"{readable(self.field_name)} at t = "
-                                 f"{self.t_ms[self.frame]:.0f} ms")
+        self.time_title.set_text(
+            f"{readable(self.field_name)} at t = {self.t_ms[self.frame]:.0f} ms"
+        )
         self.cursor.set_xdata([self.t_ms[self.frame]] * 2)
         if self.node is not None:
             self.now.set_xdata([self.t_ms[self.frame]] * 2)
@@ -179,10 +198,10 @@ class LinkedViews:
         ax.set_xlabel("time since minimum volume (ms)")
         twin = getattr(self, "_twin", None) or ax.twinx()
         self._twin = twin
-        twin.clear()                                # which puts its axis back on the left
+        twin.clear()  # which puts its axis back on the left
         twin.yaxis.tick_right()
         twin.yaxis.set_label_position("right")
-        twin.tick_params(axis="x", bottom=False, labelbottom=False)   # ax's time axis shows
+        twin.tick_params(axis="x", bottom=False, labelbottom=False)  # ax's time axis shows
         twin.patch.set_visible(False)
         twin.plot(self.t_ms, self.area[i_v], color="#0072B2", lw=1.0, ls="--")
         twin.set_ylabel(f"its row's {self.wall} area (mm$^2$)", color="#0072B2")
@@ -205,6 +224,7 @@ class LinkedViews:
         def moved(event=None):
             self.set_frame(walls.frame)
             redraw()
+
         walls.viewer.dims.events.current_step.connect(moved)
         self._moved = (walls, moved)
         moved()

@@ -12,6 +12,7 @@ circumference over the columns (mm). The (v, t) maps lie beside it, time across,
 a cursor at the slider's frame. What each pixel is, and each frame's time in ms,
 is in the layer's metadata (``oftimg``).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,11 +20,17 @@ import numpy as np
 from ..output.style import CYCLIC, colour_scale
 from .surfaces import AXIS_LABELS, WALL_NAMES, WALLS, field_values, wall_fields, words_with_unit
 
-GAP = 0.15              # between the tube, the unrolled fields and the maps: of the tube's length
+GAP = 0.15  # between the tube, the unrolled fields and the maps: of the tube's length
 # the (v, t) maps shown: areas, expansion, the cushions (the lumen's closure, ellipticity
 # and the jelly at and between them)
-MAP_PREFIXES = ("area_", "expanded_mask_75_", "lumen_closed", "lumen_aspect_ratio",
-                "jelly_at_cushions", "jelly_between_cushions")
+MAP_PREFIXES = (
+    "area_",
+    "expanded_mask_75_",
+    "lumen_closed",
+    "lumen_aspect_ratio",
+    "jelly_at_cushions",
+    "jelly_between_cushions",
+)
 
 
 def placement(results) -> dict:
@@ -37,21 +44,28 @@ def placement(results) -> dict:
     s_mm = results["s_mm"]
     length = float(s_mm[-1] - s_mm[0])
     wall = next(w for w in WALLS if w in results)
-    rings = results[wall]                                         # (u, v, t, 3)
+    rings = results[wall]  # (u, v, t, 3)
     perimeter = np.linalg.norm(np.roll(rings, -1, axis=0) - rings, axis=-1).sum(axis=0)
     circumference = float(np.nanmedian(perimeter))
     gap = GAP * length
-    return {"z": (float(low[0]), max(float(high[0] - low[0]), length / len(s_mm))),
-            "y0": float(low[1]), "x_fields": float(high[2]) + gap,
-            "x_maps": float(high[2]) + 2 * gap + circumference,
-            "dv": length / (len(s_mm) - 1), "du": circumference / rings.shape[0],
-            "length": length}
+    return {
+        "z": (float(low[0]), max(float(high[0] - low[0]), length / len(s_mm))),
+        "y0": float(low[1]),
+        "x_fields": float(high[2]) + gap,
+        "x_maps": float(high[2]) + 2 * gap + circumference,
+        "dv": length / (len(s_mm) - 1),
+        "du": circumference / rings.shape[0],
+        "length": length,
+    }
 
 
 def _layer_kwargs(results, name: str, meta: dict, visible: bool) -> dict:
-    return {"name": f"{results.name}: {name}", "axis_labels": AXIS_LABELS,
-            "visible": visible, "metadata": {"oftimg": {"results": str(results.folder),
-                                                        **meta}}}
+    return {
+        "name": f"{results.name}: {name}",
+        "axis_labels": AXIS_LABELS,
+        "visible": visible,
+        "metadata": {"oftimg": {"results": str(results.folder), **meta}},
+    }
 
 
 def field_image(results, field: str, wall: str, at: dict, *, visible: bool = False) -> tuple:
@@ -59,20 +73,35 @@ def field_image(results, field: str, wall: str, at: dict, *, visible: bool = Fal
     unrolled wall ``(n_t, 1, n_v, n_u)`` (v up, outlet at the top), in the house's
     colours, beside the tube (``at``: :func:`placement`)."""
     values = field_values(results, field)
-    image = np.ascontiguousarray(np.transpose(values, (2, 1, 0))[:, None, ::-1, :],
-                                 dtype=np.float32)
-    scale = (colour_scale(values) if results.info(field).get("unit") != "rad"
-             else {"cmap": CYCLIC, "vmin": -np.pi, "vmax": np.pi})
+    image = np.ascontiguousarray(
+        np.transpose(values, (2, 1, 0))[:, None, ::-1, :], dtype=np.float32
+    )
+    scale = (
+        colour_scale(values)
+        if results.info(field).get("unit") != "rad"
+        else {"cmap": CYCLIC, "vmin": -np.pi, "vmax": np.pi}
+    )
     z0, z_span = at["z"]
     words = words_with_unit(results, field, wall=wall)
-    kwargs = _layer_kwargs(results, f"{WALL_NAMES[wall]} {words}, unrolled", {
-        "array": field, "wall": wall, "dims": ["u", "v", "t"],
-        "rows": "v from the outlet (top) to the inlet (bottom)",
-        "columns": "u around from the seam", "t_ms": results["t_ms"].tolist()}, visible)
-    kwargs.update(scale=(1.0, z_span, at["dv"], at["du"]),
-                  translate=(0.0, z0 + z_span / 2, at["y0"], at["x_fields"]),
-                  colormap=scale["cmap"],
-                  contrast_limits=(scale.get("vmin", 0.0), scale.get("vmax", 1.0)))
+    kwargs = _layer_kwargs(
+        results,
+        f"{WALL_NAMES[wall]} {words}, unrolled",
+        {
+            "array": field,
+            "wall": wall,
+            "dims": ["u", "v", "t"],
+            "rows": "v from the outlet (top) to the inlet (bottom)",
+            "columns": "u around from the seam",
+            "t_ms": results["t_ms"].tolist(),
+        },
+        visible,
+    )
+    kwargs.update(
+        scale=(1.0, z_span, at["dv"], at["du"]),
+        translate=(0.0, z0 + z_span / 2, at["y0"], at["x_fields"]),
+        colormap=scale["cmap"],
+        contrast_limits=(scale.get("vmin", 0.0), scale.get("vmax", 1.0)),
+    )
     return image, kwargs, "image"
 
 
@@ -83,18 +112,28 @@ def map_image(results, name: str, at: dict, *, visible: bool = False) -> tuple:
     values = np.asarray(results[name])
     image = values[::-1].astype(np.float32 if values.dtype != bool else np.uint8)[None]
     z0, z_span = at["z"]
-    scale = colour_scale(values) if values.dtype != bool else {"cmap": "gray", "vmin": 0,
-                                                               "vmax": 1}
+    scale = colour_scale(values) if values.dtype != bool else {"cmap": "gray", "vmin": 0, "vmax": 1}
     wall = next((w for w in WALLS if name.endswith(f"_{w}") or f"_{w}_" in name), None)
     words = words_with_unit(results, name, wall=wall).replace(" (bool)", "")
     title = f"{WALL_NAMES[wall]} {words}" if wall else words
-    kwargs = _layer_kwargs(results, f"{title}, (v, t) map", {
-        "array": name, "dims": ["v", "t"],
-        "rows": "v from the outlet (top) to the inlet (bottom)",
-        "columns": "t, the frames of the cycle", "t_ms": results["t_ms"].tolist()}, visible)
-    kwargs.update(scale=(z_span, at["dv"], at["length"] / values.shape[1]),
-                  translate=(z0 + z_span / 2, at["y0"], at["x_maps"]), colormap=scale["cmap"],
-                  contrast_limits=(scale.get("vmin", 0.0), scale.get("vmax", 1.0)))
+    kwargs = _layer_kwargs(
+        results,
+        f"{title}, (v, t) map",
+        {
+            "array": name,
+            "dims": ["v", "t"],
+            "rows": "v from the outlet (top) to the inlet (bottom)",
+            "columns": "t, the frames of the cycle",
+            "t_ms": results["t_ms"].tolist(),
+        },
+        visible,
+    )
+    kwargs.update(
+        scale=(z_span, at["dv"], at["length"] / values.shape[1]),
+        translate=(z0 + z_span / 2, at["y0"], at["x_maps"]),
+        colormap=scale["cmap"],
+        contrast_limits=(scale.get("vmin", 0.0), scale.get("vmax", 1.0)),
+    )
     kwargs["axis_labels"] = AXIS_LABELS[1:]
     return image, kwargs, "image"
 
@@ -105,9 +144,13 @@ def time_cursor(results, at: dict, *, visible: bool = False) -> tuple:
     n_t = len(results["t_ms"])
     z0, z_span = at["z"]
     kwargs = _layer_kwargs(results, "time on the (v, t) maps", {}, visible)
-    kwargs.update(scale=(1.0, z_span, at["length"] + at["dv"], at["length"] / n_t),
-                  translate=(0.0, z0 + z_span / 2, at["y0"] + at["length"] / 2, at["x_maps"]),
-                  colormap="gray", contrast_limits=(0, 1), blending="additive")
+    kwargs.update(
+        scale=(1.0, z_span, at["length"] + at["dv"], at["length"] / n_t),
+        translate=(0.0, z0 + z_span / 2, at["y0"] + at["length"] / 2, at["x_maps"]),
+        colormap="gray",
+        contrast_limits=(0, 1),
+        blending="additive",
+    )
     return np.eye(n_t, dtype=np.uint8)[:, None, None, :], kwargs, "image"
 
 
@@ -119,15 +162,19 @@ def map_layers(results, shown: str | None = None) -> list[tuple]:
     layers = []
     for wall in (w for w in WALLS if w in results):
         for field in wall_fields(results, wall):
-            if (results.info(field)["dims"] != ["u", "v", "t"]
-                    and not field.startswith("activation_time_")):
-                continue                                # the phase maps: wall colours only
+            if results.info(field)["dims"] != ["u", "v", "t"] and not field.startswith(
+                "activation_time_"
+            ):
+                continue  # the phase maps: wall colours only
             if field == "wall_thickness_mm" and wall != "outer" and "outer" in results:
-                continue                                     # one image of the two walls'
+                continue  # one image of the two walls'
             visible = field == shown
             shown = None if visible else shown
             layers.append(field_image(results, field, wall, at, visible=visible))
-    maps = [n for n, d in results.described.items() if d["dims"] == ["v", "t"]
-            and n.startswith(MAP_PREFIXES)]
+    maps = [
+        n
+        for n, d in results.described.items()
+        if d["dims"] == ["v", "t"] and n.startswith(MAP_PREFIXES)
+    ]
     layers += [map_image(results, n, at) for n in maps]
     return layers + [time_cursor(results, at)]

@@ -4,6 +4,7 @@ folder opened in napari (its reader hook): a result's walls over time
 (:mod:`oftimg.napari.volumes`), its fields and maps as images beside them
 (:mod:`oftimg.napari.maps`).
 """
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -5,6 +5,7 @@ one-line error shown as the command line prints it. The panel is part of oftimg'
 widget (:class:`~oftimg.napari.widget.OftimgWidget`), which opens the results when the
 run ends well.
 """
+
 from __future__ import annotations
 
 import re
@@ -12,17 +13,30 @@ import sys
 from pathlib import Path
 
 from qtpy.QtCore import QProcess, QProcessEnvironment
-from qtpy.QtWidgets import (QCheckBox, QComboBox, QFileDialog, QFormLayout, QGroupBox,
-                            QHBoxLayout, QLabel, QLineEdit, QProgressBar, QPushButton,
-                            QSpinBox, QWidget)
+from qtpy.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QFileDialog,
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QProgressBar,
+    QPushButton,
+    QSpinBox,
+    QWidget,
+)
 
 from ..progress import EVERY_S_VARIABLE
 
 TRACKING = ("auto", "material", "texture", "none")
-PROGRESS_EVERY_S = 0.5          # the command line's progress lines, this often
+PROGRESS_EVERY_S = 0.5  # the command line's progress lines, this often
 # "normal: fields, maps: 48/72 frames (67 %), 12 s"
-PROGRESS_LINE = re.compile(r"^(?P<text>.*?): (?P<done>\d+)/(?P<total>\d+) \w+(?: \(\d+ %\))?, "
-                           r"\d+ s$")
+PROGRESS_LINE = re.compile(
+    r"^(?P<text>.*?): (?P<done>\d+)/(?P<total>\d+) \w+(?: \(\d+ %\))?, "
+    r"\d+ s$"
+)
 
 
 def default_out(dataset) -> Path:
@@ -32,14 +46,32 @@ def default_out(dataset) -> Path:
     return dataset.with_name(dataset.name + "-oftimg")
 
 
-def run_arguments(dataset, out, *, jobs: int = 0, tracking: str = "auto",
-                  n_u: int = 80, n_v: int = 50, overwrite: bool = False) -> list[str]:
+def run_arguments(
+    dataset,
+    out,
+    *,
+    jobs: int = 0,
+    tracking: str = "auto",
+    n_u: int = 80,
+    n_v: int = 50,
+    overwrite: bool = False,
+) -> list[str]:
     """The ``oftimg run`` command line (after ``python -m oftimg``) for the panel's
     choices; ``jobs`` 0: the command line's default."""
     if tracking not in TRACKING:
         raise ValueError(f"tracking {tracking!r}: one of {', '.join(TRACKING)}")
-    args = ["run", str(dataset), "--out", str(out), "--tracking", tracking,
-            "--n-u", str(n_u), "--n-v", str(n_v)]
+    args = [
+        "run",
+        str(dataset),
+        "--out",
+        str(out),
+        "--tracking",
+        tracking,
+        "--n-u",
+        str(n_u),
+        "--n-v",
+        str(n_v),
+    ]
     if jobs:
         args += ["--jobs", str(jobs)]
     if overwrite:
@@ -73,8 +105,11 @@ class RunPanel(QGroupBox):
         self.tracking = QComboBox()
         self.tracking.addItems(TRACKING)
         self.n_u, self.n_v, self.jobs = QSpinBox(), QSpinBox(), QSpinBox()
-        for box, low, high, value in ((self.n_u, 8, 400, 80), (self.n_v, 4, 400, 50),
-                                      (self.jobs, 0, 256, 0)):
+        for box, low, high, value in (
+            (self.n_u, 8, 400, 80),
+            (self.n_v, 4, 400, 50),
+            (self.jobs, 0, 256, 0),
+        ):
             box.setRange(low, high)
             box.setValue(value)
         self.jobs.setSpecialValueText("auto")
@@ -114,8 +149,9 @@ class RunPanel(QGroupBox):
         row.addWidget(line)
         browse = QPushButton("…")
         browse.setMaximumWidth(32)
-        browse.clicked.connect(lambda: line.setText(
-            QFileDialog.getExistingDirectory(self, caption) or line.text()))
+        browse.clicked.connect(
+            lambda: line.setText(QFileDialog.getExistingDirectory(self, caption) or line.text())
+        )
         row.addWidget(browse)
         return box
 
@@ -132,10 +168,19 @@ class RunPanel(QGroupBox):
         """Start ``oftimg run`` with the panel's choices."""
         if self.running or not self.dataset.text():
             return
-        args = ["-m", "oftimg", *run_arguments(
-            self.dataset.text(), self.out.text() or default_out(self.dataset.text()),
-            jobs=self.jobs.value(), tracking=self.tracking.currentText(),
-            n_u=self.n_u.value(), n_v=self.n_v.value(), overwrite=self.overwrite.isChecked())]
+        args = [
+            "-m",
+            "oftimg",
+            *run_arguments(
+                self.dataset.text(),
+                self.out.text() or default_out(self.dataset.text()),
+                jobs=self.jobs.value(),
+                tracking=self.tracking.currentText(),
+                n_u=self.n_u.value(),
+                n_v=self.n_v.value(),
+                overwrite=self.overwrite.isChecked(),
+            ),
+        ]
         self.lines = []
         self.process = QProcess(self)
         env = QProcessEnvironment.systemEnvironment()
@@ -144,7 +189,7 @@ class RunPanel(QGroupBox):
         self.process.readyReadStandardError.connect(self._read)
         self.process.readyReadStandardOutput.connect(self._read)
         self.process.finished.connect(self._finished)
-        self.progress.setRange(0, 0)                      # busy until the first line
+        self.progress.setRange(0, 0)  # busy until the first line
         self._say("starting oftimg run …")
         self.run_button.setEnabled(False)
         self.cancel_button.setEnabled(True)
@@ -157,8 +202,9 @@ class RunPanel(QGroupBox):
             self.process.terminate()
 
     def _read(self) -> None:
-        text = bytes(self.process.readAllStandardError()).decode(errors="replace") \
-            + bytes(self.process.readAllStandardOutput()).decode(errors="replace")
+        text = bytes(self.process.readAllStandardError()).decode(errors="replace") + bytes(
+            self.process.readAllStandardOutput()
+        ).decode(errors="replace")
         for line in text.splitlines():
             if not line.strip():
                 continue
@@ -180,7 +226,7 @@ class RunPanel(QGroupBox):
         last = self.lines[-1] if self.lines else f"exit code {exit_code}"
         if exit_code != 0:
             self.progress.setValue(0)
-            self._say(last, error=True)                   # "oftimg: error: ..."
+            self._say(last, error=True)  # "oftimg: error: ..."
             return
         self.progress.setValue(1)
         out = Path(self.out.text() or default_out(self.dataset.text()))

@@ -5,6 +5,7 @@ centred on 0 for a signed one), and the names every layer shares (the world's ax
 the walls' names, the fields in words). Pure functions of the stored arrays; napari is
 needed only to show them.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,9 +21,11 @@ WALL_NAMES = {"outer": "outer wall", "inner": "inner wall", "lumen": "lumen"}
 # the world's axes: every layer names them (napari labels its sliders from its layers)
 AXIS_LABELS = ("frame", "z (mm)", "y (mm)", "x (mm)")
 # the field each wall is coloured by when none is asked for (the first it has)
-DEFAULT_FIELDS = {"outer": ("radial_curvature_outer_per_mm", "strain_energy_outer"),
-                  "inner": ("radial_curvature_inner_per_mm", "strain_energy_inner"),
-                  "lumen": ("mean_curvature_lumen_per_mm",)}
+DEFAULT_FIELDS = {
+    "outer": ("radial_curvature_outer_per_mm", "strain_energy_outer"),
+    "inner": ("radial_curvature_inner_per_mm", "strain_energy_inner"),
+    "lumen": ("mean_curvature_lumen_per_mm",),
+}
 
 
 UNIT_SUFFIXES = ("_per_mm", "_mm2", "_mm", "_ms", "_um")
@@ -36,16 +39,16 @@ def readable(name: str) -> str:
     for which in ("max", "min"):
         prefix = f"phase_{which}_"
         if name.startswith(prefix) and name.endswith("_ms"):
-            return f"time of {which}imum {readable(name[len(prefix):-len('_ms')])}"
+            return f"time of {which}imum {readable(name[len(prefix) : -len('_ms')])}"
     if "_band95" in name:
         return "95 % band of " + readable(name.replace("_band95", ""))
     if name.startswith("activation_sd_"):
-        return "activation time SD " + readable(name[len("activation_sd_"):])
+        return "activation time SD " + readable(name[len("activation_sd_") :])
     if name.startswith("phase_") and name.count("_") == 1:
-        return f"phase of the motion {name[len('phase_'):]}"
+        return f"phase of the motion {name[len('phase_') :]}"
     for suffix in UNIT_SUFFIXES:
         if name.endswith(suffix):
-            name = name[:-len(suffix)]
+            name = name[: -len(suffix)]
             break
     return name.replace("_", " ")
 
@@ -60,14 +63,13 @@ def words_with_unit(results, name: str, wall: str | None = None) -> str:
     return f"{words} ({unit})" if unit else words
 
 
-def surface_over_time(grid: np.ndarray, values: np.ndarray | None = None
-                      ) -> tuple[np.ndarray, ...]:
+def surface_over_time(grid: np.ndarray, values: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """napari Surface data of a grid ``(n_u, n_v, n_t, 3)`` mm (x, y, z) over time:
     vertices ``(n_t n_u n_v, 4)`` as (frame, z, y, x), faces ``(n_t F, 3)`` (each
     frame's grid triangles, periodic in u), and with ``values (n_u, n_v, n_t)`` the
     value of each vertex ``(n_t n_u n_v,)`` (NaN where the field has none)."""
     n_u, n_v, n_t, _ = grid.shape
-    per_frame = np.moveaxis(grid, 2, 0).reshape(n_t, n_u * n_v, 3)[..., ::-1]   # z, y, x
+    per_frame = np.moveaxis(grid, 2, 0).reshape(n_t, n_u * n_v, 3)[..., ::-1]  # z, y, x
     frame = np.repeat(np.arange(n_t, dtype=float), n_u * n_v)[:, None]
     vertices = np.concatenate([frame, per_frame.reshape(-1, 3)], axis=1)
     triangles = grid_triangles(n_u, n_v)
@@ -82,8 +84,9 @@ def wall_fields(results: Results, wall: str) -> list[str]:
     (u, v, t) fields, then its (u, v) maps (activation times, phase maps), the same at
     every frame."""
     names = node_field_names(results.described, wall)
-    return ([n for n in names if results.info(n)["dims"] == ["u", "v", "t"]]
-            + [n for n in names if results.info(n)["dims"] == ["u", "v"]])
+    return [n for n in names if results.info(n)["dims"] == ["u", "v", "t"]] + [
+        n for n in names if results.info(n)["dims"] == ["u", "v"]
+    ]
 
 
 def field_values(results: Results, name: str) -> np.ndarray:
@@ -99,9 +102,15 @@ def field_choices(results: Results) -> list[tuple[str, str, list[tuple[str, str]
     """Every wall's fields as a person chooses them: ``[(wall, its name, [(field in
     words with its unit, array name), ...]), ...]`` in the walls' order (outer, inner,
     lumen); a field two walls carry (the wall thickness) under both."""
-    return [(w, WALL_NAMES.get(w, w), [(words_with_unit(results, f, wall=w), f)
-                                       for f in wall_fields(results, w)])
-            for w in WALLS if w in results and wall_fields(results, w)]
+    return [
+        (
+            w,
+            WALL_NAMES.get(w, w),
+            [(words_with_unit(results, f, wall=w), f) for f in wall_fields(results, w)],
+        )
+        for w in WALLS
+        if w in results and wall_fields(results, w)
+    ]
 
 
 def field_label(results: Results, name: str) -> str:
@@ -110,19 +119,29 @@ def field_label(results: Results, name: str) -> str:
     return f"{name} ({unit})" if unit else name
 
 
-def wall_style(results: Results, wall: str, field: str | None = None
-               ) -> tuple[np.ndarray | None, dict]:
+def wall_style(
+    results: Results, wall: str, field: str | None = None
+) -> tuple[np.ndarray | None, dict]:
     """What colours one wall: the field's values ``(n_u, n_v, n_t)`` (``field``, or
     :data:`DEFAULT_FIELDS`'s first the wall has; None: one colour) and the Surface
     layer's keywords (name, colour map and limits, wireframe hidden, metadata)."""
     fields = wall_fields(results, wall)
     if field is None or field not in fields:
         field = next((f for f in DEFAULT_FIELDS.get(wall, ()) if f in fields), None)
-    kwargs = {"name": f"{results.name}: {WALL_NAMES.get(wall, wall)}", "shading": "smooth",
-              "wireframe": {"visible": False, "color": "black", "width": 0.5},
-              "metadata": {"oftimg": {"results": str(results.folder), "wall": wall,
-                                      "field": field, "fields": fields,
-                                      "t_ms": results["t_ms"].tolist()}}}
+    kwargs = {
+        "name": f"{results.name}: {WALL_NAMES.get(wall, wall)}",
+        "shading": "smooth",
+        "wireframe": {"visible": False, "color": "black", "width": 0.5},
+        "metadata": {
+            "oftimg": {
+                "results": str(results.folder),
+                "wall": wall,
+                "field": field,
+                "fields": fields,
+                "t_ms": results["t_ms"].tolist(),
+            }
+        },
+    }
     if field is None:
         return None, kwargs
     values = field_values(results, field)
@@ -138,13 +157,18 @@ def field_colours(values: np.ndarray, unit: str = "") -> dict:
     if unit == "rad":
         return {"colormap": CYCLIC, "contrast_limits": (-np.pi, np.pi)}
     scale = colour_scale(values)
-    return {"colormap": scale["cmap"],
-            "contrast_limits": (scale.get("vmin", 0.0), scale.get("vmax", 1.0))}
+    return {
+        "colormap": scale["cmap"],
+        "contrast_limits": (scale.get("vmin", 0.0), scale.get("vmax", 1.0)),
+    }
 
 
 def wall_layer(results: Results, wall: str, field: str | None = None) -> tuple:
     """One wall as a napari layer-data tuple ``(data, kwargs, "surface")`` over all
     frames (:func:`surface_over_time`), coloured as :func:`wall_style` says."""
     values, kwargs = wall_style(results, wall, field)
-    return (surface_over_time(results[wall], values), kwargs | {"axis_labels": AXIS_LABELS},
-            "surface")
+    return (
+        surface_over_time(results[wall], values),
+        kwargs | {"axis_labels": AXIS_LABELS},
+        "surface",
+    )

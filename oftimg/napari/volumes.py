@@ -5,6 +5,7 @@ napari's time slider, in mm (the walls' coordinates: voxel ``(k, j, i)`` at ``or
 (dask), never whole. Under a result's walls the frames are put in the aligned cycle's
 order (result frame ``t`` is input frame ``(t + t0_frame) mod n``).
 """
+
 from __future__ import annotations
 
 import functools
@@ -29,8 +30,10 @@ def lazy_frames(read, n_frames: int, shape: tuple, dtype):
     import dask
     import dask.array as da
 
-    frames = [da.from_delayed(dask.delayed(read)(t), shape=tuple(shape), dtype=dtype)
-              for t in range(n_frames)]
+    frames = [
+        da.from_delayed(dask.delayed(read)(t), shape=tuple(shape), dtype=dtype)
+        for t in range(n_frames)
+    ]
     return da.stack(frames)
 
 
@@ -61,9 +64,12 @@ def result_volumes(results) -> list[VolumeSeries]:
         from ..errors import OftimgWarning
 
         places = " nor ".join(str(p) for p in results.dataset_candidates()) or "unknown"
-        warnings.warn(f"{results.folder}: the dataset these results were made from is "
-                      f"not at {places}: its walls are shown without its volumes",
-                      OftimgWarning, stacklevel=2)   # napari shows it as a notification
+        warnings.warn(
+            f"{results.folder}: the dataset these results were made from is "
+            f"not at {places}: its walls are shown without its volumes",
+            OftimgWarning,
+            stacklevel=2,
+        )  # napari shows it as a notification
         return []
     if summary.get("time_warp"):
         return []
@@ -90,7 +96,7 @@ class VolumeSeries:
         return lazy_frames(self.read, self.n_frames, self.shape, self.dtype), self.kwargs, self.kind
 
 
-CACHED_FRAMES = 8          # of each series: the frames about the slider, read once
+CACHED_FRAMES = 8  # of each series: the frames about the slider, read once
 
 
 def _cached(read, order) -> object:
@@ -115,11 +121,22 @@ def volume_series(path, order=None, name: str | None = None) -> list[VolumeSerie
         dx, dy, dz = (d * UNIT_TO_MM[lds.meta.length_unit] for d in lds.voxel_size)
         if lds.kind == "labels":
             header = read_header(lds.sources[0])
-            series.append(VolumeSeries(
-                _cached(lambda t: read_frame(lds.sources[t]), order), n, header.shape,
-                header.dtype, "labels",
-                {"name": f"{name}: labels", "scale": (1.0, dz, dy, dx), "opacity": 0.5,
-                 "axis_labels": AXIS_LABELS, "visible": False}))
+            series.append(
+                VolumeSeries(
+                    _cached(lambda t: read_frame(lds.sources[t]), order),
+                    n,
+                    header.shape,
+                    header.dtype,
+                    "labels",
+                    {
+                        "name": f"{name}: labels",
+                        "scale": (1.0, dz, dy, dx),
+                        "opacity": 0.5,
+                        "axis_labels": AXIS_LABELS,
+                        "visible": False,
+                    },
+                )
+            )
         intensity = lds.intensity
     else:
         intensity = load_dataset(path).intensity
@@ -131,17 +148,32 @@ def volume_series(path, order=None, name: str | None = None) -> list[VolumeSerie
         low, high = np.percentile(first, [1, 99.8])
         dx, dy, dz = intensity.voxel_size_mm
         ox, oy, oz = intensity.origin_mm
-        series.append(VolumeSeries(read, n, intensity.shape, first.dtype, "image", {
-            "name": f"{name}: intensity", "scale": (1.0, dz, dy, dx),
-            "axis_labels": AXIS_LABELS, "translate": (0.0, oz, oy, ox), "colormap": "gray",
-            "contrast_limits": (float(low), float(high) if high > low else float(low) + 1),
-            "rendering": "mip", "opacity": 0.6, "blending": "additive"}))
+        series.append(
+            VolumeSeries(
+                read,
+                n,
+                intensity.shape,
+                first.dtype,
+                "image",
+                {
+                    "name": f"{name}: intensity",
+                    "scale": (1.0, dz, dy, dx),
+                    "axis_labels": AXIS_LABELS,
+                    "translate": (0.0, oz, oy, ox),
+                    "colormap": "gray",
+                    "contrast_limits": (float(low), float(high) if high > low else float(low) + 1),
+                    "rendering": "mip",
+                    "opacity": 0.6,
+                    "blending": "additive",
+                },
+            )
+        )
     return series
 
 
-PROXY_STEP = 4          # while the slider moves: every 4th voxel along each axis
-REST_MS = 250           # the slider still this long: the full frames
-PREFETCH = 2            # frames read ahead, the way the slider goes
+PROXY_STEP = 4  # while the slider moves: every 4th voxel along each axis
+REST_MS = 250  # the slider still this long: the full frames
+PREFETCH = 2  # frames read ahead, the way the slider goes
 
 
 class VolumesOverTime:
@@ -182,7 +214,7 @@ class VolumesOverTime:
                 self._put(layer, v, scale, t, coarse=moving)
         if moving:
             self.timer.start()
-        for v in self.series:                       # the frames the slider goes towards
+        for v in self.series:  # the frames the slider goes towards
             for k in range(1, PREFETCH + 1):
                 self.reader.submit(v.read, (t + k * self.step) % v.n_frames)
 
@@ -253,11 +285,19 @@ def surfaces_over_time(path) -> list[tuple]:
             vertices.append(np.column_stack([np.full(len(V), float(t)), V[:, ::-1]]))
             faces.append(np.asarray(F) + start)
             start += len(V)
-        layers.append(((np.concatenate(vertices), np.concatenate(faces)),
-                       {"name": f"{ds.meta.name}: {surface} (as meshed)", "shading": "smooth",
-                        "axis_labels": AXIS_LABELS,
-                        "colormap": _one_colour(SURFACE_COLOURS[surface]), "opacity": 0.7},
-                       "surface"))
+        layers.append(
+            (
+                (np.concatenate(vertices), np.concatenate(faces)),
+                {
+                    "name": f"{ds.meta.name}: {surface} (as meshed)",
+                    "shading": "smooth",
+                    "axis_labels": AXIS_LABELS,
+                    "colormap": _one_colour(SURFACE_COLOURS[surface]),
+                    "opacity": 0.7,
+                },
+                "surface",
+            )
+        )
     return layers
 
 
@@ -277,5 +317,5 @@ def dataset_layers(path) -> list[tuple]:
     if is_dataset(path) and not is_label_dataset(path):
         layers += surfaces_over_time(path)
     if layers and not any(kwargs.get("visible", True) for _, kwargs, _ in layers):
-        layers[0][1]["visible"] = True      # alone, the labels are what there is to see
+        layers[0][1]["visible"] = True  # alone, the labels are what there is to see
     return layers

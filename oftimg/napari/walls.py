@@ -5,18 +5,26 @@ spanning the frames gives napari its time axis. :func:`~oftimg.napari.reader.res
 gives the same walls as layers with every frame in them (napari slices them itself:
 simpler to pass around, slower to scrub).
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 from ..mesh.strain import grid_triangles
 from ..output.results import Results, load_results
-from .surfaces import (AXIS_LABELS, WALLS, field_colours, field_label, field_values,
-                       wall_fields, wall_style)
+from .surfaces import (
+    AXIS_LABELS,
+    WALLS,
+    field_colours,
+    field_label,
+    field_values,
+    wall_fields,
+    wall_style,
+)
 from .volumes import VolumesOverTime, result_volumes
 
 
-TILT_DEG = 30.0         # the first view: from beside the tube's bend, this far from the outlet
+TILT_DEG = 30.0  # the first view: from beside the tube's bend, this far from the outlet
 
 
 def oblique_view(grid_zyx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -25,11 +33,11 @@ def oblique_view(grid_zyx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     from the inlet to the outlet, as v does in the (u, v) image; the view looks at the
     plane the centreline bends in, from :data:`TILT_DEG` towards the outlet, so the
     tube's curve and its outlet opening both show."""
-    centres = grid_zyx.mean(axis=0)                       # (n_v, 3) ring centres
+    centres = grid_zyx.mean(axis=0)  # (n_v, 3) ring centres
     up = centres[-1] - centres[0]
     up /= np.linalg.norm(up)
     _, _, axes = np.linalg.svd(centres - centres.mean(axis=0))
-    normal = np.cross(axes[0], axes[1])                   # of the bend's plane
+    normal = np.cross(axes[0], axes[1])  # of the bend's plane
     normal -= (normal @ up) * up
     normal /= np.linalg.norm(normal)
     tilt = np.radians(TILT_DEG)
@@ -43,20 +51,26 @@ class WallsOverTime:
     axis, in frames of the aligned cycle (``t_ms``)."""
 
     def __init__(self, viewer, folder, field: str | None = None, volumes: bool = True):
-        self.viewer = viewer            # folder: a results folder, or its Results already read
+        self.viewer = viewer  # folder: a results folder, or its Results already read
         self.results = folder if isinstance(folder, Results) else load_results(folder)
         self.t_ms = self.results["t_ms"]
         self.walls = [w for w in WALLS if w in self.results]
-        self.grids = {w: self.results[w][..., ::-1] for w in self.walls}    # (u, v, t, zyx)
+        self.grids = {w: self.results[w][..., ::-1] for w in self.walls}  # (u, v, t, zyx)
         n_u, n_v = self.grids[self.walls[0]].shape[:2]
         self.faces = grid_triangles(n_u, n_v)
         ends = np.zeros((2, 4))
         ends[1, 0] = len(self.t_ms) - 1
-        self.clock = viewer.add_points(ends, name=f"{self.results.name}: frames",
-                                       visible=False, size=0, axis_labels=AXIS_LABELS)
+        self.clock = viewer.add_points(
+            ends,
+            name=f"{self.results.name}: frames",
+            visible=False,
+            size=0,
+            axis_labels=AXIS_LABELS,
+        )
         # the dataset's volumes under the walls, if it is still where it was read
-        self.volume_frames = VolumesOverTime(viewer, result_volumes(self.results)
-                                             if volumes else [])
+        self.volume_frames = VolumesOverTime(
+            viewer, result_volumes(self.results) if volumes else []
+        )
         self.volumes = self.volume_frames.layers
         self.values, self.layers = {}, {}
         for w in self.walls:

@@ -5,6 +5,7 @@
 plotted; a click on the area map moves the time slider there. Needs napari's Qt
 (``pip install "oftimg[napari]"``).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -12,8 +13,16 @@ from pathlib import Path
 import numpy as np
 
 from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
-from qtpy.QtWidgets import (QCheckBox, QComboBox, QFileDialog, QLabel, QPushButton,
-                            QScrollArea, QVBoxLayout, QWidget)
+from qtpy.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QFileDialog,
+    QLabel,
+    QPushButton,
+    QScrollArea,
+    QVBoxLayout,
+    QWidget,
+)
 
 from ..errors import InputError
 from ..output.results import load_results, result_folders
@@ -40,11 +49,13 @@ class OftimgWidget(QWidget):
         self.setLayout(QVBoxLayout())
         self.open_button = QPushButton("Open results folder…")
         self.open_button.clicked.connect(self._choose_folder)
-        self.fields = QComboBox()                   # every wall's fields, under its name
+        self.fields = QComboBox()  # every wall's fields, under its name
         self.fields.currentIndexChanged.connect(self._chosen)
         self.images_box = QCheckBox("the field and the area map as image layers")
-        self.images_box.setToolTip("beside the tube, on the time slider: napari's own tools "
-                                   "(contrast, histogram, line profiles) work on them")
+        self.images_box.setToolTip(
+            "beside the tube, on the time slider: napari's own tools "
+            "(contrast, histogram, line profiles) work on them"
+        )
         self.images_box.toggled.connect(self._show_images)
         self.images = []
         self.status = QLabel("no results open")
@@ -58,7 +69,7 @@ class OftimgWidget(QWidget):
         if folder:
             try:
                 self.open(folder)
-            except InputError as exc:                  # the command line's one line
+            except InputError as exc:  # the command line's one line
                 self.status.setText(f"error: {exc}")
 
     def open(self, folder) -> None:
@@ -68,14 +79,13 @@ class OftimgWidget(QWidget):
         folder = result_folders(folder)[0]
         self.close_results()
         results = load_results(folder)
-        self.walls = WallsOverTime(self.viewer, results)   # the arrays read once
+        self.walls = WallsOverTime(self.viewer, results)  # the arrays read once
         wall = self.walls.walls[0]
-        first = (self.walls.layers[wall].metadata["oftimg"]["field"]
-                 or wall_fields(results, wall)[0])
+        first = self.walls.layers[wall].metadata["oftimg"]["field"] or wall_fields(results, wall)[0]
         self.views = LinkedViews(results, first, wall)
         self.canvas = FigureCanvasQTAgg(self.views.figure)
         self.canvas.mpl_connect("button_press_event", self._clicked_image)
-        self.canvas.setMinimumSize(*VIEWS_MIN_PX)        # never squashed: the dock scrolls
+        self.canvas.setMinimumSize(*VIEWS_MIN_PX)  # never squashed: the dock scrolls
         self.scroll = QScrollArea()
         self.scroll.setWidgetResizable(True)
         self.scroll.setWidget(self.canvas)
@@ -85,9 +95,11 @@ class OftimgWidget(QWidget):
             layer.mouse_drag_callbacks.append(self._clicked_wall)
         self._list_fields(results)
         self.select(first, wall)
-        folder = Path(folder)                       # the full path: the tooltip
-        self.status.setText(f"{results.name}: {len(results['t_ms'])} frames, from "
-                            f"{folder.parent.name}/{folder.name}")
+        folder = Path(folder)  # the full path: the tooltip
+        self.status.setText(
+            f"{results.name}: {len(results['t_ms'])} frames, from "
+            f"{folder.parent.name}/{folder.name}"
+        )
         self.status.setToolTip(str(folder.resolve()))
 
     def _list_fields(self, results) -> None:
@@ -130,8 +142,11 @@ class OftimgWidget(QWidget):
         self.walls.colour_by(field, wall)
         self.views.set_field(field, wall)
         self.canvas.draw_idle()
-        self.shown = (field, wall or next(w for w in self.walls.walls
-                                          if field in wall_fields(self.walls.results, w)))
+        self.shown = (
+            field,
+            wall
+            or next(w for w in self.walls.walls if field in wall_fields(self.walls.results, w)),
+        )
         if self.images_box.isChecked():
             self._show_images(True)
 
@@ -149,11 +164,13 @@ class OftimgWidget(QWidget):
         field, wall = self.shown
         at = placement(results)
         area = f"area_{wall}_mm2" if f"area_{wall}_mm2" in results else "area_outer_mm2"
-        for data, kwargs, _ in (field_image(results, field, wall, at, visible=True),
-                                map_image(results, area, at, visible=True),
-                                time_cursor(results, at, visible=True)):
+        for data, kwargs, _ in (
+            field_image(results, field, wall, at, visible=True),
+            map_image(results, area, at, visible=True),
+            time_cursor(results, at, visible=True),
+        ):
             self.images.append(self.viewer.add_image(data, **kwargs))
-        self.viewer.reset_view()            # the tube and the images beside it, all in view
+        self.viewer.reset_view()  # the tube and the images beside it, all in view
 
     def _clicked_image(self, event) -> None:
         """A click on the (u, v) image picks its node; on the area map, moves the time
@@ -169,8 +186,7 @@ class OftimgWidget(QWidget):
     def _clicked_wall(self, layer, event) -> None:
         """A click on a wall in the 3-D view: of the triangle hit, the vertex nearest
         the line of sight."""
-        vertex = vertex_hit(layer, event.position, event.view_direction,
-                            event.dims_displayed)
+        vertex = vertex_hit(layer, event.position, event.view_direction, event.dims_displayed)
         if vertex is not None:
             self.views.pick_vertex(vertex)
             self.canvas.draw_idle()
@@ -194,12 +210,13 @@ def vertex_hit(layer, position, view_direction, dims_displayed) -> int | None:
     """The vertex of a one-frame Surface ``layer`` that a click at ``position`` looking
     along ``view_direction`` (world coordinates, all dims) meets: of the first triangle
     on that line, its vertex nearest the line; None if the line misses the wall."""
-    hit = layer.get_value(position, view_direction=view_direction,
-                          dims_displayed=dims_displayed, world=True)
+    hit = layer.get_value(
+        position, view_direction=view_direction, dims_displayed=dims_displayed, world=True
+    )
     if hit is None or hit[1] is None:
         return None
     corners = layer.data[1][int(hit[1])]
-    points = layer.data[0][corners]                          # (3, 3) in the displayed dims
+    points = layer.data[0][corners]  # (3, 3) in the displayed dims
     origin = np.asarray(position, float)[list(dims_displayed)]
     direction = np.asarray(view_direction, float)[list(dims_displayed)]
     direction = direction / np.linalg.norm(direction)

@@ -4,6 +4,7 @@ where oftimg turns them round for a file that shows them as pictures (videos, TI
 As the paper draws them: v runs up the image (inlet at the bottom row), and across
 it u for a frame of a field, or t for a (v, t) map; time becomes the frames and a
 component axis the channels."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,8 +22,10 @@ def in_image_order(values: np.ndarray, dims: list[str]) -> tuple[np.ndarray, str
     frames = ["t"] if "t" in dims and across == "u" else []
     names = frames + components + ["v", across]
     if values.ndim != len(dims) or sorted(names) != sorted(dims) or len(components) > 1:
-        raise ValueError(f"no image has the axes {dims} (shape {values.shape}): it needs v, "
-                         "u or t, and at most one more")
+        raise ValueError(
+            f"no image has the axes {dims} (shape {values.shape}): it needs v, "
+            "u or t, and at most one more"
+        )
     image = np.transpose(values, [dims.index(name) for name in names])
     axes = "T" * len(frames) + "C" * len(components) + "YX"
     return np.flip(image, axis=-2), axes

@@ -5,15 +5,16 @@ no "nan" (a dash, which the page's note explains), units typeset (mm², µm, ±)
 Machine-read files (the CSVs, summary.json) keep their own rounding; this is for text
 a person reads.
 """
+
 from __future__ import annotations
 
 import math
 import re
 
-DASH = "–"                       # no value: the table's note says why
-SD_SIGNIFICANT = 2               # an SD is known to about two digits
-SIGNIFICANT = 3                  # a measurement with no precision of its own
-PLAIN_RANGE = (1e-3, 1e6)        # |x| written out in full inside this range
+DASH = "–"  # no value: the table's note says why
+SD_SIGNIFICANT = 2  # an SD is known to about two digits
+SIGNIFICANT = 3  # a measurement with no precision of its own
+PLAIN_RANGE = (1e-3, 1e6)  # |x| written out in full inside this range
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 _UNIT_POWER = re.compile(r"\^(-?\d+)")
 
@@ -47,11 +48,11 @@ def number(x, significant: int = SIGNIFICANT) -> str:
     x = float(x)
     if x == 0:
         return "0"
-    x = round(x, significant - 1 - leading_decimal(x))       # 9.996 -> 10.0
+    x = round(x, significant - 1 - leading_decimal(x))  # 9.996 -> 10.0
     power = leading_decimal(x)
     if PLAIN_RANGE[0] <= abs(x) < PLAIN_RANGE[1]:
         return with_decimals(x, significant - 1 - power)
-    return f"{x / 10.0 ** power:.{significant - 1}f} × {power_of_ten(power)}"
+    return f"{x / 10.0**power:.{significant - 1}f} × {power_of_ten(power)}"
 
 
 def p_value(p) -> str:
@@ -87,10 +88,12 @@ def mean_sd(mean, sd, decimals: int | None = None) -> str:
         places = min(places, decimals)
     if places < 8 and max(abs(mean), sd) < PLAIN_RANGE[1]:
         return f"{with_decimals(mean, places)} ± {with_decimals(sd, places)}"
-    scale = leading_decimal(mean if mean != 0 else sd)          # (1.234 ± 0.045) × 10⁻⁹
+    scale = leading_decimal(mean if mean != 0 else sd)  # (1.234 ± 0.045) × 10⁻⁹
     places = max(SD_SIGNIFICANT - 1 - (leading_decimal(sd) - scale) if sd > 0 else 0, 0)
-    return (f"({with_decimals(mean / 10.0 ** scale, places)} ± "
-            f"{with_decimals(sd / 10.0 ** scale, places)}) × {power_of_ten(scale)}")
+    return (
+        f"({with_decimals(mean / 10.0**scale, places)} ± "
+        f"{with_decimals(sd / 10.0**scale, places)}) × {power_of_ten(scale)}"
+    )
 
 
 def with_interval(value, half_width, decimals: int | None = None) -> str:
@@ -100,12 +103,15 @@ def with_interval(value, half_width, decimals: int | None = None) -> str:
     (:func:`mean_sd`'s rounding) without a finite half-width."""
     if not is_finite_number(value) or not is_finite_number(half_width):
         return mean_sd(value, float("nan"), decimals)
-    places = (SD_SIGNIFICANT - 1 - leading_decimal(half_width)) if half_width > 0 else (
-        decimals or 0)
+    places = (
+        (SD_SIGNIFICANT - 1 - leading_decimal(half_width)) if half_width > 0 else (decimals or 0)
+    )
     if decimals is not None:
         places = min(places, decimals)
-    return (f"{with_decimals(value, places)} ({with_decimals(value - half_width, places)}–"
-            f"{with_decimals(value + half_width, places)})")
+    return (
+        f"{with_decimals(value, places)} ({with_decimals(value - half_width, places)}–"
+        f"{with_decimals(value + half_width, places)})"
+    )
 
 
 def label_unit(text: str) -> str:

@@ -11,6 +11,7 @@ as :mod:`oftimg.output.image_order` draws it (v rows from the outlet at the top)
 space axes count grid nodes (no unit: a node's size in mm changes along the tube and
 over the cycle; each row's distance from the inlet is in ``oftimg.s_mm``).
 """
+
 from __future__ import annotations
 
 import json
@@ -23,19 +24,23 @@ from .image_order import in_image_order
 NGFF_VERSION = "0.4"
 OME_DIMS = (["u", "v"], ["u", "v", "t"], ["u", "v", "t", "l1,l2"])
 FRAMES_PER_CHUNK = 64
-CHANNEL_COLOURS = ("FF00FF", "00FF00")        # the stretches' channels as viewers show them
+CHANNEL_COLOURS = ("FF00FF", "00FF00")  # the stretches' channels as viewers show them
 
 
 def ome_zarr_names(described: dict) -> list[str]:
     """The arrays of ``arrays.json`` that are OME-Zarr images: the (u, v, t) fields,
     the principal stretches and the (u, v) phase maps (a (v, t) map has one space
     axis, which an OME-Zarr image cannot have: ``oftimg tiff`` writes those)."""
-    return [name for name, d in described.items()
-            if d.get("file", "arrays.npz") == "arrays.npz" and d["dims"] in OME_DIMS]
+    return [
+        name
+        for name, d in described.items()
+        if d.get("file", "arrays.npz") == "arrays.npz" and d["dims"] in OME_DIMS
+    ]
 
 
-def ome_image(values: np.ndarray, info: dict, t_ms: np.ndarray, s_mm: np.ndarray
-              ) -> tuple[np.ndarray, dict]:
+def ome_image(
+    values: np.ndarray, info: dict, t_ms: np.ndarray, s_mm: np.ndarray
+) -> tuple[np.ndarray, dict]:
     """One array on its named axes (``info``: its arrays.json entry) as ``(image,
     group attributes)``: the image ``([t], [c], v, u)`` in image order, float32 with
     NaN kept (a mask uint8 0 / 1), and its OME ``multiscales`` (axes with types and
@@ -44,25 +49,43 @@ def ome_image(values: np.ndarray, info: dict, t_ms: np.ndarray, s_mm: np.ndarray
     each row's distance from the inlet."""
     image, axes = in_image_order(values, info["dims"])
     image = image.astype(np.uint8) if image.dtype == bool else image.astype(np.float32)
-    named = {"T": {"name": "t", "type": "time", "unit": "millisecond"},
-             "C": {"name": "c", "type": "channel"},
-             "Y": {"name": "v", "type": "space"}, "X": {"name": "u", "type": "space"}}
+    named = {
+        "T": {"name": "t", "type": "time", "unit": "millisecond"},
+        "C": {"name": "c", "type": "channel"},
+        "Y": {"name": "v", "type": "space"},
+        "X": {"name": "u", "type": "space"},
+    }
     scale = [float(np.median(np.diff(t_ms))) if a == "T" else 1.0 for a in axes]
-    attrs = {"multiscales": [{
-        "version": NGFF_VERSION, "name": info.get("name", ""),
-        "axes": [named[a] for a in axes],
-        "datasets": [{"path": "0", "coordinateTransformations": [
-            {"type": "scale", "scale": scale}]}]}],
-        "oftimg": {"description": info["description"], "unit": info.get("unit", ""),
-                   "dims": info["dims"], "rows": "v, from the outlet (row 0) to the inlet",
-                   "columns": "u, around the tube from the seam (u = 0)",
-                   "s_mm": [float(s) for s in s_mm[::-1]],
-                   **({"t_ms": [float(t) for t in t_ms]} if "T" in axes else {})}}
+    attrs = {
+        "multiscales": [
+            {
+                "version": NGFF_VERSION,
+                "name": info.get("name", ""),
+                "axes": [named[a] for a in axes],
+                "datasets": [
+                    {"path": "0", "coordinateTransformations": [{"type": "scale", "scale": scale}]}
+                ],
+            }
+        ],
+        "oftimg": {
+            "description": info["description"],
+            "unit": info.get("unit", ""),
+            "dims": info["dims"],
+            "rows": "v, from the outlet (row 0) to the inlet",
+            "columns": "u, around the tube from the seam (u = 0)",
+            "s_mm": [float(s) for s in s_mm[::-1]],
+            **({"t_ms": [float(t) for t in t_ms]} if "T" in axes else {}),
+        },
+    }
     if "C" in axes:
-        attrs["omero"] = {"channels": [
-            {"label": label, "active": True, "color": color, "window": _window(image[:, k])}
-            for k, (label, color) in enumerate(zip(info["dims"][-1].split(","),
-                                                   CHANNEL_COLOURS))]}
+        attrs["omero"] = {
+            "channels": [
+                {"label": label, "active": True, "color": color, "window": _window(image[:, k])}
+                for k, (label, color) in enumerate(
+                    zip(info["dims"][-1].split(","), CHANNEL_COLOURS)
+                )
+            ]
+        }
     return image, attrs
 
 
@@ -79,13 +102,19 @@ def write_ome_zarr(path: Path, image: np.ndarray, attrs: dict) -> Path:
     import zarr
 
     group = zarr.open_group(str(path), mode="w-", zarr_format=2)
-    group.attrs.update(json.loads(json.dumps(attrs)))          # plain JSON types only
-    chunks = (min(FRAMES_PER_CHUNK, image.shape[0]), *image.shape[1:]) if image.ndim > 2 \
-        else image.shape
+    group.attrs.update(json.loads(json.dumps(attrs)))  # plain JSON types only
+    chunks = (
+        (min(FRAMES_PER_CHUNK, image.shape[0]), *image.shape[1:]) if image.ndim > 2 else image.shape
+    )
     fill = np.nan if image.dtype.kind == "f" else 0
-    array = group.create_array("0", shape=image.shape, dtype=image.dtype, chunks=chunks,
-                               fill_value=fill, chunk_key_encoding={"name": "v2",
-                                                                    "separator": "/"})
+    array = group.create_array(
+        "0",
+        shape=image.shape,
+        dtype=image.dtype,
+        chunks=chunks,
+        fill_value=fill,
+        chunk_key_encoding={"name": "v2", "separator": "/"},
+    )
     array[...] = image
     return path
 
@@ -107,9 +136,11 @@ def write_ome_zarr_images(results: Path, out: Path) -> list[Path]:
             for name in npz.files:
                 info = described[name] | {"name": name, "dims": ["u", "v", "t"]}
                 image, attrs = ome_image(npz[name], info, t_ms, s_mm)
-                attrs["oftimg"].update(rows="v_fine, from the outlet (row 0) to the inlet",
-                                       columns="u_fine, around the tube from the seam",
-                                       not_imaged="NaN")
-                del attrs["oftimg"]["s_mm"]                 # rows finer than the grid's
+                attrs["oftimg"].update(
+                    rows="v_fine, from the outlet (row 0) to the inlet",
+                    columns="u_fine, around the tube from the seam",
+                    not_imaged="NaN",
+                )
+                del attrs["oftimg"]["s_mm"]  # rows finer than the grid's
                 written.append(write_ome_zarr(out / f"{name}.ome.zarr", image, attrs))
     return written

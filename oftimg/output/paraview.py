@@ -2,6 +2,7 @@
 around the seam) with every field that lives on its nodes, and each wall's section
 contours (closed polylines), one VTK XML file (.vtu, meshio) per frame and one
 .pvd collection per series whose time steps are ``t_ms``."""
+
 from __future__ import annotations
 
 import json
@@ -13,8 +14,8 @@ import numpy as np
 from .results import load_results
 
 WALLS = ("outer", "inner", "lumen")
-MYOCARDIUM = ("outer", "inner")          # the walls the wall thickness belongs to
-JELLY = "inner"                          # the wall the jelly thickness is measured from
+MYOCARDIUM = ("outer", "inner")  # the walls the wall thickness belongs to
+JELLY = "inner"  # the wall the jelly thickness is measured from
 
 
 def quad_cells(n_u: int, n_v: int) -> np.ndarray:
@@ -24,8 +25,11 @@ def quad_cells(n_u: int, n_v: int) -> np.ndarray:
     clockwise looking from the inlet towards the outlet)."""
     i, j = np.meshgrid(np.arange(n_u), np.arange(n_v - 1), indexing="ij")
     nxt = (i + 1) % n_u
-    return np.stack([i * n_v + j, nxt * n_v + j, nxt * n_v + j + 1, i * n_v + j + 1],
-                    axis=-1).reshape(-1, 4).astype(np.int32)
+    return (
+        np.stack([i * n_v + j, nxt * n_v + j, nxt * n_v + j + 1, i * n_v + j + 1], axis=-1)
+        .reshape(-1, 4)
+        .astype(np.int32)
+    )
 
 
 def ring_segments(n_u: int, n_v: int) -> np.ndarray:
@@ -40,13 +44,22 @@ def node_field_names(described: dict, wall: str) -> list[str]:
     live on ``wall``'s grid nodes: its ``(u, v, t[, k])`` fields and ``(u, v)`` phase
     maps, for the myocardial walls the wall thickness's, and for the inner wall the
     cardiac jelly's thickness's (measured from its nodes)."""
-    def belongs(name):
-        return (f"_{wall}" in name or (wall in MYOCARDIUM and "wall_thickness" in name)
-                or (wall == JELLY and "jelly_thickness" in name))
 
-    return [name for name, d in described.items()
-            if d.get("file", "arrays.npz") == "arrays.npz" and d["dims"][:2] == ["u", "v"]
-            and d["dims"][-1] != "xyz" and belongs(name)]
+    def belongs(name):
+        return (
+            f"_{wall}" in name
+            or (wall in MYOCARDIUM and "wall_thickness" in name)
+            or (wall == JELLY and "jelly_thickness" in name)
+        )
+
+    return [
+        name
+        for name, d in described.items()
+        if d.get("file", "arrays.npz") == "arrays.npz"
+        and d["dims"][:2] == ["u", "v"]
+        and d["dims"][-1] != "xyz"
+        and belongs(name)
+    ]
 
 
 def row_area_name(described: dict, wall: str) -> str:
@@ -86,19 +99,23 @@ def grid_frame_data(arrays, described: dict, wall: str, t: int, n_u: int, n_v: i
 
 def write_pvd(path: Path, steps: list[tuple[float, str]]) -> None:
     """A ParaView collection: ``steps`` of (time, file relative to ``path``'s folder)."""
-    rows = "".join(f'    <DataSet timestep="{t!r}" group="" part="0" file={quoteattr(f)}/>\n'
-                   for t, f in steps)
-    path.write_text('<?xml version="1.0"?>\n'
-                    '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
-                    f"  <Collection>\n{rows}  </Collection>\n</VTKFile>\n")
+    rows = "".join(
+        f'    <DataSet timestep="{t!r}" group="" part="0" file={quoteattr(f)}/>\n' for t, f in steps
+    )
+    path.write_text(
+        '<?xml version="1.0"?>\n'
+        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+        f"  <Collection>\n{rows}  </Collection>\n</VTKFile>\n"
+    )
 
 
 def series_names(results: Path) -> list[str]:
     """The series :func:`write_series` can make of a results folder: every grid of
     ``grids.npz``, then ``sections_<wall>`` for each wall with section contours."""
     described = json.loads((results / "arrays.json").read_text())
-    return ([n for n, d in described.items() if d.get("file") == "grids.npz"]
-            + [f"sections_{w}" for w in WALLS if f"contour_{w}_mm" in described])
+    return [n for n, d in described.items() if d.get("file") == "grids.npz"] + [
+        f"sections_{w}" for w in WALLS if f"contour_{w}_mm" in described
+    ]
 
 
 def _series_frames(results: Path, name: str):
@@ -114,21 +131,26 @@ def _series_frames(results: Path, name: str):
             n_u, n_v = contour.shape[:2]
             u = uv_data(n_u, n_v)["u"]
             cells = ("line", ring_segments(n_u, n_v))
-            return t_ms, ((contour[:, :, t], cells,
-                           {"u": u, area_name: _point_values(np.broadcast_to(area[:, t],
-                                                                             (n_u, n_v)))})
-                          for t in range(len(t_ms)))
-        G = load_results(results)[name]          # a clipped grid is made on load
+            return t_ms, (
+                (
+                    contour[:, :, t],
+                    cells,
+                    {"u": u, area_name: _point_values(np.broadcast_to(area[:, t], (n_u, n_v)))},
+                )
+                for t in range(len(t_ms))
+            )
+        G = load_results(results)[name]  # a clipped grid is made on load
         n_u, n_v = G.shape[:2]
         wall = name.removesuffix("_clipped")
         cells = ("quad", quad_cells(n_u, n_v))
-        if name != wall:                            # clipped: other nodes than the fields'
+        if name != wall:  # clipped: other nodes than the fields'
             return t_ms, ((G[:, :, t], cells, uv_data(n_u, n_v)) for t in range(len(t_ms)))
-        needed = node_field_names(described, wall) + [row_area_name(described, wall),
-                                                      "s_rows_mm"]
+        needed = node_field_names(described, wall) + [row_area_name(described, wall), "s_rows_mm"]
         arrays = {k: npz[k] for k in needed}
-    return t_ms, ((G[:, :, t], cells, grid_frame_data(arrays, described, wall, t, n_u, n_v))
-                  for t in range(len(t_ms)))
+    return t_ms, (
+        (G[:, :, t], cells, grid_frame_data(arrays, described, wall, t, n_u, n_v))
+        for t in range(len(t_ms))
+    )
 
 
 def write_series(results: Path, name: str, out: Path) -> Path:
@@ -144,8 +166,9 @@ def write_series(results: Path, name: str, out: Path) -> Path:
     steps = []
     for t, (points, cells, data) in enumerate(frames):
         file = f"{name}/{name}_{t:04d}.vtu"
-        meshio.write(out / file, meshio.Mesh(points.reshape(-1, 3), [cells], point_data=data),
-                     binary=True)
+        meshio.write(
+            out / file, meshio.Mesh(points.reshape(-1, 3), [cells], point_data=data), binary=True
+        )
         steps.append((float(t_ms[t]), file))
     write_pvd(out / f"{name}.pvd", steps)
     return out / f"{name}.pvd"

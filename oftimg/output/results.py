@@ -6,6 +6,7 @@ one labelled ``xarray.Dataset``.
 >>> res["area_outer_mm2"].shape, res.info("area_outer_mm2")["dims"]
 ((50, 195), ['v', 't'])
 """
+
 from __future__ import annotations
 
 import difflib
@@ -24,9 +25,13 @@ from ..mesh.clip import clipped_grids
 RESULT_FILES = ("arrays.npz", "grids.npz", "pca.npz", "pullbacks.npz")
 
 # dims whose entries have names: the xarray dim and its labels
-LABELLED_DIMS = {"xyz": ("xyz", ["x", "y", "z"]), "xy": ("xy", ["x", "y"]),
-                 "l1,l2": ("stretch", ["l1", "l2"]), "up/down": ("crossing", ["up", "down"]),
-                 "along,around": ("direction", ["along", "around"])}
+LABELLED_DIMS = {
+    "xyz": ("xyz", ["x", "y", "z"]),
+    "xy": ("xy", ["x", "y"]),
+    "l1,l2": ("stretch", ["l1", "l2"]),
+    "up/down": ("crossing", ["up", "down"]),
+    "along,around": ("direction", ["along", "around"]),
+}
 
 
 def source_paths(sources) -> list[Path]:
@@ -42,14 +47,24 @@ def result_folders(sources) -> list[Path]:
         if (src / "summary.json").is_file():
             folders.append(src)
             continue
-        subs = sorted((p for p in src.iterdir() if (p / "summary.json").is_file()),
-                      key=lambda p: natural_key(p.name)) if src.is_dir() else []
+        subs = (
+            sorted(
+                (p for p in src.iterdir() if (p / "summary.json").is_file()),
+                key=lambda p: natural_key(p.name),
+            )
+            if src.is_dir()
+            else []
+        )
         if not subs:
-            hint = (f"; it is one of the cohort files of the run {src.parent}: give that "
-                    "folder itself" if src.name in COHORT_OUTPUTS
-                    and (src.parent / "run.json").is_file() else "")
-            raise DatasetError(f"{src}: neither one dataset's results (no summary.json) nor "
-                               f"a folder of them (an oftimg run's --out){hint}")
+            hint = (
+                f"; it is one of the cohort files of the run {src.parent}: give that folder itself"
+                if src.name in COHORT_OUTPUTS and (src.parent / "run.json").is_file()
+                else ""
+            )
+            raise DatasetError(
+                f"{src}: neither one dataset's results (no summary.json) nor "
+                f"a folder of them (an oftimg run's --out){hint}"
+            )
         folders += subs
     return folders
 
@@ -60,10 +75,15 @@ def read_summary(folder: Path) -> dict:
     path = Path(folder) / "summary.json"
     summary = _read_json(path)
     provenance = summary.get("provenance") if isinstance(summary, dict) else None
-    if (not isinstance(provenance, dict) or not {"name", "group"} <= set(summary)
-            or not {"options", "oftimg_version"} <= set(provenance)):
-        raise DatasetError(f"{path}: not an oftimg dataset summary (no name, group, or "
-                           "options and version in its provenance)")
+    if (
+        not isinstance(provenance, dict)
+        or not {"name", "group"} <= set(summary)
+        or not {"options", "oftimg_version"} <= set(provenance)
+    ):
+        raise DatasetError(
+            f"{path}: not an oftimg dataset summary (no name, group, or "
+            "options and version in its provenance)"
+        )
     if not (path.parent / "arrays.npz").is_file():
         raise DatasetError(f"{path.parent}: has no arrays.npz (the cohort's figures need it)")
     return summary
@@ -82,8 +102,9 @@ def _read_npz(path: Path, names=None) -> dict[str, np.ndarray]:
     try:
         with np.load(path) as npz:
             missing = [n for n in names or [] if n not in npz.files]
-            arrays = {n: npz[n] for n in (npz.files if names is None else names)
-                      if n not in missing}
+            arrays = {
+                n: npz[n] for n in (npz.files if names is None else names) if n not in missing
+            }
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
         raise DatasetError(f"{path}: cannot be read ({exc})") from None
     if missing:
@@ -101,8 +122,9 @@ class Results:
         self.summary = read_summary(self.folder)
         path = self.folder / "arrays.json"
         if not path.is_file():
-            raise DatasetError(f"{self.folder}: has no arrays.json (it gives each array's "
-                               "dims and unit)")
+            raise DatasetError(
+                f"{self.folder}: has no arrays.json (it gives each array's dims and unit)"
+            )
         self.described: dict[str, dict] = _read_json(path)
         for name, d in self.described.items():
             if not isinstance(d, dict) or d.get("file") not in RESULT_FILES:
@@ -122,8 +144,10 @@ class Results:
         return list(self.described)
 
     def __repr__(self) -> str:
-        return (f"Results({str(self.folder)!r}: {self.name}, group {self.group}, "
-                f"{len(self.described)} arrays)")
+        return (
+            f"Results({str(self.folder)!r}: {self.name}, group {self.group}, "
+            f"{len(self.described)} arrays)"
+        )
 
     def __contains__(self, name) -> bool:
         return name in self.described
@@ -152,8 +176,10 @@ class Results:
         """``{"dims", "unit", "description", "file", ...}`` of array ``name``."""
         if name not in self.described:
             close = difflib.get_close_matches(name, self.described, n=3)
-            raise KeyError(f"{self.folder}: no array {name!r}"
-                           + (f" (did you mean {', '.join(close)}?)" if close else ""))
+            raise KeyError(
+                f"{self.folder}: no array {name!r}"
+                + (f" (did you mean {', '.join(close)}?)" if close else "")
+            )
         return self.described[name]
 
     def arrays(self, names) -> dict[str, np.ndarray]:
@@ -161,9 +187,12 @@ class Results:
         ``made_on_load`` (the clipped grids) made from the stored ones they come from."""
         names = list(names)
         made = [n for n in names if "made_on_load" in self.info(n)]
-        sources = list(dict.fromkeys(
-            [n.removesuffix(CLIPPED) for n in made]
-            + (["clip_v", "plane_origin_mm", "plane_normal"] if made else [])))
+        sources = list(
+            dict.fromkeys(
+                [n.removesuffix(CLIPPED) for n in made]
+                + (["clip_v", "plane_origin_mm", "plane_normal"] if made else [])
+            )
+        )
         by_file: dict[str, list[str]] = {}
         for name in dict.fromkeys([n for n in names if n not in made] + sources):
             by_file.setdefault(self.info(name)["file"], []).append(name)
@@ -171,9 +200,12 @@ class Results:
         for file, wanted in by_file.items():
             out.update(_read_npz(self.folder / file, wanted))
         if made:
-            clipped = clipped_grids({n.removesuffix(CLIPPED): out[n.removesuffix(CLIPPED)]
-                                     for n in made}, out["plane_origin_mm"],
-                                    out["plane_normal"], out["clip_v"])
+            clipped = clipped_grids(
+                {n.removesuffix(CLIPPED): out[n.removesuffix(CLIPPED)] for n in made},
+                out["plane_origin_mm"],
+                out["plane_normal"],
+                out["clip_v"],
+            )
             out.update({n: g.astype(np.float32) for n, g in clipped.items()})
         return {n: out[n] for n in names}
 
@@ -194,38 +226,72 @@ class Results:
             names = [n for n, d in self.described.items() if d["file"] != "pca.npz"]
         pca = [n for n in names if self.info(n)["file"] == "pca.npz"]
         if pca:
-            raise KeyError(f"{self.folder}: {', '.join(pca)} are PCA arrays, each with a "
-                           "contour axis of its own: read them with results[name]")
+            raise KeyError(
+                f"{self.folder}: {', '.join(pca)} are PCA arrays, each with a "
+                "contour axis of its own: read them with results[name]"
+            )
         values = self.arrays(list(dict.fromkeys([*names, "s_mm", "t_ms"])))
         variables = {}
         for name in names:
             d = self.described[name]
             dims = [LABELLED_DIMS.get(dim, (dim,))[0] for dim in d["dims"]]
-            variables[name] = xr.Variable(dims, values[name],
-                                          {"units": d["unit"], "description": d["description"]})
+            variables[name] = xr.Variable(
+                dims, values[name], {"units": d["unit"], "description": d["description"]}
+            )
         sizes = {dim: n for v in variables.values() for dim, n in v.sizes.items()}
         coords = {dim: labels for dim, labels in LABELLED_DIMS.values() if dim in sizes}
-        coords["t"] = ("t", values["t_ms"], {"units": "ms", "description":
-                                              self.described["t_ms"]["description"]})
+        coords["t"] = (
+            "t",
+            values["t_ms"],
+            {"units": "ms", "description": self.described["t_ms"]["description"]},
+        )
         n_v = len(values["s_mm"])
-        coords["v"] = ("v", np.linspace(0.0, 1.0, n_v), {"units": "1", "description":
-                       "grid parameter along the tube: 0 at the inlet, 1 at the outlet"})
-        coords["s_mm"] = ("v", values["s_mm"], {"units": "mm", "description":
-                          self.described["s_mm"]["description"]})
+        coords["v"] = (
+            "v",
+            np.linspace(0.0, 1.0, n_v),
+            {
+                "units": "1",
+                "description": "grid parameter along the tube: 0 at the inlet, 1 at the outlet",
+            },
+        )
+        coords["s_mm"] = (
+            "v",
+            values["s_mm"],
+            {"units": "mm", "description": self.described["s_mm"]["description"]},
+        )
         if "v_clipped" in sizes:
-            coords["v_clipped"] = ("v_clipped", np.linspace(0.0, 1.0, sizes["v_clipped"]),
-                                   {"units": "1", "description": "along the clipped grids: 0 "
-                                    "at the Lagrangian clipping plane, 1 at the outlet"})
+            coords["v_clipped"] = (
+                "v_clipped",
+                np.linspace(0.0, 1.0, sizes["v_clipped"]),
+                {
+                    "units": "1",
+                    "description": "along the clipped grids: 0 "
+                    "at the Lagrangian clipping plane, 1 at the outlet",
+                },
+            )
         if "u" in sizes:
-            coords["u"] = ("u", np.arange(sizes["u"]) / sizes["u"], {"units": "1",
-                           "description": "grid parameter around the tube: 0 on the seam, "
-                           "clockwise looking from the inlet"})
+            coords["u"] = (
+                "u",
+                np.arange(sizes["u"]) / sizes["u"],
+                {
+                    "units": "1",
+                    "description": "grid parameter around the tube: 0 on the seam, "
+                    "clockwise looking from the inlet",
+                },
+            )
         for name in ("s_mm", "t_ms"):
             variables.pop(name, None)
-        return xr.Dataset(variables, coords, attrs={
-            "name": self.name, "group": self.group, "period_ms": self.summary["period_ms"],
-            "oftimg_version": self.summary["provenance"]["oftimg_version"],
-            "source": str(self.folder)})
+        return xr.Dataset(
+            variables,
+            coords,
+            attrs={
+                "name": self.name,
+                "group": self.group,
+                "period_ms": self.summary["period_ms"],
+                "oftimg_version": self.summary["provenance"]["oftimg_version"],
+                "source": str(self.folder),
+            },
+        )
 
 
 def _xarray(what: str):
@@ -240,8 +306,10 @@ def load_results(folder) -> Results:
     """One dataset's results folder (``OUT/<name>``) read back: :class:`Results`."""
     folder = Path(folder)
     if not (folder / "summary.json").is_file() and (folder / "run.json").is_file():
-        raise DatasetError(f"{folder}: a run's --out, not one dataset's results: "
-                           "oftimg.load_cohort reads all of them, or give OUT/<name>")
+        raise DatasetError(
+            f"{folder}: a run's --out, not one dataset's results: "
+            "oftimg.load_cohort reads all of them, or give OUT/<name>"
+        )
     return Results(folder)
 
 
@@ -249,13 +317,16 @@ def load_cohort(sources) -> dict[str, Results]:
     """Every dataset's results among ``sources`` (each a dataset's results folder or
     a folder of them, as ``oftimg cohort`` takes them), by name in natural order:
     ``cohort["normal_0"]``, ``for name, res in cohort.items()``."""
-    results = sorted((Results(f) for f in result_folders(sources)),
-                     key=lambda r: natural_key(r.name))
+    results = sorted(
+        (Results(f) for f in result_folders(sources)), key=lambda r: natural_key(r.name)
+    )
     for a, b in zip(results, results[1:]):
         if a.name == b.name:
-            raise DatasetError(f"{b.folder}: its dataset is named {b.name!r}, as "
-                               f"{a.folder}'s is; load them apart, or rename one (its "
-                               "meta.json's name)")
+            raise DatasetError(
+                f"{b.folder}: its dataset is named {b.name!r}, as "
+                f"{a.folder}'s is; load them apart, or rename one (its "
+                "meta.json's name)"
+            )
     return {r.name: r for r in results}
 
 
@@ -268,18 +339,36 @@ def load_cohort_maps(out):
     out = Path(out)
     path = out / "cohort_maps.npz"
     if not path.is_file():
-        raise DatasetError(f"{out}: has no cohort_maps.npz (an oftimg run's --out, or "
-                           "oftimg cohort's, has one)")
+        raise DatasetError(
+            f"{out}: has no cohort_maps.npz (an oftimg run's --out, or oftimg cohort's, has one)"
+        )
     described = _read_json(out / "cohort_maps.json")
     arrays = _read_npz(path)
-    coords = {"embryo": arrays.pop("names"), "group": ("embryo", arrays.pop("groups")),
-              "position": ("position", arrays.pop("position_fraction"),
-                           {"units": "1", "description": described["position_fraction"]
-                            ["description"]}),
-              "phase": ("phase", arrays.pop("cycle_fraction"),
-                        {"units": "1", "description": described["cycle_fraction"]["description"]})}
+    coords = {
+        "embryo": arrays.pop("names"),
+        "group": ("embryo", arrays.pop("groups")),
+        "position": (
+            "position",
+            arrays.pop("position_fraction"),
+            {"units": "1", "description": described["position_fraction"]["description"]},
+        ),
+        "phase": (
+            "phase",
+            arrays.pop("cycle_fraction"),
+            {"units": "1", "description": described["cycle_fraction"]["description"]},
+        ),
+    }
     if "comparisons" in arrays:
         coords["comparison"] = ("comparison", arrays.pop("comparisons"))
-    return xr.Dataset({k: (described[k]["dims"], v, {"units": described[k]["unit"],
-                                                     "description": described[k]["description"]})
-                       for k, v in arrays.items()}, coords, attrs={"source": str(out)})
+    return xr.Dataset(
+        {
+            k: (
+                described[k]["dims"],
+                v,
+                {"units": described[k]["unit"], "description": described[k]["description"]},
+            )
+            for k, v in arrays.items()
+        },
+        coords,
+        attrs={"source": str(out)},
+    )

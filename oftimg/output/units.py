@@ -8,6 +8,7 @@ the cycle, changes and thickenings as %). summary.json and arrays.npz keep their
 values (fractions, mm), their unit in their names; :func:`shown` says how each kind of
 quantity is written for a reader, and every writer asks it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -22,15 +23,20 @@ class Shown:
     scale: float = 1.0
 
 
-THICKNESS = Shown("mm")                 # a wall's or the jelly's (arrays: *_thickness_mm)
-THICKENING = Shown("%", 100.0)          # largest over smallest minus 1 (a fraction stored)
-VOLUME_CHANGE = Shown("%", 100.0)       # (largest - smallest) / smallest
-SHARE_OF_CYCLE = Shown("%", 100.0)      # expansion, contraction, time expanded
-AREA_RATE = Shown("mm^2/ms")            # the area map's time derivative
-DISPLACEMENT = Shown("mm")              # a node's or a point's
-KINDS = {"thickness": THICKNESS, "thickening": THICKENING, "volume_change": VOLUME_CHANGE,
-         "share_of_cycle": SHARE_OF_CYCLE, "area_rate": AREA_RATE,
-         "displacement": DISPLACEMENT}
+THICKNESS = Shown("mm")  # a wall's or the jelly's (arrays: *_thickness_mm)
+THICKENING = Shown("%", 100.0)  # largest over smallest minus 1 (a fraction stored)
+VOLUME_CHANGE = Shown("%", 100.0)  # (largest - smallest) / smallest
+SHARE_OF_CYCLE = Shown("%", 100.0)  # expansion, contraction, time expanded
+AREA_RATE = Shown("mm^2/ms")  # the area map's time derivative
+DISPLACEMENT = Shown("mm")  # a node's or a point's
+KINDS = {
+    "thickness": THICKNESS,
+    "thickening": THICKENING,
+    "volume_change": VOLUME_CHANGE,
+    "share_of_cycle": SHARE_OF_CYCLE,
+    "area_rate": AREA_RATE,
+    "displacement": DISPLACEMENT,
+}
 
 
 def kind_of(key: str) -> str | None:

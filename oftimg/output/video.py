@@ -6,6 +6,7 @@ encoded by imageio-ffmpeg's bundled ffmpeg. This is the one place where arrays
 in (u, v, t) order become video order (frames, rows, cols, 3): v runs up the
 picture (inlet at the bottom), u to the right.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -44,9 +45,9 @@ def to_rgb(values: np.ndarray, vmin: float, vmax: float, cmap: str = "jet") -> n
 
 # the frame around a (u, v) field: margins for the axes, a banner above, the colour bar
 MARGIN_LEFT, MARGIN_BOTTOM, BANNER, BAR_PANEL = 96, 64, 74, 170
-TEXT_PX_PER_SCALE = 30   # a text scale of 1: a 30-pixel font (OpenCV's Hershey scale)
-BEAT_SECONDS = 4.0       # a beat plays in this long at the default frame rate
-FIELD_SCALE = 6          # pixels a (u, v) node: 80 x 50 nodes, a 480 x 300 picture
+TEXT_PX_PER_SCALE = 30  # a text scale of 1: a 30-pixel font (OpenCV's Hershey scale)
+BEAT_SECONDS = 4.0  # a beat plays in this long at the default frame rate
+FIELD_SCALE = 6  # pixels a (u, v) node: 80 x 50 nodes, a 480 x 300 picture
 
 
 def beat_fps(n_frames: int) -> float:
@@ -90,8 +91,16 @@ def text_width(text: str, scale: float = 0.5) -> int:
     return int(np.ceil(_font(_font_px(scale)).getlength(text)))
 
 
-def _text(img, text: str, org, *, scale: float = 0.5, colour=(0, 0, 0), align: str = "left",
-          max_width: int | None = None) -> None:
+def _text(
+    img,
+    text: str,
+    org,
+    *,
+    scale: float = 0.5,
+    colour=(0, 0, 0),
+    align: str = "left",
+    max_width: int | None = None,
+) -> None:
     """``text`` on ``img`` at ``org`` (its baseline's left, centre or right end),
     anti-aliased, any Unicode (mm², µm, ±); smaller, down to 0.7 of ``scale``, where
     it would be wider than ``max_width`` pixels."""
@@ -106,7 +115,7 @@ def _text(img, text: str, org, *, scale: float = 0.5, colour=(0, 0, 0), align: s
     x1, y1 = min(x + coverage.shape[1], img.shape[1]), min(y + coverage.shape[0], img.shape[0])
     if x1 <= x0 or y1 <= y0:
         return
-    alpha = coverage[y0 - y:y1 - y, x0 - x:x1 - x, None]
+    alpha = coverage[y0 - y : y1 - y, x0 - x : x1 - x, None]
     patch = img[y0:y1, x0:x1].astype(np.float32)
     patch += alpha * (np.asarray(colour, np.float32) - patch)
     img[y0:y1, x0:x1] = np.rint(patch).astype(np.uint8)
@@ -132,27 +141,30 @@ def nice_ticks(lo: float, hi: float, n: int = 6) -> tuple[list[float], list[str]
 
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
         return [lo], [numbers.number(lo)]
-    values = [float(v) for v in MaxNLocator(n, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
-              if lo - 1e-9 * (hi - lo) <= v <= hi + 1e-9 * (hi - lo)]
+    values = [
+        float(v)
+        for v in MaxNLocator(n, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+        if lo - 1e-9 * (hi - lo) <= v <= hi + 1e-9 * (hi - lo)
+    ]
     step = values[1] - values[0] if len(values) > 1 else hi - lo
     decimals = max(0, -int(np.floor(np.log10(step) + 1e-9)))
-    in_units = step * 10.0 ** decimals
-    if abs(in_units - round(in_units)) > 1e-6:               # 2.5 steps: one more decimal
+    in_units = step * 10.0**decimals
+    if abs(in_units - round(in_units)) > 1e-6:  # 2.5 steps: one more decimal
         decimals += 1
     return values, [numbers.with_decimals(v, decimals) for v in values]
 
 
-def _colour_bar_panel(height: int, vmin: float, vmax: float, cmap: str, label: str
-                      ) -> np.ndarray:
+def _colour_bar_panel(height: int, vmin: float, vmax: float, cmap: str, label: str) -> np.ndarray:
     """A white panel ``(height, BAR_PANEL, 3)``: the colour bar with five ticks and
     their values, its label (quantity and unit) written above it in up to two lines."""
     panel = np.full((height, BAR_PANEL, 3), 255, np.uint8)
     top, bottom = 40, height - 8
-    bar = to_rgb(np.linspace(vmax, vmin, bottom - top)[:, None] * np.ones((1, 18)), vmin, vmax,
-                 cmap)
+    bar = to_rgb(
+        np.linspace(vmax, vmin, bottom - top)[:, None] * np.ones((1, 18)), vmin, vmax, cmap
+    )
     panel[top:bottom, 12:30] = bar
     words, lines = label.split(), ["", ""]
-    for word in words:                                  # two lines of about 22 characters
+    for word in words:  # two lines of about 22 characters
         k = 0 if len(lines[0]) + len(word) < 22 or not lines[0] else 1
         lines[k] = (lines[k] + " " + word).strip()
     for k, line in enumerate(lines):
@@ -164,8 +176,18 @@ def _colour_bar_panel(height: int, vmin: float, vmax: float, cmap: str, label: s
     return panel
 
 
-def field_canvas(n_u: int, n_v: int, scale: int, *, vmin: float, vmax: float, cmap: str,
-                 label: str, title: str, length_mm: float | None = None) -> np.ndarray:
+def field_canvas(
+    n_u: int,
+    n_v: int,
+    scale: int,
+    *,
+    vmin: float,
+    vmax: float,
+    cmap: str,
+    label: str,
+    title: str,
+    length_mm: float | None = None,
+) -> np.ndarray:
     """The still part of every frame of a (u, v) field video, white, the field's
     place ``(n_v * scale, n_u * scale)`` at rows ``BANNER:``, columns
     ``MARGIN_LEFT:`` left for it: the title, the v axis (inlet at the bottom,
@@ -177,25 +199,33 @@ def field_canvas(n_u: int, n_v: int, scale: int, *, vmin: float, vmax: float, cm
     _text(img, title, (8, 20), scale=0.55, max_width=img.shape[1] - 16)
     x0, y0 = MARGIN_LEFT, BANNER
     cv2.rectangle(img, (x0 - 1, y0 - 1), (x0 + w, y0 + h), (0, 0, 0), 1)
-    for v in (0.0, 0.25, 0.5, 0.75, 1.0):                      # v up: inlet at the bottom
+    for v in (0.0, 0.25, 0.5, 0.75, 1.0):  # v up: inlet at the bottom
         y = int(round(y0 + h - 1 - v * (h - 1)))
-        img[y, x0 - 6:x0 - 1] = 0
+        img[y, x0 - 6 : x0 - 1] = 0
         _text(img, f"{v:g}", (x0 - 9, y + 5), scale=0.42, align="right")
     _text(img, "outlet", (x0 - 9, y0 + 22), scale=0.4, align="right")
     _text(img, "inlet", (x0 - 9, y0 + h - 14), scale=0.4, align="right")
-    _text(img, "v along", (4, y0 + 3 * h // 8 - 4), scale=0.42)   # between two ticks
+    _text(img, "v along", (4, y0 + 3 * h // 8 - 4), scale=0.42)  # between two ticks
     if length_mm is not None:
-        _text(img, f"(0-1: {numbers.number(length_mm, 2)} mm)", (4, y0 + 3 * h // 8 + 12), scale=0.36)
+        _text(
+            img, f"(0-1: {numbers.number(length_mm, 2)} mm)", (4, y0 + 3 * h // 8 + 12), scale=0.36
+        )
     for u in (0.0, 0.25, 0.5, 0.75, 1.0):
         x = int(round(x0 + u * (w - 1)))
-        img[y0 + h:y0 + h + 6, x] = 0
+        img[y0 + h : y0 + h + 6, x] = 0
         _text(img, f"{u:g}", (x, y0 + h + 20), scale=0.42, align="centre")
-    for x in (x0, x0 + w - 1):                                  # the seam: u = 0 and u = 1
+    for x in (x0, x0 + w - 1):  # the seam: u = 0 and u = 1
         _text(img, "seam", (x, y0 + h + 36), scale=0.38, colour=(180, 0, 0), align="centre")
-    _text(img, "u around the tube, from the seam", (x0 + w // 2, y0 + h + 54), scale=0.45,
-          align="centre")
-    img[y0 - 40:y0 + h, x0 + w + 4:x0 + w + BAR_PANEL] = \
-        _colour_bar_panel(h + 40, vmin, vmax, cmap, label)[:, :BAR_PANEL - 4]
+    _text(
+        img,
+        "u around the tube, from the seam",
+        (x0 + w // 2, y0 + h + 54),
+        scale=0.45,
+        align="centre",
+    )
+    img[y0 - 40 : y0 + h, x0 + w + 4 : x0 + w + BAR_PANEL] = _colour_bar_panel(
+        h + 40, vmin, vmax, cmap, label
+    )[:, : BAR_PANEL - 4]
     return img
 
 
@@ -210,12 +240,25 @@ def _stamp(img: np.ndarray, t_ms: float, phase: float, right: int, note: str = "
         _text(img, note, (8, 64), scale=0.45, colour=(0, 0, 160))
 
 
-def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, cmap=None,
-                 label="", scale: int = FIELD_SCALE, grid_note: str = "",
-                 title: str = "", period_ms: float | None = None,
-                 length_mm: float | None = None, reference_frame: int | None = None,
-                 annotate: bool = True, stream: bool = False,
-                 uncertain: np.ndarray | None = None, uncertain_note: str = ""):
+def field_frames(
+    field: np.ndarray,
+    t_ms: np.ndarray,
+    *,
+    vmin=None,
+    vmax=None,
+    cmap=None,
+    label="",
+    scale: int = FIELD_SCALE,
+    grid_note: str = "",
+    title: str = "",
+    period_ms: float | None = None,
+    length_mm: float | None = None,
+    reference_frame: int | None = None,
+    annotate: bool = True,
+    stream: bool = False,
+    uncertain: np.ndarray | None = None,
+    uncertain_note: str = "",
+):
     """Video frames ``(n_t, rows, cols, 3)`` uint8 of a ``(n_u, n_v, n_t)`` field (with
     ``stream``, the frames one at a time: an encoder needs no more, and a 195-frame
     field video holds ~200 MB).
@@ -243,9 +286,21 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
     heading = ", ".join(x for x in (title or label, grid_note) if x)
     if uncertain is not None and uncertain_note:
         heading = f"{heading}; {uncertain_note}"
-    canvas = None if not annotate else field_canvas(
-        n_u, n_v, scale, vmin=lo, vmax=hi, cmap=cmap, label=label, title=heading,
-        length_mm=length_mm)
+    canvas = (
+        None
+        if not annotate
+        else field_canvas(
+            n_u,
+            n_v,
+            scale,
+            vmin=lo,
+            vmax=hi,
+            cmap=cmap,
+            label=label,
+            title=heading,
+            length_mm=length_mm,
+        )
+    )
 
     def draw(t):
         img, _ = in_image_order(field[:, :, t], ["u", "v"])  # rows: v, inlet at the bottom
@@ -257,18 +312,29 @@ def field_frames(field: np.ndarray, t_ms: np.ndarray, *, vmin=None, vmax=None, c
         if not annotate:
             return _even(rgb)
         frame = canvas.copy()
-        frame[BANNER:BANNER + rgb.shape[0], MARGIN_LEFT:MARGIN_LEFT + rgb.shape[1]] = rgb
-        note = ("reference frame: 0 by definition (strain against t = 0)"
-                if t == reference_frame else "")
+        frame[BANNER : BANNER + rgb.shape[0], MARGIN_LEFT : MARGIN_LEFT + rgb.shape[1]] = rgb
+        note = (
+            "reference frame: 0 by definition (strain against t = 0)"
+            if t == reference_frame
+            else ""
+        )
         _stamp(frame, t_ms[t], (t_ms[t] % period) / period, MARGIN_LEFT + rgb.shape[1], note)
         return _even(frame)
 
     return (draw(t) for t in range(n_t)) if stream else _stack(n_t, draw)
 
 
-def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | None = None,
-                      width: int = 720, height: int = 420, cmap=None,
-                      label: str = "cross-sectional area (mm²)", stream: bool = False):
+def map_cursor_frames(
+    area: np.ndarray,
+    t_ms: np.ndarray,
+    *,
+    s_mm: np.ndarray | None = None,
+    width: int = 720,
+    height: int = 420,
+    cmap=None,
+    label: str = "cross-sectional area (mm²)",
+    stream: bool = False,
+):
     """Frames of a ``(n_v, n_t)`` map (about ``width`` x ``height`` pixels) with a
     moving time cursor, its axes (time in ms, position along the tube in mm, inlet
     at the bottom), its colour bar and the time in the banner (``stream``: one at a
@@ -280,17 +346,18 @@ def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | 
     sx, sy = max(1, round(width / n_t)), max(1, round(height / n_v))
     image, _ = in_image_order(area, ["v", "t"])
     lo, hi = float(np.nanmin(area)), float(np.nanmax(area))
-    picture = cv2.resize(to_rgb(image, lo, hi, cmap), None, fx=sx, fy=sy,
-                         interpolation=cv2.INTER_NEAREST)
+    picture = cv2.resize(
+        to_rgb(image, lo, hi, cmap), None, fx=sx, fy=sy, interpolation=cv2.INTER_NEAREST
+    )
     h, w = picture.shape[:2]
     base = np.full((BANNER + h + MARGIN_BOTTOM, MARGIN_LEFT + w + BAR_PANEL, 3), 255, np.uint8)
     x0, y0 = MARGIN_LEFT, BANNER
-    base[y0:y0 + h, x0:x0 + w] = picture
+    base[y0 : y0 + h, x0 : x0 + w] = picture
     _text(base, "the outer area map; cursor: this frame", (8, 20), scale=0.55)
     s_end = float(s_mm[-1]) if s_mm is not None else None
     for value, text in zip(*nice_ticks(0.0, s_end or 1.0, 4)):
         y = int(round(y0 + h - 1 - value / (s_end or 1.0) * (h - 1)))
-        base[y, x0 - 6:x0 - 1] = 0
+        base[y, x0 - 6 : x0 - 1] = 0
         _text(base, text, (x0 - 9, y + 5), scale=0.42, align="right")
     _text(base, "s (mm)" if s_end else "v", (4, y0 + h // 2), scale=0.42)
     _text(base, "inlet", (x0 - 9, y0 + h - 14), scale=0.4, align="right")
@@ -301,18 +368,24 @@ def map_cursor_frames(area: np.ndarray, t_ms: np.ndarray, *, s_mm: np.ndarray | 
         x = int(round(x0 + (tick / period * n_t + 0.5) * sx))
         if x > x0 + w - 1:
             continue
-        base[y0 + h:y0 + h + 6, x] = 0
+        base[y0 + h : y0 + h + 6, x] = 0
         _text(base, text, (x, y0 + h + 20), scale=0.42, align="centre")
-    _text(base, "time since minimum volume (ms)", (x0 + w // 2, y0 + h + 44), scale=0.45,
-          align="centre")
-    base[y0 - 40:y0 + h, x0 + w + 4:x0 + w + BAR_PANEL] = \
-        _colour_bar_panel(h + 40, lo, hi, cmap, label)[:, :BAR_PANEL - 4]
+    _text(
+        base,
+        "time since minimum volume (ms)",
+        (x0 + w // 2, y0 + h + 44),
+        scale=0.45,
+        align="centre",
+    )
+    base[y0 - 40 : y0 + h, x0 + w + 4 : x0 + w + BAR_PANEL] = _colour_bar_panel(
+        h + 40, lo, hi, cmap, label
+    )[:, : BAR_PANEL - 4]
 
     def draw(t):
         img = base.copy()
         x = x0 + int((t + 0.5) * sx)
-        img[y0:y0 + h, max(x0, x - 1):x + 2] = 255
-        img[y0:y0 + h, x:x + 1] = 0
+        img[y0 : y0 + h, max(x0, x - 1) : x + 2] = 255
+        img[y0 : y0 + h, x : x + 1] = 0
         _stamp(img, t_ms[t], (t_ms[t] % period) / period, x0 + w)
         return _even(img)
 
@@ -333,11 +406,17 @@ def write_mp4(path: Path, frames, *, fps: float) -> Path:
     """
     # format named: if imageio cannot load its ffmpeg plugin, it says so instead of
     # handing the .mp4 to another plugin (tifffile, whose error names an "fps" argument)
-    writer = imageio.get_writer(str(path), format="FFMPEG", fps=fps, codec="libx264",
-                                pixelformat="yuv420p", macro_block_size=16, quality=7,
-                                ffmpeg_log_level="error",   # one thread: the workers fill the cores
-                                ffmpeg_params=["-preset", "veryfast", "-tune", "animation",
-                                               "-threads", "1"])
+    writer = imageio.get_writer(
+        str(path),
+        format="FFMPEG",
+        fps=fps,
+        codec="libx264",
+        pixelformat="yuv420p",
+        macro_block_size=16,
+        quality=7,
+        ffmpeg_log_level="error",  # one thread: the workers fill the cores
+        ffmpeg_params=["-preset", "veryfast", "-tune", "animation", "-threads", "1"],
+    )
     try:
         for frame in frames:
             writer.append_data(frame)
@@ -348,36 +427,108 @@ def write_mp4(path: Path, frames, *, fps: float) -> Path:
 
 # (file, array, per-pixel normalized?, field_frames options): the (u, v) field videos;
 # signed fields get a diverging colour map centred on 0, one-signed ones a sequential one
-_STRAIN = dict(cmap="viridis", reference_frame=0)     # as the figures: one-signed, viridis
+_STRAIN = dict(cmap="viridis", reference_frame=0)  # as the figures: one-signed, viridis
 FIELD_VIDEOS = [
-    ("radial_curvature_outer", "radial_curvature_outer_per_mm", False,
-     dict(label="radial curvature (1/mm)", title="outer wall: radial curvature")),
-    ("radial_curvature_outer_normalized", "radial_curvature_outer_per_mm", True,
-     dict(vmin=0, vmax=1, cmap="gray", label="normalised (0-1)",
-          title="outer wall: radial curvature, PER-PIXEL NORMALISED (each pixel's min 0, "
-                "max 1)")),
-    ("strain_energy_outer", "strain_energy_outer", False,
-     dict(_STRAIN, label="strain energy (dimensionless)", title="outer wall: strain energy against t = 0")),
-    ("radial_curvature_inner", "radial_curvature_inner_per_mm", False,
-     dict(label="radial curvature (1/mm)", title="inner wall: radial curvature")),
-    ("strain_energy_inner", "strain_energy_inner", False,
-     dict(_STRAIN, label="strain energy (dimensionless)", title="inner wall: strain energy against t = 0")),
-    ("wall_thickness", "wall_thickness_mm", False,          # as every figure gives it
-     dict(cmap="viridis", label=units.label("wall thickness", "thickness"),
-          title="myocardial wall thickness", times=units.THICKNESS.scale)),
-    ("jelly_thickness", "jelly_thickness_mm", False,
-     dict(cmap="viridis", label=units.label("jelly thickness", "thickness"),
-          title="cardiac jelly thickness", times=units.THICKNESS.scale)),
-    ("mean_curvature_lumen", "mean_curvature_lumen_per_mm", False,
-     dict(label="mean curvature (1/mm)", title="lumen: mean curvature")),
-    ("surface_speed_outer", "surface_speed_outer_mm_s", False,
-     dict(cmap="viridis", label="tissue speed (mm/s)",
-          title="outer wall: the tissue's speed along its surface")),
-    ("surface_divergence_outer", "surface_divergence_outer_per_s", False,
-     dict(label="area change (1/s)", title="outer wall: the tissue's rate of area change")),
-    ("pullback_outer", "pullback_outer_mean", False,
-     dict(cmap="gray", label="intensity (mean across the wall)", scale=2, grid_note="",
-          title="myocardium: intensity pulled back onto each frame's own grid")),
+    (
+        "radial_curvature_outer",
+        "radial_curvature_outer_per_mm",
+        False,
+        dict(label="radial curvature (1/mm)", title="outer wall: radial curvature"),
+    ),
+    (
+        "radial_curvature_outer_normalized",
+        "radial_curvature_outer_per_mm",
+        True,
+        dict(
+            vmin=0,
+            vmax=1,
+            cmap="gray",
+            label="normalised (0-1)",
+            title="outer wall: radial curvature, PER-PIXEL NORMALISED (each pixel's min 0, max 1)",
+        ),
+    ),
+    (
+        "strain_energy_outer",
+        "strain_energy_outer",
+        False,
+        dict(
+            _STRAIN,
+            label="strain energy (dimensionless)",
+            title="outer wall: strain energy against t = 0",
+        ),
+    ),
+    (
+        "radial_curvature_inner",
+        "radial_curvature_inner_per_mm",
+        False,
+        dict(label="radial curvature (1/mm)", title="inner wall: radial curvature"),
+    ),
+    (
+        "strain_energy_inner",
+        "strain_energy_inner",
+        False,
+        dict(
+            _STRAIN,
+            label="strain energy (dimensionless)",
+            title="inner wall: strain energy against t = 0",
+        ),
+    ),
+    (
+        "wall_thickness",
+        "wall_thickness_mm",
+        False,  # as every figure gives it
+        dict(
+            cmap="viridis",
+            label=units.label("wall thickness", "thickness"),
+            title="myocardial wall thickness",
+            times=units.THICKNESS.scale,
+        ),
+    ),
+    (
+        "jelly_thickness",
+        "jelly_thickness_mm",
+        False,
+        dict(
+            cmap="viridis",
+            label=units.label("jelly thickness", "thickness"),
+            title="cardiac jelly thickness",
+            times=units.THICKNESS.scale,
+        ),
+    ),
+    (
+        "mean_curvature_lumen",
+        "mean_curvature_lumen_per_mm",
+        False,
+        dict(label="mean curvature (1/mm)", title="lumen: mean curvature"),
+    ),
+    (
+        "surface_speed_outer",
+        "surface_speed_outer_mm_s",
+        False,
+        dict(
+            cmap="viridis",
+            label="tissue speed (mm/s)",
+            title="outer wall: the tissue's speed along its surface",
+        ),
+    ),
+    (
+        "surface_divergence_outer",
+        "surface_divergence_outer_per_s",
+        False,
+        dict(label="area change (1/s)", title="outer wall: the tissue's rate of area change"),
+    ),
+    (
+        "pullback_outer",
+        "pullback_outer_mean",
+        False,
+        dict(
+            cmap="gray",
+            label="intensity (mean across the wall)",
+            scale=2,
+            grid_note="",
+            title="myocardium: intensity pulled back onto each frame's own grid",
+        ),
+    ),
 ]
 
 
@@ -401,12 +552,15 @@ def uncertain_nodes(arrays: dict, key: str) -> dict:
         return {}
     with np.errstate(invalid="ignore"):
         marked = np.asarray(band) > BAND_WIDE_SHARE * np.abs(np.asarray(arrays[key]))
-    return {"uncertain": marked,
-            "uncertain_note": f"grey: 95 % band over {100 * BAND_WIDE_SHARE:.0f} % of the value"}
+    return {
+        "uncertain": marked,
+        "uncertain_note": f"grey: 95 % band over {100 * BAND_WIDE_SHARE:.0f} % of the value",
+    }
 
 
-def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
-                grid_note: str = "") -> list[tuple]:
+def video_tasks(
+    arrays: dict, grids: dict | None = None, kinds=None, *, grid_note: str = ""
+) -> list[tuple]:
     """The videos of one dataset as independent ``(kind, inputs)`` tasks for
     :func:`render_videos`, each holding only the arrays it needs; only those of
     ``kinds`` (default: all). ``grid_note``: which grid the (u, v) fields are on,
@@ -417,24 +571,52 @@ def video_tasks(arrays: dict, grids: dict | None = None, kinds=None, *,
     # the slow 3-D renders first, so that workers finish together;
     # the area-map cursor frames are drawn once for both videos that show them
     length_mm = float(arrays["s_mm"][-1]) if "s_mm" in arrays else None
-    tasks = [("area", dict(area=arrays["area_outer_mm2"], t_ms=t_ms, s_mm=arrays.get("s_mm"),
-                           grid=None if grids is None else grids["outer"]))]
+    tasks = [
+        (
+            "area",
+            dict(
+                area=arrays["area_outer_mm2"],
+                t_ms=t_ms,
+                s_mm=arrays.get("s_mm"),
+                grid=None if grids is None else grids["outer"],
+            ),
+        )
+    ]
     h = arrays.get("mean_curvature_lumen_per_mm")
     if grids is not None and h is not None and "lumen" in grids:
-        tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms,
-                                       length_mm=length_mm)))
+        tasks.append(("lumen_3d", dict(grid=grids["lumen"], h=h, t_ms=t_ms, length_mm=length_mm)))
     if grids is not None and "phase_outer" in arrays:
-        tasks.append(("phase_3d", dict(grid=grids["outer"], phase=timed_phase(arrays),
-                                       t_ms=t_ms, length_mm=length_mm)))
-    tasks += [("field", dict(name=name, field=arrays[key], normalize=normalize, t_ms=t_ms,
-                             options={"grid_note": grid_note, "length_mm": length_mm, **opts,
-                                      **({} if normalize else uncertain_nodes(arrays, key))}))
-              for name, key, normalize, opts in FIELD_VIDEOS if key in arrays]
+        tasks.append(
+            (
+                "phase_3d",
+                dict(
+                    grid=grids["outer"], phase=timed_phase(arrays), t_ms=t_ms, length_mm=length_mm
+                ),
+            )
+        )
+    tasks += [
+        (
+            "field",
+            dict(
+                name=name,
+                field=arrays[key],
+                normalize=normalize,
+                t_ms=t_ms,
+                options={
+                    "grid_note": grid_note,
+                    "length_mm": length_mm,
+                    **opts,
+                    **({} if normalize else uncertain_nodes(arrays, key)),
+                },
+            ),
+        )
+        for name, key, normalize, opts in FIELD_VIDEOS
+        if key in arrays
+    ]
     return tasks
 
 
-def render_videos(kind: str, inputs: dict, fps: float | None = None
-                  ) -> list[tuple[str, bytes]]:
+def render_videos(kind: str, inputs: dict, fps: float | None = None) -> list[tuple[str, bytes]]:
     """Encode one task's videos at ``fps`` (default :func:`beat_fps`: a beat in
     :data:`BEAT_SECONDS`); returns ``(file name, MP4 bytes)`` pairs (so that a
     worker on another machine need not see the output folder)."""
@@ -443,7 +625,7 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
     from ..image.normalize import per_pixel_normalize
     from ..memory import release_freed
 
-    release_freed()             # a worker's heap from its frames' work, before the frames here
+    release_freed()  # a worker's heap from its frames' work, before the frames here
     t_ms = inputs["t_ms"]
     fps = fps or beat_fps(len(t_ms))
     if kind == "field":
@@ -452,28 +634,47 @@ def render_videos(kind: str, inputs: dict, fps: float | None = None
         field = per_pixel_normalize(field) if inputs["normalize"] else field
         movies = {inputs["name"]: field_frames(field, t_ms, stream=True, **options)}
     elif kind == "area":
-        def cursor():               # drawn twice, one frame at a time: cheaper than held
-            return map_cursor_frames(inputs["area"], t_ms, s_mm=inputs.get("s_mm"),
-                                     stream=True)
+
+        def cursor():  # drawn twice, one frame at a time: cheaper than held
+            return map_cursor_frames(inputs["area"], t_ms, s_mm=inputs.get("s_mm"), stream=True)
+
         movies = {"area_map_cursor": cursor()}
         G = inputs["grid"]
         if G is not None:
             area_field = np.broadcast_to(inputs["area"][None], G.shape[:3])
             movies["outer_wall_3d_area_map"] = surface_and_map_frames(
-                G, area_field, t_ms, cmap="viridis", flat=cursor(),
-                title="the outer wall coloured by its cross-sectional area (mm²)")
+                G,
+                area_field,
+                t_ms,
+                cmap="viridis",
+                flat=cursor(),
+                title="the outer wall coloured by its cross-sectional area (mm²)",
+            )
     elif kind == "phase_3d":
-        movies = {"phase_outer_3d": surface_and_map_frames(
-            inputs["grid"], inputs["phase"], t_ms, cmap=CYCLIC, limits=(-np.pi, np.pi),
-            label="phase (rad; 0 at activation)",
-            title="the outer wall coloured by the phase of its motion (0: activation; "
-                  "grey: too still to time)",
-            length_mm=inputs.get("length_mm"))}
+        movies = {
+            "phase_outer_3d": surface_and_map_frames(
+                inputs["grid"],
+                inputs["phase"],
+                t_ms,
+                cmap=CYCLIC,
+                limits=(-np.pi, np.pi),
+                label="phase (rad; 0 at activation)",
+                title="the outer wall coloured by the phase of its motion (0: activation; "
+                "grey: too still to time)",
+                length_mm=inputs.get("length_mm"),
+            )
+        }
     elif kind == "lumen_3d":
-        movies = {"lumen_mean_curvature_3d": surface_and_map_frames(
-            inputs["grid"], inputs["h"], t_ms, label="mean curvature (1/mm)",
-            title="the lumen coloured by its mean curvature (1/mm)",
-            length_mm=inputs.get("length_mm"))}
+        movies = {
+            "lumen_mean_curvature_3d": surface_and_map_frames(
+                inputs["grid"],
+                inputs["h"],
+                t_ms,
+                label="mean curvature (1/mm)",
+                title="the lumen coloured by its mean curvature (1/mm)",
+                length_mm=inputs.get("length_mm"),
+            )
+        }
     else:
         raise ValueError(f"unknown video task {kind!r}")
     out = []
@@ -495,14 +696,23 @@ def timed_phase(arrays: dict) -> np.ndarray:
     return np.where(np.isfinite(velocity[..., 0])[..., None], phase, np.nan)
 
 
-def start_videos(arrays: dict, grids: dict | None = None, *, fps: float | None = None,
-                 executor=None, kinds=None, grid_note: str = ""):
+def start_videos(
+    arrays: dict,
+    grids: dict | None = None,
+    *,
+    fps: float | None = None,
+    executor=None,
+    kinds=None,
+    grid_note: str = "",
+):
     """Submit a dataset's video tasks (those of ``kinds``, default all) to
     ``executor`` (without one, render them now); pass the result to
     :func:`save_videos`. In between the caller is free to do other work (the
     figures) while the workers render. ``grid_note``: see :func:`video_tasks`."""
-    tasks = [(kind, inputs, fps)
-             for kind, inputs in video_tasks(arrays, grids, kinds, grid_note=grid_note)]
+    tasks = [
+        (kind, inputs, fps)
+        for kind, inputs in video_tasks(arrays, grids, kinds, grid_note=grid_note)
+    ]
     if executor is None:
         return [_rendered(*args) for args in tasks]
     return [executor.submit(_rendered, *args) for args in tasks]
@@ -513,7 +723,7 @@ def _rendered(kind: str, inputs, fps):
     :func:`save_videos` to record."""
     try:
         return render_videos(kind, inputs, fps)
-    except Exception as exc:               # noqa: BLE001 -- recorded by save_videos
+    except Exception as exc:  # noqa: BLE001 -- recorded by save_videos
         return RenderFailed(kind, f"{type(exc).__name__}: {exc}")
 
 
@@ -533,7 +743,7 @@ def save_videos(folder: Path, pending: list, failed: list | None = None) -> list
                 rendered = task.result() if hasattr(task, "result") else task
             except BrokenExecutor:
                 raise
-            except Exception as exc:       # noqa: BLE001 -- any rendering's failure
+            except Exception as exc:  # noqa: BLE001 -- any rendering's failure
                 rendered = RenderFailed("a video", f"{type(exc).__name__}: {exc}")
         if isinstance(rendered, RenderFailed):
             if failed is None:
@@ -554,12 +764,20 @@ class RenderFailed:
     error: str
 
 
-def dataset_videos(folder: Path, arrays: dict, grids: dict | None = None, *,
-                   fps: float | None = None, executor=None, grid_note: str = "") -> list[Path]:
+def dataset_videos(
+    folder: Path,
+    arrays: dict,
+    grids: dict | None = None,
+    *,
+    fps: float | None = None,
+    executor=None,
+    grid_note: str = "",
+) -> list[Path]:
     """All per-dataset videos into ``folder`` (``videos/``), rendered in
     ``executor``'s workers when one is given."""
-    return save_videos(folder, start_videos(arrays, grids, fps=fps, executor=executor,
-                                            grid_note=grid_note))
+    return save_videos(
+        folder, start_videos(arrays, grids, fps=fps, executor=executor, grid_note=grid_note)
+    )
 
 
 # ------------------------------------------------------------------ 3-D renders
@@ -572,16 +790,15 @@ class SurfaceCamera:
     frame projects into (the same pictures, fewer rays).
     """
 
-    def __init__(self, G: np.ndarray, *, size: int = 320, fov_deg: float = 40.0,
-                 crop: bool = True):
+    def __init__(self, G: np.ndarray, *, size: int = 320, fov_deg: float = 40.0, crop: bool = True):
         pts = G.reshape(-1, 3)
         pts = pts[np.isfinite(pts).all(axis=1)]
         center = pts.mean(axis=0)
         _, _, axes = np.linalg.svd(pts - center, full_matrices=False)
-        view = axes[2]                        # normal of the plane the tube bends in
+        view = axes[2]  # normal of the plane the tube bends in
         radius = np.linalg.norm(pts - center, axis=1).max()
         dist = 1.15 * radius / np.sin(np.radians(fov_deg) / 2)
-        self.distance = dist                  # mm from the eye to the centre
+        self.distance = dist  # mm from the eye to the centre
         self.eye = center + dist * view
         self.center, self.up, self.size, self.fov = center, axes[0], size, fov_deg
         self.light = view
@@ -601,8 +818,13 @@ class SurfaceCamera:
         import open3d as o3d
 
         return o3d.t.geometry.RaycastingScene.create_rays_pinhole(
-            self.fov, self.center.tolist(), self.eye.tolist(), self.up.tolist(), self.size,
-            self.size).numpy()
+            self.fov,
+            self.center.tolist(),
+            self.eye.tolist(),
+            self.up.tolist(),
+            self.size,
+            self.size,
+        ).numpy()
 
     def window(self, pts: np.ndarray, rays: np.ndarray, margin: int = 2) -> tuple[slice, slice]:
         """Rows and columns of the pixels onto which the points ``pts (n, 3)`` project
@@ -613,21 +835,30 @@ class SurfaceCamera:
         lo, hi = np.clip(lo, 0, self.size), np.clip(hi, 0, self.size)
         return slice(lo[0], hi[0]), slice(lo[1], hi[1])
 
-    def project(self, pts: np.ndarray, rays: np.ndarray | None = None
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def project(
+        self, pts: np.ndarray, rays: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The (row, column) pixel positions ``(n,)`` of the points ``pts (n, 3)``:
         the pinhole's ray directions are affine in the pixel indices on the plane of
         their tips, so two steps of it invert the projection."""
         rays = self._all_rays()[:2, :2] if rays is None else rays
         d00, d01, d10 = rays[0, 0, 3:], rays[0, 1, 3:], rays[1, 0, 3:]
         col_step, row_step = d01 - d00, d10 - d00
-        ahead = np.cross(col_step, row_step)          # normal of the tips' plane
+        ahead = np.cross(col_step, row_step)  # normal of the tips' plane
         rel = np.atleast_2d(pts) - self.eye
         tips = rel * ((d00 @ ahead) / (rel @ ahead))[:, None] - d00
         return tips @ row_step / (row_step @ row_step), tips @ col_step / (col_step @ col_step)
 
-    def render(self, X: np.ndarray, values: np.ndarray, *, vmin: float, vmax: float,
-               cmap: str = "coolwarm", cyclic: bool = False) -> np.ndarray:
+    def render(
+        self,
+        X: np.ndarray,
+        values: np.ndarray,
+        *,
+        vmin: float,
+        vmax: float,
+        cmap: str = "coolwarm",
+        cyclic: bool = False,
+    ) -> np.ndarray:
         """RGB uint8 ``(size, size, 3)`` of the grid surface ``X (n_u, n_v, 3)`` (a frame of
         the camera's ``G``) coloured by ``values (n_u, n_v)`` with simple Lambert shading
         on a white background. ``cyclic``: [vmin, vmax) wraps (a phase), and a pixel's
@@ -644,7 +875,7 @@ class SurfaceCamera:
         img = np.full((self.size, self.size, 3), 255, np.uint8)
         if not ok.any():
             return img
-        view = img[self._window]                      # only its pixels can show the tube
+        view = img[self._window]  # only its pixels can show the tube
         tri = F[prim[ok]]
         b = hit["primitive_uvs"].numpy()[ok].astype(float)
         w = np.column_stack([1 - b.sum(axis=1), b])
@@ -667,35 +898,56 @@ def _fit_height(img: np.ndarray, height: int) -> np.ndarray:
     averaging, so that its text stays legible) if it is taller."""
     if img.shape[0] <= height:
         out = np.full((height,) + img.shape[1:], 255, np.uint8)
-        out[:img.shape[0]] = img
+        out[: img.shape[0]] = img
         return out
     scale = height / img.shape[0]
-    return cv2.resize(img, (int(round(img.shape[1] * scale)), height),
-                      interpolation=cv2.INTER_AREA)
+    return cv2.resize(img, (int(round(img.shape[1] * scale)), height), interpolation=cv2.INTER_AREA)
 
 
 def _mark_ends(view: np.ndarray, camera: "SurfaceCamera", X: np.ndarray) -> None:
-    """"inlet" and "outlet" written on the 3-D ``view`` just beyond the grid ``X
+    """ "inlet" and "outlet" written on the 3-D ``view`` just beyond the grid ``X
     (n_u, n_v, 3)``'s first and last rings, along the tube's direction there."""
-    ends = np.array([np.nanmean(X[:, 0], axis=0), np.nanmean(X[:, 1], axis=0),
-                     np.nanmean(X[:, -2], axis=0), np.nanmean(X[:, -1], axis=0)])
+    ends = np.array(
+        [
+            np.nanmean(X[:, 0], axis=0),
+            np.nanmean(X[:, 1], axis=0),
+            np.nanmean(X[:, -2], axis=0),
+            np.nanmean(X[:, -1], axis=0),
+        ]
+    )
     if not np.isfinite(ends).all():
         return
     row, col = camera.project(ends)
-    for (r0, c0), (r1, c1), name in (((row[1], col[1]), (row[0], col[0]), "inlet"),
-                                     ((row[2], col[2]), (row[3], col[3]), "outlet")):
+    for (r0, c0), (r1, c1), name in (
+        ((row[1], col[1]), (row[0], col[0]), "inlet"),
+        ((row[2], col[2]), (row[3], col[3]), "outlet"),
+    ):
         step = np.array([c1 - c0, r1 - r0])
         step = step / (np.linalg.norm(step) or 1.0)
-        x, y = np.array([c1, r1]) + 28 * step                # beyond the end, off the tube
-        _text(view, name, (int(np.clip(x, 30, view.shape[1] - 30)),
-                           int(np.clip(y + 5, 16, view.shape[0] - 40))), scale=0.45,
-              align="centre", colour=(120, 0, 0))
+        x, y = np.array([c1, r1]) + 28 * step  # beyond the end, off the tube
+        _text(
+            view,
+            name,
+            (int(np.clip(x, 30, view.shape[1] - 30)), int(np.clip(y + 5, 16, view.shape[0] - 40))),
+            scale=0.45,
+            align="centre",
+            colour=(120, 0, 0),
+        )
 
 
-def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, *,
-                           flat: np.ndarray | None = None, cmap: str | None = None,
-                           limits: tuple[float, float] | None = None, label: str = "",
-                           title: str = "", size: int = 480, length_mm: float | None = None):
+def surface_and_map_frames(
+    G: np.ndarray,
+    values: np.ndarray,
+    t_ms: np.ndarray,
+    *,
+    flat: np.ndarray | None = None,
+    cmap: str | None = None,
+    limits: tuple[float, float] | None = None,
+    label: str = "",
+    title: str = "",
+    size: int = 480,
+    length_mm: float | None = None,
+):
     """Frames ``(rows, cols, 3)`` uint8, one at a time (a 195-frame video would hold
     ~190 MB), at least 1280 pixels wide: the 3-D grid surface coloured by ``values
     (n_u, n_v, n_t)``, with a scale bar, next to a flat picture (``flat``: frames in
@@ -709,11 +961,20 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
     cmap = cmap or scale_["cmap"]
     lo, hi = limits or (scale_.get("vmin", 0.0), scale_.get("vmax", 1.0))
     camera = SurfaceCamera(G, size=size)
-    if flat is None:               # as tall as the 3-D view, so that its text is not resized
-        flat = field_frames(values, t_ms, vmin=lo, vmax=hi, cmap=cmap, label=label,
-                            scale=max(2, (size - BANNER - MARGIN_BOTTOM) // values.shape[1]),
-                            title=label, length_mm=length_mm, stream=True)
-    flat = iter(flat)              # an array's frames, or frames drawn one at a time
+    if flat is None:  # as tall as the 3-D view, so that its text is not resized
+        flat = field_frames(
+            values,
+            t_ms,
+            vmin=lo,
+            vmax=hi,
+            cmap=cmap,
+            label=label,
+            scale=max(2, (size - BANNER - MARGIN_BOTTOM) // values.shape[1]),
+            title=label,
+            length_mm=length_mm,
+            stream=True,
+        )
+    flat = iter(flat)  # an array's frames, or frames drawn one at a time
     period = t_ms[-1] + (t_ms[1] - t_ms[0]) if len(t_ms) > 1 else 1.0
     px_per_mm = size / (2 * camera.distance * np.tan(np.radians(camera.fov) / 2))  # at its centre
     # the longest round length whose bar fits in a third of the picture
@@ -721,15 +982,17 @@ def surface_and_map_frames(G: np.ndarray, values: np.ndarray, t_ms: np.ndarray, 
     bar_text = f"{bar_mm:g} mm"
 
     def draw(t):
-        view = camera.render(G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap,
-                             cyclic=cmap == CYCLIC)
-        cv2.line(view, (16, size - 20), (16 + int(round(bar_mm * px_per_mm)), size - 20),
-                 (0, 0, 0), 3)
+        view = camera.render(
+            G[:, :, t], values[:, :, t], vmin=lo, vmax=hi, cmap=cmap, cyclic=cmap == CYCLIC
+        )
+        cv2.line(
+            view, (16, size - 20), (16 + int(round(bar_mm * px_per_mm)), size - 20), (0, 0, 0), 3
+        )
         _text(view, f"{bar_text} (at the tube's centre)", (16, size - 30), scale=0.45)
         _mark_ends(view, camera, G[:, :, t])
         side = np.concatenate([view, _fit_height(next(flat), size)], axis=1)
         frame = np.full((BANNER + size, max(side.shape[1], 1280), 3), 255, np.uint8)
-        frame[BANNER:, :side.shape[1]] = side
+        frame[BANNER:, : side.shape[1]] = side
         _text(frame, title or label, (8, 20), scale=0.55, max_width=frame.shape[1] - 16)
         _stamp(frame, t_ms[t], (t_ms[t] % period) / period, size - 16)
         return _even(frame)

@@ -19,6 +19,7 @@ and turned with its tangent, so it stays across the tube), both following
 static mesh (``truth/``), so how far a grid drifts from the tissue can be
 measured on any real shape.
 """
+
 from __future__ import annotations
 
 import json
@@ -29,8 +30,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh.parameterize import harmonic_map, intrinsic_weights
-from ..mesh.topology import (MeshError, capped_signed_volume, check_tube, face_areas,
-                             loop_centroid)
+from ..mesh.topology import MeshError, capped_signed_volume, check_tube, face_areas, loop_centroid
 from .phantom import front_lag_ms
 
 
@@ -49,9 +49,9 @@ class Animation:
     n_frames: int
     twist_deg: float = 0.0
     shortening: float = 0.0
-    helix_starts: int = 0           # the front winds this many times round the tube
-    side_lag_ms: float = 0.0        # the front reaches the side opposite side_deg this late
-    side_deg: float = 0.0           # where round the tube the front comes first
+    helix_starts: int = 0  # the front winds this many times round the tube
+    side_lag_ms: float = 0.0  # the front reaches the side opposite side_deg this late
+    side_deg: float = 0.0  # where round the tube the front comes first
 
     def __post_init__(self):
         if self.speed_mm_s == 0 or not np.isfinite(self.speed_mm_s):
@@ -71,8 +71,9 @@ class Animation:
 
     def front_lag_ms(self, theta):
         """How much later than at angle 0 the front reaches angle ``theta`` (ms)."""
-        return front_lag_ms(theta, self.period_ms, int(self.helix_starts), self.side_lag_ms,
-                            self.side_deg)
+        return front_lag_ms(
+            theta, self.period_ms, int(self.helix_starts), self.side_lag_ms, self.side_deg
+        )
 
 
 def pulse(phi):
@@ -99,8 +100,12 @@ def axial_coordinates(V, F, inlet, outlet, *, n_slabs: int = 64):
     edges = np.linspace(0, 1, n_slabs + 1)
     slab = np.clip(np.searchsorted(edges, h, side="right") - 1, 0, n_slabs - 1)
     w = np.bincount(slab, weights=area, minlength=n_slabs)
-    cent = np.stack([np.bincount(slab, weights=area * V[:, d], minlength=n_slabs)
-                     for d in range(3)], axis=1) / np.maximum(w, 1e-300)[:, None]
+    cent = (
+        np.stack(
+            [np.bincount(slab, weights=area * V[:, d], minlength=n_slabs) for d in range(3)], axis=1
+        )
+        / np.maximum(w, 1e-300)[:, None]
+    )
     h_mid = 0.5 * (edges[1:] + edges[:-1])
     ok = w > 0
     h_mid, cent = h_mid[ok], cent[ok]
@@ -149,8 +154,9 @@ def smoothed_line(cent: np.ndarray) -> np.ndarray:
     return gaussian_filter1d(padded, FRAME_SMOOTHING_SLABS, axis=0)[pad:-pad]
 
 
-def around_angles(points: np.ndarray, s_points: np.ndarray, cent: np.ndarray,
-                  s: np.ndarray) -> np.ndarray:
+def around_angles(
+    points: np.ndarray, s_points: np.ndarray, cent: np.ndarray, s: np.ndarray
+) -> np.ndarray:
     """The angle (rad) round the centre line ``cent`` (at arc lengths ``s``) of
     ``points (n, 3)`` mm lying at arc lengths ``s_points (n,)``: about
     :func:`smoothed_line`, from :func:`centre_line_frame`'s normal there, right-handed
@@ -183,8 +189,8 @@ def animate_frames(V, F, inlet, outlet, anim: Animation):
         if anim.twist_deg:
             R = _rotated(R, t_v, np.radians(anim.twist_deg) * beat * s_v / s[-1])
         centre = c_v
-        if anim.shortening:                 # each ring slid along the centre line, turned
-            to = s_v * (1.0 - anim.shortening * beat)        # with its tangent there
+        if anim.shortening:  # each ring slid along the centre line, turned
+            to = s_v * (1.0 - anim.shortening * beat)  # with its tangent there
             centre = np.stack([np.interp(to, s, cent[:, d]) for d in range(3)], axis=1)
             t_to = np.stack([np.interp(to, s, tangent[:, d]) for d in range(3)], axis=1)
             t_to /= np.linalg.norm(t_to, axis=1, keepdims=True)
@@ -213,8 +219,9 @@ def static_points(Vt: np.ndarray, F: np.ndarray, V_static: np.ndarray, W: np.nda
 
     mid = Vt.mean(axis=0)
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor((Vt - mid).astype(np.float32)),
-                        o3d.core.Tensor(F.astype(np.uint32)))
+    scene.add_triangles(
+        o3d.core.Tensor((Vt - mid).astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32))
+    )
     hit = scene.compute_closest_points(o3d.core.Tensor((W - mid).astype(np.float32)))
     tri = hit["primitive_ids"].numpy().astype(np.int64)
     uv = hit["primitive_uvs"].numpy().astype(np.float64)
@@ -231,8 +238,9 @@ def remesh(V, F, rng, *, keep=(0.5, 0.9), tries: int = 5):
     import open3d as o3d
 
     for _ in range(tries):
-        m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(V),
-                                      o3d.utility.Vector3iVector(F.astype(np.int32)))
+        m = o3d.geometry.TriangleMesh(
+            o3d.utility.Vector3dVector(V), o3d.utility.Vector3iVector(F.astype(np.int32))
+        )
         target = int(len(F) * rng.uniform(*keep))
         d = m.simplify_quadric_decimation(target, boundary_weight=1e4)
         d.remove_unreferenced_vertices()
@@ -255,8 +263,8 @@ def _own_vertices(F: np.ndarray, n_vert: int) -> np.ndarray:
     return tri
 
 
-TEXTURE_VOXELS = 2.0e6     # about so many voxels in a textured animation's volume
-TEXTURE_DEPTH_VOXELS = 3.0 # the texture's thickness about the surface (Gaussian sigma)
+TEXTURE_VOXELS = 2.0e6  # about so many voxels in a textured animation's volume
+TEXTURE_DEPTH_VOXELS = 3.0  # the texture's thickness about the surface (Gaussian sigma)
 TEXTURE_BLOB_VOXELS = 1.5  # its grain in the static tissue (Gaussian sigma)
 
 
@@ -276,12 +284,14 @@ class StaticTexture:
     def __call__(self, points: np.ndarray) -> np.ndarray:
         from scipy.ndimage import map_coordinates
 
-        return map_coordinates(self.values, ((points - self.origin) / self.voxel).T, order=1,
-                               mode="nearest")
+        return map_coordinates(
+            self.values, ((points - self.origin) / self.voxel).T, order=1, mode="nearest"
+        )
 
 
-def intensity_box(frames: list[np.ndarray], n_voxels: float = TEXTURE_VOXELS
-                  ) -> tuple[np.ndarray, float, tuple[int, int, int]]:
+def intensity_box(
+    frames: list[np.ndarray], n_voxels: float = TEXTURE_VOXELS
+) -> tuple[np.ndarray, float, tuple[int, int, int]]:
     """The volume that holds every frame ``(n, 3)`` mm with a margin: its origin (x, y,
     z) mm, its cubic voxel (mm, about ``n_voxels`` in all) and its shape (z, y, x)."""
     lo = np.min([f.min(axis=0) for f in frames], axis=0)
@@ -293,9 +303,16 @@ def intensity_box(frames: list[np.ndarray], n_voxels: float = TEXTURE_VOXELS
     return origin, voxel, shape
 
 
-def textured_frame(Vt: np.ndarray, F: np.ndarray, V_static: np.ndarray, texture: StaticTexture,
-                   origin: np.ndarray, voxel: float, shape: tuple, rng: np.random.Generator
-                   ) -> np.ndarray:
+def textured_frame(
+    Vt: np.ndarray,
+    F: np.ndarray,
+    V_static: np.ndarray,
+    texture: StaticTexture,
+    origin: np.ndarray,
+    voxel: float,
+    shape: tuple,
+    rng: np.random.Generator,
+) -> np.ndarray:
     """One frame's intensity ``(z, y, x)`` uint8: at each voxel near the animated
     surface ``(Vt, F)``, the texture at the static point its closest surface point came
     from, fading with the distance (:data:`TEXTURE_DEPTH_VOXELS`); times a speckle new
@@ -309,14 +326,26 @@ def textured_frame(Vt: np.ndarray, F: np.ndarray, V_static: np.ndarray, texture:
     depth = np.linalg.norm(points - on_surface, axis=1) / voxel
     near = depth < 4 * TEXTURE_DEPTH_VOXELS
     out = np.full(len(points), LEVEL["background"], np.float32)
-    out[near] += LEVEL["myocardium"] * texture(came_from[near]) * np.exp(
-        -0.5 * (depth[near] / TEXTURE_DEPTH_VOXELS) ** 2)
+    out[near] += (
+        LEVEL["myocardium"]
+        * texture(came_from[near])
+        * np.exp(-0.5 * (depth[near] / TEXTURE_DEPTH_VOXELS) ** 2)
+    )
     return imaged(out.reshape(shape), rng)
 
 
-def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0,
-                    do_remesh: bool = False, seed: int = 0, progress=None,
-                    texture: bool = False, texture_voxels: float = TEXTURE_VOXELS) -> Path:
+def write_animation(
+    mesh_path,
+    out,
+    anim: Animation,
+    *,
+    scale_to_mm: float = 1.0,
+    do_remesh: bool = False,
+    seed: int = 0,
+    progress=None,
+    texture: bool = False,
+    texture_voxels: float = TEXTURE_VOXELS,
+) -> Path:
     """Write an animated dataset (meta.json, outer/, truth.json, truth/) from one static
     tube; ``out`` appears only when complete.
 
@@ -357,35 +386,53 @@ def write_animation(mesh_path, out, anim: Animation, *, scale_to_mm: float = 1.0
             (tmp / "intensity").mkdir()
         for k, (t, Vt) in enumerate(frames):
             if texture:
-                tifffile.imwrite(tmp / "intensity" / f"f{k:0{width}d}.tif",
-                                 textured_frame(Vt, F, V, tissue, *box, speckle_rng),
-                                 compression="zlib")
+                tifffile.imwrite(
+                    tmp / "intensity" / f"f{k:0{width}d}.tif",
+                    textured_frame(Vt, F, V, tissue, *box, speckle_rng),
+                    compression="zlib",
+                )
             volumes.append(capped_signed_volume(Vt, F, [tube.inlet, tube.outlet]))
             Vw, Fw = remesh(Vt, F, rng) if do_remesh else (Vt, F)
             write_ply(tmp / "outer" / f"f{k:0{width}d}.ply", Vw, Fw)
             if do_remesh:
                 tri, bary, came_from = static_points(Vt, F, V, Vw)
-            else:                                  # each vertex is its own static vertex
+            else:  # each vertex is its own static vertex
                 tri, came_from = _own_vertices(F, len(V)), V
                 bary = (F[tri] == np.arange(len(V))[:, None]).astype(float)
-            np.savez_compressed(tmp / "truth" / f"f{k:0{width}d}.npz", static_point_mm=came_from,
-                                triangle=tri, barycentric=bary)
+            np.savez_compressed(
+                tmp / "truth" / f"f{k:0{width}d}.npz",
+                static_point_mm=came_from,
+                triangle=tri,
+                barycentric=bary,
+            )
             if progress:
                 progress(k + 1)
-        meta = {"name": out.name, "group": "animated", "period_ms": anim.period_ms,
-                "length_unit": "mm", "inlet": loop_centroid(V[tube.inlet]).tolist()}
+        meta = {
+            "name": out.name,
+            "group": "animated",
+            "period_ms": anim.period_ms,
+            "length_unit": "mm",
+            "inlet": loop_centroid(V[tube.inlet]).tolist(),
+        }
         if texture:
             meta["intensity"] = {"voxel_size": [box[1]] * 3, "origin": box[0].tolist()}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=2))
         s_grid = np.linspace(0, s[-1], 101)
-        truth = {"animation": asdict(anim), "source": str(mesh_path),
-                 "scale_to_mm": scale_to_mm, "remeshed": do_remesh, "seed": seed,
-                 "centre_line_length_mm": float(s[-1]), "s_mm": s_grid.tolist(),
-                 "arrival_ms": (1e3 * s_grid / anim.speed_mm_s % anim.period_ms).tolist(),
-                 "ridge_t_ms": ((1e3 * s_grid / anim.speed_mm_s + anim.period_ms / 2)
-                                % anim.period_ms).tolist(),
-                 "wave_speed_mm_s": {"cycle": anim.speed_mm_s},
-                 "volume_mm3": volumes}
+        truth = {
+            "animation": asdict(anim),
+            "source": str(mesh_path),
+            "scale_to_mm": scale_to_mm,
+            "remeshed": do_remesh,
+            "seed": seed,
+            "centre_line_length_mm": float(s[-1]),
+            "s_mm": s_grid.tolist(),
+            "arrival_ms": (1e3 * s_grid / anim.speed_mm_s % anim.period_ms).tolist(),
+            "ridge_t_ms": (
+                (1e3 * s_grid / anim.speed_mm_s + anim.period_ms / 2) % anim.period_ms
+            ).tolist(),
+            "wave_speed_mm_s": {"cycle": anim.speed_mm_s},
+            "volume_mm3": volumes,
+        }
         (tmp / "truth.json").write_text(json.dumps(truth, indent=1))
     return out
 
@@ -449,5 +496,10 @@ def tissue_positions(dataset, points: np.ndarray, t0_frame: int) -> np.ndarray:
     tri, bary, _ = static_points(tube.V, tube.F, tube.V, points)
     frames = [Vt for _, Vt in animate_frames(tube.V, tube.F, tube.inlet, tube.outlet, anim)]
     n_t = len(frames)
-    return np.stack([np.einsum("mk,mkd->md", bary, frames[(t + t0_frame) % n_t][tube.F[tri]])
-                     for t in range(n_t)], axis=1)
+    return np.stack(
+        [
+            np.einsum("mk,mkd->md", bary, frames[(t + t0_frame) % n_t][tube.F[tri]])
+            for t in range(n_t)
+        ],
+        axis=1,
+    )

@@ -7,6 +7,7 @@ one clear line and exit 2 for what it refuses, and nothing of the user's changed
 
 :func:`fuzz` runs them; ``tests/test_fuzz.py`` and ``scripts/fuzz.py`` call it.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -36,14 +37,14 @@ def base_datasets(folder: Path) -> dict[str, Path]:
     folder = Path(folder)
     small = dict(n_frames=6, vertices_min=400, vertices_max=800)
     meshes = write_phantom(folder / "meshes", PhantomParams(**small), walls=("outer", "lumen"))
-    labels = write_label_phantom(folder / "labels", PhantomParams(**small), (40, 40, 40),
-                                 noise=0.0)
+    labels = write_label_phantom(folder / "labels", PhantomParams(**small), (40, 40, 40), noise=0.0)
     for path in (meshes, labels):
         (path / "truth.json").unlink()
     return {"meshes": meshes, "labels": labels}
 
 
 # --- mutations: each (folder, rng) -> a short description -----------------------------
+
 
 def _pick(folder: Path, rng, pattern: str) -> Path:
     files = sorted(p for p in folder.glob(pattern) if p.is_file() and not p.is_symlink())
@@ -70,7 +71,7 @@ def cut_short(folder, rng):
     """A frame's file cut at a random byte."""
     path = _a_frame(folder, rng)
     data = path.read_bytes()
-    path.write_bytes(data[:int(rng.integers(len(data)))])
+    path.write_bytes(data[: int(rng.integers(len(data)))])
     return f"{path.name} cut short"
 
 
@@ -86,7 +87,7 @@ def header_lies(folder, rng):
     choice = int(rng.integers(5))
     if choice == 0 and words[:1] == [b"element"]:
         n = int(words[2])
-        words[2] = str(rng.choice([n // 2, n - 1, n + 1, 2 * n, 10 ** 9, 0])).encode()
+        words[2] = str(rng.choice([n // 2, n - 1, n + 1, 2 * n, 10**9, 0])).encode()
         lines[k] = b" ".join(words)
     elif choice == 1:
         del lines[k]
@@ -95,8 +96,17 @@ def header_lies(folder, rng):
     elif choice == 3:
         lines[k] = lines[k].replace(b"float", rng.choice([b"double", b"char", b"quad"]), 1)
     else:
-        lines.insert(k, rng.choice([b"element edge 5", b"property list uchar float bad",
-                                    b"format ascii 1.0", b"element vertex -3"]))
+        lines.insert(
+            k,
+            rng.choice(
+                [
+                    b"element edge 5",
+                    b"property list uchar float bad",
+                    b"format ascii 1.0",
+                    b"element vertex -3",
+                ]
+            ),
+        )
     path.write_bytes(b"\n".join(lines) + b"\nend_header\n" + body)
     return f"a header line of {path.name} changed"
 
@@ -125,9 +135,12 @@ def other_format(folder, rng):
     suffix = str(rng.choice(MESH_FORMATS[1:]))
     for path in sorted(wall.glob("*.ply")):
         V, F = read_mesh_file(path)
-        with contextlib.redirect_stderr(io.StringIO()):   # meshio's word on ascii VTK
-            meshio.write(path.with_suffix(suffix), meshio.Mesh(V, [("triangle", F)]),
-                         **({"binary": False} if suffix in (".vtk", ".stl") else {}))
+        with contextlib.redirect_stderr(io.StringIO()):  # meshio's word on ascii VTK
+            meshio.write(
+                path.with_suffix(suffix),
+                meshio.Mesh(V, [("triangle", F)]),
+                **({"binary": False} if suffix in (".vtk", ".stl") else {}),
+            )
         path.unlink()
     victim = _pick(wall, rng, f"*{suffix}")
     lines = victim.read_bytes().split(b"\n")
@@ -136,8 +149,9 @@ def other_format(folder, rng):
     if how == 0:
         del lines[k]
     elif how == 1:
-        lines[k] = lines[k].replace(b" ", rng.choice([b" nan ", b" 0x1p3 ", b" 1e999 ", b" -",
-                                                      b"\xe9", b"\t\t"]), 1)
+        lines[k] = lines[k].replace(
+            b" ", rng.choice([b" nan ", b" 0x1p3 ", b" 1e999 ", b" -", b"\xe9", b"\t\t"]), 1
+        )
     elif how == 2:
         lines.insert(k, lines[k])
     victim.write_bytes(b"\n".join(lines))
@@ -148,11 +162,16 @@ def odd_file(folder, rng):
     """A frame, meta.json or a label file replaced by something that is not a file."""
     target = rng.choice(["frame", "meta"])
     path = _a_frame(folder, rng) if target == "frame" else folder / "meta.json"
-    kind = str(rng.choice(["fifo", "folder", "dev_zero", "broken_link", "link_loop",
-                           "empty", "random"]))
-    if (kind == "folder" and target == "frame" and path.parent.name == "labels"
-            and rng.random() < 0.5):
-        for frame in path.parent.iterdir():     # the 4-D labels.tif that is a folder
+    kind = str(
+        rng.choice(["fifo", "folder", "dev_zero", "broken_link", "link_loop", "empty", "random"])
+    )
+    if (
+        kind == "folder"
+        and target == "frame"
+        and path.parent.name == "labels"
+        and rng.random() < 0.5
+    ):
+        for frame in path.parent.iterdir():  # the 4-D labels.tif that is a folder
             frame.unlink()
         path = path.parent / "labels.tif"
     if path.exists() or path.is_symlink():
@@ -174,9 +193,36 @@ def odd_file(folder, rng):
     return f"{path.name} made {kind}"
 
 
-_ODD_VALUES = [None, True, -1, 0, 1e-12, 1e999, -1e999, 10 ** 400, 10 ** 16, "", "x" * 300,
-               "\x00", "ab\udc80c", [], [1, 2], [0, 0, 0], [True, 0, 0], [1e999, 0, 0], [1e9, 1e9, 1e9],
-               {"a": 1}, [[1]], 3.5, 360, [10, 1e-12, 20], [1, 1, 1e6], "mm", "um", "m"]
+_ODD_VALUES = [
+    None,
+    True,
+    -1,
+    0,
+    1e-12,
+    1e999,
+    -1e999,
+    10**400,
+    10**16,
+    "",
+    "x" * 300,
+    "\x00",
+    "ab\udc80c",
+    [],
+    [1, 2],
+    [0, 0, 0],
+    [True, 0, 0],
+    [1e999, 0, 0],
+    [1e9, 1e9, 1e9],
+    {"a": 1},
+    [[1]],
+    3.5,
+    360,
+    [10, 1e-12, 20],
+    [1, 1, 1e6],
+    "mm",
+    "um",
+    "m",
+]
 
 
 def odd_meta(folder, rng):
@@ -185,8 +231,17 @@ def odd_meta(folder, rng):
     meta = json.loads(path.read_text())
     how = int(rng.integers(6))
     if how <= 2:
-        keys = ["name", "group", "period_ms", "length_unit", "voxel_size", "inlet",
-                "labels", "ends", "unknown"]
+        keys = [
+            "name",
+            "group",
+            "period_ms",
+            "length_unit",
+            "voxel_size",
+            "inlet",
+            "labels",
+            "ends",
+            "unknown",
+        ]
         key = str(rng.choice(keys))
         value = _ODD_VALUES[int(rng.integers(len(_ODD_VALUES)))]
         if key == "labels" and rng.random() < 0.5:
@@ -194,9 +249,13 @@ def odd_meta(folder, rng):
         if key == "ends" and rng.random() < 0.7:
             p = [float(x) for x in rng.normal(500, 300, 3)]
             n = [float(x) for x in rng.normal(0, 1, 3)]
-            value = [{"point": p, "normal": n},
-                     {"point": p if rng.random() < 0.5 else [v * 1e9 for v in p],
-                      "normal": value if isinstance(value, list) else [-x for x in n]}]
+            value = [
+                {"point": p, "normal": n},
+                {
+                    "point": p if rng.random() < 0.5 else [v * 1e9 for v in p],
+                    "normal": value if isinstance(value, list) else [-x for x in n],
+                },
+            ]
         meta[key] = value
         text = json.dumps(meta)
         what = f"{key}: {str(value)[:30]}"
@@ -207,8 +266,11 @@ def odd_meta(folder, rng):
     elif how == 4:
         text = json.dumps(meta)
         cut = int(rng.integers(len(text)))
-        text = text[:cut] + str(rng.choice(["", "}", ",", "NaN", "Infinity", "\ud800"])) \
-            + text[cut + 1:]
+        text = (
+            text[:cut]
+            + str(rng.choice(["", "}", ",", "NaN", "Infinity", "\ud800"]))
+            + text[cut + 1 :]
+        )
         what = "JSON damaged"
     else:
         text = str(rng.choice(["[]", "null", "42", '"meta"', "{}"]))
@@ -231,10 +293,12 @@ def odd_labels(folder, rng):
         what = "random labels"
     elif how == 1:
         import tifffile
+
         tifffile.imwrite(victim, rng.random(shape).astype(np.float32))
         what = "float labels"
     elif how == 2:
         import tifffile
+
         tifffile.imwrite(victim, np.zeros((40, 40), np.uint8))
         what = "a 2-D frame"
     elif how == 3:
@@ -242,8 +306,11 @@ def odd_labels(folder, rng):
             f.unlink()
             np.save(f.with_suffix(".npy"), np.zeros((8, 8, 8), np.uint8))
         npy = victim.with_suffix(".npy")
-        data = npy.read_bytes().replace(b"(8, 8, 8)", str(
-            rng.choice(["(100000, 100000, 100000)", "(8, 8, 800)", "(-1, 8, 8)"])).encode(), 1)
+        data = npy.read_bytes().replace(
+            b"(8, 8, 8)",
+            str(rng.choice(["(100000, 100000, 100000)", "(8, 8, 800)", "(-1, 8, 8)"])).encode(),
+            1,
+        )
         npy.write_bytes(data)
         what = "a .npy header that lies"
     elif how == 4:
@@ -257,6 +324,7 @@ def odd_labels(folder, rng):
         what = "an empty labels.zarr"
     else:
         import tifffile
+
         tifffile.imwrite(victim, np.full(shape, 200, np.uint8))
         what = "a frame of one label only"
     return what
@@ -275,8 +343,8 @@ def label_values(folder, rng):
         table[[1, 2, 3]] = order
     elif how == "merged":
         a = int(rng.integers(1, 3))
-        table[a + 1] = a                                  # jelly into myocardium, or lumen
-    else:                                                 # into jelly
+        table[a + 1] = a  # jelly into myocardium, or lumen
+    else:  # into jelly
         layer = int(rng.integers(2, 4))
         table[layer] = layer - 1
     for path in sorted((folder / "labels").glob("*.tif")):
@@ -288,7 +356,7 @@ def label_values(folder, rng):
     return how
 
 
-label_values.must_refuse = True         # an exit 0 is a fault: the answer cannot be right
+label_values.must_refuse = True  # an exit 0 is a fault: the answer cannot be right
 
 
 def units_off(folder, rng):
@@ -303,8 +371,7 @@ def units_off(folder, rng):
         factor = float(rng.choice([1e-3, 1e3]))
         if how == "voxel_size" and "voxel_size" not in meta:
             how = "period_ms"
-        meta[how] = ([d * factor for d in meta[how]] if how == "voxel_size"
-                     else meta[how] * factor)
+        meta[how] = [d * factor for d in meta[how]] if how == "voxel_size" else meta[how] * factor
         what = f"{how} x {factor:g}"
     (folder / "meta.json").write_text(json.dumps(meta))
     return what
@@ -314,13 +381,14 @@ def long_header(folder, rng):
     """A valid .ply frame whose header holds 70 KB of comment lines (a tool's history)."""
     path = _pick(folder, rng, "*/*.ply")
     data = path.read_bytes()
-    comments = b"".join(b"comment exported by a tool, step %d of its history\n" % k
-                        for k in range(1500))
+    comments = b"".join(
+        b"comment exported by a tool, step %d of its history\n" % k for k in range(1500)
+    )
     path.write_bytes(data.replace(b"\n", b"\n" + comments, 1))
     return f"{path.name}: {len(comments) // 1024} KB of header comments"
 
 
-long_header.must_pass = True            # valid: a refusal is a fault
+long_header.must_pass = True  # valid: a refusal is a fault
 
 
 def odd_folder(folder, rng):
@@ -341,13 +409,32 @@ def odd_folder(folder, rng):
     return f"{wall.name}/ {['renamed', 'emptied', 'one frame fewer', 'a stray file'][how]}"
 
 
-MESH_MUTATIONS = (flip_bytes, cut_short, header_lies, face_sizes, other_format, odd_file,
-                  odd_meta, odd_folder, units_off, long_header)
-LABEL_MUTATIONS = (flip_bytes, cut_short, odd_file, odd_meta, odd_labels, odd_folder,
-                   label_values, units_off)
+MESH_MUTATIONS = (
+    flip_bytes,
+    cut_short,
+    header_lies,
+    face_sizes,
+    other_format,
+    odd_file,
+    odd_meta,
+    odd_folder,
+    units_off,
+    long_header,
+)
+LABEL_MUTATIONS = (
+    flip_bytes,
+    cut_short,
+    odd_file,
+    odd_meta,
+    odd_labels,
+    odd_folder,
+    label_values,
+    units_off,
+)
 
 
 # --- running and judging ---------------------------------------------------------------
+
 
 @dataclass
 class Outcome:
@@ -393,9 +480,12 @@ def call_cli(main, argv: list[str], timeout_s: float) -> tuple[int | None, str, 
     old = signal.signal(signal.SIGALRM, hung)
     signal.setitimer(signal.ITIMER_REAL, timeout_s)
     tick = time.perf_counter()
-    try:                    # main sets the warnings' filters and format: restored after
-        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()), \
-                warnings.catch_warnings():
+    try:  # main sets the warnings' filters and format: restored after
+        with (
+            contextlib.redirect_stderr(err),
+            contextlib.redirect_stdout(io.StringIO()),
+            warnings.catch_warnings(),
+        ):
             code = main(argv)
     except _Hung:
         code = None
@@ -430,8 +520,16 @@ def judge(code: int | None, stderr: str, *, unchanged: bool, out: Path | None) -
     return faults
 
 
-def fuzz(cases: int, work: str | Path, cli_main, *, seed: int = 0, run_every: int = 25,
-         timeout_s: float = 60.0, progress=None) -> list[Outcome]:
+def fuzz(
+    cases: int,
+    work: str | Path,
+    cli_main,
+    *,
+    seed: int = 0,
+    run_every: int = 25,
+    timeout_s: float = 60.0,
+    progress=None,
+) -> list[Outcome]:
     """Damage the two base datasets ``cases`` times in all (alternately; one seeded
     mutation a case) and give each to ``oftimg validate``, every ``run_every``-th of
     each base to ``oftimg run`` as well, through ``cli_main`` (:func:`oftimg.cli.main`);
@@ -450,9 +548,10 @@ def fuzz(cases: int, work: str | Path, cli_main, *, seed: int = 0, run_every: in
         what = f"{mutation.__name__}: {mutation(folder, rng)}"
         before = _tree_digest(folder)
         commands = [["validate", str(folder)]]
-        if run_every and (case // 2) % run_every == run_every - 1:    # each base in turn
-            commands.append(["run", str(folder), "--out", str(root / "out"), "--quiet",
-                             "--jobs", "1"])
+        if run_every and (case // 2) % run_every == run_every - 1:  # each base in turn
+            commands.append(
+                ["run", str(folder), "--out", str(root / "out"), "--quiet", "--jobs", "1"]
+            )
         validated = None
         for argv in commands:
             code, stderr, seconds = call_cli(cli_main, argv, timeout_s)
@@ -461,14 +560,23 @@ def fuzz(cases: int, work: str | Path, cli_main, *, seed: int = 0, run_every: in
             if argv[0] == "validate":
                 validated = code
             elif validated == 0 and code == 2 and "no period_ms" not in stderr:
-                faults.append("validate passed what run refused")   # (a run needs a period)
+                faults.append("validate passed what run refused")  # (a run needs a period)
             if code == 0 and getattr(mutation, "must_refuse", False):
                 faults.append("exit 0 for what cannot be right")
             if code == 2 and getattr(mutation, "must_pass", False):
                 faults.append("refused what is valid")
-            outcomes.append(Outcome(case, base, what, argv[0], code,
-                                    (stderr.strip().splitlines() or [""])[0][:300],
-                                    round(seconds, 3), faults))
+            outcomes.append(
+                Outcome(
+                    case,
+                    base,
+                    what,
+                    argv[0],
+                    code,
+                    (stderr.strip().splitlines() or [""])[0][:300],
+                    round(seconds, 3),
+                    faults,
+                )
+            )
         shutil.rmtree(root, ignore_errors=True)
         if progress:
             progress(case + 1)

@@ -6,6 +6,7 @@ Each defect sits where the tube crosses one row of voxels through the middle of 
 lumen (the volume's row ``(k, j, :)``, ``k`` and ``j`` the lumen's median), so it
 meets every layer of the wall; labels as in :mod:`oftimg.synthetic.labels`.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,12 +15,12 @@ from ..io.label_dataset import DEFAULT_LABEL_IDS as LABELS
 
 # defect -> the walls whose masks it damages (what a run must report there)
 DEFECTS = {
-    "handle": ("outer",),             # a strand of myocardium looping outside the tube
-    "tunnel": ("outer", "inner", "lumen"),   # a channel of background across the tube
-    "bridge": ("lumen",),             # a strand of jelly across the lumen
-    "myocardium_hole": ("outer",),    # background through the myocardium to the jelly
-    "no_lumen": ("lumen",),           # the lumen labelled as jelly in the whole frame
-    "touching": ("inner",),           # the myocardium gone over a patch: jelly meets outside
+    "handle": ("outer",),  # a strand of myocardium looping outside the tube
+    "tunnel": ("outer", "inner", "lumen"),  # a channel of background across the tube
+    "bridge": ("lumen",),  # a strand of jelly across the lumen
+    "myocardium_hole": ("outer",),  # background through the myocardium to the jelly
+    "no_lumen": ("lumen",),  # the lumen labelled as jelly in the whole frame
+    "touching": ("inner",),  # the myocardium gone over a patch: jelly meets outside
 }
 
 
@@ -31,8 +32,8 @@ def _row(labels: np.ndarray) -> tuple[int, int, np.ndarray]:
     j = int(np.median(np.nonzero(lumen[k])[0]))
     inside = labels[k, j] > 0
     at = int(np.median(np.nonzero(lumen[k, j])[0]))
-    start = at - int(np.argmin(inside[at::-1])) + 1          # the first background before
-    stop = at + int(np.argmin(inside[at:]))                  # and after the lumen
+    start = at - int(np.argmin(inside[at::-1])) + 1  # the first background before
+    stop = at + int(np.argmin(inside[at:]))  # and after the lumen
     return k, j, np.arange(start, stop)
 
 
@@ -44,28 +45,31 @@ def inject(labels: np.ndarray, defect: str) -> np.ndarray:
     k, j, x = _row(labels)
     row = labels[k, j, x]
     myo = x[row == LABELS["myocardium"]]
-    far_myo = myo[myo > x[np.argmax(row == LABELS["lumen"])]]    # the wall past the lumen
+    far_myo = myo[myo > x[np.argmax(row == LABELS["lumen"])]]  # the wall past the lumen
     near_myo = myo[myo < far_myo.min()]
     if defect == "handle":
-        reach = 4                  # a strand 2 voxels thick, 2 clear of the wall
+        reach = 4  # a strand 2 voxels thick, 2 clear of the wall
         bar = slice(x[-1] + 2, x[-1] + 4)
-        out[k - reach:k + reach + 2, j:j + 2, bar] = LABELS["myocardium"]
+        out[k - reach : k + reach + 2, j : j + 2, bar] = LABELS["myocardium"]
         for kk in (k - reach, k + reach):
             edge = np.nonzero(labels[kk, j] > 0)[0].max()
-            out[kk:kk + 2, j:j + 2, edge:bar.stop] = LABELS["myocardium"]
+            out[kk : kk + 2, j : j + 2, edge : bar.stop] = LABELS["myocardium"]
     elif defect == "tunnel":
-        out[k:k + 2, j:j + 2, x[0] - 1:x[-1] + 2] = 0
+        out[k : k + 2, j : j + 2, x[0] - 1 : x[-1] + 2] = 0
     elif defect == "bridge":
         lumen = x[row == LABELS["lumen"]]
         box = (slice(k, k + 2), slice(j, j + 2), slice(lumen.min() - 1, lumen.max() + 2))
         out[box] = np.where(out[box] == LABELS["lumen"], LABELS["jelly"], out[box])
     elif defect == "myocardium_hole":
-        box = (slice(k - 1, k + 2), slice(j - 1, j + 2), slice(near_myo.min() - 1,
-                                                                 near_myo.max() + 1))
+        box = (
+            slice(k - 1, k + 2),
+            slice(j - 1, j + 2),
+            slice(near_myo.min() - 1, near_myo.max() + 1),
+        )
         out[box] = np.where(out[box] == LABELS["myocardium"], 0, out[box])
     elif defect == "no_lumen":
         out[out == LABELS["lumen"]] = LABELS["jelly"]
-    else:                                                        # touching
+    else:  # touching
         box = (slice(k - 3, k + 4), slice(j - 3, j + 4), slice(far_myo.min(), far_myo.max() + 2))
         out[box] = np.where(out[box] == LABELS["myocardium"], LABELS["jelly"], out[box])
     return out

@@ -45,6 +45,7 @@ Each frame of each wall is meshed independently (random resolution, random
 start angle, jitter, shuffled vertex and face order, radial noise), so no two
 frames share a parameterization. All truth is computed from the analytic model.
 """
+
 from __future__ import annotations
 
 import json
@@ -59,8 +60,11 @@ WALLS = ("outer", "inner", "lumen")
 # the twist's share along the tube (x = s / L), by where it is largest
 # values evaluated at once by the analytic truth's integrals (a chunk's arrays ~8 MB)
 TRUTH_CHUNK = 1 << 20
-TWIST_PROFILES = {"inlet": lambda x: 1.0 - x, "outlet": lambda x: x,
-                  "middle": lambda x: np.sin(np.pi * x)}
+TWIST_PROFILES = {
+    "inlet": lambda x: 1.0 - x,
+    "outlet": lambda x: x,
+    "middle": lambda x: np.sin(np.pi * x),
+}
 
 
 @dataclass(frozen=True)
@@ -76,7 +80,7 @@ class PhantomParams:
     radius_outlet_mm: float = 0.12
     contraction: float = 0.3
     expand_fraction: float = 0.4
-    expand_fraction_outlet: float | None = None   # None: expand_fraction all along
+    expand_fraction_outlet: float | None = None  # None: expand_fraction all along
     speed_proximal_mm_s: float = 8.0
     speed_distal_mm_s: float = 20.0
     speed_knee_mm: float = 0.5
@@ -84,16 +88,16 @@ class PhantomParams:
     corners: int = 4
     corner_contracted: float = 0.08
     corner_expanded: float = 0.03
-    corner_sharpness: float = 0.0   # kappa of corner_profile: > 0 corners, < 0 notches
+    corner_sharpness: float = 0.0  # kappa of corner_profile: > 0 corners, < 0 notches
     ellipse_contracted: float = 0.03
     myocardial_fraction: float = 0.3
     stretch: float = 0.17
-    twist_deg: float = 0.0          # the tissue's largest turn about the axis, contracted
-    twist_profile: str = "inlet"    # where the turn is largest: inlet, outlet or middle
-    twist_phase: float = 0.0        # the turn's lag behind the slide, a share of the cycle
-    helix_starts: int = 0           # the wave's front winds this many times round the tube
-    side_lag_ms: float = 0.0        # the wave reaches the side opposite side_deg this late
-    side_deg: float = 0.0           # where round the tube (theta) the wave comes first
+    twist_deg: float = 0.0  # the tissue's largest turn about the axis, contracted
+    twist_profile: str = "inlet"  # where the turn is largest: inlet, outlet or middle
+    twist_phase: float = 0.0  # the turn's lag behind the slide, a share of the cycle
+    helix_starts: int = 0  # the wave's front winds this many times round the tube
+    side_lag_ms: float = 0.0  # the wave reaches the side opposite side_deg this late
+    side_deg: float = 0.0  # where round the tube (theta) the wave comes first
     lumen_fraction: float = 0.75
     folds: int = 5
     fold_contracted: float = 0.3
@@ -107,7 +111,7 @@ class PhantomParams:
     cushion_aspect_contracted: float = 1.0
     cushion_deg: float = 0.0
     cushion_from_mm: float = 0.0
-    cushion_to_mm: float | None = None        # None: the window's end
+    cushion_to_mm: float | None = None  # None: the window's end
     cushion_taper_mm: float = 0.1
     # > 0: the lumen's frames meshed as a lab meshes a segmentation (filled into voxels of
     # this side, marching cubes, cut at the window's planes): where the cushions close it,
@@ -131,8 +135,10 @@ class PhantomParams:
         if not 0 < self.expand_fraction < 1:
             raise InputError(f"expand_fraction must be in (0, 1), found {self.expand_fraction}")
         if self.expand_fraction_outlet is not None and not 0 < self.expand_fraction_outlet < 1:
-            raise InputError("expand_fraction_outlet must be in (0, 1) or None, found "
-                             f"{self.expand_fraction_outlet}")
+            raise InputError(
+                "expand_fraction_outlet must be in (0, 1) or None, found "
+                f"{self.expand_fraction_outlet}"
+            )
         if self.radius_inlet_mm * 1.3 >= self.bend_radius_mm:
             raise InputError("bend_radius_mm too small: the tube would intersect itself")
         if not 100 <= self.vertices_min <= self.vertices_max:
@@ -140,15 +146,20 @@ class PhantomParams:
         if not (np.isfinite(self.noise_mm) and self.noise_mm >= 0):
             raise InputError(f"noise_mm must be >= 0, found {self.noise_mm}")
         if not 0 < self.cushion_aspect_expanded <= 1 or self.cushion_aspect_contracted > 1:
-            raise InputError("cushion aspects must be <= 1 (expanded > 0), found "
-                             f"{self.cushion_aspect_expanded}, {self.cushion_aspect_contracted}")
+            raise InputError(
+                "cushion aspects must be <= 1 (expanded > 0), found "
+                f"{self.cushion_aspect_expanded}, {self.cushion_aspect_contracted}"
+            )
         if self.twist_profile not in TWIST_PROFILES:
-            raise InputError(f"twist_profile must be one of {', '.join(TWIST_PROFILES)}, "
-                             f"found {self.twist_profile!r}")
+            raise InputError(
+                f"twist_profile must be one of {', '.join(TWIST_PROFILES)}, "
+                f"found {self.twist_profile!r}"
+            )
 
 
-def sample_params(group: str = "normal", seed: int = 0, *, expand_change: float = 0.0,
-                  **overrides) -> PhantomParams:
+def sample_params(
+    group: str = "normal", seed: int = 0, *, expand_change: float = 0.0, **overrides
+) -> PhantomParams:
     """Realistic per-embryo parameters drawn with ``seed`` (paper's ranges).
 
     Period 330-380 ms, expansion 36-47 % of the cycle, proximal speed 5-10 and
@@ -160,7 +171,9 @@ def sample_params(group: str = "normal", seed: int = 0, *, expand_change: float 
     rng = np.random.default_rng([seed, 0 if group == "normal" else 1])
     length = rng.uniform(1.1, 1.35)
     p = dict(
-        group=group, seed=seed, length_mm=length,
+        group=group,
+        seed=seed,
+        length_mm=length,
         period_ms=float(rng.uniform(330, 380)),
         expand_fraction=float(rng.uniform(0.36, 0.47)),
         radius_inlet_mm=float(rng.uniform(0.18, 0.22)),
@@ -190,7 +203,7 @@ def corner_profile(phase, sharpness: float = 0.0):
         return np.cos(phase)
     sign = 1.0 if sharpness > 0 else -1.0
     shifted = phase if sign > 0 else np.asarray(phase) + np.pi
-    mean = np.exp(-kappa) * np.i0(kappa)           # the bump's mean over a period
+    mean = np.exp(-kappa) * np.i0(kappa)  # the bump's mean over a period
     bump = np.exp(kappa * (np.cos(shifted) - 1.0))
     return sign * (bump - mean) / (1.0 - mean)
 
@@ -202,7 +215,7 @@ def profile_power(sharpness: float = 0.0) -> float:
         return 0.5
     mean = np.exp(-kappa) * np.i0(kappa)
     mean_sq = np.exp(-2 * kappa) * np.i0(2 * kappa)
-    return float((mean_sq - mean ** 2) / (1.0 - mean) ** 2)
+    return float((mean_sq - mean**2) / (1.0 - mean) ** 2)
 
 
 def _hump(phi, expand_fraction):
@@ -214,16 +227,18 @@ def _hump(phi, expand_fraction):
     return np.where(phi < f, rising, falling)
 
 
-def front_lag_ms(theta, period_ms: float, helix_starts: int = 0, side_lag_ms: float = 0.0,
-                 side_deg: float = 0.0):
+def front_lag_ms(
+    theta, period_ms: float, helix_starts: int = 0, side_lag_ms: float = 0.0, side_deg: float = 0.0
+):
     """How much later than at angle 0 round its ring a wave's front reaches angle
     ``theta`` (rad, broadcasting; ms): a helical front winds ``helix_starts`` times round
     the tube (a whole period each time round, so that it joins itself; negative: the
     other hand), and a front that comes first at ``side_deg`` reaches the opposite side
     ``side_lag_ms`` later (half a cosine round the ring)."""
     theta = np.asarray(theta, float)
-    return (helix_starts * period_ms * np.mod(theta, 2 * np.pi) / (2 * np.pi)
-            + side_lag_ms * 0.5 * (1 - np.cos(theta - np.radians(side_deg))))
+    return helix_starts * period_ms * np.mod(theta, 2 * np.pi) / (2 * np.pi) + side_lag_ms * 0.5 * (
+        1 - np.cos(theta - np.radians(side_deg))
+    )
 
 
 class Phantom:
@@ -235,7 +250,9 @@ class Phantom:
         self.s_fine = np.linspace(0.0, p.length_mm, 2001)
         c = self.speed_mm_s(self.s_fine)
         inv = 1.0 / c
-        t_star = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(self.s_fine))])
+        t_star = np.concatenate(
+            [[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(self.s_fine))]
+        )
         self._t_star_ms = t_star * 1e3
         self.alpha0 = -p.length_mm / (2 * p.bend_radius_mm)
 
@@ -244,7 +261,9 @@ class Phantom:
         """Local wave speed c(s), mm/s."""
         p = self.p
         z = (np.asarray(s) - p.speed_knee_mm) / p.speed_knee_width_mm
-        return p.speed_proximal_mm_s + (p.speed_distal_mm_s - p.speed_proximal_mm_s) / (1 + np.exp(-z))
+        return p.speed_proximal_mm_s + (p.speed_distal_mm_s - p.speed_proximal_mm_s) / (
+            1 + np.exp(-z)
+        )
 
     def arrival_ms(self, s):
         """Wave arrival time t*(s), ms (t* = 0 at the inlet); beyond the window's ends
@@ -254,8 +273,11 @@ class Phantom:
         L = self.p.length_mm
         if np.all((s >= 0) & (s <= L)):
             return t
-        return np.where(s < 0, 1e3 * s / self.speed_mm_s(0.0),
-                        np.where(s > L, t + 1e3 * (s - L) / self.speed_mm_s(L), t))
+        return np.where(
+            s < 0,
+            1e3 * s / self.speed_mm_s(0.0),
+            np.where(s > L, t + 1e3 * (s - L) / self.speed_mm_s(L), t),
+        )
 
     def band(self, s):
         p = self.p
@@ -329,8 +351,10 @@ class Phantom:
         phase = 2 * np.pi * (t_ms - t_ms[0]) / self.p.period_ms
         first = (h * np.exp(-1j * phase)).sum(axis=-1)
         # h ~ cos(w (t - t0) + phi), phi = angle(first): rising fastest at w (t - t0) + phi = -pi/2
-        return np.mod(t_ms[0] + (-np.pi / 2 - np.angle(first)) * self.p.period_ms / (2 * np.pi),
-                      self.p.period_ms)
+        return np.mod(
+            t_ms[0] + (-np.pi / 2 - np.angle(first)) * self.p.period_ms / (2 * np.pi),
+            self.p.period_ms,
+        )
 
     def expansion(self, s, t_ms, theta=0.0):
         """Expansion state h(s, theta, t) in [0, 1] (broadcasting; theta matters for a
@@ -352,8 +376,11 @@ class Phantom:
         m = 1.0 - p.contraction * (1.0 - self.band(s) * p.band_motion_block) * (1.0 - h)
         a_k = p.corner_contracted + (p.corner_expanded - p.corner_contracted) * h
         a_e = p.ellipse_contracted * (1.0 - h)
-        shape = (1.0 + a_k * corner_profile(p.corners * theta, p.corner_sharpness)
-                 + a_e * np.cos(2 * theta))
+        shape = (
+            1.0
+            + a_k * corner_profile(p.corners * theta, p.corner_sharpness)
+            + a_e * np.cos(2 * theta)
+        )
         rho = self.base_radius(s) * m * shape
         if wall == "outer":
             return rho
@@ -387,7 +414,7 @@ class Phantom:
         aspect, its major axis at ``cushion_deg`` (0 everywhere once closed)."""
         p = self.p
         if p.cushion_aspect_expanded == 1.0 and p.cushion_aspect_contracted == 1.0:
-            return 1.0                                 # no cushions: a round lumen
+            return 1.0  # no cushions: a round lumen
         a = self._cushion_aspect(s, h)
         d = np.asarray(theta) - np.radians(self.p.cushion_deg)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -401,12 +428,12 @@ class Phantom:
         th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
         s_, t_ = np.broadcast_arrays(np.asarray(s, float), np.asarray(t_ms, float))
         rho = self.radius(wall, s_[..., None], th, t_[..., None])
-        m = lambda k, f: ((rho ** k) * f).mean(axis=-1) * 2 * np.pi          # noqa: E731
+        m = lambda k, f: ((rho**k) * f).mean(axis=-1) * 2 * np.pi  # noqa: E731
         area = m(2, 1.0) / 2
         with np.errstate(invalid="ignore", divide="ignore"):
             mx, my = m(3, np.cos(th)) / 3 / area, m(3, np.sin(th)) / 3 / area
-            ixx = m(4, np.cos(th) ** 2) / 4 / area - mx ** 2
-            iyy = m(4, np.sin(th) ** 2) / 4 / area - my ** 2
+            ixx = m(4, np.cos(th) ** 2) / 4 / area - mx**2
+            iyy = m(4, np.sin(th) ** 2) / 4 / area - my**2
             ixy = m(4, np.cos(th) * np.sin(th)) / 4 / area - mx * my
             half_diff, mid = np.hypot((ixx - iyy) / 2, ixy), (ixx + iyy) / 2
             aspect = np.sqrt(np.clip((mid - half_diff) / (mid + half_diff), 0, 1))
@@ -419,9 +446,9 @@ class Phantom:
         p = self.p
         R0 = self.base_radius(s)
         # (1/2pi) int shape^2 (corners >= 3: the profile and cos 2 theta are orthogonal)
-        shape_area = 1.0 + profile_power(p.corner_sharpness) * a_k ** 2 + 0.5 * a_e ** 2
+        shape_area = 1.0 + profile_power(p.corner_sharpness) * a_k**2 + 0.5 * a_e**2
         area_out = np.pi * (R0 * m) ** 2 * shape_area
-        area_myo = p.myocardial_fraction * np.pi * R0 ** 2 / self.stretch(t_ms)
+        area_myo = p.myocardial_fraction * np.pi * R0**2 / self.stretch(t_ms)
         return np.sqrt(np.clip(1.0 - area_myo / area_out, 0.01, None))
 
     def wall_thickness(self, s, theta, t_ms):
@@ -501,9 +528,9 @@ class Phantom:
         # in pieces of ~1M values: arrays of 100s of MB cost more in page faults than sums
         step = max(1, TRUTH_CHUNK // n_theta)
         for a in range(0, len(s_), step):
-            rho = self.radius(wall, s_[a:a + step, None], th, t_[a:a + step, None])
-            area[a:a + step] = 0.5 * (rho ** 2).mean(axis=-1) * 2 * np.pi
-            moment[a:a + step] = ((rho ** 3 / 3.0) * np.cos(th)).mean(axis=-1) * 2 * np.pi
+            rho = self.radius(wall, s_[a : a + step, None], th, t_[a : a + step, None])
+            area[a : a + step] = 0.5 * (rho**2).mean(axis=-1) * 2 * np.pi
+            moment[a : a + step] = ((rho**3 / 3.0) * np.cos(th)).mean(axis=-1) * 2 * np.pi
         return area.reshape(shape), moment.reshape(shape)
 
     def area_mm2(self, wall, s, t_ms):
@@ -529,8 +556,8 @@ class Phantom:
         polar curve rho(theta), at (s, theta, t) (broadcasting); derivatives by
         central differences of step ``h`` rad."""
         r0, r1, r2 = (self.radius(wall, s, np.asarray(theta) + d, t_ms) for d in (0.0, h, -h))
-        d1, d2 = (r1 - r2) / (2 * h), (r1 - 2 * r0 + r2) / h ** 2
-        return (r0 ** 2 + 2 * d1 ** 2 - r0 * d2) / (r0 ** 2 + d1 ** 2) ** 1.5
+        d1, d2 = (r1 - r2) / (2 * h), (r1 - 2 * r0 + r2) / h**2
+        return (r0**2 + 2 * d1**2 - r0 * d2) / (r0**2 + d1**2) ** 1.5
 
     def mean_curvature(self, wall, s, theta, t_ms, hs: float = 2e-3, ht: float = 1e-3):
         """Mean curvature (1/mm, positive for a cylinder) of ``wall`` at (s, theta, t)
@@ -538,17 +565,20 @@ class Phantom:
         (mm) spans several of the steps at which the wave's arrival is tabulated."""
         s, theta = np.asarray(s, float), np.asarray(theta, float)
 
-        points = {(i, j): self.point(wall, s + i * hs, theta + j * ht, t_ms)
-                  for i in (-1, 0, 1) for j in (-1, 0, 1)}          # each point once
-        at = lambda i, j: points[i, j]                                      # noqa: E731
+        points = {
+            (i, j): self.point(wall, s + i * hs, theta + j * ht, t_ms)
+            for i in (-1, 0, 1)
+            for j in (-1, 0, 1)
+        }  # each point once
+        at = lambda i, j: points[i, j]  # noqa: E731
         X = at(0, 0)
         Xs, Xt = (at(1, 0) - at(-1, 0)) / (2 * hs), (at(0, 1) - at(0, -1)) / (2 * ht)
-        Xss = (at(1, 0) - 2 * X + at(-1, 0)) / hs ** 2
-        Xtt = (at(0, 1) - 2 * X + at(0, -1)) / ht ** 2
+        Xss = (at(1, 0) - 2 * X + at(-1, 0)) / hs**2
+        Xtt = (at(0, 1) - 2 * X + at(0, -1)) / ht**2
         Xst = (at(1, 1) - at(1, -1) - at(-1, 1) + at(-1, -1)) / (4 * hs * ht)
         n = np.cross(Xs, Xt)
         n *= np.sign(np.einsum("...k,...k", n, X - self.frame_axes(s)[0]))[..., None]  # outward
-        with np.errstate(invalid="ignore"):      # a closed lumen has no normal: NaN there
+        with np.errstate(invalid="ignore"):  # a closed lumen has no normal: NaN there
             n /= np.linalg.norm(n, axis=-1, keepdims=True)
         E, F, G = (np.einsum("...k,...k", a, b) for a, b in ((Xs, Xs), (Xs, Xt), (Xt, Xt)))
         L, M, N = (np.einsum("...k,...k", a, n) for a in (Xss, Xst, Xtt))
@@ -604,8 +634,7 @@ class Phantom:
         F = np.roll(F, int(rng.integers(3)), axis=1)
         return V, F.astype(np.int64)
 
-    def voxel_mesh(self, wall: str, t_ms: float, side_mm: float
-                   ) -> tuple[np.ndarray, np.ndarray]:
+    def voxel_mesh(self, wall: str, t_ms: float, side_mm: float) -> tuple[np.ndarray, np.ndarray]:
         """``wall`` at ``t_ms`` as a segmentation's mesh: the model filled into voxels of
         ``side_mm`` (each voxel centre inside the wall's radius), blurred by a voxel's
         sigma, marching cubes at its level 0.5, cut at the window's planes s = 0 and
@@ -625,8 +654,8 @@ class Phantom:
         low = X.min(axis=0) - 3 * side_mm
         shape = np.ceil((X.max(axis=0) + 3 * side_mm - low) / side_mm).astype(int) + 1
         axes = [low[k] + side_mm * np.arange(shape[k]) for k in range(3)]
-        inside = np.zeros(shape, np.float32)                    # (x, y, z)
-        for i, x in enumerate(axes[0]):                         # a plane at a time
+        inside = np.zeros(shape, np.float32)  # (x, y, z)
+        for i, x in enumerate(axes[0]):  # a plane at a time
             P = np.stack(np.broadcast_arrays(x, axes[1][:, None], axes[2][None, :]), -1)
             s_p, th_p = self.window_coordinates(P)
             s_p = np.clip(s_p, 0.0, p.length_mm)
@@ -635,10 +664,10 @@ class Phantom:
         field = ndimage.gaussian_filter(inside, 1.0)
         V, F, _, _ = marching_cubes(field, 0.5, spacing=(side_mm,) * 3)
         V = V + low
-        F = F[:, ::-1].astype(np.int64)                 # outward
+        F = F[:, ::-1].astype(np.int64)  # outward
         for s_end, sign in ((0.0, 1.0), (p.length_mm, -1.0)):
             c_e, N_e, B_e = self.frame_axes(s_end)
-            V, F = cut_by_plane(V, F, c_e, sign * np.cross(N_e, B_e))     # into the tube
+            V, F = cut_by_plane(V, F, c_e, sign * np.cross(N_e, B_e))  # into the tube
         return V, F
 
     # -- truth --------------------------------------------------------------
@@ -664,9 +693,12 @@ class Phantom:
         myo_fine = vol_fine - self.volume_mm3("inner", t_fine, s_range=s_range)
         area_fine = self.area_mm2("outer", s[:, None], t_fine[None, :])
         frac75 = (area_fine >= 0.75 * area_fine.max(axis=1, keepdims=True)).mean(axis=1)
-        max_area = {w: (area_fine if w == "outer" else
-                        self.area_mm2(w, s[:, None], t_fine[None, :])).max(axis=1)
-                    for w in WALLS}
+        max_area = {
+            w: (area_fine if w == "outer" else self.area_mm2(w, s[:, None], t_fine[None, :])).max(
+                axis=1
+            )
+            for w in WALLS
+        }
         arrival = self.arrival_ms(s)
         ridge = arrival + self.expand_fraction(s) * p.period_ms
         c = self.ridge_speed_mm_s(s)
@@ -678,8 +710,10 @@ class Phantom:
             "ridge_speed_mm_s": c.tolist(),
             "arrival_ms": arrival.tolist(),
             "ridge_t_ms": ridge.tolist(),
-            "wave_speed_mm_s": {   # of the ridge, as oftimg measures them
-                "min": float(c.min()), "max": float(c.max()), "mean": float(c.mean()),
+            "wave_speed_mm_s": {  # of the ridge, as oftimg measures them
+                "min": float(c.min()),
+                "max": float(c.max()),
+                "mean": float(c.mean()),
                 "cycle": float((s[-1] - s[0]) / (ridge[-1] - ridge[0]) * 1e3),
             },
             "area_mm2": {w: areas[w].tolist() for w in WALLS},
@@ -701,8 +735,9 @@ class Phantom:
 
 
 # --------------------------------------------------------------------------- writing
-def write_phantom(out: str | Path, params: PhantomParams, *, name: str | None = None,
-                  walls=WALLS, progress=None) -> Path:
+def write_phantom(
+    out: str | Path, params: PhantomParams, *, name: str | None = None, walls=WALLS, progress=None
+) -> Path:
     """Write a phantom dataset folder (meta.json, outer/ inner/ lumen/, truth.json).
 
     ``out`` must not exist or be empty; ``name`` defaults to its folder name.
@@ -720,14 +755,22 @@ def write_phantom(out: str | Path, params: PhantomParams, *, name: str | None = 
     width = len(str(params.n_frames - 1))
     for k, t in enumerate(ph.frame_times_ms()):
         for w in walls:
-            V, F = (ph.voxel_mesh(w, t, params.lumen_voxel_mm)
-                    if w == "lumen" and params.lumen_voxel_mm > 0 else ph.mesh(w, t, rng))
+            V, F = (
+                ph.voxel_mesh(w, t, params.lumen_voxel_mm)
+                if w == "lumen" and params.lumen_voxel_mm > 0
+                else ph.mesh(w, t, rng)
+            )
             write_ply(out / w / f"f{k:0{width}d}.ply", V, F)
         if progress is not None:
             progress(k + 1)
     c, _, _ = ph.frame_axes(0.0)
-    meta = {"name": name or out.name, "group": params.group, "period_ms": params.period_ms,
-            "length_unit": "mm", "inlet": [float(x) for x in c]}
+    meta = {
+        "name": name or out.name,
+        "group": params.group,
+        "period_ms": params.period_ms,
+        "length_unit": "mm",
+        "inlet": [float(x) for x in c],
+    }
     (out / "meta.json").write_text(json.dumps(meta, indent=2))
     (out / "truth.json").write_text(json.dumps(ph.truth(), indent=1))
     return out

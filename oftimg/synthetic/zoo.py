@@ -18,6 +18,7 @@ meshes their roughness and vertex counts. :func:`write_scenario` writes it as a
 dataset folder with ``truth.json`` (the model's answers) and ``scenario.json`` (what
 was drawn).
 """
+
 from __future__ import annotations
 
 import json
@@ -36,19 +37,34 @@ FORMATS = ("tif", "tif4d", "npy", "nii", "zarr")
 LAYERS = ("myocardium", "jelly", "lumen")
 # what a draw ranges over (uniform between the two numbers unless said)
 RANGES = {
-    "n_frames": (30, 200), "period_ms": (250.0, 600.0),
-    "speed_proximal_mm_s": (3.0, 15.0), "distal_over_proximal": (1.0, 4.0),
-    "knee_share": (0.25, 0.75), "knee_width_mm": (0.03, 0.2),
-    "expand_fraction": (0.3, 0.55), "expand_change": (-0.15, 0.15),
-    "contraction": (0.15, 0.4), "twist_deg": (0.0, 30.0), "slide": (0.0, 0.15),
-    "band_share": (0.3, 0.7), "band_depth": (0.2, 0.5),
-    "noise_mm": (0.0, 0.005), "vertices_min": (1500, 8000),
-    "voxel_um": (2.0, 8.0), "anisotropy": (1.0, 3.0),
-    "flip": (0.0, 0.08), "islands": (0, 60), "probability_noise": (0.1, 0.6),
-    "blob_um": (3.0, 12.0), "contrast": (0.15, 0.5), "depth_sigma": (0.3, 4.0),
-    "speckle": (0.15, 0.5), "attenuation_mm": (0.5, 3.0),
+    "n_frames": (30, 200),
+    "period_ms": (250.0, 600.0),
+    "speed_proximal_mm_s": (3.0, 15.0),
+    "distal_over_proximal": (1.0, 4.0),
+    "knee_share": (0.25, 0.75),
+    "knee_width_mm": (0.03, 0.2),
+    "expand_fraction": (0.3, 0.55),
+    "expand_change": (-0.15, 0.15),
+    "contraction": (0.15, 0.4),
+    "twist_deg": (0.0, 30.0),
+    "slide": (0.0, 0.15),
+    "band_share": (0.3, 0.7),
+    "band_depth": (0.2, 0.5),
+    "noise_mm": (0.0, 0.005),
+    "vertices_min": (1500, 8000),
+    "voxel_um": (2.0, 8.0),
+    "anisotropy": (1.0, 3.0),
+    "flip": (0.0, 0.08),
+    "islands": (0, 60),
+    "probability_noise": (0.1, 0.6),
+    "blob_um": (3.0, 12.0),
+    "contrast": (0.15, 0.5),
+    "depth_sigma": (0.3, 4.0),
+    "speckle": (0.15, 0.5),
+    "attenuation_mm": (0.5, 3.0),
     # a real shape animated (oftimg.synthetic.animate): its wave, twist and shortening
-    "real_speed_lengths_s": (2.0, 15.0), "real_amplitude": (0.1, 0.4),
+    "real_speed_lengths_s": (2.0, 15.0),
+    "real_amplitude": (0.1, 0.4),
     "real_shortening": (0.0, 0.15),
     # with fronts=True: a one-sided front's lag to the far side, a share of the period
     "side_lag_share": (0.05, 0.25),
@@ -56,29 +72,36 @@ RANGES = {
     "oblique_deg": (20.0, 50.0),
     # with features=True: sharper corners or concave notches (phantom corner_profile's
     # kappa), 3 to 6 of them, and meshes from coarse to fine (vertices round the outer wall)
-    "corners": (3, 6), "corner_sharpness": (-1.5, 1.5), "vertices_around": (40, 200),
+    "corners": (3, 6),
+    "corner_sharpness": (-1.5, 1.5),
+    "vertices_around": (40, 200),
     # with cushions=True: the lumen an ellipse whose minor over major axis falls from the
     # expanded aspect to the contracted one (at or below 0: closed) over a stretch of the
     # tube (a share of its length), its major axis at any angle; mesh draws' lumens meshed
     # from voxels of this side (mm), as a lab meshes its segmentation (in pieces where closed)
-    "cushion_aspect_expanded": (0.5, 0.95), "cushion_aspect_contracted": (-0.6, 0.2),
-    "cushion_stretch": (0.2, 0.5), "cushion_taper_mm": (0.05, 0.15),
+    "cushion_aspect_expanded": (0.5, 0.95),
+    "cushion_aspect_contracted": (-0.6, 0.2),
+    "cushion_stretch": (0.2, 0.5),
+    "cushion_taper_mm": (0.05, 0.15),
     "cushion_lumen_voxel_mm": (0.004, 0.008),
     # with speckled=True (labels + intensity): the instrument's look and the tissue's
     # motion widened: fully developed speckle carried by the tissue and renewed as it
     # moves (over a step of this many voxels), texture grain from under a voxel to coarse
     # (Gaussian sigma in voxels), slide and twist larger
-    "speckled_speckle": (0.15, 1.0), "speckled_decorrelation_voxels": (0.5, 4.0),
-    "speckled_grain_voxels": (0.4, 3.0), "speckled_contrast": (0.15, 0.5),
-    "speckled_slide": (0.0, 0.2), "speckled_twist_deg": (0.0, 40.0),
+    "speckled_speckle": (0.15, 1.0),
+    "speckled_decorrelation_voxels": (0.5, 4.0),
+    "speckled_grain_voxels": (0.4, 3.0),
+    "speckled_contrast": (0.15, 0.5),
+    "speckled_slide": (0.0, 0.2),
+    "speckled_twist_deg": (0.0, 40.0),
 }
-BANDED_SHARE = 0.3          # of the draws: a band
-SYSTEMATIC_SHARE = 0.3      # of the label draws: a wall eroded or dilated by one voxel
-DEFECT_SHARE = 0.3          # of the label draws: a defect in one or two frames
-OWN_VALUES_SHARE = 0.5      # of the label draws: values other than 1, 2, 3
-END_INSIDE_SHARE = 0.3      # of the label draws: the tube ends inside the volume at one end
+BANDED_SHARE = 0.3  # of the draws: a band
+SYSTEMATIC_SHARE = 0.3  # of the label draws: a wall eroded or dilated by one voxel
+DEFECT_SHARE = 0.3  # of the label draws: a defect in one or two frames
+OWN_VALUES_SHARE = 0.5  # of the label draws: values other than 1, 2, 3
+END_INSIDE_SHARE = 0.3  # of the label draws: the tube ends inside the volume at one end
 END_INSIDE_VOXELS = (4, 16)  # how far it goes on past the window's plane there
-OBLIQUE_SHARE = 0.5         # of the other label draws: the faces cut the tube obliquely
+OBLIQUE_SHARE = 0.5  # of the other label draws: the faces cut the tube obliquely
 # with fronts=True (the wave-front draws): a helical front in this share of the draws
 # (1 or 2 starts, either hand); a one-sided front in the others, and in this share of
 # the helical ones too
@@ -117,7 +140,7 @@ class Scenario:
     voxel_um: tuple | None = None
     segmentation: Segmentation | None = None
     texture: TextureParams | None = None
-    animation: dict | None = None     # kind "real": the wave in tube lengths a second,
+    animation: dict | None = None  # kind "real": the wave in tube lengths a second,
     #                                   amplitude, twist, shortening, frames, period
     # label kinds: the end ("inlet" or "outlet") where the tube goes on past the window's
     # plane and ends inside the volume (meta.json "ends" then cuts it), and by how many
@@ -130,9 +153,10 @@ class Scenario:
 
     def as_dict(self) -> dict:
         out = asdict(self)
-        if self.segmentation is not None:     # JSON keys are text: frames as strings
-            out["segmentation"]["defects"] = {str(k): v for k, v in
-                                              self.segmentation.defects.items()}
+        if self.segmentation is not None:  # JSON keys are text: frames as strings
+            out["segmentation"]["defects"] = {
+                str(k): v for k, v in self.segmentation.defects.items()
+            }
         return out
 
 
@@ -141,10 +165,18 @@ def _uniform(rng, name: str) -> float:
     return float(rng.uniform(low, high))
 
 
-def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = None,
-                  voxel_um_min: float | None = None, fronts: bool = False,
-                  oblique: bool | None = None, features: bool = False,
-                  cushions: bool = False, speckled: bool = False) -> Scenario:
+def draw_scenario(
+    seed: int,
+    kind: str | None = None,
+    *,
+    n_frames: int | None = None,
+    voxel_um_min: float | None = None,
+    fronts: bool = False,
+    oblique: bool | None = None,
+    features: bool = False,
+    cushions: bool = False,
+    speckled: bool = False,
+) -> Scenario:
     """The scenario of ``seed`` (the same seed, the same draw): ``kind`` drawn from
     :data:`KINDS` unless given, every number from :data:`RANGES`. ``n_frames`` and
     ``voxel_um_min`` (the finest voxel side drawn) override the draw, for quick runs:
@@ -174,8 +206,10 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     change = _uniform(rng, "expand_change") if rng.random() < 0.5 else 0.0
     v_min = int(rng.integers(*RANGES["vertices_min"]))
     params = replace(
-        base, n_frames=frames if n_frames is None else n_frames,
-        period_ms=_uniform(rng, "period_ms"), speed_proximal_mm_s=proximal,
+        base,
+        n_frames=frames if n_frames is None else n_frames,
+        period_ms=_uniform(rng, "period_ms"),
+        speed_proximal_mm_s=proximal,
         speed_distal_mm_s=proximal * _uniform(rng, "distal_over_proximal"),
         speed_knee_mm=_uniform(rng, "knee_share") * length,
         speed_knee_width_mm=_uniform(rng, "knee_width_mm"),
@@ -189,7 +223,9 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
         band_position_mm=(_uniform(rng, "band_share") * length if group == "banded" else None),
         band_depth=_uniform(rng, "band_depth"),
         noise_mm=_uniform(rng, "noise_mm") if kind == "meshes" else 0.0,
-        vertices_min=v_min, vertices_max=int(1.5 * v_min))
+        vertices_min=v_min,
+        vertices_max=int(1.5 * v_min),
+    )
     if fronts:
         params = replace(params, **front_params(seed, params.period_ms))
     if features:
@@ -200,34 +236,46 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
     if voxel_um_min is not None:
         side = max(side, voxel_um_min)
     voxel = (side, side, side * _uniform(rng, "anisotropy"))
-    systematic = ((str(rng.choice(LAYERS)), int(rng.choice([-1, 1])))
-                  if rng.random() < SYSTEMATIC_SHARE else None)
+    systematic = (
+        (str(rng.choice(LAYERS)), int(rng.choice([-1, 1])))
+        if rng.random() < SYSTEMATIC_SHARE
+        else None
+    )
     n_defects = int(rng.integers(1, 3)) if rng.random() < DEFECT_SHARE else 0
-    at = rng.uniform(0, 1, n_defects)           # where in the cycle: any frame count
-    defects = {int(share * params.n_frames): str(rng.choice(sorted(DEFECTS)))
-               for share in at}
-    values = ({layer: int(v) for layer, v in zip(LAYERS, rng.choice(np.arange(1, 251), 3,
-                                                                      replace=False))}
-              if rng.random() < OWN_VALUES_SHARE else dict(zip(LAYERS, (1, 2, 3))))
+    at = rng.uniform(0, 1, n_defects)  # where in the cycle: any frame count
+    defects = {int(share * params.n_frames): str(rng.choice(sorted(DEFECTS))) for share in at}
+    values = (
+        {layer: int(v) for layer, v in zip(LAYERS, rng.choice(np.arange(1, 251), 3, replace=False))}
+        if rng.random() < OWN_VALUES_SHARE
+        else dict(zip(LAYERS, (1, 2, 3)))
+    )
     segmentation = Segmentation(
-        flip=_uniform(rng, "flip"), islands=int(rng.integers(*RANGES["islands"])),
-        systematic=systematic, defects=defects, values=values,
+        flip=_uniform(rng, "flip"),
+        islands=int(rng.integers(*RANGES["islands"])),
+        systematic=systematic,
+        defects=defects,
+        values=values,
         file_format=str(rng.choice(FORMATS)),
-        probability_noise=_uniform(rng, "probability_noise"))
-    texture = TextureParams(blob_um=_uniform(rng, "blob_um"),
-                            contrast=_uniform(rng, "contrast"),
-                            depth_sigma=_uniform(rng, "depth_sigma"),
-                            speckle=_uniform(rng, "speckle"),
-                            attenuation_mm=_uniform(rng, "attenuation_mm"))
-    animation = {"speed_lengths_s": _uniform(rng, "real_speed_lengths_s"),
-                 "amplitude": _uniform(rng, "real_amplitude"),
-                 "twist_deg": float(params.twist_deg * (-1) ** int(rng.integers(2))),
-                 "shortening": _uniform(rng, "real_shortening"),
-                 "n_frames": params.n_frames, "period_ms": params.period_ms}
+        probability_noise=_uniform(rng, "probability_noise"),
+    )
+    texture = TextureParams(
+        blob_um=_uniform(rng, "blob_um"),
+        contrast=_uniform(rng, "contrast"),
+        depth_sigma=_uniform(rng, "depth_sigma"),
+        speckle=_uniform(rng, "speckle"),
+        attenuation_mm=_uniform(rng, "attenuation_mm"),
+    )
+    animation = {
+        "speed_lengths_s": _uniform(rng, "real_speed_lengths_s"),
+        "amplitude": _uniform(rng, "real_amplitude"),
+        "twist_deg": float(params.twist_deg * (-1) ** int(rng.integers(2))),
+        "shortening": _uniform(rng, "real_shortening"),
+        "n_frames": params.n_frames,
+        "period_ms": params.period_ms,
+    }
     # drawn from a stream of their own, so that the draws above stay as they were
     more = np.random.default_rng([seed, 72, 1])
-    end_inside = (str(more.choice(["inlet", "outlet"])) if more.random() < END_INSIDE_SHARE
-                  else None)
+    end_inside = str(more.choice(["inlet", "outlet"])) if more.random() < END_INSIDE_SHARE else None
     end_voxels = int(more.integers(*END_INSIDE_VOXELS)) if end_inside else 0
     cut = np.random.default_rng([seed, 72, 3])
     drawn_oblique = cut.random() < OBLIQUE_SHARE
@@ -243,9 +291,17 @@ def draw_scenario(seed: int, kind: str | None = None, *, n_frames: int | None = 
         return Scenario(seed, kind, params)
     if kind == "real":
         return Scenario(seed, kind, params, animation=animation)
-    return Scenario(seed, kind, params, voxel, segmentation,
-                    texture if kind == "labels+intensity" else None,
-                    end_inside=end_inside, end_inside_voxels=end_voxels, oblique_deg=oblique)
+    return Scenario(
+        seed,
+        kind,
+        params,
+        voxel,
+        segmentation,
+        texture if kind == "labels+intensity" else None,
+        end_inside=end_inside,
+        end_inside_voxels=end_voxels,
+        oblique_deg=oblique,
+    )
 
 
 def feature_params(seed: int, params: PhantomParams) -> dict:
@@ -257,10 +313,13 @@ def feature_params(seed: int, params: PhantomParams) -> dict:
     low, high = RANGES["corners"]
     around = _uniform(rng, "vertices_around")
     aspect = np.pi * (params.radius_inlet_mm + params.radius_outlet_mm) / params.length_mm
-    vertices = int(round(around ** 2 / aspect))
-    return {"corners": int(rng.integers(low, high + 1)),
-            "corner_sharpness": _uniform(rng, "corner_sharpness"),
-            "vertices_min": vertices, "vertices_max": vertices}
+    vertices = int(round(around**2 / aspect))
+    return {
+        "corners": int(rng.integers(low, high + 1)),
+        "corner_sharpness": _uniform(rng, "corner_sharpness"),
+        "vertices_min": vertices,
+        "vertices_max": vertices,
+    }
 
 
 def speckled_params(seed: int, voxel_side_um: float) -> tuple[dict, TextureParams]:
@@ -269,16 +328,18 @@ def speckled_params(seed: int, voxel_side_um: float) -> tuple[dict, TextureParam
     ``speckled_*``: a fully developed speckle carried by the tissue and renewed as it
     moves, the texture's grain in voxels of ``voxel_side_um``."""
     rng = np.random.default_rng([seed, 72, 6])
-    motion = {"stretch": _uniform(rng, "speckled_slide"),
-              "twist_deg": _uniform(rng, "speckled_twist_deg")}
+    motion = {
+        "stretch": _uniform(rng, "speckled_slide"),
+        "twist_deg": _uniform(rng, "speckled_twist_deg"),
+    }
     texture = TextureParams(
         blob_um=_uniform(rng, "speckled_grain_voxels") * voxel_side_um,
         contrast=_uniform(rng, "speckled_contrast"),
         depth_sigma=_uniform(rng, "depth_sigma"),
         speckle=_uniform(rng, "speckled_speckle"),
         attenuation_mm=_uniform(rng, "attenuation_mm"),
-        speckle_decorrelation_um=_uniform(rng, "speckled_decorrelation_voxels")
-        * voxel_side_um)
+        speckle_decorrelation_um=_uniform(rng, "speckled_decorrelation_voxels") * voxel_side_um,
+    )
     return motion, texture
 
 
@@ -292,11 +353,14 @@ def cushion_params(seed: int, params: PhantomParams, kind: str) -> dict:
     rng = np.random.default_rng([seed, 72, 5])
     share = _uniform(rng, "cushion_stretch")
     start = float(rng.uniform(0.1, 0.9 - share)) * params.length_mm
-    out = {"cushion_aspect_expanded": _uniform(rng, "cushion_aspect_expanded"),
-           "cushion_aspect_contracted": _uniform(rng, "cushion_aspect_contracted"),
-           "cushion_deg": float(rng.uniform(0.0, 180.0)),
-           "cushion_from_mm": start, "cushion_to_mm": start + share * params.length_mm,
-           "cushion_taper_mm": _uniform(rng, "cushion_taper_mm")}
+    out = {
+        "cushion_aspect_expanded": _uniform(rng, "cushion_aspect_expanded"),
+        "cushion_aspect_contracted": _uniform(rng, "cushion_aspect_contracted"),
+        "cushion_deg": float(rng.uniform(0.0, 180.0)),
+        "cushion_from_mm": start,
+        "cushion_to_mm": start + share * params.length_mm,
+        "cushion_taper_mm": _uniform(rng, "cushion_taper_mm"),
+    }
     lumen_voxel_mm = _uniform(rng, "cushion_lumen_voxel_mm")
     if kind == "meshes" and out["cushion_aspect_contracted"] <= 0:
         out["lumen_voxel_mm"] = lumen_voxel_mm
@@ -315,12 +379,16 @@ def front_params(seed: int, period_ms: float) -> dict:
     side = helix == 0 or rng.random() < HELIX_AND_SIDE_SHARE
     lag = _uniform(rng, "side_lag_share") * period_ms
     angle = float(rng.uniform(0.0, 360.0))
-    return {"helix_starts": helix, "side_lag_ms": lag if side else 0.0,
-            "side_deg": angle if side else 0.0}
+    return {
+        "helix_starts": helix,
+        "side_lag_ms": lag if side else 0.0,
+        "side_deg": angle if side else 0.0,
+    }
 
 
-def write_scenario(scenario: Scenario, out: str | Path, *, real_shape=None,
-                   real_scale_to_mm: float = 1.0) -> Path:
+def write_scenario(
+    scenario: Scenario, out: str | Path, *, real_shape=None, real_scale_to_mm: float = 1.0
+) -> Path:
     """``scenario`` as a dataset folder ``out`` (which must not exist or be empty):
     meshes (:func:`~oftimg.synthetic.phantom.write_phantom`) or label volumes,
     probability maps, intensity (:func:`~oftimg.synthetic.labels.write_label_phantom`,
@@ -338,11 +406,17 @@ def write_scenario(scenario: Scenario, out: str | Path, *, real_shape=None,
     else:
         seg = sc.segmentation
         probabilities = sc.kind == "probabilities"
-        write_label_phantom(out, sc.phantom, sc.voxel_um,
-                            noise=seg.probability_noise if probabilities else seg.flip,
-                            probabilities=probabilities,
-                            intensity=sc.kind == "labels+intensity", texture=sc.texture,
-                            islands=seg.islands, oblique_deg=sc.oblique_deg)
+        write_label_phantom(
+            out,
+            sc.phantom,
+            sc.voxel_um,
+            noise=seg.probability_noise if probabilities else seg.flip,
+            probabilities=probabilities,
+            intensity=sc.kind == "labels+intensity",
+            texture=sc.texture,
+            islands=seg.islands,
+            oblique_deg=sc.oblique_deg,
+        )
         if sc.end_inside:
             _ending_inside(out, sc.end_inside, sc.end_inside_voxels, sc.voxel_um)
         if not probabilities:
@@ -362,10 +436,21 @@ def _animated(sc: Scenario, out: Path, shape, scale_to_mm: float) -> None:
     tube = load_tube(shape, unit_scale=scale_to_mm)
     length_mm = float(axial_coordinates(tube.V, tube.F, tube.inlet, tube.outlet)[2][-1])
     a = sc.animation
-    write_animation(shape, out, Animation(
-        speed_mm_s=a["speed_lengths_s"] * length_mm, amplitude=a["amplitude"],
-        period_ms=a["period_ms"], n_frames=a["n_frames"], twist_deg=a["twist_deg"],
-        shortening=a["shortening"]), scale_to_mm=scale_to_mm, do_remesh=True, seed=sc.seed)
+    write_animation(
+        shape,
+        out,
+        Animation(
+            speed_mm_s=a["speed_lengths_s"] * length_mm,
+            amplitude=a["amplitude"],
+            period_ms=a["period_ms"],
+            n_frames=a["n_frames"],
+            twist_deg=a["twist_deg"],
+            shortening=a["shortening"],
+        ),
+        scale_to_mm=scale_to_mm,
+        do_remesh=True,
+        seed=sc.seed,
+    )
 
 
 # background between the tube's end inside the volume and the volume's face
@@ -378,10 +463,11 @@ def volume_offset_um(scenario_json: dict) -> np.ndarray:
     end = scenario_json.get("end_inside")
     if not end:
         return np.zeros(3)
-    axis = {"outlet": 0, "inlet": 1}[end]        # the outlet's face x = 0, the inlet's y = 0
+    axis = {"outlet": 0, "inlet": 1}[end]  # the outlet's face x = 0, the inlet's y = 0
     offset = np.zeros(3)
-    offset[axis] = (scenario_json["end_inside_voxels"] + END_GAP_VOXELS) * \
-        scenario_json["voxel_um"][axis]
+    offset[axis] = (scenario_json["end_inside_voxels"] + END_GAP_VOXELS) * scenario_json[
+        "voxel_um"
+    ][axis]
     return offset
 
 
@@ -394,19 +480,25 @@ def _ending_inside(folder: Path, end: str, voxels: int, voxel_um) -> None:
     end's face). The phantom's coordinates then lie ``volume_offset_um`` further."""
     import tifffile
 
-    axis = {"outlet": 2, "inlet": 1}[end]          # (z, y, x): x = 0 the outlet's face
+    axis = {"outlet": 2, "inlet": 1}[end]  # (z, y, x): x = 0 the outlet's face
     for path in sorted(folder.glob("**/*.tif")):
         volume = tifffile.imread(path)
         face = np.take(volume, [0], axis=axis)
         gap = np.zeros_like(face).repeat(END_GAP_VOXELS, axis=axis)
-        if path.parent.name == "intensity":        # OCT's background, not black
+        if path.parent.name == "intensity":  # OCT's background, not black
             gap[...] = np.median(np.take(volume, [-1], axis=axis))
-        tifffile.imwrite(path, np.concatenate([gap, face.repeat(voxels, axis=axis), volume],
-                                              axis=axis), compression="zlib")
-    offset = volume_offset_um({"end_inside": end, "end_inside_voxels": voxels,
-                               "voxel_um": list(voxel_um)})
-    faces = {"inlet": {"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0]},
-             "outlet": {"point": [0.0, 0.0, 0.0], "normal": [1.0, 0.0, 0.0]}}
+        tifffile.imwrite(
+            path,
+            np.concatenate([gap, face.repeat(voxels, axis=axis), volume], axis=axis),
+            compression="zlib",
+        )
+    offset = volume_offset_um(
+        {"end_inside": end, "end_inside_voxels": voxels, "voxel_um": list(voxel_um)}
+    )
+    faces = {
+        "inlet": {"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0]},
+        "outlet": {"point": [0.0, 0.0, 0.0], "normal": [1.0, 0.0, 0.0]},
+    }
     faces[end]["point"] = offset.tolist()
     meta = json.loads((folder / "meta.json").read_text())
     meta["ends"] = [faces["inlet"], faces["outlet"]]
@@ -437,10 +529,12 @@ def _segmented(folder: Path, seg: Segmentation, voxel_um) -> None:
     meta["labels"] = dict(seg.values)
     # the order of the files' axes where they name none (an ImageJ TIFF and NIfTI do)
     meta.pop("axes", None)
-    meta.update({"tif": {"axes": "zyx"}, "npy": {"axes": "zyx"},
-                 "zarr": {"axes": "tzyx"}}.get(seg.file_format, {}))
-    _write_labels(folder / "labels", volumes, seg.file_format, voxel_um,
-                  [p.stem for p in frames])
+    meta.update(
+        {"tif": {"axes": "zyx"}, "npy": {"axes": "zyx"}, "zarr": {"axes": "tzyx"}}.get(
+            seg.file_format, {}
+        )
+    )
+    _write_labels(folder / "labels", volumes, seg.file_format, voxel_um, [p.stem for p in frames])
     (folder / "meta.json").write_text(json.dumps(meta, indent=2))
 
 
@@ -459,8 +553,7 @@ def grown(labels: np.ndarray, value: int, voxels: int) -> np.ndarray:
         return out
     rim = region & ~ndimage.binary_erosion(region, six, border_value=1)
     other = np.where(region, 0, labels).astype(np.int16)
-    neighbour = ndimage.maximum_filter(np.where(region, -1, other), footprint=six,
-                                       mode="nearest")
+    neighbour = ndimage.maximum_filter(np.where(region, -1, other), footprint=six, mode="nearest")
     out[rim] = np.maximum(neighbour[rim], 0)
     return out
 
@@ -478,9 +571,13 @@ def _write_labels(folder: Path, volumes: list, file_format: str, voxel_um, stems
     elif file_format == "tif4d":
         import tifffile
 
-        tifffile.imwrite(folder / "labels.tif", np.stack(volumes), imagej=True,
-                         resolution=(1 / dx, 1 / dy), metadata={"spacing": dz, "unit": "um",
-                                                                "axes": "TZYX"})
+        tifffile.imwrite(
+            folder / "labels.tif",
+            np.stack(volumes),
+            imagej=True,
+            resolution=(1 / dx, 1 / dy),
+            metadata={"spacing": dz, "unit": "um", "axes": "TZYX"},
+        )
     elif file_format == "npy":
         for stem, v in zip(stems, volumes):
             np.save(folder / f"{stem}.npy", v)
@@ -496,5 +593,4 @@ def _write_labels(folder: Path, volumes: list, file_format: str, voxel_um, stems
 
         zarr.save_array(str(folder / "labels.zarr"), np.stack(volumes))
     else:
-        raise ValueError(f"file_format must be one of {', '.join(FORMATS)}, "
-                         f"found {file_format!r}")
+        raise ValueError(f"file_format must be one of {', '.join(FORMATS)}, found {file_format!r}")

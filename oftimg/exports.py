@@ -19,7 +19,7 @@ def paraview(sources, out, *, quiet: bool = False, jobs: int | None = None) -> P
     grids with their node fields, and the section contours; each series in one of
     ``jobs`` worker processes (default: all cores). ``out`` must be new or empty;
     it appears only when complete. Returns ``out``."""
-    from .analysis.pipeline import run_tasks
+    from .analysis.per_frame import run_tasks
     from .output.paraview import series_names, write_series
 
     out = Path(out)

@@ -62,7 +62,7 @@ def test_warnings_raised_in_workers_reach_this_process_once():
 
     from helpers import square_warning_on_odd
     from oftimg.errors import OftimgWarning
-    from oftimg.analysis.pipeline import run_tasks
+    from oftimg.analysis.per_frame import run_tasks
     from oftimg.workers import closing_executor
 
     pool = make_executor(2)

@@ -1,4 +1,5 @@
-"""The work on one time frame, run in worker processes.
+"""The work on one time frame, run in worker processes (its grids and sections, its
+intensity pulled back), and :func:`run_tasks`, which hands the frames out.
 
 Kept apart from :mod:`oftimg.analysis.pipeline` so that a worker imports only the mesh
 modules: the image analysis pulls in scipy.signal, about 1 s of start-up.
@@ -32,6 +33,7 @@ from ..mesh.grid import (
 )
 from ..mesh.sections import fix_crossing_planes, section_planes, sections_of_mesh
 from ..mesh.topology import MeshError, capped_signed_volume
+from .pullback import PullbackOptions, normal_shell, pullback, refine_factors, refined
 
 
 class _Clock:
@@ -62,6 +64,33 @@ def with_warnings(fn, *args):
         warnings.simplefilter("always")
         result = fn(*args)
     return result, list({(type(w.message), str(w.message)): w.message for w in caught}.values())
+
+
+def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> list:
+    """``[fn(*args) for args in arg_tuples]``, in worker processes when an
+    ``executor`` (any ``concurrent.futures.Executor``) is given; results in order.
+    The workers' warnings are raised here, each distinct one once."""
+    if executor is None:
+        out = []
+        for args in arg_tuples:
+            out.append(fn(*args))
+            if progress:
+                progress()
+        return out
+    from concurrent.futures import as_completed
+
+    futures = {executor.submit(with_warnings, fn, *args): k for k, args in enumerate(arg_tuples)}
+    out = [None] * len(futures)
+    seen = set()
+    for fut in as_completed(futures):
+        out[futures[fut]], raised = fut.result()
+        for message in raised:
+            if (type(message), str(message)) not in seen:
+                seen.add((type(message), str(message)))
+                warnings.warn(message, stacklevel=2)
+        if progress:
+            progress()
+    return out
 
 
 def _named(tube, fn, *args, **kwargs):
@@ -268,3 +297,58 @@ def lumen_mean_curvature(kappa: np.ndarray, X: np.ndarray, plane_normals: np.nda
         np.nan_to_num(across), (ACROSS_NODES, ACROSS_ROWS), mode=("wrap", "nearest")
     )
     return (0.5 * (kappa * meusnier[None] + across[None])).transpose(1, 2, 0).astype(np.float32)
+
+
+def wall_pullbacks(
+    series,
+    grids: dict,
+    frames: list[int],
+    options: PullbackOptions = PullbackOptions(),
+    *,
+    executor=None,
+) -> dict[str, np.ndarray]:
+    """The intensity pulled back onto each wall of ``options.walls`` that ``grids``
+    (wall -> ``(n_u, n_v, n_t, 3)`` mm, each frame's own) has, at ``options.layers``
+    depths: the outer wall's across the myocardium (to the inner wall; without one,
+    across ``options.shell_um`` about it), the inner wall's and the lumen's across
+    ``options.shell_um`` about them along their outward normals; on a grid finer than
+    the analysis grid (:func:`~oftimg.analysis.pullback.refine_factors`: about a pixel
+    a voxel): ``pullback_<wall>_mean`` and ``_max`` ``(n_u f_u, (n_v - 1) f_v + 1,
+    n_t)`` float32, NaN where the shell leaves the imaged volume. Each frame's volume
+    ``series.volume(frames[k])`` is read and sampled by :func:`frame_pullback` in
+    ``executor``'s workers when one is given (one volume a worker in memory)."""
+    walls = [w for w in options.walls if w in grids]
+    factors = refine_factors(grids["outer"], series.voxel_size_mm)
+    per_frame = run_tasks(
+        frame_pullback,
+        [
+            (series, t, {w: g[:, :, k] for w, g in grids.items()}, factors, options)
+            for k, t in enumerate(frames)
+        ],
+        executor=executor,
+    )
+    return {
+        f"pullback_{w}_{what}": np.stack([f[w][j] for f in per_frame], axis=2, dtype=np.float32)
+        for w in walls
+        for j, what in enumerate(("mean", "max"))
+    }
+
+
+def frame_pullback(
+    series, t: int, grids: dict, factors: tuple[int, int], options: PullbackOptions
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """One frame's pullbacks (see :func:`wall_pullbacks`): wall -> (mean, max)
+    ``(n_u f_u, (n_v - 1) f_v + 1)`` float32 from volume ``series.volume(t)`` and the
+    frame's grids (wall -> ``(n_u, n_v, 3)`` mm) refined by ``factors``."""
+    volume = series.volume(t)
+    shell_mm = tuple(d / 1000 for d in options.shell_um)
+    out = {}
+    for w in (w for w in options.walls if w in grids):
+        fine = refined(grids[w], *factors)
+        faces = (
+            (fine, refined(grids["inner"], *factors))
+            if w == "outer" and "inner" in grids
+            else normal_shell(fine, shell_mm)
+        )
+        out[w] = pullback(volume, *faces, series.voxel_size_mm, series.origin_mm, options.layers)
+    return out

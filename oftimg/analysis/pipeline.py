@@ -26,7 +26,7 @@ from ..image.cycle import (
 from .maps import analyse_area_maps
 from ..image.kymograph import at_fixed_positions
 from ..image.pca import contour_pca
-from .pullback import PullbackOptions, normal_shell, pullback, refine_factors, refined
+from .pullback import PullbackOptions
 from .texture_tracking import fallback_note, texture_match_note
 from .tracking import follow, track_grid
 from .wave_fronts import wave_fronts
@@ -37,7 +37,13 @@ from ..mesh.labels import MeshOptions
 from ..mesh.sections import slab_thickness, volume_from_sections
 from .radial_curvature import node_band_95, scale_chosen_curvature
 from ..mesh.strain import surface_kinematics
-from .per_frame import frame_seam_candidates, process_frame, rough_mesh_steps, with_warnings
+from .per_frame import (
+    frame_seam_candidates,
+    process_frame,
+    rough_mesh_steps,
+    run_tasks,
+    wall_pullbacks,
+)
 from .cushions import closed_map, cushion_measures
 from .uncertainty import NODE_BAND_FACTORS, input_kind, wide_band_share, with_bands
 from ..progress import FramePasses, Progress
@@ -187,33 +193,6 @@ def check_series(ds: Dataset, volume: dict) -> dict:
         "standout_frames": standout,
         "standout_frame_count": sum(len(names) for names in standout.values()),
     }
-
-
-def run_tasks(fn, arg_tuples: list[tuple], *, executor=None, progress=None) -> list:
-    """``[fn(*args) for args in arg_tuples]``, in worker processes when an
-    ``executor`` (any ``concurrent.futures.Executor``) is given; results in order.
-    The workers' warnings are raised here, each distinct one once."""
-    if executor is None:
-        out = []
-        for args in arg_tuples:
-            out.append(fn(*args))
-            if progress:
-                progress()
-        return out
-    from concurrent.futures import as_completed
-
-    futures = {executor.submit(with_warnings, fn, *args): k for k, args in enumerate(arg_tuples)}
-    out = [None] * len(futures)
-    seen = set()
-    for fut in as_completed(futures):
-        out[futures[fut]], raised = fut.result()
-        for message in raised:
-            if (type(message), str(message)) not in seen:
-                seen.add((type(message), str(message)))
-                warnings.warn(message, stacklevel=2)
-        if progress:
-            progress()
-    return out
 
 
 def seam_end_points(ds: Dataset, options: GridOptions, progress=None, executor=None):
@@ -550,61 +529,6 @@ def _texture_pathlines(pullbacks: dict, shape_coords: np.ndarray) -> tuple[np.nd
     n_u, n_v = shape_coords.shape[:2]
     factors = (mean.shape[0] // n_u, (mean.shape[1] - 1) // (n_v - 1))
     return texture_pathlines(mean, factors, shape_coords)
-
-
-def wall_pullbacks(
-    series,
-    grids: dict,
-    frames: list[int],
-    options: PullbackOptions = PullbackOptions(),
-    *,
-    executor=None,
-) -> dict[str, np.ndarray]:
-    """The intensity pulled back onto each wall of ``options.walls`` that ``grids``
-    (wall -> ``(n_u, n_v, n_t, 3)`` mm, each frame's own) has, at ``options.layers``
-    depths: the outer wall's across the myocardium (to the inner wall; without one,
-    across ``options.shell_um`` about it), the inner wall's and the lumen's across
-    ``options.shell_um`` about them along their outward normals; on a grid finer than
-    the analysis grid (:func:`~oftimg.analysis.pullback.refine_factors`: about a pixel
-    a voxel): ``pullback_<wall>_mean`` and ``_max`` ``(n_u f_u, (n_v - 1) f_v + 1,
-    n_t)`` float32, NaN where the shell leaves the imaged volume. Each frame's volume
-    ``series.volume(frames[k])`` is read and sampled by :func:`frame_pullback` in
-    ``executor``'s workers when one is given (one volume a worker in memory)."""
-    walls = [w for w in options.walls if w in grids]
-    factors = refine_factors(grids["outer"], series.voxel_size_mm)
-    per_frame = run_tasks(
-        frame_pullback,
-        [
-            (series, t, {w: g[:, :, k] for w, g in grids.items()}, factors, options)
-            for k, t in enumerate(frames)
-        ],
-        executor=executor,
-    )
-    return {
-        f"pullback_{w}_{what}": np.stack([f[w][j] for f in per_frame], axis=2, dtype=np.float32)
-        for w in walls
-        for j, what in enumerate(("mean", "max"))
-    }
-
-
-def frame_pullback(
-    series, t: int, grids: dict, factors: tuple[int, int], options: PullbackOptions
-) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """One frame's pullbacks (see :func:`wall_pullbacks`): wall -> (mean, max)
-    ``(n_u f_u, (n_v - 1) f_v + 1)`` float32 from volume ``series.volume(t)`` and the
-    frame's grids (wall -> ``(n_u, n_v, 3)`` mm) refined by ``factors``."""
-    volume = series.volume(t)
-    shell_mm = tuple(d / 1000 for d in options.shell_um)
-    out = {}
-    for w in (w for w in options.walls if w in grids):
-        fine = refined(grids[w], *factors)
-        faces = (
-            (fine, refined(grids["inner"], *factors))
-            if w == "outer" and "inner" in grids
-            else normal_shell(fine, shell_mm)
-        )
-        out[w] = pullback(volume, *faces, series.voxel_size_mm, series.origin_mm, options.layers)
-    return out
 
 
 FRAME_PASSES = ("seams", "grids and sections")  # what each pass over the frames makes

@@ -33,6 +33,7 @@ from oftimg.analysis.pipeline import PipelineOptions, analyse_dataset
 from oftimg.analysis.texture_tracking import texture_pathlines
 from oftimg.analysis.tracking import follow, track_grid
 from oftimg.inputs import _load, _meshed
+from oftimg.io.dataset import validate_dataset
 from oftimg.mesh.labels import MeshOptions
 from oftimg.mesh.strain import grid_strain
 from oftimg.synthetic.labels import LabelGrid
@@ -70,6 +71,7 @@ def untracked(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ds = _meshed(_load(dataset), root / "meshes" / dataset.name, MeshOptions(), None, True)
+        validate_dataset(ds)  # a bad mesh: the run's one line, not a traceback
         result = analyse_dataset(ds, PipelineOptions(tracking="none"), quiet=True)
     out = {
         "grid_outer": result["grids"]["outer"].astype(np.float32),

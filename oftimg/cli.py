@@ -61,6 +61,17 @@ RUN_EXAMPLES = """examples:
 every option and output: docs/guide.md"""
 
 
+def _parser_for_docs() -> argparse.ArgumentParser:
+    """:func:`_parser` with each epilog as a literal block: docs/cli.rst reads the
+    epilogs as reStructuredText, which would set the examples' columns as prose."""
+    p = _parser()
+    for command in p._subparsers._group_actions[0].choices.values():
+        if command.epilog:
+            head, _, rest = command.epilog.partition("\n")
+            command.epilog = f"{head}\n\n.. code-block:: text\n\n" + textwrap.indent(rest, "  ")
+    return p
+
+
 def _parser() -> argparse.ArgumentParser:
     # long, and kept whole: the command line read top to bottom as --help prints it
     # (docs/cli.rst renders the same parser)

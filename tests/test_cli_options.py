@@ -47,3 +47,19 @@ def test_run_help_is_grouped_with_examples_and_every_option_says_what_it_does(ca
         assert command.description, name
         for action in command._actions:
             assert action.help, f"{name} {action.option_strings or action.dest}"
+
+
+def test_the_docs_show_run_examples_as_a_literal_block():
+    """docs/cli.rst reads each epilog as reStructuredText: the examples' columns go in a
+    plain-text block there, while --help prints them as they are."""
+    from oftimg.cli import RUN_EXAMPLES, _parser, _parser_for_docs
+
+    def run_parser(p):
+        return next(a for a in p._actions if a.dest == "command").choices["run"]
+
+    assert run_parser(_parser()).epilog == RUN_EXAMPLES
+    head, block = run_parser(_parser_for_docs()).epilog.split("\n\n.. code-block:: text\n\n")
+    assert head == RUN_EXAMPLES.splitlines()[0]
+    lines = block.splitlines()
+    assert [line[2:] for line in lines] == RUN_EXAMPLES.splitlines()[1:]
+    assert all(line.startswith("  ") for line in lines if line)

@@ -263,10 +263,11 @@ def _parser() -> argparse.ArgumentParser:
         help="Gaussian sigma (ms) with which every grid node's position is smoothed "
         "in time before the strain fields (each frame's grid moves along the "
         "wall with its own mesh's roughness, which a strain takes for stretch); "
-        "auto (default): the least of "
-        f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms after "
-        "which that noise moves the strain energy by at most "
-        f"{100 * STRAIN_NOISE_TARGET:g} %% of its median; 0: none. "
+        "auto (default): up "
+        f"{', '.join(f'{x:g}' for x in RIDGE_SMOOTHING_LADDER_MS)} ms until "
+        "that noise moves the strain energy by at most "
+        f"{100 * STRAIN_NOISE_TARGET:g} %% of its median, or before the "
+        "flattening of its peaks outweighs the noise removed; 0: none. "
         "summary.json: strain_noise says how much that noise still moves "
         "each field and the sigma taken",
     )

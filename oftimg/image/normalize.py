@@ -13,9 +13,10 @@ from .kymograph import RIDGE_SMOOTHING_LADDER_MS, RIDGE_SMOOTHING_MS, map_noise_
 # roughness 20 ms took the radial curvature from 10 to 6 % off (against the model at the
 # contour points' positions averaged alike), for 0.5 points more without noise
 FIELD_NOISE_TARGET = 0.10
-# strain smoothing "auto" (:func:`oftimg.analysis.fields.smoothed_strain`): the smallest sigma of the
-# ladder after which the grid nodes' noise moves the strain energy by at most this share of
-# its median size (summary.json: strain_noise, error_share)
+# strain smoothing "auto" (:func:`oftimg.analysis.fields.smoothed_strain`): the ladder is
+# climbed until the grid nodes' noise moves the strain energy by at most this share of its
+# median size (summary.json: strain_noise, error_share), or stops before a sigma whose
+# flattening of the energy would leave more error than the noise it removes
 STRAIN_NOISE_TARGET = 0.07
 
 

@@ -93,7 +93,7 @@ EXAMPLE_CACHE := $(CURDIR)/.cache/oftimg
 test: test-system
 	$(PYTEST) -m "not long"
 
-# the long tests: accuracy (the zoo's random draws, known motions), rendering (the report in
+# the long tests: accuracy (a zoo draw of each kind, known motions), rendering (the report in
 # a browser, napari's window, the gallery examples) and whole-cohort runs (~15 min on 2 cores)
 test-long: test-system
 	OFTIMG_CACHE=$(EXAMPLE_CACHE) $(PYTEST) -m long

@@ -13,7 +13,7 @@ of roughness, fresh seed 669426, put the inner wall's strain energy at 1.7 times
 worst of 50 draws), and that is what scripts/accuracy_zoo.py measures, not a coin for
 CI to toss. ``OFTIMG_ZOO_SEED``: a seed reruns that draw; ``fresh`` draws one from a
 million (its tail, not for CI); ``all`` runs every verified draw (after a change to
-the method or to the bounds: the verification, ~1 h on 2 cores). Label draws are ones
+the method or to the bounds: the verification, ~1.5 h on 2 cores). Label draws are ones
 whose segmentation shifts no wall by a voxel (that error is the segmentation's, and
 the tables give it apart)."""
 
